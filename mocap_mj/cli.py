@@ -1,0 +1,107 @@
+"""The ``mocap-mj`` command line: one entry point, subcommands registered by modules.
+
+Core subcommands live in ``mocap_mj.commands``. Packages that build on the library (``synth``,
+``viewer``) add theirs through the ``mocap_mj.commands`` entry-point group, so the library never
+imports them. A subcommand module exposes ``register(subparsers)``, which adds a parser whose
+default ``func(args)`` returns an exit code.
+
+Every error derived from :class:`mocap_mj.MocapError` becomes one line on stderr and exit
+status 2; no traceback is shown for bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+from collections.abc import Callable, Mapping, Sequence
+from importlib.metadata import entry_points
+from pathlib import Path
+from typing import Any
+
+from .errors import MocapError
+
+#: Core subcommand modules (``mocap_mj.commands.<name>``), in help order.
+CORE_COMMANDS: tuple[str, ...] = ("info", "ik", "identify", "score")
+
+
+def _registrars() -> list[Callable[[Any], None]]:
+    regs = []
+    for name in CORE_COMMANDS:
+        try:
+            module = importlib.import_module(f"mocap_mj.commands.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"mocap_mj.commands.{name}":
+                raise
+            continue
+        regs.append(module.register)
+    for ep in sorted(entry_points(group="mocap_mj.commands"), key=lambda e: e.name):
+        regs.append(ep.load())
+    return regs
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="mocap-mj",
+        description="Identify subject-specific MuJoCo human models from motion-capture markers.",
+    )
+    from . import __version__
+
+    parser.add_argument("--version", action="version", version=f"mocap-mj {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for register in _registrars():
+        register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if getattr(args, "func", None) is None:
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except MocapError as exc:
+        print(f"mocap-mj {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"mocap-mj {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+# ----------------------------------------------------------------- helpers for commands
+def add_json_flag(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--json", action="store_true", help="print the final summary as one JSON object on stdout"
+    )
+
+
+def prepare_out(path: str | Path, *, force: bool = False) -> Path:
+    """Create the output folder; refuse an existing non-empty one unless ``force``."""
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise MocapError(f"{out}: exists and is not a folder")
+    if out.is_dir() and any(out.iterdir()) and not force:
+        raise MocapError(f"{out}: folder is not empty (use --force to overwrite)")
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
+def finish(
+    args: argparse.Namespace,
+    summary: Mapping[str, Any],
+    text: str,
+    out: Path | None = None,
+) -> int:
+    """Write ``summary.json`` into ``out`` (if any), then print JSON or the readable text."""
+    if out is not None:
+        from .io.atomic import atomic_write_text
+
+        atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    if getattr(args, "json", False):
+        print(json.dumps(summary))
+    else:
+        print(text)
+    return 0

@@ -1,0 +1,1 @@
+"""Core subcommands of the ``mocap-mj`` command line (one module each)."""

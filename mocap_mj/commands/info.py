@@ -1,0 +1,45 @@
+"""``mocap-mj info``: what a model is made of (bodies, DOF, markers, parameters)."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from ..cli import add_json_flag, finish
+from ..parameters import ParameterSet
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser("info", help="describe a model: bodies, DOF, markers, parameters")
+    p.add_argument("--model", help="MJCF file (default: the bundled humanoid)")
+    add_json_flag(p)
+    p.set_defaults(func=run)
+
+
+def describe(pset: ParameterSet) -> dict[str, Any]:
+    m = pset.model
+    return {
+        "model": str(pset.path),
+        "bodies": m.nbody - 1,
+        "dof": m.nv,
+        "nq": m.nq,
+        "joints": [m.joint(j).name for j in range(m.njnt)],
+        "markers": list(pset.marker_names),
+        "kinematic_parameters": list(pset.kappa_names),
+        "parameter_count": pset.size,
+    }
+
+
+def run(args: argparse.Namespace) -> int:
+    pset = ParameterSet(args.model)
+    info = describe(pset)
+    lines = [
+        f"model       {info['model']}",
+        f"bodies      {info['bodies']} (besides the world)",
+        f"dof         {info['dof']} (nq {info['nq']})",
+        f"markers     {len(info['markers'])}: {' '.join(info['markers'])}",
+        f"kinematic   {len(info['kinematic_parameters'])}: "
+        + " ".join(info["kinematic_parameters"]),
+        f"parameters  {info['parameter_count']} (kinematic + 3 x markers)",
+    ]
+    return finish(args, info, "\n".join(lines))

@@ -1,0 +1,53 @@
+"""One exception base class and its specific subclasses.
+
+Every error the library raises on bad input derives from :class:`MocapError`, so a caller
+(and the CLI, which turns it into a one-line message and a non-zero exit) can catch them all.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+
+class MocapError(Exception):
+    """Base class of every error mocap-mj raises on bad input or an impossible request."""
+
+
+class ShapeError(MocapError, ValueError):
+    """An array argument has the wrong shape or dtype."""
+
+
+class UnknownNameError(MocapError, KeyError):
+    """A name (marker, parameter, joint, body) that the model does not have."""
+
+    def __init__(self, kind: str, name: str, valid: Iterable[str]) -> None:
+        self.kind = kind
+        self.name = name
+        self.valid = list(valid)
+        super().__init__(f"unknown {kind} {name!r}; the model has: {', '.join(self.valid)}")
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0])
+
+
+class InputFileError(MocapError):
+    """A file that cannot be read as what it claims to be (names file, row/group, expectation)."""
+
+
+class SolverError(MocapError):
+    """A solver could not run on the data it was given (too few markers, all-NaN frames...)."""
+
+
+def check_shape(name: str, array: object, shape: tuple[int | None, ...]) -> None:
+    """Raise :class:`ShapeError` naming ``name`` unless ``array.shape`` matches ``shape``.
+
+    ``None`` in ``shape`` matches any length on that axis.
+    """
+    got = getattr(array, "shape", None)
+    if (
+        got is None
+        or len(got) != len(shape)
+        or any(want is not None and want != have for want, have in zip(shape, got, strict=True))
+    ):
+        want_txt = "(" + ", ".join("*" if s is None else str(s) for s in shape) + ")"
+        raise ShapeError(f"{name}: expected shape {want_txt}, got {got}")
