@@ -37,7 +37,10 @@ def _registrars() -> list[Callable[[Any], None]]:
             continue
         regs.append(module.register)
     for ep in sorted(entry_points(group="mocap_mj.commands"), key=lambda e: e.name):
-        regs.append(ep.load())
+        try:
+            regs.append(ep.load())
+        except ImportError as exc:  # a broken add-on must not take the other commands down
+            print(f"mocap-mj: command {ep.name!r} unavailable: {exc}", file=sys.stderr)
     return regs
 
 

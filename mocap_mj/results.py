@@ -1,0 +1,105 @@
+"""The result folder every computing command writes, and reading it back.
+
+A result folder (written by ``ik``, ``identify``, ``demo``; read by ``view``, ``render``,
+``export``, ``score``) holds:
+
+``model.xml``
+    MJCF of the model the motion belongs to (the identified model for ``identify``).
+``motion.npz``
+    ``qpos`` (T, nq) [m, unit quaternions, rad], ``times`` (T,) [s], ``markers`` (T, M, 3) [m]:
+    the measured markers in model site order with NaN where missing, ``marker_names`` (M,).
+``theta.json``
+    The model parameters (``ParameterSet.save_json``), when identified.
+``summary.json``
+    The command's summary (also printed with ``--json``).
+
+A synthetic-truth folder (``mocap-mj synth``) holds ``truth_model.xml`` and
+``truth_motion.npz`` (same keys; ``markers`` are the noise-free positions) beside the measured
+``markers.csv``.
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputFileError, check_shape
+from .io.atomic import atomic_write_bytes
+
+
+@dataclass(frozen=True)
+class Motion:
+    """A trajectory of model poses with the markers it was fitted to.
+
+    Attributes
+    ----------
+    qpos : (T, nq) float [m, quaternion, rad]
+    times : (T,) float [s]
+    markers : (T, M, 3) float [m], NaN where missing (model site order)
+    marker_names : tuple of str, (M,)
+    """
+
+    qpos: np.ndarray
+    times: np.ndarray
+    markers: np.ndarray
+    marker_names: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        n = len(self.qpos)
+        check_shape("qpos", self.qpos, (n, None))
+        check_shape("times", self.times, (n,))
+        check_shape("markers", self.markers, (n, len(self.marker_names), 3))
+
+
+def save_motion(path: str | Path, motion: Motion) -> None:
+    """Write a :class:`Motion` as ``.npz``, atomically."""
+    buf = io.BytesIO()
+    np.savez(
+        buf,
+        qpos=motion.qpos,
+        times=motion.times,
+        markers=motion.markers,
+        marker_names=np.array(motion.marker_names),
+    )
+    atomic_write_bytes(path, buf.getvalue())
+
+
+def load_motion(path: str | Path) -> Motion:
+    """Read a :class:`Motion` written by :func:`save_motion`."""
+    path = Path(path)
+    try:
+        with np.load(path) as data:
+            return Motion(
+                qpos=np.array(data["qpos"], dtype=float),
+                times=np.array(data["times"], dtype=float),
+                markers=np.array(data["markers"], dtype=float),
+                marker_names=tuple(str(n) for n in data["marker_names"]),
+            )
+    except (OSError, KeyError, ValueError) as exc:
+        raise InputFileError(f"{path}: not a motion file (qpos, times, markers): {exc}") from None
+
+
+@dataclass(frozen=True)
+class ResultDir:
+    """Paths of a result folder (``model.xml`` + ``motion.npz``) or a synthetic-truth folder."""
+
+    root: Path
+    model: Path
+    motion: Path
+
+    @classmethod
+    def open(cls, root: str | Path) -> ResultDir:
+        root = Path(root)
+        for model, motion in (
+            ("model.xml", "motion.npz"),
+            ("truth_model.xml", "truth_motion.npz"),
+        ):
+            if (root / model).is_file() and (root / motion).is_file():
+                return cls(root, root / model, root / motion)
+        raise InputFileError(
+            f"{root}: not a result folder (expected model.xml and motion.npz, "
+            "or truth_model.xml and truth_motion.npz)"
+        )

@@ -1,0 +1,1 @@
+"""mocap_synth: ground-truth experiments (perturbed model, motion, noise) built on mocap_mj."""

@@ -1,0 +1,1 @@
+"""mocap_viewer: interactive playback and offscreen rendering of mocap-mj results."""
