@@ -1,0 +1,90 @@
+"""``mocap-mj ik``: joint motion of a given model from a marker file."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..angles import angle_columns, joint_angle_table
+from ..cli import add_json_flag, finish, prepare_out
+from ..ik import IKSettings, IKSolver, Status
+from ..io.atomic import atomic_write_text
+from ..kinematics import Kinematics
+from ..parameters import ParameterSet
+from ..results import Motion, save_motion
+from ._markers import add_marker_options, load_trial
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser("ik", help="inverse kinematics of a marker file with a given model")
+    add_marker_options(p)
+    p.add_argument("--model", help="MJCF model (default: the bundled humanoid)")
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--damping", choices=["adaptive", "sugihara"], default="adaptive")
+    p.add_argument("--max-iterations", type=int, default=100)
+    p.add_argument("--min-markers", type=int, default=16)
+    p.add_argument("--force", action="store_true", help="overwrite a non-empty output folder")
+    add_json_flag(p)
+    p.set_defaults(func=run)
+
+
+def write_motion_csv(path: Path, model: Any, times: np.ndarray, qpos: np.ndarray) -> None:
+    """Joint angles as CSV: frame, time [s], then named columns in mm and degrees."""
+    table = joint_angle_table(model, qpos)
+    header = ",".join(["frame", "time", *angle_columns(model)])
+    lines = [header]
+    for i, (t, row) in enumerate(zip(times, table, strict=True)):
+        cells = ["" if not np.isfinite(v) else f"{v:.6f}" for v in row]
+        lines.append(f"{i},{t:.6f}," + ",".join(cells))
+    atomic_write_text(path, "\n".join(lines) + "\n")
+
+
+def run(args: argparse.Namespace) -> int:
+    pset = ParameterSet(args.model)
+    trial = load_trial(args.markers, pset.marker_names, args)
+    out = prepare_out(args.out, force=args.force)
+    kin = Kinematics(pset)
+    solver = IKSolver(
+        kin,
+        IKSettings(
+            damping=args.damping, max_iterations=args.max_iterations, min_markers=args.min_markers
+        ),
+    )
+    t0 = time.perf_counter()
+    result = solver.solve_trial(trial.markers, progress=not args.json)
+    seconds = time.perf_counter() - t0
+    pset.export_mjcf(out / "model.xml", pset.nominal)
+    save_motion(
+        out / "motion.npz", Motion(result.qpos, trial.times, trial.markers, pset.marker_names)
+    )
+    write_motion_csv(out / "motion.csv", kin.model, trial.times, result.qpos)
+    n = len(trial.markers)
+    skipped = np.flatnonzero(result.status == Status.TOO_FEW_MARKERS)
+    summary = {
+        "markers_file": str(trial.path),
+        "model": str(pset.path),
+        "frames": n,
+        "frames_solved": int(n - skipped.size),
+        "frames_skipped": [int(i) for i in skipped],
+        "marker_rmse_mm": result.rmse() * 1e3,
+        "frame_rmse_max_mm": float(np.nanmax(result.marker_rmse) * 1e3),
+        "iterations_mean": float(result.iterations.mean()),
+        "converged_fraction": float(np.mean(result.status == Status.CONVERGED)),
+        "seconds": seconds,
+        "frames_per_second": n / seconds,
+        "damping": args.damping,
+        "markers_missing": list(trial.report.missing),
+    }
+    text = (
+        f"{trial.report}\n"
+        f"IK ({args.damping}): {n} frames in {seconds:.2f} s ({n / seconds:,.0f} frames/s), "
+        f"marker RMSE {summary['marker_rmse_mm']:.3f} mm, "
+        f"{summary['converged_fraction']:.0%} converged"
+        + (f", {skipped.size} frames skipped (too few markers)" if skipped.size else "")
+        + f"\nwrote {out}/motion.csv, motion.npz, model.xml, summary.json"
+    )
+    return finish(args, summary, text, out)

@@ -1,0 +1,513 @@
+"""Inverse kinematics: Levenberg-Marquardt on the marker residual, vectorised over frames.
+
+Per frame it minimises ``F(q) = 1/2 sum_m w_m |p_m - x_m(q)|^2`` over the nv = 48 velocity
+coordinates with the analytic Jacobian (:meth:`Kinematics.jac_q`). Two damping rules:
+
+``adaptive`` (default)
+    Marquardt-scaled damping ``(H + mu D) dv = g`` with ``D = diag(H) + eps``, ``mu`` updated
+    from the gain ratio (Nielsen 1999: ``mu *= max(1/3, 1 - (2 rho - 1)^3)`` on success,
+    ``mu *= nu, nu *= 2`` on failure, which also rejects the step).
+``sugihara``
+    Sugihara's rule (T. Sugihara, IEEE T-RO 27(5), 2011): ``W_N = (E + wbar) I`` with
+    ``E = 1/2 sum w |e|^2`` [m^2], every step taken. Kept as the paper's method; it converges
+    linearly once ``E`` stops falling (noisy markers), see ``benchmarks/ik.py``.
+
+Free and ball joints are updated on their manifold (``mj_integratePos``); after each step hinge
+angles are clipped to their range and ball rotations longer than their range are shortened
+to it (projected step). Missing markers (NaN) have weight 0 in that frame. A frame with fewer
+than ``min_markers`` present markers is not solved: status ``TOO_FEW_MARKERS``, qpos NaN.
+
+A whole trial is solved as parallel chains: the trial is cut into chains of consecutive frames;
+every chain's first frame starts from a rigid fit of the pelvis to its markers (Kabsch), every
+later frame from the previous frame's solution plus its velocity (constant-velocity
+prediction), and step i of all chains is one vectorised batch (batched 48 x 48 solves with a
+per-frame damping and convergence mask). A chain whose frame fits clearly worse than its
+neighbours is re-solved from the neighbour's pose.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import mujoco
+import numpy as np
+
+from .errors import MocapError, ShapeError, SolverError, check_shape
+from .kinematics import Kinematics
+
+PELVIS_MARKERS = ("LASI", "RASI", "LPSI", "RPSI")
+
+
+class Status(enum.IntEnum):
+    """Outcome of a frame's solve."""
+
+    CONVERGED = 0
+    MAX_ITERATIONS = 1
+    TOO_FEW_MARKERS = 2
+
+
+STATUS_MESSAGES = {
+    Status.CONVERGED: "converged (step or relative cost change below tolerance)",
+    Status.MAX_ITERATIONS: "stopped at the iteration limit",
+    Status.TOO_FEW_MARKERS: "not solved: fewer present markers than min_markers",
+}
+
+
+@dataclass(frozen=True)
+class IKSettings:
+    """Solver settings.
+
+    Attributes
+    ----------
+    damping : {"adaptive", "sugihara"}
+    max_iterations : int
+        Iteration limit per frame.
+    tol_step : float
+        Converged when the largest step component is below this [rad or m].
+    tol_cost : float
+        Converged when an accepted step lowers F by less than ``tol_cost * F``.
+    mu0 : float
+        Initial Marquardt damping (dimensionless, relative to diag(H)) of the adaptive rule.
+    wbar : float
+        Sugihara's constant damping term [m^2].
+    min_markers : int
+        Frames with fewer present markers are reported (status TOO_FEW_MARKERS), not solved.
+    chain_length : int
+        Frames per chain (0: automatic, about T / 64 clipped to [4, 32]).
+    """
+
+    damping: str = "adaptive"
+    max_iterations: int = 100
+    tol_step: float = 1e-8
+    tol_cost: float = 1e-8
+    mu0: float = 1e-6
+    wbar: float = 1e-6
+    min_markers: int = 16
+    chain_length: int = 0
+
+    def __post_init__(self) -> None:
+        if self.damping not in ("adaptive", "sugihara"):
+            raise MocapError(f"damping must be 'adaptive' or 'sugihara', got {self.damping!r}")
+        if self.max_iterations < 1:
+            raise MocapError("iteration limits must be at least 1")
+        if self.min_markers < 1:
+            raise MocapError("min_markers must be at least 1")
+
+
+class IKResult(NamedTuple):
+    """Solution of a trial.
+
+    Fields
+    ------
+    qpos : (T, nq) float [m, quaternion, rad]; NaN rows for unsolved frames
+    marker_rmse : (T,) float [m]; RMS of the 3D marker distance over present markers
+    iterations : (T,) int
+    status : (T,) int, values of :class:`Status`
+    n_markers : (T,) int, present markers per frame
+    """
+
+    qpos: np.ndarray
+    marker_rmse: np.ndarray
+    iterations: np.ndarray
+    status: np.ndarray
+    n_markers: np.ndarray
+
+    @property
+    def solved(self) -> np.ndarray:
+        """(T,) bool: frames that were solved (converged or at the iteration limit)."""
+        return self.status != Status.TOO_FEW_MARKERS
+
+    def rmse(self) -> float:
+        """Marker RMSE [m] over all present samples of the solved frames."""
+        ok = self.solved
+        n = self.n_markers[ok]
+        if n.sum() == 0:
+            return float("nan")
+        return float(np.sqrt(np.sum(self.marker_rmse[ok] ** 2 * n) / n.sum()))
+
+
+class IKSolver:
+    """Levenberg-Marquardt IK for a :class:`Kinematics` (its current theta).
+
+    Parameters
+    ----------
+    kin : Kinematics
+    settings : IKSettings
+    """
+
+    def __init__(self, kin: Kinematics, settings: IKSettings | None = None) -> None:
+        self.kin = kin
+        self.settings = settings or IKSettings()
+        m = kin.model
+        hinge = np.flatnonzero(m.jnt_type == mujoco.mjtJoint.mjJNT_HINGE)
+        self._hinge_qadr = m.jnt_qposadr[hinge]
+        self._hinge_lo = m.jnt_range[hinge, 0]
+        self._hinge_hi = m.jnt_range[hinge, 1]
+        self._hinge_dof = m.jnt_dofadr[hinge]
+        ball = np.flatnonzero((m.jnt_type == mujoco.mjtJoint.mjJNT_BALL) & (m.jnt_limited > 0))
+        self._ball_qadr = m.jnt_qposadr[ball]
+        self._ball_max = m.jnt_range[ball, 1]
+        self._pelvis_idx = np.array(
+            [kin.pset.marker_index(n) for n in PELVIS_MARKERS if n in kin.pset.marker_names]
+        )
+
+    # ------------------------------------------------------------------ input
+    def _prepare(
+        self, markers: np.ndarray, weights: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        markers = np.asarray(markers, dtype=float)
+        if markers.ndim == 2:
+            markers = markers[None]
+        check_shape("markers", markers, (None, self.kin.n_markers, 3))
+        n, m = markers.shape[:2]
+        if weights is None:
+            w = np.ones((n, m))
+        else:
+            w = np.asarray(weights, dtype=float)
+            if w.shape == (m,):
+                w = np.broadcast_to(w, (n, m)).copy()
+            elif w.shape != (n, m):
+                raise ShapeError(f"weights: expected shape ({m},) or ({n}, {m}), got {w.shape}")
+            else:
+                w = w.copy()
+            if np.any(~np.isfinite(w)) or np.any(w < 0):
+                raise ShapeError("weights: must be finite and non-negative")
+        present = np.all(np.isfinite(markers), axis=2)
+        w[~present] = 0.0
+        return np.where(present[..., None], markers, 0.0), w
+
+    # ------------------------------------------------------------- one batch
+    def project(self, qpos: np.ndarray) -> np.ndarray:
+        """Joint limits applied in place to qpos (B, nq): hinges clipped, balls shortened."""
+        qh = qpos[:, self._hinge_qadr]
+        qpos[:, self._hinge_qadr] = np.clip(qh, self._hinge_lo, self._hinge_hi)
+        for adr, max_angle in zip(self._ball_qadr, self._ball_max, strict=True):
+            quat = qpos[:, adr : adr + 4]
+            quat *= np.sign(quat[:, :1] + (quat[:, :1] == 0))  # w >= 0: angle in [0, pi]
+            s = np.linalg.norm(quat[:, 1:], axis=1)
+            angle = 2 * np.arctan2(s, quat[:, 0])
+            over = angle > max_angle
+            if np.any(over):
+                half = 0.5 * max_angle
+                axis = quat[over, 1:] / s[over, None]
+                quat[over, 0] = np.cos(half)
+                quat[over, 1:] = np.sin(half) * axis
+        return qpos
+
+    def solve_frames(
+        self,
+        markers: np.ndarray,
+        qpos0: np.ndarray,
+        weights: np.ndarray | None = None,
+        *,
+        max_iterations: int | None = None,
+    ) -> IKResult:
+        """Solve B independent frames from the given starting poses.
+
+        Parameters
+        ----------
+        markers : (B, M, 3) float [m], NaN where missing
+        qpos0 : (B, nq) float, starting poses
+        weights : (M,) or (B, M) float, optional, per-marker weights (default 1)
+        """
+        kin, st = self.kin, self.settings
+        target, w = self._prepare(markers, weights)
+        n = len(target)
+        qpos = np.array(qpos0, dtype=float, copy=True)
+        check_shape("qpos0", qpos, (n, kin.nq))
+        limit = st.max_iterations if max_iterations is None else max_iterations
+        n_present = np.count_nonzero(w > 0, axis=1)
+        status = np.full(n, Status.MAX_ITERATIONS, dtype=int)
+        iterations = np.zeros(n, dtype=int)
+        few = n_present < st.min_markers
+        status[few] = Status.TOO_FEW_MARKERS
+        qpos[few] = np.nan
+        active = np.flatnonzero(~few)
+        rmse = np.full(n, np.nan)
+        if active.size == 0:
+            return IKResult(qpos, rmse, iterations, status, n_present)
+
+        q = self.project(qpos[active].copy())
+        frames = kin.forward(q)
+        res = target[active] - frames.site_xpos
+        wa = w[active]
+        cost = 0.5 * np.einsum("bm,bmi,bmi->b", wa, res, res)
+        mu = np.full(active.size, st.mu0)
+        nu = np.full(active.size, 2.0)
+        sqrt_w = np.sqrt(wa)
+        need_jac = np.ones(active.size, dtype=bool)
+        jac_h = np.zeros((active.size, kin.nv, kin.nv))
+        jac_g = np.zeros((active.size, kin.nv))
+        idx = np.arange(active.size)  # positions (into active) still iterating
+        eye = np.eye(kin.nv)
+        for it in range(1, limit + 1):
+            if idx.size == 0:
+                break
+            # Normal equations where the pose changed.
+            upd = idx[need_jac[idx]]
+            if upd.size:
+                sub = _take(frames, upd)
+                jq = kin.jac_q(sub) * sqrt_w[upd, :, None, None]
+                jf = jq.reshape(upd.size, -1, kin.nv)
+                rf = (res[upd] * sqrt_w[upd, :, None]).reshape(upd.size, -1)
+                jac_h[upd] = np.einsum("bri,brj->bij", jf, jf, optimize=True)
+                jac_g[upd] = np.einsum("bri,br->bi", jf, rf)
+                need_jac[upd] = False
+            h, g = jac_h[idx], jac_g[idx]
+            diag = np.einsum("bii->bi", h)
+            if st.damping == "adaptive":
+                damp = mu[idx, None] * (diag + 1e-9)
+            else:
+                damp = np.broadcast_to((cost[idx] + st.wbar)[:, None], diag.shape)
+            a = h + damp[:, :, None] * eye
+            dv = np.linalg.solve(a, g[..., None])[..., 0]
+            dv = self._box_step(q[idx], a, g, dv)
+            q_new = self.project(kin.integrate(q[idx], dv))
+            fr_new = kin.forward(q_new)
+            res_new = target[active[idx]] - fr_new.site_xpos
+            cost_new = 0.5 * np.einsum("bm,bmi,bmi->b", wa[idx], res_new, res_new)
+            if st.damping == "adaptive":
+                predicted = 0.5 * np.einsum("bi,bi->b", dv, damp * dv + g)
+                rho = (cost[idx] - cost_new) / np.maximum(predicted, 1e-300)
+                accept = (cost_new < cost[idx]) & (rho > 0)
+                factor = np.maximum(1 / 3, 1 - (2 * rho - 1) ** 3)
+                mu[idx] = np.where(accept, mu[idx] * factor, mu[idx] * nu[idx])
+                nu[idx] = np.where(accept, 2.0, nu[idx] * 2)
+            else:
+                accept = np.ones(idx.size, dtype=bool)
+            small_step = np.max(np.abs(dv), axis=1) < st.tol_step
+            small_gain = accept & (cost[idx] - cost_new <= st.tol_cost * cost[idx])
+            acc = idx[accept]
+            q[acc] = q_new[accept]
+            res[acc] = res_new[accept]
+            cost[acc] = cost_new[accept]
+            _put(frames, acc, fr_new, accept)
+            need_jac[acc] = True
+            iterations[active[idx]] = it
+            done = small_step | small_gain | (mu[idx] > 1e12)
+            status[active[idx[done]]] = Status.CONVERGED
+            idx = idx[~done]
+        qpos[active] = q
+        n_act = n_present[active]
+        rmse[active] = np.sqrt(np.einsum("bm,bmi,bmi->b", (wa > 0), res, res) / n_act)
+        return IKResult(qpos, rmse, iterations, status, n_present)
+
+    def _box_step(self, q: np.ndarray, a: np.ndarray, g: np.ndarray, dv: np.ndarray) -> np.ndarray:
+        """Re-solve with hinge dofs that sit at a limit and would step outward held fixed."""
+        qh = q[:, self._hinge_qadr]
+        dh = dv[:, self._hinge_dof]
+        tol = 1e-12
+        blocked = ((qh <= self._hinge_lo + tol) & (dh < 0)) | (
+            (qh >= self._hinge_hi - tol) & (dh > 0)
+        )
+        rows = np.flatnonzero(blocked.any(axis=1))
+        if rows.size == 0:
+            return dv
+        a, g = a[rows].copy(), g[rows].copy()
+        r_idx, j_idx = np.nonzero(blocked[rows])
+        dof = self._hinge_dof[j_idx]
+        a[r_idx, dof, :] = 0.0
+        a[r_idx, :, dof] = 0.0
+        a[r_idx, dof, dof] = 1.0
+        g[r_idx, dof] = 0.0
+        dv = dv.copy()
+        dv[rows] = np.linalg.solve(a, g[..., None])[..., 0]
+        return dv
+
+    # ------------------------------------------------------------ whole trial
+    def root_from_pelvis(self, markers: np.ndarray) -> np.ndarray:
+        """Starting poses (T, nq): joints at qpos0, root from a rigid fit of the pelvis.
+
+        The pelvis markers' model positions (at qpos0 with the root at the origin) are fitted
+        to the measured ones by the Kabsch algorithm; with fewer than three pelvis markers,
+        all present markers of the neutral pose are used.
+        """
+        kin = self.kin
+        markers = np.asarray(markers, dtype=float)
+        n = len(markers)
+        q0 = np.array(kin.model.qpos0, dtype=float)
+        q0[:3] = 0.0
+        q0[3:7] = (1, 0, 0, 0)
+        ref = kin.marker_positions(q0)[0]  # (M, 3) in the pelvis frame
+        present = np.all(np.isfinite(markers), axis=2)
+        use = np.zeros_like(present)
+        pel = self._pelvis_idx
+        enough = present[:, pel].sum(axis=1) >= 3
+        use[np.ix_(enough, pel)] = present[np.ix_(enough, pel)]
+        use[~enough] = present[~enough]
+        wts = use.astype(float)
+        cnt = np.maximum(wts.sum(axis=1), 1)
+        meas = np.where(use[..., None], markers, 0.0)
+        c_meas = meas.sum(axis=1) / cnt[:, None]
+        c_ref = (wts[..., None] * ref[None]).sum(axis=1) / cnt[:, None]
+        a = (ref[None] - c_ref[:, None]) * wts[..., None]
+        b = (meas - c_meas[:, None]) * wts[..., None]
+        cov = np.einsum("tmi,tmj->tij", b, a)
+        u, _, vt = np.linalg.svd(cov)
+        d = np.sign(np.linalg.det(u @ vt))
+        u[:, :, 2] *= d[:, None]
+        rot = u @ vt  # measured = rot @ ref + p
+        qpos = np.tile(q0, (n, 1))
+        for t in range(n):
+            mujoco.mju_mat2Quat(qpos[t, 3:7], rot[t].ravel())
+        qpos[:, :3] = c_meas - np.einsum("tij,tj->ti", rot, c_ref)
+        qpos[cnt < 3] = np.array(kin.model.qpos0)
+        return qpos
+
+    def _chain_length(self, n: int) -> int:
+        if self.settings.chain_length > 0:
+            return self.settings.chain_length
+        return int(np.clip(n // 64, 4, 32))
+
+    def solve_trial(
+        self,
+        markers: np.ndarray,
+        weights: np.ndarray | None = None,
+        *,
+        qpos_init: np.ndarray | None = None,
+        progress: bool = False,
+    ) -> IKResult:
+        """Solve every frame of a trial (see the module docstring for the scheme).
+
+        Parameters
+        ----------
+        markers : (T, M, 3) float [m], NaN where missing
+        weights : (M,) or (T, M) float, optional
+        qpos_init : (T, nq) float, optional
+            Starting poses for every frame (e.g. the previous solution when only theta
+            changed); then every frame starts there and the trial is one batch.
+        progress : bool
+            Show a progress bar over the chain steps.
+        """
+        kin = self.kin
+        markers = np.asarray(markers, dtype=float)
+        check_shape("markers", markers, (None, kin.n_markers, 3))
+        n = len(markers)
+        if n == 0:
+            raise SolverError("markers: the trial has no frames")
+        if qpos_init is not None:
+            check_shape("qpos_init", qpos_init, (n, kin.nq))
+            return self.solve_frames(markers, qpos_init, weights)
+        w_full = self._prepare(markers, weights)[1]
+        length = self._chain_length(n)
+        starts = np.arange(0, n, length)
+        qpos = np.full((n, kin.nq), np.nan)
+        rmse = np.full(n, np.nan)
+        iters = np.zeros(n, dtype=int)
+        status = np.zeros(n, dtype=int)
+        npres = np.zeros(n, dtype=int)
+
+        def store(rows: np.ndarray, r: IKResult) -> None:
+            qpos[rows], rmse[rows], iters[rows] = r.qpos, r.marker_rmse, r.iterations
+            status[rows], npres[rows] = r.status, r.n_markers
+
+        steps = range(length)
+        bar = None
+        if progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=n, desc="IK", unit="frame", leave=False, delay=2.0)
+        for i in steps:
+            rows = starts + i
+            rows = rows[rows < n]
+            if i == 0:
+                start = self.root_from_pelvis(markers[rows])
+            else:
+                start = self._predict(qpos, rows, starts)
+                cold = ~np.all(np.isfinite(start), axis=1)  # previous frame not solved
+                if np.any(cold):
+                    start[cold] = self.root_from_pelvis(markers[rows[cold]])
+            r = self.solve_frames(markers[rows], start, w_full[rows])
+            store(rows, r)
+            if bar is not None:
+                bar.update(rows.size)
+        if bar is not None:
+            bar.close()
+        self._repair(markers, w_full, qpos, rmse, iters, status, npres)
+        return IKResult(qpos, rmse, iters, status, npres)
+
+    def _predict(self, qpos: np.ndarray, rows: np.ndarray, starts: np.ndarray) -> np.ndarray:
+        """Constant-velocity prediction from the two previous frames of each chain."""
+        kin = self.kin
+        prev = qpos[rows - 1]
+        start = prev.copy()
+        have2 = np.isin(rows - 1, starts, invert=True) & (rows >= 2)
+        ok = have2 & np.all(np.isfinite(qpos[np.maximum(rows - 2, 0)]), 1)
+        ok &= np.all(np.isfinite(prev), 1)
+        if np.any(ok):
+            vel = kin.difference(qpos[rows[ok] - 2], prev[ok])
+            start[ok] = self.project(kin.integrate(prev[ok], vel))
+        return start
+
+    def _repair(
+        self,
+        markers: np.ndarray,
+        w: np.ndarray,
+        qpos: np.ndarray,
+        rmse: np.ndarray,
+        iters: np.ndarray,
+        status: np.ndarray,
+        npres: np.ndarray,
+    ) -> None:
+        """Re-solve frames that fit clearly worse than the trial, from a good neighbour.
+
+        A frame is bad when its RMSE exceeds ``3 * median + 1 mm`` (a local minimum, typically
+        a chain start that began far from its pose). Runs of bad frames are walked inwards
+        from their good ends, one frame per round on every run at once; a re-solve is kept
+        when it fits better.
+        """
+        n = len(markers)
+        solvable = status != Status.TOO_FEW_MARKERS
+        if not np.any(solvable):
+            return
+        ref = float(np.nanmedian(rmse[solvable]))
+        bad = solvable & ~(rmse <= 3 * ref + 1e-3)
+        tried = np.zeros((n, 2), dtype=bool)
+        while np.any(bad):
+            progress = False
+            for side, shift in enumerate((-1, 1)):
+                rows = np.flatnonzero(bad & ~tried[:, side])
+                nb = rows + shift
+                keep = (nb >= 0) & (nb < n)
+                rows, nb = rows[keep], nb[keep]
+                keep = solvable[nb] & ~bad[nb]
+                rows, nb = rows[keep], nb[keep]
+                if rows.size == 0:
+                    continue
+                tried[rows, side] = True
+                r = self.solve_frames(markers[rows], qpos[nb], w[rows])
+                better = np.nan_to_num(r.marker_rmse, nan=np.inf) < rmse[rows]
+                rr = rows[better]
+                qpos[rr], rmse[rr] = r.qpos[better], r.marker_rmse[better]
+                iters[rr] += r.iterations[better]
+                status[rr], npres[rr] = r.status[better], r.n_markers[better]
+                fixed = rr[rmse[rr] <= 3 * ref + 1e-3]
+                bad[fixed] = False
+                progress |= rows.size > 0
+            if not progress:
+                return
+
+
+def weights_from_names(
+    marker_names: tuple[str, ...], weights: dict[str, float], default: float = 1.0
+) -> np.ndarray:
+    """Per-marker weights (M,) from ``{name: weight}``; an unknown name lists the valid ones."""
+    from .errors import UnknownNameError
+
+    out = np.full(len(marker_names), float(default))
+    for name, value in weights.items():
+        if name not in marker_names:
+            raise UnknownNameError("marker", name, marker_names)
+        out[marker_names.index(name)] = float(value)
+    return out
+
+
+def _take(frames: object, idx: np.ndarray):  # type: ignore[no-untyped-def]
+    return type(frames)(*(f[idx] for f in frames))  # type: ignore[attr-defined]
+
+
+def _put(frames: object, dst: np.ndarray, src: object, mask: np.ndarray) -> None:
+    for a, b in zip(frames, src, strict=True):  # type: ignore[call-overload]
+        a[dst] = b[mask]

@@ -1,0 +1,146 @@
+"""IK: exactness on clean data, the noise floor on noisy data, gaps, limits, bad input."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+from _motion import smooth_motion
+
+from mocap_mj import Kinematics, ShapeError, UnknownNameError
+from mocap_mj.ik import IKSettings, IKSolver, Status, weights_from_names
+
+SIGMA = 1e-3  # [m] per axis
+
+
+@pytest.fixture(scope="module")
+def kin() -> Kinematics:
+    return Kinematics()
+
+
+@pytest.fixture(scope="module")
+def truth(kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+    qpos = smooth_motion(kin, 300, seed=3)
+    return qpos, kin.marker_positions(qpos)
+
+
+def away_from_limits(kin: Kinematics, qpos: np.ndarray, margin: float = 0.02) -> np.ndarray:
+    """(T,) bool: frames where no hinge is within ``margin`` rad of a limit (identifiable)."""
+    m = kin.model
+    hinge = np.flatnonzero(m.jnt_type == mujoco.mjtJoint.mjJNT_HINGE)
+    q = qpos[:, m.jnt_qposadr[hinge]]
+    lo, hi = m.jnt_range[hinge, 0], m.jnt_range[hinge, 1]
+    return np.all((q > lo + margin) & (q < hi - margin), axis=1)
+
+
+def assert_within_limits(kin: Kinematics, qpos: np.ndarray) -> None:
+    m = kin.model
+    for j in range(1, m.njnt):
+        adr = m.jnt_qposadr[j]
+        lo, hi = m.jnt_range[j]
+        if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE:
+            assert np.all(qpos[:, adr] >= lo - 1e-12) and np.all(qpos[:, adr] <= hi + 1e-12)
+        else:
+            quat = qpos[:, adr : adr + 4]
+            angle = 2 * np.arctan2(np.linalg.norm(quat[:, 1:], axis=1), np.abs(quat[:, 0]))
+            assert np.all(angle <= hi + 1e-9), m.joint(j).name
+
+
+@pytest.mark.parametrize("damping", ["adaptive", "sugihara"])
+def test_noise_free_is_exact(kin: Kinematics, truth, damping: str) -> None:  # type: ignore[no-untyped-def]
+    qpos, markers = truth
+    result = IKSolver(kin, IKSettings(damping=damping)).solve_trial(markers)
+    assert np.all(result.status == Status.CONVERGED)
+    assert result.rmse() < 1e-6  # 1e-3 mm
+    err = kin.difference(qpos, result.qpos)
+    ok = away_from_limits(kin, qpos)
+    assert ok.sum() > 50
+    assert np.abs(err[ok]).max() < 1e-4  # rad (and m for the root)
+    assert_within_limits(kin, result.qpos)
+
+
+def test_noise_floor(kin: Kinematics, truth) -> None:  # type: ignore[no-untyped-def]
+    """RMSE of the 3D residual = sqrt(3) sigma sqrt(1 - nv / 3M) at the least-squares pose."""
+    _, markers = truth
+    noisy = markers + np.random.default_rng(0).normal(0, SIGMA, markers.shape)
+    result = IKSolver(kin).solve_trial(noisy)
+    expected = np.sqrt(3) * SIGMA * np.sqrt(1 - 48 / 117)
+    assert result.rmse() == pytest.approx(expected, rel=0.05)
+    assert np.mean(result.status == Status.CONVERGED) > 0.98
+    assert_within_limits(kin, result.qpos)
+
+
+def test_gaps_of_30_percent(kin: Kinematics, truth) -> None:  # type: ignore[no-untyped-def]
+    qpos, markers = truth
+    rng = np.random.default_rng(1)
+    gappy = markers.copy()
+    for t in range(len(gappy)):
+        gappy[t, rng.choice(39, size=12, replace=False)] = np.nan  # 31% missing
+    result = IKSolver(kin).solve_trial(gappy)
+    assert np.all(result.n_markers == 27)
+    assert np.mean(result.status == Status.CONVERGED) > 0.98
+    assert result.rmse() < 1e-5
+    # The pelvis pose is exact wherever three of its four markers are seen.
+    pelvis = [kin.pset.marker_index(n) for n in ("LASI", "RASI", "LPSI", "RPSI")]
+    seen = np.isfinite(gappy[:, pelvis, 0]).sum(axis=1) >= 3
+    err = kin.difference(qpos[seen], result.qpos[seen])
+    assert np.abs(err[:, :6]).max() < 1e-4  # m and rad
+
+
+def test_unreachable_target_gives_least_squares(kin: Kinematics, truth) -> None:  # type: ignore[no-untyped-def]
+    _, markers = truth
+    centre = markers[:20].mean(axis=1, keepdims=True)
+    stretched = centre + 1.3 * (markers[:20] - centre)  # a body 30% too large
+    solver = IKSolver(kin)
+    result = solver.solve_trial(stretched)
+    assert np.all(np.isfinite(result.qpos))
+    assert result.rmse() > 0.01
+    assert_within_limits(kin, result.qpos)
+    # Near the least-squares pose: a much longer, tighter solve from there gains < 0.3%
+    # (large-residual problems converge linearly; the default stop is a relative cost change).
+    tight = IKSolver(kin, IKSettings(tol_cost=1e-15, tol_step=1e-13, max_iterations=500))
+    refined = tight.solve_frames(stretched, result.qpos)
+    assert np.all(refined.marker_rmse <= result.marker_rmse * (1 + 1e-9))
+    assert np.all(refined.marker_rmse >= result.marker_rmse * (1 - 3e-3))
+
+
+def test_root_from_pelvis_places_subject_anywhere(kin: Kinematics, truth) -> None:  # type: ignore[no-untyped-def]
+    _, markers = truth
+    rot = np.array([[0, -1, 0], [1, 0, 0], [0, 0, 1.0]])  # 90 deg about z
+    moved = markers[:30] @ rot.T + np.array([3.0, -2.0, 0.1])
+    result = IKSolver(kin).solve_trial(moved)
+    assert result.rmse() < 1e-6
+
+
+def test_few_markers_reported_not_filled(kin: Kinematics, truth) -> None:  # type: ignore[no-untyped-def]
+    _, markers = truth
+    data = markers[:40].copy()
+    data[5] = np.nan
+    data[6, :30] = np.nan  # 9 markers left
+    result = IKSolver(kin).solve_trial(data)
+    assert result.status[5] == Status.TOO_FEW_MARKERS
+    assert result.status[6] == Status.TOO_FEW_MARKERS
+    assert np.all(np.isnan(result.qpos[[5, 6]]))
+    others = np.setdiff1d(np.arange(40), [5, 6])
+    assert np.all(result.status[others] == Status.CONVERGED)
+    assert result.rmse() < 1e-6
+
+
+def test_weights(kin: Kinematics, truth) -> None:  # type: ignore[no-untyped-def]
+    _, markers = truth
+    w = weights_from_names(kin.pset.marker_names, {"LFIN": 0.0, "RFIN": 0.5})
+    assert w[kin.pset.marker_index("LFIN")] == 0 and w.sum() == 37.5
+    with pytest.raises(UnknownNameError, match="unknown marker 'LFINGER'; the model has: LASI"):
+        weights_from_names(kin.pset.marker_names, {"LFINGER": 1.0})
+    result = IKSolver(kin).solve_trial(markers[:10], w)
+    assert np.all(result.n_markers == 38)
+
+
+def test_bad_shapes(kin: Kinematics) -> None:
+    solver = IKSolver(kin)
+    with pytest.raises(
+        ShapeError, match=r"markers: expected shape \(\*, 39, 3\), got \(5, 38, 3\)"
+    ):
+        solver.solve_trial(np.zeros((5, 38, 3)))
+    with pytest.raises(ShapeError, match="weights"):
+        solver.solve_trial(np.zeros((5, 39, 3)), np.ones(12))
