@@ -1,0 +1,543 @@
+"""Joint Levenberg-Marquardt identification of theta and every frame's pose.
+
+Minimises over theta (P,) and q_t (T frames x nv)::
+
+    F = sum_t sum_m rho(|p_tm - x_m(q_t; theta)|)  +  1/2 lambda_p |theta - theta_0|^2
+
+with rho(d) = d^2 / 2 (``loss="l2"``) or a robust loss (``"huber"``, ``"cauchy"``, applied as
+iteratively reweighted least squares with a scale re-estimated from the residuals each
+iteration). Missing samples have weight 0.
+
+Each step solves the damped Gauss-Newton system, which has the block-arrow structure of bundle
+adjustment: one nv x nv block A_t per frame, coupled to the shared parameters by B_t (nv x P).
+Every frame's block is eliminated (Schur complement)::
+
+    S = C + lambda_p I - sum_t B_t^T A_t^-1 B_t,   S dtheta = g_theta - sum_t B_t^T A_t^-1 g_t
+    dq_t = A_t^-1 (g_t - B_t dtheta)
+
+accumulated chunk by chunk over frames (memory does not grow with T beyond the trajectories
+and, for up to ``cache_frames`` frames, the per-frame A_t^-1 [B_t, g_t] kept for the back
+substitution; longer trials recompute them in a second pass).
+
+Damping: Marquardt-scaled (``mu * diag``) on both blocks, mu from the gain ratio (Nielsen).
+Stopping: an accepted step that lowers F by less than ``tol_cost * F``, or a step whose largest
+theta component is below ``tol_theta`` [m] and pose component below ``tol_q``, or ``mu`` beyond
+1e12 (no descent possible), or ``max_iterations``.
+
+The weak prior (``prior_sigma``, default 50 mm, relative to a 1 mm marker noise:
+lambda_p = (1 mm / 50 mm)^2) pins the directions of theta that the markers cannot determine
+(a lone marker turning about its joint, the pelvis frame against its markers) to the initial
+model, and is negligible (< 1e-4 relative) in every direction the data determine to better
+than 5 mm. The identifiability report (:mod:`mocap_mj.identify.identifiability`) names them.
+"""
+
+from __future__ import annotations
+
+import enum
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+from ..errors import MocapError, SolverError, check_shape
+from ..ik import IKResult, IKSettings, IKSolver, Status
+from ..kinematics import Kinematics
+from ..parameters import ParameterSet
+
+#: Median of the chi distribution with 3 degrees of freedom: median |e| / sigma for 3D noise.
+CHI3_MEDIAN = 1.5381722
+
+
+class Termination(enum.Enum):
+    NOISE = "cost change below tol_noise * sigma^2"
+    COST = "relative cost change below tol_cost"
+    STEP = "step below tol_theta and tol_q"
+    NO_DESCENT = "no descent direction found (damping exhausted)"
+    MAX_ITERATIONS = "iteration limit reached"
+
+
+@dataclass(frozen=True)
+class LMSettings:
+    """Settings of the joint LM.
+
+    Attributes
+    ----------
+    max_iterations : int
+    tol_noise : float
+        An accepted step that lowers F by less than ``tol_noise * sigma^2`` ends the solve
+        (sigma: per-axis noise estimated from the fit). With noisy markers Gauss-Newton
+        converges linearly (the residual curvature of weakly determined joints, e.g. the MTP
+        and subtalar angles, is not in J^T J); by then the remaining improvement is a small
+        fraction of one standard deviation. Measured on the 500-frame ROM trial: the
+        observable-subspace errors settle within 1% of their final value 2-4 iterations
+        before this rule stops (``benchmarks/identify.py``).
+    tol_cost : float
+        Relative decrease of F below which an accepted step ends the solve.
+    tol_theta : float [m]
+    tol_q : float [rad or m]
+    mu0 : float
+        Initial Marquardt damping (dimensionless).
+    prior_sigma : float [m]
+        Standard deviation of the weak Gaussian prior toward the initial model, stated for a
+        marker noise of ``prior_noise`` (so lambda_p = (prior_noise / prior_sigma)^2).
+    prior_noise : float [m]
+    loss : {"l2", "huber", "cauchy"}
+    loss_scale : float
+        Robust threshold in units of the estimated per-axis noise sigma.
+    observable_std : float [m]
+        Directions of theta whose standard deviation (from the reduced information and the
+        noise estimated from the fit) exceeds this are weakly observable: once the fit has
+        settled (``settle_gain``), steps are restricted to the other, observable directions,
+        and the weak ones keep their value (near the initial model, where the prior holds them).
+    settle_gain : float
+        The restriction starts after the first accepted step that lowers F by less than this
+        fraction (or after ``settle_iterations``).
+    settle_iterations : int
+    chunk : int
+        Frames per chunk when accumulating the reduced system.
+    cache_frames : int
+        Keep per-frame back-substitution data up to this many frames (else recompute).
+    """
+
+    max_iterations: int = 100
+    tol_noise: float = 0.1
+    tol_cost: float = 1e-10
+    tol_theta: float = 1e-9
+    tol_q: float = 1e-8
+    mu0: float = 1e-6
+    prior_sigma: float = 0.05
+    prior_noise: float = 0.001
+    loss: str = "l2"
+    loss_scale: float = 3.0
+    observable_std: float = 0.005
+    settle_gain: float = 1e-2
+    settle_iterations: int = 4
+    chunk: int = 1000
+    cache_frames: int = 5000
+
+    def __post_init__(self) -> None:
+        if self.loss not in ("l2", "huber", "cauchy"):
+            raise MocapError(f"loss must be one of l2, huber, cauchy; got {self.loss!r}")
+        if self.prior_sigma <= 0 or self.prior_noise <= 0:
+            raise MocapError("prior_sigma and prior_noise must be positive")
+        if self.max_iterations < 1 or self.chunk < 1:
+            raise MocapError("max_iterations and chunk must be at least 1")
+
+    @property
+    def prior_weight(self) -> float:
+        return (self.prior_noise / self.prior_sigma) ** 2
+
+
+class TrialData(NamedTuple):
+    """One trial's measured markers: markers (T, M, 3) [m] NaN where missing; times (T,) [s]."""
+
+    name: str
+    markers: np.ndarray
+    times: np.ndarray
+
+
+class IterationLog(NamedTuple):
+    """One LM iteration: theta after it (P,) [m], F, marker RMSE [m], damping, timing [s]."""
+
+    iteration: int
+    cost: float  # F [m^2]
+    rmse: float  # marker RMSE [m]
+    mu: float
+    accepted: bool
+    step_theta: float  # max |dtheta| [m]
+    seconds: float
+    theta: np.ndarray
+
+
+@dataclass
+class LMResult:
+    """Outcome of :func:`identify_lm`.
+
+    Attributes
+    ----------
+    theta : (P,) [m]
+    theta0 : (P,) [m], the initial (prior) model
+    qpos : list of (T_i, nq) per trial; NaN rows for frames not used
+    used : list of (T_i,) bool per trial: frames in the problem (enough markers)
+    marker_rmse : float [m], over present samples of used frames (weights ignored)
+    frame_rmse : list of (T_i,) [m]
+    reduced_information : (P, P) [1], S without damping and prior at the solution (free
+        parameters only; rows/cols of frozen ones are zero)
+    sigma : float [m], per-axis noise estimated from the fit: RMSE / sqrt(3 (1 - p / n))
+    n_residuals, n_unknowns : int
+    iterations : int
+    termination : Termination
+    trace : list of IterationLog
+    seconds : float
+    init_seconds : float, IK before the first LM iteration
+    """
+
+    theta: np.ndarray
+    theta0: np.ndarray
+    qpos: list[np.ndarray]
+    used: list[np.ndarray]
+    marker_rmse: float
+    frame_rmse: list[np.ndarray]
+    reduced_information: np.ndarray
+    free: np.ndarray
+    sigma: float
+    n_residuals: int
+    n_unknowns: int
+    iterations: int
+    termination: Termination
+    trace: list[IterationLog] = field(default_factory=list)
+    seconds: float = 0.0
+    init_seconds: float = 0.0
+    weights: list[np.ndarray] = field(default_factory=list)
+
+
+def _robust_weights(dist: np.ndarray, present: np.ndarray, loss: str, c: float) -> np.ndarray:
+    """IRLS weights (T, M) of the 3D distances for the loss with threshold c [m]."""
+    if loss == "l2":
+        return present.astype(float)
+    if loss == "huber":
+        w = np.minimum(1.0, c / np.maximum(dist, 1e-300))
+    else:
+        w = 1.0 / (1.0 + (dist / c) ** 2)
+    return np.where(present, w, 0.0)
+
+
+def _robust_cost(dist: np.ndarray, present: np.ndarray, loss: str, c: float) -> float:
+    d = dist[present]
+    if loss == "l2":
+        return float(0.5 * np.sum(d**2))
+    if loss == "huber":
+        return float(np.sum(np.where(d <= c, 0.5 * d**2, c * d - 0.5 * c**2)))
+    return float(np.sum(0.5 * c**2 * np.log1p((d / c) ** 2)))
+
+
+class _Problem:
+    """Frames of all trials stacked, with the per-chunk normal-equation kernel."""
+
+    def __init__(
+        self, kin: Kinematics, markers: np.ndarray, qpos: np.ndarray, free: np.ndarray
+    ) -> None:
+        self.kin = kin
+        self.present = np.all(np.isfinite(markers), axis=2)
+        self.target = np.where(self.present[..., None], markers, 0.0)
+        self.qpos = qpos
+        self.free = free
+        self.n = len(markers)
+
+    def residuals(self, qpos: np.ndarray) -> np.ndarray:
+        """Distances (T, M) [m] between measured and model markers (0 where missing)."""
+        out = np.empty(self.present.shape)
+        for s in range(0, self.n, 4096):
+            x = self.kin.marker_positions(qpos[s : s + 4096])
+            d = self.target[s : s + 4096] - x
+            out[s : s + 4096] = np.linalg.norm(d, axis=2)
+        return np.where(self.present, out, 0.0)
+
+    def chunk_system(
+        self, sl: slice, w: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Normal-equation pieces of frames ``sl`` with weights w (T, M).
+
+        Returns A (n, nv, nv), B (n, nv, Pf), g_q (n, nv), C (Pf, Pf), g_theta (Pf,) over the
+        free parameters, and the weighted residual norm (n,).
+        """
+        kin = self.kin
+        frames = kin.forward(self.qpos[sl])
+        n, m = frames.site_xpos.shape[:2]
+        sw = np.sqrt(w[sl])
+        r = (self.target[sl] - frames.site_xpos) * sw[..., None]  # (n, M, 3)
+        jq = kin.jac_q(frames) * sw[..., None, None]  # (n, M, 3, nv)
+        jk = kin.jac_kappa(frames) * sw[..., None, None]  # (n, M, 3, K)
+        rot = kin.jac_offsets(frames) * sw[..., None, None]  # (n, M, 3, 3)
+        k = kin.pset.n_kappa
+        p = kin.pset.size
+        jqf = jq.reshape(n, 3 * m, kin.nv)
+        rf = r.reshape(n, 3 * m)
+        a = np.einsum("nri,nrj->nij", jqf, jqf, optimize=True)
+        gq = np.einsum("nri,nr->ni", jqf, rf)
+        b = np.empty((n, kin.nv, p))
+        b[:, :, :k] = np.einsum("nri,nrk->nik", jqf, jk.reshape(n, 3 * m, k), optimize=True)
+        b[:, :, k:] = np.einsum("nmci,nmcj->nimj", jq, rot, optimize=True).reshape(n, kin.nv, -1)
+        c = np.zeros((p, p))
+        jkf = jk.reshape(n * 3 * m, k)
+        c[:k, :k] = jkf.T @ jkf
+        ko = np.einsum("nmck,nmcj->kmj", jk, rot, optimize=True).reshape(k, -1)
+        c[:k, k:] = ko
+        c[k:, :k] = ko.T
+        # Offsets of one marker: sum_t R^T w R = (sum_t w) I (R orthonormal).
+        wsum = w[sl].sum(axis=0)
+        idx = k + np.arange(3 * m)
+        c[idx, idx] = np.repeat(wsum, 3)
+        gt = np.empty(p)
+        gt[:k] = jkf.T @ rf.reshape(-1)
+        gt[k:] = np.einsum("nmcj,nmc->mj", rot, r).reshape(-1)
+        f = self.free
+        return a, b[:, :, f], gq, c[np.ix_(f, f)], gt[f], np.einsum("nr,nr->n", rf, rf)
+
+
+def _damped_inverse(a: np.ndarray, mu: float) -> np.ndarray:
+    diag = np.einsum("nii->ni", a)
+    ad = a.copy()
+    idx = np.arange(a.shape[1])
+    ad[:, idx, idx] += mu * diag + 1e-12
+    return np.linalg.inv(ad)
+
+
+def _observable_basis(
+    s_mat: np.ndarray, rmse: float, n_res: int, n_unknowns: int, max_std: float
+) -> np.ndarray:
+    """Orthonormal basis (Pf, r) of the directions of theta determined to max_std or better.
+
+    The standard deviation of direction i is sigma / sqrt(lambda_i) with lambda_i an eigenvalue
+    of the reduced information and sigma the per-axis noise estimated from the fit.
+    """
+    sym = 0.5 * (s_mat + s_mat.T)
+    lam, vec = np.linalg.eigh(sym)
+    sigma = rmse / np.sqrt(3 * max(1.0 - n_unknowns / max(n_res, 1), 1e-6))
+    keep = lam > (sigma / max_std) ** 2
+    return vec[:, keep]
+
+
+def initial_ik(
+    kin: Kinematics, trials: Sequence[TrialData], ik_settings: IKSettings | None = None
+) -> list[IKResult]:
+    """IK of every trial with the kinematics' current theta."""
+    solver = IKSolver(kin, ik_settings)
+    return [solver.solve_trial(t.markers) for t in trials]
+
+
+def identify_lm(
+    trials: Sequence[TrialData],
+    *,
+    pset: ParameterSet | None = None,
+    theta0: np.ndarray | None = None,
+    settings: LMSettings | None = None,
+    ik_settings: IKSettings | None = None,
+    initial_qpos: Sequence[np.ndarray] | None = None,
+    progress: bool = False,
+    log: list[str] | None = None,
+) -> LMResult:
+    """Identify theta and the motion of every trial by joint Levenberg-Marquardt.
+
+    Parameters
+    ----------
+    trials : sequence of TrialData
+        One or more trials of one subject; theta is shared.
+    pset : ParameterSet, optional
+        The parameterisation (bundled humanoid by default); its ``frozen`` flags are honoured.
+    theta0 : (P,) [m], optional
+        Initial model and prior mean (default ``pset.nominal``).
+    initial_qpos : sequence of (T_i, nq), optional
+        Starting poses per trial (default: IK with theta0).
+    progress : bool
+        Show a progress bar over the iterations.
+    log : list of str, optional
+        Receives one line per iteration.
+    """
+    st = settings or LMSettings()
+    pset = pset or ParameterSet()
+    theta = pset.check(pset.nominal if theta0 is None else theta0).copy()
+    theta_init = theta.copy()
+    free = np.flatnonzero(~pset.frozen)
+    if free.size == 0:
+        raise SolverError("every parameter is frozen: nothing to identify")
+    if not trials:
+        raise SolverError("no trials given")
+    for t in trials:
+        check_shape(f"{t.name}: markers", t.markers, (None, pset.n_markers, 3))
+    kin = Kinematics(pset)
+    kin.set_theta(theta)
+    t_start = time.perf_counter()
+    if initial_qpos is None:
+        iks = initial_ik(kin, trials, ik_settings)
+        init_q = [r.qpos for r in iks]
+        used = [r.status != Status.TOO_FEW_MARKERS for r in iks]
+    else:
+        init_q = [np.asarray(q, dtype=float) for q in initial_qpos]
+        used = [np.all(np.isfinite(q), axis=1) for q in init_q]
+    init_seconds = time.perf_counter() - t_start
+    if sum(int(u.sum()) for u in used) == 0:
+        raise SolverError("no frame has enough markers to be solved")
+    markers = np.concatenate([t.markers[u] for t, u in zip(trials, used, strict=True)])
+    qpos = np.concatenate([q[u] for q, u in zip(init_q, used, strict=True)])
+    prob = _Problem(kin, markers, qpos, free)
+    n = prob.n
+    nv = kin.nv
+    pf = free.size
+    lam = st.prior_weight
+    chunks = [slice(s, min(s + st.chunk, n)) for s in range(0, n, st.chunk)]
+    cache = n <= st.cache_frames
+
+    def scale_of(dist: np.ndarray) -> float:
+        d = dist[prob.present]
+        return float(np.median(d) / CHI3_MEDIAN) if d.size else 1e-3
+
+    def total_cost(dist: np.ndarray, th: np.ndarray, c: float) -> float:
+        dth = th - theta_init
+        return _robust_cost(dist, prob.present, st.loss, c) + 0.5 * lam * float(dth @ dth)
+
+    dist = prob.residuals(qpos)
+    mu = st.mu0
+    nu = 2.0
+    trace: list[IterationLog] = []
+    termination = Termination.MAX_ITERATIONS
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=st.max_iterations, desc="identify (LM)", unit="it", leave=False, delay=2)
+    it = 0
+    basis: np.ndarray | None = None
+    settled = False
+    n_res_now = int(3 * prob.present.sum())
+    rmse_now = float(np.sqrt(np.sum(dist**2) / prob.present.sum()))
+    while it < st.max_iterations:
+        it += 1
+        t_it = time.perf_counter()
+        c_loss = st.loss_scale * scale_of(dist)
+        w = _robust_weights(dist, prob.present, st.loss, c_loss)
+        cost = total_cost(dist, theta, c_loss)
+        # Build and solve the damped reduced system (retrying with more damping if needed).
+        s_mat = np.zeros((pf, pf))
+        rhs = np.zeros(pf)
+        g_theta = np.zeros(pf)
+        diag_c = np.zeros(pf)
+        g_q = np.empty((n, nv))
+        diag_a = np.empty((n, nv))
+        z_cache: list[np.ndarray] = []
+        for sl in chunks:
+            a, b, gq, c, gt, _ = prob.chunk_system(sl, w)
+            g_q[sl] = gq
+            diag_a[sl] = np.einsum("nii->ni", a)
+            g_theta += gt
+            ainv = _damped_inverse(a, mu)
+            z = np.matmul(ainv, np.concatenate([b, gq[..., None]], axis=2))
+            bf = b.reshape(-1, pf)
+            zf = z.reshape(-1, pf + 1)
+            s_mat += c - bf.T @ zf[:, :pf]
+            rhs += gt - bf.T @ zf[:, pf]
+            diag_c += np.diag(c)
+            if cache:
+                z_cache.append(z)
+        gprior = lam * (theta - theta_init)[free]
+        if basis is None and settled:
+            basis = _observable_basis(s_mat, rmse_now, n_res_now, n * nv + pf, st.observable_std)
+        s_damped = s_mat + np.diag(lam + mu * (diag_c + lam)) + 1e-15 * np.eye(pf)
+        if basis is None:
+            dth_f = np.linalg.solve(s_damped, rhs - gprior)
+        else:
+            y = np.linalg.solve(basis.T @ s_damped @ basis, basis.T @ (rhs - gprior))
+            dth_f = basis @ y
+        dq = np.empty((n, nv))
+        for i, sl in enumerate(chunks):
+            if cache:
+                z = z_cache[i]
+            else:
+                a, b, gq, *_ = prob.chunk_system(sl, w)
+                z = np.matmul(_damped_inverse(a, mu), np.concatenate([b, gq[..., None]], axis=2))
+            dq[sl] = z[..., pf] - z[..., :pf] @ dth_f
+        theta_new = theta.copy()
+        theta_new[free] += dth_f
+        kin.set_theta(theta_new)
+        q_new = kin.integrate(prob.qpos, dq)
+        dist_new = prob.residuals(q_new)
+        cost_new = total_cost(dist_new, theta_new, c_loss)
+        # Decrease predicted by the damped quadratic model: 1/2 h^T (mu D h + g) (Nielsen).
+        h_g = float(np.einsum("ni,ni->", dq, g_q) + dth_f @ (g_theta - gprior))
+        h_dh = float(np.einsum("ni,ni,ni->", dq, diag_a, dq) + dth_f @ ((diag_c + lam) * dth_f))
+        predicted = max(0.5 * (h_g + mu * h_dh), 1e-300)
+        rho = (cost - cost_new) / predicted
+        accepted = cost_new < cost
+        if accepted:
+            theta, prob.qpos, dist = theta_new, q_new, dist_new
+            mu *= max(1 / 3, 1 - (2 * rho - 1) ** 3)
+            nu = 2.0
+        else:
+            kin.set_theta(theta)
+            mu *= nu
+            nu *= 2
+        rmse = rmse_now = float(np.sqrt(np.sum(dist**2) / prob.present.sum()))
+        if accepted and (cost - cost_new < st.settle_gain * cost or it >= st.settle_iterations):
+            settled = True
+        step = float(np.abs(dth_f).max())
+        trace.append(
+            IterationLog(it, cost_new if accepted else cost, rmse, mu, accepted, step,
+                         time.perf_counter() - t_it, theta.copy())
+        )  # fmt: skip
+        if log is not None:
+            log.append(
+                f"iter {it:3d}  F {trace[-1].cost:.6e}  rmse {rmse * 1e3:.4f} mm  mu {mu:.1e}  "
+                f"{'accepted' if accepted else 'rejected'}  max|dtheta| {step * 1e3:.4f} mm"
+            )
+        if bar is not None:
+            bar.update(1)
+        sigma_now = rmse / np.sqrt(3 * max(1.0 - (n * nv + pf) / n_res_now, 1e-6))
+        if accepted and it > 1 and cost - cost_new <= st.tol_noise * sigma_now**2:
+            termination = Termination.NOISE
+            break
+        if accepted and cost - cost_new <= st.tol_cost * cost:
+            termination = Termination.COST
+            break
+        if accepted and step < st.tol_theta and np.abs(dq).max() < st.tol_q:
+            termination = Termination.STEP
+            break
+        if mu > 1e12:
+            termination = Termination.NO_DESCENT
+            break
+    if bar is not None:
+        bar.close()
+    kin.set_theta(theta)
+    # Reduced information (no damping, no prior, unit weights) at the solution.
+    c_loss = st.loss_scale * scale_of(dist)
+    w_final = _robust_weights(dist, prob.present, st.loss, c_loss)
+    info = np.zeros((pset.size, pset.size))
+    s_free = np.zeros((pf, pf))
+    for sl in chunks:
+        a, b, _, c, _, _ = prob.chunk_system(sl, w_final)
+        ainv = np.linalg.pinv(a, hermitian=True)
+        bf = b.reshape(-1, pf)
+        s_free += c - bf.T @ np.matmul(ainv, b).reshape(-1, pf)
+    info[np.ix_(free, free)] = 0.5 * (s_free + s_free.T)
+    n_res = int(3 * prob.present.sum())
+    n_unk = int(nv * n + pf)
+    rmse = float(np.sqrt(np.sum(dist**2) / prob.present.sum()))
+    dof = max(1.0 - n_unk / n_res, 1e-6)
+    sigma = rmse / np.sqrt(3 * dof)
+    # Back to per-trial arrays.
+    qpos_out, frame_rmse, weights_out = [], [], []
+    start = 0
+    for t, u in zip(trials, used, strict=True):
+        k = int(u.sum())
+        q = np.full((len(t.markers), kin.nq), np.nan)
+        q[u] = prob.qpos[start : start + k]
+        fr = np.full(len(t.markers), np.nan)
+        pres = prob.present[start : start + k]
+        d = dist[start : start + k]
+        fr[u] = np.sqrt(np.sum(d**2, axis=1) / np.maximum(pres.sum(axis=1), 1))
+        wt = np.zeros((len(t.markers), pset.n_markers))
+        wt[u] = w_final[start : start + k]
+        qpos_out.append(q)
+        frame_rmse.append(fr)
+        weights_out.append(wt)
+        start += k
+    return LMResult(
+        theta=theta,
+        theta0=theta_init,
+        qpos=qpos_out,
+        used=used,
+        marker_rmse=rmse,
+        frame_rmse=frame_rmse,
+        reduced_information=info,
+        free=~pset.frozen.copy(),
+        sigma=float(sigma),
+        n_residuals=n_res,
+        n_unknowns=n_unk,
+        iterations=it,
+        termination=termination,
+        trace=trace,
+        seconds=time.perf_counter() - t_start,
+        init_seconds=init_seconds,
+        weights=weights_out,
+    )
