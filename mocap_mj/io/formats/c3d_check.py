@@ -1,0 +1,281 @@
+"""A pure-Python structural check of a C3D file, done before ezc3d is allowed to read it.
+
+ezc3d trusts the file: on truncated or corrupted input it can hang, crash the interpreter, or
+silently return fewer frames. This module walks the header and parameter section itself,
+bounds-checks every entry, and checks that the parameters ezc3d dereferences exist, agree
+with the header, and describe a data section that fits in the file. Anything else is an
+:class:`~mocap_mj.errors.InputFileError` naming the file and the byte, group or parameter.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from dataclasses import dataclass
+from pathlib import Path
+
+from mocap_mj.errors import InputFileError
+
+BLOCK = 512
+_INTEL, _DEC, _MIPS = 84, 85, 86
+_TYPES = {-1: 1, 1: 1, 2: 2, 4: 4}
+_MAX_ENTRIES = 65536
+#: Parameters ezc3d reads as one number without checking they hold one (else it crashes).
+_SCALARS = (
+    ("POINT", "USED"), ("POINT", "SCALE"), ("POINT", "RATE"), ("POINT", "DATA_START"),
+    ("POINT", "FRAMES"), ("ANALOG", "USED"), ("ANALOG", "RATE"), ("ANALOG", "GEN_SCALE"),
+    ("ROTATION", "USED"), ("ROTATION", "DATA_START"), ("ROTATION", "RATE"),
+    ("ROTATION", "RATIO"), ("FORCE_PLATFORM", "USED"),
+)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Param:
+    """One parameter: its type (-1 char, 1 byte, 2 int16, 4 float), dimensions and values."""
+
+    type: int
+    dims: tuple[int, ...]
+    values: tuple[float, ...] | tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class C3DLayout:
+    """What the check learnt: parameters by (GROUP, NAME), and the data section's extent."""
+
+    params: dict[tuple[str, str], Param]
+    n_points: int
+    n_frames: int
+    float_data: bool
+    data_offset: int
+    data_bytes: int
+
+
+def _err(path: Path, where: str, expected: str, got: str) -> InputFileError:
+    return InputFileError(f"{path}: {where}: expected {expected}, got {got}")
+
+
+class _Reader:
+    def __init__(self, path: Path, data: bytes, processor: int) -> None:
+        self.path, self.data, self.processor = path, data, processor
+        self.int_fmt = ">" if processor == _MIPS else "<"
+
+    def need(self, start: int, length: int, what: str) -> bytes:
+        if start < 0 or start + length > len(self.data):
+            raise _err(
+                self.path,
+                f"byte {start + 1}",
+                f"{what} ({length} bytes)",
+                f"end of file at byte {len(self.data)} (truncated)",
+            )
+        return self.data[start : start + length]
+
+    def int8(self, pos: int, what: str) -> int:
+        return struct.unpack("b", self.need(pos, 1, what))[0]
+
+    def uint8(self, pos: int, what: str) -> int:
+        return self.need(pos, 1, what)[0]
+
+    def uint16(self, pos: int, what: str) -> int:
+        return struct.unpack(self.int_fmt + "H", self.need(pos, 2, what))[0]
+
+    def floats(self, raw: bytes) -> tuple[float, ...]:
+        n = len(raw) // 4
+        if self.processor == _DEC:  # swap the 16-bit words, then scale the exponent
+            swapped = b"".join(raw[i + 2 : i + 4] + raw[i : i + 2] for i in range(0, 4 * n, 4))
+            return tuple(v / 4.0 for v in struct.unpack(f"<{n}f", swapped))
+        return struct.unpack(f"{self.int_fmt}{n}f", raw)
+
+
+def _values(reader: _Reader, kind: int, dims: tuple[int, ...], raw: bytes) -> tuple:
+    if kind == -1:
+        text = raw.decode("latin-1")
+        width = dims[0] if dims else 1
+        if width == 0:
+            return ()
+        return tuple(text[i : i + width].rstrip(" \x00") for i in range(0, len(text), width))
+    if kind == 1:
+        return tuple(struct.unpack(f"{len(raw)}b", raw))
+    if kind == 2:
+        return tuple(struct.unpack(f"{reader.int_fmt}{len(raw) // 2}h", raw))
+    return reader.floats(raw)
+
+
+def _walk_parameters(reader: _Reader, start: int) -> dict[tuple[str, str], Param]:
+    path = reader.path
+    groups: dict[int, str] = {}
+    pending: list[tuple[int, str, Param, int]] = []
+    pos = start
+    for _ in range(_MAX_ENTRIES):
+        n_char = reader.int8(pos, "a parameter entry")
+        if n_char == 0:
+            break
+        gid = reader.int8(pos + 1, "a group id")
+        if gid == 0:
+            raise _err(path, f"byte {pos + 2}", "a non-zero group id", "0")
+        raw_name = reader.need(pos + 2, abs(n_char), "a group or parameter name")
+        if not all(0x20 < b < 0x7F for b in raw_name):
+            raise _err(path, f"byte {pos + 3}", "a printable name", repr(raw_name)[:60])
+        name = raw_name.decode("ascii").upper()
+        off_pos = pos + 2 + abs(n_char)
+        offset = reader.uint16(off_pos, "the offset to the next entry")
+        if gid < 0:
+            n_desc = reader.uint8(off_pos + 2, "a description length")
+            end = off_pos + 3 + n_desc
+            reader.need(off_pos + 3, n_desc, "a description")
+            groups[-gid] = name
+        else:
+            kind = reader.int8(off_pos + 2, "a parameter type")
+            if kind not in _TYPES:
+                raise _err(path, f"parameter {name}", "type -1, 1, 2 or 4", str(kind))
+            n_dims = reader.uint8(off_pos + 3, "a dimension count")
+            if kind == -1 and n_dims == 0:  # ezc3d crashes on dimensionless text
+                raise _err(path, f"parameter {name}", "text with dimensions", "none")
+            dims = tuple(reader.need(off_pos + 4, n_dims, "the dimensions"))
+            count = math.prod(dims) if dims else 1
+            data_pos = off_pos + 4 + n_dims
+            raw = reader.need(data_pos, _TYPES[kind] * count, f"the values of {name}")
+            n_desc = reader.uint8(data_pos + len(raw), "a description length")
+            end = data_pos + len(raw) + 1 + n_desc
+            reader.need(end - n_desc, n_desc, "a description")
+            pending.append((gid, name, Param(kind, dims, _values(reader, kind, dims, raw)), pos))
+        if offset == 0:
+            break
+        nxt = off_pos + offset
+        if nxt < end:
+            raise _err(
+                path,
+                f"byte {off_pos + 1}",
+                f"an offset past this entry (to byte {end + 1} or on)",
+                f"one to byte {nxt + 1}",
+            )
+        pos = nxt
+    else:
+        raise _err(path, "parameter section", f"at most {_MAX_ENTRIES} entries", "more")
+    params: dict[tuple[str, str], Param] = {}
+    for gid, name, param, at in pending:
+        if gid not in groups:
+            raise _err(path, f"byte {at + 1}", f"parameter {name} in a declared group", f"id {gid}")
+        params[(groups[gid], name)] = param
+    return params
+
+
+def _is_labels(name: str) -> bool:
+    """True for LABELS, LABELS2, LABELS3... (point labels beyond 255 continue there)."""
+    return name == "LABELS" or (name.startswith("LABELS") and name[6:].isdigit())
+
+
+def _number(path: Path, params: dict[tuple[str, str], Param], key: tuple[str, str]) -> float:
+    param = params.get(key)
+    if param is None or param.type == -1 or not param.values:
+        raise _err(path, f"group {key[0]}:{key[1]}", "a number", "none")
+    value = float(param.values[0])
+    if param.type == 2 and value < 0 and key[1] == "FRAMES":  # often stored unsigned
+        value += 65536
+    if not math.isfinite(value):
+        raise _err(path, f"group {key[0]}:{key[1]}", "a finite number", str(value))
+    return value
+
+
+def check_c3d(path: Path) -> C3DLayout:
+    """Check that ``path`` is a complete, self-consistent C3D file; return its layout.
+
+    Raises
+    ------
+    InputFileError
+        Naming the file and the byte or ``group GROUP:PARAMETER`` that is wrong.
+    """
+    data = path.read_bytes()
+    if len(data) < BLOCK:
+        raise _err(path, "header", f"a C3D file of at least {BLOCK} bytes", f"{len(data)} bytes")
+    if data[1] != 0x50:
+        raise _err(path, "byte 2", "the C3D key 0x50", f"0x{data[1]:02x}")
+    if data[0] < 2:
+        raise _err(path, "byte 1", "the parameter section's block number (2 or more)", str(data[0]))
+    start = (data[0] - 1) * BLOCK
+    if start + 4 > len(data):
+        raise _err(
+            path,
+            "byte 1",
+            f"a parameter section at byte {start + 1}",
+            f"a file of {len(data)} bytes (truncated)",
+        )
+    processor = data[start + 3]
+    if processor not in (_INTEL, _DEC, _MIPS):
+        raise _err(path, f"byte {start + 4}", "processor type 84, 85 or 86", str(processor))
+    reader = _Reader(path, data, processor)
+    params = _walk_parameters(reader, start + 4)
+
+    if not any(group == "POINT" for group, _ in params):
+        raise _err(path, "parameter section", "a POINT group", "none")
+    for key in _SCALARS:
+        if key in params:
+            value = _number(path, params, key)
+            limit = 1000 if key[1] == "RATIO" else 65535
+            if key[1] in ("USED", "RATIO", "DATA_START", "FRAMES") and not (
+                0 <= value <= limit and value == int(value)
+            ):
+                raise _err(path, f"group {key[0]}:{key[1]}", f"a count in 0..{limit}", f"{value:g}")
+            if key[1] == "RATE" and value < 0:
+                raise _err(path, f"group {key[0]}:{key[1]}", "a rate of 0 or more", f"{value:g}")
+    n_points = _number(path, params, ("POINT", "USED"))
+    n_frames = _number(path, params, ("POINT", "FRAMES"))
+    rate = _number(path, params, ("POINT", "RATE"))
+    if not (0 <= n_points < 32768 and n_points == int(n_points)):
+        raise _err(path, "group POINT:USED", "a point count in 0..32767", f"{n_points:g}")
+    if n_frames < 1 or n_frames != int(n_frames):
+        raise _err(path, "group POINT:FRAMES", "at least one frame", f"{n_frames:g}")
+    if not 1e-3 <= rate <= 1e6:
+        raise _err(path, "group POINT:RATE", "a frame rate in 0.001..1e6 Hz", f"{rate:g}")
+    float_data = reader.floats(data[12:16])[0] < 0  # header scale factor: negative = float data
+    if n_points:
+        scale = _number(path, params, ("POINT", "SCALE"))
+        if not float_data and scale == 0:
+            raise _err(path, "group POINT:SCALE", "a non-zero scale for integer data", "0")
+        labels = sum(
+            len(p.values)
+            for (group, name), p in params.items()
+            if group == "POINT" and p.type == -1 and _is_labels(name)
+        )
+        if labels < n_points:
+            raise _err(
+                path, "group POINT:LABELS", f"{int(n_points)} labels (POINT:USED)", str(labels)
+            )
+
+    n_analogs, per_frame = 0.0, 0.0
+    if any(group == "ANALOG" for group, _ in params):
+        n_analogs = _number(path, params, ("ANALOG", "USED"))
+        analog_rate = _number(path, params, ("ANALOG", "RATE"))
+        if not (0 <= n_analogs < 32768 and n_analogs == int(n_analogs)):
+            raise _err(path, "group ANALOG:USED", "a channel count in 0..32767", f"{n_analogs:g}")
+        if not 0 <= analog_rate < rate * 65536:
+            raise _err(
+                path, "group ANALOG:RATE", "a rate up to 65535 x POINT:RATE", f"{analog_rate:g}"
+            )
+        per_frame = float(int(analog_rate / rate))
+        if n_analogs:
+            _number(path, params, ("ANALOG", "GEN_SCALE"))
+            for per_channel in ("SCALE", "OFFSET"):
+                got = params.get(("ANALOG", per_channel))
+                if got is None or got.type == -1 or len(got.values) < n_analogs:
+                    have = "none" if got is None else f"{len(got.values)} values"
+                    want = f"{int(n_analogs)} values (ANALOG:USED)"
+                    raise _err(path, f"group ANALOG:{per_channel}", want, have)
+    if ("ROTATION", "USED") in params and _number(path, params, ("ROTATION", "USED")) != 0:
+        raise _err(path, "group ROTATION:USED", "0 (rotation data is not supported)", "more")
+
+    value_bytes = 4 if float_data else 2
+    data_block = struct.unpack(reader.int_fmt + "H", data[16:18])[0]
+    if data_block < 2:
+        raise _err(path, "byte 17", "the data section's block number (2 or more)", str(data_block))
+    frame_bytes = value_bytes * (4 * int(n_points) + int(per_frame) * int(n_analogs))
+    data_offset = (data_block - 1) * BLOCK
+    data_bytes = int(n_frames) * frame_bytes
+    if data_offset + data_bytes > len(data):
+        raise _err(
+            path,
+            "data section",
+            f"{int(n_frames)} frames of {frame_bytes} bytes from byte {data_offset + 1} "
+            f"({data_offset + data_bytes} bytes in all)",
+            f"a file of {len(data)} bytes (truncated)",
+        )
+    return C3DLayout(params, int(n_points), int(n_frames), float_data, data_offset, data_bytes)

@@ -1,0 +1,193 @@
+"""``load_markers``: any supported marker file -> a :class:`MarkerTrajectory` in metres, Z up."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mocap_mj.errors import InputFileError
+from mocap_mj.io.formats import RawMarkers, read_raw
+from mocap_mj.io.names import is_non_marker, load_marker_map, split_prefix
+from mocap_mj.io.orientation import detect_up, normalize_up, rotation_to_z_up
+from mocap_mj.io.trajectory import MarkerTrajectory
+from mocap_mj.io.units import metres_per_unit
+from mocap_mj.markers import MARKER_NAMES
+
+__all__ = ["load_markers"]
+
+
+def load_markers(
+    path: str | os.PathLike[str],
+    *,
+    subject: str | None = None,
+    marker_map: Mapping[str, str] | str | os.PathLike[str] | None = None,
+    up: str | None = None,
+) -> MarkerTrajectory:
+    """Read a marker file into metres, in the model's Z-up world, with model marker names.
+
+    The format (C3D, OpenSim TRC, mocap-mj CSV, Vicon Nexus CSV, OptiTrack Motive CSV) is
+    detected from the content. The file is only read, never modified.
+
+    Steps, in order: subject prefixes ("Derrick:LASI") are removed, keeping one subject;
+    non-marker points are dropped (model outputs the file's metadata lists, and by name:
+    Plug-in Gait outputs such as PELO or LKneeAngles, CentreOfMass, unlabelled points such as
+    ``*115``), never a model marker name nor a name ``marker_map`` lists; ``marker_map``
+    renames; units become metres; the vertical axis is rotated onto +Z.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The marker file.
+    subject : str, optional
+        The subject to keep when labels carry several subject prefixes (required then).
+    marker_map : mapping or path, optional
+        Lab name -> model name (e.g. ``{"LFRA": "LFRM"}``), or a YAML/JSON file holding one.
+        Applied after prefixes are removed. Names it lists are never dropped as non-markers.
+    up : {"x", "y", "z", "-x", "-y", "-z"}, optional
+        The file's vertical axis. None detects it: the axis along which head markers (LFHD,
+        RFHD, LBHD, RBHD; else C7, CLAV) sit highest above foot markers (LANK, RANK, LHEE,
+        RHEE, LTOE, RTOE); without those markers, what the file states (mocap-mj CSV ``up=``,
+        Motive: y, C3D POINT:Y_SCREEN), else z. See :mod:`mocap_mj.io.orientation`.
+
+    Returns
+    -------
+    MarkerTrajectory
+        ``positions`` (T, M, 3) [m], NaN for missing samples; ``source`` records the path,
+        format, units, up axis and how it was chosen, the subject, dropped points, extras
+        (markers the model does not use: kept, ignored by fitting) and the names mapped.
+
+    Raises
+    ------
+    InputFileError
+        Unreadable, truncated or malformed file (the message names the file and the line,
+        byte or C3D group), unknown units, several subjects without ``subject=``, duplicate
+        marker names, or no markers at all.
+    UnknownNameError
+        ``up`` is not an axis name.
+    """
+    file = Path(path)
+    wanted_up = normalize_up(up) if up is not None else None
+    rename = load_marker_map(marker_map) if marker_map is not None else {}
+    if not file.is_file():
+        raise InputFileError(f"{file}: no such file")
+    raw = read_raw(file)
+
+    keep, chosen_subject, subjects, dropped, others = _select_markers(file, raw, subject, rename)
+    names = [rename.get(name, name) for _, name in keep]
+    _check_unique(file, raw, keep, names)
+    if not names:
+        raise InputFileError(
+            f"{file}: {raw.labels_where}: expected at least one marker, got none "
+            f"(dropped: {', '.join(dropped) or 'nothing'})"
+        )
+
+    scale, units_note = _metres(file, raw)
+    positions = raw.positions[:, [i for i, _ in keep]] * scale
+    if not (np.all(np.isfinite(raw.times)) and not np.isinf(positions).any()):
+        raise InputFileError(
+            f"{file}: {raw.labels_where}: expected finite times and coordinates, got infinity"
+        )
+    up_axis, up_how, detected = _vertical(raw, positions, names, wanted_up)
+    rotation = rotation_to_z_up(up_axis)
+    positions = positions @ rotation.T
+
+    source: dict[str, Any] = {
+        "path": str(file.resolve()),
+        "format": raw.format,
+        "units": raw.units if raw.units is not None else "mm",
+        "units_note": units_note,
+        "up": up_axis,
+        "up_detected": detected,
+        "up_how": up_how,
+        "rotation": rotation.tolist(),
+        "subject": chosen_subject,
+        "subjects": subjects,
+        "dropped": raw.dropped + dropped,
+        "other_subjects_markers": others,
+        "extras": [n for n in names if n not in MARKER_NAMES],
+        "renamed": {k: v for k, v in rename.items() if k in {n for _, n in keep}},
+        **raw.info,
+    }
+    return MarkerTrajectory(
+        times=raw.times, positions=positions, names=tuple(names), rate=raw.rate, source=source
+    )
+
+
+def _select_markers(
+    file: Path, raw: RawMarkers, subject: str | None, rename: Mapping[str, str]
+) -> tuple[list[tuple[int, str]], str | None, list[str], list[str], list[str]]:
+    """Columns to keep as (index, name), the subject, all subjects, dropped, other subjects'."""
+    split = [split_prefix(label) for label in raw.labels]
+    prefixes = sorted({p for p, _ in split if p is not None})
+    subjects = prefixes or list(raw.subjects)
+    if subject is not None:
+        subject = subject.strip()
+        if subject not in subjects and (prefixes or raw.subjects):
+            raise InputFileError(
+                f"{file}: expected subject {subject!r} among the file's subjects, got "
+                f"{', '.join(subjects)}"
+            )
+    elif len(prefixes) > 1:
+        raise InputFileError(
+            f"{file}: expected one subject, got {len(prefixes)} ({', '.join(prefixes)}): "
+            f"pass subject= to choose one"
+        )
+    chosen = subject if subject is not None else (prefixes[0] if prefixes else None)
+    keep: list[tuple[int, str]] = []
+    dropped: list[str] = []
+    others: list[str] = []
+    for i, (prefix, name) in enumerate(split):
+        if prefix is not None and prefix != chosen:
+            others.append(raw.labels[i])
+            continue
+        listed = raw.labels[i] in raw.non_markers or name in raw.non_markers
+        if name not in rename and name not in MARKER_NAMES and (listed or is_non_marker(name)):
+            dropped.append(raw.labels[i])
+            continue
+        keep.append((i, name))
+    return keep, chosen, subjects, dropped, others
+
+
+def _check_unique(
+    file: Path, raw: RawMarkers, keep: list[tuple[int, str]], names: list[str]
+) -> None:
+    seen: dict[str, int] = {}
+    for (i, _), name in zip(keep, names, strict=True):
+        if name in seen:
+            first = raw.labels[seen[name]]
+            raise InputFileError(
+                f"{file}: {raw.labels_where}: expected unique marker names, got "
+                f"{name!r} twice (from {first!r} and {raw.labels[i]!r})"
+            )
+        seen[name] = i
+
+
+def _metres(file: Path, raw: RawMarkers) -> tuple[float, str]:
+    if raw.units is None:
+        return 1e-3, "the file states no units: assumed mm"
+    scale = metres_per_unit(raw.units)
+    if scale is None:
+        raise InputFileError(
+            f"{file}: {raw.units_where}: expected length units mm, cm or m, got {raw.units!r}"
+        )
+    return scale, f"{raw.units} from {raw.units_where}"
+
+
+def _vertical(
+    raw: RawMarkers, positions: np.ndarray, names: list[str], wanted: str | None
+) -> tuple[str, str, bool]:
+    """(up axis, how it was chosen, whether it was detected from markers)."""
+    if wanted is not None:
+        return wanted, "given by the caller (up=)", False
+    if raw.info.get("up_stated") and raw.up_hint is not None:
+        return normalize_up(raw.up_hint), "stated in the file header (up=)", False
+    found, how = detect_up(positions, names)
+    if found is not None:
+        return found, how, True
+    if raw.up_hint is not None:
+        return raw.up_hint, f"{how}; used the {raw.format} metadata/default", False
+    return "z", f"{how}; assumed z", False

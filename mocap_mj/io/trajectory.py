@@ -1,0 +1,196 @@
+"""The in-memory marker trajectory that every reader returns and every writer takes."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from mocap_mj.errors import ShapeError, check_shape
+from mocap_mj.markers import MARKER_NAMES
+
+__all__ = ["MarkerReport", "MarkerTrajectory"]
+
+
+@dataclass(frozen=True, eq=False)
+class MarkerTrajectory:
+    """Marker positions over time, in metres, in the model's Z-up world.
+
+    The arrays are copied on construction and made read-only.
+
+    Parameters
+    ----------
+    times : (T,) float [s]
+        Time of each frame.
+    positions : (T, M, 3) float [m]
+        Marker positions; NaN where a marker was not seen in a frame.
+    names : tuple of str, length M
+        Marker names, unique, in the order of ``positions``' second axis.
+    rate : float [Hz]
+        Frame rate.
+    source : dict
+        Where the data came from and what the reader did to it (path, format, units, up axis,
+        dropped non-marker points, extras...). Free-form, for people and reports.
+    """
+
+    times: np.ndarray
+    positions: np.ndarray
+    names: tuple[str, ...]
+    rate: float
+    source: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        times = np.array(self.times, dtype=np.float64)
+        positions = np.array(self.positions, dtype=np.float64)
+        names = tuple(self.names)
+        check_shape("times", times, (None,))
+        check_shape("positions", positions, (times.shape[0], len(names), 3))
+        if not all(isinstance(n, str) and n for n in names):
+            raise ShapeError(f"names: expected non-empty strings, got {names!r}")
+        if len(set(names)) != len(names):
+            dupes = sorted({n for n in names if names.count(n) > 1})
+            raise ShapeError(f"names: expected unique names, got duplicates {dupes}")
+        if not np.all(np.isfinite(times)):
+            raise ShapeError("times: expected finite values, got NaN or inf")
+        if np.any(np.isinf(positions)):
+            raise ShapeError("positions: expected finite values or NaN, got inf")
+        rate = float(self.rate)
+        if not (math.isfinite(rate) and rate > 0):
+            raise ShapeError(f"rate: expected a positive frame rate in Hz, got {self.rate!r}")
+        times.setflags(write=False)
+        positions.setflags(write=False)
+        object.__setattr__(self, "times", times)
+        object.__setattr__(self, "positions", positions)
+        object.__setattr__(self, "names", names)
+        object.__setattr__(self, "rate", rate)
+        object.__setattr__(self, "source", dict(self.source))
+
+    def __repr__(self) -> str:
+        where = self.source.get("path", "memory")
+        return (
+            f"MarkerTrajectory({self.n_frames} frames, {self.n_markers} markers, "
+            f"{self.rate:g} Hz, from {where})"
+        )
+
+    @property
+    def n_frames(self) -> int:
+        """Number of frames T."""
+        return int(self.positions.shape[0])
+
+    @property
+    def n_markers(self) -> int:
+        """Number of markers M."""
+        return int(self.positions.shape[1])
+
+    def select(self, names: Sequence[str]) -> np.ndarray:
+        """Positions of the markers ``names``, in that order.
+
+        Parameters
+        ----------
+        names : sequence of str, length K
+            Marker names; a single string is taken as one name.
+
+        Returns
+        -------
+        (T, K, 3) float [m]
+            A new array; all-NaN columns for names the trajectory does not have.
+        """
+        wanted = (names,) if isinstance(names, str) else tuple(names)
+        index = {name: i for i, name in enumerate(self.names)}
+        out = np.full((self.n_frames, len(wanted), 3), np.nan)
+        for k, name in enumerate(wanted):
+            i = index.get(name)
+            if i is not None:
+                out[:, k] = self.positions[:, i]
+        return out
+
+    def slice(self, start: int | None, stop: int | None) -> MarkerTrajectory:
+        """Frames ``start:stop`` (Python slice rules), with their original times."""
+        frames = range(self.n_frames)[start:stop]
+        lo, hi = frames.start, frames.stop
+        source = dict(self.source)
+        source["frames"] = (lo, max(lo, hi))
+        return MarkerTrajectory(
+            times=self.times[lo:hi],
+            positions=self.positions[lo:hi],
+            names=self.names,
+            rate=self.rate,
+            source=source,
+        )
+
+    def marker_report(self, model_names: Sequence[str] = MARKER_NAMES) -> MarkerReport:
+        """Which model markers the trajectory has, which it lacks, and how often each is seen.
+
+        Parameters
+        ----------
+        model_names : sequence of str
+            The markers the model expects (default: the 39 Plug-in Gait markers).
+        """
+        model = tuple(model_names)
+        model_set = set(model)
+        present = np.all(np.isfinite(self.positions), axis=2)  # (T, M)
+        seen = present.mean(axis=0) if self.n_frames else np.zeros(self.n_markers)
+        by_name = {name: float(seen[i]) for i, name in enumerate(self.names)}
+        found = tuple(n for n in model if n in by_name)
+        missing = tuple(n for n in model if n not in by_name)
+        extras = tuple(n for n in self.names if n not in model_set)
+        fraction = {n: by_name.get(n, 0.0) for n in model}
+        fraction.update({n: by_name[n] for n in extras})
+        return MarkerReport(
+            found=found,
+            missing=missing,
+            extras=extras,
+            fraction_present=fraction,
+            n_frames=self.n_frames,
+        )
+
+
+@dataclass(frozen=True)
+class MarkerReport:
+    """How a trajectory's markers match the model's marker set.
+
+    Attributes
+    ----------
+    found : tuple of str
+        Model markers present in the trajectory, in model order.
+    missing : tuple of str
+        Model markers the trajectory does not have at all.
+    extras : tuple of str
+        Trajectory markers the model does not use.
+    fraction_present : Mapping[str, float]
+        For every model marker (0.0 when missing) then every extra: the fraction of frames in
+        which it was seen, in [0, 1].
+    n_frames : int
+        Number of frames of the trajectory.
+    """
+
+    found: tuple[str, ...]
+    missing: tuple[str, ...]
+    extras: tuple[str, ...]
+    fraction_present: Mapping[str, float]
+    n_frames: int
+
+    @property
+    def complete(self) -> bool:
+        """True when every model marker is present in every frame."""
+        return not self.missing and all(self.fraction_present[n] == 1.0 for n in self.found)
+
+    def __str__(self) -> str:
+        n_model = len(self.found) + len(self.missing)
+        lines = [
+            f"{len(self.found)} of {n_model} model markers found, {len(self.extras)} extra, "
+            f"{self.n_frames} frames"
+        ]
+        lines.append("missing: " + (" ".join(self.missing) if self.missing else "none"))
+        if self.extras:
+            lines.append("extras (not in the model, ignored by fitting): " + " ".join(self.extras))
+        gaps = [n for n in self.found if self.fraction_present[n] < 1.0]
+        if gaps:
+            lines.append("model markers with gaps (% of frames seen):")
+            lines.extend(f"  {n:<8} {100.0 * self.fraction_present[n]:6.1f}%" for n in gaps)
+        elif self.found:
+            lines.append("every model marker found is seen in every frame")
+        return "\n".join(lines)
