@@ -1,0 +1,211 @@
+"""``mocap-mj view``, ``render`` and ``export``: registered through the ``mocap_mj.commands``
+entry point (``view = "mocap_viewer.cli:register"``), so the library never imports the viewer.
+
+``view``     interactive playback in MuJoCo's viewer (needs a display).
+``render``   offscreen PNG / MP4 / GIF (needs EGL or OSMesa without a display).
+``export``   GLB scene of one frame or a range (no OpenGL).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from mocap_mj.cli import add_json_flag, finish
+from mocap_mj.errors import MocapError
+
+from .playback import Ghost, Playback, load_ghost, load_playback, parse_frame, parse_frames
+
+__all__ = ["register"]
+
+
+def _add_source(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "result",
+        nargs="?",
+        metavar="RESULT_DIR",
+        help="result folder (model.xml + motion.npz) or synthetic-truth folder",
+    )
+    p.add_argument("--model", help="MJCF file, instead of a result folder (default: bundled)")
+    p.add_argument("--motion", help="motion .npz for --model (poses and markers)")
+    p.add_argument(
+        "--markers",
+        help="marker file for --model; without --motion the model stands at its reference pose",
+    )
+    p.add_argument(
+        "--ghost",
+        metavar="MJCF",
+        help="second model drawn translucent in the same poses: an MJCF file, 'nominal' "
+        "(the bundled humanoid) or 'truth' (truth_model.xml in RESULT_DIR or RESULT_DIR/synth)",
+    )
+
+
+def _add_frames(p: argparse.ArgumentParser) -> None:
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("--frame", help="one frame: index (negative from the end) or 'worst'")
+    group.add_argument(
+        "--frames", metavar="A:B[:S]", help="frame range, Python slice (B exclusive, step S)"
+    )
+
+
+def _load(args: argparse.Namespace) -> tuple[Playback, Ghost | None]:
+    playback = load_playback(
+        args.result, model=args.model, motion=args.motion, markers=args.markers
+    )
+    ghost = None
+    if args.ghost:
+        ghost = load_ghost(args.ghost, playback.model, args.result)
+    return playback, ghost
+
+
+def _frames(args: argparse.Namespace, playback: Playback, default_all: bool) -> list[int]:
+    if args.frame is not None:
+        return [parse_frame(args.frame, playback)]
+    if args.frames is not None:
+        return parse_frames(args.frames, playback.n_frames)
+    return list(range(playback.n_frames)) if default_all else [0]
+
+
+def _positive(kind: type) -> Any:
+    def parse(text: str) -> Any:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        if not value > 0:
+            raise argparse.ArgumentTypeError(f"expected a positive number, got {text}")
+        return value
+
+    return parse
+
+
+# ------------------------------------------------------------------------------- view
+def _run_view(args: argparse.Namespace) -> int:
+    from .interactive import run_viewer
+
+    playback, ghost = _load(args)
+    start = parse_frame(args.frame, playback) if args.frame is not None else 0
+    summary = run_viewer(
+        playback,
+        ghost=ghost,
+        duration=args.duration,
+        speed=args.speed,
+        start=start,
+        paused=args.paused,
+        camera=args.camera,
+    )
+    summary = {"source": playback.source, "frames": playback.n_frames, **summary}
+    text = f"viewer closed after {summary['seconds']:.1f} s ({summary['updates']} updates)"
+    return finish(args, summary, text)
+
+
+# ----------------------------------------------------------------------------- render
+def _run_render(args: argparse.Namespace) -> int:
+    from .output import FORMATS, render_to_file
+    from .scene import Layers
+
+    out = Path(args.out)
+    if out.suffix.lower() not in FORMATS:
+        raise MocapError(f"--out {out}: expected a {', '.join(FORMATS)} file")
+    playback, ghost = _load(args)
+    frames = _frames(args, playback, default_all=out.suffix.lower() != ".png")
+    layers = Layers(markers=not args.no_markers, residuals=not args.no_residuals)
+    summary = render_to_file(
+        playback,
+        out,
+        frames,
+        backend=args.backend,
+        width=args.width,
+        height=args.height,
+        camera=args.camera,
+        ghost=ghost,
+        layers=layers,
+        fps=args.fps,
+        text=not args.no_text,
+        fast=args.fast,
+    )
+    what = "frame" if summary["frames"] == 1 else "frames"
+    text = (
+        f"wrote {summary['out']}: {summary['frames']} {what} "
+        f"({summary['width']} x {summary['height']}, {summary['backend']})"
+    )
+    return finish(args, summary, text)
+
+
+# ----------------------------------------------------------------------------- export
+def _run_export(args: argparse.Namespace) -> int:
+    from .glb import export_glb
+
+    if Path(args.glb).suffix.lower() != ".glb":
+        raise MocapError(f"--glb {args.glb}: expected a .glb file")
+    playback, ghost = _load(args)
+    frames = _frames(args, playback, default_all=False)
+    summary = export_glb(
+        playback, args.glb, frames, markers=args.with_markers, ghost=ghost, floor=args.floor
+    )
+    text = (
+        f"wrote {summary['out']}: {summary['frames']} frame(s), "
+        f"{summary['geometry_nodes']} geometry nodes"
+    )
+    return finish(args, summary, text)
+
+
+def register(sub: Any) -> None:
+    """Add the ``view``, ``render`` and ``export`` subcommands to ``mocap-mj``."""
+    p = sub.add_parser(
+        "view",
+        help="play a result in MuJoCo's interactive viewer",
+        description="Play a fitted motion at real time with its markers and residuals. Keys: "
+        "space play/pause, Left/Right step, Up/Down speed, W worst frame, M markers, "
+        "R residuals, G ghost.",
+    )
+    _add_source(p)
+    p.add_argument("--frame", help="first frame shown: index or 'worst'")
+    p.add_argument("--duration", type=_positive(float), help="close by itself after S seconds")
+    p.add_argument("--speed", type=_positive(float), default=1.0, help="playback speed (1)")
+    p.add_argument("--paused", action="store_true", help="start paused")
+    p.add_argument("--camera", help="look through this model camera (default: free, tracking)")
+    add_json_flag(p)
+    p.set_defaults(func=_run_view)
+
+    p = sub.add_parser(
+        "render",
+        help="render a result offscreen to PNG, MP4 or GIF",
+        description="Offscreen rendering of the posed model, markers and residuals. Without a "
+        "display, set MUJOCO_GL=egl (or osmesa) and PYOPENGL_PLATFORM alike.",
+    )
+    _add_source(p)
+    p.add_argument("--out", required=True, help="output .png (one frame), .mp4 or .gif")
+    _add_frames(p)
+    p.add_argument("--width", type=_positive(int), default=640, help="image width [px] (640)")
+    p.add_argument("--height", type=_positive(int), default=480, help="image height [px] (480)")
+    p.add_argument("--camera", help="model camera or 'free' (default: 'front' if the model has it)")
+    p.add_argument("--backend", choices=("mujoco", "pyrender"), default="mujoco")
+    p.add_argument("--fps", type=_positive(float), help="video rate [Hz] (default: real time)")
+    p.add_argument("--no-markers", action="store_true", help="do not draw markers")
+    p.add_argument("--no-residuals", action="store_true", help="do not draw residuals")
+    p.add_argument("--no-text", action="store_true", help="no frame/time/RMSE label")
+    p.add_argument(
+        "--fast",
+        action="store_true",
+        help="no antialiasing, shadows or reflections (much faster on software OpenGL)",
+    )
+    add_json_flag(p)
+    p.set_defaults(func=_run_render)
+
+    p = sub.add_parser(
+        "export",
+        help="export posed frames as a GLB scene",
+        description="Write the posed model of one frame (default: frame 0) or a range as a "
+        "GLB scene: one node set per frame (trimesh writes no glTF animation).",
+    )
+    _add_source(p)
+    p.add_argument("--glb", required=True, help="output .glb file")
+    _add_frames(p)
+    p.add_argument(
+        "--with-markers", action="store_true", help="add markers and residuals, one mesh per frame"
+    )
+    p.add_argument("--floor", action="store_true", help="add the world's geoms (the floor) once")
+    add_json_flag(p)
+    p.set_defaults(func=_run_export)

@@ -1,0 +1,201 @@
+"""Rendering a playback to a file: one PNG frame, or an MP4 or GIF of a frame range.
+
+Every file is written atomically (a temporary file beside it, renamed when complete). MP4 goes
+through imageio's ffmpeg writer (imageio-ffmpeg ships its own ffmpeg binary; H.264, yuv420p, so
+the image size is rounded up to even numbers); GIF through Pillow (one palette per frame).
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mocap_mj.errors import MocapError
+from mocap_mj.io.atomic import atomic_path, atomic_write_bytes
+
+from .playback import Ghost, Playback, frame_label
+from .render import annotate, open_renderer
+from .scene import Layers, Style
+
+__all__ = [
+    "FORMATS",
+    "PROGRESS_MIN_FRAMES",
+    "render_to_file",
+    "write_gif",
+    "write_mp4",
+    "write_png",
+]
+
+FORMATS = (".png", ".mp4", ".gif")
+#: A progress bar is shown when a video has more frames than this.
+PROGRESS_MIN_FRAMES = 50
+
+
+def write_png(path: str | Path, rgb: np.ndarray) -> None:
+    """Write an RGB image (H, W, 3) uint8 as PNG, atomically."""
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(rgb).save(buf, format="PNG")
+    atomic_write_bytes(path, buf.getvalue())
+
+
+def write_mp4(path: str | Path, images: Iterator[np.ndarray], fps: float) -> int:
+    """Write RGB images (H, W, 3) uint8 (H and W even) as an H.264 MP4; return the count."""
+    import imageio.v2 as imageio
+
+    n = 0
+    with atomic_path(path) as tmp:
+        writer = imageio.get_writer(
+            str(tmp),
+            format="FFMPEG",
+            mode="I",
+            fps=fps,
+            codec="libx264",
+            quality=7,
+            pixelformat="yuv420p",
+            macro_block_size=1,
+            ffmpeg_log_level="error",
+        )
+        try:
+            for rgb in images:
+                writer.append_data(rgb)
+                n += 1
+        finally:
+            writer.close()
+    return n
+
+
+def write_gif(path: str | Path, images: Iterator[np.ndarray], fps: float) -> int:
+    """Write RGB images (H, W, 3) uint8 as a looping GIF; return the count.
+
+    GIF frame delays are whole centiseconds, so the rate is rounded to 100/k fps.
+    """
+    from PIL import Image
+
+    frames = [Image.fromarray(rgb).quantize(colors=255, method=Image.Quantize.MEDIANCUT)
+              for rgb in images]  # fmt: skip
+    if not frames:
+        raise MocapError(f"{path}: no frame to write")
+    delay = max(10, round(100.0 / fps) * 10)
+    buf = io.BytesIO()
+    frames[0].save(
+        buf,
+        format="GIF",
+        save_all=True,
+        append_images=frames[1:],
+        duration=delay,
+        loop=0,
+        disposal=1,
+    )
+    atomic_write_bytes(path, buf.getvalue())
+    return len(frames)
+
+
+def _progress(items: Sequence[int], label: str) -> Iterator[int]:
+    if len(items) <= PROGRESS_MIN_FRAMES:
+        yield from items
+        return
+    from tqdm import tqdm
+
+    yield from tqdm(items, desc=label, unit="frame", leave=False, disable=None)
+
+
+def render_to_file(
+    playback: Playback,
+    out: str | Path,
+    frames: Sequence[int],
+    *,
+    backend: str = "mujoco",
+    width: int = 640,
+    height: int = 480,
+    camera: str | None = None,
+    ghost: Ghost | None = None,
+    layers: Layers | None = None,
+    style: Style | None = None,
+    fps: float | None = None,
+    text: bool = True,
+    fast: bool = False,
+) -> dict[str, Any]:
+    """Render ``frames`` of ``playback`` to ``out`` (``.png``: one frame; ``.mp4``, ``.gif``).
+
+    Parameters
+    ----------
+    playback : Playback
+    out : path
+        Output file; its suffix chooses the format. Its folder is created if needed.
+    frames : sequence of int
+        Frame indices, in the order they are shown.
+    backend : {"mujoco", "pyrender"}
+    width, height : int
+        Image size [px] (rounded up to even numbers for MP4).
+    camera : str, optional
+        Model camera name, ``"free"``, or None (``front`` if the model has it).
+    ghost : Ghost, optional
+        Second model drawn translucent in the same poses.
+    layers, style : optional
+        What is drawn besides the model, and how.
+    fps : float, optional
+        Video frame rate [Hz]; by default the motion's real time (frame rate / frame step).
+    text : bool
+        Write the frame number, time and marker RMSE in the top-left corner.
+    fast : bool
+        MuJoCo backend: no multisampling, shadows or reflections (for software OpenGL).
+
+    Returns
+    -------
+    dict
+        ``out``, ``format``, ``frames`` (count), ``first``, ``last``, ``width``, ``height``,
+        ``fps`` (videos), ``backend``, ``camera``.
+    """
+    out = Path(out)
+    suffix = out.suffix.lower()
+    if suffix not in FORMATS:
+        raise MocapError(f"{out}: unknown output format; expected one of {', '.join(FORMATS)}")
+    if not frames:
+        raise MocapError("no frame to render")
+    if suffix == ".png" and len(frames) != 1:
+        raise MocapError(f"{out}: a PNG holds one frame; use --frame K, or .mp4/.gif for a range")
+    if suffix == ".mp4":
+        width, height = width + width % 2, height + height % 2
+    if fps is None:
+        step = abs(frames[1] - frames[0]) if len(frames) > 1 else 1
+        fps = playback.rate / max(step, 1)
+    if not fps > 0:
+        raise MocapError(f"--fps must be positive, got {fps}")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    renderer = open_renderer(backend, playback, width, height, camera, ghost, layers, style, fast)
+
+    def images() -> Iterator[np.ndarray]:
+        for k in _progress(frames, out.name):
+            rgb = renderer.render(k)
+            yield annotate(rgb, frame_label(playback, k)) if text else rgb
+
+    try:
+        if suffix == ".png":
+            write_png(out, next(images()))
+            count = 1
+        elif suffix == ".mp4":
+            count = write_mp4(out, images(), fps)
+        else:
+            count = write_gif(out, images(), fps)
+    finally:
+        renderer.close()
+    summary: dict[str, Any] = {
+        "out": str(out),
+        "format": suffix[1:],
+        "frames": count,
+        "first": int(frames[0]),
+        "last": int(frames[-1]),
+        "width": width,
+        "height": height,
+        "backend": backend,
+        "camera": camera or "default",
+    }
+    if suffix != ".png":
+        summary["fps"] = float(fps)
+    return summary
