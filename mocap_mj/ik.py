@@ -294,6 +294,16 @@ class IKSolver:
         rmse[active] = np.sqrt(np.einsum("bm,bmi,bmi->b", (wa > 0), res, res) / n_act)
         return IKResult(qpos, rmse, iterations, status, n_present)
 
+    def blocked(self, qpos: np.ndarray, direction: np.ndarray) -> np.ndarray:
+        """(B, nv) bool: hinge dofs at a limit whose ``direction`` (B, nv) points outward."""
+        qh = qpos[:, self._hinge_qadr]
+        dh = direction[:, self._hinge_dof]
+        tol = 1e-12
+        out = ((qh <= self._hinge_lo + tol) & (dh < 0)) | ((qh >= self._hinge_hi - tol) & (dh > 0))
+        mask = np.zeros(direction.shape, dtype=bool)
+        mask[:, self._hinge_dof] = out
+        return mask
+
     def _box_step(self, q: np.ndarray, a: np.ndarray, g: np.ndarray, dv: np.ndarray) -> np.ndarray:
         """Re-solve with hinge dofs that sit at a limit and would step outward held fixed."""
         qh = q[:, self._hinge_qadr]
@@ -441,6 +451,35 @@ class IKSolver:
             start[ok] = self.project(kin.integrate(prev[ok], vel))
         return start
 
+    def repair(
+        self,
+        markers: np.ndarray,
+        qpos: np.ndarray,
+        weights: np.ndarray | None = None,
+        *,
+        factor: float = 3.0,
+        margin: float = 1e-3,
+    ) -> np.ndarray:
+        """Re-solve, in place, frames of qpos (T, nq) that fit clearly worse than the trial.
+
+        Returns the indices of the frames that changed (see :meth:`_repair`).
+        """
+        kin = self.kin
+        markers = np.asarray(markers, dtype=float)
+        target, w = self._prepare(markers, weights)
+        n = len(markers)
+        ok = np.all(np.isfinite(qpos), axis=1)
+        rmse = np.full(n, np.nan)
+        x = kin.marker_positions(np.where(ok[:, None], qpos, kin.model.qpos0))
+        d2 = np.sum((target - x) ** 2, axis=2) * (w > 0)
+        npres = np.count_nonzero(w > 0, axis=1)
+        rmse[ok] = np.sqrt(d2[ok].sum(axis=1) / np.maximum(npres[ok], 1))
+        status = np.where(ok, Status.CONVERGED, Status.TOO_FEW_MARKERS).astype(int)
+        before = qpos.copy()
+        self._repair(markers, w, qpos, rmse, np.zeros(n, dtype=int), status, npres, factor, margin)
+        changed = np.any(before != qpos, axis=1) & ok
+        return np.flatnonzero(changed)
+
     def _repair(
         self,
         markers: np.ndarray,
@@ -450,20 +489,23 @@ class IKSolver:
         iters: np.ndarray,
         status: np.ndarray,
         npres: np.ndarray,
+        factor: float = 3.0,
+        margin: float = 1e-3,
     ) -> None:
         """Re-solve frames that fit clearly worse than the trial, from a good neighbour.
 
-        A frame is bad when its RMSE exceeds ``3 * median + 1 mm`` (a local minimum, typically
-        a chain start that began far from its pose). Runs of bad frames are walked inwards
-        from their good ends, one frame per round on every run at once; a re-solve is kept
-        when it fits better.
+        A frame is bad when its RMSE exceeds ``factor * median + margin`` (default 3 and
+        1 mm): a local minimum, typically a chain start that began far from its pose. Runs of
+        bad frames are walked inwards from their good ends, one frame per round on every run
+        at once; a re-solve is kept when it fits better.
         """
         n = len(markers)
         solvable = status != Status.TOO_FEW_MARKERS
         if not np.any(solvable):
             return
         ref = float(np.nanmedian(rmse[solvable]))
-        bad = solvable & ~(rmse <= 3 * ref + 1e-3)
+        limit = factor * ref + margin
+        bad = solvable & ~(rmse <= limit)
         tried = np.zeros((n, 2), dtype=bool)
         while np.any(bad):
             progress = False
@@ -483,7 +525,7 @@ class IKSolver:
                 qpos[rr], rmse[rr] = r.qpos[better], r.marker_rmse[better]
                 iters[rr] += r.iterations[better]
                 status[rr], npres[rr] = r.status[better], r.n_markers[better]
-                fixed = rr[rmse[rr] <= 3 * ref + 1e-3]
+                fixed = rr[rmse[rr] <= limit]
                 bad[fixed] = False
                 progress |= rows.size > 0
             if not progress:

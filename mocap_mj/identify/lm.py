@@ -34,6 +34,7 @@ than 5 mm. The identifiability report (:mod:`mocap_mj.identify.identifiability`)
 from __future__ import annotations
 
 import enum
+import itertools
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -87,18 +88,30 @@ class LMSettings:
     loss_scale : float
         Robust threshold in units of the estimated per-axis noise sigma.
     observable_std : float [m]
-        Directions of theta whose standard deviation (from the reduced information and the
-        noise estimated from the fit) exceeds this are weakly observable: once the fit has
-        settled (``settle_gain``), steps are restricted to the other, observable directions,
-        and the weak ones keep their value (near the initial model, where the prior holds them).
+        Reporting threshold: a direction of theta is observable when its standard deviation
+        (reduced information and the noise estimated from the fit) is at most this.
     settle_gain : float
-        The restriction starts after the first accepted step that lowers F by less than this
-        fraction (or after ``settle_iterations``).
-    settle_iterations : int
+        Once an accepted step lowers F by less than this fraction, frames caught in local
+        minima are repaired (``max_repairs``) before the iterations go on.
+    prior_ratio : float
+        Every step is restricted to the eigen-directions of the reduced information (at the
+        current iterate) whose information exceeds ``prior_ratio`` times the prior's. In the
+        others the prior is not negligible, the data hardly constrain them, and Gauss-Newton
+        would wander or crawl there: they keep their value (the initial model's).
     chunk : int
         Frames per chunk when accumulating the reduced system.
     cache_frames : int
         Keep per-frame back-substitution data up to this many frames (else recompute).
+    refit_iteration : int
+        Iteration after which every trial's IK is solved afresh with the current model
+        (see ``_refit_frames``); later refits happen when progress stalls (``settle_gain``).
+    refine_iterations : int
+        Per-frame IK iterations (``IKSolver.solve_frames``) applied to every frame after each
+        step, from ``q + dq`` with the new theta: one shared damping cannot suit hundreds of
+        frames, some of which sit at joint limits; each frame's own LM can. 0 disables it.
+    max_repairs : int
+        Times, at convergence, that frames fitting far worse than the rest are re-solved from
+        their neighbours (``IKSolver.repair``) before the iterations go on.
     """
 
     max_iterations: int = 100
@@ -113,9 +126,12 @@ class LMSettings:
     loss_scale: float = 3.0
     observable_std: float = 0.005
     settle_gain: float = 1e-2
-    settle_iterations: int = 4
+    prior_ratio: float = 100.0
     chunk: int = 1000
     cache_frames: int = 5000
+    max_repairs: int = 3
+    refit_iteration: int = 1
+    refine_iterations: int = 2
 
     def __post_init__(self) -> None:
         if self.loss not in ("l2", "huber", "cauchy"):
@@ -220,6 +236,7 @@ class _Problem:
         self, kin: Kinematics, markers: np.ndarray, qpos: np.ndarray, free: np.ndarray
     ) -> None:
         self.kin = kin
+        self.limits = IKSolver(kin)
         self.present = np.all(np.isfinite(markers), axis=2)
         self.target = np.where(self.present[..., None], markers, 0.0)
         self.qpos = qpos
@@ -273,6 +290,16 @@ class _Problem:
         gt = np.empty(p)
         gt[:k] = jkf.T @ rf.reshape(-1)
         gt[k:] = np.einsum("nmcj,nmc->mj", rot, r).reshape(-1)
+        # Hinges at a limit that the gradient pushes outward are held for this step (active
+        # set of the box constraints): their rows and columns leave the frame's block.
+        blocked = self.limits.blocked(self.qpos[sl], gq)
+        if np.any(blocked):
+            rows, dofs = np.nonzero(blocked)
+            a[rows, dofs, :] = 0.0
+            a[rows, :, dofs] = 0.0
+            a[rows, dofs, dofs] = 1.0
+            b[rows, dofs, :] = 0.0
+            gq[rows, dofs] = 0.0
         f = self.free
         return a, b[:, :, f], gq, c[np.ix_(f, f)], gt[f], np.einsum("nr,nr->n", rf, rf)
 
@@ -285,19 +312,33 @@ def _damped_inverse(a: np.ndarray, mu: float) -> np.ndarray:
     return np.linalg.inv(ad)
 
 
-def _observable_basis(
-    s_mat: np.ndarray, rmse: float, n_res: int, n_unknowns: int, max_std: float
-) -> np.ndarray:
-    """Orthonormal basis (Pf, r) of the directions of theta determined to max_std or better.
+def _informed_basis(s_mat: np.ndarray, min_information: float) -> np.ndarray:
+    """Orthonormal basis (Pf, r) of the eigen-directions of S with information above a floor."""
+    lam, vec = np.linalg.eigh(0.5 * (s_mat + s_mat.T))
+    return vec[:, lam > min_information]
 
-    The standard deviation of direction i is sigma / sqrt(lambda_i) with lambda_i an eigenvalue
-    of the reduced information and sigma the per-axis noise estimated from the fit.
+
+def _refit_frames(
+    solver: IKSolver, markers: np.ndarray, prob: _Problem, segments: list[slice]
+) -> np.ndarray:
+    """Solve every trial's IK afresh with the current theta; keep each frame's better pose.
+
+    The initial IK ran with a model far from the subject, where whole stretches of frames can
+    settle in a wrong configuration (an arm twisted about itself, a foot flipped) that the
+    joint iterations cannot leave. With the model improved, a fresh IK (new chain starts,
+    repair from neighbours) finds the right one. Returns the indices of frames replaced.
     """
-    sym = 0.5 * (s_mat + s_mat.T)
-    lam, vec = np.linalg.eigh(sym)
-    sigma = rmse / np.sqrt(3 * max(1.0 - n_unknowns / max(n_res, 1), 1e-6))
-    keep = lam > (sigma / max_std) ** 2
-    return vec[:, keep]
+    before = prob.residuals(prob.qpos)
+    pres = np.maximum(prob.present.sum(axis=1), 1)
+    rmse_before = np.sqrt(np.sum(before**2, axis=1) / pres)
+    changed = []
+    for seg in segments:
+        r = solver.solve_trial(markers[seg])
+        rows = np.arange(seg.start, seg.stop)
+        better = np.nan_to_num(r.marker_rmse, nan=np.inf) < 0.98 * rmse_before[rows]
+        prob.qpos[rows[better]] = r.qpos[better]
+        changed.append(rows[better])
+    return np.concatenate(changed) if changed else np.zeros(0, dtype=int)
 
 
 def initial_ik(
@@ -361,6 +402,8 @@ def identify_lm(
     if sum(int(u.sum()) for u in used) == 0:
         raise SolverError("no frame has enough markers to be solved")
     markers = np.concatenate([t.markers[u] for t, u in zip(trials, used, strict=True)])
+    bounds = np.cumsum([0] + [int(u.sum()) for u in used])
+    segments = [slice(a, b) for a, b in itertools.pairwise(bounds)]
     qpos = np.concatenate([q[u] for q, u in zip(init_q, used, strict=True)])
     prob = _Problem(kin, markers, qpos, free)
     n = prob.n
@@ -388,11 +431,11 @@ def identify_lm(
         from tqdm import tqdm
 
         bar = tqdm(total=st.max_iterations, desc="identify (LM)", unit="it", leave=False, delay=2)
+    limits = prob.limits
+    repairs = 0
     it = 0
-    basis: np.ndarray | None = None
     settled = False
     n_res_now = int(3 * prob.present.sum())
-    rmse_now = float(np.sqrt(np.sum(dist**2) / prob.present.sum()))
     while it < st.max_iterations:
         it += 1
         t_it = time.perf_counter()
@@ -422,8 +465,8 @@ def identify_lm(
             if cache:
                 z_cache.append(z)
         gprior = lam * (theta - theta_init)[free]
-        if basis is None and settled:
-            basis = _observable_basis(s_mat, rmse_now, n_res_now, n * nv + pf, st.observable_std)
+        # Steps stay in the directions the data inform (recomputed every iteration).
+        basis = _informed_basis(s_mat, st.prior_ratio * lam)
         s_damped = s_mat + np.diag(lam + mu * (diag_c + lam)) + 1e-15 * np.eye(pf)
         if basis is None:
             dth_f = np.linalg.solve(s_damped, rhs - gprior)
@@ -441,7 +484,11 @@ def identify_lm(
         theta_new = theta.copy()
         theta_new[free] += dth_f
         kin.set_theta(theta_new)
-        q_new = kin.integrate(prob.qpos, dq)
+        q_new = limits.project(kin.integrate(prob.qpos, dq))
+        if st.refine_iterations > 0:
+            # Given theta_new the frames are independent: a few per-frame IK iterations (own
+            # damping, box-constrained at the joint limits) from q + dq finish their step.
+            q_new = limits.solve_frames(markers, q_new, w, max_iterations=st.refine_iterations).qpos
         dist_new = prob.residuals(q_new)
         cost_new = total_cost(dist_new, theta_new, c_loss)
         # Decrease predicted by the damped quadratic model: 1/2 h^T (mu D h + g) (Nielsen).
@@ -458,8 +505,19 @@ def identify_lm(
             kin.set_theta(theta)
             mu *= nu
             nu *= 2
-        rmse = rmse_now = float(np.sqrt(np.sum(dist**2) / prob.present.sum()))
-        if accepted and (cost - cost_new < st.settle_gain * cost or it >= st.settle_iterations):
+        rmse = float(np.sqrt(np.sum(dist**2) / prob.present.sum()))
+        early = accepted and it == st.refit_iteration and repairs == 0
+        if (early or (accepted and cost - cost_new < st.settle_gain * cost)) and not settled:
+            fixed = (
+                _refit_frames(limits, markers, prob, segments) if repairs < st.max_repairs else []
+            )
+            if len(fixed):
+                repairs += 1
+                dist = prob.residuals(prob.qpos)
+                mu, nu = st.mu0, 2.0
+                if log is not None:
+                    log.append(f"repaired {len(fixed)} frames caught in local minima")
+                continue
             settled = True
         step = float(np.abs(dth_f).max())
         trace.append(
@@ -474,18 +532,31 @@ def identify_lm(
         if bar is not None:
             bar.update(1)
         sigma_now = rmse / np.sqrt(3 * max(1.0 - (n * nv + pf) / n_res_now, 1e-6))
+        stop = None
         if accepted and it > 1 and cost - cost_new <= st.tol_noise * sigma_now**2:
-            termination = Termination.NOISE
-            break
-        if accepted and cost - cost_new <= st.tol_cost * cost:
-            termination = Termination.COST
-            break
-        if accepted and step < st.tol_theta and np.abs(dq).max() < st.tol_q:
-            termination = Termination.STEP
-            break
-        if mu > 1e12:
-            termination = Termination.NO_DESCENT
-            break
+            stop = Termination.NOISE
+        elif accepted and cost - cost_new <= st.tol_cost * cost:
+            stop = Termination.COST
+        elif accepted and step < st.tol_theta and np.abs(dq).max() < st.tol_q:
+            stop = Termination.STEP
+        elif mu > 1e12:
+            stop = Termination.NO_DESCENT
+        if stop is not None:
+            # Frames caught in a local minimum of their pose (typically from the initial IK
+            # with a model far from the subject) show up now as outliers of the fit: re-solve
+            # them from their neighbours with the current model and go on if any improved.
+            fixed = (
+                _refit_frames(limits, markers, prob, segments) if repairs < st.max_repairs else []
+            )
+            repairs += 1
+            if len(fixed) == 0:
+                termination = stop
+                break
+            dist = prob.residuals(prob.qpos)
+            mu, nu = st.mu0, 2.0
+            settled = False
+            if log is not None:
+                log.append(f"repaired {len(fixed)} frames caught in local minima; continuing")
     if bar is not None:
         bar.close()
     kin.set_theta(theta)

@@ -1,0 +1,101 @@
+"""Writing an identification result folder (see :mod:`mocap_mj.results`) and its report."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..io.atomic import atomic_write_text
+from ..parameters import ParameterSet
+from ..results import Motion, save_motion
+from .identifiability import Identifiability
+from .lm import LMResult, TrialData
+
+
+def write_result(
+    out: Path,
+    pset: ParameterSet,
+    result: LMResult,
+    idf: Identifiability,
+    trials: Sequence[TrialData],
+    summary: Mapping[str, Any],
+) -> None:
+    """model.xml, theta.json, motion.npz (first trial; ``motion_<i>.npz`` for the others),
+    identifiability.json and report.md."""
+    pset.export_mjcf(out / "model.xml", result.theta)
+    pset.save_json(
+        out / "theta.json",
+        result.theta,
+        extra={
+            "description": "mocap-mj identified model parameters",
+            "theta0": pset.to_dict(result.theta0),
+            "parameter_std_m": {
+                n: float(s) for n, s in zip(pset.names, idf.param_std, strict=True)
+            },
+        },
+    )
+    for i, (trial, qpos) in enumerate(zip(trials, result.qpos, strict=True)):
+        name = "motion.npz" if i == 0 else f"motion_{i}.npz"
+        save_motion(out / name, Motion(qpos, trial.times, trial.markers, pset.marker_names))
+    atomic_write_text(out / "identifiability.json", json.dumps(idf.to_json()) + "\n")
+    atomic_write_text(out / "report.md", "\n".join(report_lines(pset, result, idf, summary)))
+
+
+def report_lines(
+    pset: ParameterSet, result: LMResult, idf: Identifiability, summary: Mapping[str, Any]
+) -> list[str]:
+    kappa, _ = pset.split(result.theta)
+    kappa0, _ = pset.split(result.theta0)
+    lines = [
+        "# Identification report",
+        "",
+        f"- trials: {', '.join(summary.get('markers_files', []))}",
+        f"- frames used: {summary['frames_used']} of {summary['frames']}",
+        f"- solver: {summary['solver']}, loss {summary.get('loss', 'l2')}, "
+        f"{result.iterations} iterations ({result.termination.value})",
+        f"- time: {summary['seconds']:.2f} s (initial IK {result.init_seconds:.2f} s)",
+        f"- marker RMSE: {result.marker_rmse * 1e3:.3f} mm "
+        f"(expected from noise alone: {summary['expected_rmse_mm']:.3f} mm at the estimated "
+        f"sigma {result.sigma * 1e3:.3f} mm)",
+        "",
+        "## Kinematic parameters",
+        "",
+        "| parameter | initial (mm) | identified (mm) | change (mm) | std (mm) |",
+        "|---|---|---|---|---|",
+    ]
+    for i, name in enumerate(pset.kappa_names):
+        lines.append(
+            f"| {name} | {kappa0[i] * 1e3:.1f} | {kappa[i] * 1e3:.2f} | "
+            f"{(kappa[i] - kappa0[i]) * 1e3:+.2f} | {idf.param_std[i] * 1e3:.2f} |"
+        )
+    lines += ["", *idf.report_lines(), "## Iterations", "", "```"]
+    for log in result.trace:
+        lines.append(
+            f"{log.iteration:3d}  F {log.cost:.6e}  rmse {log.rmse * 1e3:.4f} mm  "
+            f"mu {log.mu:.1e}  {'accepted' if log.accepted else 'rejected'}  "
+            f"{log.seconds:.2f} s"
+        )
+    lines += ["```", ""]
+    return lines
+
+
+def frame_range(text: str | None, n: int) -> slice:
+    """``"A:B"`` (Python slice of frames) -> slice; None -> all frames."""
+    if not text:
+        return slice(0, n)
+    try:
+        a, b = (int(x) if x else None for x in text.split(":"))
+    except ValueError:
+        from ..errors import MocapError
+
+        raise MocapError(f"--frames: expected A:B (e.g. 0:500), got {text!r}") from None
+    return slice(*slice(a, b).indices(n)[:2])
+
+
+def expected_rmse(sigma: float, n_unknowns: int, n_residuals: int) -> float:
+    """sqrt(3) sigma sqrt(1 - p / n) [m]: the fit RMSE that noise alone leaves."""
+    return float(np.sqrt(3) * sigma * np.sqrt(max(1 - n_unknowns / n_residuals, 0.0)))

@@ -1,0 +1,177 @@
+"""Scoring an identification against the synthetic truth it was made from.
+
+Errors are reported in millimetres (and degrees for joint angles) and set beside their
+Cramer-Rao bounds.
+
+Theta has directions the markers cannot determine (identifiability.json), and they are not
+straight lines: turning the four head markers about the neck is a rotation, so a truth that
+differs from the estimate by a finite turn also differs to second order in the "observable"
+directions. The truth is therefore first moved within its class of equivalent models to the
+member nearest the estimate (``align_truth``: the joint LM fitted to the truth's noise-free
+markers, starting from the estimate, so it moves only in informed directions). The headline
+errors are estimate minus aligned truth, projected on the observable subspace; how far the
+aligned truth is from the nominal truth (the unobservable part) is reported separately.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import InputFileError
+from .identify.identifiability import Identifiability
+from .ik import IKSolver
+from .kinematics import Kinematics
+from .parameters import ParameterSet
+from .results import load_motion
+
+
+def _read_json(path: Path) -> dict[str, Any]:
+    try:
+        data: dict[str, Any] = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise InputFileError(f"{path}: cannot read JSON: {exc}") from None
+    return data
+
+
+def joint_centres(kin: Kinematics, qpos: np.ndarray) -> np.ndarray:
+    """World positions (T, nbody - 2, 3) [m] of every body origin but the world and root."""
+    return kin.forward(qpos).xpos[:, 2:]
+
+
+def score(truth_dir: str | Path, result_dir: str | Path, *, pset: ParameterSet | None = None
+          ) -> dict[str, Any]:  # fmt: skip
+    """Compare an identification folder with the synthetic truth folder it was made from."""
+    truth_dir, result_dir = Path(truth_dir), Path(result_dir)
+    pset = pset or ParameterSet()
+    theta_true = pset.load_json(truth_dir / "truth.json")
+    truth_info = _read_json(truth_dir / "truth.json")
+    truth_motion = load_motion(truth_dir / "truth_motion.npz")
+    theta_hat = pset.load_json(result_dir / "theta.json")
+    summary = _read_json(result_dir / "summary.json")
+    motion = load_motion(result_dir / "motion.npz")
+    idf = Identifiability.from_json(pset, _read_json(result_dir / "identifiability.json"))
+
+    k = pset.n_kappa
+    ranges = summary.get("frames_fitted_range") or [[0, len(motion.qpos)]]
+    a, b = ranges[0]
+    aligned = align_truth(pset, theta_hat, truth_motion.markers[a:b], truth_motion.times[a:b])
+    err = theta_hat - aligned
+    e_obs, e_rest = idf.project(err)
+    bk, bo = idf.bound_rms()
+    rms = lambda x: float(np.sqrt(np.mean(np.square(x))))  # noqa: E731
+    off_err = err[k:].reshape(-1, 3)
+    out: dict[str, Any] = {
+        "kappa_rmse_mm": rms(e_obs[:k]) * 1e3,
+        "offset_rmse_mm": rms(e_obs[k:]) * 1e3,
+        "kappa_crlb_mm": bk * 1e3,
+        "offset_crlb_mm": bo * 1e3,
+        "kappa_crlb_ratio": rms(e_obs[:k]) / bk,
+        "offset_crlb_ratio": rms(e_obs[k:]) / bo,
+        "theta_observable_rmse_mm": rms(e_obs) * 1e3,
+        "theta_crlb_rms_mm": float(np.sqrt(np.mean(np.diag(idf.crlb)))) * 1e3,
+        "kappa_rmse_all_mm": rms(err[:k]) * 1e3,
+        "offset_rmse_all_mm": rms(err[k:]) * 1e3,
+        "unobservable_error_norm_mm": float(np.linalg.norm(e_rest)) * 1e3,
+        "gauge_displacement_mm": float(np.linalg.norm(aligned - theta_true)) * 1e3,
+        "observable_directions": idf.rank,
+        "excluded_directions": int(pset.size - idf.rank),
+        "exclusion": (
+            f"headline kappa/offset RMS errors are the parts of the error in the {idf.rank} "
+            f"observable directions (std <= {idf.observable_std * 1e3:.0f} mm), against the "
+            f"truth aligned along the other {pset.size - idf.rank} (see identifiability.json), "
+            "which are excluded"
+        ),
+        "kappa_errors_mm": {
+            n: float(e) * 1e3 for n, e in zip(pset.kappa_names, err[:k], strict=True)
+        },
+        "kappa_std_mm": {
+            n: float(s) * 1e3 for n, s in zip(pset.kappa_names, idf.param_std[:k], strict=True)
+        },
+        "offset_errors_mm": {
+            n: float(np.linalg.norm(e)) * 1e3
+            for n, e in zip(pset.marker_names, off_err, strict=True)
+        },
+        "sigma_true_mm": float(truth_info.get("sigma_m", float("nan"))) * 1e3,
+    }
+    # Motion: frames the result fitted (its range into the truth trial).
+    q_true = truth_motion.qpos[a:b]
+    ok = np.all(np.isfinite(motion.qpos), axis=1)
+    kin_true, kin_hat = Kinematics(pset), Kinematics(pset)
+    kin_true.set_theta(theta_true)
+    kin_hat.set_theta(theta_hat)
+    jc = np.linalg.norm(
+        joint_centres(kin_hat, motion.qpos[ok]) - joint_centres(kin_true, q_true[ok]), axis=2
+    )
+    out["joint_centre_rmse_mm"] = rms(jc) * 1e3
+    out["joint_centre_max_mm"] = float(jc.max()) * 1e3
+    dq = kin_true.difference(q_true[ok], motion.qpos[ok])[:, 6:]
+    out["joint_rmse_deg"] = float(np.degrees(rms(dq)))
+    fitted = kin_hat.marker_positions(motion.qpos[ok])
+    d = np.linalg.norm(motion.markers[ok] - fitted, axis=2)
+    present = np.isfinite(d)
+    out["marker_rmse_mm"] = float(np.sqrt(np.mean(d[present] ** 2))) * 1e3
+    out["frames_fitted"] = int(ok.sum())
+    # Held-out frames: the truth trial's frames outside the fitted range, by IK.
+    held = np.r_[0:a, b : len(truth_motion.qpos)]
+    out["frames_held_out"] = int(held.size)
+    if held.size:
+        measured = _measured(truth_dir, pset)
+        ik = IKSolver(kin_hat).solve_trial(measured[held])
+        out["heldout_marker_rmse_mm"] = ik.rmse() * 1e3
+        sig = float(truth_info.get("sigma_m", np.nan))
+        out["heldout_expected_rmse_mm"] = float(
+            np.sqrt(3) * sig * np.sqrt(1 - kin_hat.nv / (3 * pset.n_markers)) * 1e3
+        )
+    return out
+
+
+def align_truth(
+    pset: ParameterSet, theta_hat: np.ndarray, clean: np.ndarray, times: np.ndarray
+) -> np.ndarray:
+    """The model equivalent to the truth that is nearest the estimate (P,) [m].
+
+    Fits theta to the truth's noise-free markers (T, M, 3) [m] with the joint LM started at
+    (and with its weak prior centred on) the estimate; the fit is exact, and the directions
+    the markers cannot determine keep the estimate's values.
+    """
+    from .identify.lm import LMSettings, TrialData, identify_lm
+
+    settings = LMSettings(max_iterations=40, tol_noise=1e-3)
+    result = identify_lm(
+        [TrialData("truth", clean, times)], pset=pset, theta0=theta_hat, settings=settings
+    )
+    return result.theta
+
+
+def _measured(truth_dir: Path, pset: ParameterSet) -> np.ndarray:
+    from .io import load_markers
+
+    traj = load_markers(truth_dir / "markers.csv")
+    return traj.select(pset.marker_names)
+
+
+def score_text(s: dict[str, Any]) -> str:
+    lines = [
+        f"{'quantity':<28}{'error':>10}{'CRLB':>10}{'ratio':>8}",
+        f"{'kinematic params (mm RMS)':<28}{s['kappa_rmse_mm']:>10.3f}{s['kappa_crlb_mm']:>10.3f}"
+        f"{s['kappa_crlb_ratio']:>8.2f}",
+        f"{'marker offsets (mm RMS)':<28}{s['offset_rmse_mm']:>10.3f}{s['offset_crlb_mm']:>10.3f}"
+        f"{s['offset_crlb_ratio']:>8.2f}",
+        f"{'joint centres (mm RMS)':<28}{s['joint_centre_rmse_mm']:>10.3f}",
+        f"{'joint angles (deg RMS)':<28}{s['joint_rmse_deg']:>10.3f}",
+        f"{'marker RMSE fitted (mm)':<28}{s['marker_rmse_mm']:>10.3f}",
+    ]
+    if "heldout_marker_rmse_mm" in s:
+        lines.append(
+            f"{'marker RMSE held out (mm)':<28}{s['heldout_marker_rmse_mm']:>10.3f}"
+            f"   (noise floor {s['heldout_expected_rmse_mm']:.3f})"
+        )
+    lines.append(s["exclusion"])
+    return "\n".join(lines)
+
+
+__all__ = ["joint_centres", "score", "score_text"]
