@@ -1,0 +1,460 @@
+"""``mocap-mj experiment paper``: Table 1 and Figs 3-4 of Zou & Sugihara on synthetic data.
+
+One synthetic trial (5 s at 100 Hz, range-of-motion preset, 1 mm noise, truth model perturbed
+from the nominal one) is identified from the nominal model by Algorithm 1
+(:mod:`mocap_mj.identify.paper`) with the paper's four frame samplings, and by the project's
+joint LM (:func:`mocap_mj.identify.identify_lm`). Every identified model is then evaluated the
+same way: IK of every frame with that model, marker error per frame (Fig 3) and accumulated
+over the trial (Fig 4), and parameter errors against the truth.
+
+Files written to ``--out``: ``report.md`` (Table 1 and notes), ``table1.csv``/``table1.json``,
+``frame_error.csv`` (marker RMSE per frame and model, mm), ``traces.json`` (per-iteration E,
+RMSE, time of every run), ``fig3.png``, ``fig4.png``, ``convergence.png``, ``summary.json``.
+
+The batch sampling solves 147 x 500 IK problems per iteration; it is run for fewer iterations
+(``--batch-iterations``) and its time extrapolated per iteration to the others' iteration
+count. The stochastic rows for 100 and 300 iterations are the states of the 500-iteration run
+after 100 and 300 iterations (the run is deterministic given the seed, so a shorter run is
+exactly its beginning).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mocap_mj.cli import add_json_flag, finish, prepare_out
+from mocap_mj.identify.identifiability import Identifiability
+from mocap_mj.identify.lm import LMSettings, TrialData, identify_lm
+from mocap_mj.identify.paper import (
+    DEFAULT_DELTA,
+    DEFAULT_STEP,
+    PaperResult,
+    PaperSettings,
+    identify_paper,
+    reduced_information,
+)
+from mocap_mj.ik import IKSolver
+from mocap_mj.io.atomic import atomic_write_text
+from mocap_mj.kinematics import Kinematics
+
+from .config import SynthConfig
+from .experiment import Experiment, synthesize
+
+#: The paper's Table 1 (500 frames, 100 iterations; 1 frame per iteration for stochastic) [s].
+PAPER_TABLE1: tuple[tuple[str, int, int, float], ...] = (
+    ("batch", 500, 100, 6759.0),
+    ("even", 50, 100, 690.0),
+    ("random", 50, 100, 712.0),
+    ("stochastic", 1, 100, 15.5),
+    ("stochastic", 1, 300, 44.5),
+    ("stochastic", 1, 500, 76.0),
+)
+
+
+@dataclass(frozen=True)
+class PaperExperiment:
+    """Sizes of a run.
+
+    Attributes
+    ----------
+    frames : int, frames of the synthetic trial (100 Hz)
+    iterations : int, iterations of batch (extrapolated), even and random
+    batch_iterations : int, iterations batch is actually run
+    stochastic : tuple of int, iteration counts reported for stochastic (one run, the largest)
+    step, delta, fraction : Algorithm 1's alpha, Delta [m] and sampled share
+    seed : int, synthesis and sampling seed
+    """
+
+    frames: int = 500
+    iterations: int = 100
+    batch_iterations: int = 10
+    stochastic: tuple[int, ...] = (100, 300, 500)
+    step: float = DEFAULT_STEP
+    delta: float = DEFAULT_DELTA
+    fraction: float = 0.1
+    seed: int = 0
+
+
+FULL = PaperExperiment()
+QUICK = PaperExperiment(frames=100, iterations=15, batch_iterations=2, stochastic=(15, 45, 75))
+
+
+@dataclass
+class Row:
+    """One line of Table 1."""
+
+    method: str
+    label: str
+    frames: int
+    loops: int
+    seconds: float
+    measured_seconds: float
+    theta: np.ndarray
+    note: str = ""
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser("experiment", help="reproduce a published experiment on synthetic data")
+    kinds = p.add_subparsers(dest="experiment", metavar="EXPERIMENT", required=True)
+    q = kinds.add_parser(
+        "paper",
+        help="Table 1 and Figs 3-4 of Zou & Sugihara (Algorithm 1's samplings vs joint LM)",
+        description="Identify a synthetic 5 s trial with Algorithm 1 (batch, even, random, "
+        "stochastic sampling) and the joint LM; write Table 1, Figs 3-4 and the raw numbers.",
+    )
+    q.add_argument("--out", required=True, help="output folder")
+    q.add_argument("--quick", action="store_true", help="100 frames and few iterations (CI)")
+    q.add_argument("--seed", type=int, default=0)
+    q.add_argument("--batch-iterations", type=int, help="iterations batch is really run")
+    q.add_argument("--force", action="store_true", help="overwrite a non-empty output folder")
+    add_json_flag(q)
+    q.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    base = QUICK if args.quick else FULL
+    cfg = PaperExperiment(
+        frames=base.frames,
+        iterations=base.iterations,
+        batch_iterations=args.batch_iterations or base.batch_iterations,
+        stochastic=base.stochastic,
+        seed=args.seed,
+    )
+    out = prepare_out(args.out, force=args.force)
+    summary = run_experiment(cfg, out, progress=not args.json, quick=args.quick)
+    text = "\n".join(table_lines(summary["table"])) + f"\n\nwrote {out}/report.md"
+    return finish(args, summary, text, out)
+
+
+# --------------------------------------------------------------------------- the runs
+def run_experiment(
+    cfg: PaperExperiment, out: Path, *, progress: bool = True, quick: bool = False
+) -> dict[str, Any]:
+    """Run every method, evaluate every model, write the files; return the summary."""
+    t_all = time.perf_counter()
+    exp = synthesize(SynthConfig(frames=cfg.frames, rate=100.0, seed=cfg.seed))
+    pset = exp.pset
+    trials = [TrialData("synthetic", np.array(exp.markers), np.array(exp.times))]
+    rows: list[Row] = []
+    traces: dict[str, Any] = {}
+
+    def paper(sampling: str, iterations: int) -> PaperResult:
+        settings = PaperSettings(
+            sampling=sampling, iterations=iterations, step=cfg.step, delta=cfg.delta,
+            fraction=cfg.fraction, seed=cfg.seed,
+        )  # fmt: skip
+        r = identify_paper(trials, pset=pset, settings=settings, progress=progress)
+        traces[sampling] = _trace_json(r)
+        return r
+
+    # Batch: run batch_iterations, extrapolate the time per iteration.
+    rb = paper("batch", cfg.batch_iterations)
+    per_it = (rb.seconds - rb.init_seconds) / len(rb.trace)
+    note = (
+        f"run for {len(rb.trace)} iterations ({rb.seconds - rb.init_seconds:.1f} s); time "
+        f"extrapolated to {cfg.iterations}; errors after {len(rb.trace)} iterations"
+    )
+    n = cfg.frames
+    rows.append(Row("batch", "batch", n, cfg.iterations, per_it * cfg.iterations,
+                    rb.seconds - rb.init_seconds, rb.theta, note))  # fmt: skip
+    for sampling in ("even", "random"):
+        r = paper(sampling, cfg.iterations)
+        rows.append(Row(sampling, f"1/{round(1 / cfg.fraction)} {sampling}",
+                        len(r.trace[0].frames), cfg.iterations, r.seconds - r.init_seconds,
+                        r.seconds - r.init_seconds, r.theta))  # fmt: skip
+    rs = paper("stochastic", max(cfg.stochastic))
+    for k in cfg.stochastic:
+        it = rs.trace[k - 1]
+        sec = it.seconds - rs.init_seconds
+        rows.append(Row("stochastic", f"stochastic {k}", 1, k, sec, sec, it.theta,
+                        "" if k == len(rs.trace) else f"first {k} iterations of the "
+                        f"{len(rs.trace)}-iteration run"))  # fmt: skip
+    t0 = time.perf_counter()
+    lm = identify_lm(trials, pset=pset, settings=LMSettings(), progress=progress)
+    lm_seconds = time.perf_counter() - t0
+    rows.append(Row("lm", "joint LM (this project)", n, lm.iterations, lm_seconds, lm_seconds,
+                    lm.theta, f"initial IK {lm.init_seconds:.1f} s included"))  # fmt: skip
+    traces["lm"] = [
+        {"iteration": t.iteration, "seconds": t.seconds, "cost": t.cost, "rmse_mm": t.rmse * 1e3}
+        for t in lm.trace
+    ]
+    init_ik = rb.init_seconds
+
+    # Common yardstick: the observable subspace of the LM's reduced information.
+    info, sigma, *_ = reduced_information(pset, lm.theta, trials, lm.qpos)
+    idf = Identifiability(pset, info, sigma, theta=lm.theta)
+    table, frame_err = evaluate(exp, rows, idf, progress=progress)
+    table.insert(0, _evaluate_one(exp, "initial (nominal) model", pset.nominal, idf, frame_err))
+    for t in table:
+        if t["method"] == "initial (nominal) model":
+            t.update(method="initial", frames=0, loops=0, seconds=0.0, measured_seconds=0.0)
+    batch_time = rows[0].seconds
+    for t in table:
+        t["speed_vs_batch"] = batch_time / t["seconds"] if t["seconds"] > 0 else None
+
+    summary: dict[str, Any] = {
+        "experiment": "paper",
+        "quick": quick,
+        "settings": {
+            "frames": cfg.frames,
+            "rate_hz": 100.0,
+            "iterations": cfg.iterations,
+            "batch_iterations": cfg.batch_iterations,
+            "stochastic": list(cfg.stochastic),
+            "step": cfg.step,
+            "delta_m": cfg.delta,
+            "fraction": cfg.fraction,
+            "seed": cfg.seed,
+            "synth": exp.config.to_dict(),
+        },
+        "initial_ik_seconds": init_ik,
+        "table": table,
+        "observable_directions": idf.rank,
+        "paper_table1": [
+            {"method": m, "frames": f, "loops": k, "seconds": s} for m, f, k, s in PAPER_TABLE1
+        ],
+        "seconds_total": 0.0,
+    }
+    _write_files(out, exp, table, frame_err, traces, summary)
+    summary["seconds_total"] = time.perf_counter() - t_all
+    return summary
+
+
+def _trace_json(r: PaperResult) -> list[dict[str, Any]]:
+    return [
+        {
+            "iteration": p.iteration,
+            "seconds": p.seconds - r.init_seconds,
+            "frames": len(p.frames),
+            "energy_m2": p.energy,
+            "rmse_mm": p.rmse * 1e3,
+            "grad_norm": p.grad_norm,
+        }
+        for p in r.trace
+    ]
+
+
+def evaluate(
+    exp: Experiment, rows: list[Row], idf: Identifiability, *, progress: bool = False
+) -> tuple[list[dict[str, Any]], dict[str, np.ndarray]]:
+    """Table rows (dicts) and per-frame marker RMSE (label -> (T,) mm) of every model."""
+    frame_err: dict[str, np.ndarray] = {}
+    table = []
+    it = rows
+    if progress:
+        from tqdm import tqdm
+
+        it = tqdm(rows, desc="evaluate models", unit="model", leave=False, delay=2)
+    for row in it:
+        t = _evaluate_one(exp, row.label, row.theta, idf, frame_err)
+        t.update(
+            method=row.method, label=row.label, frames=row.frames, loops=row.loops,
+            seconds=row.seconds, measured_seconds=row.measured_seconds, note=row.note,
+        )  # fmt: skip
+        table.append(t)
+    return table, frame_err
+
+
+def _evaluate_one(
+    exp: Experiment,
+    label: str,
+    theta: np.ndarray,
+    idf: Identifiability,
+    frame_err: dict[str, np.ndarray],
+) -> dict[str, Any]:
+    """IK of every frame with model theta; marker error and parameter errors [mm]."""
+    pset = exp.pset
+    kin = Kinematics(pset)
+    kin.set_theta(theta)
+    r = IKSolver(kin).solve_trial(np.array(exp.markers))
+    frame_err[label] = r.marker_rmse * 1e3
+    err = theta - exp.theta_true
+    e_obs, _ = idf.project(err)
+    k = pset.n_kappa
+    rms = lambda x: float(np.sqrt(np.mean(np.square(x))) * 1e3)  # noqa: E731
+    return {
+        "method": label,
+        "label": label,
+        "marker_rmse_mm": r.rmse() * 1e3,
+        "accumulated_error_mm": float(np.nansum(r.marker_rmse) * 1e3),
+        "kappa_rmse_mm": rms(err[:k]),
+        "offset_rmse_mm": rms(err[k:]),
+        "kappa_observable_rmse_mm": rms(e_obs[:k]),
+        "offset_observable_rmse_mm": rms(e_obs[k:]),
+        "note": "",
+    }
+
+
+# --------------------------------------------------------------------------- output
+def table_lines(table: list[dict[str, Any]]) -> list[str]:
+    """Table 1 as Markdown."""
+    lines = [
+        "| method | frames sampled | loops | time (s) | marker RMSE (mm) | kappa err (mm) "
+        "| offset err (mm) | kappa err, observable (mm) | offset err, observable (mm) "
+        "| speed vs batch |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for t in table:
+        speed = t.get("speed_vs_batch")
+        lines.append(
+            f"| {t['label']} | {t['frames']} | {t['loops']} | {t['seconds']:.1f} | "
+            f"{t['marker_rmse_mm']:.3f} | {t['kappa_rmse_mm']:.2f} | {t['offset_rmse_mm']:.2f} "
+            f"| {t['kappa_observable_rmse_mm']:.2f} | {t['offset_observable_rmse_mm']:.2f} | "
+            f"{'' if speed is None else f'{speed:.1f}x'} |"
+        )
+    return lines
+
+
+def _write_files(
+    out: Path,
+    exp: Experiment,
+    table: list[dict[str, Any]],
+    frame_err: Mapping[str, np.ndarray],
+    traces: Mapping[str, Any],
+    summary: dict[str, Any],
+) -> None:
+    times = np.array(exp.times)
+    keys = [
+        "label", "method", "frames", "loops", "seconds", "measured_seconds", "marker_rmse_mm",
+        "accumulated_error_mm", "kappa_rmse_mm", "offset_rmse_mm", "kappa_observable_rmse_mm",
+        "offset_observable_rmse_mm", "speed_vs_batch", "note",
+    ]  # fmt: skip
+    with open(out / "table1.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(keys)
+        for t in table:
+            w.writerow([t.get(k) for k in keys])
+    atomic_write_text(out / "table1.json", json.dumps(table, indent=2) + "\n")
+    labels = list(frame_err)
+    with open(out / "frame_error.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["time_s", *labels])
+        for i, t in enumerate(times):
+            w.writerow([f"{t:.3f}", *(f"{frame_err[k][i]:.6f}" for k in labels)])
+    atomic_write_text(out / "traces.json", json.dumps(traces) + "\n")
+    plot_frame_error(out / "fig3.png", times, frame_err)
+    plot_accumulated(out / "fig4.png", times, frame_err)
+    plot_convergence(out / "convergence.png", traces)
+    atomic_write_text(out / "report.md", "\n".join(report_lines(summary)) + "\n")
+
+
+def report_lines(summary: Mapping[str, Any]) -> list[str]:
+    s = summary["settings"]
+    lines = [
+        "# Algorithm 1 of Zou & Sugihara: Table 1 and Figs 3-4 on synthetic data",
+        "",
+        f"Synthetic trial: {s['frames']} frames at {s['rate_hz']:.0f} Hz, range-of-motion "
+        f"preset, {s['synth']['noise_mm']:g} mm noise, truth perturbed from the nominal model "
+        f"(kinematic parameters -/+ {s['synth']['kappa_scale'] * 100:.0f} %, offsets -/+ "
+        f"{s['synth']['offset_mm']:g} mm), seed {s['seed']}. Every method starts from the "
+        f"nominal model. Algorithm 1: alpha = {s['step']:g}, Delta = {s['delta_m']:g} m "
+        f"(forward differences), {s['fraction']:g} of the frames for even/random.",
+        "",
+        "Time: the iterations, wall clock on a shared 2-core machine; the initial IK of all "
+        f"frames ({summary['initial_ik_seconds']:.1f} s) is common to every Algorithm-1 run and "
+        "not included. The joint LM's time includes its own initial IK. Marker RMSE: IK of "
+        "every frame with the identified model. Parameter errors: RMS over the 30 kinematic "
+        "parameters / 117 offset components against the truth, all directions and (columns "
+        f"'observable') projected on the {summary['observable_directions']} observable "
+        "directions of the reduced information (the others cannot be determined from markers).",
+        "",
+    ]
+    if summary.get("quick"):
+        lines += ["**Quick run** (CI): fewer frames and iterations than the paper.", ""]
+    lines += ["## Table 1", "", *table_lines(summary["table"]), ""]
+    notes = [f"- {t['label']}: {t['note']}" for t in summary["table"] if t.get("note")]
+    if notes:
+        lines += ["Notes:", "", *notes, ""]
+    lines += [
+        "## The paper's Table 1 (500 frames)",
+        "",
+        "| method | frames sampled | loops | time (s) |",
+        "|---|---|---|---|",
+        *(
+            f"| {p['method']} | {p['frames']} | {p['loops']} | {p['seconds']:g} |"
+            for p in summary["paper_table1"]
+        ),
+        "",
+        "## Figures",
+        "",
+        "- `fig3.png`: marker RMSE of every frame with each identified model (paper's Fig 3).",
+        "- `fig4.png`: the same, accumulated over the trial (paper's Fig 4).",
+        "- `convergence.png`: E per sampled frame against time for every run.",
+        "",
+    ]
+    return lines
+
+
+# --------------------------------------------------------------------------- figures
+def plot_frame_error(path: Path, times: np.ndarray, errors: Mapping[str, np.ndarray]) -> None:
+    """Fig 3: marker error per frame (mm) for each model."""
+    try:
+        from mocap_mj.plots import plot_marker_error_per_frame
+    except ImportError:
+        _plot_series(path, times, errors, cumulative=False)
+        return
+    plot_marker_error_per_frame(path, times, errors, title="Marker error per frame (Fig 3)")
+
+
+def plot_accumulated(path: Path, times: np.ndarray, errors: Mapping[str, np.ndarray]) -> None:
+    """Fig 4: marker error accumulated over the frames (mm)."""
+    try:
+        from mocap_mj.plots import plot_error_accumulation
+    except ImportError:
+        _plot_series(path, times, errors, cumulative=True)
+        return
+    plot_error_accumulation(path, times, errors, title="Accumulated marker error (Fig 4)")
+
+
+def _figure() -> Any:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(8, 4.67), dpi=150, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _plot_series(
+    path: Path, times: np.ndarray, errors: Mapping[str, np.ndarray], *, cumulative: bool
+) -> None:
+    fig = _figure()
+    ax = fig.add_subplot()
+    for label, e in errors.items():
+        y = np.cumsum(np.nan_to_num(e)) if cumulative else e
+        ax.plot(times, y, lw=1.2, label=label)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("accumulated marker error [mm]" if cumulative else "marker error [mm]")
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize="small")
+    fig.savefig(path, format="png")
+
+
+def plot_convergence(path: Path, traces: Mapping[str, Any]) -> None:
+    """Marker RMSE of the frames each run uses [mm] against its time [s] (log scales)."""
+    fig = _figure()
+    ax = fig.add_subplot()
+    for name, tr in traces.items():
+        if not tr:
+            continue
+        t = [p["seconds"] for p in tr]
+        y = [p["rmse_mm"] for p in tr]
+        ax.plot(t, y, lw=1.0, label=name, marker="." if len(t) < 30 else None)
+    ax.set_xscale("symlog", linthresh=1.0)
+    ax.set_yscale("log")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("marker RMSE of the frames in use [mm]")
+    ax.set_title("Convergence against time")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize="small")
+    fig.savefig(path, format="png")
