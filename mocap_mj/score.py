@@ -42,8 +42,13 @@ def joint_centres(kin: Kinematics, qpos: np.ndarray) -> np.ndarray:
     return kin.forward(qpos).xpos[:, 2:]
 
 
-def score(truth_dir: str | Path, result_dir: str | Path, *, pset: ParameterSet | None = None
-          ) -> dict[str, Any]:  # fmt: skip
+def score(
+    truth_dir: str | Path,
+    result_dir: str | Path,
+    *,
+    pset: ParameterSet | None = None,
+    plot: bool = True,
+) -> dict[str, Any]:
     """Compare an identification folder with the synthetic truth folder it was made from."""
     truth_dir, result_dir = Path(truth_dir), Path(result_dir)
     pset = pset or ParameterSet()
@@ -118,6 +123,16 @@ def score(truth_dir: str | Path, result_dir: str | Path, *, pset: ParameterSet |
     # Held-out frames: the truth trial's frames outside the fitted range, by IK.
     held = np.r_[0:a, b : len(truth_motion.qpos)]
     out["frames_held_out"] = int(held.size)
+    if plot:
+        from .plots import plot_parameter_errors
+
+        plot_parameter_errors(
+            result_dir / "parameter_errors.png",
+            pset.kappa_names,
+            e_obs[:k] * 1e3,
+            idf.param_std[:k] * 1e3,
+            title="Kinematic parameters: error (observable part) and Cramer-Rao bound",
+        )
     if held.size:
         measured = _measured(truth_dir, pset)
         ik = IKSolver(kin_hat).solve_trial(measured[held])

@@ -7,6 +7,10 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
+
+from mocap_mj import MocapError, ParameterSet
+from mocap_mj.io import MarkerTrajectory, load_markers
+from mocap_mj.results import load_motion
 from mocap_synth import (
     FILES,
     ConfigError,
@@ -17,10 +21,6 @@ from mocap_synth import (
     write_experiment,
 )
 from mocap_synth.perturb import mirror_pairs
-
-from mocap_mj import MocapError, ParameterSet
-from mocap_mj.io import MarkerTrajectory, load_markers
-from mocap_mj.results import load_motion
 
 CORRUPT = SynthConfig(
     frames=300, motion="walk", sta_mm=4.0, gaps=0.08, outliers=0.02, swaps=3, seed=11

@@ -5,10 +5,10 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-from mocap_synth import motion
-from mocap_synth.motion import JointInfo, ball_angle, quat_to_rotvec, rotvec_to_quat
 
 from mocap_mj import ParameterSet
+from mocap_synth import motion
+from mocap_synth.motion import JointInfo, ball_angle, quat_to_rotvec, rotvec_to_quat
 
 PRESETS = ("rom", "walk", "static")
 

@@ -18,6 +18,11 @@ from typing import Any
 import mujoco
 import numpy as np
 import pytest
+
+from mocap_mj import Kinematics, MocapError, ParameterSet
+from mocap_mj.cli import main
+from mocap_mj.errors import InputFileError, ShapeError
+from mocap_mj.results import Motion, load_motion, save_motion
 from mocap_viewer import interactive as ia
 from mocap_viewer.glb import export_glb, frame_node
 from mocap_viewer.meshes import geom_meshes, geom_poses, primitives_mesh
@@ -39,11 +44,6 @@ from mocap_viewer.scene import (
     frame_primitives,
     residual_rgba,
 )
-
-from mocap_mj import Kinematics, MocapError, ParameterSet
-from mocap_mj.cli import main
-from mocap_mj.errors import InputFileError, ShapeError
-from mocap_mj.results import Motion, load_motion, save_motion
 
 RENDER_REQUIRED = os.environ.get("RENDER_REQUIRED") == "1"
 N_FRAMES = 30

@@ -53,6 +53,7 @@ CHI3_MEDIAN = 1.5381722
 
 class Termination(enum.Enum):
     NOISE = "cost change below tol_noise * sigma^2"
+    STALL = "marker RMSE changed by less than stall_rel over stall_window accepted steps"
     COST = "relative cost change below tol_cost"
     STEP = "step below tol_theta and tol_q"
     NO_DESCENT = "no descent direction found (damping exhausted)"
@@ -91,8 +92,8 @@ class LMSettings:
         Reporting threshold: a direction of theta is observable when its standard deviation
         (reduced information and the noise estimated from the fit) is at most this.
     settle_gain : float
-        Once an accepted step lowers F by less than this fraction, frames caught in local
-        minima are repaired (``max_repairs``) before the iterations go on.
+        Once an accepted step lowers F by less than this fraction, progress has stalled: a
+        refit is tried (``refit_factor``) before the iterations go on.
     prior_ratio : float
         Every step is restricted to the eigen-directions of the reduced information (at the
         current iterate) whose information exceeds ``prior_ratio`` times the prior's. In the
@@ -102,16 +103,19 @@ class LMSettings:
         Frames per chunk when accumulating the reduced system.
     cache_frames : int
         Keep per-frame back-substitution data up to this many frames (else recompute).
-    refit_iteration : int
-        Iteration after which every trial's IK is solved afresh with the current model
-        (see ``_refit_frames``); later refits happen when progress stalls (``settle_gain``).
+    refit_factor : float
+        Every trial's IK is solved afresh with the current model (``_refit_frames``) each
+        time the marker RMSE has fallen by this factor since the last such refit, when
+        progress stalls (``settle_gain``) and at convergence; at most ``max_refits`` times.
     refine_iterations : int
         Per-frame IK iterations (``IKSolver.solve_frames``) applied to every frame after each
         step, from ``q + dq`` with the new theta: one shared damping cannot suit hundreds of
         frames, some of which sit at joint limits; each frame's own LM can. 0 disables it.
-    max_repairs : int
-        Times, at convergence, that frames fitting far worse than the rest are re-solved from
-        their neighbours (``IKSolver.repair``) before the iterations go on.
+    stall_window, stall_rel : int, float
+        Once settled, stop when the marker RMSE fell by less than ``stall_rel`` (relative)
+        over the last ``stall_window`` accepted steps: heavily damped crawling along a
+        curved valley of weakly informed directions, which changes nothing measurable.
+    max_refits : int
     """
 
     max_iterations: int = 100
@@ -129,8 +133,10 @@ class LMSettings:
     prior_ratio: float = 100.0
     chunk: int = 1000
     cache_frames: int = 5000
-    max_repairs: int = 3
-    refit_iteration: int = 1
+    max_refits: int = 6
+    stall_window: int = 5
+    stall_rel: float = 1e-4
+    refit_factor: float = 1.5
     refine_iterations: int = 2
 
     def __post_init__(self) -> None:
@@ -253,9 +259,13 @@ class _Problem:
         return np.where(self.present, out, 0.0)
 
     def chunk_system(
-        self, sl: slice, w: np.ndarray
+        self, sl: slice, w: np.ndarray, *, limits: bool = True
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Normal-equation pieces of frames ``sl`` with weights w (T, M).
+
+        With ``limits``, hinges at a joint limit that the gradient pushes outward are held
+        (the step's active set); without, the blocks are those of the unconstrained problem
+        (the information matrix: a limit is not a measurement).
 
         Returns A (n, nv, nv), B (n, nv, Pf), g_q (n, nv), C (Pf, Pf), g_theta (Pf,) over the
         free parameters, and the weighted residual norm (n,).
@@ -292,8 +302,8 @@ class _Problem:
         gt[k:] = np.einsum("nmcj,nmc->mj", rot, r).reshape(-1)
         # Hinges at a limit that the gradient pushes outward are held for this step (active
         # set of the box constraints): their rows and columns leave the frame's block.
-        blocked = self.limits.blocked(self.qpos[sl], gq)
-        if np.any(blocked):
+        blocked = self.limits.blocked(self.qpos[sl], gq) if limits else None
+        if blocked is not None and np.any(blocked):
             rows, dofs = np.nonzero(blocked)
             a[rows, dofs, :] = 0.0
             a[rows, :, dofs] = 0.0
@@ -432,9 +442,11 @@ def identify_lm(
 
         bar = tqdm(total=st.max_iterations, desc="identify (LM)", unit="it", leave=False, delay=2)
     limits = prob.limits
-    repairs = 0
+    refits = 0
+    last_refit_rmse = float(np.sqrt(np.sum(dist**2) / prob.present.sum()))
     it = 0
     settled = False
+    accepted_rmse: list[float] = []
     n_res_now = int(3 * prob.present.sum())
     while it < st.max_iterations:
         it += 1
@@ -506,19 +518,6 @@ def identify_lm(
             mu *= nu
             nu *= 2
         rmse = float(np.sqrt(np.sum(dist**2) / prob.present.sum()))
-        early = accepted and it == st.refit_iteration and repairs == 0
-        if (early or (accepted and cost - cost_new < st.settle_gain * cost)) and not settled:
-            fixed = (
-                _refit_frames(limits, markers, prob, segments) if repairs < st.max_repairs else []
-            )
-            if len(fixed):
-                repairs += 1
-                dist = prob.residuals(prob.qpos)
-                mu, nu = st.mu0, 2.0
-                if log is not None:
-                    log.append(f"repaired {len(fixed)} frames caught in local minima")
-                continue
-            settled = True
         step = float(np.abs(dth_f).max())
         trace.append(
             IterationLog(it, cost_new if accepted else cost, rmse, mu, accepted, step,
@@ -531,6 +530,22 @@ def identify_lm(
             )
         if bar is not None:
             bar.update(1)
+        # A fresh IK of every trial with the current model (``_refit_frames``) whenever the
+        # model has improved markedly since the last one, and when progress stalls.
+        improved = accepted and rmse < last_refit_rmse / st.refit_factor
+        stalled = accepted and cost - cost_new < st.settle_gain * cost and not settled
+        if (improved or stalled) and refits < st.max_refits:
+            fixed = _refit_frames(limits, markers, prob, segments)
+            refits += 1
+            if len(fixed):
+                dist = prob.residuals(prob.qpos)
+                last_refit_rmse = float(np.sqrt(np.sum(dist**2) / prob.present.sum()))
+                if log is not None:
+                    log.append(f"refit: {len(fixed)} frames had a better pose by a fresh IK")
+                continue
+            last_refit_rmse = rmse
+        if stalled:
+            settled = True
         sigma_now = rmse / np.sqrt(3 * max(1.0 - (n * nv + pf) / n_res_now, 1e-6))
         stop = None
         if accepted and it > 1 and cost - cost_new <= st.tol_noise * sigma_now**2:
@@ -541,14 +556,21 @@ def identify_lm(
             stop = Termination.STEP
         elif mu > 1e12:
             stop = Termination.NO_DESCENT
+        if accepted:
+            accepted_rmse.append(rmse)
+        if (
+            stop is None
+            and settled
+            and len(accepted_rmse) > st.stall_window
+            and accepted_rmse[-st.stall_window - 1] - rmse < st.stall_rel * rmse
+        ):
+            stop = Termination.STALL
         if stop is not None:
             # Frames caught in a local minimum of their pose (typically from the initial IK
             # with a model far from the subject) show up now as outliers of the fit: re-solve
             # them from their neighbours with the current model and go on if any improved.
-            fixed = (
-                _refit_frames(limits, markers, prob, segments) if repairs < st.max_repairs else []
-            )
-            repairs += 1
+            fixed = _refit_frames(limits, markers, prob, segments) if refits < st.max_refits else []
+            refits += 1
             if len(fixed) == 0:
                 termination = stop
                 break
@@ -566,7 +588,7 @@ def identify_lm(
     info = np.zeros((pset.size, pset.size))
     s_free = np.zeros((pf, pf))
     for sl in chunks:
-        a, b, _, c, _, _ = prob.chunk_system(sl, w_final)
+        a, b, _, c, _, _ = prob.chunk_system(sl, w_final, limits=False)
         ainv = np.linalg.pinv(a, hermitian=True)
         bf = b.reshape(-1, pf)
         s_free += c - bf.T @ np.matmul(ainv, b).reshape(-1, pf)

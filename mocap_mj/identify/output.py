@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..io.atomic import atomic_write_text
+from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..results import Motion, save_motion
 from .identifiability import Identifiability
@@ -42,7 +43,32 @@ def write_result(
         name = "motion.npz" if i == 0 else f"motion_{i}.npz"
         save_motion(out / name, Motion(qpos, trial.times, trial.markers, pset.marker_names))
     atomic_write_text(out / "identifiability.json", json.dumps(idf.to_json()) + "\n")
+    write_plots(out, pset, result, trials)
     atomic_write_text(out / "report.md", "\n".join(report_lines(pset, result, idf, summary)))
+
+
+def write_plots(
+    out: Path, pset: ParameterSet, result: LMResult, trials: Sequence[TrialData]
+) -> None:
+    """marker_error.png (per frame, first trial) and residual_per_marker.png."""
+    from ..plots import plot_marker_error_per_frame, plot_residual_per_marker
+
+    first = trials[0]
+    plot_marker_error_per_frame(
+        out / "marker_error.png", first.times, {"identified model": result.frame_rmse[0] * 1e3}
+    )
+    kin = Kinematics(pset)
+    kin.set_theta(result.theta)
+    sq = np.zeros(pset.n_markers)
+    cnt = np.zeros(pset.n_markers)
+    for t, q in zip(trials, result.qpos, strict=True):
+        ok = np.all(np.isfinite(q), axis=1)
+        d = np.linalg.norm(kin.marker_positions(q[ok]) - t.markers[ok], axis=2)
+        present = np.isfinite(d)
+        sq += np.sum(np.where(present, d, 0.0) ** 2, axis=0)
+        cnt += present.sum(axis=0)
+    rmse = np.sqrt(sq / np.maximum(cnt, 1)) * 1e3
+    plot_residual_per_marker(out / "residual_per_marker.png", pset.marker_names, rmse)
 
 
 def report_lines(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -9,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ..io.atomic import atomic_write_text
 from ..parameters import ParameterSet
 from .identifiability import Identifiability
 from .lm import LMResult, LMSettings, TrialData, identify_lm
@@ -70,6 +72,7 @@ def identify_to_folder(
         }
     )
     write_result(out, pset, result, idf, trials, summary)
+    atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     return summary, result, idf
 
 
