@@ -72,7 +72,9 @@ def main() -> None:
                 kin.jac_q(frames)
                 kin.jac_kappa(frames)
 
-        def jac_site(q=qpos[: min(n, 2000)]) -> None:  # type: ignore[no-untyped-def]
+        sub = qpos[: min(n, 2000)]
+
+        def jac_site(q=sub) -> None:  # type: ignore[no-untyped-def]
             data, jacp = mujoco.MjData(kin.model), np.zeros((3, kin.nv))
             for qq in q:
                 data.qpos[:] = qq

@@ -1,0 +1,115 @@
+"""Identification speed: the joint LM against the paper's Algorithm 1, and scaling with T.
+
+In one process on the synthetic ROM trial (`mocap_synth`, seed 0, 1 mm noise, segment lengths
+±10 %, offsets ±20 mm):
+
+1. the joint LM on 500 frames, 147 parameters: time to convergence, error vs its bound;
+2. Algorithm 1 (this project's faithful implementation, `--solver paper`) with stochastic
+   and batch sampling on the same data, run for a time budget: the time it needs to reach
+   the LM's parameter error (or how far it got), and the speed ratio;
+3. the LM at 500, 5,000 (and, with --large, 50,000) frames: seconds and peak traced memory.
+
+The parameter error is the RMS, over the observable directions of theta, of the difference
+to the truth aligned with the LM's estimate along the unobservable ones (`mocap_mj.score`).
+
+Run: python benchmarks/identify.py [--budget 120] [--large]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+import tracemalloc
+
+import numpy as np
+
+from mocap_mj import ParameterSet
+from mocap_mj.identify import LMSettings, TrialData, identify_lm
+from mocap_mj.identify.identifiability import Identifiability
+from mocap_mj.score import align_truth
+from mocap_synth import SynthConfig, synthesize
+
+
+def trial(frames: int, seed: int = 0) -> tuple[object, TrialData]:
+    exp = synthesize(SynthConfig(frames=frames, seed=seed), ParameterSet())
+    return exp, TrialData("rom", np.asarray(exp.markers), np.asarray(exp.times))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--budget", type=float, default=120.0, help="seconds per paper run")
+    parser.add_argument("--large", action="store_true", help="also 50,000 frames")
+    args = parser.parse_args()
+    pset = ParameterSet()
+
+    exp, data = trial(500)
+    t0 = time.perf_counter()
+    lm = identify_lm([data], pset=pset)
+    t_lm = time.perf_counter() - t0
+    idf = Identifiability(pset, lm.reduced_information, lm.sigma, theta=lm.theta)
+    aligned = align_truth(pset, lm.theta, np.asarray(exp.markers_clean), data.times)
+    basis = idf.basis
+
+    def err(theta: np.ndarray) -> float:
+        e = basis @ (basis.T @ (theta - aligned))
+        return float(np.sqrt(np.mean(e**2)))
+
+    bound = float(np.sqrt(np.mean(np.diag(idf.crlb))))
+    e_lm = err(lm.theta)
+    print("1. joint LM, 500 frames, 147 parameters")
+    print(f"   {t_lm:.2f} s ({lm.init_seconds:.2f} s initial IK), {lm.iterations} iterations, "
+          f"{lm.termination.value}")  # fmt: skip
+    print(f"   observable theta error {e_lm * 1e3:.3f} mm RMS, CRLB {bound * 1e3:.3f} mm "
+          f"(ratio {e_lm / bound:.2f}); marker RMSE {lm.marker_rmse * 1e3:.3f} mm")  # fmt: skip
+    for log in lm.trace[:: max(1, len(lm.trace) // 8)]:
+        print(f"   iter {log.iteration:3d}  error {err(log.theta) * 1e3:8.3f} mm")
+
+    print(f"\n2. Algorithm 1 (finite differences through IK), budget {args.budget:.0f} s each")
+    try:
+        from mocap_mj.identify.paper import PaperSettings, identify_paper
+    except ImportError:
+        print("   not available")
+    else:
+        for sampling, iters in (("stochastic", 100_000), ("batch", 100)):
+            settings = PaperSettings(sampling=sampling, iterations=iters)
+            result = _run_budget(identify_paper, data, pset, settings, args.budget)
+            errors = [(it.seconds, err(it.theta)) for it in result.trace]
+            reached = next((s for s, e in errors if e <= e_lm * 1.05), None)
+            last_s, last_e = errors[-1] if errors else (float("nan"), float("nan"))
+            if reached is not None:
+                print(f"   {sampling:<10} reached the LM's error (+5 %) after {reached:.1f} s: "
+                      f"{reached / t_lm:.0f}x the LM's time")  # fmt: skip
+            else:
+                print(f"   {sampling:<10} {len(errors)} iterations in {last_s:.1f} s: error "
+                      f"{last_e * 1e3:.2f} mm ({last_e / e_lm:.1f}x the LM's after "
+                      f"{last_s / t_lm:.0f}x its time); not reached")  # fmt: skip
+
+    print("\n3. joint LM: frames vs time (linear?) and peak traced memory")
+    sizes = [500, 5000] + ([50_000] if args.large else [])
+    for n in sizes:
+        _, d = trial(n, seed=1)
+        tracemalloc.start()
+        t0 = time.perf_counter()
+        r = identify_lm([d], pset=pset, settings=LMSettings())
+        seconds = time.perf_counter() - t0
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        per_it = np.mean([log.seconds for log in r.trace])
+        print(f"   {n:>7} frames: {seconds:8.1f} s, {r.iterations:3d} iterations, "
+              f"{per_it * 1e3:8.1f} ms/iteration ({per_it / n * 1e6:.1f} us/frame), "
+              f"peak {peak / 2**20:8.0f} MiB, RMSE {r.marker_rmse * 1e3:.3f} mm")  # fmt: skip
+
+
+def _run_budget(identify_paper, data, pset, settings, budget):  # type: ignore[no-untyped-def]
+    """Algorithm 1 with as many iterations as fit in ``budget`` seconds (from a short probe)."""
+    from dataclasses import replace
+
+    probe = identify_paper([data], pset=pset, settings=replace(settings, iterations=3))
+    per_iteration = (probe.trace[-1].seconds - probe.trace[0].seconds) / 2
+    start = probe.trace[0].seconds
+    iterations = int(np.clip((budget - start) / max(per_iteration, 1e-3), 3, settings.iterations))
+    return identify_paper([data], pset=pset, settings=replace(settings, iterations=iterations))
+
+
+if __name__ == "__main__":
+    main()
