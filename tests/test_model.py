@@ -119,3 +119,16 @@ def test_cli_bad_model_is_one_line(tmp_path) -> None:  # type: ignore[no-untyped
     assert "Traceback" not in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1
     assert str(bad) in out.stderr
+
+
+def test_bundled_model_found_from_any_directory(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The MJCF ships as package data: found from a folder that is not the checkout."""
+    out = subprocess.run(
+        [sys.executable, "-c", "from mocap_mj import model_path, load_model; "
+         "p = model_path(); load_model(); print(p)"],
+        capture_output=True, text=True, check=True, cwd=tmp_path,
+    )  # fmt: skip
+    from pathlib import Path
+
+    assert Path(out.stdout.strip()).is_file()
+    assert out.stdout.strip().endswith("humanoid.xml")
