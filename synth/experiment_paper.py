@@ -60,6 +60,10 @@ PAPER_TABLE1: tuple[tuple[str, int, int, float], ...] = (
 )
 
 
+#: Label of the starting model (in the table and frame_error.csv, not in the figures).
+INITIAL = "initial (nominal) model"
+
+
 @dataclass(frozen=True)
 class PaperExperiment:
     """Sizes of a run.
@@ -156,6 +160,7 @@ def run_experiment(
     trials = [TrialData("synthetic", np.array(exp.markers), np.array(exp.times))]
     rows: list[Row] = []
     traces: dict[str, Any] = {}
+    refits: dict[str, list[int]] = {}
 
     def paper(sampling: str, iterations: int) -> PaperResult:
         settings = PaperSettings(
@@ -164,6 +169,7 @@ def run_experiment(
         )  # fmt: skip
         r = identify_paper(trials, pset=pset, settings=settings, progress=progress)
         traces[sampling] = _trace_json(r)
+        refits[sampling] = r.refits
         return r
 
     # Batch: run batch_iterations, extrapolate the time per iteration.
@@ -174,39 +180,46 @@ def run_experiment(
         f"extrapolated to {cfg.iterations}; errors after {len(rb.trace)} iterations"
     )
     n = cfg.frames
+    note += _refit_note(rb.refits)
     rows.append(Row("batch", "batch", n, cfg.iterations, per_it * cfg.iterations,
                     rb.seconds - rb.init_seconds, rb.theta, note))  # fmt: skip
     for sampling in ("even", "random"):
         r = paper(sampling, cfg.iterations)
         rows.append(Row(sampling, f"1/{round(1 / cfg.fraction)} {sampling}",
                         len(r.trace[0].frames), cfg.iterations, r.seconds - r.init_seconds,
-                        r.seconds - r.init_seconds, r.theta))  # fmt: skip
+                        r.seconds - r.init_seconds, r.theta,
+                        _refit_note(r.refits).lstrip("; ")))  # fmt: skip
     rs = paper("stochastic", max(cfg.stochastic))
     for k in cfg.stochastic:
         it = rs.trace[k - 1]
         sec = it.seconds - rs.init_seconds
+        note = (
+            ""
+            if k == len(rs.trace)
+            else (f"first {k} iterations of the {len(rs.trace)}-iteration run")
+        )
+        note += _refit_note([i for i in rs.refits if i <= k])
         rows.append(Row("stochastic", f"stochastic {k}", 1, k, sec, sec, it.theta,
-                        "" if k == len(rs.trace) else f"first {k} iterations of the "
-                        f"{len(rs.trace)}-iteration run"))  # fmt: skip
+                        note.lstrip("; ")))  # fmt: skip
     t0 = time.perf_counter()
     lm = identify_lm(trials, pset=pset, settings=LMSettings(), progress=progress)
     lm_seconds = time.perf_counter() - t0
     rows.append(Row("lm", "joint LM (this project)", n, lm.iterations, lm_seconds, lm_seconds,
                     lm.theta, f"initial IK {lm.init_seconds:.1f} s included"))  # fmt: skip
+    elapsed = lm.init_seconds + np.cumsum([t.seconds for t in lm.trace])  # from its start
     traces["lm"] = [
-        {"iteration": t.iteration, "seconds": t.seconds, "cost": t.cost, "rmse_mm": t.rmse * 1e3}
-        for t in lm.trace
+        {"iteration": t.iteration, "seconds": float(e), "cost": t.cost, "rmse_mm": t.rmse * 1e3}
+        for t, e in zip(lm.trace, elapsed, strict=True)
     ]
     init_ik = rb.init_seconds
 
     # Common yardstick: the observable subspace of the LM's reduced information.
-    info, sigma, *_ = reduced_information(pset, lm.theta, trials, lm.qpos)
+    info, sigma, n_res, n_unk = reduced_information(pset, lm.theta, trials, lm.qpos)
     idf = Identifiability(pset, info, sigma, theta=lm.theta)
     table, frame_err = evaluate(exp, rows, idf, progress=progress)
-    table.insert(0, _evaluate_one(exp, "initial (nominal) model", pset.nominal, idf, frame_err))
-    for t in table:
-        if t["method"] == "initial (nominal) model":
-            t.update(method="initial", frames=0, loops=0, seconds=0.0, measured_seconds=0.0)
+    initial = _evaluate_one(exp, INITIAL, pset.nominal, idf, frame_err)
+    initial.update(method="initial", frames=0, loops=0, seconds=0.0, measured_seconds=0.0)
+    table.insert(0, initial)
     batch_time = rows[0].seconds
     for t in table:
         t["speed_vs_batch"] = batch_time / t["seconds"] if t["seconds"] > 0 else None
@@ -229,6 +242,10 @@ def run_experiment(
         "initial_ik_seconds": init_ik,
         "table": table,
         "observable_directions": idf.rank,
+        "kappa_crlb_rms_mm": idf.bound_rms()[0] * 1e3,
+        "offset_crlb_rms_mm": idf.bound_rms()[1] * 1e3,
+        "lm_expected_rmse_mm": float(np.sqrt(3) * sigma * np.sqrt(max(1 - n_unk / n_res, 0))) * 1e3,
+        "fresh_ik_iterations": refits,
         "paper_table1": [
             {"method": m, "frames": f, "loops": k, "seconds": s} for m, f, k, s in PAPER_TABLE1
         ],
@@ -237,6 +254,12 @@ def run_experiment(
     _write_files(out, exp, table, frame_err, traces, summary)
     summary["seconds_total"] = time.perf_counter() - t_all
     return summary
+
+
+def _refit_note(refits: list[int]) -> str:
+    if not refits:
+        return ""
+    return f"; fresh IK of all frames (local minima) at iteration(s) {refits}"
 
 
 def _trace_json(r: PaperResult) -> list[dict[str, Any]]:
@@ -351,8 +374,9 @@ def _write_files(
         for i, t in enumerate(times):
             w.writerow([f"{t:.3f}", *(f"{frame_err[k][i]:.6f}" for k in labels)])
     atomic_write_text(out / "traces.json", json.dumps(traces) + "\n")
-    plot_frame_error(out / "fig3.png", times, frame_err)
-    plot_accumulated(out / "fig4.png", times, frame_err)
+    identified = {k: v for k, v in frame_err.items() if k != INITIAL}
+    plot_frame_error(out / "fig3.png", times, identified)
+    plot_accumulated(out / "fig4.png", times, identified)
     plot_convergence(out / "convergence.png", traces)
     atomic_write_text(out / "report.md", "\n".join(report_lines(summary)) + "\n")
 
@@ -376,6 +400,11 @@ def report_lines(summary: Mapping[str, Any]) -> list[str]:
         "parameters / 117 offset components against the truth, all directions and (columns "
         f"'observable') projected on the {summary['observable_directions']} observable "
         "directions of the reduced information (the others cannot be determined from markers).",
+        "",
+        f"Noise floor of the marker RMSE (noise alone, perfect model): "
+        f"{summary['lm_expected_rmse_mm']:.3f} mm. Cramer-Rao bound (RMS) of the observable "
+        f"directions: {summary['kappa_crlb_rms_mm']:.2f} mm (kinematic), "
+        f"{summary['offset_crlb_rms_mm']:.2f} mm (offsets).",
         "",
     ]
     if summary.get("quick"):

@@ -8,13 +8,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from mocap_synth import SynthConfig, synthesize, write_experiment
 
 from mocap_mj.cli import main
 from mocap_mj.errors import MocapError
 from mocap_mj.identify.identifiability import Identifiability
 from mocap_mj.identify.lm import TrialData
 from mocap_mj.identify.paper import (
+    IK_SETTINGS,
     FrameSampler,
     GradientEstimator,
     PaperSettings,
@@ -27,6 +27,7 @@ from mocap_mj.ik import IKSolver
 from mocap_mj.kinematics import Kinematics
 from mocap_mj.results import Motion, save_motion
 from mocap_mj.score import score
+from mocap_synth import SynthConfig, synthesize, write_experiment
 
 # Well-observed parameters (segment lengths of the limbs, pelvis and knee markers).
 PERTURBED = {"thigh_length_l": 0.012, "shank_length_r": -0.010, "LASI.x": 0.010, "RKNE.y": -0.008}
@@ -48,7 +49,7 @@ def _energy(exp, theta: np.ndarray) -> float:  # type: ignore[no-untyped-def]
     """E over all frames with every frame's IK under theta [m^2]."""
     kin = Kinematics(exp.pset)
     kin.set_theta(theta)
-    r = IKSolver(kin).solve_trial(np.array(exp.markers))
+    r = IKSolver(kin, IK_SETTINGS).solve_trial(np.array(exp.markers))
     return float(np.sum(r.marker_rmse**2 * r.n_markers))
 
 
