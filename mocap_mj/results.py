@@ -21,6 +21,7 @@ A synthetic-truth folder (``mocap-mj synth``) holds ``truth_model.xml`` and
 from __future__ import annotations
 
 import io
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -54,17 +55,27 @@ class Motion:
         check_shape("markers", self.markers, (n, len(self.marker_names), 3))
 
 
-def save_motion(path: str | Path, motion: Motion) -> None:
-    """Write a :class:`Motion` as ``.npz``, atomically."""
+def npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
+    """An uncompressed ``.npz`` with fixed zip timestamps, so equal arrays give equal bytes
+    (``np.savez`` stamps the wall-clock time into the zip entries)."""
     buf = io.BytesIO()
-    np.savez(
-        buf,
-        qpos=motion.qpos,
-        times=motion.times,
-        markers=motion.markers,
-        marker_names=np.array(motion.marker_names),
-    )
-    atomic_write_bytes(path, buf.getvalue())
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
+        for key, value in arrays.items():
+            info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            with zf.open(info, "w", force_zip64=True) as handle:
+                np.lib.format.write_array(handle, np.asanyarray(value), allow_pickle=False)
+    return buf.getvalue()
+
+
+def save_motion(path: str | Path, motion: Motion) -> None:
+    """Write a :class:`Motion` as ``.npz``, atomically and byte-reproducibly."""
+    arrays = {
+        "qpos": motion.qpos,
+        "times": motion.times,
+        "markers": motion.markers,
+        "marker_names": np.array(motion.marker_names),
+    }
+    atomic_write_bytes(path, npz_bytes(arrays))
 
 
 def load_motion(path: str | Path) -> Motion:

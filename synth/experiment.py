@@ -5,9 +5,7 @@ Symbols: T frames, M markers (39), nq = 55, P = 147 model parameters.
 
 from __future__ import annotations
 
-import io
 import json
-import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -15,10 +13,10 @@ from typing import Any
 import numpy as np
 
 from mocap_mj.cli import prepare_out
-from mocap_mj.io import MarkerTrajectory, atomic_write_bytes, atomic_write_text, save_csv, save_trc
+from mocap_mj.io import MarkerTrajectory, atomic_write_text, save_csv, save_trc
 from mocap_mj.kinematics import Kinematics
 from mocap_mj.parameters import ParameterSet
-from mocap_mj.results import Motion
+from mocap_mj.results import Motion, save_motion
 
 from . import noise
 from .config import SynthConfig
@@ -223,36 +221,6 @@ def summarize(exp: Experiment) -> dict[str, Any]:
     }
 
 
-def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
-    """An uncompressed ``.npz`` with fixed zip timestamps, so equal arrays give equal bytes."""
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
-        for key, value in arrays.items():
-            info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
-            with zf.open(info, "w", force_zip64=True) as handle:
-                np.lib.format.write_array(handle, np.asanyarray(value), allow_pickle=False)
-    return buf.getvalue()
-
-
-def save_truth_motion(path: str | Path, motion: Motion) -> None:
-    """Write a :class:`Motion` like ``mocap_mj.results.save_motion``, byte-reproducibly.
-
-    Same keys, dtypes and layout (read it with ``load_motion``); ``np.savez`` would stamp the
-    wall-clock time into the zip entries, which this writer fixes to 1980-01-01.
-    """
-    atomic_write_bytes(
-        path,
-        _npz_bytes(
-            {
-                "qpos": motion.qpos,
-                "times": motion.times,
-                "markers": motion.markers,
-                "marker_names": np.array(motion.marker_names),
-            }
-        ),
-    )
-
-
 def write_experiment(exp: Experiment, out_dir: str | Path, force: bool = False) -> dict[str, Any]:
     """Write the experiment's files into ``out_dir`` (each atomically) and return the summary.
 
@@ -294,6 +262,6 @@ def write_experiment(exp: Experiment, out_dir: str | Path, force: bool = False) 
         },
     )
     pset.export_mjcf(out / "truth_model.xml", exp.theta_true)
-    save_truth_motion(out / "truth_motion.npz", exp.truth_motion())
+    save_motion(out / "truth_motion.npz", exp.truth_motion())
     atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     return summary
