@@ -76,6 +76,7 @@ class PaperExperiment:
     stochastic : tuple of int, iteration counts reported for stochastic (one run, the largest)
     step, delta, fraction : Algorithm 1's alpha, Delta [m] and sampled share
     seed : int, synthesis and sampling seed
+    lm_iterations : int, iteration limit of the joint LM
     """
 
     frames: int = 500
@@ -86,6 +87,7 @@ class PaperExperiment:
     delta: float = DEFAULT_DELTA
     fraction: float = 0.1
     seed: int = 0
+    lm_iterations: int = 100
 
 
 FULL = PaperExperiment()
@@ -202,7 +204,8 @@ def run_experiment(
         rows.append(Row("stochastic", f"stochastic {k}", 1, k, sec, sec, it.theta,
                         note.lstrip("; ")))  # fmt: skip
     t0 = time.perf_counter()
-    lm = identify_lm(trials, pset=pset, settings=LMSettings(), progress=progress)
+    lm = identify_lm(trials, pset=pset, settings=LMSettings(max_iterations=cfg.lm_iterations),
+                     progress=progress)  # fmt: skip
     lm_seconds = time.perf_counter() - t0
     rows.append(Row("lm", "joint LM (this project)", n, lm.iterations, lm_seconds, lm_seconds,
                     lm.theta, f"initial IK {lm.init_seconds:.1f} s included"))  # fmt: skip

@@ -198,3 +198,24 @@ def test_score_of_the_truth_is_zero(tmp_path: Path) -> None:
         assert s[key] == pytest.approx(0.0, abs=1e-3), key
     assert s["joint_rmse_deg"] == pytest.approx(0.0, abs=1e-4)
     assert s["frames_fitted"] == 12
+
+
+def test_experiment_writes_table_and_figures(tmp_path: Path) -> None:
+    """The Table 1 experiment end to end, on a tiny trial (the CLI's --quick is 100 frames)."""
+    from mocap_synth.experiment_paper import PaperExperiment, run_experiment
+
+    cfg = PaperExperiment(
+        frames=30, iterations=2, batch_iterations=1, stochastic=(2, 4), lm_iterations=3
+    )
+    summary = run_experiment(cfg, tmp_path, progress=False)
+    names = {"report.md", "table1.csv", "table1.json", "frame_error.csv", "traces.json",
+             "fig3.png", "fig4.png", "convergence.png"}  # fmt: skip
+    assert names <= {p.name for p in tmp_path.iterdir()}
+    labels = [t["label"] for t in summary["table"]]
+    assert labels[0] == "initial (nominal) model" and labels[-1] == "joint LM (this project)"
+    assert {"batch", "1/10 even", "1/10 random", "stochastic 2", "stochastic 4"} <= set(labels)
+    batch = summary["table"][1]
+    assert batch["speed_vs_batch"] == 1.0 and "extrapolated" in batch["note"]
+    for t in summary["table"]:
+        assert np.isfinite(t["marker_rmse_mm"]) and np.isfinite(t["kappa_rmse_mm"])
+    assert "## Table 1" in (tmp_path / "report.md").read_text()
