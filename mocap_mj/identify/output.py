@@ -84,9 +84,9 @@ def report_lines(
         f"- solver: {summary['solver']}, loss {summary.get('loss', 'l2')}, "
         f"{result.iterations} iterations ({result.termination.value})",
         f"- time: {summary['seconds']:.2f} s (initial IK {result.init_seconds:.2f} s)",
-        f"- marker RMSE: {result.marker_rmse * 1e3:.3f} mm "
-        f"(expected from noise alone: {summary['expected_rmse_mm']:.3f} mm at the estimated "
-        f"sigma {result.sigma * 1e3:.3f} mm)",
+        f"- marker RMSE: {result.marker_rmse * 1e3:.3f} mm: a per-axis noise sigma of "
+        f"{result.sigma * 1e3:.3f} mm (RMSE / sqrt(3 (1 - p/n)), p = {result.n_unknowns} "
+        f"unknowns, n = {result.n_residuals} residuals)",
         "",
         "## Kinematic parameters",
         "",
