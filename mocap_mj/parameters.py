@@ -176,7 +176,9 @@ class ParameterSet:
         self.frozen = np.zeros(self.size, dtype=bool)
         # Bodies a kappa moves, as (k, body) pairs, for Jacobians.
         self.kappa_targets: tuple[tuple[int, int], ...] = tuple(
-            (k, b) for k in range(self.n_kappa) for b in np.flatnonzero(np.any(direction[k], 1))
+            (k, int(b))
+            for k in range(self.n_kappa)
+            for b in np.flatnonzero(np.any(direction[k], 1))
         )
 
     # ----------------------------------------------------------------- naming

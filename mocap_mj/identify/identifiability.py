@@ -284,10 +284,10 @@ def _describe(
                 rvec = offsets[i] - centre
                 rows.append(-np.array([[0, -rvec[2], rvec[1]], [rvec[2], 0, -rvec[0]],
                                        [-rvec[1], rvec[0], 0]]))  # fmt: skip
-            a = np.concatenate(rows)
-            b = off[idx].ravel()
-            omega, *_ = np.linalg.lstsq(a, b, rcond=None)
-            fit = np.linalg.norm(a @ omega - b) / max(np.linalg.norm(b), 1e-12)
+            lhs = np.concatenate(rows)
+            rhs = off[idx].ravel()
+            omega = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
+            fit = float(np.linalg.norm(lhs @ omega - rhs)) / max(float(np.linalg.norm(rhs)), 1e-12)
             bname = model.body(body).name
             members = ", ".join(pset.marker_names[i] for i in idx)
             if fit < 0.1:

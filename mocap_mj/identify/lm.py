@@ -569,7 +569,11 @@ def identify_lm(
             # Frames caught in a local minimum of their pose (typically from the initial IK
             # with a model far from the subject) show up now as outliers of the fit: re-solve
             # them from their neighbours with the current model and go on if any improved.
-            fixed = _refit_frames(limits, markers, prob, segments) if refits < st.max_refits else []
+            fixed = (
+                _refit_frames(limits, markers, prob, segments)
+                if refits < st.max_refits
+                else np.zeros(0, dtype=int)
+            )
             refits += 1
             if len(fixed) == 0:
                 termination = stop
