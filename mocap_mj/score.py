@@ -131,7 +131,7 @@ def score(
             pset.kappa_names,
             e_obs[:k] * 1e3,
             idf.param_std[:k] * 1e3,
-            title="Kinematic parameters: error (observable part) and Cramer-Rao bound",
+            title="Kinematic parameters: error vs Cramer-Rao bound",
         )
     if held.size:
         measured = _measured(truth_dir, pset)
