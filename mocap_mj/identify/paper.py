@@ -16,24 +16,27 @@ for every perturbed model and every sampled frame::
                            g_i += (E_j(theta + Delta e_i) - E_j(theta)) / Delta; restore
         theta := theta - alpha g / N_F
 
-This module keeps that arithmetic: forward differences (as the paper; the step makes the
-iteration converge to the minimiser of E shifted by about Delta / 2 per parameter, see
-``docs/paper.md``) of E through real IK re-solves, with :class:`mocap_mj.ik.IKSolver`
-(the project's LM IK) as the solver. What is made fast is only how the IK problems are laid
-out:
+This module keeps that arithmetic: forward differences (as the paper; their error is
+Delta / 2 times E's curvature, first order in Delta, see ``docs/paper.md``) of E through real
+IK re-solves, with :class:`mocap_mj.ik.IKSolver` (the project's LM IK, without its relative
+RMSE stop: :data:`IK_SETTINGS`) as the solver. What is made fast is only how the IK problems
+are laid out:
 
 - every frame's unperturbed IK is warm-started from that frame's previous solution, and every
   perturbed IK from the unperturbed solution of the same frame under the current theta;
-- all P x N_F perturbed problems of an iteration go through one vectorised
+- all (P + 1) x N_F problems of an iteration go through one vectorised
   :meth:`IKSolver.solve_frames` call (in chunks of ``chunk_rows`` rows to bound memory): the
   kinematics used there (:class:`TaggedKinematics`) carries, per row, which parameter is
   perturbed, as one extra column of the configuration. Perturbing a parameter with the pose
   fixed is an exact rigid translation of a kinematic subtree (a kinematic parameter moves a
   body's position in its parent's frame) or of one marker site (an offset), so each row's
   forward kinematics is the unperturbed one plus that translation;
+- the unperturbed E_j(theta) of each difference is a row of the same call, started at the same
+  pose and run for the same iterations as the perturbed rows, so that what the IK still had
+  to converge cancels in the difference;
 - the perturbed IK runs at most ``perturbed_iterations`` LM iterations (default 2). From the
-  warm start the IK is then solved far below what the difference resolves (measured in
-  ``docs/paper.md``: the gradient agrees with a fully converged IK to 1e-6 relative).
+  warm start one step lands within O(Delta^2) of the perturbed optimum (measured in
+  ``docs/paper.md``: at the true model 2 iterations give the gradient of 100 to 1e-6).
 
 One safeguard is added to the IK (not to the arithmetic of the gradient): q_j must be the
 frame's IK *solution*, but a warm-started IK keeps whatever configuration the frame had. The
