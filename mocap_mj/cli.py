@@ -20,6 +20,7 @@ from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
 
+from ._threads import one_blas_thread
 from .errors import MocapError
 
 #: Core subcommand modules (``mocap_mj.commands.<name>``), in help order.
@@ -65,7 +66,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        return int(args.func(args) or 0)
+        with one_blas_thread():
+            return int(args.func(args) or 0)
     except MocapError as exc:
         print(f"mocap-mj {args.command}: error: {exc}", file=sys.stderr)
         return 2

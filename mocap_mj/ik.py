@@ -34,6 +34,7 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
+from ._threads import single_blas_thread
 from .errors import MocapError, ShapeError, SolverError, check_shape
 from .kinematics import Kinematics
 
@@ -204,6 +205,7 @@ class IKSolver:
         qpos[:, cols] = quat
         return qpos
 
+    @single_blas_thread
     def solve_frames(
         self,
         markers: np.ndarray,
@@ -384,6 +386,7 @@ class IKSolver:
             return self.settings.chain_length
         return int(np.clip(n // 64, 4, 32))
 
+    @single_blas_thread
     def solve_trial(
         self,
         markers: np.ndarray,
@@ -464,6 +467,7 @@ class IKSolver:
             start[ok] = self.project(kin.integrate(prev[ok], vel))
         return start
 
+    @single_blas_thread
     def repair(
         self,
         markers: np.ndarray,

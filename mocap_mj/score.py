@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from ._threads import single_blas_thread
 from .errors import InputFileError
 from .identify.identifiability import Identifiability
 from .ik import IKSolver
@@ -42,6 +43,7 @@ def joint_centres(kin: Kinematics, qpos: np.ndarray) -> np.ndarray:
     return kin.forward(qpos).xpos[:, 2:]
 
 
+@single_blas_thread
 def score(
     truth_dir: str | Path,
     result_dir: str | Path,

@@ -23,6 +23,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from .._threads import one_blas_thread
 from ..errors import check_shape
 from ..parameters import ParameterSet
 
@@ -75,7 +76,8 @@ class Identifiability:
         self.weak_std = weak_std
         self.theta = pset.nominal if theta is None else pset.check(theta)
         sym = 0.5 * (information + information.T)
-        lam, vec = np.linalg.eigh(sym)
+        with one_blas_thread():
+            lam, vec = np.linalg.eigh(sym)
         self.eigenvalues = lam
         self.eigenvectors = vec
         with np.errstate(divide="ignore"):

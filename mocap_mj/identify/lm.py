@@ -42,6 +42,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .._threads import single_blas_thread
 from ..errors import MocapError, SolverError, check_shape
 from ..ik import IKResult, IKSettings, IKSolver, Status
 from ..kinematics import Kinematics
@@ -359,6 +360,7 @@ def initial_ik(
     return [solver.solve_trial(t.markers) for t in trials]
 
 
+@single_blas_thread
 def identify_lm(
     trials: Sequence[TrialData],
     *,
@@ -443,6 +445,7 @@ def identify_lm(
         bar = tqdm(total=st.max_iterations, desc="identify (LM)", unit="it", leave=False, delay=2)
     limits = prob.limits
     refits = 0
+    last_refit_it = -10
     last_refit_rmse = float(np.sqrt(np.sum(dist**2) / prob.present.sum()))
     it = 0
     settled = False
@@ -537,6 +540,7 @@ def identify_lm(
         if (improved or stalled) and refits < st.max_refits:
             fixed = _refit_frames(limits, markers, prob, segments)
             refits += 1
+            last_refit_it = it
             if len(fixed):
                 dist = prob.residuals(prob.qpos)
                 last_refit_rmse = float(np.sqrt(np.sum(dist**2) / prob.present.sum()))
@@ -569,12 +573,13 @@ def identify_lm(
             # Frames caught in a local minimum of their pose (typically from the initial IK
             # with a model far from the subject) show up now as outliers of the fit: re-solve
             # them from their neighbours with the current model and go on if any improved.
+            # (Not again if a refit a few iterations ago found nothing better.)
+            fresh = refits < st.max_refits and it - last_refit_it > 3
             fixed = (
-                _refit_frames(limits, markers, prob, segments)
-                if refits < st.max_refits
-                else np.zeros(0, dtype=int)
+                _refit_frames(limits, markers, prob, segments) if fresh else np.zeros(0, dtype=int)
             )
-            refits += 1
+            refits += int(fresh)
+            last_refit_it = it if fresh else last_refit_it
             if len(fixed) == 0:
                 termination = stop
                 break

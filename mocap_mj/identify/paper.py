@@ -63,6 +63,7 @@ from typing import Any, NamedTuple
 import mujoco
 import numpy as np
 
+from .._threads import single_blas_thread
 from ..errors import MocapError, SolverError, check_shape
 from ..ik import IKSettings, IKSolver, Status
 from ..kinematics import Frames, Kinematics
@@ -482,6 +483,7 @@ def analytic_gradient(kin: Kinematics, markers: np.ndarray, qpos: np.ndarray) ->
 
 
 # ------------------------------------------------------------------ Algorithm 1
+@single_blas_thread
 def identify_paper(
     trials: Sequence[TrialData],
     *,
