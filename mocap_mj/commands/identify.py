@@ -5,11 +5,14 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+import numpy as np
+
 from ..cli import add_json_flag, finish, prepare_out
 from ..errors import MocapError
 from ..identify.lm import LMSettings, TrialData
 from ..identify.output import frame_range
-from ..identify.pipeline import identify_to_folder, result_text
+from ..identify.pipeline import INITS, identify_to_folder, result_text
+from ..identify.plausibility import kappa_outside_bounds, marker_rmse_by_marker, plausibility_text
 from ..parameters import ParameterSet
 from ._markers import add_marker_options, load_trial
 
@@ -20,6 +23,14 @@ def register(sub: Any) -> None:
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--model", help="initial MJCF model (default: the bundled humanoid)")
     p.add_argument("--solver", choices=["lm", "paper"], default="lm")
+    p.add_argument(
+        "--init",
+        choices=list(INITS),
+        default="placed",
+        help="initial model and prior mean (lm solver): placed = the nominal model scaled to "
+        "the subject from marker distances, marker offsets then placed by IK (default); "
+        "scaled = scaled only; nominal = the bundled model as it is",
+    )
     p.add_argument("--frames", help="frames to fit, A:B (default: all)")
     p.add_argument("--loss", choices=["l2", "huber", "cauchy"], default="l2")
     p.add_argument("--robust", action="store_true", help="same as --loss cauchy")
@@ -61,13 +72,22 @@ def run(args: argparse.Namespace) -> int:
         prior_sigma=args.prior_mm * 1e-3,
         observable_std=args.observable_mm * 1e-3,
     )
-    summary, _, _ = identify_to_folder(
+    summary, result, _ = identify_to_folder(
         trials,
         out,
         pset=pset,
         settings=settings,
+        init=args.init,
         progress=not args.json,
         extra={"markers_files": [t.path for t in loaded], "frames_fitted_range": ranges},
     )
+    per_marker = marker_rmse_by_marker(pset, result, trials)
+    outside = kappa_outside_bounds(pset, result.theta)
+    summary["marker_rmse_by_marker_mm"] = {
+        n: None if not np.isfinite(v) else float(v) * 1e3
+        for n, v in zip(pset.marker_names, per_marker, strict=True)
+    }
+    summary["kappa_outside_bounds_mm"] = {n: [v * 1e3 for v in b] for n, b in outside.items()}
     reports = "\n".join(str(t.report) for t in loaded)
-    return finish(args, summary, f"{reports}\n{result_text(summary, pset, out)}", out)
+    text = f"{reports}\n{result_text(summary, pset, out)}\n"
+    return finish(args, summary, text + plausibility_text(pset, per_marker, outside), out)

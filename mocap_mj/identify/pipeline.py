@@ -10,11 +10,16 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import MocapError
 from ..io.atomic import atomic_write_text
 from ..parameters import ParameterSet
 from .identifiability import Identifiability
+from .initial import place_markers, scaled_theta, segment_scales
 from .lm import LMResult, LMSettings, TrialData, identify_lm
-from .output import expected_rmse, write_result
+from .output import write_result
+
+#: Initial models of :func:`identify_to_folder` (``init``).
+INITS = ("placed", "scaled", "nominal")
 
 
 def identify_to_folder(
@@ -24,13 +29,34 @@ def identify_to_folder(
     pset: ParameterSet,
     settings: LMSettings,
     theta0: np.ndarray | None = None,
+    init: str = "nominal",
     progress: bool = False,
     extra: dict[str, Any] | None = None,
 ) -> tuple[dict[str, Any], LMResult, Identifiability]:
     """Run the joint LM on the trials and write model.xml, theta.json, motion.npz,
-    identifiability.json and report.md into ``out``; return (summary, result, identifiability)."""
+    identifiability.json and report.md into ``out``; return (summary, result, identifiability).
+
+    Without ``theta0`` the initial model (and prior mean) is, for ``init="scaled"``, the
+    nominal model scaled to the subject from the trials' marker distances
+    (:func:`mocap_mj.identify.initial.scaled_theta`); for ``init="placed"`` that skeleton
+    with the marker offsets placed by IK (:func:`mocap_mj.identify.initial.place_markers`;
+    ``mocap-mj identify`` does this by default); for ``init="nominal"`` the nominal model
+    (the default here: the demo's synthetic truth is the nominal model perturbed, so the
+    nominal model is its best prior mean).
+    """
     log: list[str] = []
     t0 = time.perf_counter()
+    if init not in INITS:
+        raise MocapError(f"init must be one of {', '.join(INITS)}; got {init!r}")
+    init_used = "given" if theta0 is not None else init
+    scales: dict[str, float] = {}
+    if theta0 is None and init != "nominal":
+        markers = [t.markers for t in trials]
+        estimates = segment_scales(pset, markers)
+        theta0 = scaled_theta(pset, markers, scales=estimates)
+        scales = {n: e.value for n, e in estimates.items()}
+        if init == "placed":
+            theta0 = place_markers(pset, theta0, markers)
     result = identify_lm(
         trials, pset=pset, theta0=theta0, settings=settings, progress=progress, log=log
     )
@@ -50,6 +76,8 @@ def identify_to_folder(
         {
             "solver": "lm",
             "loss": settings.loss,
+            "init": init_used,
+            "init_scales": scales,
             "frames": n_frames,
             "frames_used": n_used,
             "frames_skipped": n_frames - n_used,
@@ -58,9 +86,9 @@ def identify_to_folder(
             "iterations": result.iterations,
             "termination": result.termination.value,
             "marker_rmse_mm": result.marker_rmse * 1e3,
-            "expected_rmse_mm": expected_rmse(result.sigma, result.n_unknowns, result.n_residuals)
-            * 1e3,
             "sigma_mm": result.sigma * 1e3,
+            "n_residuals": result.n_residuals,
+            "n_unknowns": result.n_unknowns,
             "observable_directions": idf.rank,
             "unobservable_directions": int(np.sum(~idf.observable)),
             "kappa_crlb_rms_mm": bk * 1e3,
@@ -81,9 +109,9 @@ def result_text(summary: dict[str, Any], pset: ParameterSet, out: Path) -> str:
         f"identified {pset.size} parameters from {summary['frames_used']} frames in "
         f"{summary['seconds']:.2f} s ({summary['iterations']} LM iterations, "
         f"{summary['termination']})\n"
-        f"marker RMSE {summary['marker_rmse_mm']:.3f} mm (noise alone would leave "
-        f"{summary['expected_rmse_mm']:.3f} mm at the estimated sigma "
-        f"{summary['sigma_mm']:.3f} mm); {summary['observable_directions']} of {pset.size} "
+        f"marker RMSE {summary['marker_rmse_mm']:.3f} mm, i.e. a per-axis noise sigma of "
+        f"{summary['sigma_mm']:.3f} mm given {summary['n_unknowns']} unknowns and "
+        f"{summary['n_residuals']} residuals; {summary['observable_directions']} of {pset.size} "
         f"directions observable, CRLB {summary['kappa_crlb_rms_mm']:.3f} mm (kinematic) / "
         f"{summary['offset_crlb_rms_mm']:.3f} mm (offsets)\n"
         f"wrote {out}/model.xml, theta.json, motion.npz, identifiability.json, report.md"

@@ -1,0 +1,71 @@
+"""Checks of an identified model that real data need: residual per marker, implausible values.
+
+On real recordings the marker RMSE alone says little: 147 parameters and a pose per frame can
+absorb soft-tissue artefact into parameters the motion hardly excites (a foot length of a few
+millimetres, a forearm of 40 cm). These checks name the markers that fit worst and the
+kinematic parameters that left the plausible range of :class:`ParameterSet` (nominal -/+
+max(35 %, 4 cm)), which the solver does not enforce.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..kinematics import Kinematics
+from ..parameters import ParameterSet
+from .lm import LMResult, TrialData
+
+
+def marker_rmse_by_marker(
+    pset: ParameterSet, result: LMResult, trials: Sequence[TrialData]
+) -> np.ndarray:
+    """RMS distance [m] (M,) of every marker to its model site over the used frames of all
+    trials (NaN for a marker never seen)."""
+    kin = Kinematics(pset)
+    kin.set_theta(result.theta)
+    sq = np.zeros(pset.n_markers)
+    count = np.zeros(pset.n_markers)
+    for trial, qpos, used in zip(trials, result.qpos, result.used, strict=True):
+        if not np.any(used):
+            continue
+        x = kin.marker_positions(qpos[used])
+        d2 = np.sum((np.asarray(trial.markers)[used] - x) ** 2, axis=2)
+        ok = np.isfinite(d2)
+        sq += np.where(ok, d2, 0.0).sum(axis=0)
+        count += ok.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, np.sqrt(sq / np.maximum(count, 1)), np.nan)
+
+
+def kappa_outside_bounds(pset: ParameterSet, theta: np.ndarray) -> dict[str, list[float]]:
+    """Kinematic parameters outside [lower, upper]: ``{name: [value, lower, upper]}`` [m]."""
+    kappa, _ = pset.split(theta)
+    out = {}
+    for i, name in enumerate(pset.kappa_names):
+        lo, hi = float(pset.lower[i]), float(pset.upper[i])
+        if not lo <= kappa[i] <= hi:
+            out[name] = [float(kappa[i]), lo, hi]
+    return out
+
+
+def plausibility_text(
+    pset: ParameterSet, per_marker: np.ndarray, outside: dict[str, list[float]], worst: int = 5
+) -> str:
+    """Two readable lines: the worst-fitting markers and the implausible parameters."""
+    order = [int(i) for i in np.argsort(-np.nan_to_num(per_marker, nan=-1.0))[:worst]]
+    lines = [
+        "worst markers (RMS mm): "
+        + ", ".join(f"{pset.marker_names[i]} {per_marker[i] * 1e3:.1f}" for i in order)
+    ]
+    if outside:
+        lines.append(
+            "kinematic parameters outside the plausible range (not enforced; weakly excited by "
+            "this motion?): "
+            + ", ".join(
+                f"{n} {v * 1e3:.0f} mm [{lo * 1e3:.0f}, {hi * 1e3:.0f}]"
+                for n, (v, lo, hi) in outside.items()
+            )
+        )
+    return "\n".join(lines)
