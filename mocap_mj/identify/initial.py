@@ -23,8 +23,8 @@ forearm_l/_r      ELB to the WRA-WRB midpoint (ELB sits on the elbow flexion axi
 thigh_l/_r        hip joint centre (HJC) to KNE
 shank_l/_r        KNE to ANK (KNE sits on the knee flexion axis)
 foot_l/_r         HEE to TOE
-overall           median of the scales above, the fallback of a scale whose markers are
-                  missing (and of parameters a custom model adds)
+overall           median of the measured ratios above, the fallback of a scale whose
+                  markers are missing (and of parameters a custom model adds)
 ================  ===========================================================================
 
 Frames and joint centres behind them: the pelvis frame in every frame is the rigid (Kabsch)
