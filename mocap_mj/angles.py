@@ -18,11 +18,11 @@ def angle_columns(model: mujoco.MjModel) -> list[str]:
     """Column names of :func:`joint_angle_table` for ``model``."""
     names: list[str] = []
     for j in range(model.njnt):
-        name, typ = model.joint(j).name, model.jnt_type[j]
-        if typ == mujoco.mjtJoint.mjJNT_FREE:
+        name, typ = model.joint(j).name, int(model.jnt_type[j])
+        if typ == int(mujoco.mjtJoint.mjJNT_FREE):
             names += [f"{name}_x_mm", f"{name}_y_mm", f"{name}_z_mm"]
             names += [f"{name}_rx_deg", f"{name}_ry_deg", f"{name}_rz_deg"]
-        elif typ == mujoco.mjtJoint.mjJNT_BALL:
+        elif typ == int(mujoco.mjtJoint.mjJNT_BALL):
             names += [f"{name}_x_deg", f"{name}_y_deg", f"{name}_z_deg"]
         else:
             names.append(f"{name}_deg")
@@ -35,11 +35,11 @@ def joint_angle_table(model: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
     check_shape("qpos", qpos, (None, model.nq))
     cols = []
     for j in range(model.njnt):
-        adr, typ = model.jnt_qposadr[j], model.jnt_type[j]
-        if typ == mujoco.mjtJoint.mjJNT_FREE:
+        adr, typ = int(model.jnt_qposadr[j]), int(model.jnt_type[j])
+        if typ == int(mujoco.mjtJoint.mjJNT_FREE):
             cols.append(qpos[:, adr : adr + 3] * 1e3)
             adr += 3
-        if typ in (mujoco.mjtJoint.mjJNT_FREE, mujoco.mjtJoint.mjJNT_BALL):
+        if typ in (int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_BALL)):
             quat = qpos[:, adr : adr + 4]
             ok = np.all(np.isfinite(quat), axis=1)
             euler = np.full((len(qpos), 3), np.nan)
