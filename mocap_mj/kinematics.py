@@ -144,7 +144,10 @@ class Kinematics:
 
     def forward(self, qpos: np.ndarray) -> Frames:
         """Run ``mj_kinematics`` for each frame of qpos (T, nq) and keep what Jacobians need."""
-        qpos = self._check_qpos(qpos)
+        return self._kinematics_rows(self._check_qpos(qpos))
+
+    def _kinematics_rows(self, qpos: np.ndarray) -> Frames:
+        """:meth:`forward` without the input check: qpos (T, nq), already validated."""
         m, d = self.model, self.data
         n = len(qpos)
         site_xpos = np.empty((n, m.nsite, 3))

@@ -278,23 +278,8 @@ class TaggedKinematics(Kinematics):
     def forward(self, qpos: np.ndarray) -> Frames:
         """Forward kinematics of tagged configurations (B, nq + 1), each row's model its own."""
         qpos = self._check_qpos(qpos)
-        m, d = self.model, self.data
-        n = len(qpos)
-        site_xpos = np.empty((n, m.nsite, 3))
-        xpos = np.empty((n, m.nbody, 3))
-        xmat = np.empty((n, m.nbody, 9))
-        xanchor = np.empty((n, m.njnt, 3))
-        xaxis = np.empty((n, m.njnt, 3))
         nq = self.model_nq
-        for t, q in enumerate(qpos):
-            d.qpos[:] = q[:nq]
-            mujoco.mj_kinematics(m, d)
-            site_xpos[t] = d.site_xpos
-            xpos[t] = d.xpos
-            xmat[t] = d.xmat
-            xanchor[t] = d.xanchor
-            xaxis[t] = d.xaxis
-        xmat = xmat.reshape(n, m.nbody, 3, 3)
+        site_xpos, xpos, xmat, xanchor, xaxis = self._kinematics_rows(qpos[:, :nq])
         tag = np.rint(qpos[:, nq]).astype(int)
         k = self.pset.n_kappa
         for i in np.unique(tag[tag >= 0]):
