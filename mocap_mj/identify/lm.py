@@ -261,7 +261,7 @@ class _Problem:
 
     def chunk_system(
         self, sl: slice, w: np.ndarray, *, limits: bool = True
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Normal-equation pieces of frames ``sl`` with weights w (T, M).
 
         With ``limits``, hinges at a joint limit that the gradient pushes outward are held
@@ -269,7 +269,7 @@ class _Problem:
         (the information matrix: a limit is not a measurement).
 
         Returns A (n, nv, nv), B (n, nv, Pf), g_q (n, nv), C (Pf, Pf), g_theta (Pf,) over the
-        free parameters, and the weighted residual norm (n,).
+        free parameters.
         """
         kin = self.kin
         frames = kin.forward(self.qpos[sl])
@@ -312,7 +312,7 @@ class _Problem:
             b[rows, dofs, :] = 0.0
             gq[rows, dofs] = 0.0
         f = self.free
-        return a, b[:, :, f], gq, c[np.ix_(f, f)], gt[f], np.einsum("nr,nr->n", rf, rf)
+        return a, b[:, :, f], gq, c[np.ix_(f, f)], gt[f]
 
 
 def _damped_inverse(a: np.ndarray, mu: float) -> np.ndarray:
@@ -466,7 +466,7 @@ def identify_lm(
         diag_a = np.empty((n, nv))
         z_cache: list[np.ndarray] = []
         for sl in chunks:
-            a, b, gq, c, gt, _ = prob.chunk_system(sl, w)
+            a, b, gq, c, gt = prob.chunk_system(sl, w)
             g_q[sl] = gq
             diag_a[sl] = np.einsum("nii->ni", a)
             g_theta += gt
@@ -597,7 +597,7 @@ def identify_lm(
     info = np.zeros((pset.size, pset.size))
     s_free = np.zeros((pf, pf))
     for sl in chunks:
-        a, b, _, c, _, _ = prob.chunk_system(sl, w_final, limits=False)
+        a, b, _, c, _ = prob.chunk_system(sl, w_final, limits=False)
         ainv = np.linalg.pinv(a, hermitian=True)
         bf = b.reshape(-1, pf)
         s_free += c - bf.T @ np.matmul(ainv, b).reshape(-1, pf)

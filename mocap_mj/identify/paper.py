@@ -682,7 +682,7 @@ def reduced_information(
     pf = free.size
     s_free = np.zeros((pf, pf))
     for s in range(0, prob.n, 1000):
-        a, b, _, c, _, _ = prob.chunk_system(slice(s, min(s + 1000, prob.n)), w, limits=False)
+        a, b, _, c, _ = prob.chunk_system(slice(s, min(s + 1000, prob.n)), w, limits=False)
         ainv = np.linalg.pinv(a, hermitian=True)
         bf = b.reshape(-1, pf)
         s_free += c - bf.T @ np.matmul(ainv, b).reshape(-1, pf)
