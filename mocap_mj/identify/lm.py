@@ -364,6 +364,20 @@ def _effective_prior_weight(
     return sigma2 * tau / widths**2, tau
 
 
+def _subspace_step(
+    s_damped: np.ndarray, rhs: np.ndarray, basis: np.ndarray, held: np.ndarray | None = None
+) -> np.ndarray:
+    """Solution of ``s_damped x = rhs`` within span(basis), with x[held] = 0."""
+    if held is not None and np.any(held):
+        _, sv, vt = np.linalg.svd(basis[held], full_matrices=True)
+        rank = int(np.sum(sv > 1e-10))
+        basis = basis @ vt[rank:].T
+    if basis.shape[1] == 0:
+        return np.zeros(len(rhs))
+    y = np.linalg.solve(basis.T @ s_damped @ basis, basis.T @ rhs)
+    return basis @ y
+
+
 def _damped_inverse(a: np.ndarray, mu: float) -> np.ndarray:
     diag = np.einsum("nii->ni", a)
     ad = a.copy()
@@ -539,12 +553,14 @@ def identify_lm(
         # Steps stay in the directions the data inform (recomputed every iteration).
         basis = _informed_basis(s_mat, st.prior_ratio * st.prior_weight)
         s_damped = s_mat + np.diag(lam_f + mu * (diag_c + lam_f)) + 1e-15 * np.eye(pf)
-        if basis is None:
-            dth_f = np.linalg.solve(s_damped, rhs - gprior)
-        else:
-            y = np.linalg.solve(basis.T @ s_damped @ basis, basis.T @ (rhs - gprior))
-            dth_f = basis @ y
+        dth_f = _subspace_step(s_damped, rhs - gprior, basis)
         if st.bounds:
+            # Active set: parameters at a bound that the step pushes outward are held (the
+            # step is solved again without them); a step crossing a bound is truncated.
+            at_lo, at_hi = theta[free] <= lo, theta[free] >= hi
+            held = (at_lo & (dth_f < 0)) | (at_hi & (dth_f > 0))
+            if np.any(held):
+                dth_f = _subspace_step(s_damped, rhs - gprior, basis, held)
             dth_f = np.clip(theta[free] + dth_f, lo, hi) - theta[free]
         dq = np.empty((n, nv))
         for i, sl in enumerate(chunks):
