@@ -20,9 +20,22 @@ than ``min_markers`` present markers is not solved: status ``TOO_FEW_MARKERS``, 
 A whole trial is solved as parallel chains: the trial is cut into chains of consecutive frames;
 every chain's first frame starts from a rigid fit of the pelvis to its markers (Kabsch), every
 later frame from the previous frame's solution plus its velocity (constant-velocity
-prediction), and step i of all chains is one vectorised batch (batched 48 x 48 solves with a
-per-frame damping and convergence mask). A chain whose frame fits clearly worse than its
-neighbours is re-solved from the neighbour's pose.
+prediction). Frames that fit clearly worse than the trial (a chain start caught in a local
+minimum) are re-solved walking in from a good neighbour.
+
+Two implementations of the same algorithm:
+
+compiled (default, :mod:`mocap_mj._tree`)
+    numba kernels: each chain runs frame by frame in one thread, the chains spread over the
+    cores; per iteration one forward kinematics, ``J^T W J`` assembled site by site from the
+    dofs that move each site, and MuJoCo's sparse tree factorisation (no fill-in) instead of
+    a dense 48 x 48 solve. The chains' length depends on T only, so results do not depend
+    on the number of threads.
+NumPy lock-step (``Kinematics.compiled = False``)
+    step i of all chains (64 frames long at most) is one vectorised batch: batched dense
+    48 x 48 solves with a per-frame damping and convergence mask. Used by kinematics that the
+    kernels do not reproduce (Algorithm 1's per-row perturbed models) and as the reference the
+    compiled path is tested against.
 """
 
 from __future__ import annotations
@@ -33,12 +46,16 @@ from typing import NamedTuple
 
 import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation
 
+from . import _tree
 from ._threads import single_blas_thread
 from .errors import MocapError, ShapeError, SolverError, check_shape
 from .kinematics import Kinematics
 
 PELVIS_MARKERS = ("LASI", "RASI", "LPSI", "RPSI")
+COMPILED_CHAIN = 32  # longest chain of the compiled solver (chain_length=0)
+PROGRESS_FRAMES = 20_000  # frames per kernel call when a progress bar is shown
 
 
 class Status(enum.IntEnum):
@@ -80,7 +97,8 @@ class IKSettings:
     min_markers : int
         Frames with fewer present markers are reported (status TOO_FEW_MARKERS), not solved.
     chain_length : int
-        Frames per chain (0: automatic, about T / 64 clipped to [4, 32]).
+        Frames per chain (0: automatic: T / 16 clipped to [4, 32] for the compiled solver,
+        T / 64 clipped to [4, 32] for the NumPy lock-step solver).
     """
 
     damping: str = "adaptive"
@@ -229,6 +247,11 @@ class IKSolver:
         check_shape("qpos0", qpos, (n, kin.nq))
         limit = st.max_iterations if max_iterations is None else max_iterations
         n_present = np.count_nonzero(w > 0, axis=1)
+        if kin.compiled:
+            rmse_c, iter_c, status_c = _tree.solve_batch(
+                kin.tree(), target, w, qpos, limit, *self._kernel_settings(), st.min_markers
+            )
+            return IKResult(qpos, rmse_c, iter_c, status_c, n_present)
         status = np.full(n, Status.MAX_ITERATIONS, dtype=int)
         iterations = np.zeros(n, dtype=int)
         few = n_present < st.min_markers
@@ -309,6 +332,11 @@ class IKSolver:
         rmse[active] = np.sqrt(np.einsum("bm,bmi,bmi->b", (wa > 0), res, res) / n_act)
         return IKResult(qpos, rmse, iterations, status, n_present)
 
+    def _kernel_settings(self) -> tuple[int, float, float, float, float, float]:
+        st = self.settings
+        damping = _tree.ADAPTIVE if st.damping == "adaptive" else _tree.SUGIHARA
+        return damping, st.tol_step, st.tol_cost, st.tol_rmse, st.mu0, st.wbar
+
     def blocked(self, qpos: np.ndarray, direction: np.ndarray) -> np.ndarray:
         """(B, nv) bool: hinge dofs at a limit whose ``direction`` (B, nv) points outward."""
         qh = qpos[:, self._hinge_qadr]
@@ -375,8 +403,7 @@ class IKSolver:
         u[:, :, 2] *= d[:, None]
         rot = u @ vt  # measured = rot @ ref + p
         qpos = np.tile(q0, (n, 1))
-        for t in range(n):
-            mujoco.mju_mat2Quat(qpos[t, 3:7], rot[t].ravel())
+        qpos[:, 3:7] = Rotation.from_matrix(rot).as_quat(scalar_first=True)
         qpos[:, :3] = c_meas - np.einsum("tij,tj->ti", rot, c_ref)
         qpos[cnt < 3] = np.array(kin.model.qpos0)
         return qpos
@@ -384,6 +411,11 @@ class IKSolver:
     def _chain_length(self, n: int) -> int:
         if self.settings.chain_length > 0:
             return self.settings.chain_length
+        if self.kin.compiled:
+            # Enough chain starts that most of them land in the right pose (about one in four
+            # cold starts of a range-of-motion trial does not): the trial's median RMSE then
+            # tells the bad frames, which are walked in from their good neighbours.
+            return int(np.clip(n // 16, 4, COMPILED_CHAIN))
         return int(np.clip(n // 64, 4, 32))
 
     @single_blas_thread
@@ -416,6 +448,8 @@ class IKSolver:
         if qpos_init is not None:
             check_shape("qpos_init", qpos_init, (n, kin.nq))
             return self.solve_frames(markers, qpos_init, weights)
+        if kin.compiled:
+            return self._solve_trial_compiled(markers, weights, progress)
         w_full = self._prepare(markers, weights)[1]
         length = self._chain_length(n)
         starts = np.arange(0, n, length)
@@ -452,6 +486,46 @@ class IKSolver:
         if bar is not None:
             bar.close()
         self._repair(markers, w_full, qpos, rmse, iters, status, npres)
+        return IKResult(qpos, rmse, iters, status, npres)
+
+    def _solve_trial_compiled(
+        self, markers: np.ndarray, weights: np.ndarray | None, progress: bool
+    ) -> IKResult:
+        """:meth:`solve_trial` with the compiled kernels: each chain runs sequentially in one
+        thread (no lock-step batches), chains in parallel, in blocks for the progress bar."""
+        st = self.settings
+        target, w = self._prepare(markers, weights)
+        n = len(target)
+        cold = self.root_from_pelvis(markers)
+        length = self._chain_length(n)
+        starts = np.arange(0, n, length)
+        ends = np.minimum(starts + length, n)
+        qpos = np.full((n, self.kin.nq), np.nan)
+        rmse = np.full(n, np.nan)
+        iters = np.zeros(n, dtype=int)
+        status = np.zeros(n, dtype=int)
+        block = max(1, PROGRESS_FRAMES // length) if progress else starts.size
+        bar = None
+        if progress and n > PROGRESS_FRAMES:
+            from tqdm import tqdm
+
+            bar = tqdm(total=n, desc="IK", unit="frame", leave=False, delay=2.0)
+        tree, settings = self.kin.tree(), self._kernel_settings()
+        for b in range(0, starts.size, block):
+            s0, s1 = starts[b], ends[min(b + block, starts.size) - 1]
+            rows = slice(s0, s1)
+            q, r, it, stat = _tree.solve_chains(
+                tree, target[rows], w[rows], cold[rows], starts[b : b + block] - s0,
+                ends[b : b + block] - s0, st.max_iterations, *settings, st.min_markers,
+            )  # fmt: skip
+            qpos[rows], rmse[rows], iters[rows], status[rows] = q, r, it, stat
+            if bar is not None:
+                bar.update(s1 - s0)
+        if bar is not None:
+            bar.close()
+        self._seams(target, w, qpos, rmse, iters, status, starts, ends)
+        npres = np.count_nonzero(w > 0, axis=1)
+        self._repair(markers, w, qpos, rmse, iters, status, npres)
         return IKResult(qpos, rmse, iters, status, npres)
 
     def _predict(self, qpos: np.ndarray, rows: np.ndarray, starts: np.ndarray) -> np.ndarray:
@@ -497,6 +571,74 @@ class IKSolver:
         changed = np.any(before != qpos, axis=1) & ok
         return np.flatnonzero(changed)
 
+    def _walk_runs(
+        self,
+        markers: np.ndarray,
+        w: np.ndarray,
+        qpos: np.ndarray,
+        rmse: np.ndarray,
+        iters: np.ndarray,
+        status: np.ndarray,
+        solvable: np.ndarray,
+        limit: float,
+    ) -> None:
+        """Compiled repair: every run of bad frames is walked from its good left neighbour
+        (forwards), then what is still bad from its good right neighbour (backwards)."""
+        target = np.where(np.isfinite(markers), markers, 0.0)
+        tree, settings = self.kin.tree(), self._kernel_settings()
+        n = len(markers)
+        for forward in (True, False):
+            bad = solvable & ~(rmse <= limit)
+            first, last = _runs(bad)
+            seed = first - 1 if forward else last + 1
+            ok = (seed >= 0) & (seed < n)
+            ok[ok] = solvable[seed[ok]] & ~bad[seed[ok]]
+            if not np.any(ok):
+                continue
+            a, b = (first[ok], last[ok]) if forward else (last[ok], first[ok])
+            _tree.walk(
+                tree, target, w, qpos, rmse, iters, status, qpos[seed[ok]], a, b, False,
+                self.settings.max_iterations, *settings, self.settings.min_markers,
+            )  # fmt: skip
+
+    def _seams(
+        self,
+        target: np.ndarray,
+        w: np.ndarray,
+        qpos: np.ndarray,
+        rmse: np.ndarray,
+        iters: np.ndarray,
+        status: np.ndarray,
+        starts: np.ndarray,
+        ends: np.ndarray,
+    ) -> None:
+        """Carry every chain's solution across its seams: walk each chain's first frames from
+        the previous chain's last pose, then each chain's last frames backwards from the next
+        chain's first pose, keeping better fits and stopping where the basins agree.
+
+        A chain whose cold start landed in a wrong local minimum (which can fit only slightly
+        worse, below what :meth:`_repair` calls bad) is so re-solved from its neighbour; a
+        good chain costs one warm-started frame per seam."""
+        if starts.size < 2:
+            return
+        tree, settings = self.kin.tree(), self._kernel_settings()
+        limit = (self.settings.max_iterations, *settings, self.settings.min_markers)
+        for forward in (True, False):
+            if forward:
+                seed_rows, firsts, lasts = ends[:-1] - 1, starts[1:], ends[1:] - 1
+            else:
+                seed_rows, firsts, lasts = starts[1:], ends[:-1] - 1, starts[:-1]
+            ok = (status[seed_rows] != Status.TOO_FEW_MARKERS) & np.all(
+                np.isfinite(qpos[seed_rows]), axis=1
+            )
+            if not np.any(ok):
+                continue
+            seeds = qpos[seed_rows[ok]].copy()  # snapshot: a walk may rewrite another's seed
+            _tree.walk(
+                tree, target, w, qpos, rmse, iters, status, seeds, firsts[ok], lasts[ok], True,
+                *limit,
+            )  # fmt: skip
+
     def _repair(
         self,
         markers: np.ndarray,
@@ -523,6 +665,9 @@ class IKSolver:
         ref = float(np.nanmedian(rmse[solvable]))
         limit = factor * ref + margin
         bad = solvable & ~(rmse <= limit)
+        if self.kin.compiled:
+            self._walk_runs(markers, w, qpos, rmse, iters, status, solvable, limit)
+            return
         tried = np.zeros((n, 2), dtype=bool)
         while np.any(bad):
             progress = False
@@ -547,6 +692,12 @@ class IKSolver:
                 progress |= rows.size > 0
             if not progress:
                 return
+
+
+def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First and last index of every run of consecutive True values in mask (T,)."""
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
 
 
 def weights_from_names(

@@ -15,6 +15,7 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
+from . import _tree
 from .errors import MocapError, check_shape
 from .parameters import ParameterSet
 
@@ -48,6 +49,10 @@ class Kinematics:
         own copy of the model; :meth:`set_theta` writes theta into that copy.
     """
 
+    #: The compiled kernels of :mod:`mocap_mj._tree` reproduce this class's kinematics
+    #: (subclasses that change :meth:`forward` set this to False).
+    compiled = True
+
     def __init__(self, pset: ParameterSet | None = None) -> None:
         self.pset = pset if pset is not None else ParameterSet()
         from copy import copy
@@ -57,6 +62,7 @@ class Kinematics:
         m = self.model
         self.nq, self.nv, self.n_markers = m.nq, m.nv, m.nsite
         self.theta = self.pset.nominal.copy()
+        self._tree: _tree.Tree | None = None
         self._build_tables()
 
     # ------------------------------------------------------------- structure
@@ -122,6 +128,13 @@ class Kinematics:
         """Write theta (P,) [m] into this kinematics' model."""
         self.theta = self.pset.check(theta).copy()
         self.pset.apply(self.model, self.theta)
+        self._tree = None
+
+    def tree(self) -> _tree.Tree:
+        """Flat tables of the model at the current theta for the compiled kernels."""
+        if self._tree is None:
+            self._tree = _tree.build_tree(self.model)
+        return self._tree
 
     # --------------------------------------------------------------- forward
     def _check_qpos(self, qpos: np.ndarray) -> np.ndarray:

@@ -246,6 +246,8 @@ class TaggedKinematics(Kinematics):
     delta : float [m]
     """
 
+    compiled = False  # rows carry their own perturbed model: NumPy path only
+
     def __init__(self, pset: ParameterSet, delta: float) -> None:
         super().__init__(pset)
         self.delta = float(delta)

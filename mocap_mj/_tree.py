@@ -1,0 +1,902 @@
+"""Compiled (numba) kinematics of a joint tree and the per-frame IK solver built on it.
+
+The kernels mirror what MuJoCo does for the joint types this project supports (free, ball and
+hinge) and are checked against it in ``tests/test_tree.py``:
+
+- :func:`fk` is ``mj_kinematics`` restricted to body frames, joint anchors/axes and sites;
+- :func:`normal_equations` assembles ``H = J^T W J`` (nv x nv) and ``g = J^T W r`` from the
+  marker Jacobian columns ``a_v x (x_s - p_v)`` of the dofs that move each site, without ever
+  forming the (3M x nv) Jacobian;
+- :func:`factor` / :func:`solve` are MuJoCo's sparse ``L^T D L`` factorisation of a matrix with
+  the sparsity of the mass matrix (``mj_factorI`` / ``mj_solveM``): ``H`` has exactly that
+  sparsity (two dofs meet in ``H`` only through a site both move, so one is the other's
+  ancestor), and the factorisation in reverse dof order has no fill-in;
+- :func:`integrate` / :func:`difference` are ``mj_integratePos`` / ``mj_differentiatePos``.
+
+Everything works on one frame at a time with scalars and small work arrays (no allocation in
+the inner loops); frames are spread over threads with ``prange`` (each frame's arithmetic is
+sequential, so results do not depend on the thread count).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+import mujoco
+import numba as nb
+import numpy as np
+
+FREE, BALL, HINGE = 0, 1, 3  # mjtJoint values
+TRANSLATION, HINGE_AXIS, BODY_AXIS = 0, 1, 2  # dof kinds
+ADAPTIVE, SUGIHARA = 0, 1
+CONVERGED, MAX_ITERATIONS, TOO_FEW_MARKERS = 0, 1, 2
+
+
+class Tree(NamedTuple):
+    """Flat tables of a model's kinematic tree (nb bodies, nj joints, ns sites, nv dofs).
+
+    Fields
+    ------
+    body_parent, body_jntadr, body_jntnum : (nb,) int
+    body_pos : (nb, 3) float [m]; body_quat : (nb, 4) float (w, x, y, z)
+    jnt_type, jnt_qposadr : (nj,) int
+    jnt_pos : (nj, 3) float [m]; jnt_axis : (nj, 3) float; jnt_ref : (nj,) float [rad]
+    jnt_ballmax : (nj,) float [rad], a limited ball joint's largest rotation (inf otherwise)
+    jnt_lo, jnt_hi : (nj,) float [rad], a limited hinge's range (-inf, inf otherwise)
+    site_body : (ns,) int; site_pos : (ns, 3) float [m]
+    site_dofptr : (ns + 1,) int; site_dofs : (sum,) int, ascending dofs that move each site
+    dof_jnt, dof_body, dof_kind, dof_col, dof_parent : (nv,) int
+    """
+
+    body_parent: np.ndarray
+    body_jntadr: np.ndarray
+    body_jntnum: np.ndarray
+    body_pos: np.ndarray
+    body_quat: np.ndarray
+    jnt_type: np.ndarray
+    jnt_qposadr: np.ndarray
+    jnt_pos: np.ndarray
+    jnt_axis: np.ndarray
+    jnt_ref: np.ndarray
+    jnt_ballmax: np.ndarray
+    jnt_lo: np.ndarray
+    jnt_hi: np.ndarray
+    site_body: np.ndarray
+    site_pos: np.ndarray
+    site_dofptr: np.ndarray
+    site_dofs: np.ndarray
+    dof_jnt: np.ndarray
+    dof_body: np.ndarray
+    dof_kind: np.ndarray
+    dof_col: np.ndarray
+    dof_parent: np.ndarray
+
+
+class Work(NamedTuple):
+    """Per-frame scratch arrays of :func:`solve_frame` (see :func:`work`)."""
+
+    xpos: np.ndarray
+    xquat: np.ndarray
+    xmat: np.ndarray
+    xanchor: np.ndarray
+    xaxis: np.ndarray
+    site_xpos: np.ndarray
+    axis: np.ndarray
+    anchor: np.ndarray
+    jcol: np.ndarray
+    h: np.ndarray
+    g: np.ndarray
+    a: np.ndarray
+    dv: np.ndarray
+    q_new: np.ndarray
+    damp: np.ndarray
+    blocked: np.ndarray
+
+
+def _jit(fn: Callable[..., Any]) -> Any:
+    return nb.njit(cache=True, nogil=True, error_model="numpy")(fn)
+
+
+def _inline(fn: Callable[..., Any]) -> Any:
+    return nb.njit(inline="always", cache=True, nogil=True, error_model="numpy")(fn)
+
+
+def _parallel(fn: Callable[..., Any]) -> Any:
+    return nb.njit(parallel=True, cache=True, nogil=True, error_model="numpy")(fn)
+
+
+# ------------------------------------------------------------------ quaternion helpers
+@_inline
+def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
+    return (
+        a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+        a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+        a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+        a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
+    )
+
+
+@_inline
+def _qnormalize(q0, q1, q2, q3):
+    n = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    if n < 1e-15:
+        return 1.0, 0.0, 0.0, 0.0
+    return q0 / n, q1 / n, q2 / n, q3 / n
+
+
+@_jit
+def _quat2mat(q0, q1, q2, q3, out):
+    """Rotation matrix of a unit quaternion into out (3, 3) (as ``mju_quat2Mat``)."""
+    q00, q01, q02, q03 = q0 * q0, q0 * q1, q0 * q2, q0 * q3
+    q11, q12, q13 = q1 * q1, q1 * q2, q1 * q3
+    q22, q23, q33 = q2 * q2, q2 * q3, q3 * q3
+    out[0, 0] = q00 + q11 - q22 - q33
+    out[1, 1] = q00 - q11 + q22 - q33
+    out[2, 2] = q00 - q11 - q22 + q33
+    out[0, 1] = 2 * (q12 - q03)
+    out[0, 2] = 2 * (q13 + q02)
+    out[1, 0] = 2 * (q12 + q03)
+    out[1, 2] = 2 * (q23 - q01)
+    out[2, 0] = 2 * (q13 - q02)
+    out[2, 1] = 2 * (q23 + q01)
+
+
+@_inline
+def _rot(q0, q1, q2, q3, v0, v1, v2):
+    """Vector v rotated by the unit quaternion q."""
+    # t = 2 q_v x v; v' = v + q0 t + q_v x t
+    t0 = 2 * (q2 * v2 - q3 * v1)
+    t1 = 2 * (q3 * v0 - q1 * v2)
+    t2 = 2 * (q1 * v1 - q2 * v0)
+    return (
+        v0 + q0 * t0 + q2 * t2 - q3 * t1,
+        v1 + q0 * t1 + q3 * t0 - q1 * t2,
+        v2 + q0 * t2 + q1 * t1 - q2 * t0,
+    )
+
+
+# ------------------------------------------------------------------ forward kinematics
+@_jit
+def fk(tr, qpos, w):
+    """Forward kinematics of one frame qpos (nq,) into the work arrays of ``w``."""
+    xpos, xquat, xmat = w.xpos, w.xquat, w.xmat
+    xpos[0, :] = 0.0
+    xquat[0, 0], xquat[0, 1], xquat[0, 2], xquat[0, 3] = 1.0, 0.0, 0.0, 0.0
+    _quat2mat(1.0, 0.0, 0.0, 0.0, xmat[0])
+    for b in range(1, tr.body_parent.size):
+        p = tr.body_parent[b]
+        bp = tr.body_pos[b]
+        px, py, pz = xpos[p, 0], xpos[p, 1], xpos[p, 2]
+        m = xmat[p]
+        x0 = px + m[0, 0] * bp[0] + m[0, 1] * bp[1] + m[0, 2] * bp[2]
+        x1 = py + m[1, 0] * bp[0] + m[1, 1] * bp[1] + m[1, 2] * bp[2]
+        x2 = pz + m[2, 0] * bp[0] + m[2, 1] * bp[1] + m[2, 2] * bp[2]
+        bq = tr.body_quat[b]
+        q0, q1, q2, q3 = _qmul(
+            xquat[p, 0], xquat[p, 1], xquat[p, 2], xquat[p, 3], bq[0], bq[1], bq[2], bq[3]
+        )
+        for j in range(tr.body_jntadr[b], tr.body_jntadr[b] + tr.body_jntnum[b]):
+            a = tr.jnt_qposadr[j]
+            typ = tr.jnt_type[j]
+            if typ == FREE:
+                x0, x1, x2 = qpos[a], qpos[a + 1], qpos[a + 2]
+                q0, q1, q2, q3 = _qnormalize(qpos[a + 3], qpos[a + 4], qpos[a + 5], qpos[a + 6])
+                w.xanchor[j, 0], w.xanchor[j, 1], w.xanchor[j, 2] = x0, x1, x2
+                w.xaxis[j, :] = tr.jnt_axis[j]  # as MuJoCo: a free joint's axis is not rotated
+                continue
+            ax = tr.jnt_axis[j]
+            jp = tr.jnt_pos[j]
+            w.xaxis[j, 0], w.xaxis[j, 1], w.xaxis[j, 2] = _rot(q0, q1, q2, q3, ax[0], ax[1], ax[2])
+            r0, r1, r2 = _rot(q0, q1, q2, q3, jp[0], jp[1], jp[2])
+            an0, an1, an2 = x0 + r0, x1 + r1, x2 + r2
+            w.xanchor[j, 0], w.xanchor[j, 1], w.xanchor[j, 2] = an0, an1, an2
+            if typ == BALL:
+                l0, l1, l2, l3 = _qnormalize(qpos[a], qpos[a + 1], qpos[a + 2], qpos[a + 3])
+            else:
+                half = 0.5 * (qpos[a] - tr.jnt_ref[j])
+                s = math.sin(half)
+                l0, l1, l2, l3 = math.cos(half), ax[0] * s, ax[1] * s, ax[2] * s
+            q0, q1, q2, q3 = _qmul(q0, q1, q2, q3, l0, l1, l2, l3)
+            r0, r1, r2 = _rot(q0, q1, q2, q3, jp[0], jp[1], jp[2])
+            x0, x1, x2 = an0 - r0, an1 - r1, an2 - r2
+        q0, q1, q2, q3 = _qnormalize(q0, q1, q2, q3)
+        xquat[b, 0], xquat[b, 1], xquat[b, 2], xquat[b, 3] = q0, q1, q2, q3
+        _quat2mat(q0, q1, q2, q3, xmat[b])
+        xpos[b, 0], xpos[b, 1], xpos[b, 2] = x0, x1, x2
+    for s in range(tr.site_body.size):
+        b = tr.site_body[s]
+        sp = tr.site_pos[s]
+        m = xmat[b]
+        for i in range(3):
+            w.site_xpos[s, i] = xpos[b, i] + m[i, 0] * sp[0] + m[i, 1] * sp[1] + m[i, 2] * sp[2]
+
+
+@_jit
+def cost(tr, target, wts, w):
+    """1/2 sum_s wts_s |target_s - x_s|^2 [m^2] for the sites in ``w`` (after :func:`fk`)."""
+    c = 0.0
+    for s in range(tr.site_body.size):
+        if wts[s] > 0:
+            d0 = target[s, 0] - w.site_xpos[s, 0]
+            d1 = target[s, 1] - w.site_xpos[s, 1]
+            d2 = target[s, 2] - w.site_xpos[s, 2]
+            c += wts[s] * (d0 * d0 + d1 * d1 + d2 * d2)
+    return 0.5 * c
+
+
+@_jit
+def dof_axes(tr, w):
+    """World axis and anchor of every dof (``w.axis``, ``w.anchor``: (nv, 3)), after :func:`fk`."""
+    for v in range(tr.dof_jnt.size):
+        j = tr.dof_jnt[v]
+        kind = tr.dof_kind[v]
+        c = tr.dof_col[v]
+        if kind == TRANSLATION:
+            w.axis[v, :] = 0.0
+            w.axis[v, c] = 1.0
+        elif kind == HINGE_AXIS:
+            w.axis[v, :] = w.xaxis[j]
+        else:
+            b = tr.dof_body[v]
+            w.axis[v, 0], w.axis[v, 1], w.axis[v, 2] = (
+                w.xmat[b, 0, c],
+                w.xmat[b, 1, c],
+                w.xmat[b, 2, c],
+            )
+        w.anchor[v, :] = w.xanchor[j]
+
+
+@_inline
+def _column(tr, w, v, s):
+    """d x_s / d qvel_v (3,) as a tuple [m/rad or m/m]."""
+    a = w.axis[v]
+    if tr.dof_kind[v] == TRANSLATION:
+        return a[0], a[1], a[2]
+    p = w.anchor[v]
+    e0 = w.site_xpos[s, 0] - p[0]
+    e1 = w.site_xpos[s, 1] - p[1]
+    e2 = w.site_xpos[s, 2] - p[2]
+    return a[1] * e2 - a[2] * e1, a[2] * e0 - a[0] * e2, a[0] * e1 - a[1] * e0
+
+
+@_jit
+def normal_equations(tr, target, wts, w):
+    """H = J^T W J (lower triangle of ``w.h``, (nv, nv)) and g = J^T W r (``w.g``, (nv,))."""
+    dof_axes(tr, w)
+    h, g, jc = w.h, w.g, w.jcol
+    h[:, :] = 0.0
+    g[:] = 0.0
+    for s in range(tr.site_body.size):
+        ws = wts[s]
+        if ws <= 0:
+            continue
+        r0 = ws * (target[s, 0] - w.site_xpos[s, 0])
+        r1 = ws * (target[s, 1] - w.site_xpos[s, 1])
+        r2 = ws * (target[s, 2] - w.site_xpos[s, 2])
+        lo, hi = tr.site_dofptr[s], tr.site_dofptr[s + 1]
+        for k in range(hi - lo):
+            v = tr.site_dofs[lo + k]
+            c0, c1, c2 = _column(tr, w, v, s)
+            jc[k, 0], jc[k, 1], jc[k, 2] = c0, c1, c2
+            g[v] += c0 * r0 + c1 * r1 + c2 * r2
+            c0, c1, c2 = ws * c0, ws * c1, ws * c2
+            for m in range(k + 1):
+                u = tr.site_dofs[lo + m]
+                h[v, u] += c0 * jc[m, 0] + c1 * jc[m, 1] + c2 * jc[m, 2]
+
+
+@_jit
+def jacobian(tr, w, out):
+    """Dense d(site position)/d(qvel) (ns, 3, nv) into out (zeros where a dof does not act)."""
+    dof_axes(tr, w)
+    out[:, :, :] = 0.0
+    for s in range(tr.site_body.size):
+        for k in range(tr.site_dofptr[s], tr.site_dofptr[s + 1]):
+            v = tr.site_dofs[k]
+            out[s, 0, v], out[s, 1, v], out[s, 2, v] = _column(tr, w, v, s)
+
+
+# ------------------------------------------------------------------ sparse LDL
+@_jit
+def factor(tr, a):
+    """In-place L^T D L factorisation of the lower triangle of a (nv, nv) (``mj_factorI``).
+
+    Only entries (k, i) with i an ancestor dof of k (or i = k) are read or written; the
+    factor's unit-lower entries replace them, D the diagonal.
+    """
+    parent = tr.dof_parent
+    for k in range(a.shape[0] - 1, -1, -1):
+        inv_d = 1.0 / a[k, k]
+        i = parent[k]
+        while i >= 0:
+            tmp = a[k, i] * inv_d
+            j = i
+            while j >= 0:
+                a[i, j] -= tmp * a[k, j]
+                j = parent[j]
+            a[k, i] = tmp
+            i = parent[i]
+
+
+@_jit
+def solve(tr, a, x):
+    """x <- (L^T D L)^-1 x in place, for a factored by :func:`factor` (``mj_solveM``)."""
+    parent = tr.dof_parent
+    n = a.shape[0]
+    for k in range(n - 1, -1, -1):
+        xk = x[k]
+        if xk != 0.0:
+            i = parent[k]
+            while i >= 0:
+                x[i] -= a[k, i] * xk
+                i = parent[i]
+    for k in range(n):
+        x[k] /= a[k, k]
+    for k in range(n):
+        i = parent[k]
+        while i >= 0:
+            x[k] -= a[k, i] * x[i]
+            i = parent[i]
+
+
+# ------------------------------------------------------------------ configuration space
+@_jit
+def integrate(tr, qpos, dv, scale):
+    """qpos (nq,) advanced in place by scale * dv (nv,) (``mj_integratePos``)."""
+    v = 0
+    for j in range(tr.jnt_type.size):
+        a = tr.jnt_qposadr[j]
+        typ = tr.jnt_type[j]
+        if typ == HINGE:
+            qpos[a] += scale * dv[v]
+            v += 1
+            continue
+        if typ == FREE:
+            for i in range(3):
+                qpos[a + i] += scale * dv[v + i]
+            a += 3
+            v += 3
+        w0, w1, w2 = dv[v], dv[v + 1], dv[v + 2]
+        n = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+        q0, q1, q2, q3 = _qnormalize(qpos[a], qpos[a + 1], qpos[a + 2], qpos[a + 3])
+        if n >= 1e-15:
+            half = 0.5 * scale * n
+            s = math.sin(half) / n
+            q0, q1, q2, q3 = _qmul(q0, q1, q2, q3, math.cos(half), w0 * s, w1 * s, w2 * s)
+        q0, q1, q2, q3 = _qnormalize(q0, q1, q2, q3)
+        qpos[a], qpos[a + 1], qpos[a + 2], qpos[a + 3] = q0, q1, q2, q3
+        v += 3
+
+
+@_inline
+def _quat_log(q0, q1, q2, q3):
+    """Rotation vector of a unit quaternion (``mju_quat2Vel`` with dt = 1)."""
+    s = math.sqrt(q1 * q1 + q2 * q2 + q3 * q3)
+    if s < 1e-15:
+        return 0.0, 0.0, 0.0
+    angle = 2 * math.atan2(s, q0)
+    if angle > math.pi:
+        angle -= 2 * math.pi
+    f = angle / s
+    return q1 * f, q2 * f, q3 * f
+
+
+@_jit
+def difference(tr, qa, qb, dv):
+    """dv (nv,) with integrate(qa, dv, 1) = qb (``mj_differentiatePos``)."""
+    v = 0
+    for j in range(tr.jnt_type.size):
+        a = tr.jnt_qposadr[j]
+        typ = tr.jnt_type[j]
+        if typ == HINGE:
+            dv[v] = qb[a] - qa[a]
+            v += 1
+            continue
+        if typ == FREE:
+            for i in range(3):
+                dv[v + i] = qb[a + i] - qa[a + i]
+            a += 3
+            v += 3
+        a0, a1, a2, a3 = _qnormalize(qa[a], qa[a + 1], qa[a + 2], qa[a + 3])
+        b0, b1, b2, b3 = _qnormalize(qb[a], qb[a + 1], qb[a + 2], qb[a + 3])
+        d = _qmul(a0, -a1, -a2, -a3, b0, b1, b2, b3)
+        dv[v], dv[v + 1], dv[v + 2] = _quat_log(d[0], d[1], d[2], d[3])
+        v += 3
+
+
+@_jit
+def project(tr, qpos):
+    """Joint limits applied in place to qpos (nq,): hinges clipped, balls shortened."""
+    for j in range(tr.jnt_type.size):
+        a = tr.jnt_qposadr[j]
+        typ = tr.jnt_type[j]
+        if typ == HINGE:
+            if qpos[a] < tr.jnt_lo[j]:
+                qpos[a] = tr.jnt_lo[j]
+            elif qpos[a] > tr.jnt_hi[j]:
+                qpos[a] = tr.jnt_hi[j]
+        elif typ == BALL and tr.jnt_ballmax[j] < np.inf:
+            q0, q1, q2, q3 = qpos[a], qpos[a + 1], qpos[a + 2], qpos[a + 3]
+            if q0 < 0:
+                q0, q1, q2, q3 = -q0, -q1, -q2, -q3
+            s = math.sqrt(q1 * q1 + q2 * q2 + q3 * q3)
+            if 2 * math.atan2(s, q0) > tr.jnt_ballmax[j]:
+                half = 0.5 * tr.jnt_ballmax[j]
+                f = math.sin(half) / s
+                q0, q1, q2, q3 = math.cos(half), q1 * f, q2 * f, q3 * f
+            qpos[a], qpos[a + 1], qpos[a + 2], qpos[a + 3] = q0, q1, q2, q3
+
+
+# ------------------------------------------------------------------ one frame's LM
+def work(tr: Tree, nq: int) -> Work:
+    """Scratch arrays for one frame (see :class:`Work`)."""
+    nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
+    return _work(nbody, njnt, ns, nv, nq)
+
+
+@_jit
+def _work(nbody, njnt, ns, nv, nq):
+    return Work(
+        np.zeros((nbody, 3)),
+        np.zeros((nbody, 4)),
+        np.zeros((nbody, 3, 3)),
+        np.zeros((njnt, 3)),
+        np.zeros((njnt, 3)),
+        np.zeros((ns, 3)),
+        np.zeros((nv, 3)),
+        np.zeros((nv, 3)),
+        np.zeros((nv, 3)),
+        np.zeros((nv, nv)),
+        np.zeros(nv),
+        np.zeros((nv, nv)),
+        np.zeros(nv),
+        np.zeros(nq),
+        np.zeros(nv),
+        np.zeros(nv, dtype=np.bool_),
+    )
+
+
+@_jit
+def _blocked(tr, q, dv, out):
+    """out (nv,) bool: hinge dofs at a limit whose step dv points outward; returns any."""
+    any_blocked = False
+    v = 0
+    for j in range(tr.jnt_type.size):
+        typ = tr.jnt_type[j]
+        if typ == HINGE:
+            a = tr.jnt_qposadr[j]
+            b = (q[a] <= tr.jnt_lo[j] + 1e-12 and dv[v] < 0) or (
+                q[a] >= tr.jnt_hi[j] - 1e-12 and dv[v] > 0
+            )
+            out[v] = b
+            any_blocked |= b
+            v += 1
+        else:
+            n = 6 if typ == FREE else 3
+            for i in range(n):
+                out[v + i] = False
+            v += n
+    return any_blocked
+
+
+@_jit
+def _damped_solve(tr, w, damp, blocked, use_blocked):
+    """w.dv = (H + diag(damp))^-1 g, with the blocked dofs held at zero if use_blocked."""
+    n = w.g.size
+    a, dv = w.a, w.dv
+    for i in range(n):
+        for k in range(i + 1):
+            a[i, k] = w.h[i, k]
+        a[i, i] += damp[i]
+        dv[i] = w.g[i]
+    if use_blocked:
+        for v in range(n):
+            if blocked[v]:
+                for k in range(v):
+                    a[v, k] = 0.0
+                for i in range(v + 1, n):
+                    a[i, v] = 0.0
+                a[v, v] = 1.0
+                dv[v] = 0.0
+    factor(tr, a)
+    solve(tr, a, dv)
+
+
+@_jit
+def solve_frame(tr, target, wts, q, w, max_it, damping, tol_step, tol_cost, tol_rmse, mu0, wbar):
+    """Levenberg-Marquardt on one frame; q (nq,) is the start and receives the solution.
+
+    target (M, 3) [m] (any finite value where wts is 0), wts (M,) >= 0. Returns
+    (iterations, status, marker RMSE [m] over the sites with wts > 0).
+    """
+    nv = w.g.size
+    n_present = 0
+    for s in range(wts.size):
+        if wts[s] > 0:
+            n_present += 1
+    n_i = max(n_present, 1)
+    project(tr, q)
+    fk(tr, q, w)
+    f = cost(tr, target, wts, w)
+    mu, nu = mu0, 2.0
+    need_jac = True
+    status = MAX_ITERATIONS
+    iterations = 0
+    q_new, dv, damp = w.q_new, w.dv, w.damp
+    for it in range(1, max_it + 1):
+        iterations = it
+        if need_jac:
+            normal_equations(tr, target, wts, w)
+            need_jac = False
+        for i in range(nv):
+            damp[i] = mu * (w.h[i, i] + 1e-9) if damping == ADAPTIVE else f + wbar
+        _damped_solve(tr, w, damp, w.blocked, False)
+        if _blocked(tr, q, dv, w.blocked):
+            _damped_solve(tr, w, damp, w.blocked, True)
+        q_new[:] = q
+        integrate(tr, q_new, dv, 1.0)
+        project(tr, q_new)
+        fk(tr, q_new, w)
+        f_new = cost(tr, target, wts, w)
+        step = 0.0
+        for i in range(nv):
+            step = max(step, abs(dv[i]))
+        if damping == ADAPTIVE:
+            predicted = 0.0
+            for i in range(nv):
+                predicted += dv[i] * (damp[i] * dv[i] + w.g[i])
+            predicted *= 0.5
+            rho = (f - f_new) / max(predicted, 1e-300)
+            accept = f_new < f and rho > 0
+            if accept:
+                mu *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
+                nu = 2.0
+            else:
+                mu *= nu
+                nu *= 2.0
+        else:
+            accept = True
+        done = step < tol_step or mu > 1e12
+        if accept:
+            rmse_new = math.sqrt(2 * max(f_new, 0.0) / n_i)
+            d_rmse = math.sqrt(2 * f / n_i) - rmse_new
+            done |= f - f_new <= tol_cost * f or d_rmse < tol_rmse * rmse_new
+            q[:] = q_new
+            f = f_new
+            need_jac = True
+        if done:
+            status = CONVERGED
+            break
+    fk(tr, q, w)
+    sq = 0.0
+    for s in range(wts.size):
+        if wts[s] > 0:
+            for i in range(3):
+                d = target[s, i] - w.site_xpos[s, i]
+                sq += d * d
+    return iterations, status, math.sqrt(sq / n_i)
+
+
+# ------------------------------------------------------------------ many frames
+#: Batches smaller than this run in the calling thread: a parallel region costs a thread
+#: wake-up, and on a busy machine a descheduled worker stalls the whole call.
+PARALLEL_MIN = 32
+
+
+def _blocks(n: int) -> np.ndarray:
+    """Bounds (k + 1,) of k contiguous blocks of range(n), one per numba thread."""
+    k = max(1, min(nb.get_num_threads(), n // (PARALLEL_MIN // 2)))
+    return np.linspace(0, n, k + 1).round().astype(np.int64)
+
+
+@_jit
+def _solve_range(
+    tr, target, wts, qpos, lo, hi, rmse, iters, status, max_it, damping, tol_step, tol_cost,
+    tol_rmse, mu0, wbar, min_markers,
+):  # fmt: skip
+    nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
+    w = _work(nbody, njnt, ns, nv, qpos.shape[1])
+    for t in range(lo, hi):
+        if np.count_nonzero(wts[t] > 0) < min_markers:
+            status[t] = TOO_FEW_MARKERS
+            qpos[t, :] = np.nan
+            continue
+        iters[t], status[t], rmse[t] = solve_frame(
+            tr, target[t], wts[t], qpos[t], w, max_it, damping, tol_step, tol_cost, tol_rmse,
+            mu0, wbar,
+        )  # fmt: skip
+
+
+@_parallel
+def _solve_blocks(tr, target, wts, qpos, bounds, rmse, iters, status, *settings):
+    for b in nb.prange(bounds.size - 1):
+        _solve_range(
+            tr, target, wts, qpos, bounds[b], bounds[b + 1], rmse, iters, status, *settings
+        )
+
+
+def solve_batch(
+    tr: Tree,
+    target: np.ndarray,
+    wts: np.ndarray,
+    qpos: np.ndarray,
+    *settings: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Independent frames, solved in place from their starts qpos (B, nq) [m, rad].
+
+    target (B, M, 3) [m], wts (B, M); settings: max_it, damping (ADAPTIVE or SUGIHARA),
+    tol_step, tol_cost, tol_rmse, mu0, wbar, min_markers (see ``IKSettings``). Returns
+    (rmse (B,) [m], iterations (B,), status (B,)); frames with fewer than min_markers sites of
+    positive weight get status TOO_FEW_MARKERS and NaN qpos.
+    """
+    n = len(qpos)
+    rmse = np.full(n, np.nan)
+    iters = np.zeros(n, dtype=np.int64)
+    status = np.zeros(n, dtype=np.int64)
+    args = _settings(settings)
+    bounds = _blocks(n)
+    if bounds.size > 2:
+        _solve_blocks(tr, target, wts, qpos, bounds, rmse, iters, status, *args)
+    else:
+        _solve_range(tr, target, wts, qpos, 0, n, rmse, iters, status, *args)
+    return rmse, iters, status
+
+
+def _settings(settings: tuple[float, ...]) -> tuple[int | float, ...]:
+    max_it, damping, tol_step, tol_cost, tol_rmse, mu0, wbar, min_markers = settings
+    return (
+        int(max_it), int(damping), float(tol_step), float(tol_cost), float(tol_rmse),
+        float(mu0), float(wbar), int(min_markers),
+    )  # fmt: skip
+
+
+@_jit
+def _chains_range(
+    tr, target, wts, cold, starts, ends, c0, c1, qpos, rmse, iters, status, max_it, damping,
+    tol_step, tol_cost, tol_rmse, mu0, wbar, min_markers,
+):  # fmt: skip
+    nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
+    w = _work(nbody, njnt, ns, nv, qpos.shape[1])
+    vel = np.zeros(nv)
+    for c in range(c0, c1):
+        for t in range(starts[c], ends[c]):
+            if np.count_nonzero(wts[t] > 0) < min_markers:
+                status[t] = TOO_FEW_MARKERS
+                continue
+            k = t - starts[c]
+            q = qpos[t]
+            if k >= 1 and status[t - 1] != TOO_FEW_MARKERS:
+                q[:] = qpos[t - 1]
+                if k >= 2 and status[t - 2] != TOO_FEW_MARKERS:
+                    difference(tr, qpos[t - 2], qpos[t - 1], vel)
+                    integrate(tr, q, vel, 1.0)
+            else:
+                q[:] = cold[t]
+            iters[t], status[t], rmse[t] = solve_frame(
+                tr, target[t], wts[t], q, w, max_it, damping, tol_step, tol_cost, tol_rmse,
+                mu0, wbar,
+            )  # fmt: skip
+
+
+@_parallel
+def _chains_blocks(tr, target, wts, cold, starts, ends, bounds, qpos, rmse, iters, status, *st):
+    for b in nb.prange(bounds.size - 1):
+        _chains_range(
+            tr, target, wts, cold, starts, ends, bounds[b], bounds[b + 1], qpos, rmse, iters,
+            status, *st,
+        )  # fmt: skip
+
+
+def solve_chains(
+    tr: Tree,
+    target: np.ndarray,
+    wts: np.ndarray,
+    cold: np.ndarray,
+    starts: np.ndarray,
+    ends: np.ndarray,
+    *settings: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Chains of consecutive frames [starts[c], ends[c]), the chains spread over threads.
+
+    A frame starts from the previous frame's solution advanced by the velocity between the
+    two previous frames (constant-velocity prediction, projected onto the limits), from the
+    previous solution when only one exists, and from ``cold`` (T, nq) (a rigid fit of the
+    root) at a chain's head or after an unsolved frame. target (T, M, 3) [m], wts (T, M),
+    settings as :func:`solve_batch`. Returns (qpos (T, nq), rmse (T,) [m], iterations (T,),
+    status (T,)).
+    """
+    n, nq = cold.shape
+    qpos = np.full((n, nq), np.nan)
+    rmse = np.full(n, np.nan)
+    iters = np.zeros(n, dtype=np.int64)
+    status = np.zeros(n, dtype=np.int64)
+    args = _settings(settings)
+    starts = np.ascontiguousarray(starts, dtype=np.int64)
+    ends = np.ascontiguousarray(ends, dtype=np.int64)
+    k = max(1, min(nb.get_num_threads(), starts.size, n // PARALLEL_MIN))
+    bounds = np.linspace(0, starts.size, k + 1).round().astype(np.int64)
+    if k > 1:
+        _chains_blocks(
+            tr, target, wts, cold, starts, ends, bounds, qpos, rmse, iters, status, *args
+        )
+    else:
+        _chains_range(
+            tr, target, wts, cold, starts, ends, 0, starts.size, qpos, rmse, iters, status, *args
+        )
+    return qpos, rmse, iters, status
+
+
+@_jit
+def _walk_range(
+    tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, early, r0, r1, max_it,
+    damping, tol_step, tol_cost, tol_rmse, mu0, wbar, min_markers,
+):  # fmt: skip
+    nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
+    nq = qpos.shape[1]
+    w = _work(nbody, njnt, ns, nv, nq)
+    vel = np.zeros(nv)
+    prev2 = np.zeros(nq)
+    prev = np.zeros(nq)
+    q = np.zeros(nq)
+    for r in range(r0, r1):
+        step = 1 if lasts[r] >= firsts[r] else -1
+        prev[:] = seeds[r]
+        have2 = False
+        for t in range(firsts[r], lasts[r] + step, step):
+            if status[t] == TOO_FEW_MARKERS:
+                break
+            q[:] = prev
+            if have2:
+                difference(tr, prev2, prev, vel)
+                integrate(tr, q, vel, 1.0)
+            it, stat, err = solve_frame(
+                tr, target[t], wts[t], q, w, max_it, damping, tol_step, tol_cost, tol_rmse,
+                mu0, wbar,
+            )  # fmt: skip
+            iters[t] += it
+            better = err < rmse[t] * (1.0 - 1e-6)
+            if better:
+                qpos[t, :] = q
+                rmse[t], status[t] = err, stat
+            elif early:
+                break  # same basin as the frame's own solution: the rest follows
+            else:
+                q[:] = qpos[t]
+            prev2[:] = prev
+            prev[:] = q
+            have2 = True
+
+
+@_parallel
+def _walk_blocks(
+    tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, early, bounds, *st
+):
+    for b in nb.prange(bounds.size - 1):
+        _walk_range(
+            tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, early, bounds[b],
+            bounds[b + 1], *st,
+        )  # fmt: skip
+
+
+def walk(
+    tr: Tree,
+    target: np.ndarray,
+    wts: np.ndarray,
+    qpos: np.ndarray,
+    rmse: np.ndarray,
+    iters: np.ndarray,
+    status: np.ndarray,
+    seeds: np.ndarray,
+    firsts: np.ndarray,
+    lasts: np.ndarray,
+    early: bool,
+    *settings: float,
+) -> None:
+    """Re-solve runs of frames in place, each walked from a seed pose.
+
+    Run r visits frames firsts[r], ..., lasts[r] (either direction, consecutive; it stops at
+    an unsolved frame), starting from seeds[r] (nq,) and predicting each next start with
+    constant velocity. A frame's new pose is kept when its RMSE is lower than rmse[t] and
+    the walk goes on from the kept pose; with ``early`` the walk stops at the first frame
+    that does not improve (it has reached the basin the frames are already in). Runs must not
+    overlap. Arrays as :func:`solve_chains`' outputs, updated in place.
+    """
+    args = _settings(settings)
+    firsts, lasts = (np.ascontiguousarray(a, dtype=np.int64) for a in (firsts, lasts))
+    seeds = np.ascontiguousarray(seeds, dtype=float)
+    frames = int(np.abs(lasts - firsts).sum()) + firsts.size
+    k = max(1, min(nb.get_num_threads(), firsts.size, frames // PARALLEL_MIN))
+    bounds = np.linspace(0, firsts.size, k + 1).round().astype(np.int64)
+    if k > 1:
+        _walk_blocks(
+            tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, early, bounds,
+            *args,
+        )  # fmt: skip
+    else:
+        _walk_range(
+            tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, early, 0,
+            firsts.size, *args,
+        )  # fmt: skip
+
+
+@_jit
+def _forward_range(tr, qpos, site_xpos):
+    w = _work(
+        tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size, qpos.shape[1]
+    )
+    for t in range(qpos.shape[0]):
+        fk(tr, qpos[t], w)
+        site_xpos[t] = w.site_xpos
+
+
+def forward(tr: Tree, qpos: np.ndarray) -> np.ndarray:
+    """Site positions (T, ns, 3) [m] of qpos (T, nq)."""
+    out = np.empty((len(qpos), tr.site_body.size, 3))
+    _forward_range(tr, np.ascontiguousarray(qpos, dtype=float), out)
+    return out
+
+
+# ------------------------------------------------------------------ tables
+def build_tree(model: mujoco.MjModel) -> Tree:
+    """:class:`Tree` of an ``mujoco.MjModel`` with free, ball and hinge joints only."""
+    m = model
+    nv = m.nv
+    jnt_type = np.array(m.jnt_type, dtype=np.int64)
+    if np.any((jnt_type != FREE) & (jnt_type != BALL) & (jnt_type != HINGE)):
+        raise ValueError("only free, ball and hinge joints are supported")
+    qadr = np.array(m.jnt_qposadr, dtype=np.int64)
+    limited = np.array(m.jnt_limited, dtype=bool)
+    rng = np.array(m.jnt_range, dtype=float)
+    hinge_lim = limited & (jnt_type == HINGE)
+    ball_lim = limited & (jnt_type == BALL)
+    dof_jnt = np.array(m.dof_jntid, dtype=np.int64)
+    dof_kind = np.zeros(nv, dtype=np.int64)
+    dof_col = np.zeros(nv, dtype=np.int64)
+    for j, typ in enumerate(jnt_type):
+        adr = int(m.jnt_dofadr[j])
+        if typ == FREE:
+            dof_kind[adr : adr + 6] = (TRANSLATION,) * 3 + (BODY_AXIS,) * 3
+            dof_col[adr : adr + 6] = (0, 1, 2, 0, 1, 2)
+        elif typ == BALL:
+            dof_kind[adr : adr + 3] = BODY_AXIS
+            dof_col[adr : adr + 3] = (0, 1, 2)
+        else:
+            dof_kind[adr] = HINGE_AXIS
+    parent = np.array(m.body_parentid, dtype=np.int64)
+    site_body = np.array(m.site_bodyid, dtype=np.int64)
+    dof_body = np.array(m.dof_bodyid, dtype=np.int64)
+    dofs: list[np.ndarray] = []
+    for b in site_body:
+        chain = set()
+        a = int(b)
+        while a > 0:
+            chain.add(a)
+            a = int(parent[a])
+        dofs.append(np.flatnonzero(np.isin(dof_body, list(chain))))
+    ptr = np.concatenate([[0], np.cumsum([d.size for d in dofs])]).astype(np.int64)
+    return Tree(
+        body_parent=parent,
+        body_jntadr=np.array(m.body_jntadr, dtype=np.int64),
+        body_jntnum=np.array(m.body_jntnum, dtype=np.int64),
+        body_pos=np.array(m.body_pos, dtype=float),
+        body_quat=np.array(m.body_quat, dtype=float),
+        jnt_type=jnt_type,
+        jnt_qposadr=qadr,
+        jnt_pos=np.array(m.jnt_pos, dtype=float),
+        jnt_axis=np.array(m.jnt_axis, dtype=float),
+        jnt_ref=np.array(m.qpos0, dtype=float)[qadr],
+        jnt_ballmax=np.where(ball_lim, rng[:, 1], np.inf),
+        jnt_lo=np.where(hinge_lim, rng[:, 0], -np.inf),
+        jnt_hi=np.where(hinge_lim, rng[:, 1], np.inf),
+        site_body=site_body,
+        site_pos=np.array(m.site_pos, dtype=float),
+        site_dofptr=ptr,
+        site_dofs=np.concatenate(dofs).astype(np.int64),
+        dof_jnt=dof_jnt,
+        dof_body=dof_body,
+        dof_kind=dof_kind,
+        dof_col=dof_col,
+        dof_parent=np.array(m.dof_parentid, dtype=np.int64),
+    )
