@@ -57,9 +57,6 @@ def main() -> int:
     parser.add_argument("--loss", default="l2")
     parser.add_argument("--prior-mm", type=float, default=None)
     parser.add_argument("--mu0", type=float, default=None)
-    parser.add_argument("--bounds", choices=["on", "off"], default=None)
-    parser.add_argument("--prior", choices=["fixed", "effective"], default=None)
-    parser.add_argument("--kappa-prior-mm", type=float, default=None)
     parser.add_argument("--json", help="write the figures to this file")
     args = parser.parse_args()
     paths = [Path(p) for p in args.trials]
@@ -74,12 +71,6 @@ def main() -> int:
         over["prior_sigma"] = args.prior_mm * 1e-3
     if args.mu0 is not None:
         over["mu0"] = args.mu0
-    if args.bounds is not None:
-        over["bounds"] = args.bounds == "on"
-    if args.kappa_prior_mm is not None:
-        over["kappa_prior_sigma"] = args.kappa_prior_mm * 1e-3
-    if args.prior is not None:
-        over["prior_scale"] = args.prior
     st = replace(st, **over)
     print(f"settings: {st}")
     results = []

@@ -117,15 +117,14 @@ def length_std(
     sqrt(g^T (S / (sigma^2 tau) + diag(1 / w^2))^-1 g) over the free parameters: S the fit's
     reduced information (unit weights), sigma its per-axis noise, tau the residuals'
     correlation time in frames (1: white noise, the Cramer-Rao bound; see
-    :func:`correlation_time`), w the prior widths stated for white noise of
-    ``settings.prior_noise`` and rescaled to sigma (as the fit's fixed prior weight implies),
-    g the length's gradient.
+    :func:`correlation_time`), w = sigma prior_sigma / prior_noise the width the fit's prior
+    weight implies (``settings``), g the length's gradient.
     """
     st = settings or LMSettings()
     free = np.asarray(result.free, dtype=bool)
     noise2 = result.sigma**2
-    lam = (st.prior_noise / st.prior_widths(pset)[free]) ** 2  # as in the LM's cost
-    info = result.reduced_information[np.ix_(free, free)] / tau + np.diag(lam)
+    info = result.reduced_information[np.ix_(free, free)] / tau
+    info += st.prior_weight * np.eye(int(free.sum()))  # as in the LM's cost
     cov = noise2 * np.linalg.inv(info)
     g = _length_gradient(pset, result.theta)[:, free]
     var = np.einsum("lp,pq,lq->l", g, cov, g)

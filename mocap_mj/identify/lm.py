@@ -47,7 +47,6 @@ from ..errors import MocapError, SolverError, check_shape
 from ..ik import IKResult, IKSettings, IKSolver, Status
 from ..kinematics import Kinematics
 from ..parameters import ParameterSet
-from .noise import residual_correlation_time
 
 #: Median of the chi distribution with 3 degrees of freedom: median |e| / sigma for 3D noise.
 CHI3_MEDIAN = 1.5381722
@@ -87,20 +86,6 @@ class LMSettings:
         Standard deviation of the weak Gaussian prior toward the initial model, stated for a
         marker noise of ``prior_noise`` (so lambda_p = (prior_noise / prior_sigma)^2).
     prior_noise : float [m]
-    kappa_prior_sigma : float or None [m]
-        The prior's width for the kinematic parameters (``prior_sigma`` when None), the marker
-        offsets keeping ``prior_sigma``.
-    prior_scale : {"fixed", "effective"}
-        ``"fixed"``: lambda_p as above, whatever the residuals. ``"effective"``: the prior
-        keeps its width ``prior_sigma`` against the data's real information: lambda_p =
-        sigma^2 tau / prior_sigma^2, re-estimated every iteration from the residuals (sigma
-        the per-axis RMS residual, tau their correlation time in frames,
-        :func:`mocap_mj.identify.noise.residual_correlation_time`: T / tau independent
-        frames). White noise of ``prior_noise`` gives the fixed weight; soft-tissue artefact
-        and model error, which repeat over many frames, give a stronger one. The informed
-        subspace (``prior_ratio``) keeps the fixed weight as its reference.
-    bounds : bool
-        Keep theta within ``ParameterSet.lower/upper`` (each step clipped to the box).
     loss : {"l2", "huber", "cauchy"}
     loss_scale : float
         Robust threshold in units of the estimated per-axis noise sigma.
@@ -142,9 +127,6 @@ class LMSettings:
     mu0: float = 1e-6
     prior_sigma: float = 0.05
     prior_noise: float = 0.001
-    kappa_prior_sigma: float | None = None
-    prior_scale: str = "fixed"
-    bounds: bool = False
     loss: str = "l2"
     loss_scale: float = 3.0
     observable_std: float = 0.005
@@ -161,9 +143,7 @@ class LMSettings:
     def __post_init__(self) -> None:
         if self.loss not in ("l2", "huber", "cauchy"):
             raise MocapError(f"loss must be one of l2, huber, cauchy; got {self.loss!r}")
-        if self.prior_scale not in ("fixed", "effective"):
-            raise MocapError(f"prior_scale must be fixed or effective; got {self.prior_scale!r}")
-        if self.prior_sigma <= 0 or self.prior_noise <= 0 or (self.kappa_prior_sigma or 1) <= 0:
+        if self.prior_sigma <= 0 or self.prior_noise <= 0:
             raise MocapError("prior_sigma and prior_noise must be positive")
         if self.max_iterations < 1 or self.chunk < 1:
             raise MocapError("max_iterations and chunk must be at least 1")
@@ -171,13 +151,6 @@ class LMSettings:
     @property
     def prior_weight(self) -> float:
         return (self.prior_noise / self.prior_sigma) ** 2
-
-    def prior_widths(self, pset: ParameterSet) -> np.ndarray:
-        """Prior standard deviation of every parameter (P,) [m]."""
-        widths = np.full(pset.size, self.prior_sigma)
-        if self.kappa_prior_sigma is not None:
-            widths[: pset.n_kappa] = self.kappa_prior_sigma
-        return widths
 
 
 class TrialData(NamedTuple):
@@ -342,42 +315,6 @@ class _Problem:
         return a, b[:, :, f], gq, c[np.ix_(f, f)], gt[f]
 
 
-def _effective_prior_weight(
-    prob: _Problem, segments: list[slice], widths: np.ndarray
-) -> tuple[np.ndarray, float]:
-    """lambda_p (P,) of ``prior_scale="effective"`` and the correlation time tau [frames].
-
-    sigma^2 tau / width^2, sigma the per-axis RMS residual and tau = T / sum_i T_i /
-    tau_i over the trials (their independent frames added up).
-    """
-    res = np.empty(prob.target.shape)
-    for s in range(0, prob.n, 4096):
-        res[s : s + 4096] = prob.target[s : s + 4096] - prob.kin.marker_positions(
-            prob.qpos[s : s + 4096]
-        )
-    res[~prob.present] = np.nan
-    sigma2 = float(np.nanmean(res**2))
-    independent = sum(
-        (seg.stop - seg.start) / residual_correlation_time(res[seg]) for seg in segments
-    )
-    tau = prob.n / max(independent, 1e-12)
-    return sigma2 * tau / widths**2, tau
-
-
-def _subspace_step(
-    s_damped: np.ndarray, rhs: np.ndarray, basis: np.ndarray, held: np.ndarray | None = None
-) -> np.ndarray:
-    """Solution of ``s_damped x = rhs`` within span(basis), with x[held] = 0."""
-    if held is not None and np.any(held):
-        _, sv, vt = np.linalg.svd(basis[held], full_matrices=True)
-        rank = int(np.sum(sv > 1e-10))
-        basis = basis @ vt[rank:].T
-    if basis.shape[1] == 0:
-        return np.zeros(len(rhs))
-    y = np.linalg.solve(basis.T @ s_damped @ basis, basis.T @ rhs)
-    return basis @ y
-
-
 def _damped_inverse(a: np.ndarray, mu: float) -> np.ndarray:
     diag = np.einsum("nii->ni", a)
     ad = a.copy()
@@ -484,11 +421,7 @@ def identify_lm(
     n = prob.n
     nv = kin.nv
     pf = free.size
-    widths = st.prior_widths(pset)
-    lam = (st.prior_noise / widths) ** 2  # (P,)
-    lo, hi = pset.lower[free], pset.upper[free]
-    if st.bounds:
-        theta[free] = np.clip(theta[free], lo, hi)
+    lam = st.prior_weight
     chunks = [slice(s, min(s + st.chunk, n)) for s in range(0, n, st.chunk)]
     cache = n <= st.cache_frames
 
@@ -498,7 +431,7 @@ def identify_lm(
 
     def total_cost(dist: np.ndarray, th: np.ndarray, c: float) -> float:
         dth = th - theta_init
-        return _robust_cost(dist, prob.present, st.loss, c) + 0.5 * float(dth @ (lam * dth))
+        return _robust_cost(dist, prob.present, st.loss, c) + 0.5 * lam * float(dth @ dth)
 
     dist = prob.residuals(qpos)
     mu = st.mu0
@@ -523,8 +456,6 @@ def identify_lm(
         t_it = time.perf_counter()
         c_loss = st.loss_scale * scale_of(dist)
         w = _robust_weights(dist, prob.present, st.loss, c_loss)
-        if st.prior_scale == "effective":
-            lam, _ = _effective_prior_weight(prob, segments, widths)
         cost = total_cost(dist, theta, c_loss)
         # Build and solve the damped reduced system (retrying with more damping if needed).
         s_mat = np.zeros((pf, pf))
@@ -548,20 +479,15 @@ def identify_lm(
             diag_c += np.diag(c)
             if cache:
                 z_cache.append(z)
-        lam_f = lam[free]
-        gprior = lam_f * (theta - theta_init)[free]
+        gprior = lam * (theta - theta_init)[free]
         # Steps stay in the directions the data inform (recomputed every iteration).
-        basis = _informed_basis(s_mat, st.prior_ratio * st.prior_weight)
-        s_damped = s_mat + np.diag(lam_f + mu * (diag_c + lam_f)) + 1e-15 * np.eye(pf)
-        dth_f = _subspace_step(s_damped, rhs - gprior, basis)
-        if st.bounds:
-            # Active set: parameters at a bound that the step pushes outward are held (the
-            # step is solved again without them); a step crossing a bound is truncated.
-            at_lo, at_hi = theta[free] <= lo, theta[free] >= hi
-            held = (at_lo & (dth_f < 0)) | (at_hi & (dth_f > 0))
-            if np.any(held):
-                dth_f = _subspace_step(s_damped, rhs - gprior, basis, held)
-            dth_f = np.clip(theta[free] + dth_f, lo, hi) - theta[free]
+        basis = _informed_basis(s_mat, st.prior_ratio * lam)
+        s_damped = s_mat + np.diag(lam + mu * (diag_c + lam)) + 1e-15 * np.eye(pf)
+        if basis is None:
+            dth_f = np.linalg.solve(s_damped, rhs - gprior)
+        else:
+            y = np.linalg.solve(basis.T @ s_damped @ basis, basis.T @ (rhs - gprior))
+            dth_f = basis @ y
         dq = np.empty((n, nv))
         for i, sl in enumerate(chunks):
             if cache:
@@ -582,7 +508,7 @@ def identify_lm(
         cost_new = total_cost(dist_new, theta_new, c_loss)
         # Decrease predicted by the damped quadratic model: 1/2 h^T (mu D h + g) (Nielsen).
         h_g = float(np.einsum("ni,ni->", dq, g_q) + dth_f @ (g_theta - gprior))
-        h_dh = float(np.einsum("ni,ni,ni->", dq, diag_a, dq) + dth_f @ ((diag_c + lam_f) * dth_f))
+        h_dh = float(np.einsum("ni,ni,ni->", dq, diag_a, dq) + dth_f @ ((diag_c + lam) * dth_f))
         predicted = max(0.5 * (h_g + mu * h_dh), 1e-300)
         rho = (cost - cost_new) / predicted
         accepted = cost_new < cost
