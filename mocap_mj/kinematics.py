@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from . import _tree
+from ._schur import KappaTables, kappa_tables
 from .errors import MocapError, check_shape
 from .parameters import ParameterSet
 
@@ -63,6 +64,7 @@ class Kinematics:
         self.nq, self.nv, self.n_markers = m.nq, m.nv, m.nsite
         self.theta = self.pset.nominal.copy()
         self._tree: _tree.Tree | None = None
+        self._kappa_tables: KappaTables | None = None
         self._build_tables()
 
     # ------------------------------------------------------------- structure
@@ -130,6 +132,15 @@ class Kinematics:
         self.pset.apply(self.model, self.theta)
         self._tree = None
 
+    def kappa_tables(self) -> KappaTables:
+        """The kinematic parameters' (parameter, body) pairs for the compiled LM blocks."""
+        if self._kappa_tables is None:
+            self._kappa_tables = kappa_tables(
+                self.kappa_pairs, self.kappa_parent, self.kappa_dir, self.kappa_sites,
+                self.n_markers, self.pset.n_kappa,
+            )  # fmt: skip
+        return self._kappa_tables
+
     def tree(self) -> _tree.Tree:
         """Flat tables of the model at the current theta for the compiled kernels."""
         if self._tree is None:
@@ -154,6 +165,12 @@ class Kinematics:
             mujoco.mj_kinematics(m, d)
             out[t] = d.site_xpos
         return out
+
+    def site_positions(self, qpos: np.ndarray) -> np.ndarray:
+        """:meth:`marker_positions` of validated qpos (T, nq), by the compiled kernel."""
+        if self.compiled:
+            return _tree.forward(self.tree(), qpos)
+        return self.marker_positions(qpos)
 
     def forward(self, qpos: np.ndarray) -> Frames:
         """Run ``mj_kinematics`` for each frame of qpos (T, nq) and keep what Jacobians need."""

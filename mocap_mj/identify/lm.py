@@ -36,12 +36,13 @@ from __future__ import annotations
 import enum
 import itertools
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
 
+from .. import _schur
 from .._threads import single_blas_thread
 from ..errors import MocapError, SolverError, check_shape
 from ..ik import IKResult, IKSettings, IKSolver, Status
@@ -236,6 +237,28 @@ def _robust_cost(dist: np.ndarray, present: np.ndarray, loss: str, c: float) -> 
     return float(np.sum(0.5 * c**2 * np.log1p((d / c) ** 2)))
 
 
+class _Reduced:
+    """A chunk's contribution to the damped reduced system and its back-substitution.
+
+    Fields: s (Pf, Pf) and rhs (Pf,), the chunk's ``sum C - B^T A_d^-1 B`` and
+    ``sum g_th - B^T A_d^-1 g_q``; g_theta (Pf,), diag_c (Pf,); g_q (n, nv), diag_a (n, nv).
+    """
+
+    def __init__(
+        self,
+        s: np.ndarray,
+        rhs: np.ndarray,
+        g_theta: np.ndarray,
+        diag_c: np.ndarray,
+        g_q: np.ndarray,
+        diag_a: np.ndarray,
+        step: Callable[[np.ndarray], np.ndarray],
+    ) -> None:
+        self.s, self.rhs, self.g_theta, self.diag_c = s, rhs, g_theta, diag_c
+        self.g_q, self.diag_a = g_q, diag_a
+        self.step = step  # dtheta (Pf,) -> the frames' joint steps dq (n, nv)
+
+
 class _Problem:
     """Frames of all trials stacked, with the per-chunk normal-equation kernel."""
 
@@ -254,10 +277,59 @@ class _Problem:
         """Distances (T, M) [m] between measured and model markers (0 where missing)."""
         out = np.empty(self.present.shape)
         for s in range(0, self.n, 4096):
-            x = self.kin.marker_positions(qpos[s : s + 4096])
+            x = self.kin.site_positions(qpos[s : s + 4096])
             d = self.target[s : s + 4096] - x
             out[s : s + 4096] = np.linalg.norm(d, axis=2)
         return np.where(self.present, out, 0.0)
+
+    def reduce(self, sl: slice, w: np.ndarray, mu: float, *, limits: bool = True) -> _Reduced:
+        """Frames ``sl`` eliminated with damping mu: the compiled blocks
+        (:mod:`mocap_mj._schur`) or, for kinematics they do not reproduce, NumPy."""
+        kin, f = self.kin, self.free
+        pf = f.size
+        if kin.compiled:
+            tree = kin.tree()
+            fb = _schur.frame_blocks(
+                tree, kin.kappa_tables(), self.target[sl], w[sl], self.qpos[sl], f, mu,
+                limits=limits,
+            )  # fmt: skip
+            yf = fb.y.reshape(-1, pf)
+            c = fb.c[np.ix_(f, f)]
+            s_part = c - yf.T @ yf
+            rhs = fb.g_theta[f] - yf.T @ fb.y_g.reshape(-1)
+            return _Reduced(
+                s_part, rhs, fb.g_theta[f], np.diag(c).copy(), fb.g_q, fb.diag_a,
+                lambda d: _schur.back_substitute(tree, fb, d),
+            )  # fmt: skip
+        a, b, gq, c, gt = self.chunk_system(sl, w, limits=limits)
+        z = np.matmul(_damped_inverse(a, mu), np.concatenate([b, gq[..., None]], axis=2))
+        bf = b.reshape(-1, pf)
+        zf = z.reshape(-1, pf + 1)
+        return _Reduced(
+            c - bf.T @ zf[:, :pf], gt - bf.T @ zf[:, pf], gt, np.diag(c).copy(), gq,
+            np.einsum("nii->ni", a), lambda d: z[..., pf] - z[..., :pf] @ d,
+        )  # fmt: skip
+
+    def information(self, w: np.ndarray, size: int, chunk: int = 1000) -> np.ndarray:
+        """Reduced information (size, size) of theta for weights w (T, M): the Schur
+        complement of the poses without damping or joint limits (a limit is not a
+        measurement); frozen rows and columns zero."""
+        f = self.free
+        s_free = np.zeros((f.size, f.size))
+        for s in range(0, self.n, chunk):
+            sl = slice(s, min(s + chunk, self.n))
+            if self.kin.compiled:
+                # (A + 1e-12 I)^-1: B has no component in A's null space (B = J_q^T W J_th),
+                # so this equals the pseudo-inverse's result to ~1e-8 relative.
+                s_free += self.reduce(sl, w, 0.0, limits=False).s
+                continue
+            a, b, _, c, _ = self.chunk_system(sl, w, limits=False)
+            ainv = np.linalg.pinv(a, hermitian=True)
+            bf = b.reshape(-1, f.size)
+            s_free += c - bf.T @ np.matmul(ainv, b).reshape(-1, f.size)
+        info = np.zeros((size, size))
+        info[np.ix_(f, f)] = 0.5 * (s_free + s_free.T)
+        return info
 
     def chunk_system(
         self, sl: slice, w: np.ndarray, *, limits: bool = True
@@ -464,21 +536,17 @@ def identify_lm(
         diag_c = np.zeros(pf)
         g_q = np.empty((n, nv))
         diag_a = np.empty((n, nv))
-        z_cache: list[np.ndarray] = []
+        z_cache: list[_Reduced] = []
         for sl in chunks:
-            a, b, gq, c, gt = prob.chunk_system(sl, w)
-            g_q[sl] = gq
-            diag_a[sl] = np.einsum("nii->ni", a)
-            g_theta += gt
-            ainv = _damped_inverse(a, mu)
-            z = np.matmul(ainv, np.concatenate([b, gq[..., None]], axis=2))
-            bf = b.reshape(-1, pf)
-            zf = z.reshape(-1, pf + 1)
-            s_mat += c - bf.T @ zf[:, :pf]
-            rhs += gt - bf.T @ zf[:, pf]
-            diag_c += np.diag(c)
+            red = prob.reduce(sl, w, mu)
+            g_q[sl] = red.g_q
+            diag_a[sl] = red.diag_a
+            g_theta += red.g_theta
+            s_mat += red.s
+            rhs += red.rhs
+            diag_c += red.diag_c
             if cache:
-                z_cache.append(z)
+                z_cache.append(red)
         gprior = lam * (theta - theta_init)[free]
         # Steps stay in the directions the data inform (recomputed every iteration).
         basis = _informed_basis(s_mat, st.prior_ratio * lam)
@@ -490,12 +558,8 @@ def identify_lm(
             dth_f = basis @ y
         dq = np.empty((n, nv))
         for i, sl in enumerate(chunks):
-            if cache:
-                z = z_cache[i]
-            else:
-                a, b, gq, *_ = prob.chunk_system(sl, w)
-                z = np.matmul(_damped_inverse(a, mu), np.concatenate([b, gq[..., None]], axis=2))
-            dq[sl] = z[..., pf] - z[..., :pf] @ dth_f
+            red = z_cache[i] if cache else prob.reduce(sl, w, mu)
+            dq[sl] = red.step(dth_f)
         theta_new = theta.copy()
         theta_new[free] += dth_f
         kin.set_theta(theta_new)
@@ -594,14 +658,7 @@ def identify_lm(
     # Reduced information (no damping, no prior, unit weights) at the solution.
     c_loss = st.loss_scale * scale_of(dist)
     w_final = _robust_weights(dist, prob.present, st.loss, c_loss)
-    info = np.zeros((pset.size, pset.size))
-    s_free = np.zeros((pf, pf))
-    for sl in chunks:
-        a, b, _, c, _ = prob.chunk_system(sl, w_final, limits=False)
-        ainv = np.linalg.pinv(a, hermitian=True)
-        bf = b.reshape(-1, pf)
-        s_free += c - bf.T @ np.matmul(ainv, b).reshape(-1, pf)
-    info[np.ix_(free, free)] = 0.5 * (s_free + s_free.T)
+    info = prob.information(w_final, pset.size, st.chunk)
     n_res = int(3 * prob.present.sum())
     n_unk = int(nv * n + pf)
     rmse = float(np.sqrt(np.sum(dist**2) / prob.present.sum()))

@@ -682,14 +682,7 @@ def reduced_information(
     prob = _Problem(kin, markers, q, free)
     w = prob.present.astype(float)
     pf = free.size
-    s_free = np.zeros((pf, pf))
-    for s in range(0, prob.n, 1000):
-        a, b, _, c, _ = prob.chunk_system(slice(s, min(s + 1000, prob.n)), w, limits=False)
-        ainv = np.linalg.pinv(a, hermitian=True)
-        bf = b.reshape(-1, pf)
-        s_free += c - bf.T @ np.matmul(ainv, b).reshape(-1, pf)
-    info = np.zeros((pset.size, pset.size))
-    info[np.ix_(free, free)] = 0.5 * (s_free + s_free.T)
+    info = prob.information(w, pset.size)
     dist = prob.residuals(q)
     n_res = int(3 * prob.present.sum())
     n_unk = int(kin.nv * prob.n + pf)

@@ -1,0 +1,281 @@
+"""Compiled (numba) per-frame blocks of the joint Levenberg-Marquardt (bundle-adjustment form).
+
+For frame t with marker weights w (M,), joint Jacobian J_q (3M x nv) and model Jacobian J_th
+(3M x P) the Gauss-Newton system has the blocks
+
+    A = J_q^T W J_q (nv x nv),  B = J_q^T W J_th (nv x P),  C = J_th^T W J_th (P x P),
+    g_q = J_q^T W r,  g_th = J_th^T W r.
+
+Eliminating the frame's joint step leaves ``S = sum_t C - B^T A_d^-1 B`` for the shared
+parameters, A_d the damped A. With MuJoCo's tree factorisation ``A_d = L^T D L``
+(:func:`mocap_mj._tree.factor`, no fill-in) ``B^T A_d^-1 B = Y^T Y`` for
+``Y = D^-1/2 L^-T B``: the kernels return Y (and ``y_g = D^-1/2 L^-T g_q``) per frame, and
+the sum over frames is one matrix product of the stacked Y (BLAS), the only dense step. The
+frames' steps follow as ``dq = L^-1 D^-1/2 (y_g - Y dtheta)`` (:func:`back_substitute`).
+
+Model-parameter Jacobians: kinematic parameter k moves body b's origin by ``R_parent(b) d_kb``
+per metre (``ParameterSet.direction``), which translates every site in b's subtree; a marker
+offset moves its own site by the rotation of its body.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numba as nb
+import numpy as np
+
+from ._tree import (
+    PARALLEL_MIN,
+    Tree,
+    _blocked,
+    _column,
+    _jit,
+    _parallel,
+    _work,
+    factor,
+    fk,
+    normal_equations,
+)
+
+
+class KappaTables(NamedTuple):
+    """(parameter, body) pairs of the kinematic parameters and the sites each pair moves.
+
+    Fields
+    ------
+    pair_k, pair_parent : (npair,) int, the parameter and the moved body's parent
+    pair_dir : (npair, 3) float, direction in the parent's frame
+    site_pairptr : (ns + 1,) int; site_pairs : (sum,) int, the pairs that move each site
+    n_kappa : int
+    """
+
+    pair_k: np.ndarray
+    pair_parent: np.ndarray
+    pair_dir: np.ndarray
+    site_pairptr: np.ndarray
+    site_pairs: np.ndarray
+    n_kappa: int
+
+
+def kappa_tables(
+    pairs: tuple[tuple[int, int], ...],
+    parents: np.ndarray,
+    directions: np.ndarray,
+    sites_of_pair: list[np.ndarray],
+    n_sites: int,
+    n_kappa: int,
+) -> KappaTables:
+    """:class:`KappaTables` from :class:`mocap_mj.Kinematics`' kappa tables."""
+    per_site: list[list[int]] = [[] for _ in range(n_sites)]
+    for p, sites in enumerate(sites_of_pair):
+        for s in sites:
+            per_site[int(s)].append(p)
+    ptr = np.concatenate([[0], np.cumsum([len(x) for x in per_site])]).astype(np.int64)
+    flat = np.array([p for x in per_site for p in x], dtype=np.int64)
+    return KappaTables(
+        np.array([k for k, _ in pairs], dtype=np.int64),
+        np.asarray(parents, dtype=np.int64),
+        np.asarray(directions, dtype=float),
+        ptr,
+        flat,
+        int(n_kappa),
+    )
+
+
+@_jit
+def _rows_lt_solve(tr, a, y):
+    """y (nv, c) <- L^-T y, rows at once, for a factored by ``factor``."""
+    parent = tr.dof_parent
+    for k in range(a.shape[0] - 1, -1, -1):
+        i = parent[k]
+        while i >= 0:
+            f = a[k, i]
+            if f != 0.0:
+                for c in range(y.shape[1]):
+                    y[i, c] -= f * y[k, c]
+            i = parent[i]
+
+
+@_jit
+def _schur_range(
+    tr, kt, target, wts, qpos, free, lo, hi, use_limits, mu, y_out, yg_out, ld_out, gq_out,
+    diag_out, c_acc, gt_acc,
+):  # fmt: skip
+    nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
+    w = _work(nbody, njnt, ns, nv, qpos.shape[1])
+    kn = kt.n_kappa
+    n_par = kn + 3 * ns
+    vp = np.zeros((kt.pair_k.size, 3))
+    bmat = np.zeros((nv, n_par))
+    yb = np.zeros((nv, free.size + 1))
+    for t in range(lo, hi):
+        fk(tr, qpos[t], w)
+        normal_equations(tr, target[t], wts[t], w)
+        for p in range(kt.pair_k.size):
+            m = w.xmat[kt.pair_parent[p]]
+            d = kt.pair_dir[p]
+            for i in range(3):
+                vp[p, i] = m[i, 0] * d[0] + m[i, 1] * d[1] + m[i, 2] * d[2]
+        bmat[:, :] = 0.0
+        for s in range(ns):
+            ws = wts[t, s]
+            if ws <= 0:
+                continue
+            r0 = target[t, s, 0] - w.site_xpos[s, 0]
+            r1 = target[t, s, 1] - w.site_xpos[s, 1]
+            r2 = target[t, s, 2] - w.site_xpos[s, 2]
+            d_lo, d_hi = tr.site_dofptr[s], tr.site_dofptr[s + 1]
+            for k in range(d_hi - d_lo):
+                v = tr.site_dofs[d_lo + k]
+                w.jcol[k, 0], w.jcol[k, 1], w.jcol[k, 2] = _column(tr, w, v, s)
+            rot = w.xmat[tr.site_body[s]]
+            off = kn + 3 * s
+            for pi in range(kt.site_pairptr[s], kt.site_pairptr[s + 1]):
+                p = kt.site_pairs[pi]
+                kk = kt.pair_k[p]
+                v0, v1, v2 = ws * vp[p, 0], ws * vp[p, 1], ws * vp[p, 2]
+                for k in range(d_hi - d_lo):
+                    bmat[tr.site_dofs[d_lo + k], kk] += (
+                        w.jcol[k, 0] * v0 + w.jcol[k, 1] * v1 + w.jcol[k, 2] * v2
+                    )
+                gt_acc[kk] += v0 * r0 + v1 * r1 + v2 * r2
+                for pj in range(kt.site_pairptr[s], kt.site_pairptr[s + 1]):
+                    q = kt.site_pairs[pj]
+                    c_acc[kk, kt.pair_k[q]] += v0 * vp[q, 0] + v1 * vp[q, 1] + v2 * vp[q, 2]
+                for j in range(3):
+                    x = v0 * rot[0, j] + v1 * rot[1, j] + v2 * rot[2, j]
+                    c_acc[kk, off + j] += x
+                    c_acc[off + j, kk] += x
+            for j in range(3):
+                e0, e1, e2 = ws * rot[0, j], ws * rot[1, j], ws * rot[2, j]
+                for k in range(d_hi - d_lo):
+                    bmat[tr.site_dofs[d_lo + k], off + j] += (
+                        w.jcol[k, 0] * e0 + w.jcol[k, 1] * e1 + w.jcol[k, 2] * e2
+                    )
+                gt_acc[off + j] += e0 * r0 + e1 * r1 + e2 * r2
+                c_acc[off + j, off + j] += ws
+        h, g = w.h, w.g
+        if use_limits and _blocked(tr, qpos[t], g, w.blocked):
+            for v in range(nv):
+                if w.blocked[v]:
+                    h[v, :] = 0.0
+                    h[:, v] = 0.0
+                    h[v, v] = 1.0
+                    bmat[v, :] = 0.0
+                    g[v] = 0.0
+        a = w.a
+        for i in range(nv):
+            gq_out[t, i] = g[i]
+            diag_out[t, i] = h[i, i]
+            for k in range(i + 1):
+                a[i, k] = h[i, k]
+            a[i, i] += mu * h[i, i] + 1e-12
+        factor(tr, a)
+        ld_out[t] = a
+        for c in range(free.size):
+            yb[:, c] = bmat[:, free[c]]
+        yb[:, free.size] = g
+        _rows_lt_solve(tr, a, yb)
+        for i in range(nv):
+            sd = 1.0 / np.sqrt(a[i, i])
+            for c in range(free.size):
+                y_out[t, i, c] = yb[i, c] * sd
+            yg_out[t, i] = yb[i, free.size] * sd
+
+
+@_parallel
+def _schur_blocks(
+    tr, kt, target, wts, qpos, free, bounds, use_limits, mu, y_out, yg_out, ld_out, gq_out,
+    diag_out, c_acc, gt_acc,
+):  # fmt: skip
+    for b in nb.prange(bounds.size - 1):
+        _schur_range(
+            tr, kt, target, wts, qpos, free, bounds[b], bounds[b + 1], use_limits, mu, y_out,
+            yg_out, ld_out, gq_out, diag_out, c_acc[b], gt_acc[b],
+        )  # fmt: skip
+
+
+class FrameBlocks(NamedTuple):
+    """Eliminated per-frame blocks of n frames (Pf free parameters).
+
+    Fields
+    ------
+    y : (n, nv, Pf) float, D^-1/2 L^-T B over the free parameters
+    y_g : (n, nv) float, D^-1/2 L^-T g_q
+    ld : (n, nv, nv) float, the factors of the damped A
+    g_q : (n, nv) float, J_q^T W r [m^2 per rad or m]
+    diag_a : (n, nv) float, diag(A) (undamped)
+    c : (P, P) float, sum over the frames of J_th^T W J_th
+    g_theta : (P,) float, sum of J_th^T W r
+    """
+
+    y: np.ndarray
+    y_g: np.ndarray
+    ld: np.ndarray
+    g_q: np.ndarray
+    diag_a: np.ndarray
+    c: np.ndarray
+    g_theta: np.ndarray
+
+
+def frame_blocks(
+    tr: Tree,
+    kt: KappaTables,
+    target: np.ndarray,
+    wts: np.ndarray,
+    qpos: np.ndarray,
+    free: np.ndarray,
+    mu: float,
+    *,
+    limits: bool = True,
+) -> FrameBlocks:
+    """Blocks of frames target (n, M, 3) [m], weights wts (n, M), poses qpos (n, nq).
+
+    ``A`` is damped as ``A + mu diag(A) + 1e-12 I``. With ``limits``, hinges at a joint limit
+    that the gradient pushes outward are held (their rows leave A, B and g_q).
+    """
+    n = len(qpos)
+    nv = tr.dof_jnt.size
+    n_par = kt.n_kappa + 3 * tr.site_body.size
+    free = np.ascontiguousarray(free, dtype=np.int64)
+    y = np.empty((n, nv, free.size))
+    y_g = np.empty((n, nv))
+    ld = np.empty((n, nv, nv))
+    g_q = np.empty((n, nv))
+    diag_a = np.empty((n, nv))
+    k = max(1, min(nb.get_num_threads(), n // PARALLEL_MIN))
+    bounds = np.linspace(0, n, k + 1).round().astype(np.int64)
+    c = np.zeros((k, n_par, n_par))
+    g_theta = np.zeros((k, n_par))
+    args = (tr, kt, target, wts, np.ascontiguousarray(qpos), free)
+    outs = (bool(limits), float(mu), y, y_g, ld, g_q, diag_a)
+    if k > 1:
+        _schur_blocks(*args, bounds, *outs, c, g_theta)
+    else:
+        _schur_range(*args, 0, n, *outs, c[0], g_theta[0])
+    return FrameBlocks(y, y_g, ld, g_q, diag_a, c.sum(axis=0), g_theta.sum(axis=0))
+
+
+@_jit
+def _back_range(tr, ld, u, out):
+    parent = tr.dof_parent
+    nv = ld.shape[1]
+    for t in range(ld.shape[0]):
+        a = ld[t]
+        x = out[t]
+        for i in range(nv):
+            x[i] = u[t, i] / np.sqrt(a[i, i])
+        for k in range(nv):
+            i = parent[k]
+            while i >= 0:
+                x[k] -= a[k, i] * x[i]
+                i = parent[i]
+
+
+def back_substitute(tr: Tree, blocks: FrameBlocks, dtheta: np.ndarray) -> np.ndarray:
+    """The frames' joint steps dq (n, nv) for the free-parameter step dtheta (Pf,)."""
+    u = blocks.y_g - blocks.y @ dtheta
+    out = np.empty_like(u)
+    _back_range(tr, blocks.ld, u, out)
+    return out

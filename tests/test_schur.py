@@ -1,0 +1,66 @@
+"""The compiled joint-LM blocks (mocap_mj._schur) against the NumPy normal equations."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from mocap_mj import Kinematics, ParameterSet, _schur
+from mocap_mj.identify.lm import _damped_inverse, _Problem
+from mocap_synth import SynthConfig, synthesize
+
+
+@pytest.fixture(scope="module")
+def problem() -> tuple[Kinematics, _Problem, np.ndarray]:
+    exp = synthesize(SynthConfig(frames=60, seed=4, gaps=0.1), ParameterSet())
+    kin = Kinematics(exp.pset)
+    kin.set_theta(exp.pset.nominal)  # away from the truth: non-zero residuals
+    free = np.flatnonzero(~exp.pset.frozen)
+    free = free[free != 5]  # a frozen parameter
+    prob = _Problem(kin, np.asarray(exp.markers), np.asarray(exp.qpos).copy(), free)
+    rng = np.random.default_rng(0)
+    w = prob.present * rng.uniform(0.5, 1.5, prob.present.shape)
+    return kin, prob, w
+
+
+@pytest.mark.parametrize("limits", [True, False])
+def test_blocks_match_numpy_normal_equations(problem, limits: bool) -> None:  # type: ignore[no-untyped-def]
+    kin, prob, w = problem
+    free, pf, mu = prob.free, prob.free.size, 1e-3
+    sl = slice(0, prob.n)
+    # Put four hinges on their lower limits so that the active set is exercised.
+    q = prob.qpos.copy()
+    hinges = np.flatnonzero(kin.model.jnt_type == mujoco.mjtJoint.mjJNT_HINGE)[:4]
+    q[:, kin.model.jnt_qposadr[hinges]] = kin.model.jnt_range[hinges, 0]
+    prob_q = _Problem(kin, np.where(prob.present[..., None], prob.target, np.nan), q, free)
+    a, b, gq, c, gt = prob_q.chunk_system(sl, w, limits=limits)
+    z = _damped_inverse(a, mu) @ np.concatenate([b, gq[..., None]], axis=2)
+    bf, zf = b.reshape(-1, pf), z.reshape(-1, pf + 1)
+    s_ref, rhs_ref = c - bf.T @ zf[:, :pf], gt - bf.T @ zf[:, pf]
+    fb = _schur.frame_blocks(
+        kin.tree(), kin.kappa_tables(), prob_q.target, w, q, free, mu, limits=limits
+    )
+    yf = fb.y.reshape(-1, pf)
+    s = fb.c[np.ix_(free, free)] - yf.T @ yf
+    rhs = fb.g_theta[free] - yf.T @ fb.y_g.reshape(-1)
+    np.testing.assert_allclose(s, s_ref, rtol=0, atol=1e-10 * np.abs(s_ref).max())
+    np.testing.assert_allclose(rhs, rhs_ref, rtol=0, atol=1e-10 * np.abs(rhs_ref).max())
+    np.testing.assert_allclose(fb.g_q, gq, rtol=0, atol=1e-12)
+    held = np.count_nonzero(gq[:, kin.model.jnt_dofadr[hinges]] == 0.0)
+    assert held > 0 if limits else held == 0
+    np.testing.assert_allclose(fb.diag_a, np.einsum("nii->ni", a), rtol=0, atol=1e-12)
+    dth = np.random.default_rng(1).normal(0, 1e-3, pf)
+    dq_ref = z[..., pf] - z[..., :pf] @ dth
+    dq = _schur.back_substitute(kin.tree(), fb, dth)
+    np.testing.assert_allclose(dq, dq_ref, rtol=0, atol=1e-10 * np.abs(dq_ref).max())
+
+
+def test_information_matches_pseudo_inverse(problem) -> None:  # type: ignore[no-untyped-def]
+    kin, prob, w = problem
+    fast = prob.information(w, kin.pset.size)
+    slow_kin = Kinematics(kin.pset)
+    slow_kin.set_theta(kin.theta)
+    slow_kin.compiled = False
+    slow = _Problem(slow_kin, prob.target, prob.qpos, prob.free).information(w, kin.pset.size)
+    np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-4 * np.abs(slow).max())
