@@ -26,13 +26,13 @@ import numba as nb
 import numpy as np
 
 from ._tree import (
-    PARALLEL_MIN,
     Tree,
     _blocked,
     _column,
     _jit,
     _parallel,
     _work,
+    blocks,
     factor,
     fk,
     normal_equations,
@@ -244,8 +244,8 @@ def frame_blocks(
     ld = np.empty((n, nv, nv))
     g_q = np.empty((n, nv))
     diag_a = np.empty((n, nv))
-    k = max(1, min(nb.get_num_threads(), n // PARALLEL_MIN))
-    bounds = np.linspace(0, n, k + 1).round().astype(np.int64)
+    bounds = blocks(n, n)
+    k = bounds.size - 1
     c = np.zeros((k, n_par, n_par))
     g_theta = np.zeros((k, n_par))
     args = (tr, kt, target, wts, np.ascontiguousarray(qpos), free)

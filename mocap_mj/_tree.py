@@ -585,10 +585,11 @@ def solve_frame(tr, target, wts, q, w, max_it, damping, tol_step, tol_cost, tol_
 PARALLEL_MIN = 32
 
 
-def _blocks(n: int) -> np.ndarray:
-    """Bounds (k + 1,) of k contiguous blocks of range(n), one per numba thread."""
-    k = max(1, min(nb.get_num_threads(), n // (PARALLEL_MIN // 2)))
-    return np.linspace(0, n, k + 1).round().astype(np.int64)
+def blocks(items: int, frames: int) -> np.ndarray:
+    """Bounds (k + 1,) of k contiguous blocks of range(items), one per numba thread, with at
+    least PARALLEL_MIN of the work's ``frames`` per block (k = 1: run in the caller)."""
+    k = max(1, min(nb.get_num_threads(), items, frames // PARALLEL_MIN))
+    return np.linspace(0, items, k + 1).round().astype(np.int64)
 
 
 @_jit
@@ -636,7 +637,7 @@ def solve_batch(
     iters = np.zeros(n, dtype=np.int64)
     status = np.zeros(n, dtype=np.int64)
     args = _settings(settings)
-    bounds = _blocks(n)
+    bounds = blocks(n, n)
     if bounds.size > 2:
         _solve_blocks(tr, target, wts, qpos, bounds, rmse, iters, status, *args)
     else:
@@ -715,9 +716,8 @@ def solve_chains(
     args = _settings(settings)
     starts = np.ascontiguousarray(starts, dtype=np.int64)
     ends = np.ascontiguousarray(ends, dtype=np.int64)
-    k = max(1, min(nb.get_num_threads(), starts.size, n // PARALLEL_MIN))
-    bounds = np.linspace(0, starts.size, k + 1).round().astype(np.int64)
-    if k > 1:
+    bounds = blocks(starts.size, n)
+    if bounds.size > 2:
         _chains_blocks(
             tr, target, wts, cold, starts, ends, bounds, qpos, rmse, iters, status, *args
         )
@@ -807,9 +807,8 @@ def walk(
     firsts, lasts = (np.ascontiguousarray(a, dtype=np.int64) for a in (firsts, lasts))
     seeds = np.ascontiguousarray(seeds, dtype=float)
     frames = int(np.abs(lasts - firsts).sum()) + firsts.size
-    k = max(1, min(nb.get_num_threads(), firsts.size, frames // PARALLEL_MIN))
-    bounds = np.linspace(0, firsts.size, k + 1).round().astype(np.int64)
-    if k > 1:
+    bounds = blocks(firsts.size, frames)
+    if bounds.size > 2:
         _walk_blocks(
             tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, early, bounds,
             *args,

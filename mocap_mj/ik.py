@@ -664,10 +664,10 @@ class IKSolver:
             return
         ref = float(np.nanmedian(rmse[solvable]))
         limit = factor * ref + margin
-        bad = solvable & ~(rmse <= limit)
         if self.kin.compiled:
             self._walk_runs(markers, w, qpos, rmse, iters, status, solvable, limit)
             return
+        bad = solvable & ~(rmse <= limit)
         tried = np.zeros((n, 2), dtype=bool)
         while np.any(bad):
             progress = False
