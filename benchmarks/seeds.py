@@ -5,17 +5,19 @@ lengths ±10 %, offsets ±20 mm), identified with `identify_to_folder` and score
 truth (`mocap_mj.score`): fit RMSE, iterations, kappa / offset errors over the bound, joint
 centres, observable directions.
 
-Run: python benchmarks/seeds.py [--seeds 0 10] [--mu0 1e-6] [--single]
-(--single: the given schedule alone, without the default second start; --mu0 1e-2 --single
---third: the second schedule alone.)
+Run: python benchmarks/seeds.py [--seeds 0 10] [--set NAME=VALUE ...]
+(--set: other values of `LMSettings` fields, e.g. `--set mu0=1e-6 mu_decrease=nielsen
+refine_iterations=2 tol_noise=0.1` for the previous default.)
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -30,16 +32,20 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs=2, default=(0, 10), metavar=("FIRST", "END"))
     parser.add_argument("--frames", type=int, default=500)
-    parser.add_argument("--mu0", type=float, default=1e-6)
-    parser.add_argument("--single", action="store_true", help="no second start")
-    parser.add_argument("--third", action="store_true", help="mu / 3 after a success")
+    parser.add_argument(
+        "--set", nargs="*", default=[], metavar="NAME=VALUE", help="other LMSettings fields"
+    )
     args = parser.parse_args()
     pset = ParameterSet()
-    settings = LMSettings(
-        mu0=args.mu0,
-        second_start=not args.single,
-        mu_decrease="third" if args.third else "nielsen",
-    )
+    fields = {f.name: f.type for f in dataclasses.fields(LMSettings)}
+    extra: dict[str, Any] = {}
+    for item in args.set:
+        name, _, value = item.partition("=")
+        if name not in fields:
+            parser.error(f"--set: LMSettings has no field {name!r}")
+        kind = type(getattr(LMSettings(), name))
+        extra[name] = value.lower() in ("1", "true", "yes") if kind is bool else kind(value)
+    settings = LMSettings(**extra)
     for seed in range(*args.seeds):
         with tempfile.TemporaryDirectory() as tmp:
             d = Path(tmp)
@@ -57,7 +63,8 @@ def main() -> None:
         print(
             f"seed {seed}: fit {ident['marker_rmse_mm']:.4f} mm, {ident['iterations']} it, "
             f"{seconds:.1f} s, kappa {s['kappa_crlb_ratio']:.2f}x, offsets "
-            f"{s['offset_crlb_ratio']:.2f}x, joint centres {s['joint_centre_rmse_mm']:.2f} mm, "
+            f"{s['offset_crlb_ratio']:.2f}x, joint centres {s['joint_centre_rmse_mm']:.2f} mm "
+            f"(bound {s['joint_centre_crlb_mm']:.2f}, {s['joint_centre_crlb_ratio']:.2f}x), "
             f"observable {s['observable_directions']}",
             flush=True,
         )

@@ -26,9 +26,11 @@ import numba as nb
 import numpy as np
 
 from ._tree import (
+    HINGE,
     Tree,
     _blocked,
     _column,
+    _hold,
     _jit,
     _parallel,
     _work,
@@ -157,11 +159,9 @@ def _schur_range(
                 c_acc[off + j, off + j] += ws
         h, g = w.h, w.g
         if use_limits and _blocked(tr, qpos[t], g, w.blocked):
+            _hold(tr, qpos[t], w.blocked, h, True)
             for v in range(nv):
-                if w.blocked[v]:
-                    h[v, :] = 0.0
-                    h[:, v] = 0.0
-                    h[v, v] = 1.0
+                if w.blocked[v] and tr.jnt_type[tr.dof_jnt[v]] == HINGE:
                     bmat[v, :] = 0.0
                     g[v] = 0.0
         a = w.a

@@ -459,8 +459,28 @@ def _work(nbody, njnt, ns, nv, nq):
 
 
 @_jit
+def _ball_axis(q, a):
+    """Rotation axis (unit; zeros for no rotation) and angle [rad] of the ball quaternion at
+    qpos address a, taken with w >= 0 (angle in [0, pi])."""
+    q0, q1, q2, q3 = q[a], q[a + 1], q[a + 2], q[a + 3]
+    if q0 < 0:
+        q0, q1, q2, q3 = -q0, -q1, -q2, -q3
+    s = math.sqrt(q1 * q1 + q2 * q2 + q3 * q3)
+    angle = 2 * math.atan2(s, q0)
+    if s < 1e-12:
+        return 0.0, 0.0, 0.0, angle
+    return q1 / s, q2 / s, q3 / s, angle
+
+
+@_jit
 def _blocked(tr, q, dv, out):
-    """out (nv,) bool: hinge dofs at a limit whose step dv points outward; returns any."""
+    """out (nv,) bool: dofs held for a step dv; returns any.
+
+    A hinge at a limit whose step points outward is held. A ball joint at its largest
+    rotation whose step would turn it further (the step's component along the rotation axis:
+    for q exp(e dv), d angle / d e = n . dv) has its three dofs flagged: :func:`_hold` then
+    holds only that radial component, the ball stays free to slide along its limit.
+    """
     any_blocked = False
     v = 0
     for j in range(tr.jnt_type.size):
@@ -473,17 +493,59 @@ def _blocked(tr, q, dv, out):
             out[v] = b
             any_blocked |= b
             v += 1
+        elif typ == BALL:
+            b = False
+            if tr.jnt_ballmax[j] < np.inf:
+                n0, n1, n2, angle = _ball_axis(q, tr.jnt_qposadr[j])
+                radial = n0 * dv[v] + n1 * dv[v + 1] + n2 * dv[v + 2]
+                b = angle >= tr.jnt_ballmax[j] - 1e-9 and radial > 0
+            for i in range(3):
+                out[v + i] = b
+            any_blocked |= b
+            v += 3
         else:
-            n = 6 if typ == FREE else 3
-            for i in range(n):
+            for i in range(6):
                 out[v + i] = False
-            v += n
+            v += 6
     return any_blocked
 
 
 @_jit
-def _damped_solve(tr, w, damp, blocked, use_blocked):
-    """w.dv = (H + diag(damp))^-1 g, with the blocked dofs held at zero if use_blocked."""
+def _hold(tr, q, blocked, h, full):
+    """Apply the holds flagged by :func:`_blocked` to the normal matrix h (nv, nv): a held
+    hinge's row and column leave it (unit diagonal; the caller zeroes its right-hand side), a
+    held ball's radial component gets a stiffness 1e6 times the ball's diagonal, so the step
+    keeps its rotation angle to about 1e-6 of what it would otherwise take. ``full``: h holds
+    both triangles (else the lower one, as factored)."""
+    nv = h.shape[0]
+    v = 0
+    for j in range(tr.jnt_type.size):
+        typ = tr.jnt_type[j]
+        if typ == HINGE:
+            if blocked[v]:
+                for k in range(nv):
+                    if full or k < v:
+                        h[v, k] = 0.0
+                    if full or k > v:
+                        h[k, v] = 0.0
+                h[v, v] = 1.0
+            v += 1
+        elif typ == BALL:
+            if blocked[v]:
+                n = _ball_axis(q, tr.jnt_qposadr[j])
+                stiff = 1e6 * (h[v, v] + h[v + 1, v + 1] + h[v + 2, v + 2]) + 1e-6
+                for i in range(3):
+                    for k in range(3 if full else i + 1):
+                        h[v + i, v + k] += stiff * n[i] * n[k]
+            v += 3
+        else:
+            v += 6
+
+
+@_jit
+def _damped_solve(tr, w, q, damp, blocked, use_blocked):
+    """w.dv = (H + diag(damp))^-1 g, with the blocked dofs held (:func:`_hold`) if
+    use_blocked."""
     n = w.g.size
     a, dv = w.a, w.dv
     for i in range(n):
@@ -492,13 +554,9 @@ def _damped_solve(tr, w, damp, blocked, use_blocked):
         a[i, i] += damp[i]
         dv[i] = w.g[i]
     if use_blocked:
+        _hold(tr, q, blocked, a, False)
         for v in range(n):
-            if blocked[v]:
-                for k in range(v):
-                    a[v, k] = 0.0
-                for i in range(v + 1, n):
-                    a[i, v] = 0.0
-                a[v, v] = 1.0
+            if blocked[v] and tr.jnt_type[tr.dof_jnt[v]] == HINGE:
                 dv[v] = 0.0
     factor(tr, a)
     solve(tr, a, dv)
@@ -532,9 +590,9 @@ def solve_frame(tr, target, wts, q, w, max_it, damping, tol_step, tol_cost, tol_
             need_jac = False
         for i in range(nv):
             damp[i] = mu * (w.h[i, i] + 1e-9) if damping == ADAPTIVE else f + wbar
-        _damped_solve(tr, w, damp, w.blocked, False)
+        _damped_solve(tr, w, q, damp, w.blocked, False)
         if _blocked(tr, q, dv, w.blocked):
-            _damped_solve(tr, w, damp, w.blocked, True)
+            _damped_solve(tr, w, q, damp, w.blocked, True)
         q_new[:] = q
         integrate(tr, q_new, dv, 1.0)
         project(tr, q_new)

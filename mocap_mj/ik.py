@@ -14,8 +14,12 @@ coordinates with the analytic Jacobian (:meth:`Kinematics.jac_q`). Two damping r
 
 Free and ball joints are updated on their manifold (``mj_integratePos``); after each step hinge
 angles are clipped to their range and ball rotations longer than their range are shortened
-to it (projected step). Missing markers (NaN) have weight 0 in that frame. A frame with fewer
-than ``min_markers`` present markers is not solved: status ``TOO_FEW_MARKERS``, qpos NaN.
+to it (projected step). In the compiled solver a step is first re-solved with the hinges at a
+limit that it pushes outward held, and with the radial component (along the rotation axis) of
+a ball at its largest rotation held, so the ball slides along its cone; the NumPy lock-step
+solver (kept for Algorithm 1's perturbed kinematics) holds hinges only. Missing markers
+(NaN) have weight 0 in that frame. A frame with fewer than ``min_markers`` present markers
+is not solved: status ``TOO_FEW_MARKERS``, qpos NaN.
 
 A whole trial is solved as parallel chains: the trial is cut into chains of consecutive frames;
 every chain's first frame starts from a rigid fit of the pelvis to its markers (Kabsch), every

@@ -23,6 +23,7 @@ import numpy as np
 
 from ._threads import single_blas_thread
 from .errors import InputFileError
+from .identify.centres import joint_centre_bound
 from .identify.identifiability import Identifiability
 from .ik import IKSolver
 from .kinematics import Kinematics
@@ -115,6 +116,17 @@ def score(
     )
     out["joint_centre_rmse_mm"] = rms(jc) * 1e3
     out["joint_centre_max_mm"] = float(jc.max()) * 1e3
+    # Its Cramer-Rao bound: the pose's and the model's uncertainty (identify/centres.py).
+    cb = joint_centre_bound(kin_hat, motion.markers[ok], motion.qpos[ok], idf)
+    out["joint_centre_crlb_mm"] = cb.rms() * 1e3
+    out["joint_centre_crlb_ratio"] = rms(jc) / cb.rms()
+    out["joint_centre_pose_crlb_mm"] = float(np.sqrt(np.mean(cb.pose**2))) * 1e3
+    out["joint_centre_errors_mm"] = {
+        n: float(np.sqrt(np.mean(e**2))) * 1e3 for n, e in zip(cb.names, jc.T, strict=True)
+    }
+    out["joint_centre_crlb_by_body_mm"] = {
+        n: float(b) * 1e3 for n, b in zip(cb.names, cb.total, strict=True)
+    }
     dq = kin_true.difference(q_true[ok], motion.qpos[ok])[:, 6:]
     out["joint_rmse_deg"] = float(np.degrees(rms(dq)))
     fitted = kin_hat.marker_positions(motion.qpos[ok])
@@ -178,7 +190,8 @@ def score_text(s: dict[str, Any]) -> str:
         f"{s['kappa_crlb_ratio']:>8.2f}",
         f"{'marker offsets (mm RMS)':<28}{s['offset_rmse_mm']:>10.3f}{s['offset_crlb_mm']:>10.3f}"
         f"{s['offset_crlb_ratio']:>8.2f}",
-        f"{'joint centres (mm RMS)':<28}{s['joint_centre_rmse_mm']:>10.3f}",
+        f"{'joint centres (mm RMS)':<28}{s['joint_centre_rmse_mm']:>10.3f}"
+        f"{s['joint_centre_crlb_mm']:>10.3f}{s['joint_centre_crlb_ratio']:>8.2f}",
         f"{'joint angles (deg RMS)':<28}{s['joint_rmse_deg']:>10.3f}",
         f"{'marker RMSE fitted (mm)':<28}{s['marker_rmse_mm']:>10.3f}",
     ]

@@ -96,6 +96,8 @@ def run(args: argparse.Namespace) -> int:
         "kappa_crlb_ratio": s["kappa_crlb_ratio"],
         "offset_crlb_ratio": s["offset_crlb_ratio"],
         "joint_centre_rmse_mm": s["joint_centre_rmse_mm"],
+        "joint_centre_crlb_mm": s["joint_centre_crlb_mm"],
+        "joint_centre_crlb_ratio": s["joint_centre_crlb_ratio"],
         "kappa_rmse_before_mm": _rms(before[:k]) * 1e3,
         "offset_rmse_before_mm": _rms(before[k:]) * 1e3,
         "observable_directions": s["observable_directions"],
@@ -115,7 +117,8 @@ def run(args: argparse.Namespace) -> int:
             f"{'marker offsets (mm)':<26}{summary['offset_rmse_before_mm']:>9.2f}"
             f"{s['offset_rmse_mm']:>9.3f}{s['offset_crlb_mm']:>9.3f}"
             f"{s['offset_crlb_ratio']:>8.2f}",
-            f"{'joint centres (mm)':<26}{'':>9}{s['joint_centre_rmse_mm']:>9.3f}",
+            f"{'joint centres (mm)':<26}{'':>9}{s['joint_centre_rmse_mm']:>9.3f}"
+            f"{s['joint_centre_crlb_mm']:>9.3f}{s['joint_centre_crlb_ratio']:>8.2f}",
             f"{'marker RMSE fit (mm)':<26}{'':>9}{ident['marker_rmse_mm']:>9.3f}"
             f"   (noise alone: {expected:.3f})",
             f"{'marker RMSE walk (mm)':<26}{'':>9}"

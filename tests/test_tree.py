@@ -155,3 +155,46 @@ def test_results_do_not_depend_on_thread_count(kin: Kinematics) -> None:
         numba.set_num_threads(before)
     np.testing.assert_array_equal(one.qpos, many.qpos)
     np.testing.assert_array_equal(one.iterations, many.iterations)
+
+
+def test_ball_at_its_limit_slides_along_it(kin: Kinematics) -> None:
+    """Markers of a pose with the thorax turned beyond its 45 degree cone: the solution sits on
+    the cone and is optimal there (KKT): every free dof's gradient vanishes, the thorax's
+    gradient points straight outward (along its rotation axis), none along the cone."""
+    m = kin.model
+    j = m.joint("thorax").id
+    adr, dof, limit = m.jnt_qposadr[j], m.jnt_dofadr[j], m.jnt_range[j, 1]
+    rng = np.random.default_rng(5)
+    beyond = np.tile(m.qpos0, (8, 1))
+    axes = rng.normal(size=(8, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    half = 0.5 * (limit + 0.3)  # 0.3 rad beyond the cone
+    beyond[:, adr : adr + 4] = np.c_[np.full(8, np.cos(half)), np.sin(half) * axes]
+    target = kin.marker_positions(beyond)
+    start = beyond.copy()
+    start[:, adr : adr + 4] = [1.0, 0.0, 0.0, 0.0]
+    q = IKSolver(kin, IKSettings(tol_rmse=0.0, tol_cost=0.0)).solve_frames(target, start).qpos
+    quat = q[:, adr : adr + 4] * np.sign(q[:, adr : adr + 1])
+    s = np.linalg.norm(quat[:, 1:], axis=1)
+    angle = 2 * np.arctan2(s, quat[:, 0])
+    np.testing.assert_allclose(angle, limit, atol=1e-6)
+    # Gradient of F = 1/2 |r|^2 in the tangent space, by central differences.
+    eps = 1e-7
+
+    def cost(qq: np.ndarray) -> np.ndarray:
+        return 0.5 * np.sum((kin.marker_positions(qq) - target) ** 2, axis=(1, 2))
+
+    grad = np.empty((8, kin.nv))
+    for i in range(kin.nv):
+        step = np.zeros((8, kin.nv))
+        step[:, i] = eps
+        grad[:, i] = (cost(kin.integrate(q, step)) - cost(kin.integrate(q, -step))) / (2 * eps)
+    n = quat[:, 1:] / s[:, None]
+    g_ball = grad[:, dof : dof + 3]
+    radial = np.sum(g_ball * n, axis=1)  # d F / d angle: < 0, F would fall beyond the cone
+    tangential = g_ball - radial[:, None] * n
+    others = np.delete(grad, np.s_[dof : dof + 3], axis=1)
+    scale = -radial
+    assert np.all(scale > 1e-4), radial
+    np.testing.assert_array_less(np.linalg.norm(tangential, axis=1), 1e-3 * scale)
+    np.testing.assert_array_less(np.abs(others).max(axis=1), 1e-3 * scale)

@@ -19,8 +19,11 @@ accumulated chunk by chunk over frames (memory does not grow with T beyond the t
 and, for up to ``cache_frames`` frames, the per-frame A_t^-1 [B_t, g_t] kept for the back
 substitution; longer trials recompute them in a second pass).
 
-Damping: Marquardt-scaled (``mu * diag``) on both blocks, mu from the gain ratio (Nielsen).
-Stopping: an accepted step that lowers F by less than ``tol_cost * F``, or a step whose largest
+Damping: Marquardt-scaled (``mu * diag``) on both blocks, mu0 = 1e-2, divided by 3 after an
+accepted step and raised after a rejected one (``LMSettings.mu_decrease``). After each step
+every frame finishes its own pose by per-frame LM under the new theta (``refine_iterations``).
+Stopping: an accepted step that lowers F by less than ``tol_noise * sigma^2`` or
+``tol_cost * F``, or a step whose largest
 theta component is below ``tol_theta`` [m] and pose component below ``tol_q``, or ``mu`` beyond
 1e12 (no descent possible), or ``max_iterations``.
 
@@ -37,7 +40,7 @@ import enum
 import itertools
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
@@ -71,12 +74,13 @@ class LMSettings:
     max_iterations : int
     tol_noise : float
         An accepted step that lowers F by less than ``tol_noise * sigma^2`` ends the solve
-        (sigma: per-axis noise estimated from the fit). With noisy markers Gauss-Newton
-        converges linearly (the residual curvature of weakly determined joints, e.g. the MTP
-        and subtalar angles, is not in J^T J); by then the remaining improvement is a small
-        fraction of one standard deviation. Measured on the 500-frame ROM trial: the
-        observable-subspace errors settle within 1% of their final value 2-4 iterations
-        before this rule stops (``benchmarks/identify.py``).
+        (sigma: per-axis noise estimated from the fit). Near the minimum a step that lowers F
+        by delta moves theta by sqrt(2 delta) / sigma standard deviations (Mahalanobis, in
+        the reduced information): with 1.0, at most 1.4 standard deviations along a single
+        direction, about 0.12 RMS over the ~130 observable ones. With noisy markers the last
+        iterations converge linearly (the residual curvature of weakly determined joints, MTP
+        and subtalar, is not in J^T J). Measured on seeds 0-9 of the demo's experiment:
+        the same errors against the bound as with 0.1 (within 0.05x), 1-9 fewer iterations.
     tol_cost : float
         Relative decrease of F below which an accepted step ends the solve.
     tol_theta : float [m]
@@ -110,9 +114,14 @@ class LMSettings:
         time the marker RMSE has fallen by this factor since the last such refit, when
         progress stalls (``settle_gain``) and at convergence; at most ``max_refits`` times.
     refine_iterations : int
-        Per-frame IK iterations (``IKSolver.solve_frames``) applied to every frame after each
-        step, from ``q + dq`` with the new theta: one shared damping cannot suit hundreds of
-        frames, some of which sit at joint limits; each frame's own LM can. 0 disables it.
+        Per-frame IK iterations (``IKSolver.solve_frames``, each frame stops on its own
+        convergence test) applied to every frame after each step, from ``q + dq`` with the
+        new theta. Given theta the frames are independent, and the joint step's dq is a
+        poor guess for frames with weakly determined joints (toes, subtalar, wrist near their
+        limits): there the Gauss-Newton model predicted a decrease of F and the step raised it
+        by ~60 sigma^2 (measured on seed 0), so steps were rejected and the LM crawled. With
+        2 such iterations a frame whose first undamped steps fail never moves (its damping
+        needs 4-5 rejections to grow); 30 let every frame finish. 0 disables it.
     stall_window, stall_rel : int, float
         Once settled, stop when the marker RMSE fell by less than ``stall_rel`` (relative)
         over the last ``stall_window`` accepted steps: heavily damped crawling along a
@@ -121,24 +130,18 @@ class LMSettings:
     mu_decrease : {"nielsen", "third"}
         Damping after an accepted step: Nielsen's ``mu *= max(1/3, 1 - (2 rho - 1)^3)``, or
         ``mu /= 3`` whatever the gain ratio ("delayed gratification", Transtrum & Sethna 2012).
-    second_start : bool
-        Run the LM a second time from the same start with ``mu0 = 1e-2`` and ``mu /= 3`` and
-        keep the solution of lower cost. The two schedules fail on different problems: the
-        nearly undamped first steps can carry a weakly observable direction (a toes origin,
-        with its single marker) into a neighbouring minimum, the damped schedule can be
-        caught crawling along a curved valley (the pelvis frame turned against its markers
-        near the lumbar joint's limits). On the demo's experiment, seeds 0-9, either alone
-        ends in a worse minimum on 3-6 seeds, the better of the two on none (figures in
-        ``docs/identification.md``). The second run stops after 30 iterations; it about
-        doubles the time.
+        With ``mu0 = 1e-2`` and "third" (the default) the first steps are damped: nearly
+        undamped first steps (``mu0 = 1e-6``, Nielsen) carried a weakly observable direction
+        (a toes origin, seen through its single marker) into a neighbouring minimum of higher
+        cost on 6 of the seeds 0-9 (``docs/identification.md``).
     """
 
     max_iterations: int = 100
-    tol_noise: float = 0.1
+    tol_noise: float = 1.0
     tol_cost: float = 1e-10
     tol_theta: float = 1e-9
     tol_q: float = 1e-8
-    mu0: float = 1e-6
+    mu0: float = 1e-2
     prior_sigma: float = 0.05
     prior_noise: float = 0.001
     loss: str = "l2"
@@ -152,9 +155,8 @@ class LMSettings:
     stall_window: int = 5
     stall_rel: float = 1e-4
     refit_factor: float = 1.5
-    refine_iterations: int = 2
-    mu_decrease: str = "nielsen"
-    second_start: bool = True
+    refine_iterations: int = 30
+    mu_decrease: str = "third"
 
     def __post_init__(self) -> None:
         if self.mu_decrease not in ("nielsen", "third"):
@@ -462,48 +464,6 @@ def identify_lm(
     log: list[str] | None = None,
 ) -> LMResult:
     """Identify theta and the motion of every trial by joint Levenberg-Marquardt.
-
-    With ``settings.second_start`` (default) the LM runs twice from the same start, with two
-    damping schedules, and the solution of lower cost is returned (see :class:`LMSettings`).
-    Parameters as :func:`_identify_lm_once`.
-    """
-    st = settings or LMSettings()
-    kw = {"pset": pset, "theta0": theta0, "ik_settings": ik_settings,
-          "initial_qpos": initial_qpos, "progress": progress}  # fmt: skip
-    first = _identify_lm_once(trials, settings=st, log=log, **kw)  # type: ignore[arg-type]
-    if not st.second_start:
-        return first
-    # At most 30 iterations: where the damped schedule wins it converges in 10-20; where it
-    # is caught in a curved valley it crawls, and loses anyway.
-    other = replace(
-        st, mu0=1e-2, mu_decrease="third", second_start=False,
-        max_iterations=min(st.max_iterations, 30),
-    )  # fmt: skip
-    log2: list[str] = []
-    second = _identify_lm_once(trials, settings=other, log=log2, **kw)  # type: ignore[arg-type]
-    f1, f2 = first.trace[-1].cost, second.trace[-1].cost
-    best = second if f2 < f1 else first
-    if log is not None:
-        log.append("second start (mu0 1e-2, mu / 3 after a success):")
-        log.extend(log2)
-        log.append(f"final cost {f1:.6e} (first) vs {f2:.6e} (second): kept the "
-                   f"{'second' if best is second else 'first'}")  # fmt: skip
-    best.seconds = first.seconds + second.seconds
-    return best
-
-
-def _identify_lm_once(
-    trials: Sequence[TrialData],
-    *,
-    pset: ParameterSet | None = None,
-    theta0: np.ndarray | None = None,
-    settings: LMSettings | None = None,
-    ik_settings: IKSettings | None = None,
-    initial_qpos: Sequence[np.ndarray] | None = None,
-    progress: bool = False,
-    log: list[str] | None = None,
-) -> LMResult:
-    """One joint Levenberg-Marquardt run.
 
     Parameters
     ----------
