@@ -158,7 +158,7 @@ def _schur_range(
                 gt_acc[off + j] += e0 * r0 + e1 * r1 + e2 * r2
                 c_acc[off + j, off + j] += ws
         h, g = w.h, w.g
-        if use_limits and _blocked(tr, qpos[t], g, w.blocked):
+        if use_limits and _blocked(tr, qpos[t], g, w.blocked, g):
             _hold(tr, qpos[t], w.blocked, h, True)
             for v in range(nv):
                 if w.blocked[v] and tr.jnt_type[tr.dof_jnt[v]] == HINGE:

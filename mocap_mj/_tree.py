@@ -473,13 +473,16 @@ def _ball_axis(q, a):
 
 
 @_jit
-def _blocked(tr, q, dv, out):
+def _blocked(tr, q, dv, out, gb):
     """out (nv,) bool: dofs held for a step dv; returns any.
 
-    A hinge at a limit whose step points outward is held. A ball joint at its largest
-    rotation whose step would turn it further (the step's component along the rotation axis:
-    for q exp(e dv), d angle / d e = n . dv) has its three dofs flagged: :func:`_hold` then
-    holds only that radial component, the ball stays free to slide along its limit.
+    A hinge at a limit whose step dv points outward is held. A ball joint at its largest
+    rotation that the descent direction gb (J^T W r) turns further (its component along the
+    rotation axis: for q exp(e v), d angle / d e = n . v) has its three dofs flagged:
+    :func:`_hold` then holds only that radial component, and the ball slides along its
+    limit. (Testing the step instead of the descent direction for balls held intermediate
+    iterates on the cone that would have turned back inward: 6.3 instead of 4.6 iterations
+    per frame on the IK benchmark.)
     """
     any_blocked = False
     v = 0
@@ -497,7 +500,7 @@ def _blocked(tr, q, dv, out):
             b = False
             if tr.jnt_ballmax[j] < np.inf:
                 n0, n1, n2, angle = _ball_axis(q, tr.jnt_qposadr[j])
-                radial = n0 * dv[v] + n1 * dv[v + 1] + n2 * dv[v + 2]
+                radial = n0 * gb[v] + n1 * gb[v + 1] + n2 * gb[v + 2]
                 b = angle >= tr.jnt_ballmax[j] - 1e-9 and radial > 0
             for i in range(3):
                 out[v + i] = b
@@ -591,7 +594,7 @@ def solve_frame(tr, target, wts, q, w, max_it, damping, tol_step, tol_cost, tol_
         for i in range(nv):
             damp[i] = mu * (w.h[i, i] + 1e-9) if damping == ADAPTIVE else f + wbar
         _damped_solve(tr, w, q, damp, w.blocked, False)
-        if _blocked(tr, q, dv, w.blocked):
+        if _blocked(tr, q, dv, w.blocked, w.g):
             _damped_solve(tr, w, q, damp, w.blocked, True)
         q_new[:] = q
         integrate(tr, q_new, dv, 1.0)
