@@ -118,11 +118,11 @@ class LMSettings:
         Per-frame IK iterations (``IKSolver.solve_frames``, each frame stops on its own
         convergence test) applied to every frame after each step, from ``q + dq`` with the
         new theta. Given theta the frames are independent, and the joint step's dq is a
-        poor guess for frames with weakly determined joints (toes, subtalar, wrist near their
-        limits): there the Gauss-Newton model predicted a decrease of F and the step raised it
-        by ~60 sigma^2 (measured on seed 0), so steps were rejected and the LM crawled. With
-        2 such iterations a frame whose first undamped steps fail never moves (its damping
-        needs 4-5 rejections to grow); 30 let every frame finish. 0 disables it.
+        poor guess for some frames (joints at or near their limits, weakly determined toes
+        and wrists): measured on seed 0, a dozen frames raised F by 40-150 sigma^2 each after
+        a step the model predicted to lower it, so steps were rejected and the LM crawled.
+        With 2 such iterations a frame whose first undamped steps fail never moves (its
+        damping needs 4-5 rejections to grow); 30 let every frame finish. 0 disables it.
     stall_window, stall_rel : int, float
         Once settled, stop when the marker RMSE fell by less than ``stall_rel`` (relative)
         over the last ``stall_window`` accepted steps: heavily damped crawling along a
@@ -144,8 +144,9 @@ class LMSettings:
         converges linearly (measured on seed 0 of the demo's experiment, whose synthetic
         truth has the thorax at its 45 degree cone in many frames: 17 iterations and 1.3-1.6 s
         with 1.0, 10 iterations and 0.8-0.9 s with 1.5, the same final cost to 1e-8). Hinge
-        limits are kept: they keep the IK out of flipped configurations. 1.0 keeps the
-        model's limits.
+        limits are kept: they keep the IK out of flipped configurations. The identified poses
+        may therefore turn a ball beyond the model's cone (by up to the factor); the written
+        model keeps its own limits. 1.0 keeps the model's limits.
     """
 
     max_iterations: int = 100
