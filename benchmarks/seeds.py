@@ -37,7 +37,7 @@ def main() -> None:
     )
     args = parser.parse_args()
     pset = ParameterSet()
-    fields = {f.name: f.type for f in dataclasses.fields(LMSettings)}
+    fields = {f.name for f in dataclasses.fields(LMSettings)}
     extra: dict[str, Any] = {}
     for item in args.set:
         name, _, value = item.partition("=")
