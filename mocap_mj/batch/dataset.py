@@ -17,7 +17,7 @@ all its rows. Manifest YAML::
         options: {loss: cauchy}          # optional, overrides the defaults
 
 Relative paths are relative to the manifest's folder. The options are those of ``identify``
-that make sense per subject; ``up``, ``marker_map`` and ``subject`` also apply to the IK.
+that make sense per subject; ``up``, ``marker_map`` and ``file_subject`` also apply to the IK.
 """
 
 from __future__ import annotations
@@ -44,9 +44,12 @@ OPTION_KEYS: dict[str, type] = {
     "frames": str,
     "up": str,
     "marker_map": str,
-    "subject": str,
+    "file_subject": str,
     "model": str,
 }
+#: Command-line flag of each option (``file_subject``: which subject of a multi-subject file,
+#: ``--subject`` of identify and ik; named apart from the dataset's subject).
+FLAGS = {k: "--" + k.replace("_", "-") for k in OPTION_KEYS} | {"file_subject": "--subject"}
 #: Options naming a file: resolved against the manifest's folder; their content is hashed.
 PATH_OPTIONS = ("marker_map", "model")
 #: Trial file suffixes of a folder-tree dataset.
@@ -159,7 +162,8 @@ def _from_yaml(path: Path, base: dict[str, Any]) -> list[Subject]:
         raise InputFileError(f"{path}: cannot read the manifest ({exc})") from None
     if not isinstance(data, dict) or not isinstance(data.get("subjects"), list):
         raise InputFileError(f"{path}: expected a mapping with a 'subjects' list")
-    common = {**base, **_checked_options(f"{path}: options", data.get("options") or {}, path.parent)}
+    given = data.get("options") or {}
+    common = {**base, **_checked_options(f"{path}: options", given, path.parent)}
     subjects = []
     for i, entry in enumerate(data["subjects"]):
         where = f"{path}: subjects[{i}]"
@@ -240,10 +244,9 @@ def content_hash(subject: Subject, settings: Mapping[str, Any] | None = None) ->
     doc = {
         "name": subject.name,
         "trials": [[Path(t).name, _file_digest(t)] for t in subject.trials],
-        "subject_file": None if subject.subject_file is None else _file_digest(subject.subject_file),
+        "subject_file": subject.subject_file and _file_digest(subject.subject_file),
         "options": options,
         "settings": dict(settings or {}),
     }
     text = json.dumps(doc, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()
-

@@ -80,7 +80,8 @@ def write_report(out: Path, outcomes: Sequence[Outcome], seconds: float) -> Path
         f"{len(failed)} failed; {len(rows)} trials, {len(bad_trials)} failed; "
         f"{seconds:.1f} s.",
         "",
-        "| subject | status | trials | identify RMSE [mm] | IK RMSE [mm] (mean) | time [s] | error |",
+        "| subject | status | trials | identify RMSE [mm] | IK RMSE [mm] (mean) | time [s] "
+        "| error |",
         "|---|---|---|---|---|---|---|",
     ]
     for o in outcomes:

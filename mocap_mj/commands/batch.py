@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ..batch.dataset import OPTION_KEYS, Subject, load_dataset
+from ..batch.dataset import FLAGS, OPTION_KEYS, Subject, load_dataset
 from ..batch.report import write_report, write_summary_csv
 from ..batch.run import have_ray, one_line, run_batch
 from ..cli import add_json_flag, build_parser, finish
@@ -27,7 +27,7 @@ from ..parameters import ParameterSet
 from ._markers import load_trial
 
 #: Options that also apply to the IK of each trial (how the marker files are read).
-MARKER_OPTIONS = ("up", "marker_map", "subject")
+MARKER_OPTIONS = ("up", "marker_map", "file_subject")
 
 
 def register(sub: Any) -> None:
@@ -45,7 +45,7 @@ def register(sub: Any) -> None:
     p.add_argument("--serial", action="store_true", help="no Ray: one subject after the other")
     g = p.add_argument_group("defaults of every subject (a manifest's options override them)")
     for key, kind in OPTION_KEYS.items():
-        g.add_argument("--" + key.replace("_", "-"), type=kind, metavar=key.upper())
+        g.add_argument(FLAGS[key], dest=key, type=kind, metavar=key.upper())
     add_json_flag(p)
     p.set_defaults(func=run)
 
@@ -85,7 +85,8 @@ def run(args: argparse.Namespace) -> int:
     rows = write_summary_csv(out / "summary.csv", outcomes)
     write_report(out, outcomes, seconds)
     failed = [o.name for o in outcomes if o.status == "failed"]
-    bad = [f"{r['subject']}/{r['trial']}" for r in rows if r["status"] != "ok"]
+    bad_rows = [r for r in rows if r["status"] != "ok"]
+    bad = [f"{r['subject']}/{r['trial']}" for r in bad_rows]
     summary = {
         "dataset": str(args.dataset),
         "subjects": len(outcomes),
@@ -101,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
         f"{len(outcomes)} subjects: {summary['subjects_done']} identified, "
         f"{summary['subjects_resumed']} kept from an earlier run, {len(failed)} failed; "
         f"{len(rows)} trials, {len(bad)} failed; {seconds:.1f} s\n"
-        + "".join(f"failed: {r['subject']}/{r['trial']}: {r['error']}\n" for r in rows if r["error"])
+        + "".join(f"failed: {r['subject']}/{r['trial']}: {r['error']}\n" for r in bad_rows)
         + f"wrote {out}/summary.csv, report.md, <subject>/identify, <subject>/ik/<trial>"
     )
     finish(args, summary, text, out)
@@ -120,7 +121,9 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
     opts = dict(subject.options)
     marker_args = _flags({k: opts[k] for k in MARKER_OPTIONS if k in opts})
     pset = ParameterSet(opts.get("model"))
-    reader = argparse.Namespace(**{k: opts.get(k) for k in MARKER_OPTIONS})
+    reader = argparse.Namespace(
+        up=opts.get("up"), marker_map=opts.get("marker_map"), subject=opts.get("file_subject")
+    )
     names = _trial_folders(subject.trials)
     rows: dict[str, dict[str, Any]] = {}
     readable = []
@@ -137,11 +140,8 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
     ident_opts = {k: v for k, v in opts.items() if k not in MARKER_OPTIONS}
     if subject.subject_file and _accepts("identify", "--subject-file"):
         ident_opts["subject_file"] = subject.subject_file
-    ident = _command(
-        ["identify", "--markers", *readable, "--out", str(folder / "identify"), "--json"]
-        + marker_args
-        + _flags(ident_opts)
-    )
+    ident = _command("identify", folder / "identify", "--markers", *readable, *marker_args,
+                     *_flags(ident_opts))  # fmt: skip
     at_bounds = sorted(ident.get("kappa_outside_bounds_mm", {}))
     model = folder / "identify" / "model.xml"
     for path in readable:
@@ -152,11 +152,8 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
             parameters_at_bounds=at_bounds,
         )
         try:
-            ik = _command(
-                ["ik", "--markers", path, "--model", str(model), "--json"]
-                + ["--out", str(folder / "ik" / names[path])]
-                + marker_args
-            )
+            ik = _command("ik", folder / "ik" / names[path], "--markers", path,
+                          "--model", str(model), *marker_args)  # fmt: skip
         except MocapError as exc:
             row["error"] = one_line(exc)
             continue
@@ -172,8 +169,9 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
     }
 
 
-def _command(argv: list[str]) -> dict[str, Any]:
-    """Run one mocap-mj subcommand in this process; its summary.json as a dict."""
+def _command(command: str, out: Path, *options: str) -> dict[str, Any]:
+    """Run ``mocap-mj COMMAND OPTIONS --out OUT`` in this process; its summary.json."""
+    argv = [command, *options, "--out", str(out), "--json"]
     err = io.StringIO()
     try:
         with contextlib.redirect_stderr(err):
@@ -203,7 +201,7 @@ def _accepts(command: str, flag: str) -> bool:
 def _flags(options: dict[str, Any]) -> list[str]:
     out = []
     for key, value in options.items():
-        out += ["--" + key.replace("_", "-"), str(value)]
+        out += [FLAGS.get(key, "--" + key.replace("_", "-")), str(value)]
     return out
 
 
@@ -214,4 +212,3 @@ def _trial_folders(trials: tuple[str, ...]) -> dict[str, str]:
         t: n if names.count(n) == 1 else f"{i:02d}-{n}"
         for i, (t, n) in enumerate(zip(trials, names, strict=True))
     }
-
