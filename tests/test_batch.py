@@ -6,14 +6,17 @@ ROM and a walking trial of 60 frames and 1 mm noise, so a good result fits to ab
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import os
 import re
+import shutil
 import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -179,33 +182,39 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
+#: A throw-away local cluster: no token (Ray >= 2.5x asks for one by default).
+RAY_ENV = {**os.environ, "RAY_AUTH_MODE": "disabled"}
+
+
 def _ray(*args: str) -> subprocess.Popen[bytes]:
     """``ray start ... --block`` in its own process group (ours to stop, and only ours)."""
     cmd = [sys.executable, "-c", "from ray.scripts.scripts import main; main()", "start", *args]
     cmd += ["--num-cpus", "1", "--object-store-memory", str(100 * 2**20), "--block"]
     return subprocess.Popen(
-        cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
-    )
+        cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        env=RAY_ENV,
+    )  # fmt: skip
 
 
-def _group_tasks(groups: set[int], title: str) -> list[int]:
-    """PIDs of processes in our process groups whose title starts with ``title``."""
-    ps = subprocess.run(["ps", "-eo", "pid=,pgid=,args="], capture_output=True, text=True)
+def _session_pids(sessions: set[int], title: str = "") -> list[int]:
+    """PIDs of processes in our sessions (Ray workers get their own process group, not
+    their own session) whose title starts with ``title``."""
+    ps = subprocess.run(["ps", "-eo", "pid=,sid=,args="], capture_output=True, text=True)
     pids = []
     for line in ps.stdout.splitlines():
-        pid, pgid, cmd = line.split(None, 2)
-        if int(pgid) in groups and cmd.startswith(title):
+        pid, sid, cmd = [*line.split(None, 2), ""][:3]
+        if int(sid) in sessions and cmd.startswith(title):
             pids.append(int(pid))
     return pids
 
 
 def _stop(procs: list[subprocess.Popen[bytes]]) -> None:
+    """Stop the processes of our ``ray start`` sessions, and only those."""
+    sessions = {p.pid for p in procs}
     for sig in (signal.SIGTERM, signal.SIGKILL):
-        for p in procs:
-            try:
-                os.killpg(p.pid, sig)
-            except ProcessLookupError:
-                pass
+        for pid in _session_pids(sessions):
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, sig)
         time.sleep(2)
     for p in procs:
         p.wait(timeout=10)
@@ -222,10 +231,11 @@ def test_ray_cluster_survives_a_killed_worker(tmp_path: Path) -> None:
     for i in range(3):
         make_subject(ds / f"S{i:02d}", i, ("rom",))
     port = _free_port()
+    ray_dir = tempfile.mkdtemp(prefix="ray", dir="/tmp")  # short: Unix socket paths <= 107 B
     address = f"127.0.0.1:{port}"
     head = _ray(
         "--head", "--port", str(port), "--node-ip-address", "127.0.0.1",
-        "--include-dashboard", "false", "--temp-dir", str(tmp_path / "ray"),
+        "--include-dashboard", "false", "--temp-dir", ray_dir,
     )  # fmt: skip
     procs = [head]
     try:
@@ -240,10 +250,10 @@ def test_ray_cluster_survives_a_killed_worker(tmp_path: Path) -> None:
                 batch = subprocess.Popen(
                     [sys.executable, "-m", "mocap_mj", "batch", str(ds), "--out", str(out),
                      "--address", address, "--json"],
-                    stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=RAY_ENV,
                 )  # fmt: skip
             if batch is not None and not killed:
-                running = _group_tasks({p.pid for p in procs}, "ray::execute")
+                running = _session_pids({p.pid for p in procs}, "ray::execute")
                 if running:
                     time.sleep(1.0)  # mid-subject
                     os.kill(running[0], signal.SIGKILL)
@@ -256,6 +266,7 @@ def test_ray_cluster_survives_a_killed_worker(tmp_path: Path) -> None:
         assert batch.returncode == 0, stderr.decode()[-2000:]
     finally:
         _stop(procs)
+        shutil.rmtree(ray_dir, ignore_errors=True)
     assert killed, "no Ray worker ran a subject (nothing was killed)"
     summary = json.loads(stdout.decode().strip().splitlines()[-1])
     assert summary["ray"] and summary["subjects_done"] == 3 and not summary["subjects_failed"]
