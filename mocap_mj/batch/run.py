@@ -173,7 +173,9 @@ def run_batch(
         outcomes[o.name] = o
         bar.update(1)
         failed = sum(v.status == "failed" for v in outcomes.values())
-        bar.set_postfix(failed=failed, refresh=False)
+        rows = [r for v in outcomes.values() for r in v.record.get("rows", [])]
+        bad = sum(r.get("status") != "ok" for r in rows)
+        bar.set_postfix(failed=failed, failed_trials=bad, refresh=False)
         if on_outcome is not None:
             on_outcome(o)
 

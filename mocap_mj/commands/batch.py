@@ -55,6 +55,8 @@ def run(args: argparse.Namespace) -> int:
     subjects = load_dataset(args.dataset, defaults)
     if args.workers is not None and args.workers < 1:
         raise MocapError(f"--workers: expected at least 1, got {args.workers}")
+    if args.serial and args.address:
+        raise MocapError("--serial and --address exclude each other")
     use_ray = not args.serial
     if use_ray and not have_ray():
         if args.address:
