@@ -112,7 +112,9 @@ def test_content_hash_follows_bytes_and_options_not_paths(tmp_path: Path) -> Non
 
 
 # ---------------------------------------------------------------- serial, end to end
-def test_serial_batch_isolates_bad_files_and_resumes(tmp_path: Path) -> None:
+def test_serial_batch_isolates_bad_files_and_resumes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
     ds, out = tmp_path / "ds", tmp_path / "out"
     make_subject(ds / "S00", 0)
     make_subject(ds / "S01", 1, ("rom",))
@@ -120,7 +122,10 @@ def test_serial_batch_isolates_bad_files_and_resumes(tmp_path: Path) -> None:
     (ds / "S02").mkdir()
     (ds / "S02" / "only.trc").write_text("garbage\n")  # no readable trial: subject fails
 
-    rc = main(["batch", str(ds), "--out", str(out), "--serial", "--json"])
+    # Without Ray the batch runs serially and says how to get Ray.
+    monkeypatch.setattr("mocap_mj.commands.batch.have_ray", lambda: False)
+    rc = main(["batch", str(ds), "--out", str(out), "--json"])
+    assert "pip install 'mocap-mj[cluster]'" in capsys.readouterr().err
     assert rc == 1  # failures are reported in the exit status
     rows = {(r["subject"], r["trial"]): r for r in read_summary(out)}
     assert {k: r["status"] for k, r in rows.items()} == {

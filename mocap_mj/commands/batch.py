@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from .._threads import one_blas_thread
 from ..batch.dataset import FLAGS, OPTION_KEYS, Subject, load_dataset
 from ..batch.report import write_report, write_summary_csv
 from ..batch.run import have_ray, one_line, run_batch
@@ -140,7 +141,8 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
     if not readable:
         raise MocapError(f"no readable trial ({rows[subject.trials[0]]['error']})")
     ident_opts = {k: v for k, v in opts.items() if k not in MARKER_OPTIONS}
-    if subject.subject_file and _accepts("identify", "--subject-file"):
+    passed = bool(subject.subject_file) and _accepts("identify", "--subject-file")
+    if passed:
         ident_opts["subject_file"] = subject.subject_file
     ident = _command("identify", folder / "identify", "--markers", *readable, *marker_args,
                      *_flags(ident_opts))  # fmt: skip
@@ -163,6 +165,8 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
     return {
         "trials": {Path(p).name: names[p] for p in subject.trials},
         "height_m": subject.height,
+        "subject_file": subject.subject_file,
+        "subject_file_passed_to_identify": passed,
         "identify": {
             k: ident.get(k)
             for k in ("marker_rmse_mm", "seconds", "iterations", "termination", "kappa_mm")
@@ -181,7 +185,7 @@ def _command(command: str, out: Path, *options: str) -> dict[str, Any]:
     except SystemExit:  # argparse rejected an option (e.g. a manifest's): its last line
         lines = err.getvalue().strip().splitlines() or ["invalid options"]
         raise MocapError(f"{argv[0]}: {lines[-1]}") from None
-    with contextlib.redirect_stdout(io.StringIO()):
+    with contextlib.redirect_stdout(io.StringIO()), one_blas_thread():  # as the CLI runs it
         args.func(args)
     return dict(json.loads((Path(args.out) / "summary.json").read_text()))
 
