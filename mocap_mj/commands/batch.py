@@ -184,7 +184,7 @@ def _command(command: str, out: Path, *options: str) -> dict[str, Any]:
             args = _parser().parse_args(argv)
     except SystemExit:  # argparse rejected an option (e.g. a manifest's): its last line
         lines = err.getvalue().strip().splitlines() or ["invalid options"]
-        raise MocapError(f"{argv[0]}: {lines[-1]}") from None
+        raise MocapError(lines[-1]) from None
     with contextlib.redirect_stdout(io.StringIO()), one_blas_thread():  # as the CLI runs it
         args.func(args)
     return dict(json.loads((Path(args.out) / "summary.json").read_text()))
