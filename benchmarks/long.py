@@ -1,0 +1,196 @@
+"""Benchmark: an hour-long recording, identified on a pose-diverse subset, IK of every frame.
+
+    python benchmarks/long.py                       # 360,000 frames (1 h at 100 Hz)
+    python benchmarks/long.py --frames 60000 --count 500 --even
+
+The recording is synthetic: a ROM trial (first half) then a walk (second half) of the same
+subject (one seed: one truth model), 1 mm noise. It is synthesized once into ``--cache`` (in a
+child process, so that its memory is not counted) as ``.npy`` files that the timed run reads
+as memory maps. The timed part is :func:`mocap_mj.identify.long.identify_long`: selection,
+identification on the selection, IK of every frame in chunks into a memory-mapped ``.npy``.
+
+Then, untimed, the accuracy: the parameter error against the truth (aligned along the
+directions the data cannot determine, as ``mocap-mj score`` does), in the observable
+directions, against the Cramer-Rao bound of the selected frames and of all frames. The
+all-frames information is summed over every ``--info-stride``-th frame and scaled by the
+stride (frames of an hour repeat their poses, so the sample's mean information is the
+recording's). With ``--even`` the same number of evenly spaced frames is identified too, for
+comparison. Prints the figures and a JSON line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from numpy.lib.format import open_memmap
+
+from mocap_mj import Kinematics, ParameterSet
+from mocap_mj.identify.identifiability import Identifiability
+from mocap_mj.identify.lm import LMResult, LMSettings, TrialData, _Problem, identify_lm
+from mocap_mj.identify.long import identify_long
+from mocap_mj.score import align_truth
+
+
+def synthesize_cache(cache: Path, frames: int, seed: int) -> None:
+    from mocap_synth import SynthConfig, synthesize
+
+    half = frames // 2
+    parts = [
+        synthesize(SynthConfig(frames=half, motion="rom", seed=seed)),
+        synthesize(SynthConfig(frames=frames - half, motion="walk", seed=seed)),
+    ]
+    cache.mkdir(parents=True, exist_ok=True)
+    rate = parts[0].config.rate
+    np.save(cache / "markers.npy", np.concatenate([p.markers for p in parts]))
+    np.save(cache / "clean.npy", np.concatenate([p.markers_clean for p in parts]))
+    np.save(cache / "times.npy", np.arange(frames) / rate)
+    np.save(cache / "theta_true.npy", parts[0].theta_true)
+    (cache / "done").write_text(json.dumps({"frames": frames, "seed": seed, "sigma": 1e-3}))
+
+
+def errors(
+    pset: ParameterSet, lm: LMResult, frames: np.ndarray, clean: np.ndarray, times: np.ndarray
+) -> tuple[Identifiability, float, float]:
+    """Identifiability of a result and its observable kappa/offset RMS error [m]."""
+    idf = Identifiability(
+        pset, lm.reduced_information, lm.sigma, observable_std=0.005, theta=lm.theta
+    )
+    aligned = align_truth(pset, lm.theta, np.asarray(clean[frames]), times[frames])
+    e_obs, _ = idf.project(lm.theta - aligned)
+    k = pset.n_kappa
+    return idf, float(np.sqrt(np.mean(e_obs[:k] ** 2))), float(np.sqrt(np.mean(e_obs[k:] ** 2)))
+
+
+def all_frames_bound(
+    pset: ParameterSet, lm: LMResult, markers: np.ndarray, qpos: np.ndarray, stride: int
+) -> Identifiability:
+    """Identifiability of all frames, from every ``stride``-th frame's information x stride."""
+    kin = Kinematics(pset)
+    kin.set_theta(lm.theta)
+    rows = np.arange(0, len(markers), stride)
+    rows = rows[np.all(np.isfinite(qpos[rows]), axis=1)]
+    m = np.asarray(markers[rows])
+    prob = _Problem(kin, m, np.array(qpos[rows]), np.flatnonzero(lm.free))
+    info = prob.information(prob.present.astype(float), pset.size) * stride
+    return Identifiability(pset, info, lm.sigma, observable_std=0.005, theta=lm.theta)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=360_000)
+    ap.add_argument("--count", type=int, default=1000, help="frames identified on")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--cache", default="/tmp/mocap-mj-long")
+    ap.add_argument("--info-stride", type=int, default=10)
+    ap.add_argument("--even", action="store_true", help="also identify on evenly spaced frames")
+    ap.add_argument("--synth-only", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    cache = Path(args.cache) / f"{args.frames}-{args.seed}"
+    if args.synth_only:
+        synthesize_cache(cache, args.frames, args.seed)
+        return
+    if not (cache / "done").exists():
+        t = time.perf_counter()
+        cmd = [sys.executable, __file__, "--synth-only", "--frames", str(args.frames)]
+        subprocess.run([*cmd, "--seed", str(args.seed), "--cache", args.cache], check=True)
+        print(f"synthesized {args.frames} frames in {time.perf_counter() - t:.0f} s -> {cache}")
+
+    pset = ParameterSet()
+    kin = Kinematics(pset)
+    markers = np.load(cache / "markers.npy", mmap_mode="r")
+    times = np.load(cache / "times.npy")
+    clean = np.load(cache / "clean.npy", mmap_mode="r")
+    theta_true = np.load(cache / "theta_true.npy")
+    qpos = open_memmap(cache / "qpos.npy", mode="w+", dtype=float, shape=(len(markers), kin.nq))
+    rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+    t0 = time.perf_counter()
+    res = identify_long(markers, times, pset, qpos, count=args.count)
+    qpos.flush()
+    wall = time.perf_counter() - t0
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20  # GiB (Linux: KiB)
+
+    lm = res.lm
+    idf_sub, ek, eo = errors(pset, lm, res.selection.frames, clean, times)
+    t = time.perf_counter()
+    idf_all = all_frames_bound(pset, lm, markers, qpos, args.info_stride)
+    info_seconds = time.perf_counter() - t
+    bk_s, bo_s = idf_sub.bound_rms()
+    bk_a, bo_a = idf_all.bound_rms()
+    n = len(markers)
+    out = {
+        "frames": n,
+        "count": args.count,
+        "pool": res.selection.pool,
+        "cover_max_mm": res.selection.cover_max * 1e3,
+        "cover_median_mm": res.selection.cover_median * 1e3,
+        "selected_in_rom_half": int(np.sum(res.selection.frames < n // 2)),
+        "seconds_total": wall,
+        "seconds": res.seconds,
+        "ik_frames_per_second": n / res.seconds["ik"],
+        "identify_iterations": lm.iterations,
+        "peak_rss_gib": peak,
+        "rss_before_gib": rss0,
+        "marker_rmse_mm": res.marker_rmse * 1e3,
+        "frames_solved": res.frames_solved,
+        "kappa_error_mm": ek * 1e3,
+        "offset_error_mm": eo * 1e3,
+        "kappa_crlb_subset_mm": bk_s * 1e3,
+        "offset_crlb_subset_mm": bo_s * 1e3,
+        "kappa_crlb_all_mm": bk_a * 1e3,
+        "offset_crlb_all_mm": bo_a * 1e3,
+        "kappa_error_over_all_bound": ek / bk_a,
+        "kappa_error_over_subset_bound": ek / bk_s,
+        "all_frames_information_seconds": info_seconds,
+        "kappa_error_before_mm": float(np.sqrt(np.mean((pset.nominal - theta_true)[:30] ** 2)))
+        * 1e3,
+    }
+    if args.even:
+        frames = np.linspace(0, n - 1, args.count).round().astype(int)
+        sub = np.asarray(markers[frames])
+        t = time.perf_counter()
+        from mocap_mj.identify.initial import place_markers, scaled_theta, segment_scales
+
+        th0 = place_markers(pset, scaled_theta(pset, [sub], scales=segment_scales(pset, [sub])),
+                            [sub])  # fmt: skip
+        lm_e = identify_lm([TrialData("even", sub, times[frames])], pset=pset, theta0=th0,
+                           settings=LMSettings())  # fmt: skip
+        idf_e, ek_e, eo_e = errors(pset, lm_e, frames, clean, times)
+        out.update(
+            even_seconds=time.perf_counter() - t,
+            even_kappa_error_mm=ek_e * 1e3,
+            even_offset_error_mm=eo_e * 1e3,
+            even_kappa_crlb_mm=idf_e.bound_rms()[0] * 1e3,
+            even_offset_crlb_mm=idf_e.bound_rms()[1] * 1e3,
+        )
+    s = res.seconds
+    print(
+        f"{n} frames: {wall:.1f} s end to end (select {s['select']:.1f} s, identify on "
+        f"{args.count} frames {s['identify']:.1f} s / {lm.iterations} iterations, IK "
+        f"{s['ik']:.1f} s = {out['ik_frames_per_second']:,.0f} frames/s); peak RSS "
+        f"{peak:.2f} GiB; IK marker RMSE {out['marker_rmse_mm']:.3f} mm\n"
+        f"selection: {args.count} of a {res.selection.pool}-frame pool, "
+        f"{out['selected_in_rom_half']} in the ROM half; cover max "
+        f"{out['cover_max_mm']:.0f} mm, median {out['cover_median_mm']:.0f} mm\n"
+        f"kinematic error {ek * 1e3:.3f} mm: {ek / bk_s:.2f}x the subset's bound "
+        f"({bk_s * 1e3:.3f} mm), {ek / bk_a:.2f}x all frames' ({bk_a * 1e3:.3f} mm)\n"
+        f"offset error {eo * 1e3:.3f} mm: {eo / bo_s:.2f}x the subset's bound "
+        f"({bo_s * 1e3:.3f} mm), {eo / bo_a:.2f}x all frames' ({bo_a * 1e3:.3f} mm)"
+    )
+    if args.even:
+        print(
+            f"evenly spaced {args.count} frames: kinematic error {out['even_kappa_error_mm']:.3f}"
+            f" mm (bound {out['even_kappa_crlb_mm']:.3f}), offsets "
+            f"{out['even_offset_error_mm']:.3f} mm (bound {out['even_offset_crlb_mm']:.3f})"
+        )
+    print(json.dumps(out))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,252 @@
+"""A dataset of subjects for ``mocap-mj batch``: a folder tree or a manifest (CSV or YAML).
+
+Folder tree: ``DATASET/<subject>/<trial files>``; every ``.c3d``, ``.trc`` and ``.csv`` file in
+a subject's folder is a trial, and an optional ``subject.yaml`` (or ``.yml``) beside them is the
+subject file (measurements; passed to ``identify --subject-file`` when that option exists, and
+its ``height`` [m] is used by the report). Folders starting with ``.`` or ``_`` are ignored.
+
+Manifest CSV: a header with ``subject`` and ``trial`` columns, one row per trial, optional
+``subject_file`` and option columns (:data:`OPTION_KEYS`); a subject's options must agree on
+all its rows. Manifest YAML::
+
+    options: {init: placed}          # defaults of every subject (optional)
+    subjects:
+      - name: S01
+        trials: [S01/walk.c3d, S01/rom.c3d]
+        subject_file: S01/subject.yaml   # optional
+        options: {loss: cauchy}          # optional, overrides the defaults
+
+Relative paths are relative to the manifest's folder. The options are those of ``identify``
+that make sense per subject; ``up``, ``marker_map`` and ``file_subject`` also apply to the IK.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import json
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from ..errors import InputFileError
+
+#: Per-subject options a manifest (or the ``batch`` command line) may set, with their type.
+OPTION_KEYS: dict[str, type] = {
+    "init": str,
+    "loss": str,
+    "max_iterations": int,
+    "prior_mm": float,
+    "frames": str,
+    "up": str,
+    "marker_map": str,
+    "file_subject": str,
+    "model": str,
+}
+#: Command-line flag of each option (``file_subject``: which subject of a multi-subject file,
+#: ``--subject`` of identify and ik; named apart from the dataset's subject).
+FLAGS = {k: "--" + k.replace("_", "-") for k in OPTION_KEYS} | {"file_subject": "--subject"}
+#: Options naming a file: resolved against the manifest's folder; their content is hashed.
+PATH_OPTIONS = ("marker_map", "model")
+#: Trial file suffixes of a folder-tree dataset.
+TRIAL_SUFFIXES = (".c3d", ".trc", ".csv")
+SUBJECT_FILES = ("subject.yaml", "subject.yml")
+_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+
+
+@dataclass(frozen=True)
+class Subject:
+    """One subject: its name (a folder name), trial files, subject file and options."""
+
+    name: str
+    trials: tuple[str, ...]
+    subject_file: str | None = None
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def height(self) -> float | None:
+        """Standing height [m] from the subject file's ``height`` key, if given."""
+        if self.subject_file is None:
+            return None
+        try:
+            data = yaml.safe_load(Path(self.subject_file).read_text())
+            value = float(data["height"]) if isinstance(data, dict) else None
+        except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError):
+            return None
+        return value
+
+
+def load_dataset(path: str | Path, defaults: Mapping[str, Any] | None = None) -> list[Subject]:
+    """The subjects of a folder tree or a manifest (``.csv``, ``.yaml``, ``.yml``), by name.
+
+    ``defaults`` are options of every subject (the command line's); a manifest's options
+    override them. Raises :class:`InputFileError` naming the file and row on bad input.
+    """
+    root = Path(path)
+    base = _checked_options("command line", defaults or {}, Path.cwd())
+    if root.is_dir():
+        subjects = _from_tree(root, base)
+    elif not root.exists():
+        raise InputFileError(f"{root}: no such folder or manifest")
+    elif root.suffix.lower() == ".csv":
+        subjects = _from_csv(root, base)
+    elif root.suffix.lower() in (".yaml", ".yml"):
+        subjects = _from_yaml(root, base)
+    else:
+        raise InputFileError(f"{root}: expected a folder, a .csv or a .yaml manifest")
+    if not subjects:
+        raise InputFileError(f"{root}: no subject found")
+    return sorted(subjects, key=lambda s: s.name)
+
+
+def _from_tree(root: Path, base: dict[str, Any]) -> list[Subject]:
+    subjects = []
+    for folder in sorted(p for p in root.iterdir() if p.is_dir()):
+        if folder.name.startswith((".", "_")):
+            continue
+        trials = sorted(
+            str(p.resolve())
+            for p in folder.iterdir()
+            if p.is_file() and p.suffix.lower() in TRIAL_SUFFIXES
+        )
+        if not trials:
+            continue
+        sfile = next((folder / n for n in SUBJECT_FILES if (folder / n).is_file()), None)
+        name = _name(folder.name, str(folder))
+        subjects.append(Subject(name, tuple(trials), _str(sfile), base))
+    return subjects
+
+
+def _from_csv(path: Path, base: dict[str, Any]) -> list[Subject]:
+    try:
+        with open(path, newline="") as handle:
+            rows = list(csv.DictReader(handle))
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise InputFileError(f"{path}: cannot read the manifest ({exc})") from None
+    if not rows or not {"subject", "trial"} <= set(rows[0]):
+        raise InputFileError(f"{path}: expected a header with 'subject' and 'trial' columns")
+    trials: dict[str, list[str]] = {}
+    sfiles: dict[str, str | None] = {}
+    options: dict[str, dict[str, Any]] = {}
+    for i, row in enumerate(rows, start=2):
+        where = f"{path}: row {i}"
+        name = _name((row.get("subject") or "").strip(), where)
+        trial = (row.get("trial") or "").strip()
+        if not trial:
+            raise InputFileError(f"{where}: empty 'trial'")
+        raw = {k: v.strip() for k, v in row.items() if k in OPTION_KEYS and v and v.strip()}
+        unknown = set(row) - {"subject", "trial", "subject_file", *OPTION_KEYS}
+        if unknown:
+            raise InputFileError(
+                f"{where}: unknown column(s) {', '.join(sorted(unknown))}; "
+                f"expected subject, trial, subject_file, {', '.join(OPTION_KEYS)}"
+            )
+        opts = {**base, **_checked_options(where, raw, path.parent)}
+        sfile = _resolve(path.parent, (row.get("subject_file") or "").strip() or None)
+        if name in trials and (options[name] != opts or sfiles[name] != sfile):
+            raise InputFileError(f"{where}: options of subject {name!r} differ from its first row")
+        trials.setdefault(name, []).append(str(_resolve(path.parent, trial)))
+        options[name] = opts
+        sfiles[name] = sfile
+    return [Subject(n, tuple(t), sfiles[n], options[n]) for n, t in trials.items()]
+
+
+def _from_yaml(path: Path, base: dict[str, Any]) -> list[Subject]:
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        raise InputFileError(f"{path}: cannot read the manifest ({exc})") from None
+    if not isinstance(data, dict) or not isinstance(data.get("subjects"), list):
+        raise InputFileError(f"{path}: expected a mapping with a 'subjects' list")
+    given = data.get("options") or {}
+    common = {**base, **_checked_options(f"{path}: options", given, path.parent)}
+    subjects = []
+    for i, entry in enumerate(data["subjects"]):
+        where = f"{path}: subjects[{i}]"
+        if not isinstance(entry, dict) or not isinstance(entry.get("trials"), list):
+            raise InputFileError(f"{where}: expected a mapping with 'name' and a 'trials' list")
+        name = _name(str(entry.get("name", "")), where)
+        trials = tuple(str(_resolve(path.parent, str(t))) for t in entry["trials"])
+        opts = {**common, **_checked_options(where, entry.get("options") or {}, path.parent)}
+        sfile = _resolve(path.parent, entry.get("subject_file"))
+        subjects.append(Subject(name, trials, sfile, opts))
+    names = [s.name for s in subjects]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise InputFileError(f"{path}: subject(s) listed twice: {', '.join(dup)}")
+    return subjects
+
+
+def _name(name: str, where: str) -> str:
+    if not _NAME.match(name):
+        raise InputFileError(
+            f"{where}: subject name {name!r} must be a folder name (letters, digits, '_.-')"
+        )
+    return name
+
+
+def _str(path: Path | None) -> str | None:
+    return None if path is None else str(path.resolve())
+
+
+def _resolve(base: Path, path: str | None) -> str | None:
+    if path is None:
+        return None
+    p = Path(path).expanduser()
+    return str((p if p.is_absolute() else base / p).resolve())
+
+
+def _checked_options(where: str, options: Mapping[str, Any], base: Path) -> dict[str, Any]:
+    if not isinstance(options, Mapping):
+        raise InputFileError(f"{where}: options must be a mapping")
+    out: dict[str, Any] = {}
+    for key, value in options.items():
+        if key not in OPTION_KEYS:
+            raise InputFileError(
+                f"{where}: unknown option {key!r}; expected one of {', '.join(OPTION_KEYS)}"
+            )
+        if value is None:
+            continue
+        try:
+            out[key] = OPTION_KEYS[key](value)
+        except (TypeError, ValueError):
+            kind = OPTION_KEYS[key].__name__
+            raise InputFileError(f"{where}: option {key!r} expects {kind}, got {value!r}") from None
+        if key in PATH_OPTIONS:
+            out[key] = _resolve(base, out[key])
+    return out
+
+
+# ----------------------------------------------------------------------------- hashing
+def _file_digest(path: str) -> str:
+    h = hashlib.sha256()
+    try:
+        with open(path, "rb") as handle:
+            for block in iter(lambda: handle.read(1 << 20), b""):
+                h.update(block)
+    except OSError as exc:
+        return f"unreadable: {type(exc).__name__}"
+    return h.hexdigest()
+
+
+def content_hash(subject: Subject, settings: Mapping[str, Any] | None = None) -> str:
+    """SHA-256 of everything a subject's result depends on: the bytes of its trial files,
+    subject file and option files, its options, ``settings`` (the batch's own, e.g. the
+    package version) and the trials' names. Paths themselves are not hashed (by name only),
+    so a dataset moved to another folder still resumes."""
+    options = {
+        k: (_file_digest(v) if k in PATH_OPTIONS else v) for k, v in sorted(subject.options.items())
+    }
+    doc = {
+        "name": subject.name,
+        "trials": [[Path(t).name, _file_digest(t)] for t in subject.trials],
+        "subject_file": subject.subject_file and _file_digest(subject.subject_file),
+        "options": options,
+        "settings": dict(settings or {}),
+    }
+    text = json.dumps(doc, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()

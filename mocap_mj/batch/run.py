@@ -1,0 +1,256 @@
+"""Run one job per subject on Ray (or serially), isolated, committed atomically, resumable.
+
+A job is ``job(subject, folder) -> dict``: it writes the subject's results into ``folder`` (an
+empty temporary folder) and returns the subject's record (JSON-serialisable, with ``rows``: one
+dict per trial). :func:`run_batch` then writes the record as ``subject.json`` and renames the
+folder to ``OUT/<subject>``: a subject folder is complete or absent, never half-written.
+
+* Isolation: an exception in a job is caught in the job's process and recorded as that
+  subject's failure (its one-line message); a worker process that dies (killed, out of memory)
+  is retried by Ray (``max_retries``) and, if it keeps dying, recorded as failed. The other
+  subjects go on in every case.
+* Resume: each ``subject.json`` carries the content hash of the subject's inputs and options
+  (:func:`mocap_mj.batch.dataset.content_hash`); a subject whose folder holds a record with the
+  same hash and status ``ok`` is not run again.
+* Ray: with ``address`` the batch joins that cluster (its workers must see ``OUT`` and the
+  dataset at the same paths: a shared file system); otherwise a local Ray is started on this
+  machine's cores, with a small object store (the jobs pass only paths and small records).
+  Without Ray installed the jobs run one after the other in this process.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import secrets
+import shutil
+import sys
+import time
+import traceback
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from pathlib import Path
+from typing import Any, NamedTuple
+
+from ..errors import MocapError
+from ..io.atomic import atomic_write_text
+from .dataset import Subject, content_hash
+
+Job = Callable[[Subject, Path], dict[str, Any]]
+
+#: Object store of the local Ray [bytes]: Ray's minimum is 75 MiB; the jobs exchange only
+#: paths and records of a few kB, and the default (30 % of RAM) would reserve 7 GiB here.
+OBJECT_STORE_BYTES = 100 * 2**20
+#: Ray retries of a subject whose worker process died (not of a job that raised).
+MAX_RETRIES = 3
+RECORD = "subject.json"
+_TMP = ".tmp-"
+_OLD = ".old-"
+
+
+class Outcome(NamedTuple):
+    """What became of one subject: ``status`` is ok, failed or resumed (a complete
+    result with the same hash was already there); ``record`` is the subject's record."""
+
+    name: str
+    status: str
+    record: dict[str, Any]
+
+
+def one_line(exc: BaseException) -> str:
+    """An exception as one line: a MocapError's message, else ``Type: message``."""
+    text = str(exc) if isinstance(exc, MocapError) else f"{type(exc).__name__}: {exc}"
+    lines = [ln.strip() for ln in text.strip().splitlines() if ln.strip()]
+    return lines[0] if lines else type(exc).__name__
+
+
+def failed_record(subject: Subject, digest: str, error: str, seconds: float) -> dict[str, Any]:
+    rows = [
+        {"subject": subject.name, "trial": Path(t).name, "status": "failed", "error": error}
+        for t in subject.trials
+    ]
+    return {
+        "subject": subject.name,
+        "hash": digest,
+        "status": "failed",
+        "error": error,
+        "seconds": seconds,
+        "rows": rows,
+    }
+
+
+def execute(job: Job, subject: Subject, out: str, digest: str) -> dict[str, Any]:
+    """Run ``job`` for one subject into a temporary folder of ``out`` and commit it.
+
+    Returns the record; an exception of the job becomes a failed record (nothing committed).
+    Runs in a Ray worker (or in the caller, serially).
+    """
+    t0 = time.perf_counter()
+    root = Path(out)
+    tmp = root / f"{_TMP}{subject.name}-{secrets.token_hex(4)}"
+    try:
+        tmp.mkdir()
+        record = dict(job(subject, tmp))
+        record.update(
+            subject=subject.name,
+            hash=digest,
+            status="ok",
+            seconds=time.perf_counter() - t0,
+        )
+        atomic_write_text(tmp / RECORD, json.dumps(record, indent=2, default=float) + "\n")
+        _commit(tmp, root / subject.name)
+        return record
+    except Exception as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        error = one_line(exc)
+        if not isinstance(exc, MocapError):
+            print(f"{subject.name}: {traceback.format_exc()}", file=sys.stderr)
+        return failed_record(subject, digest, error, time.perf_counter() - t0)
+
+
+def _commit(tmp: Path, final: Path) -> None:
+    """Rename ``tmp`` to ``final``; an older ``final`` is moved aside first, then removed."""
+    old = None
+    if final.exists():
+        old = final.with_name(f"{_OLD}{final.name}-{secrets.token_hex(4)}")
+        os.replace(final, old)
+    os.replace(tmp, final)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def completed(out: Path, subject: Subject, digest: str) -> dict[str, Any] | None:
+    """The subject's record in ``out`` if it is complete, ok and of the same inputs."""
+    try:
+        record = json.loads((out / subject.name / RECORD).read_text())
+    except (OSError, ValueError):
+        return None
+    if isinstance(record, dict) and record.get("hash") == digest and record.get("status") == "ok":
+        return record
+    return None
+
+
+def clean_leftovers(out: Path) -> None:
+    """Remove temporary folders of interrupted runs (never results: see :func:`execute`)."""
+    for p in out.iterdir():
+        if p.is_dir() and p.name.startswith((_TMP, _OLD)):
+            shutil.rmtree(p, ignore_errors=True)
+
+
+def have_ray() -> bool:
+    try:
+        import ray  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def run_batch(
+    subjects: Sequence[Subject],
+    out: Path,
+    job: Job,
+    *,
+    settings: Mapping[str, Any] | None = None,
+    use_ray: bool = True,
+    address: str | None = None,
+    workers: int | None = None,
+    progress: bool = True,
+    on_outcome: Callable[[Outcome], None] | None = None,
+) -> list[Outcome]:
+    """Run ``job`` for every subject not already complete in ``out``; outcomes by subject.
+
+    ``settings`` enter every subject's content hash (what else the results depend on).
+    ``use_ray=False`` runs the jobs serially in this process. ``workers`` limits the local
+    Ray's CPUs (default: all). ``on_outcome`` is called as each subject finishes.
+    """
+    out.mkdir(parents=True, exist_ok=True)
+    clean_leftovers(out)
+    todo: list[tuple[Subject, str]] = []
+    outcomes: dict[str, Outcome] = {}
+    bar = _bar(len(subjects), progress)
+
+    def done(o: Outcome) -> None:
+        outcomes[o.name] = o
+        bar.update(1)
+        failed = sum(v.status == "failed" for v in outcomes.values())
+        rows = [r for v in outcomes.values() for r in v.record.get("rows", [])]
+        bad = sum(r.get("status") != "ok" for r in rows)
+        bar.set_postfix(failed=failed, failed_trials=bad, refresh=False)
+        if on_outcome is not None:
+            on_outcome(o)
+
+    for s in subjects:
+        digest = content_hash(s, settings)
+        record = completed(out, s, digest)
+        if record is not None:
+            done(Outcome(s.name, "resumed", record))
+        else:
+            todo.append((s, digest))
+    try:
+        if todo and use_ray:
+            for o in _ray_outcomes(todo, out, job, address, workers):
+                done(o)
+        else:
+            for s, digest in todo:
+                rec = execute(job, s, str(out), digest)
+                done(Outcome(s.name, rec["status"], rec))
+    finally:
+        bar.close()
+        clean_leftovers(out)
+    return [outcomes[s.name] for s in subjects]
+
+
+def _ray_outcomes(
+    todo: Sequence[tuple[Subject, str]],
+    out: Path,
+    job: Job,
+    address: str | None,
+    workers: int | None,
+) -> Iterator[Outcome]:
+    import ray
+    from ray.exceptions import RayError
+
+    with _ray_session(address, workers):
+        task = ray.remote(num_cpus=1, max_retries=MAX_RETRIES, retry_exceptions=False)(execute)
+        pending = {
+            task.remote(job, s, str(out.resolve()), digest): (s, digest) for s, digest in todo
+        }
+        while pending:
+            ready, _ = ray.wait(list(pending), num_returns=1)
+            s, digest = pending.pop(ready[0])
+            try:
+                rec = ray.get(ready[0])
+            except RayError as exc:  # the worker died more than MAX_RETRIES times
+                msg = f"worker failed {MAX_RETRIES + 1} times: {one_line(exc)}"
+                rec = failed_record(s, digest, msg, 0.0)
+            yield Outcome(s.name, rec["status"], rec)
+
+
+@contextlib.contextmanager
+def _ray_session(address: str | None, workers: int | None) -> Iterator[None]:
+    import ray
+
+    kwargs: dict[str, Any] = {"log_to_driver": False, "configure_logging": False}
+    if address:
+        kwargs["address"] = address
+    else:
+        kwargs.update(
+            num_cpus=workers or os.cpu_count() or 1,
+            object_store_memory=OBJECT_STORE_BYTES,
+            include_dashboard=False,
+        )
+    try:
+        ray.init(**kwargs)
+    except (ConnectionError, RuntimeError, ValueError) as exc:
+        where = f"the Ray cluster at {address}" if address else "a local Ray"
+        raise MocapError(f"cannot start or join {where}: {one_line(exc)}") from None
+    try:
+        yield
+    finally:
+        ray.shutdown()
+
+
+def _bar(total: int, progress: bool) -> Any:
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc="subjects", unit="subject", file=sys.stderr, disable=not progress)

@@ -1,0 +1,220 @@
+"""``mocap-mj batch``: identify and track every subject of a dataset, on Ray.
+
+Per subject: one identification from all its readable trials (``mocap-mj identify``), then
+IK of each trial with the identified model (``mocap-mj ik``), into ``OUT/<subject>/identify``
+and ``OUT/<subject>/ik/<trial>``; then ``OUT/summary.csv`` and ``OUT/report.md`` over the
+dataset. See :mod:`mocap_mj.batch.run` for isolation and resume, docs/batch.md for usage.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import functools
+import io
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from .._threads import one_blas_thread
+from ..batch.dataset import FLAGS, OPTION_KEYS, Subject, load_dataset
+from ..batch.report import write_report, write_summary_csv
+from ..batch.run import have_ray, one_line, run_batch
+from ..cli import add_json_flag, build_parser, finish
+from ..errors import MocapError
+from ..parameters import ParameterSet
+from ._markers import load_trial
+
+#: Options that also apply to the IK of each trial (how the marker files are read).
+MARKER_OPTIONS = ("up", "marker_map", "file_subject")
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "batch",
+        help="identify and track every subject of a dataset (on Ray when installed)",
+        description="Per subject: one identification from all its trials, then IK of each "
+        "trial with the subject's model; summary.csv and report.md over the dataset. "
+        "Re-running the same command skips subjects already done with the same inputs.",
+    )
+    p.add_argument("dataset", help="folder with one folder per subject, or a CSV/YAML manifest")
+    p.add_argument("--out", required=True, help="output folder (re-used: finished subjects kept)")
+    p.add_argument("--address", help="join this Ray cluster (default: start a local Ray)")
+    p.add_argument("--workers", type=int, help="CPUs of the local Ray (default: all)")
+    p.add_argument("--serial", action="store_true", help="no Ray: one subject after the other")
+    g = p.add_argument_group("defaults of every subject (a manifest's options override them)")
+    for key, kind in OPTION_KEYS.items():
+        g.add_argument(FLAGS[key], dest=key, type=kind, metavar=key.upper())
+    add_json_flag(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    defaults = {k: getattr(args, k) for k in OPTION_KEYS if getattr(args, k) is not None}
+    subjects = load_dataset(args.dataset, defaults)
+    if args.workers is not None and args.workers < 1:
+        raise MocapError(f"--workers: expected at least 1, got {args.workers}")
+    if args.serial and args.address:
+        raise MocapError("--serial and --address exclude each other")
+    use_ray = not args.serial
+    if use_ray and not have_ray():
+        if args.address:
+            raise MocapError("--address needs Ray: pip install 'mocap-mj[cluster]'")
+        print(
+            "mocap-mj batch: Ray is not installed, running the subjects one after the other "
+            "(pip install 'mocap-mj[cluster]' to run them in parallel)",
+            file=sys.stderr,
+        )
+        use_ray = False
+    from .. import __version__
+
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise MocapError(f"{out}: exists and is not a folder")
+    t0 = time.perf_counter()
+    outcomes = run_batch(
+        subjects,
+        out,
+        process_subject,
+        settings={"mocap_mj": __version__},
+        use_ray=use_ray,
+        address=args.address,
+        workers=args.workers,
+        progress=not args.json,
+    )
+    seconds = time.perf_counter() - t0
+    rows = write_summary_csv(out / "summary.csv", outcomes)
+    write_report(out, outcomes, seconds)
+    failed = [o.name for o in outcomes if o.status == "failed"]
+    bad_rows = [r for r in rows if r["status"] != "ok"]
+    bad = [f"{r['subject']}/{r['trial']}" for r in bad_rows]
+    summary = {
+        "dataset": str(args.dataset),
+        "subjects": len(outcomes),
+        "subjects_done": sum(o.status == "ok" for o in outcomes),
+        "subjects_resumed": sum(o.status == "resumed" for o in outcomes),
+        "subjects_failed": failed,
+        "trials": len(rows),
+        "trials_failed": bad,
+        "ray": use_ray,
+        "seconds": seconds,
+    }
+    text = (
+        f"{len(outcomes)} subjects: {summary['subjects_done']} identified, "
+        f"{summary['subjects_resumed']} kept from an earlier run, {len(failed)} failed; "
+        f"{len(rows)} trials, {len(bad)} failed; {seconds:.1f} s\n"
+        + "".join(f"failed: {r['subject']}/{r['trial']}: {r['error']}\n" for r in bad_rows)
+        + f"wrote {out}/summary.csv, report.md, <subject>/identify, <subject>/ik/<trial>"
+    )
+    finish(args, summary, text, out)
+    return 1 if failed or bad else 0
+
+
+# --------------------------------------------------------------------------- the adapter
+def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
+    """One subject into ``folder``: identification from its readable trials, then IK of each.
+
+    The batch's only contact with identification and IK: they run as their commands do
+    (``identify`` and ``ik`` parsed by the command line's own parser), so the subject's
+    folders hold exactly what those commands write. A trial that cannot be read, or whose IK
+    fails, becomes a failed row; no readable trial, or a failed identification, raises.
+    """
+    opts = dict(subject.options)
+    marker_args = _flags({k: opts[k] for k in MARKER_OPTIONS if k in opts})
+    pset = ParameterSet(opts.get("model"))
+    reader = argparse.Namespace(
+        up=opts.get("up"), marker_map=opts.get("marker_map"), subject=opts.get("file_subject")
+    )
+    names = _trial_folders(subject.trials)
+    rows: dict[str, dict[str, Any]] = {}
+    readable = []
+    for path in subject.trials:
+        row: dict[str, Any] = {"trial": Path(path).name, "status": "failed", "error": ""}
+        rows[path] = row
+        try:
+            row["frames"] = len(load_trial(path, pset.marker_names, reader).markers)
+            readable.append(path)
+        except (MocapError, OSError, ValueError) as exc:
+            row["error"] = one_line(exc)
+    if not readable:
+        raise MocapError(f"no readable trial ({rows[subject.trials[0]]['error']})")
+    ident_opts = {k: v for k, v in opts.items() if k not in MARKER_OPTIONS}
+    passed = bool(subject.subject_file) and _accepts("identify", "--subject-file")
+    if passed:
+        ident_opts["subject_file"] = subject.subject_file
+    ident = _command("identify", folder / "identify", "--markers", *readable, *marker_args,
+                     *_flags(ident_opts))  # fmt: skip
+    at_bounds = sorted(ident.get("kappa_outside_bounds_mm", {}))
+    model = folder / "identify" / "model.xml"
+    for path in readable:
+        row = rows[path]
+        row.update(
+            identify_rmse_mm=ident.get("marker_rmse_mm"),
+            identify_seconds=ident.get("seconds"),
+            parameters_at_bounds=at_bounds,
+        )
+        try:
+            ik = _command("ik", folder / "ik" / names[path], "--markers", path,
+                          "--model", str(model), *marker_args)  # fmt: skip
+        except MocapError as exc:
+            row["error"] = one_line(exc)
+            continue
+        row.update(status="ok", ik_rmse_mm=ik["marker_rmse_mm"], ik_seconds=ik["seconds"])
+    return {
+        "trials": {Path(p).name: names[p] for p in subject.trials},
+        "height_m": subject.height,
+        "subject_file": subject.subject_file,
+        "subject_file_passed_to_identify": passed,
+        "identify": {
+            k: ident.get(k)
+            for k in ("marker_rmse_mm", "seconds", "iterations", "termination", "kappa_mm")
+        },
+        "rows": [{"subject": subject.name, **rows[p]} for p in subject.trials],
+    }
+
+
+def _command(command: str, out: Path, *options: str) -> dict[str, Any]:
+    """Run ``mocap-mj COMMAND OPTIONS --out OUT`` in this process; its summary.json."""
+    argv = [command, *options, "--out", str(out), "--json"]
+    err = io.StringIO()
+    try:
+        with contextlib.redirect_stderr(err):
+            args = _parser().parse_args(argv)
+    except SystemExit:  # argparse rejected an option (e.g. a manifest's): its last line
+        lines = err.getvalue().strip().splitlines() or ["invalid options"]
+        raise MocapError(lines[-1]) from None
+    with contextlib.redirect_stdout(io.StringIO()), one_blas_thread():  # as the CLI runs it
+        args.func(args)
+    return dict(json.loads((Path(args.out) / "summary.json").read_text()))
+
+
+@functools.cache
+def _parser() -> argparse.ArgumentParser:
+    return build_parser()
+
+
+def _accepts(command: str, flag: str) -> bool:
+    parser = _parser()
+    for action in parser._subparsers._group_actions if parser._subparsers else []:
+        sub = getattr(action, "choices", {}).get(command)
+        if sub is not None:
+            return flag in sub._option_string_actions
+    return False
+
+
+def _flags(options: dict[str, Any]) -> list[str]:
+    out = []
+    for key, value in options.items():
+        out += [FLAGS.get(key, "--" + key.replace("_", "-")), str(value)]
+    return out
+
+
+def _trial_folders(trials: tuple[str, ...]) -> dict[str, str]:
+    """Output folder name of each trial: its file name, numbered if two trials share one."""
+    names = [Path(t).name for t in trials]
+    return {
+        t: n if names.count(n) == 1 else f"{i:02d}-{n}"
+        for i, (t, n) in enumerate(zip(trials, names, strict=True))
+    }
