@@ -80,8 +80,9 @@ def model_coordinates(model: mujoco.MjModel) -> tuple[Coordinate, ...]:
         if kind == "free":
             for letter in "XYZ":
                 out.append(
-                    Coordinate(f"{name}_t{letter.lower()}", j, False, _UNIT[letter],
-                               ROOT_TRANSLATION_RANGE)
+                    Coordinate(
+                        f"{name}_t{letter.lower()}", j, False, _UNIT[letter], ROOT_TRANSLATION_RANGE
+                    )
                 )
         # A ball range bounds the total rotation angle; each Cardan angle gets that bound.
         bound = hi if kind == "ball" and limited else np.pi

@@ -60,7 +60,10 @@ def _sub(parent: ET.Element, tag: str, text: str | None = None, **attrs: str) ->
 
 
 def _offset_frame(
-    parent: ET.Element, name: str, socket: str, translation: Iterable[float],
+    parent: ET.Element,
+    name: str,
+    socket: str,
+    translation: Iterable[float],
     orientation: Iterable[float] = (0.0, 0.0, 0.0),
 ) -> None:
     frame = _sub(parent, "PhysicalOffsetFrame", name=name)
@@ -144,7 +147,10 @@ def _inertia(model: mujoco.MjModel, b: int, scale: float) -> tuple[float, np.nda
 
 
 def osim_xml(
-    model: mujoco.MjModel, *, name: str = "mocap_mj_subject", up: str = "y",
+    model: mujoco.MjModel,
+    *,
+    name: str = "mocap_mj_subject",
+    up: str = "y",
     mass: float | None = None,
 ) -> str:
     """The ``.osim`` text of ``model`` (see the module doc); ``mass`` [kg] scales the bodies."""
@@ -158,7 +164,9 @@ def osim_xml(
                 "(the exported joints assume frames aligned in the reference pose)"
             )
         if int(model.body_jntnum[b]) and np.any(
-            np.abs(model.jnt_pos[model.body_jntadr[b] : model.body_jntadr[b] + model.body_jntnum[b]])
+            np.abs(
+                model.jnt_pos[model.body_jntadr[b] : model.body_jntadr[b] + model.body_jntnum[b]]
+            )
             > 1e-12
         ):
             raise MocapError(f"body {model.body(b).name!r}: joints away from the body origin")
@@ -219,8 +227,12 @@ def osim_xml(
 
 
 def write_osim(
-    path: str | Path, model: mujoco.MjModel, *, name: str = "mocap_mj_subject",
-    up: str = "y", mass: float | None = None,
+    path: str | Path,
+    model: mujoco.MjModel,
+    *,
+    name: str = "mocap_mj_subject",
+    up: str = "y",
+    mass: float | None = None,
 ) -> None:
     """Write :func:`osim_xml` to ``path`` atomically."""
     atomic_write_text(path, osim_xml(model, name=name, up=up, mass=mass))
