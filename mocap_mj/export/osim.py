@@ -127,13 +127,13 @@ def _custom_joint(
     if len(rot) > 3 or len(trans) > 3:
         raise MocapError(f"body {child!r}: more than three rotations or translations")
     st = _sub(joint, "SpatialTransform")
-    rot_axes = [(c.name, c.axis) for c in rot]
-    rot_axes += [(None, tuple(a)) for a in _orthogonal_axes([c.axis for c in rot])]
+    rot_axes: list[tuple[str | None, Iterable[float]]] = [(c.name, c.axis) for c in rot]
+    rot_axes += [(None, a) for a in _orthogonal_axes([c.axis for c in rot])]
     for i, (cname, axis) in enumerate(rot_axes):
         _transform_axis(st, f"rotation{i + 1}", cname, axis)
-    by_axis = {tuple(np.round(c.axis, 12)): c.name for c in trans}
-    for i, axis in enumerate(np.eye(3)):
-        _transform_axis(st, f"translation{i + 1}", by_axis.get(tuple(axis)), axis)
+    by_axis = {tuple(float(v) for v in c.axis): c.name for c in trans}
+    for i, unit in enumerate(np.eye(3)):
+        _transform_axis(st, f"translation{i + 1}", by_axis.get(tuple(unit.tolist())), unit)
 
 
 def _inertia(model: mujoco.MjModel, b: int, scale: float) -> tuple[float, np.ndarray, np.ndarray]:
