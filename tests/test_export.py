@@ -332,3 +332,9 @@ def test_opensim_ik_reproduces_our_joint_angles(tmp_path: Path) -> None:
     dv = Kinematics(exp.pset).difference(exp.qpos, got.qpos)
     assert np.degrees(np.max(np.abs(dv[:, 3:]))) < 0.5
     assert np.max(np.abs(dv[:, :3])) < 1e-3  # root position [m]
+
+
+def test_every_public_name_resolves() -> None:
+    import mocap_mj.export as export
+
+    assert all(hasattr(export, name) for name in export.__all__)
