@@ -93,6 +93,7 @@ def compare(
     row["legs_median_deg"] = float(np.median(rot[:, legs]))
     row["legs_p95_deg"] = float(np.percentile(rot[:, legs], 95))
     row["legs_max_deg"] = float(np.max(rot[:, legs]))
+    row["legs_frames_over_2deg"] = float(np.mean(rot[:, legs].max(axis=1) > 2.0))
     worst = int(np.argmax(rot.max(axis=0))) + 3
     row["worst_dof"] = worst  # type: ignore[assignment]
     dof_joint = kin.model.joint(int(kin.model.dof_jntid[worst])).name
@@ -102,7 +103,8 @@ def compare(
         f"{row['angle_median_deg']:.3f}  p95 {row['angle_p95_deg']:.3f}  max "
         f"{row['angle_max_deg']:.2f} deg ({dof_joint}); hips, knees, ankles median "
         f"{row['legs_median_deg']:.3f} p95 {row['legs_p95_deg']:.3f} max "
-        f"{row['legs_max_deg']:.2f} deg  root {row['root_max_mm']:.2f} mm  |  "
+        f"{row['legs_max_deg']:.2f} deg, {row['legs_frames_over_2deg']:.0%} of frames > 2 deg"
+        f"  root {row['root_max_mm']:.2f} mm  |  "
         f"frames/s ours {row['fps_ours']:,.0f}  OpenSim {row['fps_opensim']:,.1f}",
         flush=True,
     )
@@ -115,6 +117,8 @@ def main() -> None:
     parser.add_argument("--max-frames", type=int, help="cut every real trial to N frames")
     parser.add_argument("--accuracy", type=float, default=1e-5, help="OpenSim IK accuracy")
     parser.add_argument("--synthetic-only", action="store_true")
+    parser.add_argument("--no-synthetic", action="store_true")
+    parser.add_argument("--trials", nargs="*", help="real trials to run (file stems; all)")
     parser.add_argument(
         "--model-from",
         action="append",
@@ -138,6 +142,8 @@ def main() -> None:
         return
     for trial in REAL_TRIALS:
         stem = Path(trial).stem
+        if args.trials and stem not in args.trials:
+            continue
         if stem in models:
             pset, label = ParameterSet(load_result(models[stem]).model_path), "identified"
         else:
