@@ -129,12 +129,14 @@ def main() -> None:
     args = parser.parse_args()
     models = dict(item.split("=", 1) for item in args.model_from)
 
-    exp = synthesize(SynthConfig(frames=args.frames, noise_mm=1.0, seed=0))
     print(f"OpenSim IK accuracy {args.accuracy:g}; angle differences over rotational DOF")
-    with tempfile.TemporaryDirectory() as tmp:
-        truth = Path(tmp) / "truth.xml"
-        exp.pset.export_mjcf(truth, exp.theta_true)
-        compare("synthetic rom (truth)", ParameterSet(truth), exp.times, exp.markers, args.accuracy)
+    if not args.no_synthetic:
+        exp = synthesize(SynthConfig(frames=args.frames, noise_mm=1.0, seed=0))
+        with tempfile.TemporaryDirectory() as tmp:
+            truth = Path(tmp) / "truth.xml"
+            exp.pset.export_mjcf(truth, exp.theta_true)
+            markers = exp.markers
+            compare("synthetic rom (truth)", ParameterSet(truth), exp.times, markers, args.accuracy)
     if args.synthetic_only:
         return
     if not REAL.is_dir():
