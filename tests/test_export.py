@@ -304,6 +304,7 @@ def test_export_command_writes_every_format(result: Path, tmp_path: Path) -> Non
         (["--out", "x.csv"], "cannot tell the format"),
         (["--to", "osim"], "--out: expected"),
         (["--to", "osim", "--out", "a.osim", "--mass", "-3"], "positive number of kilograms"),
+        (["--to", "osim", "--out", "a.osim", "--model", "x.xml"], "--model: only for --to glb"),
     ],
 )
 def test_export_errors_are_one_line(

@@ -83,7 +83,7 @@ def _write(fmt: str, path: Path, src: ExportSource, args: argparse.Namespace) ->
 
 def _builtin(fmt: str) -> Callable[[argparse.Namespace], dict[str, Any]]:
     def run(args: argparse.Namespace) -> dict[str, Any]:
-        src = load_result(_result(args))
+        src = _source(args)
         out = Path(args.out)
         if out.is_dir():
             raise MocapError(f"--out {out}: is a folder, expected a file")
@@ -99,7 +99,7 @@ def _builtin(fmt: str) -> Callable[[argparse.Namespace], dict[str, Any]]:
 
 
 def _run_all(args: argparse.Namespace) -> dict[str, Any]:
-    src = load_result(_result(args))
+    src = _source(args)
     out = prepare_out(args.out, force=args.force)
     for fmt, name in ALL_FILES.items():
         _write(fmt, out / name, src, args)
@@ -112,10 +112,14 @@ def _run_all(args: argparse.Namespace) -> dict[str, Any]:
     }
 
 
-def _result(args: argparse.Namespace) -> str:
+def _source(args: argparse.Namespace) -> ExportSource:
+    """The result to export: RESULT_DIR, with ``--motion`` for another trial's motion."""
     if not args.result:
         raise MocapError("RESULT_DIR: expected a result folder (model.xml + motion.npz)")
-    return str(args.result)
+    for flag in ("model", "markers", "ghost"):
+        if getattr(args, flag, None):
+            raise MocapError(f"--{flag}: only for --to glb")
+    return load_result(args.result, getattr(args, "motion", None))
 
 
 BUILTIN: tuple[Exporter, ...] = (

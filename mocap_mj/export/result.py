@@ -58,9 +58,15 @@ def frame_rate(times: np.ndarray) -> float:
     return float(1.0 / np.median(steps))
 
 
-def load_result(path: str | Path) -> ExportSource:
-    """Read the result folder ``path`` (see the module doc); bad folders raise one clear line."""
+def load_result(path: str | Path, motion_path: str | Path | None = None) -> ExportSource:
+    """Read the result folder ``path`` (see the module doc); bad folders raise one clear line.
+
+    ``motion_path`` replaces ``motion.npz`` (e.g. ``motion_1.npz``, the second trial of a
+    multi-trial ``identify``).
+    """
     rd = ResultDir.open(path)
+    if motion_path is not None:
+        rd = ResultDir(rd.root, rd.model, Path(motion_path))
     model = load_model(rd.model)
     motion = load_motion(rd.motion)
     if motion.qpos.shape[1] != model.nq:
