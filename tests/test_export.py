@@ -339,3 +339,24 @@ def test_every_public_name_resolves() -> None:
     import mocap_mj.export as export
 
     assert all(hasattr(export, name) for name in export.__all__)
+
+
+def test_unsolved_frames_are_empty_in_every_table(result: Path, tmp_path: Path) -> None:
+    src = load_result(result)
+    qpos = src.motion.qpos.copy()
+    qpos[2] = np.nan  # a frame IK could not solve
+    root = tmp_path / "r"
+    root.mkdir()
+    (root / "model.xml").write_text(src.model_path.read_text())
+    m = src.motion
+    save_motion(root / "motion.npz", Motion(qpos, m.times, m.markers, m.marker_names))
+    assert main(["export", str(root), "--to", "all", "--out", str(tmp_path / "all")]) == 0
+    for name in ("angles.csv", "residuals.csv"):
+        row = (tmp_path / "all" / name).read_text().splitlines()[3].split(",")
+        assert row[:2] == ["2", "0.020000"] and set(row[2:]) == {""}, name
+    _, _, values = read_mot(tmp_path / "all" / "coordinates.mot")
+    assert np.isnan(values[2]).all() and np.isfinite(values[3]).all()
+    c3d = ezc3d.c3d(str(tmp_path / "all" / "result.c3d"))
+    points = c3d["data"]["points"][:3, :, 2]
+    n = len(m.marker_names)
+    assert np.isfinite(points[:, :n]).all() and np.isnan(points[:, n:]).all()
