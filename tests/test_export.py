@@ -134,6 +134,18 @@ def test_osim_loads_without_warnings_and_markers_match_mjcf(
             got = marker.getLocationInGround(state).to_numpy()
             want = up_rotation("y") @ data.site_xpos[s]
             assert np.linalg.norm(got - want) < 1e-4, model.site(s).name  # 0.1 mm
+        for g in range(model.ngeom):  # display geometry: OpenSim cylinders run along y
+            if model.geom_bodyid[g] == 0:
+                continue
+            body = omodel.getBodySet().get(model.body(model.geom_bodyid[g]).name)
+            frame = osim.PhysicalOffsetFrame.safeDownCast(
+                body.getComponent(f"{model.geom(g).name}_frame")
+            )
+            pose = frame.getTransformInGround(state)
+            axis = np.array([pose.R().get(i, 1) for i in range(3)])
+            up = up_rotation("y")
+            assert np.allclose(pose.p().to_numpy(), up @ data.geom_xpos[g], atol=1e-9)
+            assert np.allclose(axis, up @ data.geom_xmat[g].reshape(3, 3)[:, 2], atol=1e-9)
 
 
 def test_osim_is_written_without_opensim_and_z_up_keeps_gravity(

@@ -146,6 +146,52 @@ def _inertia(model: mujoco.MjModel, b: int, scale: float) -> tuple[float, np.nda
     return float(model.body_mass[b] * scale), np.array(model.body_ipos[b], dtype=float), six
 
 
+def _geometry(body: ET.Element, model: mujoco.MjModel, b: int) -> None:
+    """Display geometry: each MJCF capsule or cylinder as an OpenSim ``Cylinder`` (its axis
+    is the frame's y, MJCF's is z), each sphere as a ``Sphere``, on an offset frame of the body.
+    The hemispherical caps of capsules are not drawn."""
+    frames: list[tuple[str, ET.Element]] = []
+    for g in range(int(model.body_geomadr[b]), int(model.body_geomadr[b] + model.body_geomnum[b])):
+        typ = int(model.geom_type[g])
+        size = model.geom_size[g]
+        if typ in (int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_CYLINDER)):
+            shape = ET.Element("Cylinder")
+            _sub(shape, "radius", repr(float(size[0])))
+            _sub(shape, "half_height", repr(float(size[1])))
+        elif typ == int(mujoco.mjtGeom.mjGEOM_SPHERE):
+            shape = ET.Element("Sphere")
+            _sub(shape, "radius", repr(float(size[0])))
+        else:
+            continue
+        rot = np.zeros(9)
+        mujoco.mju_quat2Mat(rot, model.geom_quat[g])
+        # OpenSim's cylinder axis is y: turn the frame so that its y is the geom's z.
+        r = rot.reshape(3, 3) @ np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])
+        name = model.geom(g).name or f"{model.body(b).name}_geom{g}"
+        frame = ET.Element("PhysicalOffsetFrame", name=f"{name}_frame")
+        _sub(frame, "socket_parent", "..")
+        _sub(frame, "translation", _vec(model.geom_pos[g]))
+        _sub(frame, "orientation", _vec(_body_fixed_xyz(r)))
+        shape.set("name", name)
+        _sub(shape, "socket_frame", "..")
+        colour = _sub(shape, "Appearance", name="appearance")
+        _sub(colour, "color", _vec(model.geom_rgba[g][:3]))
+        attached = _sub(frame, "attached_geometry")
+        attached.append(shape)
+        frames.append((name, frame))
+    if frames:
+        components = _sub(body, "components")
+        for _, frame in frames:
+            components.append(frame)
+
+
+def _body_fixed_xyz(r: np.ndarray) -> np.ndarray:
+    """Body-fixed X-Y-Z angles (3,) [rad] of a rotation matrix (3, 3), OpenSim's orientation."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_matrix(r).as_euler("XYZ")
+
+
 def osim_xml(
     model: mujoco.MjModel,
     *,
@@ -196,6 +242,7 @@ def osim_xml(
         _sub(body, "mass", repr(m))
         _sub(body, "mass_center", _vec(com))
         _sub(body, "inertia", _vec(inertia))
+        _geometry(body, model, b)
         parent = int(model.body_parentid[b])
         jids = range(int(model.body_jntadr[b]), int(model.body_jntadr[b] + model.body_jntnum[b]))
         jcoords = [c for j in jids for c in by_joint.get(j, [])]
