@@ -9,7 +9,8 @@ values give the same pose in both programs. Markers are the MJCF sites on their 
 The root joint hangs from a ground frame that turns the MJCF world (z up) into OpenSim's ground:
 ``up="y"`` (OpenSim's convention, the default) rotates it by -90 degrees about x (MJCF x -> x,
 y -> -z, z -> y); ``up="z"`` keeps the MJCF world. Marker files for this model must use the
-same up axis (:func:`mocap_mj.export.trc.write_trc`).
+same up axis (:func:`mocap_mj.export.trc.write_trc`). The MJCF capsules and spheres are drawn
+as OpenSim cylinders and spheres.
 
 Masses and inertias are the MJCF's (from its display geoms at 1000 kg/m^3), multiplied by
 ``mass / total`` when the subject's ``mass`` [kg] is given, so that the bodies sum to it.
@@ -23,6 +24,7 @@ from xml.etree import ElementTree as ET
 
 import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ..errors import MocapError
 from ..io.atomic import atomic_write_text
@@ -187,8 +189,6 @@ def _geometry(body: ET.Element, model: mujoco.MjModel, b: int) -> None:
 
 def _body_fixed_xyz(r: np.ndarray) -> np.ndarray:
     """Body-fixed X-Y-Z angles (3,) [rad] of a rotation matrix (3, 3), OpenSim's orientation."""
-    from scipy.spatial.transform import Rotation
-
     return Rotation.from_matrix(r).as_euler("XYZ")
 
 
