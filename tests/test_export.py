@@ -299,6 +299,9 @@ def test_export_command_writes_every_format(result: Path, tmp_path: Path) -> Non
     assert main(["export", str(result), "--to", "all", "--out", str(tmp_path / "all")]) == 0
     files = {p.name for p in (tmp_path / "all").iterdir()}
     assert {"subject.osim", "coordinates.mot", "angles.csv", "residuals.csv"} <= files
+    assert (
+        "<model_file>subject.osim</model_file>" in (tmp_path / "all" / "ik_setup.xml").read_text()
+    )
     src = load_result(result)
     rows = (tmp_path / "all" / "residuals.csv").read_text().splitlines()
     assert rows[0].split(",")[2] == "LASI_mm" and len(rows) == 13
@@ -308,6 +311,15 @@ def test_export_command_writes_every_format(result: Path, tmp_path: Path) -> Non
     assert float(cells[0]) == pytest.approx(distance[4, 0] * 1e3, abs=1e-4)
     assert main(["export", str(result), "--out", str(tmp_path / "m.trc")]) == 0
     assert load_markers(tmp_path / "m.trc").n_frames == 12
+
+
+def test_ik_setup_loads_in_opensim(result: Path, tmp_path: Path) -> None:
+    osim = _opensim()
+    assert main(["export", str(result), "--to", "all", "--out", str(tmp_path / "all")]) == 0
+    tool = osim.InverseKinematicsTool(str(tmp_path / "all" / "ik_setup.xml"))
+    assert tool.get_model_file() == "subject.osim"
+    assert tool.getMarkerDataFileName() == "markers.trc"
+    assert tool.getIKTaskSet().getSize() == 39
 
 
 @pytest.mark.parametrize(

@@ -18,6 +18,7 @@ from typing import Any
 from ..cli import add_json_flag, finish, prepare_out
 from ..errors import MocapError
 from ..export.c3d import write_c3d
+from ..export.ik_setup import write_ik_setup
 from ..export.mot import write_mot
 from ..export.osim import UP_ORIENTATION, write_osim
 from ..export.registry import Exporter, plugin_exporters
@@ -43,6 +44,8 @@ ALL_FILES: dict[str, str] = {
     "residuals": "residuals.csv",
     "scale": "scale.csv",
 }
+#: OpenSim IK setup of ``--to all`` (subject.osim fitted to markers.trc, every weight 1).
+IK_SETUP = "ik_setup.xml"
 
 
 def _subject_mass(args: argparse.Namespace, src: ExportSource) -> float | None:
@@ -103,11 +106,19 @@ def _run_all(args: argparse.Namespace) -> dict[str, Any]:
     out = prepare_out(args.out, force=args.force)
     for fmt, name in ALL_FILES.items():
         _write(fmt, out / name, src, args)
+    times = src.motion.times
+    write_ik_setup(
+        out / IK_SETUP,
+        model_file=ALL_FILES["osim"],
+        marker_file=ALL_FILES["trc"],
+        marker_names=src.motion.marker_names,
+        time_range=(float(times[0]), float(times[-1])),
+    )
     return {
         "result": str(src.root),
         "format": "all",
         "out": str(out),
-        "files": list(ALL_FILES.values()),
+        "files": [*ALL_FILES.values(), IK_SETUP],
         "frames": len(src.motion.times),
     }
 
@@ -131,7 +142,9 @@ BUILTIN: tuple[Exporter, ...] = (
     Exporter("angles", "", "CSV of clinical joint angles [deg]", _builtin("angles")),
     Exporter("residuals", "", "CSV of per-marker, per-frame residuals [mm]", _builtin("residuals")),
     Exporter("scale", "", "CSV of segment lengths and scale factors", _builtin("scale")),
-    Exporter("all", "", "every built-in format into the folder --out", _run_all),
+    Exporter(
+        "all", "", "every built-in format and an OpenSim IK setup into the folder --out", _run_all
+    ),
 )
 
 

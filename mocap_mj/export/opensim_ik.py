@@ -2,8 +2,9 @@
 
 Used by the side-by-side benchmark (``benchmarks/opensim_ik.py``) and the validation tests:
 the MJCF model is exported with :func:`mocap_mj.export.osim.write_osim`, the markers with
-:func:`mocap_mj.export.trc.write_trc` (same up axis), every marker weighted 1 (as ``mocap-mj
-ik``), and the resulting ``.mot`` is turned back into MuJoCo ``qpos``.
+:func:`mocap_mj.export.trc.write_trc` (same up axis), the tool runs from the setup file of
+:mod:`mocap_mj.export.ik_setup` (every marker weighted 1, as ``mocap-mj ik``), and the
+resulting ``.mot`` is turned back into MuJoCo ``qpos``.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import numpy as np
 
 from ..errors import MocapError
 from .coordinates import model_coordinates, qpos_from_coordinates
+from .ik_setup import DEFAULT_ACCURACY, write_ik_setup
 from .mot import read_mot
 from .osim import write_osim
 from .trc import write_trc
@@ -53,7 +55,7 @@ def run_opensim_ik(
     markers: np.ndarray,
     workdir: str | Path,
     *,
-    accuracy: float = 1e-5,
+    accuracy: float = DEFAULT_ACCURACY,
     up: str = "y",
 ) -> OpenSimIK:
     """OpenSim IK of markers (T, M, 3) [m, MJCF world, NaN = missing] at times (T,) [s].
@@ -65,24 +67,19 @@ def run_opensim_ik(
     work.mkdir(parents=True, exist_ok=True)
     write_osim(work / "model.osim", model, up=up)
     write_trc(work / "markers.trc", names, times, markers, up=up)
+    write_ik_setup(
+        work / "ik_setup.xml",
+        model_file="model.osim",
+        marker_file="markers.trc",
+        marker_names=names,
+        time_range=(float(times[0]), float(times[-1])),
+        output_motion_file="ik.mot",
+        accuracy=accuracy,
+    )
     omodel = osim.Model(str(work / "model.osim"))
     omodel.initSystem()
-    tool = osim.InverseKinematicsTool()
-    tool.setModel(omodel)
-    tool.setMarkerDataFileName(str(work / "markers.trc"))
-    tool.setStartTime(float(times[0]))
-    tool.setEndTime(float(times[-1]))
-    tool.set_accuracy(accuracy)
-    tool.set_report_errors(False)
-    tool.setResultsDir(str(work))
-    tool.setOutputMotionFileName(str(work / "ik.mot"))
-    tasks = tool.getIKTaskSet()
-    for name in names:
-        task = osim.IKMarkerTask()
-        task.setName(name)
-        task.setApply(True)
-        task.setWeight(1.0)
-        tasks.cloneAndAppend(task)
+    tool = osim.InverseKinematicsTool(str(work / "ik_setup.xml"))
+    tool.setModel(omodel)  # loaded outside the timing below
     t0 = time.perf_counter()
     ok = tool.run()
     seconds = time.perf_counter() - t0
