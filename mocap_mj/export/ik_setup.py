@@ -1,8 +1,9 @@
 """Setup file of OpenSim's InverseKinematicsTool for an exported model and TRC (XML, no OpenSim).
 
-``opensim-cmd run-tool ik_setup.xml`` (or the GUI's Tools > Inverse Kinematics > Load) then
-fits the exported ``.osim`` to the ``.trc`` as ``mocap-mj ik`` does: every marker with weight 1.
-Paths are written as given; OpenSim resolves relative ones from the setup file's folder.
+Run from the setup file's folder (``opensim-cmd run-tool ik_setup.xml``, or
+``opensim.InverseKinematicsTool("ik_setup.xml").run()``), OpenSim's IK fits the exported
+``.osim`` to the ``.trc`` as ``mocap-mj ik`` does: every marker with weight 1. Paths are
+written as given; the Python tool reads relative ones from the working directory.
 """
 
 from __future__ import annotations
