@@ -63,17 +63,17 @@ def run_opensim_ik(
     ``accuracy`` is the tool's convergence setting (OpenSim's default is 1e-5).
     """
     osim = import_opensim()
-    work = Path(workdir)
+    work = Path(workdir).resolve()  # absolute paths: OpenSim resolves relative ones unevenly
     work.mkdir(parents=True, exist_ok=True)
     write_osim(work / "model.osim", model, up=up)
     write_trc(work / "markers.trc", names, times, markers, up=up)
     write_ik_setup(
         work / "ik_setup.xml",
-        model_file="model.osim",
-        marker_file="markers.trc",
+        model_file=str(work / "model.osim"),
+        marker_file=str(work / "markers.trc"),
         marker_names=names,
         time_range=(float(times[0]), float(times[-1])),
-        output_motion_file="ik.mot",
+        output_motion_file=str(work / "ik.mot"),
         accuracy=accuracy,
     )
     omodel = osim.Model(str(work / "model.osim"))
