@@ -42,6 +42,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..errors import check_shape
+from .result import posed_frames
 
 
 @dataclass(frozen=True)
@@ -164,12 +165,9 @@ def clinical_angles(
     prox = [model.body(j.proximal).id if j.proximal else 0 for j in joints]
     dist = [model.body(j.distal).id for j in joints]
     signs = np.array([j.signs for j in joints])
-    data = mujoco.MjData(model)
     rel = np.tile(np.eye(3), (len(qpos), len(joints), 1, 1))
     ok = np.all(np.isfinite(qpos), axis=1)
-    for t in np.flatnonzero(ok):
-        data.qpos[:] = qpos[t]
-        mujoco.mj_kinematics(model, data)
+    for t, data in posed_frames(model, qpos):
         xmat = data.xmat.reshape(-1, 3, 3)
         rel[t] = np.transpose(xmat[prox], (0, 2, 1)) @ xmat[dist]
     angles = Rotation.from_matrix(rel.reshape(-1, 3, 3)).as_euler("YXZ")

@@ -9,6 +9,7 @@ when present.
 from __future__ import annotations
 
 import json
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -48,6 +49,19 @@ class ExportSource:
     def rate(self) -> float:
         """Frame rate [Hz] from the median time step (1 Hz for a single frame)."""
         return frame_rate(self.motion.times)
+
+
+def posed_frames(model: mujoco.MjModel, qpos: np.ndarray) -> Iterator[tuple[int, mujoco.MjData]]:
+    """(frame index, data after ``mj_kinematics``) for each frame of qpos (T, nq) without NaN.
+
+    The same ``MjData`` is reused: read what you need before the next frame.
+    """
+    data = mujoco.MjData(model)
+    for t, q in enumerate(np.asarray(qpos, dtype=float)):
+        if np.all(np.isfinite(q)):
+            data.qpos[:] = q
+            mujoco.mj_kinematics(model, data)
+            yield t, data
 
 
 def frame_rate(times: np.ndarray) -> float:

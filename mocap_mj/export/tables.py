@@ -16,6 +16,7 @@ from ..errors import check_shape
 from ..io.atomic import atomic_write_text
 from ..joint_centres import JOINT_CENTRES
 from .clinical import clinical_angles, clinical_columns
+from .result import posed_frames
 
 #: Segments of the scale table: (segment, proximal joint centre, distal joint centre). The
 #: length is the distance between the two centres in the reference pose, which is what
@@ -68,13 +69,9 @@ def marker_residuals(
     measured markers (T, M, 3) [m] (NaN where either is missing)."""
     qpos = np.asarray(qpos, dtype=float)
     check_shape("markers", markers, (len(qpos), model.nsite, 3))
-    data = mujoco.MjData(model)
     fitted = np.full((len(qpos), model.nsite, 3), np.nan)
-    for t, q in enumerate(qpos):
-        if np.all(np.isfinite(q)):
-            data.qpos[:] = q
-            mujoco.mj_kinematics(model, data)
-            fitted[t] = data.site_xpos
+    for t, data in posed_frames(model, qpos):
+        fitted[t] = data.site_xpos
     return fitted, np.linalg.norm(fitted - markers, axis=2)
 
 
