@@ -207,4 +207,5 @@ def run(args: argparse.Namespace) -> int:
         fmt = by_suffix[suffix]
     summary = table[fmt].run(args)
     text = f"wrote {summary.get('out', args.out)} ({fmt})"
-    return finish(args, summary, text)
+    folder = Path(args.out) if fmt == "all" else None  # summary.json beside the files
+    return finish(args, summary, text, folder)
