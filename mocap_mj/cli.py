@@ -24,7 +24,7 @@ from ._threads import one_blas_thread
 from .errors import MocapError
 
 #: Core subcommand modules (``mocap_mj.commands.<name>``), in help order.
-CORE_COMMANDS: tuple[str, ...] = ("info", "ik", "identify", "score", "batch")
+CORE_COMMANDS: tuple[str, ...] = ("info", "ik", "identify", "score", "export", "batch")
 
 
 def _registrars() -> list[Callable[[Any], None]]:

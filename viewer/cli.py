@@ -1,9 +1,10 @@
-"""``mocap-mj view``, ``render`` and ``export``: registered through the ``mocap_mj.commands``
+"""``mocap-mj view``, ``render`` and the GLB exporter: registered through the ``mocap_mj.commands``
 entry point (``view = "mocap_viewer.cli:register"``), so the library never imports the viewer.
 
 ``view``     interactive playback in MuJoCo's viewer (needs a display).
 ``render``   offscreen PNG / MP4 / GIF (needs EGL or OSMesa without a display).
-``export``   GLB scene of one frame or a range (no OpenGL).
+``export --to glb`` (or the older ``export DIR --glb F``): GLB scene of one frame or a range
+(no OpenGL), through :data:`GLB_EXPORTER` in the ``mocap_mj.exporters`` entry-point group.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from typing import Any
 
 from mocap_mj.cli import add_json_flag, finish
 from mocap_mj.errors import MocapError
+from mocap_mj.export.registry import Exporter
 
 from .playback import Ghost, Playback, load_ghost, load_playback, parse_frame, parse_frames
 
@@ -27,6 +29,10 @@ def _add_source(p: argparse.ArgumentParser) -> None:
         metavar="RESULT_DIR",
         help="result folder (model.xml + motion.npz) or synthetic-truth folder",
     )
+    _add_source_options(p)
+
+
+def _add_source_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--model", help="MJCF file, instead of a result folder (default: bundled)")
     p.add_argument("--motion", help="motion .npz for --model (poses and markers)")
     p.add_argument(
@@ -134,25 +140,52 @@ def _run_render(args: argparse.Namespace) -> int:
 
 
 # ----------------------------------------------------------------------------- export
-def _run_export(args: argparse.Namespace) -> int:
+def _export_glb(args: argparse.Namespace) -> dict[str, Any]:
     from .glb import export_glb
 
-    if Path(args.glb).suffix.lower() != ".glb":
-        raise MocapError(f"--glb {args.glb}: expected a .glb file")
+    if Path(args.out).suffix.lower() != ".glb":
+        raise MocapError(f"--out {args.out}: expected a .glb file")
     playback, ghost = _load(args)
     frames = _frames(args, playback, default_all=False)
-    summary = export_glb(
-        playback, args.glb, frames, markers=args.with_markers, ghost=ghost, floor=args.floor
+    return export_glb(
+        playback, args.out, frames, markers=args.with_markers, ghost=ghost, floor=args.floor
     )
-    text = (
-        f"wrote {summary['out']}: {summary['frames']} frame(s), "
-        f"{summary['geometry_nodes']} geometry nodes"
+
+
+class _LegacyGlb(argparse.Action):
+    """``--glb F``: the old spelling of ``--to glb --out F``."""
+
+    def __call__(self, parser: Any, namespace: Any, values: Any, option: Any = None) -> None:
+        namespace.to, namespace.out = "glb", values
+
+
+def _add_glb_arguments(p: argparse.ArgumentParser) -> None:
+    _add_source_options(p)
+    p.add_argument("--glb", action=_LegacyGlb, metavar="FILE", help="same as --to glb --out FILE")
+    _add_frames(p)
+    p.add_argument(
+        "--with-markers",
+        action="store_true",
+        help="glb: add markers and residuals, one mesh per frame",
     )
-    return finish(args, summary, text)
+    p.add_argument("--floor", action="store_true", help="glb: add the world's geoms (the floor)")
+
+
+#: ``mocap-mj export --to glb``: the posed model of one frame (default: frame 0) or a range as
+#: a GLB scene, one node set per frame (trimesh writes no glTF animation). Registered in the
+#: ``mocap_mj.exporters`` entry-point group.
+GLB_EXPORTER = Exporter(
+    name="glb",
+    suffix=".glb",
+    help="GLB scene of posed frames (--frame/--frames, --with-markers, --floor, --ghost)",
+    run=_export_glb,
+    add_arguments=_add_glb_arguments,
+)
 
 
 def register(sub: Any) -> None:
-    """Add the ``view``, ``render`` and ``export`` subcommands to ``mocap-mj``."""
+    """Add the ``view`` and ``render`` subcommands to ``mocap-mj`` (``export --to glb`` is
+    :data:`GLB_EXPORTER`)."""
     p = sub.add_parser(
         "view",
         help="play a result in MuJoCo's interactive viewer",
@@ -193,19 +226,3 @@ def register(sub: Any) -> None:
     )
     add_json_flag(p)
     p.set_defaults(func=_run_render)
-
-    p = sub.add_parser(
-        "export",
-        help="export posed frames as a GLB scene",
-        description="Write the posed model of one frame (default: frame 0) or a range as a "
-        "GLB scene: one node set per frame (trimesh writes no glTF animation).",
-    )
-    _add_source(p)
-    p.add_argument("--glb", required=True, help="output .glb file")
-    _add_frames(p)
-    p.add_argument(
-        "--with-markers", action="store_true", help="add markers and residuals, one mesh per frame"
-    )
-    p.add_argument("--floor", action="store_true", help="add the world's geoms (the floor) once")
-    add_json_flag(p)
-    p.set_defaults(func=_run_export)

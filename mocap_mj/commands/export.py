@@ -1,0 +1,211 @@
+"""``mocap-mj export RESULT --to FORMAT --out PATH``: a result in the formats others read.
+
+Formats: OpenSim model (``osim``), motion (``mot``), TRC of the measured markers (``trc``) or
+of the model markers (``trc-model``), C3D with markers, joint centres and clinical angles
+(``c3d``), clinical angles (``angles``), per-marker residuals (``residuals``) and segment scale
+factors (``scale``) as CSV, everything in one folder (``all``), and the formats other packages
+register (:mod:`mocap_mj.export.registry`; the viewer adds ``glb``). Without ``--to`` the
+format follows the suffix of ``--out``.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from ..cli import add_json_flag, finish, prepare_out
+from ..errors import MocapError
+from ..export.c3d import write_c3d
+from ..export.ik_setup import write_ik_setup
+from ..export.mot import write_mot
+from ..export.osim import UP_ORIENTATION, write_osim
+from ..export.registry import Exporter, plugin_exporters
+from ..export.result import ExportSource, load_result
+from ..export.tables import (
+    marker_residuals,
+    scale_table_text,
+    write_angles_csv,
+    write_residuals_csv,
+)
+from ..export.trc import write_trc
+from ..io.atomic import atomic_write_text
+from ..model import load_model
+
+#: File names of ``--to all``, per format.
+ALL_FILES: dict[str, str] = {
+    "osim": "subject.osim",
+    "mot": "coordinates.mot",
+    "trc": "markers.trc",
+    "trc-model": "model_markers.trc",
+    "c3d": "result.c3d",
+    "angles": "angles.csv",
+    "residuals": "residuals.csv",
+    "scale": "scale.csv",
+}
+#: OpenSim IK setup of ``--to all`` (subject.osim fitted to markers.trc, every weight 1).
+IK_SETUP = "ik_setup.xml"
+
+
+def _subject_mass(args: argparse.Namespace, src: ExportSource) -> float | None:
+    """--mass, else a subject mass [kg] in the result's summary.json, else None."""
+    if args.mass is not None:
+        return float(args.mass)
+    for key in ("subject_mass_kg", "mass_kg"):
+        value = src.summary.get(key)
+        if isinstance(value, int | float):
+            return float(value)
+    return None
+
+
+def _write(fmt: str, path: Path, src: ExportSource, args: argparse.Namespace) -> None:
+    model, motion = src.model, src.motion
+    if fmt == "osim":
+        write_osim(path, model, up=args.up, mass=_subject_mass(args, src))
+    elif fmt == "mot":
+        write_mot(path, model, motion.times, motion.qpos)
+    elif fmt == "trc":
+        write_trc(path, motion.marker_names, motion.times, motion.markers, up=args.up)
+    elif fmt == "trc-model":
+        fitted, _ = marker_residuals(model, motion.qpos, motion.markers)
+        write_trc(path, motion.marker_names, motion.times, fitted, up=args.up)
+    elif fmt == "c3d":
+        write_c3d(path, src)
+    elif fmt == "angles":
+        write_angles_csv(path, model, motion.times, motion.qpos)
+    elif fmt == "residuals":
+        _, distance = marker_residuals(model, motion.qpos, motion.markers)
+        write_residuals_csv(path, motion.marker_names, motion.times, distance)
+    elif fmt == "scale":
+        nominal = load_model(args.nominal)  # the bundled humanoid without --nominal
+        atomic_write_text(path, scale_table_text(model, nominal))
+    else:  # pragma: no cover - the parser's choices
+        raise MocapError(f"--to {fmt}: unknown format")
+
+
+def _builtin(fmt: str) -> Callable[[argparse.Namespace], dict[str, Any]]:
+    def run(args: argparse.Namespace) -> dict[str, Any]:
+        src = _source(args)
+        out = Path(args.out)
+        if out.is_dir():
+            raise MocapError(f"--out {out}: is a folder, expected a file")
+        _write(fmt, out, src, args)
+        return {
+            "result": str(src.root),
+            "format": fmt,
+            "out": str(out),
+            "frames": len(src.motion.times),
+        }
+
+    return run
+
+
+def _run_all(args: argparse.Namespace) -> dict[str, Any]:
+    src = _source(args)
+    out = prepare_out(args.out, force=args.force)
+    for fmt, name in ALL_FILES.items():
+        _write(fmt, out / name, src, args)
+    times = src.motion.times
+    write_ik_setup(
+        out / IK_SETUP,
+        model_file=ALL_FILES["osim"],
+        marker_file=ALL_FILES["trc"],
+        marker_names=src.motion.marker_names,
+        time_range=(float(times[0]), float(times[-1])),
+    )
+    return {
+        "result": str(src.root),
+        "format": "all",
+        "out": str(out),
+        "files": [*ALL_FILES.values(), IK_SETUP],
+        "frames": len(src.motion.times),
+    }
+
+
+def _source(args: argparse.Namespace) -> ExportSource:
+    """The result to export: RESULT_DIR, with ``--motion`` for another trial's motion."""
+    if not args.result:
+        raise MocapError("RESULT_DIR: expected a result folder (model.xml + motion.npz)")
+    for flag in ("model", "markers", "ghost"):
+        if getattr(args, flag, None):
+            raise MocapError(f"--{flag}: only for --to glb")
+    return load_result(args.result, getattr(args, "motion", None))
+
+
+BUILTIN: tuple[Exporter, ...] = (
+    Exporter("osim", ".osim", "OpenSim model of the subject", _builtin("osim")),
+    Exporter("mot", ".mot", "OpenSim motion: coordinates in degrees", _builtin("mot")),
+    Exporter("trc", ".trc", "TRC of the measured markers", _builtin("trc")),
+    Exporter("trc-model", "", "TRC of the model markers (fitted)", _builtin("trc-model")),
+    Exporter("c3d", ".c3d", "C3D: markers, model markers, joint centres, angles", _builtin("c3d")),
+    Exporter("angles", "", "CSV of clinical joint angles [deg]", _builtin("angles")),
+    Exporter("residuals", "", "CSV of per-marker, per-frame residuals [mm]", _builtin("residuals")),
+    Exporter("scale", "", "CSV of segment lengths and scale factors", _builtin("scale")),
+    Exporter(
+        "all", "", "every built-in format and an OpenSim IK setup into the folder --out", _run_all
+    ),
+)
+
+
+def exporters() -> dict[str, Exporter]:
+    """Built-in and registered exporters, by ``--to`` name (built-ins win a name clash)."""
+    found = {e.name: e for e in plugin_exporters()}
+    found.update({e.name: e for e in BUILTIN})
+    return found
+
+
+def register(sub: Any) -> None:
+    table = exporters()
+    p = sub.add_parser(
+        "export",
+        help="write a result as OpenSim, TRC, C3D, CSV tables (or GLB with the viewer)",
+        description="Write a result folder (identify, ik or synth) in the formats other tools "
+        "read. Formats: "
+        + "; ".join(f"{e.name}: {e.help}" for e in table.values())
+        + ". Angle conventions and frames: docs/opensim.md.",
+    )
+    p.add_argument(
+        "result",
+        nargs="?",
+        metavar="RESULT_DIR",
+        help="result folder (model.xml + motion.npz) or synthetic-truth folder",
+    )
+    p.add_argument("--to", choices=sorted(table), help="format (default: from the suffix of --out)")
+    p.add_argument("--out", help="output file (a folder for --to all)")
+    p.add_argument(
+        "--up",
+        choices=sorted(UP_ORIENTATION),
+        default="y",
+        help="vertical axis of .osim ground and TRC files (default y, OpenSim's convention)",
+    )
+    p.add_argument("--mass", type=float, help="subject mass [kg] for the .osim body masses")
+    p.add_argument(
+        "--nominal", help="MJCF the scale factors are relative to (default: the bundled humanoid)"
+    )
+    p.add_argument("--force", action="store_true", help="write into a non-empty --out folder")
+    for exporter in table.values():
+        if exporter.add_arguments is not None:
+            exporter.add_arguments(p)
+    add_json_flag(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    table = exporters()
+    if not args.out:
+        raise MocapError("--out: expected an output path")
+    fmt = args.to
+    if fmt is None:
+        suffix = Path(args.out).suffix.lower()
+        by_suffix = {e.suffix: e.name for e in table.values() if e.suffix}
+        if suffix not in by_suffix:
+            raise MocapError(
+                f"--out {args.out}: cannot tell the format from {suffix or 'no suffix'!r}; "
+                f"give --to ({', '.join(sorted(table))}) or a {', '.join(sorted(by_suffix))} file"
+            )
+        fmt = by_suffix[suffix]
+    summary = table[fmt].run(args)
+    text = f"wrote {summary.get('out', args.out)} ({fmt})"
+    folder = Path(args.out) if fmt == "all" else None  # summary.json beside the files
+    return finish(args, summary, text, folder)

@@ -1,0 +1,86 @@
+"""C3D write-back (ezc3d): measured markers, model markers, joint centres and clinical angles.
+
+Points, in this order, all in the MJCF world frame (z up, as the lab of the input file):
+
+- the measured markers, under their names (``LASI`` ...), in millimetres;
+- the model's markers, ``<name>_model`` (``LASI_model``), in millimetres;
+- the joint centres of :mod:`mocap_mj.joint_centres` (``hip_l`` ...), in millimetres;
+- the clinical angles of :mod:`mocap_mj.export.clinical` as Plug-in Gait-style points
+  (``LHipAngles``: x flexion, y adduction, z internal rotation), in degrees.
+
+Parameters a reader expects: ``POINT:RATE``, ``POINT:UNITS`` = mm, ``POINT:ANGLES`` with
+``POINT:ANGLE_UNITS`` = deg, ``POINT:MODELED_MARKERS`` (model markers and joint centres),
+``POINT:TYPE_GROUPS``, ``POINT:DESCRIPTIONS``. Missing samples (a marker not seen, a frame not
+solved) are written as invalid points (residual -1), which readers return as NaN.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import ezc3d
+import numpy as np
+
+from ..io.atomic import atomic_write_bytes
+from ..joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
+from .clinical import CLINICAL_JOINTS, clinical_angles
+from .result import ExportSource
+from .tables import marker_residuals
+
+
+def c3d_points(src: ExportSource) -> tuple[list[str], list[str], np.ndarray]:
+    """(labels, descriptions, values (T, N, 3) in file units: mm and degrees) of the file."""
+    model, motion = src.model, src.motion
+    names = list(motion.marker_names)
+    fitted, _ = marker_residuals(model, motion.qpos, motion.markers)
+    centres = joint_centre_trajectories(model, motion.qpos)
+    angles = np.degrees(clinical_angles(model, motion.qpos))
+    labels = [
+        *names,
+        *(f"{n}_model" for n in names),
+        *JOINT_CENTRE_NAMES,
+        *(j.c3d_label for j in CLINICAL_JOINTS),
+    ]
+    desc = [
+        *("measured marker" for _ in names),
+        *("model marker (fitted)" for _ in names),
+        *("joint centre" for _ in JOINT_CENTRE_NAMES),
+        *(
+            f"{j.distal} rel. {j.proximal or 'lab'}: " + ", ".join(j.components)
+            for j in CLINICAL_JOINTS
+        ),
+    ]
+    values = np.concatenate([motion.markers * 1e3, fitted * 1e3, centres * 1e3, angles], axis=1)
+    return labels, desc, values
+
+
+def write_c3d(path: str | Path, src: ExportSource) -> None:
+    """Write the C3D of ``src`` (see the module doc), atomically."""
+    labels, desc, values = c3d_points(src)
+    n_markers = len(src.motion.marker_names)
+    modeled = labels[n_markers : n_markers * 2 + len(JOINT_CENTRE_NAMES)]
+    angle_labels = [j.c3d_label for j in CLINICAL_JOINTS]
+    c3d = ezc3d.c3d()
+    point = c3d["parameters"]["POINT"]
+    point["RATE"]["value"] = np.array([src.rate])
+    point["LABELS"]["value"] = labels
+    point["DESCRIPTIONS"]["value"] = desc
+    point["UNITS"]["value"] = ["mm"]
+    c3d.add_parameter("POINT", "ANGLES", angle_labels)
+    c3d.add_parameter("POINT", "ANGLE_UNITS", ["deg"])
+    c3d.add_parameter("POINT", "MODELED_MARKERS", modeled)
+    c3d.add_parameter("POINT", "TYPE_GROUPS", ["ANGLES", "ANGLE", "MODELED_MARKERS", "MODELED"])
+    data = np.ones((4, len(labels), len(values)))
+    data[:3] = np.transpose(values, (2, 1, 0))
+    c3d["data"]["points"] = data
+    missing = ~np.all(np.isfinite(values), axis=2).T  # (N, T)
+    residuals = np.where(missing, -1.0, 0.0)[np.newaxis]
+    c3d["data"]["meta_points"]["residuals"] = residuals
+    c3d["data"]["meta_points"]["camera_masks"] = np.zeros((7, *missing.shape), dtype=bool)
+    target = Path(path)
+    tmp = target.with_name(f".{target.stem}.tmp.c3d")  # ezc3d wants the suffix
+    try:
+        c3d.write(str(tmp))
+        atomic_write_bytes(target, tmp.read_bytes())
+    finally:
+        tmp.unlink(missing_ok=True)
