@@ -94,6 +94,7 @@ def _small_c3d(path: Path, units: str = "mm", n_frames: int = 5) -> Path:
     c3d["parameters"]["POINT"]["UNITS"]["value"] = [units]
     points = np.ones((4, 2, n_frames))
     points[:3] = np.arange(6 * n_frames).reshape(3, 2, n_frames) + 1.0
+    points[2, 1] += 1500.0  # B 1.5 m above A: a human-sized cloud in mm
     c3d["data"]["points"] = points
     c3d.write(str(path))
     return path
@@ -107,9 +108,8 @@ def _small_c3d(path: Path, units: str = "mm", n_frames: int = 5) -> Path:
         (512, "truncated"),
         (700, "truncated"),
         # ezc3d pads the file to whole 512-byte blocks; the 160 data bytes start the last one
-        (-512 + 159, "data section: expected 5 frames of 32 bytes"),
-        (-512 + 100, "data section: expected 5 frames of 32 bytes"),
-        (-512, "data section: expected 5 frames of 32 bytes"),
+        (-512 + 31, "data section: expected at least one frame of 32 bytes"),
+        (-512, "data section: expected at least one frame of 32 bytes"),
     ],
 )
 def test_truncated_c3d(tmp_path: Path, cut: int, where: str) -> None:
@@ -121,6 +121,23 @@ def test_truncated_c3d(tmp_path: Path, cut: int, where: str) -> None:
     message = str(info.value)
     assert message.startswith(f"{path}: ") and "\n" not in message
     assert where in message
+
+
+@pytest.mark.parametrize(("cut", "frames"), [(-512 + 159, 4), (-512 + 100, 3), (-512 + 32, 1)])
+def test_c3d_with_fewer_frames_than_declared_reads_them_and_warns_once(
+    tmp_path: Path, cut: int, frames: int, caplog: pytest.LogCaptureFixture
+) -> None:
+    full = _small_c3d(tmp_path / "full.c3d")
+    data = full.read_bytes()
+    path = tmp_path / "cut.c3d"
+    path.write_bytes(data[:cut])
+    traj = load_markers(path)
+    whole = load_markers(full)
+    assert traj.n_frames == frames == ezc3d.c3d(str(path))["data"]["points"].shape[2]
+    np.testing.assert_array_equal(traj.positions, whole.positions[:frames])
+    expected = f"{path}: data section: the header declares 5 frames, the file holds {frames}"
+    assert [r.getMessage()[: len(expected)] for r in caplog.records] == [expected]
+    assert traj.source["warnings"][0].startswith(expected)
 
 
 def test_c3d_garbage_and_wrong_key(tmp_path: Path) -> None:
@@ -140,8 +157,10 @@ def test_c3d_unknown_units_names_the_group(tmp_path: Path) -> None:
     with pytest.raises(InputFileError) as info:
         load_markers(path)
     assert str(info.value) == (
-        f"{path}: group POINT:UNITS: expected length units mm, cm or m, got 'ft'"
+        f"{path}: group POINT:UNITS: expected length units mm, cm or m, got 'ft' "
+        "(pass --units to say which)"
     )
+    assert load_markers(path, units="mm").source["units_note"] == "given by --units"
 
 
 def test_c3d_corrupt_parameter_offset(tmp_path: Path) -> None:
