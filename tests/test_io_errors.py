@@ -51,13 +51,19 @@ TEXT_CASES = [
     ("bad_up.csv", CSV_HEAD.replace("mm", "mm up=w") + "0,0,1,2,3,4,5,6\n", "line 1: expected up="),
     ("inch.csv", CSV_HEAD.replace("mm", "inch") + "0,0,1,2,3,4,5,6\n", "line 1: expected len"),
     ("one_frame_no_rate.csv", "frame,time,A_X,A_Y,A_Z\n0,0,1,2,3\n", "line 1: expected a rate"),
-    ("short.trc", TRC_HEAD + "1\t0\t1\t2\t3\t4\t5\t6\n", "line 3: expected NumFrames=2 rows"),
-    ("ragged.trc", TRC_HEAD + "1\t0\t1\t2\t3\n2\t.01\t1\t2\t3\t4\t5\t6\n", "line 7: expected 8"),
+    ("ragged.trc", TRC_HEAD.replace("\t", " ") + "1 0 1 2 3\n2 .01 1 2 3 4 5 6\n", "line 7: "
+     "expected 8 cells"),
+    ("wide_narrow.trc", TRC_HEAD + "1\t0\t1\t2\t3\n2\t.01\t1\t2\t3\t4\t5\t6\t7\n",
+     "line 7: expected 8 cells (Frame#, Time, 3 per marker) as on other rows"),
+    ("gap.trc", TRC_HEAD + "1\t0\t1\t2\t3\t4\t5\t6\n\n2\t.01\t1\t2\t3\t4\t5\t6\n",
+     "line 8: expected a row of data (no blank line inside)"),
     ("word.trc", TRC_HEAD + "1\t0\t1\t2\t3\t4\t5\t6\n2\t.01\t1\t2\tx\t4\t5\t6\n", "line 8:"),
-    ("head.trc", TRC_HEAD[:60], "line 3: expected the 5 header lines"),
+    ("head.trc", TRC_HEAD[:60], "line 3: expected the 4 header lines"),
     ("nummarkers.trc", TRC_HEAD.replace("\t2\tmm", "\t3\tmm"), "line 4: expected NumMarkers=3"),
     ("numframes.trc", TRC_HEAD.replace("\t2\t2\t", "\tmany\t2\t"), "line 3: expected a whole"),
-    ("axes.trc", TRC_HEAD.replace("X2\tY2", "Y2\tX2") + "1\t0\t1\t2\t3\t4\t5\t6\n", "line 5:"),
+    ("axes.trc", TRC_HEAD.replace("X2\tY2", "Y2\tX2") + "1\t0\t1\t2\t3\t4\t5\t6\n", "line 5: "
+     "expected X2 in X/Y/Z cell 4"),
+    ("names.trc", TRC_HEAD.replace("Time", "Frame"), "line 4: expected 'Frame#' and 'Time'"),
     ("furlong.trc", TRC_HEAD.replace("mm", "furlong") + "1\t0\t1\t2\t3\t4\t5\t6\n"
      "2\t.01\t1\t2\t3\t4\t5\t6\n", "line 3: expected length units mm, cm or m"),
     ("nexus.csv", "Devices\n1000\n,,F,,\nFrame,Sub Frame,Fx,Fy,Fz\n", "expected a 'Trajectories'"),

@@ -55,12 +55,12 @@ def check_cloud_size(path: Path, positions: np.ndarray, unit: str, where: str) -
         return
     used = metres_per_unit(unit) or 1e-3
     fits = [
-        name
-        for name in ("mm", "cm", "m")
-        if low <= extent / used * _METRES_PER_UNIT[name] <= high
+        name for name in ("mm", "cm", "m") if low <= extent / used * _METRES_PER_UNIT[name] <= high
     ]
-    hint = f"the file is likely in {fits[0]}: pass --units {fits[0]}" if fits else (
-        "pass --units mm, cm or m"
+    hint = (
+        f"the file is likely in {fits[0]}: pass --units {fits[0]}"
+        if fits
+        else ("pass --units mm, cm or m")
     )
     raise InputFileError(
         f"{path}: units: expected a marker cloud {low:g}..{high:g} m across in {unit} "

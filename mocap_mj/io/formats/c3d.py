@@ -18,7 +18,7 @@ import numpy as np
 
 from mocap_mj.errors import InputFileError
 from mocap_mj.io.formats._common import RawMarkers
-from mocap_mj.io.formats.c3d_check import C3DLayout, check_c3d
+from mocap_mj.io.formats.c3d_check import C3DLayout, C3DTruncatedError, check_c3d
 from mocap_mj.io.formats.c3d_probe import ezc3d_failure
 from mocap_mj.io.units import metres_per_unit
 
@@ -77,12 +77,15 @@ def read(path: Path) -> RawMarkers:
     """Read the marker points of a C3D file, as ezc3d reads them.
 
     The structural check runs first; a file it refuses is read all the same when ezc3d reads
-    it in a separate process (see :mod:`mocap_mj.io.formats.c3d_probe`). When the data
+    it in a separate process (see :mod:`mocap_mj.io.formats.c3d_probe`), except a file that
+    ends before its first frame (ezc3d cannot read those: it fails or loops). When the data
     section holds fewer frames than the header declares, the frames present are read and
     ``info["warnings"]`` says so (the loader logs it once).
     """
     try:
         layout: C3DLayout | None = check_c3d(path)
+    except C3DTruncatedError:
+        raise
     except InputFileError:
         if ezc3d_failure(path) is not None:
             raise

@@ -54,18 +54,34 @@ class C3DLayout:
     data_bytes: int
 
 
+class C3DTruncatedError(InputFileError):
+    """The file ends inside its header, parameter section, or before its first data frame.
+
+    ezc3d cannot read such a file either (it fails, or loops on the missing bytes), so this
+    refusal stands without asking ezc3d.
+    """
+
+
 def _err(path: Path, where: str, expected: str, got: str) -> InputFileError:
     return InputFileError(f"{path}: {where}: expected {expected}, got {got}")
 
 
+def _cut(path: Path, where: str, expected: str, got: str) -> C3DTruncatedError:
+    return C3DTruncatedError(f"{path}: {where}: expected {expected}, got {got}")
+
+
 class _Reader:
-    def __init__(self, path: Path, data: bytes, processor: int) -> None:
+    def __init__(self, path: Path, data: bytes, processor: int, section_end: int) -> None:
         self.path, self.data, self.processor = path, data, processor
         self.int_fmt = ">" if processor == _MIPS else "<"
+        self.section_end = section_end  # where the parameter section says it ends
 
     def need(self, start: int, length: int, what: str) -> bytes:
         if start < 0 or start + length > len(self.data):
-            raise _err(
+            # Final only when the file ends inside its declared parameter section; an entry
+            # pointing past the end of a whole file is a corrupted offset, for ezc3d to judge.
+            error = _cut if len(self.data) < self.section_end else _err
+            raise error(
                 self.path,
                 f"byte {start + 1}",
                 f"{what} ({length} bytes)",
@@ -193,14 +209,14 @@ def check_c3d(path: Path) -> C3DLayout:
     """
     data = path.read_bytes()
     if len(data) < BLOCK:
-        raise _err(path, "header", f"a C3D file of at least {BLOCK} bytes", f"{len(data)} bytes")
+        raise _cut(path, "header", f"a C3D file of at least {BLOCK} bytes", f"{len(data)} bytes")
     if data[1] != 0x50:
         raise _err(path, "byte 2", "the C3D key 0x50", f"0x{data[1]:02x}")
     if data[0] < 2:
         raise _err(path, "byte 1", "the parameter section's block number (2 or more)", str(data[0]))
     start = (data[0] - 1) * BLOCK
     if start + 4 > len(data):
-        raise _err(
+        raise _cut(
             path,
             "byte 1",
             f"a parameter section at byte {start + 1}",
@@ -209,7 +225,7 @@ def check_c3d(path: Path) -> C3DLayout:
     processor = data[start + 3]
     if processor not in (_INTEL, _DEC, _MIPS):
         raise _err(path, f"byte {start + 4}", "processor type 84, 85 or 86", str(processor))
-    reader = _Reader(path, data, processor)
+    reader = _Reader(path, data, processor, start + max(1, data[start + 2]) * BLOCK)
     params = _walk_parameters(reader, start + 4)
 
     if not any(group == "POINT" for group, _ in params):
@@ -255,8 +271,10 @@ def check_c3d(path: Path) -> C3DLayout:
     n_analogs, per_frame = 0.0, 0.0
     if any(group == "ANALOG" for group, _ in params):
         n_analogs = _number(path, params, ("ANALOG", "USED"))
-        analog_rate = 0.0 if n_analogs == 0 and _empty(params, ("ANALOG", "RATE")) else (
-            _number(path, params, ("ANALOG", "RATE"))
+        analog_rate = (
+            0.0
+            if n_analogs == 0 and _empty(params, ("ANALOG", "RATE"))
+            else (_number(path, params, ("ANALOG", "RATE")))
         )
         if not (0 <= n_analogs < 32768 and n_analogs == int(n_analogs)):
             raise _err(path, "group ANALOG:USED", "a channel count in 0..32767", f"{n_analogs:g}")
@@ -284,7 +302,7 @@ def check_c3d(path: Path) -> C3DLayout:
     data_offset = (data_block - 1) * BLOCK
     present = max(0, len(data) - data_offset) // frame_bytes
     if present < 1:
-        raise _err(
+        raise _cut(
             path,
             "data section",
             f"at least one frame of {frame_bytes} bytes from byte {data_offset + 1}",

@@ -10,6 +10,7 @@ file in-process, which is safe because ezc3d is deterministic.
 
 from __future__ import annotations
 
+import faulthandler
 import os
 import signal
 import subprocess
@@ -18,9 +19,14 @@ from pathlib import Path
 
 __all__ = ["PROBE_TIMEOUT", "ezc3d_failure"]
 
-#: Seconds ezc3d may take on one file in the probe before it counts as hung. Real files read
-#: in well under a second; the bound only stops a corrupted header from stalling the caller.
-PROBE_TIMEOUT = 60
+#: Seconds ezc3d may take on one file in the probe before it counts as hung. Real files of
+#: tens of megabytes read in about a second; the bound stops a corrupted header (on which
+#: ezc3d can loop forever) from stalling the caller.
+PROBE_TIMEOUT = 20
+#: Memory the forked probe may add [bytes]: 1 GiB plus 64 bytes per byte of file. ezc3d keeps
+#: each 4-byte value as an 8-byte double plus copies; a corrupted header can ask it for tens
+#: of gigabytes, which the limit turns into a failed read instead of a machine out of memory.
+PROBE_MEMORY = (1 << 30, 64)
 
 _CHILD = (
     "import sys, ezc3d\n"
@@ -48,8 +54,10 @@ def _forked(path: Path, timeout: int) -> str | None:
         code = 1
         try:
             os.close(read_end)
+            faulthandler.disable()  # a crash here is an answer, not a report
             signal.signal(signal.SIGALRM, signal.SIG_DFL)
             signal.alarm(timeout)
+            _limit_memory(path)
             null = os.open(os.devnull, os.O_WRONLY)
             os.dup2(null, 1)
             os.dup2(null, 2)
@@ -66,6 +74,21 @@ def _forked(path: Path, timeout: int) -> str | None:
         message = pipe.read().decode("utf-8", "replace")
     _, status = os.waitpid(pid, 0)
     return _verdict(status, message, timeout)
+
+
+def _limit_memory(path: Path) -> None:
+    """Cap the child's address space at its current size plus :data:`PROBE_MEMORY`."""
+    import resource
+
+    try:
+        with open("/proc/self/statm") as statm:
+            current = int(statm.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return
+    base, per_byte = PROBE_MEMORY
+    limit = current + base + per_byte * path.stat().st_size
+    resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))  # no core file for an expected crash
 
 
 def _verdict(status: int, message: str, timeout: int) -> str | None:
