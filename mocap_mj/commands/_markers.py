@@ -23,6 +23,12 @@ def add_marker_options(parser: argparse.ArgumentParser, *, several: bool = False
     parser.add_argument(
         "--up", choices=["x", "y", "z", "-x", "-y", "-z"], help="vertical axis (default: detect)"
     )
+    parser.add_argument(
+        "--units",
+        choices=["mm", "cm", "m"],
+        help="length unit of the marker coordinates, overriding the file's (default: as stated "
+        "in the file, else mm)",
+    )
 
 
 class Trial(NamedTuple):
@@ -41,7 +47,11 @@ class Trial(NamedTuple):
 
 def load_trial(path: str, names: tuple[str, ...], args: argparse.Namespace) -> Trial:
     traj = load_markers(
-        path, subject=args.subject, marker_map=args.marker_map, up=getattr(args, "up", None)
+        path,
+        subject=args.subject,
+        marker_map=args.marker_map,
+        up=getattr(args, "up", None),
+        units=getattr(args, "units", None),
     )
     report = traj.marker_report(names)
     if not report.found:

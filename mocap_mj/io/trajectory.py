@@ -139,12 +139,15 @@ class MarkerTrajectory:
         extras = tuple(n for n in self.names if n not in model_set)
         fraction = {n: by_name.get(n, 0.0) for n in model}
         fraction.update({n: by_name[n] for n in extras})
+        absent = (~present).sum(axis=0)
         return MarkerReport(
             found=found,
             missing=missing,
             extras=extras,
             fraction_present=fraction,
             n_frames=self.n_frames,
+            missing_samples={n: int(absent[i]) for i, n in enumerate(self.names) if absent[i]},
+            zero_samples=dict(self.source.get("zero_samples", {})),
         )
 
 
@@ -165,6 +168,11 @@ class MarkerReport:
         which it was seen, in [0, 1].
     n_frames : int
         Number of frames of the trajectory.
+    missing_samples : Mapping[str, int]
+        Per trajectory marker with gaps: its missing samples (any cause of the one
+        missing-data rule: NaN, empty cell, all-zero sample, negative C3D residual).
+    zero_samples : Mapping[str, int]
+        Of those, the samples the file wrote as 0 0 0.
     """
 
     found: tuple[str, ...]
@@ -172,6 +180,8 @@ class MarkerReport:
     extras: tuple[str, ...]
     fraction_present: Mapping[str, float]
     n_frames: int
+    missing_samples: Mapping[str, int] = field(default_factory=dict)
+    zero_samples: Mapping[str, int] = field(default_factory=dict)
 
     @property
     def complete(self) -> bool:
@@ -189,8 +199,16 @@ class MarkerReport:
             lines.append("extras (not in the model, ignored by fitting): " + " ".join(self.extras))
         gaps = [n for n in self.found if self.fraction_present[n] < 1.0]
         if gaps:
-            lines.append("model markers with gaps (% of frames seen):")
-            lines.extend(f"  {n:<8} {100.0 * self.fraction_present[n]:6.1f}%" for n in gaps)
+            lines.append("model markers with gaps (% of frames seen, samples missing):")
+            lines.extend(
+                f"  {n:<8} {100.0 * self.fraction_present[n]:6.1f}%  "
+                f"{self.missing_samples.get(n, 0)} missing{self._zeros(n)}"
+                for n in gaps
+            )
         elif self.found:
             lines.append("every model marker found is seen in every frame")
         return "\n".join(lines)
+
+    def _zeros(self, name: str) -> str:
+        zeros = self.zero_samples.get(name, 0)
+        return f" ({zeros} written as 0 0 0)" if zeros else ""

@@ -11,19 +11,24 @@ Layout (tab-separated)::
     1       0.00  ...
 
 The reader accepts every variant OpenSim's own TRCFileAdapter reads, and the unambiguous ones
-other tools write: tabs or spaces between cells; doubled tabs and empty cells in the header
-lines (empty header cells are ignored, as OpenSim does); ``Time`` or ``Times``; a missing,
-short or long X/Y/Z line (marker k's columns are 3k .. 3k + 2, 1-based, after Frame# and
-Time; the line may omit cells or add some past the last marker, not contradict that order); frame numbers starting anywhere; Windows line ends; fewer keys
-than OpenSim's eight on line 2 (NumMarkers and DataRate or CameraRate are needed); data rows
-with empty columns the header does not count (columns empty in every row are dropped when
-that leaves exactly one column per header cell), or with unnamed columns after the last
-marker's Z (ignored, reported in ``info["ignored_columns"]``). A data section with fewer or
-more rows than NumFrames is read whole, with a warning. Refused, with the line and what was
-expected: a marker-name count that differs from NumMarkers, a space-separated row of the
-wrong width, a tab-separated row narrower than the others when some rows are wider than the
-header (no way to tell which columns are missing), and a blank line inside the data. A
-tab-separated row that simply ends early has its last samples missing.
+other tools write:
+
+- tabs or spaces between cells; doubled tabs and empty cells in the header lines (ignored,
+  as OpenSim does); ``Time`` or ``Times``; Windows line ends; frame numbers starting anywhere;
+- fewer keys than OpenSim's eight on line 2 (NumMarkers, and DataRate or CameraRate or two
+  rows of Time, are needed);
+- a missing, short or long X/Y/Z line: marker k's columns are 3k .. 3k + 2 (1-based, after
+  Frame# and Time) whatever it says, as long as it does not contradict that order;
+- data rows with empty columns the header does not count (columns empty in every row are
+  dropped when that leaves one column per header cell), or with unnamed columns after the
+  last marker's Z (ignored, counted in ``info["ignored_columns"]``); a tab-separated row that
+  ends early has its last samples missing;
+- a data section with fewer or more rows than NumFrames: read whole, with a warning.
+
+Refused, with the line and what was expected: a marker-name count that differs from
+NumMarkers, an X/Y/Z cell out of order, a space-separated row of the wrong width, a
+tab-separated row narrower than the header when other rows are wider (no way to tell which
+columns are missing), and a blank line inside the data.
 
 An empty (or NaN) cell is a missing sample. The writer keeps the trajectory's axes (the
 model's Z-up world); OpenSim's own convention is Y up, so rotate on import there if needed.
