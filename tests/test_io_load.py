@@ -63,7 +63,8 @@ def test_several_subjects_need_subject_and_error_lists_them(tmp_path: Path) -> N
     assert bob.source["subject"] == "Bob" and bob.source["subjects"] == ["Ann", "Bob"]
     np.testing.assert_allclose(bob.positions, pos + shift, atol=1e-9)
     assert len(bob.source["other_subjects_markers"]) == len(names)
-    with pytest.raises(InputFileError, match=r"--subject: expected one of the file's subjects \(Ann, Bob\), got 'Cy'"):
+    want = r"--subject: expected one of the file's subjects \(Ann, Bob\), got 'Cy'"
+    with pytest.raises(InputFileError, match=want):
         load_markers(path, subject="Cy")
 
 
