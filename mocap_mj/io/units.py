@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -54,14 +55,13 @@ def check_cloud_size(path: Path, positions: np.ndarray, unit: str, where: str) -
     if extent is None or low <= extent <= high or extent == 0.0:
         return
     used = metres_per_unit(unit) or 1e-3
-    fits = [
-        name for name in ("mm", "cm", "m") if low <= extent / used * _METRES_PER_UNIT[name] <= high
-    ]
-    hint = (
-        f"the file is likely in {fits[0]}: pass --units {fits[0]}"
-        if fits
-        else ("pass --units mm, cm or m")
+    sizes = {name: extent / used * _METRES_PER_UNIT[name] for name in ("mm", "cm", "m")}
+    # of the units that fit, the one giving the size nearest 1 m (a person's typical cloud)
+    fits = sorted(
+        (name for name, size in sizes.items() if low <= size <= high),
+        key=lambda name: abs(math.log(sizes[name])),
     )
+    hint = f"the file is likely in {fits[0]}: pass --units {fits[0]}" if fits else "pass --units"
     raise InputFileError(
         f"{path}: units: expected a marker cloud {low:g}..{high:g} m across in {unit} "
         f"({where}), got {extent:.4g} m; {hint}"
