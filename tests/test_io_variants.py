@@ -39,10 +39,11 @@ LENIENT = {
     "base": [H1, KEYS, VALUES, NAMES, AXES, "", *ROWS],
     "crlf": [H1, KEYS, VALUES, NAMES, AXES, "", *ROWS],
     "times": [H1, KEYS, VALUES, NAMES.replace("Time", "Times"), AXES, "", *ROWS],
-    "spaces": _spaces([H1, KEYS, VALUES, NAMES, AXES]) + [""] + _spaces(ROWS),
+    "spaces": [*_spaces([H1, KEYS, VALUES, NAMES, AXES]), "", *_spaces(ROWS)],
     "doubled_tabs": [H1, *(x.replace("\t", "\t\t") for x in (KEYS, VALUES, NAMES)), AXES, *ROWS],
     "empty_column": [H1, KEYS, VALUES, NAMES + "\t", AXES + "\t", "", *(r + "\t" for r in ROWS)],
-    "empty_data_column": [H1, KEYS, VALUES, NAMES, AXES, *(r.replace("\t", "\t\t", 1) for r in ROWS)],
+    "empty_data_column": [H1, KEYS, VALUES, NAMES, AXES,
+                          *(r.replace("\t", "\t\t", 1) for r in ROWS)],
     "no_axes_line": [H1, KEYS, VALUES, NAMES, *ROWS],
     "short_axes_line": [H1, KEYS, VALUES, NAMES, "\t\tX1\tY1\tZ1", "", *ROWS],
     "long_axes_line": [H1, KEYS, VALUES, NAMES, AXES + "\tX3\tY3\tZ3", "", *ROWS],
@@ -62,7 +63,7 @@ REFUSED = {
         "line 5: expected X2 in X/Y/Z cell 4 (or no cell), got 'Y2'",
     ),
     "space_row_short": (
-        _spaces([H1, KEYS, VALUES, NAMES, AXES]) + _spaces(ROWS[:1]) + ["2 0.01 11 20 100"],
+        [*_spaces([H1, KEYS, VALUES, NAMES, AXES]), *_spaces(ROWS[:1]), "2 0.01 11 20 100"],
         "line 7: expected 8 cells (Frame#, Time, 3 per marker), got 5",
     ),
     "no_time": (
