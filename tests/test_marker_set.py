@@ -1,0 +1,106 @@
+"""Marker sets as YAML data: the bundled Plug-in Gait set, round trips, refusals, and models
+built from a set (so ParameterSet works on any marker set)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mocap_mj.errors import InputFileError, UnknownNameError
+from mocap_mj.marker_set import (
+    MarkerSet,
+    load_marker_set,
+    marker_class,
+    model_with_marker_set,
+    plug_in_gait,
+    save_marker_set,
+)
+from mocap_mj.markers import MARKER_NAMES
+from mocap_mj.model import load_model
+from mocap_mj.parameters import ParameterSet
+
+LANDMARKS = ("ASI", "PSI", "KNE", "ANK", "HEE", "TOE", "C7", "T10", "CLAV", "STRN", "SHO",
+             "ELB", "WRA", "WRB", "FIN", "FHD", "BHD")  # fmt: skip
+CLUSTERS = ("THI", "TIB", "UPA", "FRM", "RBAK")
+
+
+def test_bundled_plug_in_gait_is_the_models_sites() -> None:
+    pig = plug_in_gait()
+    model = load_model()
+    assert pig.names == MARKER_NAMES
+    for i, marker in enumerate(pig.markers):
+        assert model.site(i).name == marker.name
+        assert model.body(model.site_bodyid[i]).name == marker.body
+        np.testing.assert_allclose(marker.offset, model.site_pos[i], atol=1e-12)
+        want = "cluster" if marker.name.endswith(CLUSTERS) else "landmark"
+        assert marker.name.endswith(CLUSTERS + LANDMARKS)
+        assert marker_class(marker.name) == want
+
+
+def test_marker_class_of_an_unknown_marker_lists_the_set() -> None:
+    with pytest.raises(UnknownNameError, match=r"unknown marker 'LFRA'; the model has: LASI"):
+        marker_class("LFRA")
+
+
+def test_round_trip(tmp_path: Path) -> None:
+    pig = plug_in_gait()
+    lower = pig.subset(["RTOE", "LASI", "RASI", "LPSI", "RPSI", "LKNE", "LTHI"])
+    assert lower.names == ("LASI", "RASI", "LPSI", "RPSI", "LTHI", "LKNE", "RTOE")
+    for marker_set in (pig, lower, MarkerSet("a: b", lower.markers)):
+        path = tmp_path / "set.yaml"
+        save_marker_set(path, marker_set)
+        assert load_marker_set(path) == marker_set
+
+
+@pytest.mark.parametrize(
+    ("text", "where"),
+    [
+        ("markers: 3\n", "expected a mapping with a 'markers' list"),
+        ("markers: [\n", "expected a YAML marker set"),
+        ("markers: []\n", "expected at least one marker, got none"),
+        ("markers: [LASI]\n", "marker 1: expected {name, body, offset, class}"),
+        ("markers:\n  - {body: pelvis, offset: [0, 0, 0]}\n", "marker 1: expected a non-empty"),
+        ("markers:\n  - {name: A, offset: [0, 0, 0]}\n", "marker 1 (A): expected a body name"),
+        ("markers:\n  - {name: A, body: pelvis, offset: [0, 0]}\n", "marker 1 (A): expected off"),
+        ("markers:\n  - {name: A, body: pelvis, offset: [0, .nan, 0]}\n", "expected offset"),
+        ("markers:\n  - {name: A, body: pelvis, offset: [0, 0, 0], class: bony}\n",
+         "marker 1 (A): expected class landmark / cluster / free, got 'bony'"),
+        ("markers:\n  - {name: A, body: pelvis, offset: [0, 0, 0]}\n"
+         "  - {name: A, body: pelvis, offset: [0, 0, 0]}\n", "expected unique marker names"),
+    ],
+)  # fmt: skip
+def test_bad_marker_set_files_name_file_and_entry(tmp_path: Path, text: str, where: str) -> None:
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    with pytest.raises(InputFileError) as info:
+        load_marker_set(path)
+    assert str(info.value).startswith(f"{path}: ") and where in str(info.value)
+
+
+def test_parameter_set_on_a_model_built_from_a_marker_set(tmp_path: Path) -> None:
+    default = ParameterSet()
+    path = tmp_path / "pig.xml"
+    path.write_text(model_with_marker_set(plug_in_gait()).to_xml())
+    rebuilt = ParameterSet(path)
+    assert rebuilt.marker_names == default.marker_names
+    np.testing.assert_allclose(rebuilt.nominal, default.nominal, atol=1e-12)
+
+    legs = plug_in_gait().subset([n for n in MARKER_NAMES if n[1:] in ("ASI", "PSI", "THI",
+                                  "KNE", "TIB", "ANK", "HEE", "TOE")])  # fmt: skip
+    moved = MarkerSet("legs", tuple(m if m.name != "LTHI" else type(m)(m.name, m.body,
+                      (0.01, 0.09, -0.2), "cluster") for m in legs.markers))  # fmt: skip
+    path = tmp_path / "legs.xml"
+    path.write_text(model_with_marker_set(moved).to_xml())
+    pset = ParameterSet(path)
+    assert pset.marker_names == moved.names and pset.n_markers == 16
+    assert pset.size == pset.n_kappa + 48
+    np.testing.assert_allclose(pset.nominal[pset.index("LTHI.x") :][:3], [0.01, 0.09, -0.2])
+
+
+def test_marker_on_an_unknown_body_lists_the_bodies() -> None:
+    pig = plug_in_gait()
+    bad = MarkerSet("bad", (type(pig.markers[0])("X", "femur", (0.0, 0.0, 0.0), "free"),))
+    with pytest.raises(UnknownNameError, match=r"unknown body 'femur'; the model has: world"):
+        model_with_marker_set(bad)
