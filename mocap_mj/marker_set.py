@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -42,6 +42,7 @@ __all__ = [
     "model_with_marker_set",
     "plug_in_gait",
     "save_marker_set",
+    "undetermined_segments",
 ]
 
 #: The prior classes, from most to least constrained.
@@ -194,3 +195,27 @@ def model_with_marker_set(
         body = spec.body(marker.body)
         body.add_site(name=marker.name, pos=np.array(marker.offset, dtype=float))
     return spec
+
+
+def undetermined_segments(model: mujoco.MjModel, present: Collection[str]) -> tuple[str, ...]:
+    """Bodies of ``model`` whose motion the markers ``present`` cannot determine.
+
+    A moving body (one with a joint) is determined only if a present marker sits on it or on
+    a body below it in the tree; otherwise its joint angles, and the segment lengths leading
+    to it, are left to the prior. Identification then still runs, and this list says which
+    segments its result does not measure (e.g. hand_l, hand_r without wrist and finger
+    markers). Returns body names in model order.
+    """
+    wanted = set(present)
+    seen = np.zeros(model.nbody, dtype=bool)
+    for i in range(model.nsite):
+        if model.site(i).name in wanted:
+            b = int(model.site_bodyid[i])
+            while b > 0 and not seen[b]:
+                seen[b] = True
+                b = int(model.body_parentid[b])
+    return tuple(
+        model.body(b).name
+        for b in range(1, model.nbody)
+        if model.body_jntnum[b] > 0 and not seen[b]
+    )

@@ -16,6 +16,7 @@ from mocap_mj.marker_set import (
     model_with_marker_set,
     plug_in_gait,
     save_marker_set,
+    undetermined_segments,
 )
 from mocap_mj.markers import MARKER_NAMES
 from mocap_mj.model import load_model, model_path
@@ -132,3 +133,42 @@ def test_a_non_plug_in_gait_set_identifies_within_1_5x_its_bound(tmp_path: Path)
     k_ratio, o_ratio, _ = errors(pset, result, exp, idf, 300)
     assert k_ratio <= 1.5, k_ratio
     assert o_ratio <= 1.5, o_ratio
+
+
+def test_undetermined_segments_are_named() -> None:
+    model = load_model()
+    assert undetermined_segments(model, MARKER_NAMES) == ()
+    no_hands = [n for n in MARKER_NAMES if n[1:] not in ("WRA", "WRB", "FIN", "FRM")]
+    assert undetermined_segments(model, no_hands) == (
+        "ulna_l", "radius_l", "hand_l", "ulna_r", "radius_r", "hand_r",
+    )  # fmt: skip
+    legs = [n for n in MARKER_NAMES if n[1:] in ("ASI", "PSI", "KNE", "ANK", "HEE", "TOE")]
+    assert set(undetermined_segments(model, legs)) == {
+        "lumbar", "thorax", "head", "clavicle_l", "upperarm_l", "ulna_l", "radius_l", "hand_l",
+        "clavicle_r", "upperarm_r", "ulna_r", "radius_r", "hand_r",
+    }  # fmt: skip
+
+
+def test_cli_marker_report_names_undetermined_segments(tmp_path: Path) -> None:
+    import argparse
+
+    import mujoco
+
+    from mocap_mj.commands._markers import load_trial
+    from mocap_mj.io import MarkerTrajectory, save_csv
+
+    model = load_model()
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    pose = np.array(data.site_xpos)  # (39, 3) [m]: the nominal standing pose
+    names = [n for n in MARKER_NAMES if n[1:] not in ("WRA", "WRB", "FIN", "FRM")]
+    keep = [MARKER_NAMES.index(n) for n in names]
+    rng = np.random.default_rng(0)
+    pos = pose[keep][None] + np.array([0.0, 0.0, 1.0]) + rng.normal(0, 0.01, (3, len(keep), 3))
+    path = tmp_path / "no_hands.csv"
+    save_csv(path, MarkerTrajectory(np.arange(3) / 100.0, pos, tuple(names), 100.0, {}))
+    args = argparse.Namespace(subject=None, marker_map=None, up="z", units=None, model=None)
+    trial = load_trial(str(path), MARKER_NAMES, args)
+    assert trial.report.undetermined == ("ulna_l", "radius_l", "hand_l", "ulna_r", "radius_r",
+                                         "hand_r")  # fmt: skip
+    assert "segments no marker found determines" in str(trial.report)

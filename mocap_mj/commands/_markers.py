@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from typing import NamedTuple
 
 import numpy as np
 
 from ..errors import MocapError
 from ..io import MarkerReport, load_markers
+from ..marker_set import undetermined_segments
+from ..model import load_model
 
 
 def add_marker_options(parser: argparse.ArgumentParser, *, several: bool = False) -> None:
@@ -35,7 +38,8 @@ class Trial(NamedTuple):
     """Markers of one file in model site order.
 
     Fields: path; times (T,) [s]; markers (T, M, 3) [m], NaN where missing; rate [Hz];
-    report (which model markers were found, missing, extra).
+    report (which model markers were found, missing, extra, and which model segments none
+    of the found markers determines).
     """
 
     path: str
@@ -54,6 +58,10 @@ def load_trial(path: str, names: tuple[str, ...], args: argparse.Namespace) -> T
         units=getattr(args, "units", None),
     )
     report = traj.marker_report(names)
+    model = load_model(getattr(args, "model", None))
+    report = dataclasses.replace(
+        report, undetermined=undetermined_segments(model, [n for n in report.found if n in names])
+    )
     if not report.found:
         raise MocapError(f"{path}: none of the model's markers found (names: {traj.names[:8]}...)")
     return Trial(path, np.asarray(traj.times), traj.select(names), float(traj.rate), report)

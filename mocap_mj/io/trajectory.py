@@ -173,6 +173,9 @@ class MarkerReport:
         missing-data rule: NaN, empty cell, all-zero sample, negative C3D residual).
     zero_samples : Mapping[str, int]
         Of those, the samples the file wrote as 0 0 0.
+    undetermined : tuple of str
+        Model bodies no marker found determines (set by the caller that knows the model, see
+        :func:`mocap_mj.marker_set.undetermined_segments`); empty by default.
     """
 
     found: tuple[str, ...]
@@ -182,6 +185,7 @@ class MarkerReport:
     n_frames: int
     missing_samples: Mapping[str, int] = field(default_factory=dict)
     zero_samples: Mapping[str, int] = field(default_factory=dict)
+    undetermined: tuple[str, ...] = ()
 
     @property
     def complete(self) -> bool:
@@ -195,6 +199,11 @@ class MarkerReport:
             f"{self.n_frames} frames"
         ]
         lines.append("missing: " + (" ".join(self.missing) if self.missing else "none"))
+        if self.undetermined:
+            lines.append(
+                "segments no marker found determines (their joint angles and the lengths "
+                "leading to them stay at the prior): " + " ".join(self.undetermined)
+            )
         if self.extras:
             lines.append("extras (not in the model, ignored by fitting): " + " ".join(self.extras))
         gaps = [n for n in self.found if self.fraction_present[n] < 1.0]
