@@ -172,3 +172,21 @@ def test_cli_marker_report_names_undetermined_segments(tmp_path: Path) -> None:
     assert trial.report.undetermined == ("ulna_l", "radius_l", "hand_l", "ulna_r", "radius_r",
                                          "hand_r")  # fmt: skip
     assert "segments no marker found determines" in str(trial.report)
+
+
+def test_marker_set_flag_builds_the_model_the_commands_use() -> None:
+    import argparse
+
+    from mocap_mj.commands._markers import add_marker_options, model_for
+
+    parser = argparse.ArgumentParser()
+    add_marker_options(parser)
+    yaml_path = str(model_path("pig_leg_clusters.yaml"))
+    args = parser.parse_args(["--markers", "x.c3d", "--marker-set", yaml_path])
+    args.model = None
+    path = model_for(args)
+    assert path is not None and path == model_for(args)  # built once, named by content
+    assert ParameterSet(path).marker_names == ParameterSet(path).marker_names
+    assert set(ParameterSet(path).marker_names) == set(load_marker_set(yaml_path).names)
+    args.marker_set = None
+    assert model_for(args) is None

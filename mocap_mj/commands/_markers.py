@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import hashlib
+import tempfile
+from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
 from ..errors import MocapError
-from ..io import MarkerReport, load_markers
-from ..marker_set import undetermined_segments
+from ..io import MarkerReport, atomic_write_text, load_markers
+from ..marker_set import load_marker_set, model_with_marker_set, undetermined_segments
 from ..model import load_model
 
 
@@ -25,6 +28,12 @@ def add_marker_options(parser: argparse.ArgumentParser, *, several: bool = False
     parser.add_argument("--marker-map", help="YAML/JSON file mapping lab names to model names")
     parser.add_argument(
         "--up", choices=["x", "y", "z", "-x", "-y", "-z"], help="vertical axis (default: detect)"
+    )
+    parser.add_argument(
+        "--marker-set",
+        metavar="FILE",
+        help="YAML marker set (markers, bodies, offsets, prior classes) replacing the model's "
+        "own marker sites (default: Plug-in Gait, the bundled humanoid's sites)",
     )
     parser.add_argument(
         "--units",
@@ -58,10 +67,31 @@ def load_trial(path: str, names: tuple[str, ...], args: argparse.Namespace) -> T
         units=getattr(args, "units", None),
     )
     report = traj.marker_report(names)
-    model = load_model(getattr(args, "model", None))
+    model = load_model(model_for(args))
     report = dataclasses.replace(
         report, undetermined=undetermined_segments(model, [n for n in report.found if n in names])
     )
     if not report.found:
         raise MocapError(f"{path}: none of the model's markers found (names: {traj.names[:8]}...)")
     return Trial(path, np.asarray(traj.times), traj.select(names), float(traj.rate), report)
+
+
+def model_for(args: argparse.Namespace) -> str | None:
+    """The MJCF file the command's model comes from: ``--model`` (None: the bundled humanoid),
+    its sites replaced by the markers of ``--marker-set`` when given.
+
+    The model built from a marker set is written once, under the temporary folder, in a file
+    named by a hash of the set and base model, so that ``ParameterSet`` can read it and the
+    result can name it.
+    """
+    base = getattr(args, "model", None)
+    marker_set = getattr(args, "marker_set", None)
+    if marker_set is None:
+        return base
+    xml = model_with_marker_set(load_marker_set(marker_set), base).to_xml()
+    digest = hashlib.sha256(xml.encode()).hexdigest()[:16]
+    path = Path(tempfile.gettempdir()) / "mocap_mj" / f"model_{Path(marker_set).stem}_{digest}.xml"
+    if not path.is_file():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(path, xml)
+    return str(path)
