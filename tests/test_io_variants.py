@@ -266,3 +266,14 @@ def test_c3d_the_check_refuses_but_ezc3d_reads_is_read(tmp_path: Path) -> None:
     traj = load_markers(path, up="z")
     assert traj.names == ("A", "B")
     np.testing.assert_allclose(traj.positions, TRUTH_MM / 1000.0, rtol=1e-6)
+
+
+def test_aliases_never_take_a_name_the_callers_model_uses(tmp_path: Path) -> None:
+    lines = [H1, KEYS, VALUES, NAMES.replace("\tA\t", "\tl asis\t").replace("\tB\t", "\tLHEEL\t"),
+             AXES, *ROWS]  # fmt: skip
+    path = _write(tmp_path / "names.trc", lines)
+    plain = load_markers(path, up="z")
+    assert plain.names == ("LASI", "LHEE")
+    assert plain.source["aliased"] == {"l asis": "LASI", "LHEEL": "LHEE"}
+    custom = load_markers(path, up="z", model_names=("LASI", "LHEEL"))
+    assert custom.names == ("LASI", "LHEEL") and custom.source["aliased"] == {"l asis": "LASI"}

@@ -65,6 +65,7 @@ def load_trial(path: str, names: tuple[str, ...], args: argparse.Namespace) -> T
         marker_map=args.marker_map,
         up=getattr(args, "up", None),
         units=getattr(args, "units", None),
+        model_names=names,
     )
     report = traj.marker_report(names)
     model = load_model(model_for(args))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +30,7 @@ def load_markers(
     marker_map: Mapping[str, str] | str | os.PathLike[str] | None = None,
     up: str | None = None,
     units: str | None = None,
+    model_names: Collection[str] = MARKER_NAMES,
 ) -> MarkerTrajectory:
     """Read a marker file into metres, in the model's Z-up world, with model marker names.
 
@@ -70,6 +71,9 @@ def load_markers(
         RHEE, LTOE, RTOE); without those markers, what the file states (mocap-mj CSV ``up=``,
         Motive: y, C3D POINT:Y_SCREEN), else z. See :mod:`mocap_mj.io.orientation`.
 
+    model_names : collection of str
+        The marker names of the caller's model or marker set (default: Plug-in Gait). A file
+        name that is one of them is never aliased, and aliases only produce names among them.
     units : {"mm", "cm", "m"}, optional
         The coordinates' length unit, overriding what the file states (or its silence, which
         otherwise means mm).
@@ -102,7 +106,7 @@ def load_markers(
 
     keep, chosen_subject, subjects, dropped, others = _select_markers(file, raw, subject, rename)
     names = [rename.get(name, name) for _, name in keep]
-    aliased = _apply_aliases(names, rename)
+    aliased = _apply_aliases(names, rename, set(model_names))
     _check_unique(file, raw, keep, names)
     if not names:
         raise InputFileError(
@@ -194,7 +198,7 @@ def _select_markers(
     return keep, chosen, subjects, dropped, others
 
 
-def _apply_aliases(names: list[str], rename: Mapping[str, str]) -> dict[str, str]:
+def _apply_aliases(names: list[str], rename: Mapping[str, str], model: set[str]) -> dict[str, str]:
     """Give built-in Plug-in Gait names to the columns that spell one; {file name: model name}.
 
     ``names`` is edited in place. A column keeps its name when the caller's map named it, when
@@ -203,7 +207,9 @@ def _apply_aliases(names: list[str], rename: Mapping[str, str]) -> dict[str, str
     present = set(names)
     wanted: dict[str, list[int]] = {}
     for k, name in enumerate(names):
-        target = None if name in rename.values() else builtin_alias(name)
+        protected = name in rename.values() or name in model
+        target = None if protected else builtin_alias(name, MARKER_NAMES)
+        target = target if target in model else None
         if target is not None and target not in present:
             wanted.setdefault(target, []).append(k)
     done: dict[str, str] = {}
