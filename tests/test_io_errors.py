@@ -51,13 +51,19 @@ TEXT_CASES = [
     ("bad_up.csv", CSV_HEAD.replace("mm", "mm up=w") + "0,0,1,2,3,4,5,6\n", "line 1: expected up="),
     ("inch.csv", CSV_HEAD.replace("mm", "inch") + "0,0,1,2,3,4,5,6\n", "line 1: expected len"),
     ("one_frame_no_rate.csv", "frame,time,A_X,A_Y,A_Z\n0,0,1,2,3\n", "line 1: expected a rate"),
-    ("short.trc", TRC_HEAD + "1\t0\t1\t2\t3\t4\t5\t6\n", "line 3: expected NumFrames=2 rows"),
-    ("ragged.trc", TRC_HEAD + "1\t0\t1\t2\t3\n2\t.01\t1\t2\t3\t4\t5\t6\n", "line 7: expected 8"),
+    ("ragged.trc", TRC_HEAD.replace("\t", " ") + "1 0 1 2 3\n2 .01 1 2 3 4 5 6\n", "line 7: "
+     "expected 8 cells"),
+    ("wide_narrow.trc", TRC_HEAD + "1\t0\t1\t2\t3\n2\t.01\t1\t2\t3\t4\t5\t6\t7\n",
+     "line 7: expected 8 cells (Frame#, Time, 3 per marker) as on other rows"),
+    ("gap.trc", TRC_HEAD + "1\t0\t1\t2\t3\t4\t5\t6\n\n2\t.01\t1\t2\t3\t4\t5\t6\n",
+     "line 8: expected a row of data (no blank line inside)"),
     ("word.trc", TRC_HEAD + "1\t0\t1\t2\t3\t4\t5\t6\n2\t.01\t1\t2\tx\t4\t5\t6\n", "line 8:"),
-    ("head.trc", TRC_HEAD[:60], "line 3: expected the 5 header lines"),
+    ("head.trc", TRC_HEAD[:60], "line 3: expected the 4 header lines"),
     ("nummarkers.trc", TRC_HEAD.replace("\t2\tmm", "\t3\tmm"), "line 4: expected NumMarkers=3"),
     ("numframes.trc", TRC_HEAD.replace("\t2\t2\t", "\tmany\t2\t"), "line 3: expected a whole"),
-    ("axes.trc", TRC_HEAD.replace("X2\tY2", "Y2\tX2") + "1\t0\t1\t2\t3\t4\t5\t6\n", "line 5:"),
+    ("axes.trc", TRC_HEAD.replace("X2\tY2", "Y2\tX2") + "1\t0\t1\t2\t3\t4\t5\t6\n", "line 5: "
+     "expected X2 in X/Y/Z cell 4"),
+    ("names.trc", TRC_HEAD.replace("Time", "Frame"), "line 4: expected 'Frame#' and 'Time'"),
     ("furlong.trc", TRC_HEAD.replace("mm", "furlong") + "1\t0\t1\t2\t3\t4\t5\t6\n"
      "2\t.01\t1\t2\t3\t4\t5\t6\n", "line 3: expected length units mm, cm or m"),
     ("nexus.csv", "Devices\n1000\n,,F,,\nFrame,Sub Frame,Fx,Fy,Fz\n", "expected a 'Trajectories'"),
@@ -94,6 +100,7 @@ def _small_c3d(path: Path, units: str = "mm", n_frames: int = 5) -> Path:
     c3d["parameters"]["POINT"]["UNITS"]["value"] = [units]
     points = np.ones((4, 2, n_frames))
     points[:3] = np.arange(6 * n_frames).reshape(3, 2, n_frames) + 1.0
+    points[2, 1] += 1500.0  # B 1.5 m above A: a human-sized cloud in mm
     c3d["data"]["points"] = points
     c3d.write(str(path))
     return path
@@ -107,9 +114,8 @@ def _small_c3d(path: Path, units: str = "mm", n_frames: int = 5) -> Path:
         (512, "truncated"),
         (700, "truncated"),
         # ezc3d pads the file to whole 512-byte blocks; the 160 data bytes start the last one
-        (-512 + 159, "data section: expected 5 frames of 32 bytes"),
-        (-512 + 100, "data section: expected 5 frames of 32 bytes"),
-        (-512, "data section: expected 5 frames of 32 bytes"),
+        (-512 + 31, "data section: expected at least one frame of 32 bytes"),
+        (-512, "data section: expected at least one frame of 32 bytes"),
     ],
 )
 def test_truncated_c3d(tmp_path: Path, cut: int, where: str) -> None:
@@ -121,6 +127,23 @@ def test_truncated_c3d(tmp_path: Path, cut: int, where: str) -> None:
     message = str(info.value)
     assert message.startswith(f"{path}: ") and "\n" not in message
     assert where in message
+
+
+@pytest.mark.parametrize(("cut", "frames"), [(-512 + 159, 4), (-512 + 100, 3), (-512 + 32, 1)])
+def test_c3d_with_fewer_frames_than_declared_reads_them_and_warns_once(
+    tmp_path: Path, cut: int, frames: int, caplog: pytest.LogCaptureFixture
+) -> None:
+    full = _small_c3d(tmp_path / "full.c3d")
+    data = full.read_bytes()
+    path = tmp_path / "cut.c3d"
+    path.write_bytes(data[:cut])
+    traj = load_markers(path)
+    whole = load_markers(full)
+    assert traj.n_frames == frames == ezc3d.c3d(str(path))["data"]["points"].shape[2]
+    np.testing.assert_array_equal(traj.positions, whole.positions[:frames])
+    expected = f"{path}: data section: the header declares 5 frames, the file holds {frames}"
+    assert [r.getMessage()[: len(expected)] for r in caplog.records] == [expected]
+    assert traj.source["warnings"][0].startswith(expected)
 
 
 def test_c3d_garbage_and_wrong_key(tmp_path: Path) -> None:
@@ -140,8 +163,10 @@ def test_c3d_unknown_units_names_the_group(tmp_path: Path) -> None:
     with pytest.raises(InputFileError) as info:
         load_markers(path)
     assert str(info.value) == (
-        f"{path}: group POINT:UNITS: expected length units mm, cm or m, got 'ft'"
+        f"{path}: group POINT:UNITS: expected length units mm, cm or m, got 'ft' "
+        "(pass --units to say which)"
     )
+    assert load_markers(path, units="mm").source["units_note"] == "given by --units"
 
 
 def test_c3d_corrupt_parameter_offset(tmp_path: Path) -> None:

@@ -57,13 +57,14 @@ def test_several_subjects_need_subject_and_error_lists_them(tmp_path: Path) -> N
     path = write(tmp_path, "two.csv", csv_text(labels, both))
     with pytest.raises(InputFileError, match=r"Ann, Bob") as info:
         load_markers(path)
-    assert str(path) in str(info.value) and "subject=" in str(info.value)
-    bob = load_markers(path, subject="Bob")
-    assert bob.names == tuple(names)
+    assert str(path) in str(info.value) and "--subject" in str(info.value)
+    bob = load_markers(path, subject="bob")  # subject names match case-insensitively
+    assert bob.names == tuple("LFRM" if n == "LFRA" else n for n in names)
     assert bob.source["subject"] == "Bob" and bob.source["subjects"] == ["Ann", "Bob"]
     np.testing.assert_allclose(bob.positions, pos + shift, atol=1e-9)
     assert len(bob.source["other_subjects_markers"]) == len(names)
-    with pytest.raises(InputFileError, match=r"'Cy'.*Ann, Bob"):
+    want = r"--subject: expected one of the file's subjects \(Ann, Bob\), got 'Cy'"
+    with pytest.raises(InputFileError, match=want):
         load_markers(path, subject="Cy")
 
 
@@ -71,7 +72,8 @@ def test_single_prefix_is_stripped_without_subject(tmp_path: Path) -> None:
     names, pos = pose()
     path = write(tmp_path, "p.csv", csv_text([f"P01:{n}" for n in names], pos * 1000))
     traj = load_markers(path)
-    assert traj.names == tuple(names) and traj.source["subject"] == "P01"
+    assert traj.names == tuple("LFRM" if n == "LFRA" else n for n in names)  # built-in alias
+    assert traj.source["subject"] == "P01" and traj.source["aliased"] == {"LFRA": "LFRM"}
 
 
 def test_same_name_after_prefix_stripping_is_an_error(tmp_path: Path) -> None:
@@ -158,7 +160,9 @@ def test_unknown_unit_names_file_and_unit(tmp_path: Path) -> None:
     path = write(tmp_path, "in.csv", csv_text(names, pos * 39.37, "units=inch rate=100"))
     with pytest.raises(InputFileError) as info:
         load_markers(path)
-    assert str(info.value) == f"{path}: line 1: expected length units mm, cm or m, got 'inch'"
+    assert str(info.value) == (
+        f"{path}: line 1: expected length units mm, cm or m, got 'inch' (pass --units to say which)"
+    )
 
 
 # ---------------------------------------------------------------------------- up axis

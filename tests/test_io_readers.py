@@ -245,14 +245,14 @@ def test_trc_whitespace_separated(tmp_path: Path) -> None:
         "10 10 2 2 mm",
         "Frame# Time A B",
         "X1 Y1 Z1 X2 Y2 Z2",
-        "1 0.0 1 2 3 4 5 6",
-        "2 0.1 1 2 3 4 5 7",
+        "1 0.0 1 2 3 4 5 1600",
+        "2 0.1 1 2 3 4 5 1700",
     ]
     path = tmp_path / "ws.trc"
     path.write_text("\n".join(lines) + "\n")
     traj = load_markers(path, up="z")
     assert traj.names == ("A", "B")
-    np.testing.assert_allclose(traj.positions[1, 1], [0.004, 0.005, 0.007])
+    np.testing.assert_allclose(traj.positions[1, 1], [0.004, 0.005, 1.7])
 
 
 # ------------------------------------------------------------------------------ Vicon Nexus

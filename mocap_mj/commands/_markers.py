@@ -3,12 +3,18 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import hashlib
+import tempfile
+from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
 from ..errors import MocapError
-from ..io import MarkerReport, load_markers
+from ..io import MarkerReport, atomic_write_text, load_markers
+from ..marker_set import load_marker_set, model_with_marker_set, undetermined_segments
+from ..model import load_model
 
 
 def add_marker_options(parser: argparse.ArgumentParser, *, several: bool = False) -> None:
@@ -23,13 +29,26 @@ def add_marker_options(parser: argparse.ArgumentParser, *, several: bool = False
     parser.add_argument(
         "--up", choices=["x", "y", "z", "-x", "-y", "-z"], help="vertical axis (default: detect)"
     )
+    parser.add_argument(
+        "--marker-set",
+        metavar="FILE",
+        help="YAML marker set (markers, bodies, offsets, prior classes) replacing the model's "
+        "own marker sites (default: Plug-in Gait, the bundled humanoid's sites)",
+    )
+    parser.add_argument(
+        "--units",
+        choices=["mm", "cm", "m"],
+        help="length unit of the marker coordinates, overriding the file's (default: as stated "
+        "in the file, else mm)",
+    )
 
 
 class Trial(NamedTuple):
     """Markers of one file in model site order.
 
     Fields: path; times (T,) [s]; markers (T, M, 3) [m], NaN where missing; rate [Hz];
-    report (which model markers were found, missing, extra).
+    report (which model markers were found, missing, extra, and which model segments none
+    of the found markers determines).
     """
 
     path: str
@@ -41,9 +60,39 @@ class Trial(NamedTuple):
 
 def load_trial(path: str, names: tuple[str, ...], args: argparse.Namespace) -> Trial:
     traj = load_markers(
-        path, subject=args.subject, marker_map=args.marker_map, up=getattr(args, "up", None)
+        path,
+        subject=args.subject,
+        marker_map=args.marker_map,
+        up=getattr(args, "up", None),
+        units=getattr(args, "units", None),
+        model_names=names,
     )
     report = traj.marker_report(names)
+    model = load_model(model_for(args))
+    report = dataclasses.replace(
+        report, undetermined=undetermined_segments(model, [n for n in report.found if n in names])
+    )
     if not report.found:
         raise MocapError(f"{path}: none of the model's markers found (names: {traj.names[:8]}...)")
     return Trial(path, np.asarray(traj.times), traj.select(names), float(traj.rate), report)
+
+
+def model_for(args: argparse.Namespace) -> str | None:
+    """The MJCF file the command's model comes from: ``--model`` (None: the bundled humanoid),
+    its sites replaced by the markers of ``--marker-set`` when given.
+
+    The model built from a marker set is written once, under the temporary folder, in a file
+    named by a hash of the set and base model, so that ``ParameterSet`` can read it and the
+    result can name it.
+    """
+    base = getattr(args, "model", None)
+    marker_set = getattr(args, "marker_set", None)
+    if marker_set is None:
+        return base
+    xml = model_with_marker_set(load_marker_set(marker_set), base).to_xml()
+    digest = hashlib.sha256(xml.encode()).hexdigest()[:16]
+    path = Path(tempfile.gettempdir()) / "mocap_mj" / f"model_{Path(marker_set).stem}_{digest}.xml"
+    if not path.is_file():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(path, xml)
+    return str(path)

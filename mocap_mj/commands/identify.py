@@ -14,7 +14,7 @@ from ..identify.output import frame_range
 from ..identify.pipeline import INITS, identify_to_folder, result_text
 from ..identify.plausibility import kappa_outside_bounds, marker_rmse_by_marker, plausibility_text
 from ..parameters import ParameterSet
-from ._markers import add_marker_options, load_trial
+from ._markers import add_marker_options, load_trial, model_for
 
 
 def register(sub: Any) -> None:
@@ -50,7 +50,7 @@ def register(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    pset = ParameterSet(args.model)
+    pset = ParameterSet(model_for(args))
     loaded = [load_trial(path, pset.marker_names, args) for path in args.markers]
     trials = []
     ranges = []

@@ -16,7 +16,7 @@ from ..io.atomic import atomic_write_text
 from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..results import Motion, save_motion
-from ._markers import add_marker_options, load_trial
+from ._markers import add_marker_options, load_trial, model_for
 
 
 def register(sub: Any) -> None:
@@ -44,7 +44,7 @@ def write_motion_csv(path: Path, model: Any, times: np.ndarray, qpos: np.ndarray
 
 
 def run(args: argparse.Namespace) -> int:
-    pset = ParameterSet(args.model)
+    pset = ParameterSet(model_for(args))
     trial = load_trial(args.markers, pset.marker_names, args)
     out = prepare_out(args.out, force=args.force)
     kin = Kinematics(pset)

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import logging
 import os
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -11,13 +12,15 @@ import numpy as np
 
 from mocap_mj.errors import InputFileError
 from mocap_mj.io.formats import RawMarkers, read_raw
-from mocap_mj.io.names import is_non_marker, load_marker_map, split_prefix
+from mocap_mj.io.names import builtin_alias, is_non_marker, load_marker_map, split_prefix
 from mocap_mj.io.orientation import detect_up, normalize_up, rotation_to_z_up
 from mocap_mj.io.trajectory import MarkerTrajectory
-from mocap_mj.io.units import metres_per_unit
+from mocap_mj.io.units import check_cloud_size, metres_per_unit
 from mocap_mj.markers import MARKER_NAMES
 
 __all__ = ["load_markers"]
+
+_log = logging.getLogger(__name__)
 
 
 def load_markers(
@@ -26,17 +29,32 @@ def load_markers(
     subject: str | None = None,
     marker_map: Mapping[str, str] | str | os.PathLike[str] | None = None,
     up: str | None = None,
+    units: str | None = None,
+    model_names: Collection[str] = MARKER_NAMES,
 ) -> MarkerTrajectory:
     """Read a marker file into metres, in the model's Z-up world, with model marker names.
 
     The format (C3D, OpenSim TRC, mocap-mj CSV, Vicon Nexus CSV, OptiTrack Motive CSV) is
     detected from the content. The file is only read, never modified.
 
-    Steps, in order: subject prefixes ("Derrick:LASI") are removed, keeping one subject;
-    non-marker points are dropped (model outputs the file's metadata lists, and by name:
-    Plug-in Gait outputs such as PELO or LKneeAngles, CentreOfMass, unlabelled points such as
-    ``*115``), never a model marker name nor a name ``marker_map`` lists; ``marker_map``
-    renames; units become metres; the vertical axis is rotated onto +Z.
+    Steps, in order: subject prefixes ("Derrick:LASI", matched case-insensitively) are
+    removed, keeping one subject; non-marker points are dropped (model outputs the file's
+    metadata lists, and by name: Plug-in Gait outputs such as PELO or LKneeAngles,
+    CentreOfMass, unlabelled points such as ``*115``), never a model marker name nor a name
+    ``marker_map`` lists; ``marker_map`` renames; other names that spell a Plug-in Gait marker
+    (``lasi``, ``L_IAS``, ``LFRA``: :func:`~mocap_mj.io.names.builtin_alias`) take its name
+    when that is unambiguous; units become metres; missing samples become NaN; the marker
+    cloud's size is checked against the unit; the vertical axis is rotated onto +Z.
+
+    One missing-data rule holds in every format: a sample is missing when any coordinate is
+    NaN or an empty cell, when all three coordinates are exactly 0 (how many tools write a
+    gap; a real marker is never exactly at the lab origin to every decimal), or when its C3D
+    residual is negative. ``source["missing_samples"]`` counts them per marker (all causes),
+    ``source["zero_samples"]`` those written as zeros.
+
+    The units check: the median per-frame extent of the marker cloud must lie within
+    0.05..10 m once converted; otherwise the error names the unit that would fit and the
+    ``--units`` flag (a wrong unit would otherwise give a "fit" of a 1,700 m person).
 
     Parameters
     ----------
@@ -53,19 +71,27 @@ def load_markers(
         RHEE, LTOE, RTOE); without those markers, what the file states (mocap-mj CSV ``up=``,
         Motive: y, C3D POINT:Y_SCREEN), else z. See :mod:`mocap_mj.io.orientation`.
 
+    model_names : collection of str
+        The marker names of the caller's model or marker set (default: Plug-in Gait). A file
+        name that is one of them is never aliased, and aliases only produce names among them.
+    units : {"mm", "cm", "m"}, optional
+        The coordinates' length unit, overriding what the file states (or its silence, which
+        otherwise means mm).
+
     Returns
     -------
     MarkerTrajectory
         ``positions`` (T, M, 3) [m], NaN for missing samples; ``source`` records the path,
         format, units, up axis and how it was chosen, the subject, dropped points, extras
-        (markers the model does not use: kept, ignored by fitting) and the names mapped.
+        (markers the model does not use: kept, ignored by fitting), the names mapped and
+        aliased, missing samples per marker, and ``warnings`` (each also logged once).
 
     Raises
     ------
     InputFileError
         Unreadable, truncated or malformed file (the message names the file and the line,
-        byte or C3D group), unknown units, several subjects without ``subject=``, duplicate
-        marker names, or no markers at all.
+        byte or C3D group), unknown units, a marker cloud whose size does not fit the unit,
+        several subjects without ``subject``, duplicate marker names, or no markers at all.
     UnknownNameError
         ``up`` is not an axis name.
     """
@@ -74,10 +100,13 @@ def load_markers(
     rename = load_marker_map(marker_map) if marker_map is not None else {}
     if not file.is_file():
         raise InputFileError(f"{file}: no such file")
+    if units is not None and metres_per_unit(units) is None:
+        raise InputFileError(f"{file}: --units: expected mm, cm or m, got {units!r}")
     raw = read_raw(file)
 
     keep, chosen_subject, subjects, dropped, others = _select_markers(file, raw, subject, rename)
     names = [rename.get(name, name) for _, name in keep]
+    aliased = _apply_aliases(names, rename, set(model_names))
     _check_unique(file, raw, keep, names)
     if not names:
         raise InputFileError(
@@ -85,12 +114,16 @@ def load_markers(
             f"(dropped: {', '.join(dropped) or 'nothing'})"
         )
 
-    scale, units_note = _metres(file, raw)
+    scale, unit, units_note = _metres(file, raw, units)
     positions = raw.positions[:, [i for i, _ in keep]] * scale
     if not (np.all(np.isfinite(raw.times)) and not np.isinf(positions).any()):
         raise InputFileError(
             f"{file}: {raw.labels_where}: expected finite times and coordinates, got infinity"
         )
+    zeros = np.all(positions == 0.0, axis=2)  # (T, M)
+    positions[zeros] = np.nan
+    check_cloud_size(file, positions, unit, units_note)
+    missing = np.isnan(positions).any(axis=2).sum(axis=0)
     up_axis, up_how, detected = _vertical(raw, positions, names, wanted_up)
     rotation = rotation_to_z_up(up_axis)
     positions = positions @ rotation.T
@@ -98,7 +131,7 @@ def load_markers(
     source: dict[str, Any] = {
         "path": str(file.resolve()),
         "format": raw.format,
-        "units": raw.units if raw.units is not None else "mm",
+        "units": unit,
         "units_note": units_note,
         "up": up_axis,
         "up_detected": detected,
@@ -110,8 +143,14 @@ def load_markers(
         "other_subjects_markers": others,
         "extras": [n for n in names if n not in MARKER_NAMES],
         "renamed": {k: v for k, v in rename.items() if k in {n for _, n in keep}},
+        "aliased": aliased,
+        "missing_samples": {n: int(c) for n, c in zip(names, missing, strict=True) if c},
+        "zero_samples": {n: int(c) for n, c in zip(names, zeros.sum(axis=0), strict=True) if c},
         **raw.info,
     }
+    source["warnings"] = list(raw.info.get("warnings", []))
+    for message in source["warnings"]:
+        _log.warning(message)
     return MarkerTrajectory(
         times=raw.times, positions=positions, names=tuple(names), rate=raw.rate, source=source
     )
@@ -125,16 +164,23 @@ def _select_markers(
     prefixes = sorted({p for p, _ in split if p is not None})
     subjects = prefixes or list(raw.subjects)
     if subject is not None:
-        subject = subject.strip()
-        if subject not in subjects and (prefixes or raw.subjects):
+        wanted = subject.strip()
+        matches = [s for s in subjects if s == wanted] or [
+            s for s in subjects if s.casefold() == wanted.casefold()
+        ]
+        if len(matches) == 1:
+            subject = matches[0]
+        elif prefixes or raw.subjects:
             raise InputFileError(
-                f"{file}: expected subject {subject!r} among the file's subjects, got "
-                f"{', '.join(subjects)}"
+                f"{file}: --subject: expected one of the file's subjects "
+                f"({', '.join(subjects)}), got {wanted!r}"
             )
+        else:
+            subject = wanted
     elif len(prefixes) > 1:
         raise InputFileError(
             f"{file}: expected one subject, got {len(prefixes)} ({', '.join(prefixes)}): "
-            f"pass subject= to choose one"
+            f"pass --subject NAME to choose one"
         )
     chosen = subject if subject is not None else (prefixes[0] if prefixes else None)
     keep: list[tuple[int, str]] = []
@@ -152,6 +198,28 @@ def _select_markers(
     return keep, chosen, subjects, dropped, others
 
 
+def _apply_aliases(names: list[str], rename: Mapping[str, str], model: set[str]) -> dict[str, str]:
+    """Give built-in Plug-in Gait names to the columns that spell one; {file name: model name}.
+
+    ``names`` is edited in place. A column keeps its name when the caller's map named it, when
+    the target name is already a column, or when several columns would take the same name.
+    """
+    present = set(names)
+    wanted: dict[str, list[int]] = {}
+    for k, name in enumerate(names):
+        protected = name in rename.values() or name in model
+        target = None if protected else builtin_alias(name, MARKER_NAMES)
+        target = target if target in model else None
+        if target is not None and target not in present:
+            wanted.setdefault(target, []).append(k)
+    done: dict[str, str] = {}
+    for target, columns in wanted.items():
+        if len(columns) == 1:
+            done[names[columns[0]]] = target
+            names[columns[0]] = target
+    return done
+
+
 def _check_unique(
     file: Path, raw: RawMarkers, keep: list[tuple[int, str]], names: list[str]
 ) -> None:
@@ -166,15 +234,19 @@ def _check_unique(
         seen[name] = i
 
 
-def _metres(file: Path, raw: RawMarkers) -> tuple[float, str]:
+def _metres(file: Path, raw: RawMarkers, given: str | None) -> tuple[float, str, str]:
+    """(metres per file unit, the unit, where it came from)."""
+    if given is not None:
+        return float(metres_per_unit(given) or 0.0), given.strip(), "given by --units"
     if raw.units is None:
-        return 1e-3, "the file states no units: assumed mm"
+        return 1e-3, "mm", "the file states no units: assumed mm"
     scale = metres_per_unit(raw.units)
     if scale is None:
         raise InputFileError(
-            f"{file}: {raw.units_where}: expected length units mm, cm or m, got {raw.units!r}"
+            f"{file}: {raw.units_where}: expected length units mm, cm or m, got {raw.units!r} "
+            f"(pass --units to say which)"
         )
-    return scale, f"{raw.units} from {raw.units_where}"
+    return scale, raw.units, f"{raw.units} from {raw.units_where}"
 
 
 def _vertical(

@@ -1,11 +1,11 @@
-"""Marker labels: subject prefixes, non-marker points, and lab-to-model name maps."""
+"""Marker labels: subject prefixes, non-marker points, lab-to-model name maps, built-in aliases."""
 
 from __future__ import annotations
 
 import json
 import os
 import re
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from pathlib import Path
 
 import yaml
@@ -77,3 +77,50 @@ def load_marker_map(marker_map: Mapping[str, str] | str | os.PathLike[str]) -> d
             )
         out[key.strip()] = value.strip()
     return out
+
+
+#: Built-in spellings of Plug-in Gait markers, keyed by :func:`name_key` (upper case, no
+#: spaces, underscores, dots or hyphens). Lower-case and spaced spellings of the model's own
+#: names ("lasi", "l asi") need no entry. Only one-to-one equivalences are listed: the
+#: anatomical names of the ISB / Qualisys convention for the same landmark (L_IAS is the
+#: anterior superior iliac spine, L_FLE the lateral femoral epicondyle...), Plug-in Gait's
+#: older LFRA/RFRA, the spelt-out names of other labs (r asis, r heel, r should, ASISl), and
+#: numbered single markers (LUPA1). A file column keeps its own name when the alias target is
+#: already in the file, or when two columns would take the same name.
+PIG_ALIASES: dict[str, str] = {
+    # pelvis
+    "LIAS": "LASI", "RIAS": "RASI", "LIPS": "LPSI", "RIPS": "RPSI",
+    "LASIS": "LASI", "RASIS": "RASI", "LPSIS": "LPSI", "RPSIS": "RPSI",
+    "ASISL": "LASI", "ASISR": "RASI", "PSISL": "LPSI", "PSISR": "RPSI",
+    # thorax and head
+    "CV7": "C7", "TV10": "T10", "SJN": "CLAV", "SNJ": "CLAV", "SXS": "STRN",
+    "LHDF": "LFHD", "RHDF": "RFHD", "LHDB": "LBHD", "RHDB": "RBHD",
+    # arms
+    "LFRA": "LFRM", "RFRA": "RFRM", "LUPA1": "LUPA", "RUPA1": "RUPA",
+    "LSAJ": "LSHO", "RSAJ": "RSHO", "LSAE": "LSHO", "RSAE": "RSHO",
+    "LSHOULDER": "LSHO", "RSHOULDER": "RSHO", "LSHOULD": "LSHO", "RSHOULD": "RSHO",
+    "LHLE": "LELB", "RHLE": "RELB", "LRSP": "LWRA", "RRSP": "RWRA",
+    "LUSP": "LWRB", "RUSP": "RWRB", "LUHE": "LWRB", "RUHE": "RWRB",
+    "LHM2": "LFIN", "RHM2": "RFIN",
+    # legs
+    "LFLE": "LKNE", "RFLE": "RKNE", "LFAL": "LANK", "RFAL": "RANK",
+    "LMALL": "LANK", "RMALL": "RANK", "LFCC": "LHEE", "RFCC": "RHEE",
+    "LHEEL": "LHEE", "RHEEL": "RHEE", "LFM2": "LTOE", "RFM2": "RTOE",
+}  # fmt: skip
+
+
+def name_key(name: str) -> str:
+    """``name`` in upper case without spaces, underscores, dots or hyphens ("l_ias" -> "LIAS")."""
+    return re.sub(r"[\s_.\-]", "", name).upper()
+
+
+def builtin_alias(name: str, model_names: Collection[str] = MARKER_NAMES) -> str | None:
+    """The model marker ``name`` spells (case-insensitively, or by :data:`PIG_ALIASES`), or None.
+
+    >>> builtin_alias("l_ias"), builtin_alias("lasi"), builtin_alias("LFRA"), builtin_alias("X")
+    ('LASI', 'LASI', 'LFRM', None)
+    """
+    key = name_key(name)
+    by_key = {name_key(n): n for n in model_names}
+    target = by_key.get(key) or PIG_ALIASES.get(key)
+    return target if target in model_names and target != name else None

@@ -139,12 +139,15 @@ class MarkerTrajectory:
         extras = tuple(n for n in self.names if n not in model_set)
         fraction = {n: by_name.get(n, 0.0) for n in model}
         fraction.update({n: by_name[n] for n in extras})
+        absent = (~present).sum(axis=0)
         return MarkerReport(
             found=found,
             missing=missing,
             extras=extras,
             fraction_present=fraction,
             n_frames=self.n_frames,
+            missing_samples={n: int(absent[i]) for i, n in enumerate(self.names) if absent[i]},
+            zero_samples=dict(self.source.get("zero_samples", {})),
         )
 
 
@@ -165,6 +168,14 @@ class MarkerReport:
         which it was seen, in [0, 1].
     n_frames : int
         Number of frames of the trajectory.
+    missing_samples : Mapping[str, int]
+        Per trajectory marker with gaps: its missing samples (any cause of the one
+        missing-data rule: NaN, empty cell, all-zero sample, negative C3D residual).
+    zero_samples : Mapping[str, int]
+        Of those, the samples the file wrote as 0 0 0.
+    undetermined : tuple of str
+        Model bodies no marker found determines (set by the caller that knows the model, see
+        :func:`mocap_mj.marker_set.undetermined_segments`); empty by default.
     """
 
     found: tuple[str, ...]
@@ -172,6 +183,9 @@ class MarkerReport:
     extras: tuple[str, ...]
     fraction_present: Mapping[str, float]
     n_frames: int
+    missing_samples: Mapping[str, int] = field(default_factory=dict)
+    zero_samples: Mapping[str, int] = field(default_factory=dict)
+    undetermined: tuple[str, ...] = ()
 
     @property
     def complete(self) -> bool:
@@ -185,12 +199,25 @@ class MarkerReport:
             f"{self.n_frames} frames"
         ]
         lines.append("missing: " + (" ".join(self.missing) if self.missing else "none"))
+        if self.undetermined:
+            lines.append(
+                "segments no marker found determines (their joint angles and the lengths "
+                "leading to them stay at the prior): " + " ".join(self.undetermined)
+            )
         if self.extras:
             lines.append("extras (not in the model, ignored by fitting): " + " ".join(self.extras))
         gaps = [n for n in self.found if self.fraction_present[n] < 1.0]
         if gaps:
-            lines.append("model markers with gaps (% of frames seen):")
-            lines.extend(f"  {n:<8} {100.0 * self.fraction_present[n]:6.1f}%" for n in gaps)
+            lines.append("model markers with gaps (% of frames seen, samples missing):")
+            lines.extend(
+                f"  {n:<8} {100.0 * self.fraction_present[n]:6.1f}%  "
+                f"{self.missing_samples.get(n, 0)} missing{self._zeros(n)}"
+                for n in gaps
+            )
         elif self.found:
             lines.append("every model marker found is seen in every frame")
         return "\n".join(lines)
+
+    def _zeros(self, name: str) -> str:
+        zeros = self.zero_samples.get(name, 0)
+        return f" ({zeros} written as 0 0 0)" if zeros else ""

@@ -1,6 +1,13 @@
-"""Length units as marker files state them, and their size in metres."""
+"""Length units as marker files state them, their size in metres, and a size sanity check."""
 
 from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from mocap_mj.errors import InputFileError
 
 _METRES_PER_UNIT = {
     "mm": 1e-3, "millimeter": 1e-3, "millimeters": 1e-3, "millimetre": 1e-3, "millimetres": 1e-3,
@@ -8,7 +15,54 @@ _METRES_PER_UNIT = {
     "m": 1.0, "meter": 1.0, "meters": 1.0, "metre": 1.0, "metres": 1.0,
 }  # fmt: skip
 
+#: Plausible median per-frame extent of a marker cloud [m]: from a foot or hand marker set
+#: (a few cm) to a full body with arms raised in a large volume. A unit error moves the
+#: extent by 10x (cm/mm), 100x (m/cm) or 1000x (m/mm): a 1.7 m person measures 1,700 m when
+#: millimetres are read as metres, 1.7 mm the other way round.
+CLOUD_EXTENT = (0.05, 10.0)
+
 
 def metres_per_unit(unit: str) -> float | None:
     """Metres in one ``unit`` (case-insensitive: mm, cm, m and their spelt-out names), or None."""
     return _METRES_PER_UNIT.get(unit.strip().lower())
+
+
+def cloud_extent(positions: np.ndarray) -> float | None:
+    """Median over frames of the diagonal of the markers' bounding box [same unit as input].
+
+    ``positions`` (T, M, 3); NaN samples are ignored; frames with fewer than 2 markers seen
+    do not count. None when no frame has 2 markers.
+    """
+    seen = np.isfinite(positions).all(axis=2)  # (T, M)
+    frames = seen.sum(axis=1) >= 2
+    if not frames.any():
+        return None
+    pos = positions[frames]
+    with np.errstate(invalid="ignore"):
+        span = np.nanmax(pos, axis=1) - np.nanmin(pos, axis=1)  # (T', 3)
+    return float(np.median(np.linalg.norm(span, axis=1)))
+
+
+def check_cloud_size(path: Path, positions: np.ndarray, unit: str, where: str) -> None:
+    """Error unless the marker cloud ``positions`` (T, M, 3) [m] has a human-sized extent.
+
+    The extent (:func:`cloud_extent`) must lie within :data:`CLOUD_EXTENT`; the error names
+    the measured size, the unit used and where it came from, the unit that would make the
+    size plausible, and the ``--units`` flag.
+    """
+    extent = cloud_extent(positions)
+    low, high = CLOUD_EXTENT
+    if extent is None or low <= extent <= high or extent == 0.0:
+        return
+    used = metres_per_unit(unit) or 1e-3
+    sizes = {name: extent / used * _METRES_PER_UNIT[name] for name in ("mm", "cm", "m")}
+    # of the units that fit, the one giving the size nearest 1 m (a person's typical cloud)
+    fits = sorted(
+        (name for name, size in sizes.items() if low <= size <= high),
+        key=lambda name: abs(math.log(sizes[name])),
+    )
+    hint = f"the file is likely in {fits[0]}: pass --units {fits[0]}" if fits else "pass --units"
+    raise InputFileError(
+        f"{path}: units: expected a marker cloud {low:g}..{high:g} m across in {unit} "
+        f"({where}), got {extent:.4g} m; {hint}"
+    )

@@ -3,12 +3,13 @@
 Every 3D point of POINT:LABELS (+ LABELS2, LABELS3... past 255 points) is read; the points
 the file itself lists as model outputs (POINT:ANGLES, FORCES, MOMENTS, POWERS, SCALARS,
 REACTIONS, MODELED_MARKERS and any group POINT:TYPE_GROUPS names) are reported in
-``non_markers`` for the loader to drop. A sample whose residual is negative, or whose three
-coordinates are exactly zero, is missing (NaN).
+``non_markers`` for the loader to drop. A sample whose residual is negative is missing (NaN);
+the loader applies the missing-data rule shared by every format (NaN, all-zero samples).
 """
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +18,9 @@ import numpy as np
 
 from mocap_mj.errors import InputFileError
 from mocap_mj.io.formats._common import RawMarkers
-from mocap_mj.io.formats.c3d_check import check_c3d
+from mocap_mj.io.formats.c3d_check import C3DLayout, C3DTruncatedError, check_c3d
+from mocap_mj.io.formats.c3d_probe import ezc3d_failure
+from mocap_mj.io.units import metres_per_unit
 
 #: POINT parameters that list non-marker points (model outputs), as Vicon writes them.
 NON_MARKER_GROUPS = (
@@ -71,50 +74,117 @@ def _up_hint(point: dict[str, Any]) -> str | None:
 
 
 def read(path: Path) -> RawMarkers:
-    """Read the marker points of a C3D file."""
-    layout = check_c3d(path)
+    """Read the marker points of a C3D file, as ezc3d reads them.
+
+    The structural check runs first; a file it refuses is read all the same when ezc3d reads
+    it in a separate process (see :mod:`mocap_mj.io.formats.c3d_probe`), except a file that
+    ends before its first frame (ezc3d cannot read those: it fails or loops). When the data
+    section holds fewer frames than the header declares, the frames present are read and
+    ``info["warnings"]`` says so (the loader logs it once).
+    """
+    try:
+        layout: C3DLayout | None = check_c3d(path)
+    except C3DTruncatedError:
+        raise
+    except InputFileError:
+        if ezc3d_failure(path) is not None:
+            raise
+        layout = None
+    if layout is not None and layout.n_points == 0:
+        raise _no_points(path)
     try:
         c3d = ezc3d.c3d(str(path))
         params = c3d["parameters"]
         points = np.asarray(c3d["data"]["points"], dtype=np.float64)
         residuals = np.asarray(c3d["data"]["meta_points"]["residuals"], dtype=np.float64)
+        header = c3d["header"]["points"]
     except Exception as exc:  # ezc3d raises RuntimeError, OSError, ValueError...
         message = " ".join(str(exc).split())[:200]
         raise InputFileError(f"{path}: ezc3d could not read it: {message}") from exc
     point = params.get("POINT", {})
-    if points.shape != (4, layout.n_points, layout.n_frames):
-        raise InputFileError(
-            f"{path}: data section: expected {layout.n_points} points x {layout.n_frames} frames "
-            f"(POINT:USED x POINT:FRAMES), got {points.shape[1]} x {points.shape[2]} from ezc3d"
-        )
-    labels = _point_labels(point)[: layout.n_points]
+    if points.ndim != 3 or points.shape[1] == 0:
+        raise _no_points(path)
+    n_points, n_frames = int(points.shape[1]), int(points.shape[2])
+    if n_frames == 0:
+        raise InputFileError(f"{path}: data section: expected at least one frame, got none")
+    labels = _point_labels(point)[:n_points]
+    labels += [f"*{k + 1}" for k in range(len(labels), n_points)]  # unlabelled: dropped
     positions = points[:3].transpose(2, 1, 0).copy()  # (T, M, 3)
-    missing = (residuals[0].T < 0) | np.all(positions == 0.0, axis=2)
-    positions[missing] = np.nan
+    if residuals.shape == (1, n_points, n_frames):
+        positions[residuals[0].T < 0] = np.nan
     positions[np.isnan(positions).any(axis=2)] = np.nan
     bad = np.argwhere(np.isinf(positions))
     if len(bad):
-        frame, point = int(bad[0][0]), int(bad[0][1])
+        frame, k = int(bad[0][0]), int(bad[0][1])
         raise InputFileError(
             f"{path}: data section: expected finite coordinates, got infinity in frame "
-            f"{frame + 1} for point {labels[point]!r}"
+            f"{frame + 1} for point {labels[k]!r}"
         )
-
-    rate = float(layout.params[("POINT", "RATE")].values[0])
-    units = [str(v).strip() for v in _values(params, "POINT", "UNITS")]
+    rate = _rate(path, point, header)
+    units, units_where = _units(path, positions, labels, point)
     subjects = [str(v).strip() for v in _values(params, "SUBJECTS", "NAMES") if str(v).strip()]
-    header = c3d["header"]["points"]
+    warnings = []
+    declared = layout.frames_declared if layout is not None else n_frames
+    if declared > n_frames:
+        warnings.append(
+            f"{path}: data section: the header declares {declared} frames, the file holds "
+            f"{n_frames}: read the {n_frames} frames present"
+        )
     return RawMarkers(
         format="c3d",
         labels=labels,
         positions=positions,
-        times=np.arange(layout.n_frames) / rate,
+        times=np.arange(n_frames) / rate,
         rate=rate,
-        units=units[0] if units and units[0] else None,
-        units_where="group POINT:UNITS",
+        units=units,
+        units_where=units_where,
         labels_where="group POINT:LABELS",
         up_hint=_up_hint(point),
         non_markers=_non_marker_names(point),
         subjects=subjects,
-        info={"first_frame": int(header["first_frame"])},
+        info={"first_frame": int(header["first_frame"]), "warnings": warnings},
     )
+
+
+def _no_points(path: Path) -> InputFileError:
+    return InputFileError(
+        f"{path}: group POINT:USED: expected marker points, got none (the file holds no "
+        f"marker data: force plates, analog channels or rotations only)"
+    )
+
+
+def _rate(path: Path, point: dict[str, Any], header: dict[str, Any]) -> float:
+    """POINT:RATE [Hz], else the header's frame rate; error unless positive and finite."""
+    for value in (*_values({"POINT": point}, "POINT", "RATE")[:1], header.get("frame_rate")):
+        try:
+            rate = float(value)
+        except (TypeError, ValueError):
+            continue
+        if math.isfinite(rate) and rate > 0:
+            return rate
+    raise InputFileError(f"{path}: group POINT:RATE: expected a positive frame rate, got none")
+
+
+def _units(
+    path: Path, positions: np.ndarray, labels: list[str], point: dict[str, Any]
+) -> tuple[str | None, str]:
+    """The points' length unit (None if unstated); mixed per-point units are converted to m.
+
+    POINT:UNITS holds one unit, or one per point (NDI Optotrak). When the per-point units
+    differ, ``positions`` (T, M, 3) is rescaled in place to metres and "m" is returned.
+    """
+    units = [str(v).strip() for v in _values({"POINT": point}, "POINT", "UNITS")]
+    if not units or not units[0]:
+        return None, "group POINT:UNITS"
+    per_point = units[: len(labels)] if len(units) > 1 else []
+    if len({u.lower() for u in per_point if u}) <= 1:
+        return units[0], "group POINT:UNITS"
+    for k, unit in enumerate(per_point):
+        scale = metres_per_unit(unit or units[0])
+        if scale is None:
+            raise InputFileError(
+                f"{path}: group POINT:UNITS: expected length units mm, cm or m for point "
+                f"{labels[k]!r}, got {unit!r}"
+            )
+        positions[:, k] *= scale
+    return "m", "group POINT:UNITS (per point, converted to m)"

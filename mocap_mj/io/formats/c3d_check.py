@@ -1,10 +1,13 @@
-"""A pure-Python structural check of a C3D file, done before ezc3d is allowed to read it.
+"""A pure-Python structural check of a C3D file, done before ezc3d reads it in-process.
 
-ezc3d trusts the file: on truncated or corrupted input it can hang, crash the interpreter, or
-silently return fewer frames. This module walks the header and parameter section itself,
-bounds-checks every entry, and checks that the parameters ezc3d dereferences exist, agree
-with the header, and describe a data section that fits in the file. Anything else is an
-:class:`~mocap_mj.errors.InputFileError` naming the file and the byte, group or parameter.
+ezc3d trusts the file: on corrupted input it can hang or crash the interpreter. This module
+walks the header and parameter section itself, bounds-checks every entry, and checks that the
+parameters ezc3d dereferences exist and hold numbers. Passing the check is a sufficient
+condition for reading in-process, not a necessary one: the reader sends every file the check
+refuses to ezc3d in a separate process (:mod:`mocap_mj.io.formats.c3d_probe`) and reads it
+after all when ezc3d reads it there, so the check never refuses a file ezc3d reads. A data
+section shorter than the header declares is not an error here: ezc3d reads the whole frames
+present (``C3DLayout.n_frames``) and the reader warns.
 """
 
 from __future__ import annotations
@@ -45,23 +48,40 @@ class C3DLayout:
     params: dict[tuple[str, str], Param]
     n_points: int
     n_frames: int
+    frames_declared: int
     float_data: bool
     data_offset: int
     data_bytes: int
+
+
+class C3DTruncatedError(InputFileError):
+    """The file ends inside its header, parameter section, or before its first data frame.
+
+    ezc3d cannot read such a file either (it fails, or loops on the missing bytes), so this
+    refusal stands without asking ezc3d.
+    """
 
 
 def _err(path: Path, where: str, expected: str, got: str) -> InputFileError:
     return InputFileError(f"{path}: {where}: expected {expected}, got {got}")
 
 
+def _cut(path: Path, where: str, expected: str, got: str) -> C3DTruncatedError:
+    return C3DTruncatedError(f"{path}: {where}: expected {expected}, got {got}")
+
+
 class _Reader:
-    def __init__(self, path: Path, data: bytes, processor: int) -> None:
+    def __init__(self, path: Path, data: bytes, processor: int, section_end: int) -> None:
         self.path, self.data, self.processor = path, data, processor
         self.int_fmt = ">" if processor == _MIPS else "<"
+        self.section_end = section_end  # where the parameter section says it ends
 
     def need(self, start: int, length: int, what: str) -> bytes:
         if start < 0 or start + length > len(self.data):
-            raise _err(
+            # Final only when the file ends inside its declared parameter section; an entry
+            # pointing past the end of a whole file is a corrupted offset, for ezc3d to judge.
+            error = _cut if len(self.data) < self.section_end else _err
+            raise error(
                 self.path,
                 f"byte {start + 1}",
                 f"{what} ({length} bytes)",
@@ -113,9 +133,9 @@ def _walk_parameters(reader: _Reader, start: int) -> dict[tuple[str, str], Param
         if gid == 0:
             raise _err(path, f"byte {pos + 2}", "a non-zero group id", "0")
         raw_name = reader.need(pos + 2, abs(n_char), "a group or parameter name")
-        if not all(0x20 < b < 0x7F for b in raw_name):
+        if not all(b >= 0x20 and b != 0x7F for b in raw_name):  # spaces occur (Qualisys)
             raise _err(path, f"byte {pos + 3}", "a printable name", repr(raw_name)[:60])
-        name = raw_name.decode("ascii").upper()
+        name = raw_name.decode("latin-1").upper()
         off_pos = pos + 2 + abs(n_char)
         offset = reader.uint16(off_pos, "the offset to the next entry")
         if gid < 0:
@@ -179,6 +199,9 @@ def _number(path: Path, params: dict[tuple[str, str], Param], key: tuple[str, st
 def check_c3d(path: Path) -> C3DLayout:
     """Check that ``path`` is a complete, self-consistent C3D file; return its layout.
 
+    A file without a POINT group, or with POINT:USED = 0, passes with ``n_points = 0`` and
+    nothing past the parameter section checked (there are no marker points to read).
+
     Raises
     ------
     InputFileError
@@ -186,14 +209,14 @@ def check_c3d(path: Path) -> C3DLayout:
     """
     data = path.read_bytes()
     if len(data) < BLOCK:
-        raise _err(path, "header", f"a C3D file of at least {BLOCK} bytes", f"{len(data)} bytes")
+        raise _cut(path, "header", f"a C3D file of at least {BLOCK} bytes", f"{len(data)} bytes")
     if data[1] != 0x50:
         raise _err(path, "byte 2", "the C3D key 0x50", f"0x{data[1]:02x}")
     if data[0] < 2:
         raise _err(path, "byte 1", "the parameter section's block number (2 or more)", str(data[0]))
     start = (data[0] - 1) * BLOCK
     if start + 4 > len(data):
-        raise _err(
+        raise _cut(
             path,
             "byte 1",
             f"a parameter section at byte {start + 1}",
@@ -202,12 +225,14 @@ def check_c3d(path: Path) -> C3DLayout:
     processor = data[start + 3]
     if processor not in (_INTEL, _DEC, _MIPS):
         raise _err(path, f"byte {start + 4}", "processor type 84, 85 or 86", str(processor))
-    reader = _Reader(path, data, processor)
+    reader = _Reader(path, data, processor, start + max(1, data[start + 2]) * BLOCK)
     params = _walk_parameters(reader, start + 4)
 
     if not any(group == "POINT" for group, _ in params):
-        raise _err(path, "parameter section", "a POINT group", "none")
+        return C3DLayout(params, 0, 0, 0, False, 0, 0)
     for key in _SCALARS:
+        if key == ("ANALOG", "RATE") and _empty(params, key) and _is_zero(params, "ANALOG"):
+            continue  # an empty ANALOG:RATE with no channels (Theia3D): ezc3d reads it as 0
         if key in params:
             value = _number(path, params, key)
             limit = 1000 if key[1] == "RATIO" else 65535
@@ -222,6 +247,8 @@ def check_c3d(path: Path) -> C3DLayout:
     rate = _number(path, params, ("POINT", "RATE"))
     if not (0 <= n_points < 32768 and n_points == int(n_points)):
         raise _err(path, "group POINT:USED", "a point count in 0..32767", f"{n_points:g}")
+    if n_points == 0:
+        return C3DLayout(params, 0, 0, 0, False, 0, 0)
     if n_frames < 1 or n_frames != int(n_frames):
         raise _err(path, "group POINT:FRAMES", "at least one frame", f"{n_frames:g}")
     if not 1e-3 <= rate <= 1e6:
@@ -244,7 +271,11 @@ def check_c3d(path: Path) -> C3DLayout:
     n_analogs, per_frame = 0.0, 0.0
     if any(group == "ANALOG" for group, _ in params):
         n_analogs = _number(path, params, ("ANALOG", "USED"))
-        analog_rate = _number(path, params, ("ANALOG", "RATE"))
+        analog_rate = (
+            0.0
+            if n_analogs == 0 and _empty(params, ("ANALOG", "RATE"))
+            else (_number(path, params, ("ANALOG", "RATE")))
+        )
         if not (0 <= n_analogs < 32768 and n_analogs == int(n_analogs)):
             raise _err(path, "group ANALOG:USED", "a channel count in 0..32767", f"{n_analogs:g}")
         if not 0 <= analog_rate < rate * 65536:
@@ -269,13 +300,27 @@ def check_c3d(path: Path) -> C3DLayout:
         raise _err(path, "byte 17", "the data section's block number (2 or more)", str(data_block))
     frame_bytes = value_bytes * (4 * int(n_points) + int(per_frame) * int(n_analogs))
     data_offset = (data_block - 1) * BLOCK
-    data_bytes = int(n_frames) * frame_bytes
-    if data_offset + data_bytes > len(data):
-        raise _err(
+    present = max(0, len(data) - data_offset) // frame_bytes
+    if present < 1:
+        raise _cut(
             path,
             "data section",
-            f"{int(n_frames)} frames of {frame_bytes} bytes from byte {data_offset + 1} "
-            f"({data_offset + data_bytes} bytes in all)",
+            f"at least one frame of {frame_bytes} bytes from byte {data_offset + 1}",
             f"a file of {len(data)} bytes (truncated)",
         )
-    return C3DLayout(params, int(n_points), int(n_frames), float_data, data_offset, data_bytes)
+    frames = min(int(n_frames), present)
+    return C3DLayout(
+        params, int(n_points), frames, int(n_frames), float_data, data_offset, frames * frame_bytes
+    )
+
+
+def _empty(params: dict[tuple[str, str], Param], key: tuple[str, str]) -> bool:
+    """True if the parameter is absent or holds no value."""
+    param = params.get(key)
+    return param is None or not param.values
+
+
+def _is_zero(params: dict[tuple[str, str], Param], group: str) -> bool:
+    """True if ``group``:USED is absent, empty or 0."""
+    used = params.get((group, "USED"))
+    return used is None or not used.values or used.type == -1 or float(used.values[0]) == 0

@@ -10,6 +10,26 @@ Layout (tab-separated)::
     (optional blank line)
     1       0.00  ...
 
+The reader accepts every variant OpenSim's own TRCFileAdapter reads, and the unambiguous ones
+other tools write:
+
+- tabs or spaces between cells; doubled tabs and empty cells in the header lines (ignored,
+  as OpenSim does); ``Time`` or ``Times``; Windows line ends; frame numbers starting anywhere;
+- fewer keys than OpenSim's eight on line 2 (NumMarkers, and DataRate or CameraRate or two
+  rows of Time, are needed);
+- a missing, short or long X/Y/Z line: marker k's columns are 3k .. 3k + 2 (1-based, after
+  Frame# and Time) whatever it says, as long as it does not contradict that order;
+- data rows with empty columns the header does not count (columns empty in every row are
+  dropped when that leaves one column per header cell), or with unnamed columns after the
+  last marker's Z (ignored, counted in ``info["ignored_columns"]``); a tab-separated row that
+  ends early has its last samples missing;
+- a data section with fewer or more rows than NumFrames: read whole, with a warning.
+
+Refused, with the line and what was expected: a marker-name count that differs from
+NumMarkers, an X/Y/Z cell out of order, a space-separated row of the wrong width, a
+tab-separated row narrower than the header when other rows are wider (no way to tell which
+columns are missing), and a blank line inside the data.
+
 An empty (or NaN) cell is a missing sample. The writer keeps the trajectory's axes (the
 model's Z-up world); OpenSim's own convention is Y up, so rotate on import there if needed.
 """
@@ -20,14 +40,16 @@ import os
 import re
 from pathlib import Path
 
+import numpy as np
+
 from mocap_mj.io.atomic import atomic_write_text
 from mocap_mj.io.formats._common import (
     RawMarkers,
     check_rate,
     check_times,
-    fit_row,
     line_error,
     parse_numbers,
+    rate_from_times,
     read_lines,
     show,
     strip_trailing_empty,
@@ -37,6 +59,8 @@ from mocap_mj.io.formats.mocap_csv import _check_writable_names, _format_rows
 from mocap_mj.io.trajectory import MarkerTrajectory
 
 _INT = re.compile(r"\s*\d+\s*")
+_AXIS = re.compile(r"[XYZ]\d*", re.IGNORECASE)
+_NUMERIC = re.compile(r"\s*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\s*")
 
 
 def looks_like(first_line: str) -> bool:
@@ -44,98 +68,62 @@ def looks_like(first_line: str) -> bool:
     return first_line.lstrip().startswith("PathFileType")
 
 
-def _split(line: str) -> list[str]:
-    return line.split("\t") if "\t" in line else line.split()
+def _cells(line: str) -> list[str]:
+    """Header cells: split on tabs (names may hold spaces) or else on spaces; no empty cells."""
+    parts = line.split("\t") if "\t" in line else line.split()
+    return [c.strip() for c in parts if c.strip()]
 
 
 def read(path: Path) -> RawMarkers:
-    """Read an OpenSim TRC file (see the module docstring for the layout)."""
+    """Read an OpenSim TRC file (see the module docstring for the layout and leniencies)."""
     lines = read_lines(path)
-    if len(lines) < 5:
-        raise line_error(path, len(lines) + 1, "the 5 header lines of a TRC file", "end of file")
-    keys = [c.strip() for c in strip_trailing_empty(_split(lines[1]))]
-    values = [c.strip() for c in _split(lines[2])]
-    if len(values) < len(keys) or "NumFrames" not in keys or "NumMarkers" not in keys:
+    if len(lines) < 4:
+        raise line_error(path, len(lines) + 1, "the 4 header lines of a TRC file", "end of file")
+    keys, values = _cells(lines[1]), _cells(lines[2])
+    if "NumMarkers" not in keys or len(values) < keys.index("NumMarkers") + 1:
         raise line_error(
-            path,
-            2,
-            "TRC header keys (DataRate ... NumFrames NumMarkers Units) over values",
+            path, 2, "TRC header keys (DataRate ... NumFrames NumMarkers Units) over values",
             show(lines[1]),
-        )
+        )  # fmt: skip
     header = dict(zip(keys, values, strict=False))
     for key in ("NumFrames", "NumMarkers"):
-        if _INT.fullmatch(header[key]) is None:
+        if key in header and _INT.fullmatch(header[key]) is None:
             raise line_error(path, 3, f"a whole number for {key}", show(header[key]))
-    n_frames, n_markers = int(header["NumFrames"]), int(header["NumMarkers"])
+    n_markers = int(header["NumMarkers"])
+    n_frames = int(header["NumFrames"]) if "NumFrames" in header else None
     rate_key = "DataRate" if "DataRate" in header else "CameraRate"
-    if rate_key not in header:
-        raise line_error(path, 2, "a DataRate or CameraRate key", show(lines[1]))
-    rate = check_rate(path, 3, header[rate_key], rate_key)
+    rate = check_rate(path, 3, header[rate_key], rate_key) if rate_key in header else None
     units = header.get("Units") or None
 
-    names_row = _split(lines[3])
-    if "\t" not in lines[3]:  # whitespace-separated: names follow each other
-        names_row = names_row[:2] + [c for n in names_row[2:] for c in (n, "", "")]
-    width = 2 + 3 * n_markers
-    if (
-        len(names_row) < 2
-        or not names_row[0].strip().lower().startswith("frame")
-        or (names_row[1].strip().lower() != "time")
-    ):
-        raise line_error(path, 4, "'Frame#' and 'Time' then marker names", show(lines[3]))
-    named = strip_trailing_empty(names_row)
-    if len(named) != max(2, width - 2):
-        raise line_error(
-            path,
-            4,
-            f"NumMarkers={n_markers} marker names, one every 3 columns",
-            f"{len([c for c in named if c.strip()]) - 2} names over {len(named)} columns",
-        )
-    names_row = named + [""] * (width - len(named))
-    names: list[str] = []
-    for k in range(n_markers):
-        name = names_row[2 + 3 * k].strip()
-        if not name or any(c.strip() for c in names_row[3 + 3 * k : 5 + 3 * k]):
-            raise line_error(
-                path,
-                4,
-                f"marker {k + 1} of NumMarkers={n_markers} at column {3 + 3 * k}",
-                show(names_row[2 + 3 * k : 5 + 3 * k]),
-            )
-        names.append(name)
-    axes_row = [c.strip().upper() for c in _split(lines[4])]
-    if "\t" in lines[4]:
-        axes_row = axes_row[2:]
-    axes_row = strip_trailing_empty(axes_row)
-    if len(axes_row) != 3 * n_markers or [c[:1] for c in axes_row] != ["X", "Y", "Z"] * n_markers:
-        raise line_error(
-            path, 5, f"X1 Y1 Z1 ... X{n_markers} Y{n_markers} Z{n_markers}", show(lines[4])
-        )
-
-    start = 5
+    names = _marker_names(path, lines[3], n_markers)
+    start = 4
+    if start < len(lines) and _is_axes_line(lines[start]):
+        _check_axes(path, lines[start], n_markers)
+        start += 1
     while start < len(lines) and not lines[start].strip():
         start += 1
     body = lines[start:]
     while body and not body[-1].strip():
         body.pop()
-    if not body or n_frames == 0:
+    if not body:
         raise line_error(path, start + 1, "at least one row of data", "end of file")
-    if len(body) != n_frames:
-        raise line_error(path, 3, f"NumFrames={n_frames} rows of data", str(len(body)))
-    rows = [
-        fit_row(
-            path,
-            start + 1 + n,
-            line.split("\t") if "\t" in line else line.split(),
-            width,
-            "cells (Frame#, Time, 3 per marker)",
-        )
-        for n, line in enumerate(body)
-    ]
+    for n, line in enumerate(body):
+        if not line.strip():
+            raise line_error(path, start + 1 + n, "a row of data (no blank line inside)", "none")
+    width = 2 + 3 * n_markers
+    rows, ignored = _data_cells(path, body, start + 1, width)
     row_lines = list(range(start + 1, start + 1 + len(rows)))
     columns = ["Frame#", "Time"] + [f"{n}.{a}" for n in names for a in "XYZ"]
     block = parse_numbers(path, rows, row_lines, columns)
     check_times(path, block[:, 1], row_lines, "Time")
+    if rate is None:
+        rate = rate_from_times(path, block[:, 1], start + 1, "DataRate or two rows of Time")
+    warnings = []
+    if n_frames is not None and n_frames != len(rows):
+        warnings.append(
+            f"{path}: line 3: NumFrames is {n_frames}, the file holds {len(rows)} rows of "
+            f"data: read the {len(rows)} rows present"
+        )
     return RawMarkers(
         format="trc",
         labels=names,
@@ -145,7 +133,70 @@ def read(path: Path) -> RawMarkers:
         units=units,
         units_where="line 3",
         labels_where="line 4",
+        info={"warnings": warnings, "ignored_columns": ignored},
     )
+
+
+def _marker_names(path: Path, line: str, n_markers: int) -> list[str]:
+    cells = _cells(line)
+    if (
+        len(cells) < 2
+        or not cells[0].lower().startswith("frame")
+        or cells[1].lower() not in ("time", "times")
+    ):
+        raise line_error(path, 4, "'Frame#' and 'Time' then marker names", show(line))
+    names = cells[2:]
+    if len(names) != n_markers:
+        raise line_error(
+            path, 4, f"NumMarkers={n_markers} marker names (line 3)", f"{len(names)} names"
+        )
+    return names
+
+
+def _is_axes_line(line: str) -> bool:
+    """True for the X1 Y1 Z1 ... line (possibly empty, short or long); False for data."""
+    cells = _cells(line)
+    return all(_AXIS.fullmatch(c) for c in cells) and not (
+        cells and all(_NUMERIC.fullmatch(c) for c in cells)
+    )
+
+
+def _check_axes(path: Path, line: str, n_markers: int) -> None:
+    """Error if the X/Y/Z line contradicts the column order (a cell out of place)."""
+    for k, cell in enumerate(_cells(line)[: 3 * n_markers]):
+        want = f"{'XYZ'[k % 3]}{k // 3 + 1}"
+        if cell.upper() not in (want, want[0]):
+            raise line_error(path, 5, f"{want} in X/Y/Z cell {k + 1} (or no cell)", show(cell))
+
+
+def _data_cells(
+    path: Path, body: list[str], first_line: int, width: int
+) -> tuple[list[list[str]], int]:
+    """Each row cut to ``width`` cells, and how many unnamed trailing columns were ignored."""
+    tabbed = any("\t" in line for line in body)
+    raw = [line.split("\t") if tabbed else line.split() for line in body]
+    used = [len(strip_trailing_empty(r)) for r in raw]
+    if max(used) <= width:
+        narrow = [k for k, n in enumerate(used) if n < (2 if tabbed else width)]
+        if narrow:
+            k = narrow[0]
+            raise line_error(path, first_line + k, f"{width} cells (Frame#, Time, 3 per marker)",
+                             str(used[k]))  # fmt: skip
+        return [r[:width] + [""] * (width - len(r)) for r in raw], 0
+    n_cols = max(len(r) for r in raw)
+    padded = [r + [""] * (n_cols - len(r)) for r in raw]
+    filled = np.array([[bool(c.strip()) for c in r] for r in padded])
+    kept = np.flatnonzero(filled.any(axis=0))
+    if len(kept) == width:  # doubled tabs or empty columns the header does not count
+        return [[r[j] for j in kept] for r in padded], 0
+    short = [k for k, r in enumerate(raw) if len(r) < width]
+    if short:
+        k = short[0]
+        raise line_error(
+            path, first_line + k, f"{width} cells (Frame#, Time, 3 per marker) as on other rows",
+            str(used[k]),
+        )  # fmt: skip
+    return [r[:width] for r in raw], n_cols - width
 
 
 def save_trc(path: str | os.PathLike[str], traj: MarkerTrajectory) -> None:
