@@ -14,14 +14,16 @@ hinge) and are checked against it in ``tests/test_tree.py``:
 - :func:`integrate` / :func:`difference` are ``mj_integratePos`` / ``mj_differentiatePos``.
 
 Everything works on one frame at a time with scalars and small work arrays (no allocation in
-the inner loops); frames are spread over threads with ``prange`` (each frame's arithmetic is
-sequential, so results do not depend on the thread count).
+the inner loops); frames are spread over Python threads in contiguous blocks
+(:func:`run_blocks`; each frame's arithmetic is sequential, so results do not depend on the
+thread count).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any, NamedTuple
 
 import mujoco
@@ -96,15 +98,34 @@ class Work(NamedTuple):
 
 
 def _jit(fn: Callable[..., Any]) -> Any:
+    """A compiled kernel, cached on disk, releasing the GIL (so Python threads run kernels
+    side by side, see :func:`run_blocks`)."""
     return nb.njit(cache=True, nogil=True, error_model="numpy")(fn)
 
 
-def _inline(fn: Callable[..., Any]) -> Any:
-    return nb.njit(inline="always", cache=True, nogil=True, error_model="numpy")(fn)
+#: Small helpers are compiled like any kernel: LLVM inlines them where it pays. (Numba's
+#: ``inline="always"`` copies their IR into every caller before type inference, which made
+#: the first-run compile slower without making the kernels faster.)
+_inline = _jit
 
 
-def _parallel(fn: Callable[..., Any]) -> Any:
-    return nb.njit(parallel=True, cache=True, nogil=True, error_model="numpy")(fn)
+def run_blocks(
+    kernel: Callable[..., Any], bounds: np.ndarray, args: Callable[[int], tuple]
+) -> None:
+    """``kernel(*args(b))`` for each block b of ``bounds`` (k + 1,), one Python thread per block.
+
+    The kernels release the GIL (:func:`_jit`), so the blocks run in parallel without numba's
+    ``parallel=True``, whose parfor compilation cost most of the first run's compile time.
+    One block runs in the calling thread.
+    """
+    k = bounds.size - 1
+    if k <= 1:
+        if k == 1:
+            kernel(*args(0))
+        return
+    with ThreadPoolExecutor(max_workers=k, thread_name_prefix="mocap-mj") as pool:
+        for future in [pool.submit(kernel, *args(b)) for b in range(k)]:
+            future.result()
 
 
 # ------------------------------------------------------------------ quaternion helpers
@@ -671,14 +692,6 @@ def _solve_range(
         )  # fmt: skip
 
 
-@_parallel
-def _solve_blocks(tr, target, wts, qpos, bounds, rmse, iters, status, *settings):
-    for b in nb.prange(bounds.size - 1):
-        _solve_range(
-            tr, target, wts, qpos, bounds[b], bounds[b + 1], rmse, iters, status, *settings
-        )
-
-
 def solve_batch(
     tr: Tree,
     target: np.ndarray,
@@ -699,10 +712,11 @@ def solve_batch(
     status = np.zeros(n, dtype=np.int64)
     args = _settings(settings)
     bounds = blocks(n, n)
-    if bounds.size > 2:
-        _solve_blocks(tr, target, wts, qpos, bounds, rmse, iters, status, *args)
-    else:
-        _solve_range(tr, target, wts, qpos, 0, n, rmse, iters, status, *args)
+    run_blocks(
+        _solve_range,
+        bounds,
+        lambda b: (tr, target, wts, qpos, bounds[b], bounds[b + 1], rmse, iters, status, *args),
+    )
     return rmse, iters, status
 
 
@@ -742,15 +756,6 @@ def _chains_range(
             )  # fmt: skip
 
 
-@_parallel
-def _chains_blocks(tr, target, wts, cold, starts, ends, bounds, qpos, rmse, iters, status, *st):
-    for b in nb.prange(bounds.size - 1):
-        _chains_range(
-            tr, target, wts, cold, starts, ends, bounds[b], bounds[b + 1], qpos, rmse, iters,
-            status, *st,
-        )  # fmt: skip
-
-
 def solve_chains(
     tr: Tree,
     target: np.ndarray,
@@ -778,14 +783,14 @@ def solve_chains(
     starts = np.ascontiguousarray(starts, dtype=np.int64)
     ends = np.ascontiguousarray(ends, dtype=np.int64)
     bounds = blocks(starts.size, n)
-    if bounds.size > 2:
-        _chains_blocks(
-            tr, target, wts, cold, starts, ends, bounds, qpos, rmse, iters, status, *args
-        )
-    else:
-        _chains_range(
-            tr, target, wts, cold, starts, ends, 0, starts.size, qpos, rmse, iters, status, *args
-        )
+    run_blocks(
+        _chains_range,
+        bounds,
+        lambda b: (
+            tr, target, wts, cold, starts, ends, bounds[b], bounds[b + 1], qpos, rmse, iters,
+            status, *args,
+        ),
+    )  # fmt: skip
     return qpos, rmse, iters, status
 
 
@@ -830,17 +835,6 @@ def _walk_range(
             have2 = True
 
 
-@_parallel
-def _walk_blocks(
-    tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, early, bounds, *st
-):
-    for b in nb.prange(bounds.size - 1):
-        _walk_range(
-            tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, early, bounds[b],
-            bounds[b + 1], *st,
-        )  # fmt: skip
-
-
 def walk(
     tr: Tree,
     target: np.ndarray,
@@ -869,16 +863,14 @@ def walk(
     seeds = np.ascontiguousarray(seeds, dtype=float)
     frames = int(np.abs(lasts - firsts).sum()) + firsts.size
     bounds = blocks(firsts.size, frames)
-    if bounds.size > 2:
-        _walk_blocks(
-            tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, early, bounds,
-            *args,
-        )  # fmt: skip
-    else:
-        _walk_range(
-            tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, early, 0,
-            firsts.size, *args,
-        )  # fmt: skip
+    run_blocks(
+        _walk_range,
+        bounds,
+        lambda b: (
+            tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, bool(early),
+            bounds[b], bounds[b + 1], *args,
+        ),
+    )  # fmt: skip
 
 
 @_jit
