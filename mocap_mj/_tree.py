@@ -22,8 +22,10 @@ thread count).
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 from typing import Any, NamedTuple
 
 import mujoco
@@ -891,8 +893,37 @@ def forward(tr: Tree, qpos: np.ndarray) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ tables
+#: What the first run of an install spends compiling the kernels on a 2-core machine
+#: (``benchmarks/cold_start.py``), said once when the on-disk cache is empty.
+COMPILE_SECONDS = 40
+_notice_given = False
+
+
+def compile_notice() -> None:
+    """Say on stderr, once per process, that the kernels are about to be compiled, if the
+    on-disk cache (beside this module, or ``NUMBA_CACHE_DIR``) does not hold them yet."""
+    global _notice_given
+    if _notice_given:
+        return
+    _notice_given = True
+    try:
+        index = Path(solve_frame._cache._cache_file._index_path)
+    except AttributeError:  # a numba without this cache layout: say nothing
+        return
+    if not index.exists():
+        print(
+            f"mocap-mj: compiling the numeric kernels (once per install, ~{COMPILE_SECONDS} s)",
+            file=sys.stderr,
+            flush=True,
+        )
+
+
 def build_tree(model: mujoco.MjModel) -> Tree:
-    """:class:`Tree` of an ``mujoco.MjModel`` with free, ball and hinge joints only."""
+    """:class:`Tree` of an ``mujoco.MjModel`` with free, ball and hinge joints only.
+
+    Kernels run on trees only: this is where :func:`compile_notice` is given.
+    """
+    compile_notice()
     m = model
     nv = m.nv
     jnt_type = np.array(m.jnt_type, dtype=np.int64)

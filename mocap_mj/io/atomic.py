@@ -129,7 +129,10 @@ def stale_temporaries(directory: Path, name: str | None = None) -> list[Path]:
             m = _STAGING.match(entry.name)
             if m is None or _alive(int(m["pid"])):
                 continue
-            if name is None or m["name"] in (name, Path(name).stem):
+            base = m["name"]
+            while (inner := _STAGING.match(base)) is not None:  # a temporary of a temporary
+                base = inner["name"]
+            if name is None or base in (name, Path(name).stem):
                 found.append(entry)
     return found
 
