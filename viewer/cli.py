@@ -56,12 +56,16 @@ def _add_source(p: argparse.ArgumentParser) -> None:
 def _add_frames(p: argparse.ArgumentParser) -> None:
     group = p.add_mutually_exclusive_group()
     group.add_argument(
-        "--frame", metavar="K", help="one frame: index (negative from the end) or 'worst'"
+        "--frame",
+        metavar="K",
+        help="one frame: index (negative from the end) or 'worst' (default: frame 0 for a "
+        ".png or .glb, every frame for .mp4/.gif)",
     )
     group.add_argument(
         "--frames",
         metavar="A:B[:S]",
-        help="frames from A up to but excluding B, every S-th (a Python slice, e.g. 0:100)",
+        help="frames from A up to but excluding B, every S-th (a Python slice, e.g. 0:100; "
+        "default: as --frame)",
     )
 
 

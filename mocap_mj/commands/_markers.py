@@ -23,7 +23,8 @@ def add_marker_options(parser: argparse.ArgumentParser, *, several: bool = False
     parser.add_argument(
         "--subject",
         metavar="NAME",
-        help="subject to keep when labels carry several subject prefixes (required then)",
+        help="subject to keep when labels carry several subject prefixes (default: the only "
+        "one; required when there are several)",
     )
     parser.add_argument(
         "--marker-map",
