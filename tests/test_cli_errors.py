@@ -8,6 +8,7 @@ result.
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -16,6 +17,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from mocap_mj.errors import MocapError
 from mocap_mj.io import MarkerTrajectory, load_markers, save_csv
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
@@ -206,3 +208,21 @@ def test_score_of_its_own_truth_is_strict_json(data: dict[str, Path], result: Pa
     assert proc.returncode == 0, proc.stderr
     assert strict_json(proc.stdout)["frames_fitted"] == FRAMES
     strict_json((result / "score.json").read_text())
+
+
+def test_demo_folder_opens_as_its_result_with_truth_ghost(
+    data: dict[str, Path], result: Path, tmp_path: Path
+) -> None:
+    from mocap_viewer.playback import load_ghost, load_playback
+
+    demo = tmp_path / "demo-result"
+    shutil.copytree(result, demo / "result")
+    shutil.copytree(data["synth"], demo / "synth")
+    for folder in (demo, demo / "result"):  # docs/viewer.md: `view out/demo --ghost truth`
+        playback = load_playback(folder)
+        assert Path(playback.source) == demo / "result"
+        ghost = load_ghost("truth", playback.model, folder)
+        assert ghost.path == demo / "synth" / "truth_model.xml"
+    (demo / "result" / "motion.npz").unlink()
+    with pytest.raises(MocapError, match="demo folder's result/"):
+        load_playback(demo)
