@@ -112,6 +112,10 @@ def add_json_flag(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_force_flag(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+
+
 def prepare_out(path: str | Path, *, force: bool = False) -> Path:
     """Create the output folder in place; refuse an existing non-empty one unless ``force``.
 
@@ -159,6 +163,21 @@ def finish(
     else:
         print(text)
     return 0
+
+
+def into_out_folder(
+    args: argparse.Namespace, work: Callable[[Path], tuple[Mapping[str, Any], str]]
+) -> int:
+    """Run ``work(folder)`` into ``args.out`` and report: the usual end of a command.
+
+    ``work`` writes its files into the folder it is given (a hidden sibling of ``--out``,
+    see :func:`output_folder`; ``--force`` honoured) and returns (summary, text). The summary
+    is written as ``summary.json``, the folder renamed into place, then :func:`finish` prints.
+    """
+    with output_folder(args.out, force=getattr(args, "force", False)) as out:
+        summary, text = work(out)
+        write_summary(out, summary)
+    return finish(args, summary, text)
 
 
 def write_summary(out: Path, summary: Mapping[str, Any]) -> None:

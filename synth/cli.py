@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from mocap_mj.cli import add_json_flag, finish
+from mocap_mj.cli import add_force_flag, add_json_flag, finish
 
 from .config import MOTIONS, ConfigError, SynthConfig
 from .experiment import synthesize, write_experiment
@@ -63,7 +63,7 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--symmetric", action="store_true", help="perturb left and right alike (mirror images)"
     )
-    p.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+    add_force_flag(p)
     add_json_flag(p)
     p.set_defaults(func=run)
 

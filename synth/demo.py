@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from mocap_mj.cli import add_json_flag, finish, output_folder, prepare_out, write_summary
+from mocap_mj.cli import add_force_flag, add_json_flag, into_out_folder, prepare_out
 from mocap_mj.identify.lm import LMSettings, TrialData
 from mocap_mj.identify.output import expected_rmse
 from mocap_mj.identify.pipeline import identify_to_folder
@@ -71,7 +71,7 @@ def register(sub: Any) -> None:
         metavar="N",
         help="seed of the truth model, motion and noise (default: 0)",
     )
-    p.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+    add_force_flag(p)
     add_json_flag(p)
     p.set_defaults(func=run)
 
@@ -81,10 +81,7 @@ def _rms(x: np.ndarray) -> float:
 
 
 def run(args: argparse.Namespace) -> int:
-    with output_folder(args.out, force=args.force) as staging:
-        summary, text = _demo(args, staging, Path(args.out))
-        write_summary(staging, summary)
-    return finish(args, summary, text)
+    return into_out_folder(args, lambda staging: _demo(args, staging, Path(args.out)))
 
 
 def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str, Any], str]:

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from mocap_mj.cli import add_json_flag, finish, output_folder, write_summary
+from mocap_mj.cli import add_force_flag, add_json_flag, finish, output_folder, write_summary
 from mocap_mj.identify.identifiability import Identifiability
 from mocap_mj.identify.lm import LMSettings, TrialData, identify_lm
 from mocap_mj.identify.paper import (
@@ -141,7 +141,7 @@ def register(sub: Any) -> None:
         help="iterations batch sampling is really run; the rest of its curve is extrapolated "
         "(default: the experiment's, all of them)",
     )
-    q.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+    add_force_flag(q)
     add_json_flag(q)
     q.set_defaults(func=run)
     t = kinds.add_parser(
@@ -153,7 +153,7 @@ def register(sub: Any) -> None:
     t.add_argument(
         "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
     )
-    t.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+    add_force_flag(t)
     add_json_flag(t)
     t.set_defaults(func=run_steps)
 

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..checks import check_markers
-from ..cli import add_json_flag, finish, output_folder, write_summary
+from ..cli import add_force_flag, add_json_flag, into_out_folder, output_folder
 from ..errors import MocapError
 from ..identify.lm import LMSettings, TrialData
 from ..identify.output import frame_range
@@ -121,7 +121,7 @@ def register(sub: Any) -> None:
     g.add_argument(
         "--seed", type=int, default=0, metavar="N", help="seed of the frame sampling (default: 0)"
     )
-    p.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+    add_force_flag(p)
     add_json_flag(p)
     p.set_defaults(func=run)
 
@@ -138,14 +138,12 @@ def run(args: argparse.Namespace) -> int:
         ranges.append([sl.start, sl.stop])
         trials.append(TrialData(t.path, t.markers[sl], t.times[sl]))
         check_markers(t.path, pset.marker_names, trials[-1].markers, IKSettings().min_markers)
-    with output_folder(args.out, force=args.force) as out:
-        if args.solver == "paper":
-            from ..identify.paper import run_paper_cli
+    if args.solver == "paper":
+        from ..identify.paper import run_paper_cli
 
+        with output_folder(args.out, force=args.force) as out:
             return run_paper_cli(args, pset, trials, ranges, out)
-        summary, text = _identify(args, pset, loaded, trials, ranges, out)
-        write_summary(out, summary)
-    return finish(args, summary, text)
+    return into_out_folder(args, lambda out: _identify(args, pset, loaded, trials, ranges, out))
 
 
 def _identify(

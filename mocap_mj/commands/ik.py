@@ -19,7 +19,7 @@ import numpy as np
 
 from ..angles import angle_columns, joint_angle_table
 from ..checks import check_markers
-from ..cli import add_json_flag, finish, output_folder, write_summary
+from ..cli import add_force_flag, add_json_flag, into_out_folder
 from ..ik import IKSettings, IKSolver, Status
 from ..io.atomic import atomic_write_text
 from ..kinematics import Kinematics
@@ -60,7 +60,7 @@ def register(sub: Any) -> None:
         metavar="N",
         help="present markers a frame needs to be solved (default: 16)",
     )
-    p.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+    add_force_flag(p)
     add_json_flag(p)
     p.set_defaults(func=run)
 
@@ -80,10 +80,7 @@ def run(args: argparse.Namespace) -> int:
     pset = ParameterSet(args.model)
     trial = load_trial(args.markers, pset.marker_names, args)
     check_markers(trial.path, pset.marker_names, trial.markers, args.min_markers)
-    with output_folder(args.out, force=args.force) as out:
-        summary, text = _solve_and_write(args, pset, trial, out)
-        write_summary(out, summary)
-    return finish(args, summary, text)
+    return into_out_folder(args, lambda out: _solve_and_write(args, pset, trial, out))
 
 
 def _solve_and_write(
