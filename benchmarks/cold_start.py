@@ -32,6 +32,7 @@ def run_demo(python: str, out: Path, cache: Path, frames: int) -> tuple[float, f
     proc = subprocess.run(
         [python, "-m", "mocap_mj", "demo", "--out", str(out), "--frames", str(frames), "--json"],
         env=env,
+        cwd=out.parent,  # not the checkout: `-m` would import the package from the cwd
         capture_output=True,
         text=True,
         check=False,

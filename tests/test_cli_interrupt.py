@@ -1,8 +1,8 @@
 """Interrupted runs leave no folder that looks like a result, and do not block the next run.
 
 ``identify`` is started in a subprocess and sent SIGINT (Ctrl-C) or SIGKILL at a random
-moment (seeded); afterwards ``--out`` is either absent or a complete result (the run
-finished first), and after SIGINT nothing of the run is left beside it.
+moment (seeded) after its work began; afterwards ``--out`` is either absent or a complete
+result (the run finished first), and after SIGINT nothing of the run is left beside it.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ def test_interrupted_identify_leaves_no_partial_result(
     markers: Path, tmp_path: Path, sig: signal.Signals, seed: int
 ) -> None:
     out = tmp_path / "out"
-    delay = float(np.random.default_rng(seed).uniform(1.0, 6.0))
+    delay = float(np.random.default_rng(seed).uniform(0.0, 4.0))
     proc = subprocess.Popen(
         [sys.executable, "-m", "mocap_mj", "identify", "--markers", str(markers),
          "--out", str(out), "--json"],
@@ -55,6 +55,12 @@ def test_interrupted_identify_leaves_no_partial_result(
         stderr=subprocess.PIPE,
         text=True,
     )  # fmt: skip
+    # Wait until the work has begun (its hidden folder exists), then a random moment more.
+    deadline = time.monotonic() + 600
+    while not any(p.name.startswith(".out.partial-") for p in tmp_path.iterdir()):
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
     time.sleep(delay)
     proc.send_signal(sig)
     _, stderr = proc.communicate(timeout=600)
