@@ -105,9 +105,9 @@ def _jit(fn: Callable[..., Any]) -> Any:
     return nb.njit(cache=True, nogil=True, error_model="numpy")(fn)
 
 
-#: Small helpers are compiled like any kernel: LLVM inlines them where it pays. (Numba's
-#: ``inline="always"`` copies their IR into every caller before type inference, which made
-#: the first-run compile slower without making the kernels faster.)
+#: Small helpers are compiled like any kernel and LLVM inlines them where it pays. Numba's
+#: ``inline="always"`` would copy their IR into every caller before type inference, which
+#: lengthens the first run's compile (docs/ik.md, "First run").
 _inline = _jit
 
 
@@ -664,14 +664,15 @@ def solve_frame(tr, target, wts, q, w, max_it, damping, tol_step, tol_cost, tol_
 
 
 # ------------------------------------------------------------------ many frames
-#: Batches smaller than this run in the calling thread: a parallel region costs a thread
-#: wake-up, and on a busy machine a descheduled worker stalls the whole call.
+#: Batches smaller than this run in the calling thread: a thread costs its start-up, and on a
+#: busy machine a descheduled worker stalls the whole call.
 PARALLEL_MIN = 32
 
 
 def blocks(items: int, frames: int) -> np.ndarray:
-    """Bounds (k + 1,) of k contiguous blocks of range(items), one per numba thread, with at
-    least PARALLEL_MIN of the work's ``frames`` per block (k = 1: run in the caller)."""
+    """Bounds (k + 1,) of k contiguous blocks of range(items), one per thread (numba's thread
+    count: ``NUMBA_NUM_THREADS``, ``numba.set_num_threads``), with at least PARALLEL_MIN of the
+    work's ``frames`` per block (k = 1: run in the caller, see :func:`run_blocks`)."""
     k = max(1, min(nb.get_num_threads(), items, frames // PARALLEL_MIN))
     return np.linspace(0, items, k + 1).round().astype(np.int64)
 
