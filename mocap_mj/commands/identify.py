@@ -22,6 +22,7 @@ from ..cli import add_force_flag, add_json_flag, into_out_folder, output_folder
 from ..errors import MocapError
 from ..identify.lm import LMSettings, TrialData
 from ..identify.output import frame_range
+from ..identify.paper import DEFAULT_DELTA, DEFAULT_STEP
 from ..identify.pipeline import INITS, identify_to_folder, result_text
 from ..identify.plausibility import kappa_outside_bounds, marker_rmse_by_marker, plausibility_text
 from ..ik import IKSettings
@@ -97,19 +98,22 @@ def register(sub: Any) -> None:
     g.add_argument(
         "--sampling",
         choices=["batch", "even", "random", "stochastic"],
-        help="which frames each iteration uses (default: the paper's, stochastic)",
+        help="which frames each iteration uses (required with --solver paper; default: none)",
     )
     g.add_argument(
         "--iterations", type=int, default=100, metavar="N", help="iterations (default: 100)"
     )
     g.add_argument(
-        "--step", type=float, metavar="ALPHA", help="gradient step alpha (default: the paper's)"
+        "--step",
+        type=float,
+        metavar="ALPHA",
+        help=f"gradient step alpha (default: {DEFAULT_STEP:g})",
     )
     g.add_argument(
         "--delta",
         type=float,
         metavar="M",
-        help="finite-difference perturbation in m (default: the paper's)",
+        help=f"finite-difference perturbation in m (default: {DEFAULT_DELTA:g})",
     )
     g.add_argument(
         "--fraction",
