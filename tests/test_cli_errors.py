@@ -180,6 +180,7 @@ def test_ik_summary_is_strict_json_and_names_missing_markers(
     summary = strict_json((out / "summary.json").read_text())
     assert summary["frames_solved"] == FRAMES - FRAMES // 2
     assert summary["frames_skipped"] == list(range(FRAMES // 2))
+    assert summary["markers_without_data"] == [traj.names[0]]
     assert strict_json(proc.stdout) == summary
 
 

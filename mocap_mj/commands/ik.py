@@ -103,6 +103,8 @@ def _solve_and_write(
     write_motion_csv(out / "motion.csv", kin.model, trial.times, result.qpos)
     n = len(trial.markers)
     skipped = np.flatnonzero(result.status == Status.TOO_FEW_MARKERS)
+    seen = np.any(np.all(np.isfinite(trial.markers), axis=2), axis=0)
+    never = [n for n, ok in zip(pset.marker_names, seen, strict=True) if not ok]
     summary = {
         "markers_file": str(trial.path),
         "model": str(pset.path),
@@ -117,6 +119,7 @@ def _solve_and_write(
         "frames_per_second": n / seconds,
         "damping": args.damping,
         "markers_missing": list(trial.report.missing),
+        "markers_without_data": never,
     }
     text = (
         f"{trial.report}\n"
@@ -124,6 +127,7 @@ def _solve_and_write(
         f"marker RMSE {summary['marker_rmse_mm']:.3f} mm, "
         f"{summary['converged_fraction']:.0%} converged"
         + (f", {skipped.size} frames skipped (too few markers)" if skipped.size else "")
+        + (f"\nmarkers in the file without a valid sample: {', '.join(never)}" if never else "")
         + f"\nwrote {args.out}/motion.csv, motion.npz, model.xml, summary.json"
     )
     return summary, text
