@@ -32,6 +32,8 @@ import mujoco
 import numba as nb
 import numpy as np
 
+from ._kernel_cache import share_cache
+
 FREE, BALL, HINGE = 0, 1, 3  # mjtJoint values
 TRANSLATION, HINGE_AXIS, BODY_AXIS = 0, 1, 2  # dof kinds
 ADAPTIVE, SUGIHARA = 0, 1
@@ -100,9 +102,9 @@ class Work(NamedTuple):
 
 
 def _jit(fn: Callable[..., Any]) -> Any:
-    """A compiled kernel, cached on disk, releasing the GIL (so Python threads run kernels
-    side by side, see :func:`run_blocks`)."""
-    return nb.njit(cache=True, nogil=True, error_model="numpy")(fn)
+    """A compiled kernel, cached on disk (:mod:`mocap_mj._kernel_cache`), releasing the GIL
+    (so Python threads run kernels side by side, see :func:`run_blocks`)."""
+    return share_cache(nb.njit(cache=True, nogil=True, error_model="numpy")(fn))
 
 
 #: Small helpers are compiled like any kernel and LLVM inlines them where it pays. Numba's
@@ -902,7 +904,7 @@ _notice_given = False
 
 def compile_notice() -> None:
     """Say on stderr, once per process, that the kernels are about to be compiled, if the
-    on-disk cache (beside this module, or ``NUMBA_CACHE_DIR``) does not hold them yet."""
+    on-disk cache (:mod:`mocap_mj._kernel_cache`) does not hold them yet."""
     global _notice_given
     if _notice_given:
         return
