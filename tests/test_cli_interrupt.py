@@ -41,13 +41,8 @@ def looks_like_a_result(folder: Path) -> bool:
     return True
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL])
-@pytest.mark.parametrize("seed", [0, 1])
-def test_interrupted_identify_leaves_no_partial_result(
-    markers: Path, tmp_path: Path, sig: signal.Signals, seed: int
-) -> None:
-    out = tmp_path / "out"
-    delay = float(np.random.default_rng(seed).uniform(0.0, 4.0))
+def start_identify(markers: Path, out: Path) -> tuple[subprocess.Popen[str], float]:
+    """Start ``identify``; return it and the moment its work began (its hidden folder exists)."""
     proc = subprocess.Popen(
         [sys.executable, "-m", "mocap_mj", "identify", "--markers", str(markers),
          "--out", str(out), "--json"],
@@ -55,18 +50,37 @@ def test_interrupted_identify_leaves_no_partial_result(
         stderr=subprocess.PIPE,
         text=True,
     )  # fmt: skip
-    # Wait until the work has begun (its hidden folder exists), then a random moment more.
     deadline = time.monotonic() + 600
-    while not any(p.name.startswith(".out.partial-") for p in tmp_path.iterdir()):
+    while not any(p.name.startswith(f".{out.name}.partial-") for p in out.parent.iterdir()):
         assert proc.poll() is None, proc.communicate()
         assert time.monotonic() < deadline
-        time.sleep(0.05)
-    time.sleep(delay)
+        time.sleep(0.02)
+    return proc, time.monotonic()
+
+
+@pytest.fixture(scope="module")
+def work_seconds(markers: Path, tmp_path_factory: pytest.TempPathFactory) -> float:
+    """How long an uninterrupted identify of the trial works (from its hidden folder to exit)."""
+    proc, began = start_identify(markers, tmp_path_factory.mktemp("full") / "out")
+    proc.communicate(timeout=600)
+    assert proc.returncode == 0
+    return time.monotonic() - began
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_interrupted_identify_leaves_no_partial_result(
+    markers: Path, work_seconds: float, tmp_path: Path, sig: signal.Signals, seed: int
+) -> None:
+    out = tmp_path / "out"
+    # A random moment of the work (fit or writing), from a seed.
+    delay = float(np.random.default_rng(seed).uniform(0.0, 0.9)) * work_seconds
+    proc, began = start_identify(markers, out)
+    time.sleep(max(0.0, began + delay - time.monotonic()))
     proc.send_signal(sig)
     _, stderr = proc.communicate(timeout=600)
     assert "Traceback" not in stderr
-    if out.exists():  # finished before the signal: then complete
-        assert proc.returncode == 0
+    if out.exists():  # the signal came after the rename: then the result is complete
         assert RESULT_FILES <= {p.name for p in out.iterdir()}
     else:
         assert not looks_like_a_result(out)
