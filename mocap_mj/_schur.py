@@ -22,7 +22,6 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-import numba as nb
 import numpy as np
 
 from ._tree import (
@@ -32,12 +31,12 @@ from ._tree import (
     _column,
     _hold,
     _jit,
-    _parallel,
     _work,
     blocks,
     factor,
     fk,
     normal_equations,
+    run_blocks,
 )
 
 
@@ -184,18 +183,6 @@ def _schur_range(
             yg_out[t, i] = yb[i, free.size] * sd
 
 
-@_parallel
-def _schur_blocks(
-    tr, kt, target, wts, qpos, free, bounds, use_limits, mu, y_out, yg_out, ld_out, gq_out,
-    diag_out, c_acc, gt_acc,
-):  # fmt: skip
-    for b in nb.prange(bounds.size - 1):
-        _schur_range(
-            tr, kt, target, wts, qpos, free, bounds[b], bounds[b + 1], use_limits, mu, y_out,
-            yg_out, ld_out, gq_out, diag_out, c_acc[b], gt_acc[b],
-        )  # fmt: skip
-
-
 class FrameBlocks(NamedTuple):
     """Eliminated per-frame blocks of n frames (Pf free parameters).
 
@@ -250,10 +237,11 @@ def frame_blocks(
     g_theta = np.zeros((k, n_par))
     args = (tr, kt, target, wts, np.ascontiguousarray(qpos), free)
     outs = (bool(limits), float(mu), y, y_g, ld, g_q, diag_a)
-    if k > 1:
-        _schur_blocks(*args, bounds, *outs, c, g_theta)
-    else:
-        _schur_range(*args, 0, n, *outs, c[0], g_theta[0])
+    run_blocks(
+        _schur_range,
+        bounds,
+        lambda b: (*args, bounds[b], bounds[b + 1], *outs, c[b], g_theta[b]),
+    )
     return FrameBlocks(y, y_g, ld, g_q, diag_a, c.sum(axis=0), g_theta.sum(axis=0))
 
 

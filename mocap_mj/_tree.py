@@ -14,19 +14,25 @@ hinge) and are checked against it in ``tests/test_tree.py``:
 - :func:`integrate` / :func:`difference` are ``mj_integratePos`` / ``mj_differentiatePos``.
 
 Everything works on one frame at a time with scalars and small work arrays (no allocation in
-the inner loops); frames are spread over threads with ``prange`` (each frame's arithmetic is
-sequential, so results do not depend on the thread count).
+the inner loops); frames are spread over Python threads in contiguous blocks
+(:func:`run_blocks`; each frame's arithmetic is sequential, so results do not depend on the
+thread count).
 """
 
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 from typing import Any, NamedTuple
 
 import mujoco
 import numba as nb
 import numpy as np
+
+from ._kernel_cache import share_cache
 
 FREE, BALL, HINGE = 0, 1, 3  # mjtJoint values
 TRANSLATION, HINGE_AXIS, BODY_AXIS = 0, 1, 2  # dof kinds
@@ -96,15 +102,34 @@ class Work(NamedTuple):
 
 
 def _jit(fn: Callable[..., Any]) -> Any:
-    return nb.njit(cache=True, nogil=True, error_model="numpy")(fn)
+    """A compiled kernel, cached on disk (:mod:`mocap_mj._kernel_cache`), releasing the GIL
+    (so Python threads run kernels side by side, see :func:`run_blocks`)."""
+    return share_cache(nb.njit(cache=True, nogil=True, error_model="numpy")(fn))
 
 
-def _inline(fn: Callable[..., Any]) -> Any:
-    return nb.njit(inline="always", cache=True, nogil=True, error_model="numpy")(fn)
+#: Small helpers are compiled like any kernel and LLVM inlines them where it pays. Numba's
+#: ``inline="always"`` would copy their IR into every caller before type inference, which
+#: lengthens the first run's compile (docs/ik.md, "First run").
+_inline = _jit
 
 
-def _parallel(fn: Callable[..., Any]) -> Any:
-    return nb.njit(parallel=True, cache=True, nogil=True, error_model="numpy")(fn)
+def run_blocks(
+    kernel: Callable[..., Any], bounds: np.ndarray, args: Callable[[int], tuple]
+) -> None:
+    """``kernel(*args(b))`` for each block b of ``bounds`` (k + 1,), one Python thread per block.
+
+    The kernels release the GIL (:func:`_jit`), so the blocks run in parallel without numba's
+    ``parallel=True``, whose parfor compilation cost most of the first run's compile time.
+    One block runs in the calling thread.
+    """
+    k = bounds.size - 1
+    if k <= 1:
+        if k == 1:
+            kernel(*args(0))
+        return
+    with ThreadPoolExecutor(max_workers=k, thread_name_prefix="mocap-mj") as pool:
+        for future in [pool.submit(kernel, *args(b)) for b in range(k)]:
+            future.result()
 
 
 # ------------------------------------------------------------------ quaternion helpers
@@ -641,14 +666,15 @@ def solve_frame(tr, target, wts, q, w, max_it, damping, tol_step, tol_cost, tol_
 
 
 # ------------------------------------------------------------------ many frames
-#: Batches smaller than this run in the calling thread: a parallel region costs a thread
-#: wake-up, and on a busy machine a descheduled worker stalls the whole call.
+#: Batches smaller than this run in the calling thread: a thread costs its start-up, and on a
+#: busy machine a descheduled worker stalls the whole call.
 PARALLEL_MIN = 32
 
 
 def blocks(items: int, frames: int) -> np.ndarray:
-    """Bounds (k + 1,) of k contiguous blocks of range(items), one per numba thread, with at
-    least PARALLEL_MIN of the work's ``frames`` per block (k = 1: run in the caller)."""
+    """Bounds (k + 1,) of k contiguous blocks of range(items), one per thread (numba's thread
+    count: ``NUMBA_NUM_THREADS``, ``numba.set_num_threads``), with at least PARALLEL_MIN of the
+    work's ``frames`` per block (k = 1: run in the caller, see :func:`run_blocks`)."""
     k = max(1, min(nb.get_num_threads(), items, frames // PARALLEL_MIN))
     return np.linspace(0, items, k + 1).round().astype(np.int64)
 
@@ -671,14 +697,6 @@ def _solve_range(
         )  # fmt: skip
 
 
-@_parallel
-def _solve_blocks(tr, target, wts, qpos, bounds, rmse, iters, status, *settings):
-    for b in nb.prange(bounds.size - 1):
-        _solve_range(
-            tr, target, wts, qpos, bounds[b], bounds[b + 1], rmse, iters, status, *settings
-        )
-
-
 def solve_batch(
     tr: Tree,
     target: np.ndarray,
@@ -699,10 +717,11 @@ def solve_batch(
     status = np.zeros(n, dtype=np.int64)
     args = _settings(settings)
     bounds = blocks(n, n)
-    if bounds.size > 2:
-        _solve_blocks(tr, target, wts, qpos, bounds, rmse, iters, status, *args)
-    else:
-        _solve_range(tr, target, wts, qpos, 0, n, rmse, iters, status, *args)
+    run_blocks(
+        _solve_range,
+        bounds,
+        lambda b: (tr, target, wts, qpos, bounds[b], bounds[b + 1], rmse, iters, status, *args),
+    )
     return rmse, iters, status
 
 
@@ -742,15 +761,6 @@ def _chains_range(
             )  # fmt: skip
 
 
-@_parallel
-def _chains_blocks(tr, target, wts, cold, starts, ends, bounds, qpos, rmse, iters, status, *st):
-    for b in nb.prange(bounds.size - 1):
-        _chains_range(
-            tr, target, wts, cold, starts, ends, bounds[b], bounds[b + 1], qpos, rmse, iters,
-            status, *st,
-        )  # fmt: skip
-
-
 def solve_chains(
     tr: Tree,
     target: np.ndarray,
@@ -778,14 +788,14 @@ def solve_chains(
     starts = np.ascontiguousarray(starts, dtype=np.int64)
     ends = np.ascontiguousarray(ends, dtype=np.int64)
     bounds = blocks(starts.size, n)
-    if bounds.size > 2:
-        _chains_blocks(
-            tr, target, wts, cold, starts, ends, bounds, qpos, rmse, iters, status, *args
-        )
-    else:
-        _chains_range(
-            tr, target, wts, cold, starts, ends, 0, starts.size, qpos, rmse, iters, status, *args
-        )
+    run_blocks(
+        _chains_range,
+        bounds,
+        lambda b: (
+            tr, target, wts, cold, starts, ends, bounds[b], bounds[b + 1], qpos, rmse, iters,
+            status, *args,
+        ),
+    )  # fmt: skip
     return qpos, rmse, iters, status
 
 
@@ -830,17 +840,6 @@ def _walk_range(
             have2 = True
 
 
-@_parallel
-def _walk_blocks(
-    tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, early, bounds, *st
-):
-    for b in nb.prange(bounds.size - 1):
-        _walk_range(
-            tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, early, bounds[b],
-            bounds[b + 1], *st,
-        )  # fmt: skip
-
-
 def walk(
     tr: Tree,
     target: np.ndarray,
@@ -869,16 +868,14 @@ def walk(
     seeds = np.ascontiguousarray(seeds, dtype=float)
     frames = int(np.abs(lasts - firsts).sum()) + firsts.size
     bounds = blocks(firsts.size, frames)
-    if bounds.size > 2:
-        _walk_blocks(
-            tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, early, bounds,
-            *args,
-        )  # fmt: skip
-    else:
-        _walk_range(
-            tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, early, 0,
-            firsts.size, *args,
-        )  # fmt: skip
+    run_blocks(
+        _walk_range,
+        bounds,
+        lambda b: (
+            tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, bool(early),
+            bounds[b], bounds[b + 1], *args,
+        ),
+    )  # fmt: skip
 
 
 @_jit
@@ -899,8 +896,37 @@ def forward(tr: Tree, qpos: np.ndarray) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ tables
+#: What the first run of an install spends compiling the kernels on a 2-core machine
+#: (``benchmarks/cold_start.py``), said once when the on-disk cache is empty.
+COMPILE_SECONDS = 40
+_notice_given = False
+
+
+def compile_notice() -> None:
+    """Say on stderr, once per process, that the kernels are about to be compiled, if the
+    on-disk cache (:mod:`mocap_mj._kernel_cache`) does not hold them yet."""
+    global _notice_given
+    if _notice_given:
+        return
+    _notice_given = True
+    try:
+        index = Path(solve_frame._cache._cache_file._index_path)
+    except AttributeError:  # a numba without this cache layout: say nothing
+        return
+    if not index.exists():
+        print(
+            f"mocap-mj: compiling the numeric kernels (once per install, ~{COMPILE_SECONDS} s)",
+            file=sys.stderr,
+            flush=True,
+        )
+
+
 def build_tree(model: mujoco.MjModel) -> Tree:
-    """:class:`Tree` of an ``mujoco.MjModel`` with free, ball and hinge joints only."""
+    """:class:`Tree` of an ``mujoco.MjModel`` with free, ball and hinge joints only.
+
+    Kernels run on trees only: this is where :func:`compile_notice` is given.
+    """
+    compile_notice()
     m = model
     nv = m.nv
     jnt_type = np.array(m.jnt_type, dtype=np.int64)

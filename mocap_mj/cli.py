@@ -6,22 +6,29 @@ imports them. A subcommand module exposes ``register(subparsers)``, which adds a
 default ``func(args)`` returns an exit code.
 
 Every error derived from :class:`mocap_mj.MocapError` becomes one line on stderr and exit
-status 2; no traceback is shown for bad input.
+status 2; no traceback is shown for bad input. An operating-system error (disk full,
+permission denied) is one line and exit status 1; Ctrl-C or SIGTERM exits with 130 / 143.
+Commands write their output folder with :func:`mocap_mj.io.atomic.atomic_folder` (see
+:func:`output_folder`), so an interrupted or failed run leaves no folder that looks like a
+result.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
-import json
+import signal
 import sys
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import AbstractContextManager
 from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
 
 from ._threads import one_blas_thread
 from .errors import MocapError
+from .strict_json import dumps
 
 #: Core subcommand modules (``mocap_mj.commands.<name>``), in help order.
 CORE_COMMANDS: tuple[str, ...] = ("info", "ik", "identify", "score", "export", "batch")
@@ -66,14 +73,36 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        with one_blas_thread():
+        with _sigterm_as_exit(), one_blas_thread():
             return int(args.func(args) or 0)
     except MocapError as exc:
         print(f"mocap-mj {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:
+        print(f"mocap-mj {args.command}: error: {exc}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print(f"mocap-mj {args.command}: interrupted", file=sys.stderr)
         return 130
+
+
+@contextlib.contextmanager
+def _sigterm_as_exit() -> Iterator[None]:
+    """SIGTERM raises SystemExit(143), so output folders are cleaned up as on Ctrl-C."""
+
+    def handler(signum: int, frame: object) -> None:
+        print("mocap-mj: terminated", file=sys.stderr)
+        raise SystemExit(128 + signum)
+
+    try:
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 # ----------------------------------------------------------------- helpers for commands
@@ -83,15 +112,38 @@ def add_json_flag(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_force_flag(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+
+
 def prepare_out(path: str | Path, *, force: bool = False) -> Path:
-    """Create the output folder; refuse an existing non-empty one unless ``force``."""
+    """Create the output folder in place; refuse an existing non-empty one unless ``force``.
+
+    For folders written inside a command's :func:`output_folder` (which is atomic already);
+    a command's own ``--out`` goes through :func:`output_folder`.
+    """
+    from .io.atomic import stale_temporaries
+
     out = Path(path)
     if out.exists() and not out.is_dir():
         raise MocapError(f"{out}: exists and is not a folder")
-    if out.is_dir() and any(out.iterdir()) and not force:
-        raise MocapError(f"{out}: folder is not empty (use --force to overwrite)")
+    if out.is_dir() and not force:
+        stale = set(stale_temporaries(out))
+        if any(p not in stale for p in out.iterdir()):
+            raise MocapError(f"{out}: folder is not empty (use --force to overwrite)")
     out.mkdir(parents=True, exist_ok=True)
     return out
+
+
+def output_folder(path: str | Path, *, force: bool = False) -> AbstractContextManager[Path]:
+    """A command's ``--out``: checked now, written in a hidden sibling, renamed at the end.
+
+    See :func:`mocap_mj.io.atomic.atomic_folder`. Print the final path (``path``), not the
+    yielded one, in messages.
+    """
+    from .io.atomic import atomic_folder
+
+    return atomic_folder(path, force=force)
 
 
 def finish(
@@ -100,13 +152,36 @@ def finish(
     text: str,
     out: Path | None = None,
 ) -> int:
-    """Write ``summary.json`` into ``out`` (if any), then print JSON or the readable text."""
-    if out is not None:
-        from .io.atomic import atomic_write_text
+    """Write ``summary.json`` into ``out`` (if any), then print JSON or the readable text.
 
-        atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    Both are strict JSON: a value that could not be computed (NaN) is ``null``.
+    """
+    if out is not None:
+        write_summary(out, summary)
     if getattr(args, "json", False):
-        print(json.dumps(summary))
+        print(dumps(summary))
     else:
         print(text)
     return 0
+
+
+def into_out_folder(
+    args: argparse.Namespace, work: Callable[[Path], tuple[Mapping[str, Any], str]]
+) -> int:
+    """Run ``work(folder)`` into ``args.out`` and report: the usual end of a command.
+
+    ``work`` writes its files into the folder it is given (a hidden sibling of ``--out``,
+    see :func:`output_folder`; ``--force`` honoured) and returns (summary, text). The summary
+    is written as ``summary.json``, the folder renamed into place, then :func:`finish` prints.
+    """
+    with output_folder(args.out, force=getattr(args, "force", False)) as out:
+        summary, text = work(out)
+        write_summary(out, summary)
+    return finish(args, summary, text)
+
+
+def write_summary(out: Path, summary: Mapping[str, Any]) -> None:
+    """``out/summary.json``, strict JSON, written atomically."""
+    from .io.atomic import atomic_write_text
+
+    atomic_write_text(out / "summary.json", dumps(summary, indent=2) + "\n")

@@ -51,3 +51,7 @@ def check_shape(name: str, array: object, shape: tuple[int | None, ...]) -> None
     ):
         want_txt = "(" + ", ".join("*" if s is None else str(s) for s in shape) + ")"
         raise ShapeError(f"{name}: expected shape {want_txt}, got {got}")
+
+
+class OutputFolderError(MocapError):
+    """An output folder that cannot be written (a file, not empty, read-only, no permission)."""

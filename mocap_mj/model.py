@@ -36,5 +36,7 @@ def load_model(path: str | Path | None = None) -> mujoco.MjModel:
     try:
         return mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else "compile error"
-        raise MocapError(f"{path}: not a valid MJCF model: {first}") from None
+        # MuJoCo's message spans lines (error, then element and line): keep them all, on one.
+        lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+        detail = "; ".join(lines) or "compile error"
+        raise MocapError(f"{path}: not a valid MJCF model: {detail}") from None

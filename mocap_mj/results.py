@@ -103,14 +103,16 @@ class ResultDir:
 
     @classmethod
     def open(cls, root: str | Path) -> ResultDir:
+        """The folder itself, or the ``result/`` folder of a ``mocap-mj demo`` folder."""
         root = Path(root)
-        for model, motion in (
-            ("model.xml", "motion.npz"),
-            ("truth_model.xml", "truth_motion.npz"),
-        ):
-            if (root / model).is_file() and (root / motion).is_file():
-                return cls(root, root / model, root / motion)
+        for base in (root, root / "result"):
+            for model, motion in (
+                ("model.xml", "motion.npz"),
+                ("truth_model.xml", "truth_motion.npz"),
+            ):
+                if (base / model).is_file() and (base / motion).is_file():
+                    return cls(base, base / model, base / motion)
         raise InputFileError(
             f"{root}: not a result folder (expected model.xml and motion.npz, "
-            "or truth_model.xml and truth_motion.npz)"
+            "truth_model.xml and truth_motion.npz, or a demo folder's result/)"
         )

@@ -28,7 +28,7 @@ from .identify.identifiability import Identifiability
 from .ik import IKSolver
 from .kinematics import Kinematics
 from .parameters import ParameterSet
-from .results import load_motion
+from .results import Motion, load_motion
 
 
 def _read_json(path: Path) -> dict[str, Any]:
@@ -37,6 +37,37 @@ def _read_json(path: Path) -> dict[str, Any]:
     except (OSError, json.JSONDecodeError) as exc:
         raise InputFileError(f"{path}: cannot read JSON: {exc}") from None
     return data
+
+
+#: Median distance [m] between a result's fitted markers and the truth's noise-free markers
+#: above which the result was not fitted to this truth (another subject or trial): the
+#: synthetic noise, soft-tissue artefact and outliers stay well below it.
+SAME_TRIAL_MEDIAN = 0.02
+
+
+def check_same_trial(
+    truth_dir: Path, result_dir: Path, truth: Motion, result: Motion, a: int, b: int
+) -> None:
+    """Raise :class:`InputFileError` unless ``result`` was fitted to frames [a, b) of ``truth``.
+
+    The frame counts must match, and the markers the result was fitted to must lie within
+    :data:`SAME_TRIAL_MEDIAN` (median over present samples) of the truth's noise-free markers.
+    """
+    n_truth, n_res = len(truth.qpos), len(result.qpos)
+    if not 0 <= a <= b <= n_truth or b - a != n_res:
+        raise InputFileError(
+            f"{result_dir}: the result has {n_res} frames (fitted range {a}:{b}) but the truth "
+            f"{truth_dir} has {n_truth}: score a result against the synth folder it was fitted to"
+        )
+    d = np.linalg.norm(result.markers - truth.markers[a:b], axis=2)
+    present = np.isfinite(d)
+    median = float(np.median(d[present])) if present.any() else float("inf")
+    if median > SAME_TRIAL_MEDIAN:
+        raise InputFileError(
+            f"{result_dir}: its markers are {median * 1e3:.0f} mm (median) from the truth's in "
+            f"{truth_dir}: a different subject or trial; score a result against the synth "
+            "folder it was fitted to"
+        )
 
 
 def joint_centres(kin: Kinematics, qpos: np.ndarray) -> np.ndarray:
@@ -66,6 +97,7 @@ def score(
     k = pset.n_kappa
     ranges = summary.get("frames_fitted_range") or [[0, len(motion.qpos)]]
     a, b = ranges[0]
+    check_same_trial(truth_dir, result_dir, truth_motion, motion, a, b)
     aligned = align_truth(pset, theta_hat, truth_motion.markers[a:b], truth_motion.times[a:b])
     err = theta_hat - aligned
     e_obs, e_rest = idf.project(err)

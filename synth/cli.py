@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from mocap_mj.cli import add_json_flag, finish
+from mocap_mj.cli import add_force_flag, add_json_flag, finish
 
 from .config import MOTIONS, ConfigError, SynthConfig
 from .experiment import synthesize, write_experiment
@@ -13,18 +13,38 @@ from .experiment import synthesize, write_experiment
 #: Options taking a value: flag, SynthConfig field, type, help. Values are parsed here rather
 #: than by argparse, so that a bad value is one line on stderr (exit 2) like every other error.
 _OPTIONS: tuple[tuple[str, str, type, str], ...] = (
-    ("--frames", "frames", int, "number of frames (default 500)"),
-    ("--rate", "rate", float, "frame rate in Hz (default 100)"),
-    ("--motion", "motion", str, f"truth motion: {', '.join(MOTIONS)} (default rom)"),
-    ("--noise-mm", "noise_mm", float, "white noise standard deviation per axis, mm (default 1)"),
-    ("--sta-mm", "sta_mm", float, "soft-tissue artefact, mm per radian of joint motion (0)"),
-    ("--gaps", "gaps", float, "fraction of samples missing in occlusion gaps, [0, 1) (0)"),
-    ("--outliers", "outliers", float, "fraction of samples displaced as outliers, [0, 1) (0)"),
-    ("--outlier-mm", "outlier_mm", float, "outlier displacement, mm (default 50)"),
-    ("--swaps", "swaps", int, "left/right marker pairs with swapped labels for a while (0)"),
-    ("--seed", "seed", int, "random seed (default 0)"),
-    ("--kappa-scale", "kappa_scale", float, "kinematic parameters scaled by 1 -/+ this (0.1)"),
-    ("--offset-mm", "offset_mm", float, "marker offsets moved by up to -/+ this, mm (20)"),
+    ("--frames", "frames", int, "number of frames (default: 500)"),
+    ("--rate", "rate", float, "frame rate in Hz (default: 100)"),
+    ("--motion", "motion", str, f"truth motion: {', '.join(MOTIONS)} (default: rom)"),
+    ("--noise-mm", "noise_mm", float, "white noise standard deviation per axis, mm (default: 1)"),
+    (
+        "--sta-mm",
+        "sta_mm",
+        float,
+        "soft-tissue artefact, mm per radian of joint motion (default: 0)",
+    ),
+    ("--gaps", "gaps", float, "fraction of samples missing in occlusion gaps, [0, 1) (default: 0)"),
+    (
+        "--outliers",
+        "outliers",
+        float,
+        "fraction of samples displaced as outliers, [0, 1) (default: 0)",
+    ),
+    ("--outlier-mm", "outlier_mm", float, "outlier displacement, mm (default: 50)"),
+    (
+        "--swaps",
+        "swaps",
+        int,
+        "left/right marker pairs with swapped labels for a while (default: 0)",
+    ),
+    ("--seed", "seed", int, "random seed (default: 0)"),
+    (
+        "--kappa-scale",
+        "kappa_scale",
+        float,
+        "kinematic parameters scaled by 1 -/+ this (default: 0.1)",
+    ),
+    ("--offset-mm", "offset_mm", float, "marker offsets moved by up to -/+ this, mm (default: 20)"),
 )
 
 
@@ -35,13 +55,15 @@ def register(sub: Any) -> None:
         description="Synthesize a subject (perturbed model), a truth motion and measured "
         "markers with noise and corruptions; write markers.csv/.trc and the truth files.",
     )
-    p.add_argument("--out", required=True, help="output folder (refused if not empty)")
+    p.add_argument(
+        "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
+    )
     for flag, _, _, text in _OPTIONS:
-        p.add_argument(flag, metavar="VALUE", help=text)
+        p.add_argument(flag, metavar=flag.lstrip("-").split("-")[0].upper(), help=text)
     p.add_argument(
         "--symmetric", action="store_true", help="perturb left and right alike (mirror images)"
     )
-    p.add_argument("--force", action="store_true", help="write into a non-empty --out folder")
+    add_force_flag(p)
     add_json_flag(p)
     p.set_defaults(func=run)
 

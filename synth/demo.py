@@ -13,11 +13,12 @@ from __future__ import annotations
 import argparse
 import time
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from mocap_mj.cli import add_json_flag, finish, prepare_out
+from mocap_mj.cli import add_force_flag, add_json_flag, into_out_folder, prepare_out
 from mocap_mj.identify.lm import LMSettings, TrialData
 from mocap_mj.identify.output import expected_rmse
 from mocap_mj.identify.pipeline import identify_to_folder
@@ -31,13 +32,46 @@ from .experiment import synthesize, write_experiment
 
 
 def register(sub: Any) -> None:
-    p = sub.add_parser("demo", help="synthesize, identify and score on the bundled model")
-    p.add_argument("--out", default="demo-result", help="output folder (default: demo-result)")
-    p.add_argument("--frames", type=int, default=500, help="frames of the ROM trial to fit")
-    p.add_argument("--holdout", type=int, default=200, help="frames of the held-out walk")
-    p.add_argument("--noise-mm", type=float, default=1.0)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--force", action="store_true", help="overwrite a non-empty output folder")
+    p = sub.add_parser(
+        "demo",
+        help="synthesize, identify and score on the bundled model",
+        description=__doc__.split("\n\n", 1)[1].split("\n\n")[0],
+    )
+    p.add_argument(
+        "--out",
+        default="demo-result",
+        metavar="FOLDER",
+        help="output folder, must be new or empty (default: demo-result)",
+    )
+    p.add_argument(
+        "--frames",
+        type=int,
+        default=500,
+        metavar="N",
+        help="frames of the range-of-motion trial to fit (default: 500)",
+    )
+    p.add_argument(
+        "--holdout",
+        type=int,
+        default=200,
+        metavar="N",
+        help="frames of the held-out walking trial (default: 200)",
+    )
+    p.add_argument(
+        "--noise-mm",
+        type=float,
+        default=1.0,
+        metavar="MM",
+        help="marker noise, standard deviation per axis in mm (default: 1)",
+    )
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        metavar="N",
+        help="seed of the truth model, motion and noise (default: 0)",
+    )
+    add_force_flag(p)
     add_json_flag(p)
     p.set_defaults(func=run)
 
@@ -47,29 +81,33 @@ def _rms(x: np.ndarray) -> float:
 
 
 def run(args: argparse.Namespace) -> int:
-    out = prepare_out(args.out, force=args.force)
+    return into_out_folder(args, lambda staging: _demo(args, staging, Path(args.out)))
+
+
+def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str, Any], str]:
+    """Run the demo writing into ``staging``; messages and paths name ``out``."""
     t0 = time.perf_counter()
     cfg = SynthConfig(frames=args.frames, noise_mm=args.noise_mm, seed=args.seed)
     pset = ParameterSet()
     exp = synthesize(cfg, pset)
-    write_experiment(exp, out / "synth", force=True)
+    write_experiment(exp, staging / "synth", force=True)
     # The same subject (same seed: same truth model) walking: held out from the fit.
     walk = synthesize(replace(cfg, frames=max(args.holdout, 2), motion="walk"), pset)
-    write_experiment(walk, out / "walk", force=True)
+    write_experiment(walk, staging / "walk", force=True)
     n = args.frames
     trial = TrialData("rom", np.asarray(exp.markers), np.asarray(exp.times))
     ident, _, _ = identify_to_folder(
         [trial],
-        prepare_out(out / "result", force=True),
+        prepare_out(staging / "result", force=True),
         pset=pset,
         settings=LMSettings(),
         progress=not args.json,
         extra={"markers_files": [str(out / "synth" / "markers.csv")],
                "frames_fitted_range": [[0, n]]},
     )  # fmt: skip
-    s = score(out / "synth", out / "result", pset=pset)
+    s = score(staging / "synth", staging / "result", pset=pset)
     kin = Kinematics(pset)
-    kin.set_theta(pset.load_json(out / "result" / "theta.json"))
+    kin.set_theta(pset.load_json(staging / "result" / "theta.json"))
     held = IKSolver(kin).solve_trial(np.asarray(walk.markers))
     s["heldout_marker_rmse_mm"] = held.rmse() * 1e3
     nv, m = kin.nv, pset.n_markers
@@ -131,4 +169,4 @@ def run(args: argparse.Namespace) -> int:
             f"wrote {out}/synth (truth), {out}/result (open with: mocap-mj view {out}/result)",
         ]
     )
-    return finish(args, summary, text, out)
+    return summary, text

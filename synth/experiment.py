@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from mocap_mj.cli import prepare_out
 from mocap_mj.io import MarkerTrajectory, atomic_write_text, save_csv, save_trc
+from mocap_mj.io.atomic import atomic_folder
 from mocap_mj.kinematics import Kinematics
 from mocap_mj.parameters import ParameterSet
 from mocap_mj.results import Motion, save_motion
@@ -233,7 +233,8 @@ def write_experiment(exp: Experiment, out_dir: str | Path, force: bool = False) 
     ----------
     exp : Experiment
     out_dir : str or Path
-        Created if needed; an existing non-empty folder is refused unless ``force``.
+        Created if needed, whole at the end (:func:`mocap_mj.io.atomic.atomic_folder`); an
+        existing non-empty folder is refused unless ``force``, and then replaced.
     force : bool
 
     Returns
@@ -241,27 +242,27 @@ def write_experiment(exp: Experiment, out_dir: str | Path, force: bool = False) 
     dict
         The summary (:func:`summarize`), also written as ``summary.json``.
     """
-    out = prepare_out(out_dir, force=force)
-    pset = exp.pset
-    traj = exp.trajectory()
-    save_csv(out / "markers.csv", traj)
-    save_trc(out / "markers.trc", traj)
-    summary = summarize(exp)
-    pset.save_json(
-        out / "truth.json",
-        exp.theta_true,
-        extra={
-            "description": "mocap-mj synthetic truth: theta_true (kappa, offsets) and settings",
-            "seed": exp.config.seed,
-            "sigma_m": exp.sigma,
-            "settings": exp.config.to_dict(),
-            "swapped": [list(s) for s in exp.swapped],
-            "parameter_names": list(pset.names),
-            "theta": [float(v) for v in exp.theta_true],
-            "theta_nominal": pset.to_dict(exp.theta_nominal),
-        },
-    )
-    pset.export_mjcf(out / "truth_model.xml", exp.theta_true)
-    save_motion(out / "truth_motion.npz", exp.truth_motion())
-    atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    with atomic_folder(out_dir, force=force) as out:
+        pset = exp.pset
+        traj = exp.trajectory()
+        save_csv(out / "markers.csv", traj)
+        save_trc(out / "markers.trc", traj)
+        summary = summarize(exp)
+        pset.save_json(
+            out / "truth.json",
+            exp.theta_true,
+            extra={
+                "description": "mocap-mj synthetic truth: theta_true (kappa, offsets) and settings",
+                "seed": exp.config.seed,
+                "sigma_m": exp.sigma,
+                "settings": exp.config.to_dict(),
+                "swapped": [list(s) for s in exp.swapped],
+                "parameter_names": list(pset.names),
+                "theta": [float(v) for v in exp.theta_true],
+                "theta_nominal": pset.to_dict(exp.theta_nominal),
+            },
+        )
+        pset.export_mjcf(out / "truth_model.xml", exp.theta_true)
+        save_motion(out / "truth_motion.npz", exp.truth_motion())
+        atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     return summary

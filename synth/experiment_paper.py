@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from mocap_mj.cli import add_json_flag, finish, prepare_out
+from mocap_mj.cli import add_force_flag, add_json_flag, finish, output_folder, write_summary
 from mocap_mj.identify.identifiability import Identifiability
 from mocap_mj.identify.lm import LMSettings, TrialData, identify_lm
 from mocap_mj.identify.paper import (
@@ -109,7 +109,13 @@ class Row:
 
 
 def register(sub: Any) -> None:
-    p = sub.add_parser("experiment", help="reproduce a published experiment on synthetic data")
+    p = sub.add_parser(
+        "experiment",
+        help="reproduce a published experiment on synthetic data",
+        description="Reproduce a published experiment on synthetic data: `paper` (Table 1 and "
+        "Figs 3-4 of Zou & Sugihara) or `paper-steps` (how Algorithm 1's step sizes were "
+        "chosen). Each writes its report and figures into --out.",
+    )
     kinds = p.add_subparsers(dest="experiment", metavar="EXPERIMENT", required=True)
     q = kinds.add_parser(
         "paper",
@@ -117,11 +123,25 @@ def register(sub: Any) -> None:
         description="Identify a synthetic 5 s trial with Algorithm 1 (batch, even, random, "
         "stochastic sampling) and the joint LM; write Table 1, Figs 3-4 and the raw numbers.",
     )
-    q.add_argument("--out", required=True, help="output folder")
+    q.add_argument(
+        "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
+    )
     q.add_argument("--quick", action="store_true", help="100 frames and few iterations (CI)")
-    q.add_argument("--seed", type=int, default=0)
-    q.add_argument("--batch-iterations", type=int, help="iterations batch is really run")
-    q.add_argument("--force", action="store_true", help="overwrite a non-empty output folder")
+    q.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        metavar="N",
+        help="seed of the truth model, motion, noise and sampling (default: 0)",
+    )
+    q.add_argument(
+        "--batch-iterations",
+        type=int,
+        metavar="N",
+        help="iterations batch sampling is really run; the rest of its curve is extrapolated "
+        "(default: the experiment's, all of them)",
+    )
+    add_force_flag(q)
     add_json_flag(q)
     q.set_defaults(func=run)
     t = kinds.add_parser(
@@ -130,8 +150,10 @@ def register(sub: Any) -> None:
         description="Measure Algorithm 1 on a 100-frame synthetic trial for several alpha, "
         "Delta and perturbed-IK iteration counts (docs/paper.md).",
     )
-    t.add_argument("--out", required=True, help="output folder")
-    t.add_argument("--force", action="store_true", help="overwrite a non-empty output folder")
+    t.add_argument(
+        "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
+    )
+    add_force_flag(t)
     add_json_flag(t)
     t.set_defaults(func=run_steps)
 
@@ -145,10 +167,11 @@ def run(args: argparse.Namespace) -> int:
         stochastic=base.stochastic,
         seed=args.seed,
     )
-    out = prepare_out(args.out, force=args.force)
-    summary = run_experiment(cfg, out, progress=not args.json, quick=args.quick)
-    text = "\n".join(table_lines(summary["table"])) + f"\n\nwrote {out}/report.md"
-    return finish(args, summary, text, out)
+    with output_folder(args.out, force=args.force) as out:
+        summary = run_experiment(cfg, out, progress=not args.json, quick=args.quick)
+        write_summary(out, summary)
+    text = "\n".join(table_lines(summary["table"])) + f"\n\nwrote {args.out}/report.md"
+    return finish(args, summary, text)
 
 
 # --------------------------------------------------------------------------- the runs
@@ -504,11 +527,12 @@ def plot_convergence(path: Path, traces: Mapping[str, Any]) -> None:
 
 # --------------------------------------------------------------------------- alpha, Delta
 def run_steps(args: argparse.Namespace) -> int:
-    out = prepare_out(args.out, force=args.force)
-    summary = measure_steps(progress=not args.json)
-    lines = steps_report(summary)
-    atomic_write_text(out / "report.md", "\n".join(lines) + "\n")
-    return finish(args, summary, "\n".join(lines), out)
+    with output_folder(args.out, force=args.force) as out:
+        summary = measure_steps(progress=not args.json)
+        lines = steps_report(summary)
+        atomic_write_text(out / "report.md", "\n".join(lines) + "\n")
+        write_summary(out, summary)
+    return finish(args, summary, "\n".join(lines))
 
 
 def measure_steps(

@@ -27,31 +27,51 @@ def _add_source(p: argparse.ArgumentParser) -> None:
         "result",
         nargs="?",
         metavar="RESULT_DIR",
-        help="result folder (model.xml + motion.npz) or synthetic-truth folder",
+        help="result folder (model.xml + motion.npz), synthetic-truth folder, or a demo "
+        "folder (its result/ is shown)",
     )
     _add_source_options(p)
 
 
 def _add_source_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--model", help="MJCF file, instead of a result folder (default: bundled)")
-    p.add_argument("--motion", help="motion .npz for --model (poses and markers)")
+    p.add_argument(
+        "--model",
+        metavar="MJCF",
+        help="MJCF file, instead of a result folder (default: the bundled humanoid)",
+    )
+    p.add_argument(
+        "--motion",
+        metavar="FILE",
+        help="motion .npz for --model (poses and markers; default: none)",
+    )
     p.add_argument(
         "--markers",
-        help="marker file for --model; without --motion the model stands at its reference pose",
+        metavar="FILE",
+        help="marker file for --model; without --motion the model stands at its reference pose "
+        "(default: none)",
     )
     p.add_argument(
         "--ghost",
         metavar="MJCF",
         help="second model drawn translucent in the same poses: an MJCF file, 'nominal' "
-        "(the bundled humanoid) or 'truth' (truth_model.xml in RESULT_DIR or RESULT_DIR/synth)",
+        "(the bundled humanoid) or 'truth' (truth_model.xml in RESULT_DIR, RESULT_DIR/synth or "
+        "the synth/ beside it) (default: none)",
     )
 
 
 def _add_frames(p: argparse.ArgumentParser) -> None:
     group = p.add_mutually_exclusive_group()
-    group.add_argument("--frame", help="one frame: index (negative from the end) or 'worst'")
     group.add_argument(
-        "--frames", metavar="A:B[:S]", help="frame range, Python slice (B exclusive, step S)"
+        "--frame",
+        metavar="K",
+        help="one frame: index (negative from the end) or 'worst' (default: frame 0 for a "
+        ".png or .glb, every frame for .mp4/.gif)",
+    )
+    group.add_argument(
+        "--frames",
+        metavar="A:B[:S]",
+        help="frames from A up to but excluding B, every S-th (a Python slice, e.g. 0:100; "
+        "default: as --frame)",
     )
 
 
@@ -161,7 +181,12 @@ class _LegacyGlb(argparse.Action):
 
 def _add_glb_arguments(p: argparse.ArgumentParser) -> None:
     _add_source_options(p)
-    p.add_argument("--glb", action=_LegacyGlb, metavar="FILE", help="same as --to glb --out FILE")
+    p.add_argument(
+        "--glb",
+        action=_LegacyGlb,
+        metavar="FILE",
+        help="same as --to glb --out FILE (default: none)",
+    )
     _add_frames(p)
     p.add_argument(
         "--with-markers",
@@ -189,16 +214,32 @@ def register(sub: Any) -> None:
     p = sub.add_parser(
         "view",
         help="play a result in MuJoCo's interactive viewer",
-        description="Play a fitted motion at real time with its markers and residuals. Keys: "
+        description="Play a fitted motion at real time with its markers and residuals (needs a "
+        "display). Keys: "
         "space play/pause, Left/Right step, Up/Down speed, W worst frame, M markers, "
         "R residuals, G ghost.",
     )
     _add_source(p)
-    p.add_argument("--frame", help="first frame shown: index or 'worst'")
-    p.add_argument("--duration", type=_positive(float), help="close by itself after S seconds")
-    p.add_argument("--speed", type=_positive(float), default=1.0, help="playback speed (1)")
+    p.add_argument("--frame", metavar="K", help="first frame shown: index or 'worst' (default: 0)")
+    p.add_argument(
+        "--duration",
+        type=_positive(float),
+        metavar="S",
+        help="close by itself after S seconds (default: when the window is closed)",
+    )
+    p.add_argument(
+        "--speed",
+        type=_positive(float),
+        default=1.0,
+        metavar="X",
+        help="playback speed, 1 = real time (default: 1)",
+    )
     p.add_argument("--paused", action="store_true", help="start paused")
-    p.add_argument("--camera", help="look through this model camera (default: free, tracking)")
+    p.add_argument(
+        "--camera",
+        metavar="NAME",
+        help="look through this model camera (default: free, tracking)",
+    )
     add_json_flag(p)
     p.set_defaults(func=_run_view)
 
@@ -209,13 +250,40 @@ def register(sub: Any) -> None:
         "display, set MUJOCO_GL=egl (or osmesa) and PYOPENGL_PLATFORM alike.",
     )
     _add_source(p)
-    p.add_argument("--out", required=True, help="output .png (one frame), .mp4 or .gif")
+    p.add_argument(
+        "--out",
+        required=True,
+        metavar="FILE",
+        help="output .png (one frame; default frame 0), .mp4 or .gif (default: all frames)",
+    )
     _add_frames(p)
-    p.add_argument("--width", type=_positive(int), default=640, help="image width [px] (640)")
-    p.add_argument("--height", type=_positive(int), default=480, help="image height [px] (480)")
-    p.add_argument("--camera", help="model camera or 'free' (default: 'front' if the model has it)")
-    p.add_argument("--backend", choices=("mujoco", "pyrender"), default="mujoco")
-    p.add_argument("--fps", type=_positive(float), help="video rate [Hz] (default: real time)")
+    p.add_argument(
+        "--width", type=_positive(int), default=640, metavar="PX", help="image width (default: 640)"
+    )
+    p.add_argument(
+        "--height",
+        type=_positive(int),
+        default=480,
+        metavar="PX",
+        help="image height (default: 480)",
+    )
+    p.add_argument(
+        "--camera",
+        metavar="NAME",
+        help="model camera or 'free' (default: 'front' if the model has it)",
+    )
+    p.add_argument(
+        "--backend",
+        choices=("mujoco", "pyrender"),
+        default="mujoco",
+        help="renderer (default: mujoco)",
+    )
+    p.add_argument(
+        "--fps",
+        type=_positive(float),
+        metavar="HZ",
+        help="video frame rate (default: the motion's rate, real time)",
+    )
     p.add_argument("--no-markers", action="store_true", help="do not draw markers")
     p.add_argument("--no-residuals", action="store_true", help="do not draw residuals")
     p.add_argument("--no-text", action="store_true", help="no frame/time/RMSE label")

@@ -273,8 +273,8 @@ def load_ghost(spec: str, main: mujoco.MjModel, result_dir: str | Path | None = 
     ----------
     spec : str
         An MJCF path, ``"nominal"`` (the bundled humanoid) or ``"truth"`` (the
-        ``truth_model.xml`` of a synthetic experiment, looked for in ``result_dir`` and its
-        ``synth/`` folder).
+        ``truth_model.xml`` of a synthetic experiment, looked for in ``result_dir``, its
+        ``synth/`` folder and the ``synth/`` beside it, as in a demo folder).
     main : mujoco.MjModel
         The model whose poses the ghost takes: the two must have the same ``nq``.
     result_dir : path, optional
@@ -285,7 +285,13 @@ def load_ghost(spec: str, main: mujoco.MjModel, result_dir: str | Path | None = 
     elif spec == "truth":
         roots = [Path(result_dir)] if result_dir is not None else []
         candidates = [
-            p for r in roots for p in (r / "truth_model.xml", r / "synth/truth_model.xml")
+            p
+            for r in roots
+            for p in (
+                r / "truth_model.xml",
+                r / "synth/truth_model.xml",
+                r.parent / "synth/truth_model.xml",  # RESULT_DIR is a demo folder's result/
+            )
         ]
         found = [p for p in candidates if p.is_file()]
         if not found:

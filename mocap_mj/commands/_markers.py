@@ -22,10 +22,21 @@ def add_marker_options(parser: argparse.ArgumentParser, *, several: bool = False
         "--markers",
         required=True,
         nargs="+" if several else None,
-        help="marker file(s): C3D, TRC, mocap-mj CSV, Vicon Nexus or OptiTrack Motive CSV",
+        metavar="FILE",
+        help=("marker files, one or more" if several else "marker file")
+        + ": C3D, TRC, mocap-mj CSV, Vicon Nexus or OptiTrack Motive CSV",
     )
-    parser.add_argument("--subject", help="subject to keep when the file holds several")
-    parser.add_argument("--marker-map", help="YAML/JSON file mapping lab names to model names")
+    parser.add_argument(
+        "--subject",
+        metavar="NAME",
+        help="subject to keep when labels carry several subject prefixes (default: the only "
+        "one; required when there are several)",
+    )
+    parser.add_argument(
+        "--marker-map",
+        metavar="FILE",
+        help="YAML/JSON file mapping lab names to model names (default: none)",
+    )
     parser.add_argument(
         "--up", choices=["x", "y", "z", "-x", "-y", "-z"], help="vertical axis (default: detect)"
     )

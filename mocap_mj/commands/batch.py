@@ -39,14 +39,35 @@ def register(sub: Any) -> None:
         "trial with the subject's model; summary.csv and report.md over the dataset. "
         "Re-running the same command skips subjects already done with the same inputs.",
     )
-    p.add_argument("dataset", help="folder with one folder per subject, or a CSV/YAML manifest")
-    p.add_argument("--out", required=True, help="output folder (re-used: finished subjects kept)")
-    p.add_argument("--address", help="join this Ray cluster (default: start a local Ray)")
-    p.add_argument("--workers", type=int, help="CPUs of the local Ray (default: all)")
-    p.add_argument("--serial", action="store_true", help="no Ray: one subject after the other")
+    p.add_argument(
+        "dataset",
+        metavar="DATASET",
+        help="folder with one folder per subject, or a CSV/YAML manifest",
+    )
+    p.add_argument(
+        "--out",
+        required=True,
+        metavar="FOLDER",
+        help="output folder (re-used: finished subjects kept)",
+    )
+    p.add_argument(
+        "--address", metavar="HOST:PORT", help="join this Ray cluster (default: start a local Ray)"
+    )
+    p.add_argument("--workers", type=int, metavar="N", help="CPUs of the local Ray (default: all)")
+    p.add_argument(
+        "--serial",
+        action="store_true",
+        help="no Ray: one subject after the other (default: Ray when installed)",
+    )
     g = p.add_argument_group("defaults of every subject (a manifest's options override them)")
     for key, kind in OPTION_KEYS.items():
-        g.add_argument(FLAGS[key], dest=key, type=kind, metavar=key.upper())
+        g.add_argument(
+            FLAGS[key],
+            dest=key,
+            type=kind,
+            metavar=key.upper(),
+            help=f"as {FLAGS[key]} of identify (default: identify's default)",
+        )
     add_json_flag(p)
     p.set_defaults(func=run)
 

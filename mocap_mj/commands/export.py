@@ -172,18 +172,32 @@ def register(sub: Any) -> None:
         help="result folder (model.xml + motion.npz) or synthetic-truth folder",
     )
     p.add_argument("--to", choices=sorted(table), help="format (default: from the suffix of --out)")
-    p.add_argument("--out", help="output file (a folder for --to all)")
+    p.add_argument(
+        "--out",
+        metavar="PATH",
+        help="output file, a folder for --to all (required; no default)",
+    )
     p.add_argument(
         "--up",
         choices=sorted(UP_ORIENTATION),
         default="y",
         help="vertical axis of .osim ground and TRC files (default y, OpenSim's convention)",
     )
-    p.add_argument("--mass", type=float, help="subject mass [kg] for the .osim body masses")
     p.add_argument(
-        "--nominal", help="MJCF the scale factors are relative to (default: the bundled humanoid)"
+        "--mass",
+        type=float,
+        metavar="KG",
+        help="subject mass [kg] for the .osim body masses (default: the result's recorded "
+        "mass, else the model's own masses)",
     )
-    p.add_argument("--force", action="store_true", help="write into a non-empty --out folder")
+    p.add_argument(
+        "--nominal",
+        metavar="MJCF",
+        help="MJCF the scale factors are relative to (default: the bundled humanoid)",
+    )
+    p.add_argument(
+        "--force", action="store_true", help="write into a non-empty --out folder (default: refuse)"
+    )
     for exporter in table.values():
         if exporter.add_arguments is not None:
             exporter.add_arguments(p)

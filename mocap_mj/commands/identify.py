@@ -1,28 +1,55 @@
-"""``mocap-mj identify``: the subject's model (segment lengths, marker offsets) and motion."""
+"""``mocap-mj identify``: the subject's model (segment lengths, marker offsets) and motion.
+
+Identify the subject's model from one or more marker trials: the segment lengths and joint
+positions (kinematic parameters) and every marker's offset on its segment, together with the
+joint motion of every frame, by one Levenberg-Marquardt fit over all frames (the --solver paper
+alternative is Zou & Sugihara's Algorithm 1). Writes OUT/model.xml (the identified MJCF),
+theta.json, motion.npz (first trial; motion_<i>.npz for the others), identifiability.json,
+report.md, plots and summary.json; docs/reading-results.md explains them. The folder appears
+only when the fit is complete; a fit that cannot be determined by the data is refused.
+"""
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..cli import add_json_flag, finish, prepare_out
+from ..checks import check_markers
+from ..cli import add_force_flag, add_json_flag, into_out_folder, output_folder
 from ..errors import MocapError
 from ..identify.lm import LMSettings, TrialData
 from ..identify.output import frame_range
+from ..identify.paper import DEFAULT_DELTA, DEFAULT_STEP
 from ..identify.pipeline import INITS, identify_to_folder, result_text
 from ..identify.plausibility import kappa_outside_bounds, marker_rmse_by_marker, plausibility_text
+from ..ik import IKSettings
 from ..parameters import ParameterSet
 from ._markers import add_marker_options, load_trial, model_for
 
 
 def register(sub: Any) -> None:
-    p = sub.add_parser("identify", help="identify the subject's model from marker trials")
+    p = sub.add_parser(
+        "identify",
+        help="identify the subject's model from marker trials",
+        description=__doc__,
+    )
     add_marker_options(p, several=True)
-    p.add_argument("--out", required=True, help="output folder")
-    p.add_argument("--model", help="initial MJCF model (default: the bundled humanoid)")
-    p.add_argument("--solver", choices=["lm", "paper"], default="lm")
+    p.add_argument(
+        "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
+    )
+    p.add_argument(
+        "--model", metavar="MJCF", help="initial MJCF model (default: the bundled humanoid)"
+    )
+    p.add_argument(
+        "--solver",
+        choices=["lm", "paper"],
+        default="lm",
+        help="lm: joint Levenberg-Marquardt over all frames; paper: Algorithm 1 of Zou & "
+        "Sugihara (default: lm)",
+    )
     p.add_argument(
         "--init",
         choices=list(INITS),
@@ -31,20 +58,74 @@ def register(sub: Any) -> None:
         "the subject from marker distances, marker offsets then placed by IK (default); "
         "scaled = scaled only; nominal = the bundled model as it is",
     )
-    p.add_argument("--frames", help="frames to fit, A:B (default: all)")
-    p.add_argument("--loss", choices=["l2", "huber", "cauchy"], default="l2")
+    p.add_argument(
+        "--frames",
+        metavar="A:B",
+        help="frames to fit, from A up to but excluding B, counted from 0 in every trial "
+        "(default: all)",
+    )
+    p.add_argument(
+        "--loss",
+        choices=["l2", "huber", "cauchy"],
+        default="l2",
+        help="loss on each marker distance; huber and cauchy down-weight outliers (default: l2)",
+    )
     p.add_argument("--robust", action="store_true", help="same as --loss cauchy")
-    p.add_argument("--max-iterations", type=int, default=100)
-    p.add_argument("--prior-mm", type=float, default=50.0, help="weak prior width [mm]")
-    p.add_argument("--observable-mm", type=float, default=5.0, help="observable if std below")
+    p.add_argument(
+        "--max-iterations",
+        type=int,
+        default=100,
+        metavar="N",
+        help="LM iterations at most (lm solver; default: 100)",
+    )
+    p.add_argument(
+        "--prior-mm",
+        type=float,
+        default=50.0,
+        metavar="MM",
+        help="width of the weak prior that holds each parameter near its initial value, in "
+        "mm; it only matters in directions the markers do not inform (default: 50)",
+    )
+    p.add_argument(
+        "--observable-mm",
+        type=float,
+        default=5.0,
+        metavar="MM",
+        help="a parameter direction counts as observable when its standard deviation is "
+        "below this, in mm (default: 5)",
+    )
     g = p.add_argument_group("paper solver (Algorithm 1 of Zou & Sugihara)")
-    g.add_argument("--sampling", choices=["batch", "even", "random", "stochastic"])
-    g.add_argument("--iterations", type=int, default=100)
-    g.add_argument("--step", type=float, help="gradient step alpha")
-    g.add_argument("--delta", type=float, help="finite-difference perturbation [m]")
-    g.add_argument("--fraction", type=float, default=0.1)
-    g.add_argument("--seed", type=int, default=0)
-    p.add_argument("--force", action="store_true", help="overwrite a non-empty output folder")
+    g.add_argument(
+        "--sampling",
+        choices=["batch", "even", "random", "stochastic"],
+        help="which frames each iteration uses (required with --solver paper; default: none)",
+    )
+    g.add_argument(
+        "--iterations", type=int, default=100, metavar="N", help="iterations (default: 100)"
+    )
+    g.add_argument(
+        "--step",
+        type=float,
+        metavar="ALPHA",
+        help=f"gradient step alpha (default: {DEFAULT_STEP:g})",
+    )
+    g.add_argument(
+        "--delta",
+        type=float,
+        metavar="M",
+        help=f"finite-difference perturbation in m (default: {DEFAULT_DELTA:g})",
+    )
+    g.add_argument(
+        "--fraction",
+        type=float,
+        default=0.1,
+        metavar="F",
+        help="fraction of the frames per iteration for random/stochastic sampling (default: 0.1)",
+    )
+    g.add_argument(
+        "--seed", type=int, default=0, metavar="N", help="seed of the frame sampling (default: 0)"
+    )
+    add_force_flag(p)
     add_json_flag(p)
     p.set_defaults(func=run)
 
@@ -60,11 +141,23 @@ def run(args: argparse.Namespace) -> int:
             raise MocapError(f"{t.path}: --frames {args.frames} selects no frame")
         ranges.append([sl.start, sl.stop])
         trials.append(TrialData(t.path, t.markers[sl], t.times[sl]))
-    out = prepare_out(args.out, force=args.force)
+        check_markers(t.path, pset.marker_names, trials[-1].markers, IKSettings().min_markers)
     if args.solver == "paper":
         from ..identify.paper import run_paper_cli
 
-        return run_paper_cli(args, pset, trials, ranges, out)
+        with output_folder(args.out, force=args.force) as out:
+            return run_paper_cli(args, pset, trials, ranges, out)
+    return into_out_folder(args, lambda out: _identify(args, pset, loaded, trials, ranges, out))
+
+
+def _identify(
+    args: argparse.Namespace,
+    pset: ParameterSet,
+    loaded: list[Any],
+    trials: list[TrialData],
+    ranges: list[list[int]],
+    out: Path,
+) -> tuple[dict[str, Any], str]:
     loss = "cauchy" if args.robust else args.loss
     settings = LMSettings(
         max_iterations=args.max_iterations,
@@ -89,5 +182,5 @@ def run(args: argparse.Namespace) -> int:
     }
     summary["kappa_outside_bounds_mm"] = {n: [v * 1e3 for v in b] for n, b in outside.items()}
     reports = "\n".join(str(t.report) for t in loaded)
-    text = f"{reports}\n{result_text(summary, pset, out)}\n"
-    return finish(args, summary, text + plausibility_text(pset, per_marker, outside), out)
+    text = f"{reports}\n{result_text(summary, pset, Path(args.out))}\n"
+    return summary, text + plausibility_text(pset, per_marker, outside)

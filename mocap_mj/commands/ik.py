@@ -1,4 +1,12 @@
-"""``mocap-mj ik``: joint motion of a given model from a marker file."""
+"""``mocap-mj ik``: joint motion of a given model from a marker file.
+
+Inverse kinematics of one marker file with a given model (the bundled humanoid unless
+--model): each frame's joint angles minimise the distance between the model's marker sites and
+the measured markers (Levenberg-Marquardt, frames solved in chains warm-started from their
+neighbours). Writes OUT/motion.csv (joint angles, mm and degrees), motion.npz (qpos, times,
+markers; opened by `mocap-mj view`), model.xml and summary.json. Frames with fewer than
+--min-markers present markers are left unsolved (empty in motion.csv).
+"""
 
 from __future__ import annotations
 
@@ -10,7 +18,8 @@ from typing import Any
 import numpy as np
 
 from ..angles import angle_columns, joint_angle_table
-from ..cli import add_json_flag, finish, prepare_out
+from ..checks import check_markers
+from ..cli import add_force_flag, add_json_flag, into_out_folder
 from ..ik import IKSettings, IKSolver, Status
 from ..io.atomic import atomic_write_text
 from ..kinematics import Kinematics
@@ -20,14 +29,38 @@ from ._markers import add_marker_options, load_trial, model_for
 
 
 def register(sub: Any) -> None:
-    p = sub.add_parser("ik", help="inverse kinematics of a marker file with a given model")
+    p = sub.add_parser(
+        "ik",
+        help="inverse kinematics of a marker file with a given model",
+        description=__doc__,
+    )
     add_marker_options(p)
-    p.add_argument("--model", help="MJCF model (default: the bundled humanoid)")
-    p.add_argument("--out", required=True, help="output folder")
-    p.add_argument("--damping", choices=["adaptive", "sugihara"], default="adaptive")
-    p.add_argument("--max-iterations", type=int, default=100)
-    p.add_argument("--min-markers", type=int, default=16)
-    p.add_argument("--force", action="store_true", help="overwrite a non-empty output folder")
+    p.add_argument("--model", metavar="MJCF", help="MJCF model (default: the bundled humanoid)")
+    p.add_argument(
+        "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
+    )
+    p.add_argument(
+        "--damping",
+        choices=["adaptive", "sugihara"],
+        default="adaptive",
+        help="LM damping: adaptive (Nielsen's rule) or sugihara (error-dependent, Sugihara "
+        "2011) (default: adaptive)",
+    )
+    p.add_argument(
+        "--max-iterations",
+        type=int,
+        default=100,
+        metavar="N",
+        help="LM iterations per frame at most (default: 100)",
+    )
+    p.add_argument(
+        "--min-markers",
+        type=int,
+        default=16,
+        metavar="N",
+        help="present markers a frame needs to be solved (default: 16)",
+    )
+    add_force_flag(p)
     add_json_flag(p)
     p.set_defaults(func=run)
 
@@ -46,7 +79,13 @@ def write_motion_csv(path: Path, model: Any, times: np.ndarray, qpos: np.ndarray
 def run(args: argparse.Namespace) -> int:
     pset = ParameterSet(model_for(args))
     trial = load_trial(args.markers, pset.marker_names, args)
-    out = prepare_out(args.out, force=args.force)
+    check_markers(trial.path, pset.marker_names, trial.markers, args.min_markers)
+    return into_out_folder(args, lambda out: _solve_and_write(args, pset, trial, out))
+
+
+def _solve_and_write(
+    args: argparse.Namespace, pset: ParameterSet, trial: Any, out: Path
+) -> tuple[dict[str, Any], str]:
     kin = Kinematics(pset)
     solver = IKSolver(
         kin,
@@ -64,6 +103,8 @@ def run(args: argparse.Namespace) -> int:
     write_motion_csv(out / "motion.csv", kin.model, trial.times, result.qpos)
     n = len(trial.markers)
     skipped = np.flatnonzero(result.status == Status.TOO_FEW_MARKERS)
+    seen = np.any(np.all(np.isfinite(trial.markers), axis=2), axis=0)
+    never = [n for n, ok in zip(pset.marker_names, seen, strict=True) if not ok]
     summary = {
         "markers_file": str(trial.path),
         "model": str(pset.path),
@@ -78,6 +119,7 @@ def run(args: argparse.Namespace) -> int:
         "frames_per_second": n / seconds,
         "damping": args.damping,
         "markers_missing": list(trial.report.missing),
+        "markers_without_data": never,
     }
     text = (
         f"{trial.report}\n"
@@ -85,6 +127,7 @@ def run(args: argparse.Namespace) -> int:
         f"marker RMSE {summary['marker_rmse_mm']:.3f} mm, "
         f"{summary['converged_fraction']:.0%} converged"
         + (f", {skipped.size} frames skipped (too few markers)" if skipped.size else "")
-        + f"\nwrote {out}/motion.csv, motion.npz, model.xml, summary.json"
+        + (f"\nmarkers in the file without a valid sample: {', '.join(never)}" if never else "")
+        + f"\nwrote {args.out}/motion.csv, motion.npz, model.xml, summary.json"
     )
-    return finish(args, summary, text, out)
+    return summary, text

@@ -10,8 +10,13 @@ from ..parameters import ParameterSet
 
 
 def register(sub: Any) -> None:
-    p = sub.add_parser("info", help="describe a model: bodies, DOF, markers, parameters")
-    p.add_argument("--model", help="MJCF file (default: the bundled humanoid)")
+    p = sub.add_parser(
+        "info",
+        help="describe a model: bodies, DOF, markers, parameters",
+        description="Describe an MJCF model as mocap-mj sees it: its bodies and joints, "
+        "degrees of freedom, marker sites and the kinematic parameters identify estimates.",
+    )
+    p.add_argument("--model", metavar="MJCF", help="MJCF file (default: the bundled humanoid)")
     add_json_flag(p)
     p.set_defaults(func=run)
 

@@ -558,7 +558,13 @@ def identify_lm(
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(total=st.max_iterations, desc="identify (LM)", unit="it", leave=False, delay=2)
+        # No total: the fit stops on its criteria long before max_iterations.
+        bar = tqdm(
+            desc="identify (LM)",
+            leave=False,
+            delay=2,
+            bar_format="{desc}: iteration {n} [{elapsed}] {postfix}",
+        )
     limits = prob.limits
     refits = 0
     last_refit_it = -10
@@ -640,6 +646,12 @@ def identify_lm(
                 f"{'accepted' if accepted else 'rejected'}  max|dtheta| {step * 1e3:.4f} mm"
             )
         if bar is not None:
+            gain = (cost - cost_new) / cost if accepted else 0.0
+            bar.set_postfix_str(
+                f"marker RMSE {rmse * 1e3:.3f} mm, cost F {trace[-1].cost:.4e} "
+                f"(last step -{100 * gain:.2g} %)",
+                refresh=False,
+            )
             bar.update(1)
         # A fresh IK of every trial with the current model (``_refit_frames``) whenever the
         # model has improved markedly since the last one, and when progress stalls.

@@ -819,6 +819,6 @@ def run_paper_cli(
         f"{result.ik_problems} IK problems)\n"
         f"marker RMSE {summary['marker_rmse_mm']:.3f} mm (noise floor "
         f"{summary['expected_rmse_mm']:.3f} mm); {idf.rank} of {pset.size} directions observable\n"
-        f"wrote {out}/model.xml, theta.json, motion.npz, identifiability.json, report.md"
+        f"wrote {args.out}/model.xml, theta.json, motion.npz, identifiability.json, report.md"
     )
     return finish(args, summary, text, out)

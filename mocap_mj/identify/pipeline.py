@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -10,9 +9,12 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import check_determined
 from ..errors import MocapError
-from ..io.atomic import atomic_write_text
+from ..ik import IKSettings
+from ..io.atomic import atomic_folder, atomic_write_text
 from ..parameters import ParameterSet
+from ..strict_json import dumps
 from .identifiability import Identifiability
 from .initial import place_markers, scaled_theta, segment_scales
 from .lm import LMResult, LMSettings, TrialData, identify_lm
@@ -36,6 +38,10 @@ def identify_to_folder(
     """Run the joint LM on the trials and write model.xml, theta.json, motion.npz,
     identifiability.json and report.md into ``out``; return (summary, result, identifiability).
 
+    ``out`` is replaced whole at the end (:func:`mocap_mj.io.atomic.atomic_folder`): it holds
+    the complete result or what it held before. Trials with fewer marker coordinates than
+    unknowns are refused before the fit (:func:`mocap_mj.checks.check_determined`).
+
     Without ``theta0`` the initial model (and prior mean) is, for ``init="scaled"``, the
     nominal model scaled to the subject from the trials' marker distances
     (:func:`mocap_mj.identify.initial.scaled_theta`); for ``init="placed"`` that skeleton
@@ -49,6 +55,13 @@ def identify_to_folder(
     if init not in INITS:
         raise MocapError(f"init must be one of {', '.join(INITS)}; got {init!r}")
     init_used = "given" if theta0 is not None else init
+    check_determined(
+        [t.name for t in trials],
+        [t.markers for t in trials],
+        IKSettings().min_markers,
+        pset.model.nv,
+        int(np.sum(~pset.frozen)),
+    )
     scales: dict[str, float] = {}
     if theta0 is None and init != "nominal":
         markers = [t.markers for t in trials]
@@ -99,8 +112,9 @@ def identify_to_folder(
             "log": log,
         }
     )
-    write_result(out, pset, result, idf, trials, summary)
-    atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    with atomic_folder(out, force=True) as staging:
+        write_result(staging, pset, result, idf, trials, summary)
+        atomic_write_text(staging / "summary.json", dumps(summary, indent=2) + "\n")
     return summary, result, idf
 
 

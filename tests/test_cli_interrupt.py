@@ -1,0 +1,133 @@
+"""Interrupted runs leave no folder that looks like a result, and do not block the next run.
+
+``identify`` is started in a subprocess and sent SIGINT (Ctrl-C) or SIGKILL at a random
+moment (seeded) after its work began; afterwards ``--out`` is either absent or a complete
+result (the run finished first), and after SIGINT nothing of the run is left beside it.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mocap_mj.errors import OutputFolderError
+from mocap_mj.io.atomic import atomic_folder
+from mocap_mj.results import ResultDir
+from mocap_synth import SynthConfig, synthesize, write_experiment
+
+#: What a complete identify folder holds.
+RESULT_FILES = {"model.xml", "theta.json", "motion.npz", "identifiability.json", "summary.json"}
+
+
+@pytest.fixture(scope="module")
+def markers(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("interrupt")
+    write_experiment(synthesize(SynthConfig(frames=40, seed=5)), root / "synth")
+    return root / "synth" / "markers.csv"
+
+
+def looks_like_a_result(folder: Path) -> bool:
+    try:
+        ResultDir.open(folder)
+    except Exception:
+        return (folder / "summary.json").exists()
+    return True
+
+
+def start_identify(markers: Path, out: Path) -> tuple[subprocess.Popen[str], float]:
+    """Start ``identify``; return it and the moment its work began (its hidden folder exists)."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mocap_mj", "identify", "--markers", str(markers),
+         "--out", str(out), "--json"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )  # fmt: skip
+    deadline = time.monotonic() + 600
+    while not any(p.name.startswith(f".{out.name}.partial-") for p in out.parent.iterdir()):
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline
+        time.sleep(0.02)
+    return proc, time.monotonic()
+
+
+@pytest.fixture(scope="module")
+def work_seconds(markers: Path, tmp_path_factory: pytest.TempPathFactory) -> float:
+    """How long an uninterrupted identify of the trial works (from its hidden folder to exit)."""
+    proc, began = start_identify(markers, tmp_path_factory.mktemp("full") / "out")
+    proc.communicate(timeout=600)
+    assert proc.returncode == 0
+    return time.monotonic() - began
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_interrupted_identify_leaves_no_partial_result(
+    markers: Path, work_seconds: float, tmp_path: Path, sig: signal.Signals, seed: int
+) -> None:
+    out = tmp_path / "out"
+    # A random moment of the work (fit or writing), from a seed.
+    delay = float(np.random.default_rng(seed).uniform(0.0, 0.9)) * work_seconds
+    proc, began = start_identify(markers, out)
+    time.sleep(max(0.0, began + delay - time.monotonic()))
+    proc.send_signal(sig)
+    _, stderr = proc.communicate(timeout=600)
+    assert "Traceback" not in stderr
+    if out.exists():  # the signal came after the rename: then the result is complete
+        assert RESULT_FILES <= {p.name for p in out.iterdir()}
+    else:
+        assert not looks_like_a_result(out)
+        assert proc.returncode == (130 if sig == signal.SIGINT else -signal.SIGKILL)
+    leftovers = [p.name for p in tmp_path.iterdir() if p.name.startswith(".out.")]
+    if sig == signal.SIGINT:
+        assert leftovers == []
+    # Whatever a kill left is no obstacle: the next folder is created and the stale one goes.
+    with atomic_folder(out, force=True) as staging:
+        (staging / "x").write_text("")
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".out.")] == []
+
+
+def test_stale_temporaries_are_removed_and_ignored(tmp_path: Path) -> None:
+    dead = _dead_pid()
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / f".summary.tmp-{dead}-abcd1234.json").write_text("{")  # a killed file write
+    stale_dir = tmp_path / f".out.partial-{dead}-abcd1234"
+    stale_dir.mkdir()
+    (stale_dir / "model.xml").write_text("<mujoco/>")
+    with atomic_folder(out) as staging:  # not refused as "not empty"
+        (staging / "summary.json").write_text("{}")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    assert [p.name for p in out.iterdir()] == ["summary.json"]
+
+
+def test_failed_block_leaves_the_old_folder(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "old.txt").write_text("old")
+    with pytest.raises(KeyboardInterrupt), atomic_folder(out, force=True) as staging:
+        (staging / "new.txt").write_text("new")
+        raise KeyboardInterrupt
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]
+    assert [p.name for p in out.iterdir()] == ["old.txt"]
+    with pytest.raises(OutputFolderError, match="not empty"), atomic_folder(out):
+        pass
+
+
+def _dead_pid() -> int:
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    pid = proc.pid
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return pid
+    pytest.skip("could not find a pid that is not running")
+    raise AssertionError  # unreachable
