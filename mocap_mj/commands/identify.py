@@ -9,12 +9,15 @@ import numpy as np
 
 from ..cli import add_json_flag, finish, prepare_out
 from ..errors import MocapError
-from ..identify.lm import LMSettings, TrialData
+from ..identify.lm import LMSettings
+from ..identify.losses import LossName
 from ..identify.output import frame_range
 from ..identify.pipeline import INITS, identify_to_folder, result_text
 from ..identify.plausibility import kappa_outside_bounds, marker_rmse_by_marker, plausibility_text
+from ..identify.problem import TrialData
 from ..parameters import ParameterSet
 from ._markers import add_marker_options, load_trial
+from .progress import progress_bar
 
 
 def register(sub: Any) -> None:
@@ -62,25 +65,26 @@ def run(args: argparse.Namespace) -> int:
         trials.append(TrialData(t.path, t.markers[sl], t.times[sl]))
     out = prepare_out(args.out, force=args.force)
     if args.solver == "paper":
-        from ..identify.paper import run_paper_cli
+        from .paper import run_paper
 
-        return run_paper_cli(args, pset, trials, ranges, out)
-    loss = "cauchy" if args.robust else args.loss
+        return run_paper(args, pset, trials, ranges, out)
+    loss: LossName = "cauchy" if args.robust else args.loss
     settings = LMSettings(
         max_iterations=args.max_iterations,
         loss=loss,
         prior_sigma=args.prior_mm * 1e-3,
         observable_std=args.observable_mm * 1e-3,
     )
-    summary, result, _ = identify_to_folder(
-        trials,
-        out,
-        pset=pset,
-        settings=settings,
-        init=args.init,
-        progress=not args.json,
-        extra={"markers_files": [t.path for t in loaded], "frames_fitted_range": ranges},
-    )
+    with progress_bar("identify (LM)", enabled=not args.json) as progress:
+        summary, result, _ = identify_to_folder(
+            trials,
+            out,
+            pset=pset,
+            settings=settings,
+            init=args.init,
+            progress=progress,
+            extra={"markers_files": [t.path for t in loaded], "frames_fitted_range": ranges},
+        )
     per_marker = marker_rmse_by_marker(pset, result, trials)
     outside = kappa_outside_bounds(pset, result.theta)
     summary["marker_rmse_by_marker_mm"] = {
