@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 from . import _tree
-from ._schur import KappaTables, kappa_tables
+from ._tree import KappaTables, kappa_tables
 from .errors import MocapError, check_shape
 from .parameters import ParameterSet
 
