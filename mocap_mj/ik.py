@@ -235,6 +235,7 @@ class IKSolver:
         weights: np.ndarray | None = None,
         *,
         max_iterations: int | None = None,
+        tree: _tree.Tree | None = None,
     ) -> IKResult:
         """Solve B independent frames from the given starting poses.
 
@@ -243,6 +244,8 @@ class IKSolver:
         markers : (B, M, 3) float [m], NaN where missing
         qpos0 : (B, nq) float, starting poses
         weights : (M,) or (B, M) float, optional, per-marker weights (default 1)
+        tree : compiled model to solve with, optional (default: the kinematics' at its
+            theta; Algorithm 1 passes models with one parameter perturbed)
         """
         kin, st = self.kin, self.settings
         target, w = self._prepare(markers, weights)
@@ -251,9 +254,15 @@ class IKSolver:
         check_shape("qpos0", qpos, (n, kin.nq))
         limit = st.max_iterations if max_iterations is None else max_iterations
         n_present = np.count_nonzero(w > 0, axis=1)
-        if kin.compiled:
+        if kin.compiled or tree is not None:
             rmse_c, iter_c, status_c = _tree.solve_batch(
-                kin.tree(), target, w, qpos, limit, *self._kernel_settings(), st.min_markers
+                kin.tree() if tree is None else tree,
+                target,
+                w,
+                qpos,
+                limit,
+                *self._kernel_settings(),
+                st.min_markers,
             )
             return IKResult(qpos, rmse_c, iter_c, status_c, n_present)
         status = np.full(n, Status.MAX_ITERATIONS, dtype=int)

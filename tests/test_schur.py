@@ -61,7 +61,7 @@ def test_blocks_match_numpy_normal_equations(problem, limits: bool) -> None:  # 
 
 
 def test_information_matches_pseudo_inverse(problem) -> None:  # type: ignore[no-untyped-def]
-    kin, prob, w = problem
+    _, prob, w = problem
     fast = prob.information(w)
     slow = information(prob, w)
     np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-4 * np.abs(slow).max())

@@ -24,16 +24,14 @@ are laid out:
 
 - every frame's unperturbed IK is warm-started from that frame's previous solution, and every
   perturbed IK from the unperturbed solution of the same frame under the current theta;
-- all (P + 1) x N_F problems of an iteration go through one vectorised
-  :meth:`IKSolver.solve_frames` call (in chunks of ``chunk_rows`` rows to bound memory): the
-  kinematics used there (:class:`TaggedKinematics`) carries, per row, which parameter is
-  perturbed, as one extra column of the configuration. Perturbing a parameter with the pose
-  fixed is an exact rigid translation of a kinematic subtree (a kinematic parameter moves a
-  body's position in its parent's frame) or of one marker site (an offset), so each row's
-  forward kinematics is the unperturbed one plus that translation;
-- the unperturbed E_j(theta) of each difference is a row of the same call, started at the same
-  pose and run for the same iterations as the perturbed rows, so that what the IK still had
-  to converge cancels in the difference;
+- the (P + 1) x N_F problems of an iteration run on the compiled IK
+  (:meth:`IKSolver.solve_frames`), one call per perturbed model over the sampled frames: a
+  perturbed model is the current compiled tree with its body and site positions recomputed
+  for theta + Delta e_i (:meth:`GradientEstimator.perturbed_trees`), the only tables theta
+  enters;
+- the unperturbed E_j(theta) of each difference is solved the same way, started at the same
+  pose and run for the same iterations as the perturbed problems, so that what the IK still
+  had to converge cancels in the difference;
 - the perturbed IK runs at most ``perturbed_iterations`` LM iterations (default 2). From the
   warm start one step lands within O(Delta^2) of the perturbed optimum (measured in
   ``docs/paper.md``: at the true model 2 iterations give the gradient of 100 to 1e-6).
@@ -58,13 +56,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Literal, NamedTuple, get_args
 
-import mujoco
 import numpy as np
 
 from .._threads import single_blas_thread
+from .._tree import Tree
 from ..errors import MocapError, SolverError, check_shape
 from ..ik import IKSettings, IKSolver, Status
-from ..kinematics import Frames, Kinematics
+from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from .heuristics import refit_frames
 from .problem import IdentificationProblem, TrialData, pool, reduced_information, unpool
@@ -113,9 +111,6 @@ class PaperSettings:
         LM iterations of each perturbed IK (warm-started at the unperturbed solution).
     ik_iterations : int
         LM iteration limit of each frame's unperturbed IK (warm-started at its last solution).
-    chunk_rows : int
-        Perturbed IK problems per :meth:`IKSolver.solve_frames` call (memory: about 70 kB
-        per row).
     clip_to_bounds : bool
         Keep theta within ``pset.lower``/``pset.upper`` (the model stays valid if a step
         overshoots; inactive in a converging run).
@@ -139,7 +134,6 @@ class PaperSettings:
     seed: int = 0
     perturbed_iterations: int = 2
     ik_iterations: int = 100
-    chunk_rows: int = 1024
     clip_to_bounds: bool = True
     refit_factor: float = 3.0
     refit_margin: float = 0.001
@@ -160,8 +154,8 @@ class PaperSettings:
             raise MocapError(f"fraction must be in (0, 1], got {self.fraction}")
         if self.seed < 0:
             raise MocapError(f"seed must be >= 0, got {self.seed}")
-        if min(self.perturbed_iterations, self.ik_iterations, self.chunk_rows) < 1:
-            raise MocapError("perturbed_iterations, ik_iterations and chunk_rows must be >= 1")
+        if min(self.perturbed_iterations, self.ik_iterations) < 1:
+            raise MocapError("perturbed_iterations and ik_iterations must be >= 1")
 
 
 class PaperIteration(NamedTuple):
@@ -219,93 +213,6 @@ class PaperResult(IdentificationResult):
     refits: list[int] = field(default_factory=list)
 
 
-# ------------------------------------------------------------------ tagged kinematics
-class TaggedKinematics(Kinematics):
-    """Kinematics of many perturbed models at once, one per row.
-
-    The configuration has one column more than the model's: ``qpos[:, -1]`` is the index i of
-    the parameter perturbed by ``delta`` in that row (-1: none), so that one
-    :class:`IKSolver` call can solve frames of P different models. With the pose fixed,
-    ``theta + delta e_i`` moves, exactly,
-
-    - for a kinematic parameter: each target body (and its subtree: bodies, joint anchors and
-      sites) by ``delta * R_parent D[i, b]``;
-    - for a marker offset (marker m, axis c): site m by ``delta * R_body[:, c]``.
-
-    Orientations (and so joint axes) do not change.
-
-    Parameters
-    ----------
-    pset : ParameterSet
-    delta : float [m]
-    """
-
-    compiled = False  # rows carry their own perturbed model: NumPy path only
-
-    def __init__(self, pset: ParameterSet, delta: float) -> None:
-        super().__init__(pset)
-        self.delta = float(delta)
-        self.model_nq = self.nq
-        self.nq = self.model_nq + 1
-        m = self.model
-        site_body = np.array(m.site_bodyid)
-        jnt_body = np.array(m.jnt_bodyid)
-        k = self.pset.n_kappa
-        # Per kinematic parameter: (parent body, direction, body mask, joint mask, site mask).
-        self._moves: list[list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]]
-        self._moves = [[] for _ in range(k)]
-        for i, b in self.kappa_pairs:
-            sub = self.ancestor[:, b]  # bodies in b's subtree
-            self._moves[i].append(
-                (
-                    int(m.body_parentid[b]),
-                    self.pset.direction[i, b].copy(),
-                    np.flatnonzero(sub),
-                    np.flatnonzero(sub[jnt_body]),
-                    np.flatnonzero(sub[site_body]),
-                )
-            )
-        self._site_body = site_body
-
-    def tagged(self, qpos: np.ndarray, params: np.ndarray) -> np.ndarray:
-        """Configuration (B, nq + 1) from qpos (B, nq) and perturbed parameter (B,) (-1: none)."""
-        return np.concatenate([qpos, np.asarray(params, dtype=float)[:, None]], axis=1)
-
-    def forward(self, qpos: np.ndarray) -> Frames:
-        """Forward kinematics of tagged configurations (B, nq + 1), each row's model its own."""
-        qpos = self._check_qpos(qpos)
-        nq = self.model_nq
-        site_xpos, xpos, xmat, xanchor, xaxis = self._kinematics_rows(qpos[:, :nq])
-        tag = np.rint(qpos[:, nq]).astype(int)
-        k = self.pset.n_kappa
-        for i in np.unique(tag[tag >= 0]):
-            rows = np.flatnonzero(tag == i)
-            if i < k:
-                for parent, direction, bodies, joints, sites in self._moves[i]:
-                    shift = self.delta * (xmat[rows, parent] @ direction)  # (r, 3)
-                    xpos[np.ix_(rows, bodies)] += shift[:, None]
-                    xanchor[np.ix_(rows, joints)] += shift[:, None]
-                    site_xpos[np.ix_(rows, sites)] += shift[:, None]
-            else:
-                s, c = divmod(int(i) - k, 3)
-                site_xpos[rows, s] += self.delta * xmat[rows, self._site_body[s], :, c]
-        return Frames(site_xpos, xpos, xmat, xanchor, xaxis)
-
-    def marker_positions(self, qpos: np.ndarray) -> np.ndarray:
-        return self.forward(qpos).site_xpos
-
-    def integrate(self, qpos: np.ndarray, dv: np.ndarray, scale: float = 1.0) -> np.ndarray:
-        qpos = self._check_qpos(qpos)
-        check_shape("dv", dv, (len(qpos), self.nv))
-        out = qpos.copy()
-        nq = self.model_nq
-        for t in range(len(out)):
-            q = out[t, :nq].copy()
-            mujoco.mj_integratePos(self.model, q, dv[t], scale)
-            out[t, :nq] = q
-        return out
-
-
 # ------------------------------------------------------------------ sampling
 class FrameSampler:
     """The frames each iteration uses (deterministic given the seed).
@@ -354,7 +261,6 @@ class GradientEstimator:
     delta : float [m]
     perturbed_iterations : int
     ik_settings : IKSettings, optional (default :data:`IK_SETTINGS`)
-    chunk_rows : int
     """
 
     def __init__(
@@ -365,24 +271,40 @@ class GradientEstimator:
         perturbed_iterations: int = 3,
         ik_iterations: int = 100,
         ik_settings: IKSettings | None = None,
-        chunk_rows: int = 1024,
     ) -> None:
         self.pset = pset
         self.kin = Kinematics(pset)
-        self.tagged = TaggedKinematics(pset, delta)
-        ik_settings = ik_settings or IK_SETTINGS
-        self.ik = IKSolver(self.kin, ik_settings)
-        self.ik_tagged = IKSolver(self.tagged, ik_settings)
+        self.ik = IKSolver(self.kin, ik_settings or IK_SETTINGS)
         self.delta = float(delta)
         self.perturbed_iterations = perturbed_iterations
         self.ik_iterations = ik_iterations
-        self.chunk_rows = chunk_rows
         self.params = np.flatnonzero(~pset.frozen)
         self.problems = 0
+        self._trees: list[Tree] | None = None
 
     def set_theta(self, theta: np.ndarray) -> None:
         self.kin.set_theta(theta)
-        self.tagged.set_theta(theta)
+        self._trees = None
+
+    def perturbed_trees(self) -> list[Tree]:
+        """The compiled model at theta + Delta e_i for every free parameter i (P_free,).
+
+        theta enters the model only through body positions (kinematic parameters) and site
+        positions (marker offsets), so each perturbed model is the current tree with those
+        two tables recomputed (``ParameterSet.apply``'s own formulas).
+        """
+        if self._trees is None:
+            base, theta = self.kin.tree(), self.kin.theta
+            trees = []
+            for i in self.params:
+                th = theta.copy()
+                th[i] += self.delta
+                offsets = self.pset.split(th)[1]
+                body_pos = np.asarray(self.pset.body_pos(th), dtype=float)
+                site_pos = np.ascontiguousarray(offsets, dtype=float)
+                trees.append(base._replace(body_pos=body_pos, site_pos=site_pos))
+            self._trees = trees
+        return self._trees
 
     def solve(self, markers: np.ndarray, qpos0: np.ndarray) -> np.ndarray:
         """Unperturbed IK (B, nq) of frames (B, M, 3) from qpos0 (B, nq)."""
@@ -394,6 +316,11 @@ class GradientEstimator:
         self.problems += len(markers)
         return r.qpos, r.marker_rmse
 
+    def _energy(self, tree: Tree | None, markers: np.ndarray, qpos: np.ndarray) -> np.ndarray:
+        """E_j (B,) [m^2] after ``perturbed_iterations`` IK iterations from qpos (B, nq)."""
+        r = self.ik.solve_frames(markers, qpos, max_iterations=self.perturbed_iterations, tree=tree)
+        return np.asarray(r.marker_rmse**2 * r.n_markers)
+
     def perturbed_energy(
         self, markers: np.ndarray, qpos: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
@@ -403,22 +330,12 @@ class GradientEstimator:
         runs the same ``perturbed_iterations`` LM iterations, so that what the IK still had to
         converge cancels in the difference.
         """
-        b = len(markers)
-        pf = self.params.size
-        cols = np.concatenate([[-1], self.params])
-        frame = np.repeat(np.arange(b), pf + 1)
-        param = np.tile(cols, b)
-        out = np.empty(b * (pf + 1))
-        for s in range(0, out.size, self.chunk_rows):
-            sl = slice(s, min(s + self.chunk_rows, out.size))
-            q0 = self.tagged.tagged(qpos[frame[sl]], param[sl])
-            r = self.ik_tagged.solve_frames(
-                markers[frame[sl]], q0, max_iterations=self.perturbed_iterations
-            )
-            out[sl] = r.marker_rmse**2 * r.n_markers
-        self.problems += out.size
-        e = out.reshape(b, pf + 1)
-        return e[:, 0], e[:, 1:]
+        e0 = self._energy(None, markers, qpos)
+        ep = np.empty((len(markers), self.params.size))
+        for j, tree in enumerate(self.perturbed_trees()):
+            ep[:, j] = self._energy(tree, markers, qpos)
+        self.problems += len(markers) * (self.params.size + 1)
+        return e0, ep
 
     def gradient(
         self, markers: np.ndarray, qpos0: np.ndarray
@@ -507,7 +424,6 @@ def identify_paper(
         perturbed_iterations=st.perturbed_iterations,
         ik_iterations=st.ik_iterations,
         ik_settings=ik_settings,
-        chunk_rows=st.chunk_rows,
     )
     est.set_theta(theta)
     iks = [est.ik.solve_trial(t.markers) for t in trials]
