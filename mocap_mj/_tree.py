@@ -429,6 +429,13 @@ def project(tr, qpos):
             qpos[a], qpos[a + 1], qpos[a + 2], qpos[a + 3] = q0, q1, q2, q3
 
 
+@_jit
+def project_rows(tr, qpos):
+    """:func:`project` applied in place to every row of qpos (B, nq)."""
+    for t in range(qpos.shape[0]):
+        project(tr, qpos[t])
+
+
 # ------------------------------------------------------------------ one frame's LM
 def work(tr: Tree, nq: int) -> Work:
     """Scratch arrays for one frame (see :class:`Work`)."""

@@ -50,10 +50,6 @@ class Kinematics:
         own copy of the model; :meth:`set_theta` writes theta into that copy.
     """
 
-    #: The compiled kernels of :mod:`mocap_mj._tree` reproduce this class's kinematics
-    #: (subclasses that change :meth:`forward` set this to False).
-    compiled = True
-
     def __init__(self, pset: ParameterSet | None = None) -> None:
         self.pset = pset if pset is not None else ParameterSet()
         from copy import copy
@@ -168,9 +164,7 @@ class Kinematics:
 
     def site_positions(self, qpos: np.ndarray) -> np.ndarray:
         """:meth:`marker_positions` of validated qpos (T, nq), by the compiled kernel."""
-        if self.compiled:
-            return _tree.forward(self.tree(), qpos)
-        return self.marker_positions(qpos)
+        return _tree.forward(self.tree(), qpos)
 
     def forward(self, qpos: np.ndarray) -> Frames:
         """Run ``mj_kinematics`` for each frame of qpos (T, nq) and keep what Jacobians need."""
