@@ -37,6 +37,7 @@ per-frame LM is the test oracle (``tests/_oracles.py``).
 from __future__ import annotations
 
 import enum
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal, NamedTuple
 
@@ -47,11 +48,12 @@ from . import _tree
 from ._threads import single_blas_thread
 from .errors import MocapError, ShapeError, SolverError, check_shape
 from .kinematics import Kinematics
+from .rigid import rigid_fit
 
 PELVIS_MARKERS = ("LASI", "RASI", "LPSI", "RPSI")
 Damping = Literal["adaptive", "sugihara"]
 COMPILED_CHAIN = 32  # longest chain of the compiled solver (chain_length=0)
-PROGRESS_FRAMES = 20_000  # frames per kernel call when a progress bar is shown
+PROGRESS_FRAMES = 20_000  # frames per kernel call when progress is reported
 
 
 class Status(enum.IntEnum):
@@ -259,22 +261,11 @@ class IKSolver:
         enough = present[:, pel].sum(axis=1) >= 3
         use[np.ix_(enough, pel)] = present[np.ix_(enough, pel)]
         use[~enough] = present[~enough]
-        wts = use.astype(float)
-        cnt = np.maximum(wts.sum(axis=1), 1)
-        meas = np.where(use[..., None], markers, 0.0)
-        c_meas = meas.sum(axis=1) / cnt[:, None]
-        c_ref = (wts[..., None] * ref[None]).sum(axis=1) / cnt[:, None]
-        a = (ref[None] - c_ref[:, None]) * wts[..., None]
-        b = (meas - c_meas[:, None]) * wts[..., None]
-        cov = np.einsum("tmi,tmj->tij", b, a)
-        u, _, vt = np.linalg.svd(cov)
-        d = np.sign(np.linalg.det(u @ vt))
-        u[:, :, 2] *= d[:, None]
-        rot = u @ vt  # measured = rot @ ref + p
-        qpos = np.tile(q0, (n, 1))
-        qpos[:, 3:7] = Rotation.from_matrix(rot).as_quat(scalar_first=True)
-        qpos[:, :3] = c_meas - np.einsum("tij,tj->ti", rot, c_ref)
-        qpos[cnt < 3] = np.array(kin.model.qpos0)
+        rot, pos = rigid_fit(np.where(use[..., None], markers, np.nan), ref)
+        qpos = np.tile(np.array(kin.model.qpos0, dtype=float), (n, 1))
+        ok = np.isfinite(pos[:, 0])
+        qpos[ok, 3:7] = Rotation.from_matrix(rot[ok]).as_quat(scalar_first=True)
+        qpos[ok, :3] = pos[ok]
         return qpos
 
     def _chain_length(self, n: int) -> int:
@@ -292,7 +283,7 @@ class IKSolver:
         weights: np.ndarray | None = None,
         *,
         qpos_init: np.ndarray | None = None,
-        progress: bool = False,
+        progress: Callable[[int], None] | None = None,
     ) -> IKResult:
         """Solve every frame of a trial (see the module docstring for the scheme).
 
@@ -303,8 +294,9 @@ class IKSolver:
         qpos_init : (T, nq) float, optional
             Starting poses for every frame (e.g. the previous solution when only theta
             changed); then every frame starts there and the trial is one batch.
-        progress : bool
-            Show a progress bar over the chain steps.
+        progress : callable, optional
+            Called with the number of frames solved so far, after every block of about
+            20,000 frames (the chains then run in blocks).
         """
         kin = self.kin
         markers = np.asarray(markers, dtype=float)
@@ -318,7 +310,10 @@ class IKSolver:
         return self._solve_chains(markers, weights, progress)
 
     def _solve_chains(
-        self, markers: np.ndarray, weights: np.ndarray | None, progress: bool
+        self,
+        markers: np.ndarray,
+        weights: np.ndarray | None,
+        progress: Callable[[int], None] | None,
     ) -> IKResult:
         """:meth:`solve_trial` with the compiled kernels: each chain runs sequentially in one
         thread (no lock-step batches), chains in parallel, in blocks for the progress bar."""
@@ -333,25 +328,25 @@ class IKSolver:
         rmse = np.full(n, np.nan)
         iters = np.zeros(n, dtype=int)
         status = np.zeros(n, dtype=int)
-        block = max(1, PROGRESS_FRAMES // length) if progress else starts.size
-        bar = None
-        if progress and n > PROGRESS_FRAMES:
-            from tqdm import tqdm
-
-            bar = tqdm(total=n, desc="IK", unit="frame", leave=False, delay=2.0)
+        block = starts.size if progress is None else max(1, PROGRESS_FRAMES // length)
         tree, settings = self.kin.tree(), self._kernel_settings()
         for b in range(0, starts.size, block):
             s0, s1 = starts[b], ends[min(b + block, starts.size) - 1]
             rows = slice(s0, s1)
             q, r, it, stat = _tree.solve_chains(
-                tree, target[rows], w[rows], cold[rows], starts[b : b + block] - s0,
-                ends[b : b + block] - s0, st.max_iterations, *settings, st.min_markers,
-            )  # fmt: skip
+                tree,
+                target[rows],
+                w[rows],
+                cold[rows],
+                starts[b : b + block] - s0,
+                ends[b : b + block] - s0,
+                st.max_iterations,
+                *settings,
+                st.min_markers,
+            )
             qpos[rows], rmse[rows], iters[rows], status[rows] = q, r, it, stat
-            if bar is not None:
-                bar.update(s1 - s0)
-        if bar is not None:
-            bar.close()
+            if progress is not None:
+                progress(int(s1))
         self._seams(target, w, qpos, rmse, iters, status, starts, ends)
         npres = np.count_nonzero(w > 0, axis=1)
         self._repair(markers, w, qpos, rmse, iters, status, npres)
@@ -413,9 +408,21 @@ class IKSolver:
                 continue
             a, b = (first[ok], last[ok]) if forward else (last[ok], first[ok])
             _tree.walk(
-                tree, target, w, qpos, rmse, iters, status, qpos[seed[ok]], a, b, False,
-                self.settings.max_iterations, *settings, self.settings.min_markers,
-            )  # fmt: skip
+                tree,
+                target,
+                w,
+                qpos,
+                rmse,
+                iters,
+                status,
+                qpos[seed[ok]],
+                a,
+                b,
+                False,
+                self.settings.max_iterations,
+                *settings,
+                self.settings.min_markers,
+            )
 
     def _seams(
         self,
@@ -451,9 +458,19 @@ class IKSolver:
                 continue
             seeds = qpos[seed_rows[ok]].copy()  # snapshot: a walk may rewrite another's seed
             _tree.walk(
-                tree, target, w, qpos, rmse, iters, status, seeds, firsts[ok], lasts[ok], True,
+                tree,
+                target,
+                w,
+                qpos,
+                rmse,
+                iters,
+                status,
+                seeds,
+                firsts[ok],
+                lasts[ok],
+                True,
                 *limit,
-            )  # fmt: skip
+            )
 
     def _repair(
         self,

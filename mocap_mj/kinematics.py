@@ -132,9 +132,13 @@ class Kinematics:
         """The kinematic parameters' (parameter, body) pairs for the compiled LM blocks."""
         if self._kappa_tables is None:
             self._kappa_tables = kappa_tables(
-                self.kappa_pairs, self.kappa_parent, self.kappa_dir, self.kappa_sites,
-                self.n_markers, self.pset.n_kappa,
-            )  # fmt: skip
+                self.kappa_pairs,
+                self.kappa_parent,
+                self.kappa_dir,
+                self.kappa_sites,
+                self.n_markers,
+                self.pset.n_kappa,
+            )
         return self._kappa_tables
 
     def tree(self) -> _tree.Tree:

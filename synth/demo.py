@@ -66,9 +66,11 @@ def run(args: argparse.Namespace) -> int:
             pset=pset,
             settings=LMSettings(),
             progress=progress,
-            extra={"markers_files": [str(out / "synth" / "markers.csv")],
-                   "frames_fitted_range": [[0, n]]},
-        )  # fmt: skip
+            extra={
+                "markers_files": [str(out / "synth" / "markers.csv")],
+                "frames_fitted_range": [[0, n]],
+            },
+        )
     s = score(out / "synth", out / "result", pset=pset)
     kin = Kinematics(pset)
     kin.set_theta(pset.load_json(out / "result" / "theta.json"))

@@ -60,10 +60,17 @@ def test_lm_stays_in_the_box_and_reports_the_bounds_it_ends_on(exp) -> None:  # 
     width = rng.uniform(0.0, 0.004, pset.size)  # truth: lengths +-10 %, offsets +-20 mm
     lower, upper = theta0 - width, theta0 + rng.uniform(0.0, 0.004, pset.size)
     trial = TrialData("rom", np.asarray(exp.markers), np.asarray(exp.times))
-    r = identify_lm([trial], pset=pset, lower=lower, upper=upper,
-                    settings=LMSettings(max_iterations=4, max_refits=0))  # fmt: skip
+    r = identify_lm(
+        [trial],
+        pset=pset,
+        lower=lower,
+        upper=upper,
+        settings=LMSettings(max_iterations=4, max_refits=0),
+    )
     assert np.all(r.theta >= lower) and np.all(r.theta <= upper)
     assert r.at_bound.any()
     on = r.at_bound
-    assert np.all(np.isclose(r.theta[on], lower[on], atol=1e-12)
-                  | np.isclose(r.theta[on], upper[on], atol=1e-12))  # fmt: skip
+    assert np.all(
+        np.isclose(r.theta[on], lower[on], atol=1e-12)
+        | np.isclose(r.theta[on], upper[on], atol=1e-12)
+    )

@@ -151,8 +151,20 @@ def test_frame_sampler() -> None:
 def test_cli_paper_result_is_scored(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     synth, res = tmp_path / "synth", tmp_path / "result"
     write_experiment(synthesize(SynthConfig(frames=20, seed=1)), synth)
-    argv = ["identify", "--markers", str(synth / "markers.csv"), "--out", str(res), "--json",
-            "--solver", "paper", "--sampling", "stochastic", "--iterations", "4"]  # fmt: skip
+    argv = [
+        "identify",
+        "--markers",
+        str(synth / "markers.csv"),
+        "--out",
+        str(res),
+        "--json",
+        "--solver",
+        "paper",
+        "--sampling",
+        "stochastic",
+        "--iterations",
+        "4",
+    ]
     assert main(argv) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["solver"] == "paper" and summary["iterations"] == 4
@@ -165,8 +177,20 @@ def test_cli_paper_result_is_scored(tmp_path: Path, capsys: pytest.CaptureFixtur
     for key in ("kappa_rmse_mm", "offset_rmse_mm", "marker_rmse_mm", "joint_rmse_deg"):
         assert np.isfinite(s[key]), key
     # --sampling is required with --solver paper: a one-line error.
-    assert main(["identify", "--markers", str(synth / "markers.csv"), "--out",
-                 str(tmp_path / "r2"), "--solver", "paper"]) == 2  # fmt: skip
+    assert (
+        main(
+            [
+                "identify",
+                "--markers",
+                str(synth / "markers.csv"),
+                "--out",
+                str(tmp_path / "r2"),
+                "--solver",
+                "paper",
+            ]
+        )
+        == 2
+    )
     assert "--sampling" in capsys.readouterr().err
 
 
@@ -190,8 +214,15 @@ def test_score_of_the_truth_is_zero(tmp_path: Path) -> None:
     (res / "identifiability.json").write_text(json.dumps(idf.to_json()))
     (res / "summary.json").write_text(json.dumps({"frames_fitted_range": [[0, 12]]}))
     s = score(synth, res, pset=pset)
-    for key in ("kappa_rmse_mm", "offset_rmse_mm", "kappa_rmse_all_mm", "offset_rmse_all_mm",
-                "marker_rmse_mm", "joint_centre_rmse_mm", "gauge_displacement_mm"):  # fmt: skip
+    for key in (
+        "kappa_rmse_mm",
+        "offset_rmse_mm",
+        "kappa_rmse_all_mm",
+        "offset_rmse_all_mm",
+        "marker_rmse_mm",
+        "joint_centre_rmse_mm",
+        "gauge_displacement_mm",
+    ):
         assert s[key] == pytest.approx(0.0, abs=1e-3), key
     assert s["joint_rmse_deg"] == pytest.approx(0.0, abs=1e-4)
     assert s["frames_fitted"] == 12
@@ -205,8 +236,16 @@ def test_experiment_writes_table_and_figures(tmp_path: Path) -> None:
         frames=30, iterations=2, batch_iterations=1, stochastic=(2, 4), lm_iterations=3
     )
     summary = run_experiment(cfg, tmp_path, progress=False)
-    names = {"report.md", "table1.csv", "table1.json", "frame_error.csv", "traces.json",
-             "fig3.png", "fig4.png", "convergence.png"}  # fmt: skip
+    names = {
+        "report.md",
+        "table1.csv",
+        "table1.json",
+        "frame_error.csv",
+        "traces.json",
+        "fig3.png",
+        "fig4.png",
+        "convergence.png",
+    }
     assert names <= {p.name for p in tmp_path.iterdir()}
     labels = [t["label"] for t in summary["table"]]
     assert labels[0] == "initial (nominal) model" and labels[-1] == "joint LM (this project)"

@@ -92,8 +92,10 @@ def test_bounds_are_checked_and_pooling_round_trips() -> None:
     assert np.all(np.isneginf(lo)) and hi[2] == 3.0
     with pytest.raises(MocapError, match=r"lower\[1\]"):
         check_bounds(2, np.array([0.0, 2.0]), np.array([1.0, 1.0]))
-    trials = [TrialData(f"t{i}", np.full((n, 2, 3), float(i)), np.arange(n) * 0.01)
-              for i, n in enumerate((4, 3))]  # fmt: skip
+    trials = [
+        TrialData(f"t{i}", np.full((n, 2, 3), float(i)), np.arange(n) * 0.01)
+        for i, n in enumerate((4, 3))
+    ]
     used = [np.array([True, False, True, True]), np.array([False, True, True])]
     q = [np.arange(4.0)[:, None], np.arange(3.0)[:, None] + 10]
     markers, pooled = pool(trials, q, used)

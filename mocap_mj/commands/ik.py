@@ -17,6 +17,7 @@ from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..results import Motion, save_motion
 from ._markers import add_marker_options, load_trial
+from .progress import frames_bar
 
 
 def register(sub: Any) -> None:
@@ -55,7 +56,8 @@ def run(args: argparse.Namespace) -> int:
         ),
     )
     t0 = time.perf_counter()
-    result = solver.solve_trial(trial.markers, progress=not args.json)
+    with frames_bar("IK", len(trial.markers), enabled=not args.json) as progress:
+        result = solver.solve_trial(trial.markers, progress=progress)
     seconds = time.perf_counter() - t0
     pset.export_mjcf(out / "model.xml", pset.nominal)
     save_motion(

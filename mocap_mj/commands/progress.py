@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 from ..identify.result import ProgressCallback, TraceEntry
 
@@ -34,4 +34,25 @@ def progress_bar(desc: str, enabled: bool = True) -> Iterator[ProgressCallback |
         bar.close()
 
 
-__all__ = ["progress_bar"]
+@contextlib.contextmanager
+def frames_bar(
+    desc: str, total: int, enabled: bool = True
+) -> Iterator[Callable[[int], None] | None]:
+    """A callback taking the number of frames done so far (None when disabled)."""
+    if not enabled:
+        yield None
+        return
+    from tqdm import tqdm
+
+    bar = tqdm(total=total, desc=desc, unit="frame", leave=False, delay=2)
+
+    def update(done: int) -> None:
+        bar.update(done - bar.n)
+
+    try:
+        yield update
+    finally:
+        bar.close()
+
+
+__all__ = ["frames_bar", "progress_bar"]
