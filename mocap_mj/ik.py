@@ -396,7 +396,6 @@ class IKSolver:
         """Compiled repair: every run of bad frames is walked from its good left neighbour
         (forwards), then what is still bad from its good right neighbour (backwards)."""
         target = np.where(np.isfinite(markers), markers, 0.0)
-        tree, settings = self.kin.tree(), self._kernel_settings()
         n = len(markers)
         for forward in (True, False):
             bad = solvable & ~(rmse <= limit)
@@ -407,22 +406,34 @@ class IKSolver:
             if not np.any(ok):
                 continue
             a, b = (first[ok], last[ok]) if forward else (last[ok], first[ok])
-            _tree.walk(
-                tree,
-                target,
-                w,
-                qpos,
-                rmse,
-                iters,
-                status,
-                qpos[seed[ok]],
-                a,
-                b,
-                False,
-                self.settings.max_iterations,
-                *settings,
-                self.settings.min_markers,
-            )
+            self._walk(target, w, (qpos, rmse, iters, status), qpos[seed[ok]], a, b, False)
+
+    def _walk(
+        self,
+        target: np.ndarray,
+        w: np.ndarray,
+        out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+        seeds: np.ndarray,
+        firsts: np.ndarray,
+        lasts: np.ndarray,
+        seams: bool,
+    ) -> None:
+        """:func:`mocap_mj._tree.walk` with this solver's settings: frames firsts -> lasts
+        re-solved from seeds (k, nq), into out = (qpos, rmse, iters, status)."""
+        st = self.settings
+        _tree.walk(
+            self.kin.tree(),
+            target,
+            w,
+            *out,
+            seeds,
+            firsts,
+            lasts,
+            seams,
+            st.max_iterations,
+            *self._kernel_settings(),
+            st.min_markers,
+        )
 
     def _seams(
         self,
@@ -444,8 +455,6 @@ class IKSolver:
         good chain costs one warm-started frame per seam."""
         if starts.size < 2:
             return
-        tree, settings = self.kin.tree(), self._kernel_settings()
-        limit = (self.settings.max_iterations, *settings, self.settings.min_markers)
         for forward in (True, False):
             if forward:
                 seed_rows, firsts, lasts = ends[:-1] - 1, starts[1:], ends[1:] - 1
@@ -457,20 +466,7 @@ class IKSolver:
             if not np.any(ok):
                 continue
             seeds = qpos[seed_rows[ok]].copy()  # snapshot: a walk may rewrite another's seed
-            _tree.walk(
-                tree,
-                target,
-                w,
-                qpos,
-                rmse,
-                iters,
-                status,
-                seeds,
-                firsts[ok],
-                lasts[ok],
-                True,
-                *limit,
-            )
+            self._walk(target, w, (qpos, rmse, iters, status), seeds, firsts[ok], lasts[ok], True)
 
     def _repair(
         self,

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from mocap_mj.errors import MocapError
-from mocap_mj.identify.lm import System, bounded_step
+from mocap_mj.identify.lm import bounded_step
 from mocap_mj.identify.losses import LOSS_NAMES, loss_named
 from mocap_mj.identify.priors import LinearGaussianPrior, Prior, total_prior, weak_prior
 from mocap_mj.identify.problem import TrialData, check_bounds, pool, unpool
@@ -79,8 +79,7 @@ def test_bounded_step_stays_in_the_box() -> None:
         theta = rng.uniform(lower, upper)
         snap = rng.integers(0, 3, p)  # some starts exactly on a bound
         theta = np.where(snap == 1, lower, np.where(snap == 2, upper, theta))
-        system = System(s, rhs, rhs, np.diag(s).copy(), np.zeros((0, 1)), np.zeros((0, 1)), [])
-        dth, held = bounded_step(system, rhs, s + 1e-3 * np.eye(p), theta, lower, upper, 1e-12)
+        dth, held = bounded_step(s, rhs, s + 1e-3 * np.eye(p), theta, lower, upper, 1e-12)
         new = theta + dth
         assert np.all(new >= lower) and np.all(new <= upper)
         assert np.all(dth[held] == 0.0)

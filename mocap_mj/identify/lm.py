@@ -189,26 +189,13 @@ class LMSettings:
 
 
 # ------------------------------------------------------------------ one damped step
-class System(NamedTuple):
-    """The damped reduced system of one iteration over the free parameters.
-
-    s (Pf, Pf) and rhs (Pf,) without prior and damping; g_theta, diag_c (Pf,); g_q, diag_a
-    (n, nv); chunks: the frames' eliminations (kept when ``cache``, else recomputed).
-    """
-
-    s: np.ndarray
-    rhs: np.ndarray
-    g_theta: np.ndarray
-    diag_c: np.ndarray
-    g_q: np.ndarray
-    diag_a: np.ndarray
-    chunks: list[ReducedChunk]
-
-
 def build_system(
     problem: IdentificationProblem, w: np.ndarray, mu: float, chunks: list[slice], cache: bool
-) -> System:
-    """Accumulate the reduced system chunk by chunk with weights w (n, M) and damping mu."""
+) -> ReducedChunk:
+    """The damped reduced system of all frames with weights w (n, M) and damping mu,
+    accumulated chunk by chunk: s and rhs without prior and damping; its ``step`` maps dtheta
+    to every frame's pose step (from the chunks' eliminations, kept when ``cache``, else
+    recomputed)."""
     pf, nv = problem.free.size, problem.kin.nv
     s_mat, rhs = np.zeros((pf, pf)), np.zeros(pf)
     g_theta, diag_c = np.zeros(pf), np.zeros(pf)
@@ -223,7 +210,14 @@ def build_system(
         diag_c += red.diag_c
         if cache:
             kept.append(red)
-    return System(s_mat, rhs, g_theta, diag_c, g_q, diag_a, kept)
+
+    def step(dth: np.ndarray) -> np.ndarray:
+        dq = np.empty((problem.n, nv))
+        for i, sl in enumerate(chunks):
+            dq[sl] = (kept[i] if cache else problem.reduce(sl, w, mu)).step(dth)
+        return dq
+
+    return ReducedChunk(s_mat, rhs, g_theta, diag_c, g_q, diag_a, step)
 
 
 def informed_solve(
@@ -237,7 +231,7 @@ def informed_solve(
 
 
 def bounded_step(
-    system: System,
+    s_mat: np.ndarray,
     rhs: np.ndarray,
     s_damped: np.ndarray,
     theta_f: np.ndarray,
@@ -246,6 +240,9 @@ def bounded_step(
     floor: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The parameter step dtheta (Pf,) [m] within the box, and which parameters were held.
+
+    s_mat (Pf, Pf): the reduced information (for the informed directions, ``floor``);
+    s_damped: the damped system with the priors; rhs (Pf,); theta_f, lower_f, upper_f (Pf,) [m].
 
     Active set: a parameter on a bound whose step points outward is held (its row and column
     leave the reduced system) and the system is solved again, until no held parameter is
@@ -257,7 +254,7 @@ def bounded_step(
         idx = np.flatnonzero(keep)
         dth[:] = 0.0
         sub = np.ix_(idx, idx)
-        dth[idx] = informed_solve(system.s[sub], s_damped[sub], rhs[idx], floor)
+        dth[idx] = informed_solve(s_mat[sub], s_damped[sub], rhs[idx], floor)
         out = keep & (((theta_f <= lower_f) & (dth < 0)) | ((theta_f >= upper_f) & (dth > 0)))
         if not np.any(out):
             break
@@ -296,7 +293,7 @@ def propose(
     s_damped = system.s + h_prior + np.diag(mu * (system.diag_c + d_prior)) + 1e-15 * np.eye(f.size)
     rhs = system.rhs - g_prior
     dth, _ = bounded_step(
-        system,
+        system.s,
         rhs,
         s_damped,
         theta[f],
@@ -304,10 +301,7 @@ def propose(
         problem.upper[f],
         st.prior_ratio * st.prior_weight,
     )
-    dq = np.empty((problem.n, problem.kin.nv))
-    for i, sl in enumerate(chunks):
-        red = system.chunks[i] if cache else problem.reduce(sl, w, mu)
-        dq[sl] = red.step(dth)
+    dq = system.step(dth)
     theta_new = theta.copy()
     theta_new[f] += dth
     q_new = finish_poses(problem, theta_new, dq, w, st.refine_iterations)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Callable, Sequence
-from typing import NamedTuple
+from typing import NamedTuple, TypedDict, Unpack
 
 import numpy as np
 
@@ -266,36 +266,30 @@ class IdentificationProblem:
         return a, b[:, :, f], gq, c[np.ix_(f, f)], gt[f]
 
 
+class ProblemOptions(TypedDict, total=False):
+    """The optional keywords of :class:`IdentificationProblem` (see there)."""
+
+    theta0: np.ndarray | None
+    priors: Sequence[Prior]
+    lower: np.ndarray | None
+    upper: np.ndarray | None
+    loss: Loss | None
+
+
 def build_problem(
     kin: Kinematics,
     trials: Sequence[TrialData],
     qpos: Sequence[np.ndarray],
     used: Sequence[np.ndarray],
     free: np.ndarray,
-    *,
-    theta0: np.ndarray | None = None,
-    priors: Sequence[Prior] = (),
-    lower: np.ndarray | None = None,
-    upper: np.ndarray | None = None,
-    loss: Loss | None = None,
+    **options: Unpack[ProblemOptions],
 ) -> IdentificationProblem:
     """The problem over the used frames (``used[i]`` (T_i,) bool) of the trials, from poses
-    qpos (T_i, nq) per trial; the keywords are :class:`IdentificationProblem`'s."""
+    qpos (T_i, nq) per trial."""
     if sum(int(u.sum()) for u in used) == 0:
         raise SolverError("no frame has enough markers to be solved")
     markers, q = pool(trials, qpos, used)
-    return IdentificationProblem(
-        kin,
-        markers,
-        q,
-        free,
-        theta0=theta0,
-        priors=priors,
-        lower=lower,
-        upper=upper,
-        loss=loss,
-        used=used,
-    )
+    return IdentificationProblem(kin, markers, q, free, used=used, **options)
 
 
 def reduced_information(
@@ -325,6 +319,7 @@ __all__ = [
     "IdentificationProblem",
     "LinearGaussianPrior",
     "Prior",
+    "ProblemOptions",
     "ReducedChunk",
     "TrialData",
     "build_problem",
