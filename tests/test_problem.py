@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import ast
 import importlib
 import pkgutil
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+import mocap_mj
 from mocap_mj.errors import MocapError
 from mocap_mj.identify.lm import bounded_step
 from mocap_mj.identify.losses import LOSS_NAMES, loss_named
@@ -123,3 +126,18 @@ def test_every_all_name_resolves(module: str) -> None:
     mod = importlib.import_module(module)
     missing = [n for n in getattr(mod, "__all__", []) if not hasattr(mod, n)]
     assert not missing, f"{module}.__all__ names missing: {missing}"
+
+
+def test_library_does_not_import_the_command_line_layer() -> None:
+    # Only cli.py, __main__.py and commands/ may import the CLI layer (docs/architecture.md).
+    root = Path(mocap_mj.__file__).parent
+    offenders = []
+    for path in root.rglob("*.py"):
+        rel = path.relative_to(root).as_posix()
+        if rel.startswith("commands/") or rel in ("cli.py", "__main__.py"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module is not None:
+                if {"cli", "commands"} & set(node.module.split(".")):
+                    offenders.append(f"{rel}: from {'.' * node.level}{node.module}")
+    assert not offenders, offenders
