@@ -303,7 +303,7 @@ def propose(
     )
     dq = system.step(dth)
     theta_new = theta.copy()
-    theta_new[f] += dth
+    theta_new[f] = np.clip(theta[f] + dth, problem.lower[f], problem.upper[f])  # exactly inside
     q_new = finish_poses(problem, theta_new, dq, w, st.refine_iterations)
     dist_new = problem.residuals(q_new)
     # Decrease predicted by the damped quadratic model: 1/2 h^T (mu D h + g) (Nielsen).
