@@ -37,7 +37,7 @@ def refit_frames(
     leave; with the model improved, a fresh IK (new chain starts, repair) finds the right one.
     """
     present = np.all(np.isfinite(markers), axis=2)
-    x = solver.kin.marker_positions(qpos)
+    x = solver.kin.site_positions(qpos)
     before = frame_rmse(np.linalg.norm(np.nan_to_num(markers) - x, axis=2), present)
     changed = [np.zeros(0, dtype=int)]
     for seg in segments:
