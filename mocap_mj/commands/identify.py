@@ -17,7 +17,6 @@ from ..identify.plausibility import kappa_outside_bounds, marker_rmse_by_marker,
 from ..identify.problem import TrialData
 from ..parameters import ParameterSet
 from ._markers import add_marker_options, load_trial
-from .progress import progress_bar
 
 
 def register(sub: Any) -> None:
@@ -75,6 +74,8 @@ def run(args: argparse.Namespace) -> int:
         prior_sigma=args.prior_mm * 1e-3,
         observable_std=args.observable_mm * 1e-3,
     )
+    from .progress import progress_bar
+
     with progress_bar("identify (LM)", enabled=not args.json) as progress:
         summary, result, _ = identify_to_folder(
             trials,

@@ -17,7 +17,6 @@ from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..results import Motion, save_motion
 from ._markers import add_marker_options, load_trial
-from .progress import frames_bar
 
 
 def register(sub: Any) -> None:
@@ -56,6 +55,8 @@ def run(args: argparse.Namespace) -> int:
         ),
     )
     t0 = time.perf_counter()
+    from .progress import frames_bar
+
     with frames_bar("IK", len(trial.markers), enabled=not args.json) as progress:
         result = solver.solve_trial(trial.markers, progress=progress)
     seconds = time.perf_counter() - t0
