@@ -50,8 +50,11 @@ def main() -> None:
     # process, timed apart. 100 frames: batches of 64 frames and more use the kernels'
     # parallel variants, which load separately.
     t0 = time.perf_counter()
-    identify_lm([TrialData("warm-up", data.markers[:100], data.times[:100])], pset=pset,
-                settings=LMSettings(max_iterations=1))  # fmt: skip
+    identify_lm(
+        [TrialData("warm-up", data.markers[:100], data.times[:100])],
+        pset=pset,
+        settings=LMSettings(max_iterations=1),
+    )
     print(f"0. kernels loaded in {time.perf_counter() - t0:.2f} s (first call in a process)\n")
     t0 = time.perf_counter()
     lm = identify_lm([data], pset=pset)
@@ -67,10 +70,14 @@ def main() -> None:
     bound = float(np.sqrt(np.mean(np.diag(idf.crlb))))
     e_lm = err(lm.theta)
     print("1. joint LM, 500 frames, 147 parameters")
-    print(f"   {t_lm:.2f} s ({lm.init_seconds:.2f} s initial IK), {lm.iterations} iterations, "
-          f"{lm.termination.value}")  # fmt: skip
-    print(f"   observable theta error {e_lm * 1e3:.3f} mm RMS, CRLB {bound * 1e3:.3f} mm "
-          f"(ratio {e_lm / bound:.2f}); marker RMSE {lm.marker_rmse * 1e3:.3f} mm")  # fmt: skip
+    print(
+        f"   {t_lm:.2f} s ({lm.init_seconds:.2f} s initial IK), {lm.iterations} iterations, "
+        f"{lm.termination.value}"
+    )
+    print(
+        f"   observable theta error {e_lm * 1e3:.3f} mm RMS, CRLB {bound * 1e3:.3f} mm "
+        f"(ratio {e_lm / bound:.2f}); marker RMSE {lm.marker_rmse * 1e3:.3f} mm"
+    )
     for log in lm.trace[:: max(1, len(lm.trace) // 8)]:
         print(f"   iter {log.iteration:3d}  error {err(log.theta) * 1e3:8.3f} mm")
     times = []
@@ -82,8 +89,10 @@ def main() -> None:
         print(f"   seed {seed}: {times[-1]:.2f} s, {r.iterations} iterations")
     if times:
         times.append(t_lm)
-        print(f"   seeds 0-{args.seeds - 1}: median {np.median(times):.2f} s, "
-              f"{sum(t <= 1.0 for t in times)} of {len(times)} within 1 s")  # fmt: skip
+        print(
+            f"   seeds 0-{args.seeds - 1}: median {np.median(times):.2f} s, "
+            f"{sum(t <= 1.0 for t in times)} of {len(times)} within 1 s"
+        )
 
     print(f"\n2. Algorithm 1 (finite differences through IK), budget {args.budget:.0f} s each")
     try:
@@ -98,12 +107,16 @@ def main() -> None:
             reached = next((s for s, e in errors if e <= e_lm * 1.05), None)
             last_s, last_e = errors[-1] if errors else (float("nan"), float("nan"))
             if reached is not None:
-                print(f"   {sampling:<10} reached the LM's error (+5 %) after {reached:.1f} s: "
-                      f"{reached / t_lm:.0f}x the LM's time")  # fmt: skip
+                print(
+                    f"   {sampling:<10} reached the LM's error (+5 %) after {reached:.1f} s: "
+                    f"{reached / t_lm:.0f}x the LM's time"
+                )
             else:
-                print(f"   {sampling:<10} {len(errors)} iterations in {last_s:.1f} s: error "
-                      f"{last_e * 1e3:.2f} mm ({last_e / e_lm:.1f}x the LM's after "
-                      f"{last_s / t_lm:.0f}x its time); not reached")  # fmt: skip
+                print(
+                    f"   {sampling:<10} {len(errors)} iterations in {last_s:.1f} s: error "
+                    f"{last_e * 1e3:.2f} mm ({last_e / e_lm:.1f}x the LM's after "
+                    f"{last_s / t_lm:.0f}x its time); not reached"
+                )
 
     print("\n3. joint LM: frames vs time (linear?) and peak traced memory")
     sizes = [500, 5000] + ([50_000] if args.large else [])
@@ -116,9 +129,11 @@ def main() -> None:
         peak = tracemalloc.get_traced_memory()[1]
         tracemalloc.stop()
         per_it = np.mean([log.seconds for log in r.trace])
-        print(f"   {n:>7} frames: {seconds:8.1f} s, {r.iterations:3d} iterations, "
-              f"{per_it * 1e3:8.1f} ms/iteration ({per_it / n * 1e6:.1f} us/frame), "
-              f"peak {peak / 2**20:8.0f} MiB, RMSE {r.marker_rmse * 1e3:.3f} mm")  # fmt: skip
+        print(
+            f"   {n:>7} frames: {seconds:8.1f} s, {r.iterations:3d} iterations, "
+            f"{per_it * 1e3:8.1f} ms/iteration ({per_it / n * 1e6:.1f} us/frame), "
+            f"peak {peak / 2**20:8.0f} MiB, RMSE {r.marker_rmse * 1e3:.3f} mm"
+        )
 
 
 def _run_budget(identify_paper, data, pset, settings, budget):  # type: ignore[no-untyped-def]

@@ -100,13 +100,6 @@ def main() -> None:
         rows.append(("mink (daqp, warm start)", seconds, r, float("nan")))
     except ImportError as exc:
         print(f"mink not installed ({exc}); pip install '.[bench]'")
-    # The lock-step NumPy path (batched 48x48 solves; still used by Algorithm 1's kinematics
-    # with per-row perturbed models), for reference.
-    numpy_kin = Kinematics(pset)
-    numpy_kin.set_theta(np.asarray(exp.theta_true))
-    numpy_kin.compiled = False
-    seconds, r, iters = run_ours(numpy_kin, markers, "adaptive", 1)
-    rows.append(("NumPy lock-step (adaptive)", seconds, r, iters))
     for label, seconds, r, iters in rows:
         ok = "yes" if abs(r - reference) < 1e-5 else "no"
         rate = args.frames / seconds

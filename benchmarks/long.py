@@ -33,8 +33,9 @@ from numpy.lib.format import open_memmap
 
 from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.identify.identifiability import Identifiability
-from mocap_mj.identify.lm import LMResult, LMSettings, TrialData, _Problem, identify_lm
+from mocap_mj.identify.lm import LMResult, LMSettings, TrialData, identify_lm
 from mocap_mj.identify.long import identify_long
+from mocap_mj.identify.problem import IdentificationProblem
 from mocap_mj.score import align_truth
 
 
@@ -77,8 +78,10 @@ def all_frames_bound(
     rows = np.arange(0, len(markers), stride)
     rows = rows[np.all(np.isfinite(qpos[rows]), axis=1)]
     m = np.asarray(markers[rows])
-    prob = _Problem(kin, m, np.array(qpos[rows]), np.flatnonzero(lm.free))
-    info = prob.information(prob.present.astype(float), pset.size) * stride
+    prob = IdentificationProblem(
+        kin, m, np.array(qpos[rows]), np.flatnonzero(lm.free), theta0=lm.theta
+    )
+    info = prob.information(prob.present.astype(float)) * stride
     return Identifiability(pset, info, lm.sigma, observable_std=0.005, theta=lm.theta)
 
 

@@ -63,9 +63,9 @@ def compare(
 ) -> dict[str, float]:
     kin = Kinematics(pset)
     solver = IKSolver(kin, IKSettings())
-    solver.solve_trial(markers[:3], progress=False)  # compile the kernels outside the timing
+    solver.solve_trial(markers[:3])  # compile the kernels outside the timing
     t0 = time.perf_counter()
-    ours = solver.solve_trial(markers, progress=False).qpos
+    ours = solver.solve_trial(markers).qpos
     t_ours = time.perf_counter() - t0
     with tempfile.TemporaryDirectory() as work:
         osim = run_opensim_ik(kin.model, pset.marker_names, times, markers, work, accuracy=accuracy)

@@ -26,62 +26,19 @@ import numpy as np
 
 from ._tree import (
     HINGE,
+    KappaTables,
     Tree,
-    _blocked,
-    _column,
-    _hold,
     _jit,
-    _work,
+    blocked_dofs,
     blocks,
     factor,
     fk,
+    hold_blocked,
     normal_equations,
     run_blocks,
+    site_column,
+    work_arrays,
 )
-
-
-class KappaTables(NamedTuple):
-    """(parameter, body) pairs of the kinematic parameters and the sites each pair moves.
-
-    Fields
-    ------
-    pair_k, pair_parent : (npair,) int, the parameter and the moved body's parent
-    pair_dir : (npair, 3) float, direction in the parent's frame
-    site_pairptr : (ns + 1,) int; site_pairs : (sum,) int, the pairs that move each site
-    n_kappa : int
-    """
-
-    pair_k: np.ndarray
-    pair_parent: np.ndarray
-    pair_dir: np.ndarray
-    site_pairptr: np.ndarray
-    site_pairs: np.ndarray
-    n_kappa: int
-
-
-def kappa_tables(
-    pairs: tuple[tuple[int, int], ...],
-    parents: np.ndarray,
-    directions: np.ndarray,
-    sites_of_pair: list[np.ndarray],
-    n_sites: int,
-    n_kappa: int,
-) -> KappaTables:
-    """:class:`KappaTables` from :class:`mocap_mj.Kinematics`' kappa tables."""
-    per_site: list[list[int]] = [[] for _ in range(n_sites)]
-    for p, sites in enumerate(sites_of_pair):
-        for s in sites:
-            per_site[int(s)].append(p)
-    ptr = np.concatenate([[0], np.cumsum([len(x) for x in per_site])]).astype(np.int64)
-    flat = np.array([p for x in per_site for p in x], dtype=np.int64)
-    return KappaTables(
-        np.array([k for k, _ in pairs], dtype=np.int64),
-        np.asarray(parents, dtype=np.int64),
-        np.asarray(directions, dtype=float),
-        ptr,
-        flat,
-        int(n_kappa),
-    )
 
 
 @_jit
@@ -104,7 +61,7 @@ def _schur_range(
     diag_out, c_acc, gt_acc,
 ):  # fmt: skip
     nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
-    w = _work(nbody, njnt, ns, nv, qpos.shape[1])
+    w = work_arrays(nbody, njnt, ns, nv, qpos.shape[1])
     kn = kt.n_kappa
     n_par = kn + 3 * ns
     vp = np.zeros((kt.pair_k.size, 3))
@@ -129,7 +86,7 @@ def _schur_range(
             d_lo, d_hi = tr.site_dofptr[s], tr.site_dofptr[s + 1]
             for k in range(d_hi - d_lo):
                 v = tr.site_dofs[d_lo + k]
-                w.jcol[k, 0], w.jcol[k, 1], w.jcol[k, 2] = _column(tr, w, v, s)
+                w.jcol[k, 0], w.jcol[k, 1], w.jcol[k, 2] = site_column(tr, w, v, s)
             rot = w.xmat[tr.site_body[s]]
             off = kn + 3 * s
             for pi in range(kt.site_pairptr[s], kt.site_pairptr[s + 1]):
@@ -157,8 +114,8 @@ def _schur_range(
                 gt_acc[off + j] += e0 * r0 + e1 * r1 + e2 * r2
                 c_acc[off + j, off + j] += ws
         h, g = w.h, w.g
-        if use_limits and _blocked(tr, qpos[t], g, w.blocked, g):
-            _hold(tr, qpos[t], w.blocked, h, True)
+        if use_limits and blocked_dofs(tr, qpos[t], g, w.blocked, g):
+            hold_blocked(tr, qpos[t], w.blocked, h, True)
             for v in range(nv):
                 if w.blocked[v] and tr.jnt_type[tr.dof_jnt[v]] == HINGE:
                     bmat[v, :] = 0.0

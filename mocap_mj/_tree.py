@@ -274,7 +274,7 @@ def dof_axes(tr, w):
 
 
 @_inline
-def _column(tr, w, v, s):
+def site_column(tr, w, v, s):
     """d x_s / d qvel_v (3,) as a tuple [m/rad or m/m]."""
     a = w.axis[v]
     if tr.dof_kind[v] == TRANSLATION:
@@ -303,7 +303,7 @@ def normal_equations(tr, target, wts, w):
         lo, hi = tr.site_dofptr[s], tr.site_dofptr[s + 1]
         for k in range(hi - lo):
             v = tr.site_dofs[lo + k]
-            c0, c1, c2 = _column(tr, w, v, s)
+            c0, c1, c2 = site_column(tr, w, v, s)
             jc[k, 0], jc[k, 1], jc[k, 2] = c0, c1, c2
             g[v] += c0 * r0 + c1 * r1 + c2 * r2
             c0, c1, c2 = ws * c0, ws * c1, ws * c2
@@ -320,7 +320,7 @@ def jacobian(tr, w, out):
     for s in range(tr.site_body.size):
         for k in range(tr.site_dofptr[s], tr.site_dofptr[s + 1]):
             v = tr.site_dofs[k]
-            out[s, 0, v], out[s, 1, v], out[s, 2, v] = _column(tr, w, v, s)
+            out[s, 0, v], out[s, 1, v], out[s, 2, v] = site_column(tr, w, v, s)
 
 
 # ------------------------------------------------------------------ sparse LDL
@@ -454,15 +454,22 @@ def project(tr, qpos):
             qpos[a], qpos[a + 1], qpos[a + 2], qpos[a + 3] = q0, q1, q2, q3
 
 
+@_jit
+def project_rows(tr, qpos):
+    """:func:`project` applied in place to every row of qpos (B, nq)."""
+    for t in range(qpos.shape[0]):
+        project(tr, qpos[t])
+
+
 # ------------------------------------------------------------------ one frame's LM
 def work(tr: Tree, nq: int) -> Work:
     """Scratch arrays for one frame (see :class:`Work`)."""
     nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
-    return _work(nbody, njnt, ns, nv, nq)
+    return work_arrays(nbody, njnt, ns, nv, nq)
 
 
 @_jit
-def _work(nbody, njnt, ns, nv, nq):
+def work_arrays(nbody, njnt, ns, nv, nq):
     return Work(
         np.zeros((nbody, 3)),
         np.zeros((nbody, 4)),
@@ -498,13 +505,13 @@ def _ball_axis(q, a):
 
 
 @_jit
-def _blocked(tr, q, dv, out, gb):
+def blocked_dofs(tr, q, dv, out, gb):
     """out (nv,) bool: dofs held for a step dv; returns any.
 
     A hinge at a limit whose step dv points outward is held. A ball joint at its largest
     rotation that the descent direction gb (J^T W r) turns further (its component along the
     rotation axis: for q exp(e v), d angle / d e = n . v) has its three dofs flagged:
-    :func:`_hold` then holds only that radial component, and the ball slides along its
+    :func:`hold_blocked` then holds only that radial component, and the ball slides along its
     limit. (Testing the step instead of the descent direction for balls held intermediate
     iterates on the cone that would have turned back inward: 6.3 instead of 4.6 iterations
     per frame on the IK benchmark.)
@@ -539,8 +546,8 @@ def _blocked(tr, q, dv, out, gb):
 
 
 @_jit
-def _hold(tr, q, blocked, h, full):
-    """Apply the holds flagged by :func:`_blocked` to the normal matrix h (nv, nv): a held
+def hold_blocked(tr, q, blocked, h, full):
+    """Apply the holds flagged by :func:`blocked_dofs` to the normal matrix h (nv, nv): a held
     hinge's row and column leave it (unit diagonal; the caller zeroes its right-hand side), a
     held ball's radial component gets a stiffness 1e6 times the ball's diagonal, so the step
     keeps its rotation angle to about 1e-6 of what it would otherwise take. ``full``: h holds
@@ -572,7 +579,7 @@ def _hold(tr, q, blocked, h, full):
 
 @_jit
 def _damped_solve(tr, w, q, damp, blocked, use_blocked):
-    """w.dv = (H + diag(damp))^-1 g, with the blocked dofs held (:func:`_hold`) if
+    """w.dv = (H + diag(damp))^-1 g, with the blocked dofs held (:func:`hold_blocked`) if
     use_blocked."""
     n = w.g.size
     a, dv = w.a, w.dv
@@ -582,7 +589,7 @@ def _damped_solve(tr, w, q, damp, blocked, use_blocked):
         a[i, i] += damp[i]
         dv[i] = w.g[i]
     if use_blocked:
-        _hold(tr, q, blocked, a, False)
+        hold_blocked(tr, q, blocked, a, False)
         for v in range(n):
             if blocked[v] and tr.jnt_type[tr.dof_jnt[v]] == HINGE:
                 dv[v] = 0.0
@@ -619,7 +626,7 @@ def solve_frame(tr, target, wts, q, w, max_it, damping, tol_step, tol_cost, tol_
         for i in range(nv):
             damp[i] = mu * (w.h[i, i] + 1e-9) if damping == ADAPTIVE else f + wbar
         _damped_solve(tr, w, q, damp, w.blocked, False)
-        if _blocked(tr, q, dv, w.blocked, w.g):
+        if blocked_dofs(tr, q, dv, w.blocked, w.g):
             _damped_solve(tr, w, q, damp, w.blocked, True)
         q_new[:] = q
         integrate(tr, q_new, dv, 1.0)
@@ -685,7 +692,7 @@ def _solve_range(
     tol_rmse, mu0, wbar, min_markers,
 ):  # fmt: skip
     nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
-    w = _work(nbody, njnt, ns, nv, qpos.shape[1])
+    w = work_arrays(nbody, njnt, ns, nv, qpos.shape[1])
     for t in range(lo, hi):
         if np.count_nonzero(wts[t] > 0) < min_markers:
             status[t] = TOO_FEW_MARKERS
@@ -739,7 +746,7 @@ def _chains_range(
     tol_step, tol_cost, tol_rmse, mu0, wbar, min_markers,
 ):  # fmt: skip
     nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
-    w = _work(nbody, njnt, ns, nv, qpos.shape[1])
+    w = work_arrays(nbody, njnt, ns, nv, qpos.shape[1])
     vel = np.zeros(nv)
     for c in range(c0, c1):
         for t in range(starts[c], ends[c]):
@@ -806,7 +813,7 @@ def _walk_range(
 ):  # fmt: skip
     nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
     nq = qpos.shape[1]
-    w = _work(nbody, njnt, ns, nv, nq)
+    w = work_arrays(nbody, njnt, ns, nv, nq)
     vel = np.zeros(nv)
     prev2 = np.zeros(nq)
     prev = np.zeros(nq)
@@ -880,7 +887,7 @@ def walk(
 
 @_jit
 def _forward_range(tr, qpos, site_xpos):
-    w = _work(
+    w = work_arrays(
         tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size, qpos.shape[1]
     )
     for t in range(qpos.shape[0]):
@@ -919,6 +926,50 @@ def compile_notice() -> None:
             file=sys.stderr,
             flush=True,
         )
+
+
+class KappaTables(NamedTuple):
+    """(parameter, body) pairs of the kinematic parameters and the sites each pair moves.
+
+    Fields
+    ------
+    pair_k, pair_parent : (npair,) int, the parameter and the moved body's parent
+    pair_dir : (npair, 3) float, direction in the parent's frame
+    site_pairptr : (ns + 1,) int; site_pairs : (sum,) int, the pairs that move each site
+    n_kappa : int
+    """
+
+    pair_k: np.ndarray
+    pair_parent: np.ndarray
+    pair_dir: np.ndarray
+    site_pairptr: np.ndarray
+    site_pairs: np.ndarray
+    n_kappa: int
+
+
+def kappa_tables(
+    pairs: tuple[tuple[int, int], ...],
+    parents: np.ndarray,
+    directions: np.ndarray,
+    sites_of_pair: list[np.ndarray],
+    n_sites: int,
+    n_kappa: int,
+) -> KappaTables:
+    """:class:`KappaTables` from :class:`mocap_mj.Kinematics`' kappa tables."""
+    per_site: list[list[int]] = [[] for _ in range(n_sites)]
+    for p, sites in enumerate(sites_of_pair):
+        for s in sites:
+            per_site[int(s)].append(p)
+    ptr = np.concatenate([[0], np.cumsum([len(x) for x in per_site])]).astype(np.int64)
+    flat = np.array([p for x in per_site for p in x], dtype=np.int64)
+    return KappaTables(
+        np.array([k for k, _ in pairs], dtype=np.int64),
+        np.asarray(parents, dtype=np.int64),
+        np.asarray(directions, dtype=float),
+        ptr,
+        flat,
+        int(n_kappa),
+    )
 
 
 def build_tree(model: mujoco.MjModel) -> Tree:

@@ -14,11 +14,10 @@ coordinates with the analytic Jacobian (:meth:`Kinematics.jac_q`). Two damping r
 
 Free and ball joints are updated on their manifold (``mj_integratePos``); after each step hinge
 angles are clipped to their range and ball rotations longer than their range are shortened
-to it (projected step). In the compiled solver a step is first re-solved with the hinges at a
-limit that it pushes outward held, and with the radial component (along the rotation axis) of
-a ball at its largest rotation held, so the ball slides along its cone; the NumPy lock-step
-solver (kept for Algorithm 1's perturbed kinematics) holds hinges only. Missing markers
-(NaN) have weight 0 in that frame. A frame with fewer than ``min_markers`` present markers
+to it (projected step). A step is first re-solved with the hinges at a limit that it pushes
+outward held, and with the radial component (along the rotation axis) of a ball at its
+largest rotation held, so the ball slides along its cone. Missing markers (NaN) have weight 0
+in that frame. A frame with fewer than ``min_markers`` present markers
 is not solved: status ``TOO_FEW_MARKERS``, qpos NaN.
 
 A whole trial is solved as parallel chains: the trial is cut into chains of consecutive frames;
@@ -27,28 +26,21 @@ later frame from the previous frame's solution plus its velocity (constant-veloc
 prediction). Frames that fit clearly worse than the trial (a chain start caught in a local
 minimum) are re-solved walking in from a good neighbour.
 
-Two implementations of the same algorithm:
-
-compiled (default, :mod:`mocap_mj._tree`)
-    numba kernels: each chain runs frame by frame in one thread, the chains spread over the
-    cores; per iteration one forward kinematics, ``J^T W J`` assembled site by site from the
-    dofs that move each site, and MuJoCo's sparse tree factorisation (no fill-in) instead of
-    a dense 48 x 48 solve. The chains' length depends on T only, so results do not depend
-    on the number of threads.
-NumPy lock-step (``Kinematics.compiled = False``)
-    step i of all chains (64 frames long at most) is one vectorised batch: batched dense
-    48 x 48 solves with a per-frame damping and convergence mask. Used by kinematics that the
-    kernels do not reproduce (Algorithm 1's per-row perturbed models) and as the reference the
-    compiled path is tested against.
+The solver runs on the compiled kernels of :mod:`mocap_mj._tree`: each chain runs frame by
+frame in one thread, the chains spread over the cores; per iteration one forward kinematics,
+``J^T W J`` assembled site by site from the dofs that move each site, and MuJoCo's sparse tree
+factorisation (no fill-in) instead of a dense 48 x 48 solve. The chains' length depends on T
+only, so results do not depend on the number of threads. A plain NumPy version of the
+per-frame LM is the test oracle (``tests/_oracles.py``).
 """
 
 from __future__ import annotations
 
 import enum
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Literal, NamedTuple
 
-import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -56,10 +48,12 @@ from . import _tree
 from ._threads import single_blas_thread
 from .errors import MocapError, ShapeError, SolverError, check_shape
 from .kinematics import Kinematics
+from .rigid import rigid_fit
 
 PELVIS_MARKERS = ("LASI", "RASI", "LPSI", "RPSI")
+Damping = Literal["adaptive", "sugihara"]
 COMPILED_CHAIN = 32  # longest chain of the compiled solver (chain_length=0)
-PROGRESS_FRAMES = 20_000  # frames per kernel call when a progress bar is shown
+PROGRESS_FRAMES = 20_000  # frames per kernel call when progress is reported
 
 
 class Status(enum.IntEnum):
@@ -101,11 +95,10 @@ class IKSettings:
     min_markers : int
         Frames with fewer present markers are reported (status TOO_FEW_MARKERS), not solved.
     chain_length : int
-        Frames per chain (0: automatic: T / 16 clipped to [4, 32] for the compiled solver,
-        T / 64 clipped to [4, 32] for the NumPy lock-step solver).
+        Frames per chain (0: automatic: T / 16 clipped to [4, 32]).
     """
 
-    damping: str = "adaptive"
+    damping: Damping = "adaptive"
     max_iterations: int = 100
     tol_step: float = 1e-8
     tol_cost: float = 1e-8
@@ -168,15 +161,6 @@ class IKSolver:
     def __init__(self, kin: Kinematics, settings: IKSettings | None = None) -> None:
         self.kin = kin
         self.settings = settings or IKSettings()
-        m = kin.model
-        hinge = np.flatnonzero(m.jnt_type == mujoco.mjtJoint.mjJNT_HINGE)
-        self._hinge_qadr = m.jnt_qposadr[hinge]
-        self._hinge_lo = m.jnt_range[hinge, 0]
-        self._hinge_hi = m.jnt_range[hinge, 1]
-        self._hinge_dof = m.jnt_dofadr[hinge]
-        ball = np.flatnonzero((m.jnt_type == mujoco.mjtJoint.mjJNT_BALL) & (m.jnt_limited > 0))
-        self._ball_qadr = m.jnt_qposadr[ball]
-        self._ball_max = m.jnt_range[ball, 1]
         self._pelvis_idx = np.array(
             [kin.pset.marker_index(n) for n in PELVIS_MARKERS if n in kin.pset.marker_names]
         )
@@ -208,23 +192,9 @@ class IKSolver:
 
     # ------------------------------------------------------------- one batch
     def project(self, qpos: np.ndarray) -> np.ndarray:
-        """Joint limits applied in place to qpos (B, nq): hinges clipped, balls shortened."""
-        qh = qpos[:, self._hinge_qadr]
-        qpos[:, self._hinge_qadr] = np.clip(qh, self._hinge_lo, self._hinge_hi)
-        if self._ball_qadr.size == 0:
-            return qpos
-        cols = self._ball_qadr[:, None] + np.arange(4)  # (nball, 4)
-        quat = qpos[:, cols]  # (B, nball, 4)
-        quat *= np.where(quat[..., :1] < 0, -1.0, 1.0)  # w >= 0: angle in [0, pi]
-        s = np.linalg.norm(quat[..., 1:], axis=2)
-        angle = 2 * np.arctan2(s, quat[..., 0])
-        over = angle > self._ball_max
-        if np.any(over):
-            half = 0.5 * np.broadcast_to(self._ball_max, angle.shape)[over]
-            axis = quat[over, 1:] / s[over, None]
-            quat[over, 0] = np.cos(half)
-            quat[over, 1:] = np.sin(half)[:, None] * axis
-        qpos[:, cols] = quat
+        """Joint limits applied in place to qpos (B, nq): hinges clipped, balls shortened
+        (:func:`mocap_mj._tree.project_rows`)."""
+        _tree.project_rows(self.kin.tree(), qpos)
         return qpos
 
     @single_blas_thread
@@ -235,6 +205,7 @@ class IKSolver:
         weights: np.ndarray | None = None,
         *,
         max_iterations: int | None = None,
+        tree: _tree.Tree | None = None,
     ) -> IKResult:
         """Solve B independent frames from the given starting poses.
 
@@ -243,6 +214,8 @@ class IKSolver:
         markers : (B, M, 3) float [m], NaN where missing
         qpos0 : (B, nq) float, starting poses
         weights : (M,) or (B, M) float, optional, per-marker weights (default 1)
+        tree : compiled model to solve with, optional (default: the kinematics' at its
+            theta; Algorithm 1 passes models with one parameter perturbed)
         """
         kin, st = self.kin, self.settings
         target, w = self._prepare(markers, weights)
@@ -251,127 +224,21 @@ class IKSolver:
         check_shape("qpos0", qpos, (n, kin.nq))
         limit = st.max_iterations if max_iterations is None else max_iterations
         n_present = np.count_nonzero(w > 0, axis=1)
-        if kin.compiled:
-            rmse_c, iter_c, status_c = _tree.solve_batch(
-                kin.tree(), target, w, qpos, limit, *self._kernel_settings(), st.min_markers
-            )
-            return IKResult(qpos, rmse_c, iter_c, status_c, n_present)
-        status = np.full(n, Status.MAX_ITERATIONS, dtype=int)
-        iterations = np.zeros(n, dtype=int)
-        few = n_present < st.min_markers
-        status[few] = Status.TOO_FEW_MARKERS
-        qpos[few] = np.nan
-        active = np.flatnonzero(~few)
-        rmse = np.full(n, np.nan)
-        if active.size == 0:
-            return IKResult(qpos, rmse, iterations, status, n_present)
-
-        q = self.project(qpos[active].copy())
-        frames = kin.forward(q)
-        res = target[active] - frames.site_xpos
-        wa = w[active]
-        cost = 0.5 * np.einsum("bm,bmi,bmi->b", wa, res, res)
-        mu = np.full(active.size, st.mu0)
-        nu = np.full(active.size, 2.0)
-        sqrt_w = np.sqrt(wa)
-        need_jac = np.ones(active.size, dtype=bool)
-        jac_h = np.zeros((active.size, kin.nv, kin.nv))
-        jac_g = np.zeros((active.size, kin.nv))
-        idx = np.arange(active.size)  # positions (into active) still iterating
-        eye = np.eye(kin.nv)
-        for it in range(1, limit + 1):
-            if idx.size == 0:
-                break
-            # Normal equations where the pose changed.
-            upd = idx[need_jac[idx]]
-            if upd.size:
-                sub = _take(frames, upd)
-                jq = kin.jac_q(sub) * sqrt_w[upd, :, None, None]
-                jf = jq.reshape(upd.size, -1, kin.nv)
-                rf = (res[upd] * sqrt_w[upd, :, None]).reshape(upd.size, -1)
-                jac_h[upd] = np.einsum("bri,brj->bij", jf, jf, optimize=True)
-                jac_g[upd] = np.einsum("bri,br->bi", jf, rf)
-                need_jac[upd] = False
-            h, g = jac_h[idx], jac_g[idx]
-            diag = np.einsum("bii->bi", h)
-            if st.damping == "adaptive":
-                damp = mu[idx, None] * (diag + 1e-9)
-            else:
-                damp = np.broadcast_to((cost[idx] + st.wbar)[:, None], diag.shape)
-            a = h + damp[:, :, None] * eye
-            dv = np.linalg.solve(a, g[..., None])[..., 0]
-            dv = self._box_step(q[idx], a, g, dv)
-            q_new = self.project(kin.integrate(q[idx], dv))
-            fr_new = kin.forward(q_new)
-            res_new = target[active[idx]] - fr_new.site_xpos
-            cost_new = 0.5 * np.einsum("bm,bmi,bmi->b", wa[idx], res_new, res_new)
-            if st.damping == "adaptive":
-                predicted = 0.5 * np.einsum("bi,bi->b", dv, damp * dv + g)
-                rho = (cost[idx] - cost_new) / np.maximum(predicted, 1e-300)
-                accept = (cost_new < cost[idx]) & (rho > 0)
-                factor = np.maximum(1 / 3, 1 - (2 * rho - 1) ** 3)
-                mu[idx] = np.where(accept, mu[idx] * factor, mu[idx] * nu[idx])
-                nu[idx] = np.where(accept, 2.0, nu[idx] * 2)
-            else:
-                accept = np.ones(idx.size, dtype=bool)
-            small_step = np.max(np.abs(dv), axis=1) < st.tol_step
-            small_gain = accept & (cost[idx] - cost_new <= st.tol_cost * cost[idx])
-            # RMSE = sqrt(2 F / n): its change from F and F_new.
-            n_i = np.maximum(n_present[active[idx]], 1)
-            rmse_new = np.sqrt(2 * np.maximum(cost_new, 0) / n_i)
-            d_rmse = np.sqrt(2 * cost[idx] / n_i) - rmse_new
-            small_gain |= accept & (d_rmse < st.tol_rmse * rmse_new)
-            acc = idx[accept]
-            q[acc] = q_new[accept]
-            res[acc] = res_new[accept]
-            cost[acc] = cost_new[accept]
-            _put(frames, acc, fr_new, accept)
-            need_jac[acc] = True
-            iterations[active[idx]] = it
-            done = small_step | small_gain | (mu[idx] > 1e12)
-            status[active[idx[done]]] = Status.CONVERGED
-            idx = idx[~done]
-        qpos[active] = q
-        n_act = n_present[active]
-        rmse[active] = np.sqrt(np.einsum("bm,bmi,bmi->b", (wa > 0), res, res) / n_act)
+        rmse, iterations, status = _tree.solve_batch(
+            kin.tree() if tree is None else tree,
+            target,
+            w,
+            qpos,
+            limit,
+            *self._kernel_settings(),
+            st.min_markers,
+        )
         return IKResult(qpos, rmse, iterations, status, n_present)
 
     def _kernel_settings(self) -> tuple[int, float, float, float, float, float]:
         st = self.settings
         damping = _tree.ADAPTIVE if st.damping == "adaptive" else _tree.SUGIHARA
         return damping, st.tol_step, st.tol_cost, st.tol_rmse, st.mu0, st.wbar
-
-    def blocked(self, qpos: np.ndarray, direction: np.ndarray) -> np.ndarray:
-        """(B, nv) bool: hinge dofs at a limit whose ``direction`` (B, nv) points outward."""
-        qh = qpos[:, self._hinge_qadr]
-        dh = direction[:, self._hinge_dof]
-        tol = 1e-12
-        out = ((qh <= self._hinge_lo + tol) & (dh < 0)) | ((qh >= self._hinge_hi - tol) & (dh > 0))
-        mask = np.zeros(direction.shape, dtype=bool)
-        mask[:, self._hinge_dof] = out
-        return mask
-
-    def _box_step(self, q: np.ndarray, a: np.ndarray, g: np.ndarray, dv: np.ndarray) -> np.ndarray:
-        """Re-solve with hinge dofs that sit at a limit and would step outward held fixed."""
-        qh = q[:, self._hinge_qadr]
-        dh = dv[:, self._hinge_dof]
-        tol = 1e-12
-        blocked = ((qh <= self._hinge_lo + tol) & (dh < 0)) | (
-            (qh >= self._hinge_hi - tol) & (dh > 0)
-        )
-        rows = np.flatnonzero(blocked.any(axis=1))
-        if rows.size == 0:
-            return dv
-        a, g = a[rows].copy(), g[rows].copy()
-        r_idx, j_idx = np.nonzero(blocked[rows])
-        dof = self._hinge_dof[j_idx]
-        a[r_idx, dof, :] = 0.0
-        a[r_idx, :, dof] = 0.0
-        a[r_idx, dof, dof] = 1.0
-        g[r_idx, dof] = 0.0
-        dv = dv.copy()
-        dv[rows] = np.linalg.solve(a, g[..., None])[..., 0]
-        return dv
 
     # ------------------------------------------------------------ whole trial
     def root_from_pelvis(self, markers: np.ndarray) -> np.ndarray:
@@ -394,33 +261,20 @@ class IKSolver:
         enough = present[:, pel].sum(axis=1) >= 3
         use[np.ix_(enough, pel)] = present[np.ix_(enough, pel)]
         use[~enough] = present[~enough]
-        wts = use.astype(float)
-        cnt = np.maximum(wts.sum(axis=1), 1)
-        meas = np.where(use[..., None], markers, 0.0)
-        c_meas = meas.sum(axis=1) / cnt[:, None]
-        c_ref = (wts[..., None] * ref[None]).sum(axis=1) / cnt[:, None]
-        a = (ref[None] - c_ref[:, None]) * wts[..., None]
-        b = (meas - c_meas[:, None]) * wts[..., None]
-        cov = np.einsum("tmi,tmj->tij", b, a)
-        u, _, vt = np.linalg.svd(cov)
-        d = np.sign(np.linalg.det(u @ vt))
-        u[:, :, 2] *= d[:, None]
-        rot = u @ vt  # measured = rot @ ref + p
-        qpos = np.tile(q0, (n, 1))
-        qpos[:, 3:7] = Rotation.from_matrix(rot).as_quat(scalar_first=True)
-        qpos[:, :3] = c_meas - np.einsum("tij,tj->ti", rot, c_ref)
-        qpos[cnt < 3] = np.array(kin.model.qpos0)
+        rot, pos = rigid_fit(np.where(use[..., None], markers, np.nan), ref)
+        qpos = np.tile(np.array(kin.model.qpos0, dtype=float), (n, 1))
+        ok = np.isfinite(pos[:, 0])
+        qpos[ok, 3:7] = Rotation.from_matrix(rot[ok]).as_quat(scalar_first=True)
+        qpos[ok, :3] = pos[ok]
         return qpos
 
     def _chain_length(self, n: int) -> int:
         if self.settings.chain_length > 0:
             return self.settings.chain_length
-        if self.kin.compiled:
-            # Enough chain starts that most of them land in the right pose (about one in four
-            # cold starts of a range-of-motion trial does not): the trial's median RMSE then
-            # tells the bad frames, which are walked in from their good neighbours.
-            return int(np.clip(n // 16, 4, COMPILED_CHAIN))
-        return int(np.clip(n // 64, 4, 32))
+        # Enough chain starts that most of them land in the right pose (about one in four
+        # cold starts of a range-of-motion trial does not): the trial's median RMSE then
+        # tells the bad frames, which are walked in from their good neighbours.
+        return int(np.clip(n // 16, 4, COMPILED_CHAIN))
 
     @single_blas_thread
     def solve_trial(
@@ -429,7 +283,7 @@ class IKSolver:
         weights: np.ndarray | None = None,
         *,
         qpos_init: np.ndarray | None = None,
-        progress: bool = False,
+        progress: Callable[[int], None] | None = None,
     ) -> IKResult:
         """Solve every frame of a trial (see the module docstring for the scheme).
 
@@ -440,8 +294,9 @@ class IKSolver:
         qpos_init : (T, nq) float, optional
             Starting poses for every frame (e.g. the previous solution when only theta
             changed); then every frame starts there and the trial is one batch.
-        progress : bool
-            Show a progress bar over the chain steps.
+        progress : callable, optional
+            Called with the number of frames solved so far, after every block of about
+            20,000 frames (the chains then run in blocks).
         """
         kin = self.kin
         markers = np.asarray(markers, dtype=float)
@@ -452,48 +307,13 @@ class IKSolver:
         if qpos_init is not None:
             check_shape("qpos_init", qpos_init, (n, kin.nq))
             return self.solve_frames(markers, qpos_init, weights)
-        if kin.compiled:
-            return self._solve_trial_compiled(markers, weights, progress)
-        w_full = self._prepare(markers, weights)[1]
-        length = self._chain_length(n)
-        starts = np.arange(0, n, length)
-        qpos = np.full((n, kin.nq), np.nan)
-        rmse = np.full(n, np.nan)
-        iters = np.zeros(n, dtype=int)
-        status = np.zeros(n, dtype=int)
-        npres = np.zeros(n, dtype=int)
+        return self._solve_chains(markers, weights, progress)
 
-        def store(rows: np.ndarray, r: IKResult) -> None:
-            qpos[rows], rmse[rows], iters[rows] = r.qpos, r.marker_rmse, r.iterations
-            status[rows], npres[rows] = r.status, r.n_markers
-
-        steps = range(length)
-        bar = None
-        if progress:
-            from tqdm import tqdm
-
-            bar = tqdm(total=n, desc="IK", unit="frame", leave=False, delay=2.0)
-        for i in steps:
-            rows = starts + i
-            rows = rows[rows < n]
-            if i == 0:
-                start = self.root_from_pelvis(markers[rows])
-            else:
-                start = self._predict(qpos, rows, starts)
-                cold = ~np.all(np.isfinite(start), axis=1)  # previous frame not solved
-                if np.any(cold):
-                    start[cold] = self.root_from_pelvis(markers[rows[cold]])
-            r = self.solve_frames(markers[rows], start, w_full[rows])
-            store(rows, r)
-            if bar is not None:
-                bar.update(rows.size)
-        if bar is not None:
-            bar.close()
-        self._repair(markers, w_full, qpos, rmse, iters, status, npres)
-        return IKResult(qpos, rmse, iters, status, npres)
-
-    def _solve_trial_compiled(
-        self, markers: np.ndarray, weights: np.ndarray | None, progress: bool
+    def _solve_chains(
+        self,
+        markers: np.ndarray,
+        weights: np.ndarray | None,
+        progress: Callable[[int], None] | None,
     ) -> IKResult:
         """:meth:`solve_trial` with the compiled kernels: each chain runs sequentially in one
         thread (no lock-step batches), chains in parallel, in blocks for the progress bar."""
@@ -508,42 +328,29 @@ class IKSolver:
         rmse = np.full(n, np.nan)
         iters = np.zeros(n, dtype=int)
         status = np.zeros(n, dtype=int)
-        block = max(1, PROGRESS_FRAMES // length) if progress else starts.size
-        bar = None
-        if progress and n > PROGRESS_FRAMES:
-            from tqdm import tqdm
-
-            bar = tqdm(total=n, desc="IK", unit="frame", leave=False, delay=2.0)
+        block = starts.size if progress is None else max(1, PROGRESS_FRAMES // length)
         tree, settings = self.kin.tree(), self._kernel_settings()
         for b in range(0, starts.size, block):
             s0, s1 = starts[b], ends[min(b + block, starts.size) - 1]
             rows = slice(s0, s1)
             q, r, it, stat = _tree.solve_chains(
-                tree, target[rows], w[rows], cold[rows], starts[b : b + block] - s0,
-                ends[b : b + block] - s0, st.max_iterations, *settings, st.min_markers,
-            )  # fmt: skip
+                tree,
+                target[rows],
+                w[rows],
+                cold[rows],
+                starts[b : b + block] - s0,
+                ends[b : b + block] - s0,
+                st.max_iterations,
+                *settings,
+                st.min_markers,
+            )
             qpos[rows], rmse[rows], iters[rows], status[rows] = q, r, it, stat
-            if bar is not None:
-                bar.update(s1 - s0)
-        if bar is not None:
-            bar.close()
+            if progress is not None:
+                progress(int(s1))
         self._seams(target, w, qpos, rmse, iters, status, starts, ends)
         npres = np.count_nonzero(w > 0, axis=1)
         self._repair(markers, w, qpos, rmse, iters, status, npres)
         return IKResult(qpos, rmse, iters, status, npres)
-
-    def _predict(self, qpos: np.ndarray, rows: np.ndarray, starts: np.ndarray) -> np.ndarray:
-        """Constant-velocity prediction from the two previous frames of each chain."""
-        kin = self.kin
-        prev = qpos[rows - 1]
-        start = prev.copy()
-        have2 = np.isin(rows - 1, starts, invert=True) & (rows >= 2)
-        ok = have2 & np.all(np.isfinite(qpos[np.maximum(rows - 2, 0)]), 1)
-        ok &= np.all(np.isfinite(prev), 1)
-        if np.any(ok):
-            vel = kin.difference(qpos[rows[ok] - 2], prev[ok])
-            start[ok] = self.project(kin.integrate(prev[ok], vel))
-        return start
 
     @single_blas_thread
     def repair(
@@ -589,7 +396,6 @@ class IKSolver:
         """Compiled repair: every run of bad frames is walked from its good left neighbour
         (forwards), then what is still bad from its good right neighbour (backwards)."""
         target = np.where(np.isfinite(markers), markers, 0.0)
-        tree, settings = self.kin.tree(), self._kernel_settings()
         n = len(markers)
         for forward in (True, False):
             bad = solvable & ~(rmse <= limit)
@@ -600,10 +406,34 @@ class IKSolver:
             if not np.any(ok):
                 continue
             a, b = (first[ok], last[ok]) if forward else (last[ok], first[ok])
-            _tree.walk(
-                tree, target, w, qpos, rmse, iters, status, qpos[seed[ok]], a, b, False,
-                self.settings.max_iterations, *settings, self.settings.min_markers,
-            )  # fmt: skip
+            self._walk(target, w, (qpos, rmse, iters, status), qpos[seed[ok]], a, b, False)
+
+    def _walk(
+        self,
+        target: np.ndarray,
+        w: np.ndarray,
+        out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+        seeds: np.ndarray,
+        firsts: np.ndarray,
+        lasts: np.ndarray,
+        seams: bool,
+    ) -> None:
+        """:func:`mocap_mj._tree.walk` with this solver's settings: frames firsts -> lasts
+        re-solved from seeds (k, nq), into out = (qpos, rmse, iters, status)."""
+        st = self.settings
+        _tree.walk(
+            self.kin.tree(),
+            target,
+            w,
+            *out,
+            seeds,
+            firsts,
+            lasts,
+            seams,
+            st.max_iterations,
+            *self._kernel_settings(),
+            st.min_markers,
+        )
 
     def _seams(
         self,
@@ -625,8 +455,6 @@ class IKSolver:
         good chain costs one warm-started frame per seam."""
         if starts.size < 2:
             return
-        tree, settings = self.kin.tree(), self._kernel_settings()
-        limit = (self.settings.max_iterations, *settings, self.settings.min_markers)
         for forward in (True, False):
             if forward:
                 seed_rows, firsts, lasts = ends[:-1] - 1, starts[1:], ends[1:] - 1
@@ -638,10 +466,7 @@ class IKSolver:
             if not np.any(ok):
                 continue
             seeds = qpos[seed_rows[ok]].copy()  # snapshot: a walk may rewrite another's seed
-            _tree.walk(
-                tree, target, w, qpos, rmse, iters, status, seeds, firsts[ok], lasts[ok], True,
-                *limit,
-            )  # fmt: skip
+            self._walk(target, w, (qpos, rmse, iters, status), seeds, firsts[ok], lasts[ok], True)
 
     def _repair(
         self,
@@ -662,40 +487,12 @@ class IKSolver:
         bad frames are walked inwards from their good ends, one frame per round on every run
         at once; a re-solve is kept when it fits better.
         """
-        n = len(markers)
         solvable = status != Status.TOO_FEW_MARKERS
         if not np.any(solvable):
             return
         ref = float(np.nanmedian(rmse[solvable]))
         limit = factor * ref + margin
-        if self.kin.compiled:
-            self._walk_runs(markers, w, qpos, rmse, iters, status, solvable, limit)
-            return
-        bad = solvable & ~(rmse <= limit)
-        tried = np.zeros((n, 2), dtype=bool)
-        while np.any(bad):
-            progress = False
-            for side, shift in enumerate((-1, 1)):
-                rows = np.flatnonzero(bad & ~tried[:, side])
-                nb = rows + shift
-                keep = (nb >= 0) & (nb < n)
-                rows, nb = rows[keep], nb[keep]
-                keep = solvable[nb] & ~bad[nb]
-                rows, nb = rows[keep], nb[keep]
-                if rows.size == 0:
-                    continue
-                tried[rows, side] = True
-                r = self.solve_frames(markers[rows], qpos[nb], w[rows])
-                better = np.nan_to_num(r.marker_rmse, nan=np.inf) < rmse[rows]
-                rr = rows[better]
-                qpos[rr], rmse[rr] = r.qpos[better], r.marker_rmse[better]
-                iters[rr] += r.iterations[better]
-                status[rr], npres[rr] = r.status[better], r.n_markers[better]
-                fixed = rr[rmse[rr] <= limit]
-                bad[fixed] = False
-                progress |= rows.size > 0
-            if not progress:
-                return
+        self._walk_runs(markers, w, qpos, rmse, iters, status, solvable, limit)
 
 
 def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -716,12 +513,3 @@ def weights_from_names(
             raise UnknownNameError("marker", name, marker_names)
         out[marker_names.index(name)] = float(value)
     return out
-
-
-def _take(frames: object, idx: np.ndarray):  # type: ignore[no-untyped-def]
-    return type(frames)(*(f[idx] for f in frames))  # type: ignore[attr-defined]
-
-
-def _put(frames: object, dst: np.ndarray, src: object, mask: np.ndarray) -> None:
-    for a, b in zip(frames, src, strict=True):  # type: ignore[call-overload]
-        a[dst] = b[mask]

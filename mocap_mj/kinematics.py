@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 from . import _tree
-from ._schur import KappaTables, kappa_tables
+from ._tree import KappaTables, kappa_tables
 from .errors import MocapError, check_shape
 from .parameters import ParameterSet
 
@@ -49,10 +49,6 @@ class Kinematics:
         The parameterisation (the bundled humanoid's by default). The kinematics works on its
         own copy of the model; :meth:`set_theta` writes theta into that copy.
     """
-
-    #: The compiled kernels of :mod:`mocap_mj._tree` reproduce this class's kinematics
-    #: (subclasses that change :meth:`forward` set this to False).
-    compiled = True
 
     def __init__(self, pset: ParameterSet | None = None) -> None:
         self.pset = pset if pset is not None else ParameterSet()
@@ -136,9 +132,13 @@ class Kinematics:
         """The kinematic parameters' (parameter, body) pairs for the compiled LM blocks."""
         if self._kappa_tables is None:
             self._kappa_tables = kappa_tables(
-                self.kappa_pairs, self.kappa_parent, self.kappa_dir, self.kappa_sites,
-                self.n_markers, self.pset.n_kappa,
-            )  # fmt: skip
+                self.kappa_pairs,
+                self.kappa_parent,
+                self.kappa_dir,
+                self.kappa_sites,
+                self.n_markers,
+                self.pset.n_kappa,
+            )
         return self._kappa_tables
 
     def tree(self) -> _tree.Tree:
@@ -168,9 +168,7 @@ class Kinematics:
 
     def site_positions(self, qpos: np.ndarray) -> np.ndarray:
         """:meth:`marker_positions` of validated qpos (T, nq), by the compiled kernel."""
-        if self.compiled:
-            return _tree.forward(self.tree(), qpos)
-        return self.marker_positions(qpos)
+        return _tree.forward(self.tree(), qpos)
 
     def forward(self, qpos: np.ndarray) -> Frames:
         """Run ``mj_kinematics`` for each frame of qpos (T, nq) and keep what Jacobians need."""

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from mocap_mj.cli import add_force_flag, add_json_flag, into_out_folder, prepare_out
+from mocap_mj.commands.progress import progress_bar
 from mocap_mj.identify.lm import LMSettings, TrialData
 from mocap_mj.identify.output import expected_rmse
 from mocap_mj.identify.pipeline import identify_to_folder
@@ -96,15 +97,18 @@ def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str,
     write_experiment(walk, staging / "walk", force=True)
     n = args.frames
     trial = TrialData("rom", np.asarray(exp.markers), np.asarray(exp.times))
-    ident, _, _ = identify_to_folder(
-        [trial],
-        prepare_out(staging / "result", force=True),
-        pset=pset,
-        settings=LMSettings(),
-        progress=not args.json,
-        extra={"markers_files": [str(out / "synth" / "markers.csv")],
-               "frames_fitted_range": [[0, n]]},
-    )  # fmt: skip
+    with progress_bar("identify (LM)", enabled=not args.json) as progress:
+        ident, _, _ = identify_to_folder(
+            [trial],
+            prepare_out(staging / "result", force=True),
+            pset=pset,
+            settings=LMSettings(),
+            progress=progress,
+            extra={
+                "markers_files": [str(out / "synth" / "markers.csv")],
+                "frames_fitted_range": [[0, n]],
+            },
+        )
     s = score(staging / "synth", staging / "result", pset=pset)
     kin = Kinematics(pset)
     kin.set_theta(pset.load_json(staging / "result" / "theta.json"))

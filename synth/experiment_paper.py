@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from mocap_mj.cli import add_force_flag, add_json_flag, finish, output_folder, write_summary
+from mocap_mj.commands.progress import progress_bar
 from mocap_mj.identify.identifiability import Identifiability
 from mocap_mj.identify.lm import LMSettings, TrialData, identify_lm
 from mocap_mj.identify.paper import (
@@ -192,7 +193,8 @@ def run_experiment(
             sampling=sampling, iterations=iterations, step=cfg.step, delta=cfg.delta,
             fraction=cfg.fraction, seed=cfg.seed,
         )  # fmt: skip
-        r = identify_paper(trials, pset=pset, settings=settings, progress=progress)
+        with progress_bar(f"paper ({sampling})", progress) as bar:
+            r = identify_paper(trials, pset=pset, settings=settings, progress=bar)
         traces[sampling] = _trace_json(r)
         refits[sampling] = r.refits
         return r
@@ -227,8 +229,9 @@ def run_experiment(
         rows.append(Row("stochastic", f"stochastic {k}", 1, k, sec, sec, it.theta,
                         note.lstrip("; ")))  # fmt: skip
     t0 = time.perf_counter()
-    lm = identify_lm(trials, pset=pset, settings=LMSettings(max_iterations=cfg.lm_iterations),
-                     progress=progress)  # fmt: skip
+    with progress_bar("joint LM", progress) as bar:
+        lm = identify_lm(trials, pset=pset, settings=LMSettings(max_iterations=cfg.lm_iterations),
+                         progress=bar)  # fmt: skip
     lm_seconds = time.perf_counter() - t0
     rows.append(Row("lm", "joint LM (this project)", n, lm.iterations, lm_seconds, lm_seconds,
                     lm.theta, f"initial IK {lm.init_seconds:.1f} s included"))  # fmt: skip
@@ -592,7 +595,8 @@ def measure_steps(
     # 3. Runs: even sampling (every 10th frame), several alpha and Delta.
     def run_one(step: float, delta: float) -> dict[str, Any]:
         st = PaperSettings(sampling="even", iterations=iterations, step=step, delta=delta)
-        r = identify_paper(trials, pset=pset, settings=st, progress=progress)
+        with progress_bar("paper (even)", progress) as bar:
+            r = identify_paper(trials, pset=pset, settings=st, progress=bar)
         err = r.theta - exp.theta_true
         e_obs, e_rest = idf.project(err)
         energies = [p.energy for p in r.trace]

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mocap_mj import _tree
 from mocap_mj.cli import main
 from mocap_mj.errors import MocapError
 from mocap_mj.identify.identifiability import Identifiability
@@ -18,7 +19,6 @@ from mocap_mj.identify.paper import (
     FrameSampler,
     GradientEstimator,
     PaperSettings,
-    TaggedKinematics,
     analytic_gradient,
     identify_paper,
     reduced_information,
@@ -53,25 +53,22 @@ def _energy(exp, theta: np.ndarray) -> float:  # type: ignore[no-untyped-def]
     return float(np.sum(r.marker_rmse**2 * r.n_markers))
 
 
-def test_tagged_kinematics_is_the_perturbed_model(exp) -> None:  # type: ignore[no-untyped-def]
+def test_perturbed_trees_are_the_perturbed_models(exp) -> None:  # type: ignore[no-untyped-def]
     pset = exp.pset
     delta = 1e-3
-    tagged = TaggedKinematics(pset, delta)
-    tagged.set_theta(exp.theta_true)
+    est = GradientEstimator(pset, delta)
+    est.set_theta(exp.theta_true)
+    trees = est.perturbed_trees()
+    assert len(trees) == est.params.size
     kin = Kinematics(pset)
     q = np.array(exp.qpos[:4])
     for i in (0, 11, 16, 22, 29, pset.n_kappa, pset.size - 1):
         theta = np.array(exp.theta_true)
         theta[i] += delta
         kin.set_theta(theta)
-        want = kin.forward(q)
-        got = tagged.forward(tagged.tagged(q, np.full(4, i)))
-        for a, b in zip(want, got, strict=True):
-            np.testing.assert_allclose(b, a, atol=1e-14)
-    kin.set_theta(exp.theta_true)
-    np.testing.assert_allclose(
-        tagged.forward(tagged.tagged(q, np.full(4, -1))).site_xpos, kin.forward(q).site_xpos
-    )
+        j = int(np.flatnonzero(est.params == i)[0])
+        got = _tree.forward(trees[j], q)
+        np.testing.assert_allclose(got, kin.marker_positions(q), rtol=0, atol=1e-14)
 
 
 def test_finite_difference_gradient_matches_envelope_gradient(exp) -> None:  # type: ignore[no-untyped-def]
@@ -154,8 +151,20 @@ def test_frame_sampler() -> None:
 def test_cli_paper_result_is_scored(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     synth, res = tmp_path / "synth", tmp_path / "result"
     write_experiment(synthesize(SynthConfig(frames=20, seed=1)), synth)
-    argv = ["identify", "--markers", str(synth / "markers.csv"), "--out", str(res), "--json",
-            "--solver", "paper", "--sampling", "stochastic", "--iterations", "4"]  # fmt: skip
+    argv = [
+        "identify",
+        "--markers",
+        str(synth / "markers.csv"),
+        "--out",
+        str(res),
+        "--json",
+        "--solver",
+        "paper",
+        "--sampling",
+        "stochastic",
+        "--iterations",
+        "4",
+    ]
     assert main(argv) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["solver"] == "paper" and summary["iterations"] == 4
@@ -168,8 +177,20 @@ def test_cli_paper_result_is_scored(tmp_path: Path, capsys: pytest.CaptureFixtur
     for key in ("kappa_rmse_mm", "offset_rmse_mm", "marker_rmse_mm", "joint_rmse_deg"):
         assert np.isfinite(s[key]), key
     # --sampling is required with --solver paper: a one-line error.
-    assert main(["identify", "--markers", str(synth / "markers.csv"), "--out",
-                 str(tmp_path / "r2"), "--solver", "paper"]) == 2  # fmt: skip
+    assert (
+        main(
+            [
+                "identify",
+                "--markers",
+                str(synth / "markers.csv"),
+                "--out",
+                str(tmp_path / "r2"),
+                "--solver",
+                "paper",
+            ]
+        )
+        == 2
+    )
     assert "--sampling" in capsys.readouterr().err
 
 
@@ -193,8 +214,15 @@ def test_score_of_the_truth_is_zero(tmp_path: Path) -> None:
     (res / "identifiability.json").write_text(json.dumps(idf.to_json()))
     (res / "summary.json").write_text(json.dumps({"frames_fitted_range": [[0, 12]]}))
     s = score(synth, res, pset=pset)
-    for key in ("kappa_rmse_mm", "offset_rmse_mm", "kappa_rmse_all_mm", "offset_rmse_all_mm",
-                "marker_rmse_mm", "joint_centre_rmse_mm", "gauge_displacement_mm"):  # fmt: skip
+    for key in (
+        "kappa_rmse_mm",
+        "offset_rmse_mm",
+        "kappa_rmse_all_mm",
+        "offset_rmse_all_mm",
+        "marker_rmse_mm",
+        "joint_centre_rmse_mm",
+        "gauge_displacement_mm",
+    ):
         assert s[key] == pytest.approx(0.0, abs=1e-3), key
     assert s["joint_rmse_deg"] == pytest.approx(0.0, abs=1e-4)
     assert s["frames_fitted"] == 12
@@ -208,8 +236,16 @@ def test_experiment_writes_table_and_figures(tmp_path: Path) -> None:
         frames=30, iterations=2, batch_iterations=1, stochastic=(2, 4), lm_iterations=3
     )
     summary = run_experiment(cfg, tmp_path, progress=False)
-    names = {"report.md", "table1.csv", "table1.json", "frame_error.csv", "traces.json",
-             "fig3.png", "fig4.png", "convergence.png"}  # fmt: skip
+    names = {
+        "report.md",
+        "table1.csv",
+        "table1.json",
+        "frame_error.csv",
+        "traces.json",
+        "fig3.png",
+        "fig4.png",
+        "convergence.png",
+    }
     assert names <= {p.name for p in tmp_path.iterdir()}
     labels = [t["label"] for t in summary["table"]]
     assert labels[0] == "initial (nominal) model" and labels[-1] == "joint LM (this project)"

@@ -1,24 +1,26 @@
-"""The compiled joint-LM blocks (mocap_mj._schur) against the NumPy normal equations."""
+"""The compiled joint-LM blocks (mocap_mj._schur) against the NumPy normal equations
+(tests/_oracles.py)."""
 
 from __future__ import annotations
 
 import mujoco
 import numpy as np
 import pytest
+from _oracles import damped_inverse, information, normal_equations
 
 from mocap_mj import Kinematics, ParameterSet, _schur
-from mocap_mj.identify.lm import _damped_inverse, _Problem
+from mocap_mj.identify.problem import IdentificationProblem
 from mocap_synth import SynthConfig, synthesize
 
 
 @pytest.fixture(scope="module")
-def problem() -> tuple[Kinematics, _Problem, np.ndarray]:
+def problem() -> tuple[Kinematics, IdentificationProblem, np.ndarray]:
     exp = synthesize(SynthConfig(frames=60, seed=4, gaps=0.1), ParameterSet())
     kin = Kinematics(exp.pset)
     kin.set_theta(exp.pset.nominal)  # away from the truth: non-zero residuals
     free = np.flatnonzero(~exp.pset.frozen)
     free = free[free != 5]  # a frozen parameter
-    prob = _Problem(kin, np.asarray(exp.markers), np.asarray(exp.qpos).copy(), free)
+    prob = IdentificationProblem(kin, np.asarray(exp.markers), np.asarray(exp.qpos).copy(), free)
     rng = np.random.default_rng(0)
     w = prob.present * rng.uniform(0.5, 1.5, prob.present.shape)
     return kin, prob, w
@@ -33,9 +35,11 @@ def test_blocks_match_numpy_normal_equations(problem, limits: bool) -> None:  # 
     q = prob.qpos.copy()
     hinges = np.flatnonzero(kin.model.jnt_type == mujoco.mjtJoint.mjJNT_HINGE)[:4]
     q[:, kin.model.jnt_qposadr[hinges]] = kin.model.jnt_range[hinges, 0]
-    prob_q = _Problem(kin, np.where(prob.present[..., None], prob.target, np.nan), q, free)
-    a, b, gq, c, gt = prob_q.chunk_system(sl, w, limits=limits)
-    z = _damped_inverse(a, mu) @ np.concatenate([b, gq[..., None]], axis=2)
+    prob_q = IdentificationProblem(
+        kin, np.where(prob.present[..., None], prob.target, np.nan), q, free
+    )
+    a, b, gq, c, gt = normal_equations(prob_q, sl, w, limits=limits)
+    z = damped_inverse(a, mu) @ np.concatenate([b, gq[..., None]], axis=2)
     bf, zf = b.reshape(-1, pf), z.reshape(-1, pf + 1)
     s_ref, rhs_ref = c - bf.T @ zf[:, :pf], gt - bf.T @ zf[:, pf]
     fb = _schur.frame_blocks(
@@ -57,10 +61,7 @@ def test_blocks_match_numpy_normal_equations(problem, limits: bool) -> None:  # 
 
 
 def test_information_matches_pseudo_inverse(problem) -> None:  # type: ignore[no-untyped-def]
-    kin, prob, w = problem
-    fast = prob.information(w, kin.pset.size)
-    slow_kin = Kinematics(kin.pset)
-    slow_kin.set_theta(kin.theta)
-    slow_kin.compiled = False
-    slow = _Problem(slow_kin, prob.target, prob.qpos, prob.free).information(w, kin.pset.size)
+    _, prob, w = problem
+    fast = prob.information(w)
+    slow = information(prob, w)
     np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-4 * np.abs(slow).max())

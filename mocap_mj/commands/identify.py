@@ -20,11 +20,13 @@ import numpy as np
 from ..checks import check_markers
 from ..cli import add_force_flag, add_json_flag, into_out_folder, output_folder
 from ..errors import MocapError
-from ..identify.lm import LMSettings, TrialData
+from ..identify.lm import LMSettings
+from ..identify.losses import LossName
 from ..identify.output import frame_range
 from ..identify.paper import DEFAULT_DELTA, DEFAULT_STEP
 from ..identify.pipeline import INITS, identify_to_folder, result_text
 from ..identify.plausibility import kappa_outside_bounds, marker_rmse_by_marker, plausibility_text
+from ..identify.problem import TrialData
 from ..ik import IKSettings
 from ..parameters import ParameterSet
 from ._markers import add_marker_options, load_trial, model_for
@@ -143,10 +145,10 @@ def run(args: argparse.Namespace) -> int:
         trials.append(TrialData(t.path, t.markers[sl], t.times[sl]))
         check_markers(t.path, pset.marker_names, trials[-1].markers, IKSettings().min_markers)
     if args.solver == "paper":
-        from ..identify.paper import run_paper_cli
+        from .paper import run_paper
 
         with output_folder(args.out, force=args.force) as out:
-            return run_paper_cli(args, pset, trials, ranges, out)
+            return run_paper(args, pset, trials, ranges, out)
     return into_out_folder(args, lambda out: _identify(args, pset, loaded, trials, ranges, out))
 
 
@@ -158,22 +160,25 @@ def _identify(
     ranges: list[list[int]],
     out: Path,
 ) -> tuple[dict[str, Any], str]:
-    loss = "cauchy" if args.robust else args.loss
+    loss: LossName = "cauchy" if args.robust else args.loss
     settings = LMSettings(
         max_iterations=args.max_iterations,
         loss=loss,
         prior_sigma=args.prior_mm * 1e-3,
         observable_std=args.observable_mm * 1e-3,
     )
-    summary, result, _ = identify_to_folder(
-        trials,
-        out,
-        pset=pset,
-        settings=settings,
-        init=args.init,
-        progress=not args.json,
-        extra={"markers_files": [t.path for t in loaded], "frames_fitted_range": ranges},
-    )
+    from .progress import progress_bar
+
+    with progress_bar("identify (LM)", enabled=not args.json) as progress:
+        summary, result, _ = identify_to_folder(
+            trials,
+            out,
+            pset=pset,
+            settings=settings,
+            init=args.init,
+            progress=progress,
+            extra={"markers_files": [t.path for t in loaded], "frames_fitted_range": ranges},
+        )
     per_marker = marker_rmse_by_marker(pset, result, trials)
     outside = kappa_outside_bounds(pset, result.theta)
     summary["marker_rmse_by_marker_mm"] = {

@@ -94,7 +94,10 @@ def _solve_and_write(
         ),
     )
     t0 = time.perf_counter()
-    result = solver.solve_trial(trial.markers, progress=not args.json)
+    from .progress import frames_bar
+
+    with frames_bar("IK", len(trial.markers), enabled=not args.json) as progress:
+        result = solver.solve_trial(trial.markers, progress=progress)
     seconds = time.perf_counter() - t0
     pset.export_mjcf(out / "model.xml", pset.nominal)
     save_motion(

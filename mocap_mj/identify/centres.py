@@ -25,6 +25,7 @@ from .._threads import one_blas_thread
 from ..errors import check_shape
 from ..kinematics import Kinematics
 from .identifiability import Identifiability
+from .problem import IdentificationProblem
 
 
 class CentreBound(NamedTuple):
@@ -106,8 +107,6 @@ def joint_centre_bound(
     qpos : (T, nq), the estimated poses; frames with NaN are skipped
     idf : the identifiability analysis of the same fit (its S, sigma and weak_std)
     """
-    from .lm import _Problem  # the normal-equation blocks of the joint LM
-
     check_shape("markers", markers, (None, kin.pset.n_markers, 3))
     ok = np.all(np.isfinite(qpos), axis=1)
     markers, qpos = markers[ok], qpos[ok]
@@ -116,7 +115,7 @@ def joint_centre_bound(
     vec, lam = idf.eigenvectors[:, sel], idf.eigenvalues[sel]
     cov_theta = (vec / lam) @ vec.T  # (P, P) [1 / information], times sigma^2 below
     free = np.arange(p)
-    prob = _Problem(kin, markers, qpos.copy(), free)
+    prob = IdentificationProblem(kin, markers, qpos.copy(), free)
     w = prob.present.astype(float)
     nb = kin.model.nbody - 2
     pose_ss = np.zeros(nb)
@@ -124,7 +123,7 @@ def joint_centre_bound(
     with one_blas_thread():
         for s in range(0, len(qpos), chunk):
             sl = slice(s, min(s + chunk, len(qpos)))
-            a, b, _, _, _ = prob.chunk_system(sl, w, limits=False)
+            a, b, _, _, _ = prob.normal_blocks(sl, w)
             k, h_k = centre_jacobians(kin, qpos[sl])
             n = len(a)
             ainv = np.linalg.pinv(a, hermitian=True)  # (n, nv, nv)

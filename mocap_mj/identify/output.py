@@ -14,19 +14,22 @@ from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..results import Motion, save_motion
 from .identifiability import Identifiability
-from .lm import LMResult, TrialData
+from .problem import TrialData
+from .result import IdentificationResult, IterationLog
 
 
 def write_result(
     out: Path,
     pset: ParameterSet,
-    result: LMResult,
+    result: IdentificationResult,
     idf: Identifiability,
     trials: Sequence[TrialData],
     summary: Mapping[str, Any],
+    iterations: Sequence[str] | None = None,
 ) -> None:
     """model.xml, theta.json, motion.npz (first trial; ``motion_<i>.npz`` for the others),
-    identifiability.json and report.md."""
+    identifiability.json and report.md (its iterations section: ``iterations``, default
+    :func:`iteration_lines`)."""
     pset.export_mjcf(out / "model.xml", result.theta)
     pset.save_json(
         out / "theta.json",
@@ -44,11 +47,12 @@ def write_result(
         save_motion(out / name, Motion(qpos, trial.times, trial.markers, pset.marker_names))
     atomic_write_text(out / "identifiability.json", json.dumps(idf.to_json()) + "\n")
     write_plots(out, pset, result, trials)
-    atomic_write_text(out / "report.md", "\n".join(report_lines(pset, result, idf, summary)))
+    lines = report_lines(pset, result, idf, summary, iterations)
+    atomic_write_text(out / "report.md", "\n".join(lines))
 
 
 def write_plots(
-    out: Path, pset: ParameterSet, result: LMResult, trials: Sequence[TrialData]
+    out: Path, pset: ParameterSet, result: IdentificationResult, trials: Sequence[TrialData]
 ) -> None:
     """marker_error.png (per frame, first trial) and residual_per_marker.png."""
     from ..plots import plot_marker_error_per_frame, plot_residual_per_marker
@@ -72,8 +76,13 @@ def write_plots(
 
 
 def report_lines(
-    pset: ParameterSet, result: LMResult, idf: Identifiability, summary: Mapping[str, Any]
+    pset: ParameterSet,
+    result: IdentificationResult,
+    idf: Identifiability,
+    summary: Mapping[str, Any],
+    iterations: Sequence[str] | None = None,
 ) -> list[str]:
+    """The Markdown report; ``iterations``: its last section (default :func:`iteration_lines`)."""
     kappa, _ = pset.split(result.theta)
     kappa0, _ = pset.split(result.theta0)
     lines = [
@@ -98,15 +107,24 @@ def report_lines(
             f"| {name} | {kappa0[i] * 1e3:.1f} | {kappa[i] * 1e3:.2f} | "
             f"{(kappa[i] - kappa0[i]) * 1e3:+.2f} | {idf.param_std[i] * 1e3:.2f} |"
         )
-    lines += ["", *idf.report_lines(), "## Iterations", "", "```"]
-    for log in result.trace:
-        lines.append(
-            f"{log.iteration:3d}  F {log.cost:.6e}  rmse {log.rmse * 1e3:.4f} mm  "
-            f"mu {log.mu:.1e}  {'accepted' if log.accepted else 'rejected'}  "
-            f"{log.seconds:.2f} s"
-        )
-    lines += ["```", ""]
+    lines += ["", *idf.report_lines()]
+    lines += iteration_lines(result) if iterations is None else list(iterations)
     return lines
+
+
+def iteration_lines(result: IdentificationResult) -> list[str]:
+    """The report's iterations section: one line per trace entry (cost, RMSE; for the joint
+    LM also damping, acceptance and time)."""
+    lines = ["## Iterations", "", "```"]
+    for log in result.trace:
+        text = f"{log.iteration:3d}  F {log.cost:.6e}  rmse {log.rmse * 1e3:.4f} mm"
+        if isinstance(log, IterationLog):
+            text += (
+                f"  mu {log.mu:.1e}  {'accepted' if log.accepted else 'rejected'}  "
+                f"{log.seconds:.2f} s"
+            )
+        lines.append(text)
+    return [*lines, "```", ""]
 
 
 def frame_range(text: str | None, n: int) -> slice:

@@ -24,16 +24,14 @@ are laid out:
 
 - every frame's unperturbed IK is warm-started from that frame's previous solution, and every
   perturbed IK from the unperturbed solution of the same frame under the current theta;
-- all (P + 1) x N_F problems of an iteration go through one vectorised
-  :meth:`IKSolver.solve_frames` call (in chunks of ``chunk_rows`` rows to bound memory): the
-  kinematics used there (:class:`TaggedKinematics`) carries, per row, which parameter is
-  perturbed, as one extra column of the configuration. Perturbing a parameter with the pose
-  fixed is an exact rigid translation of a kinematic subtree (a kinematic parameter moves a
-  body's position in its parent's frame) or of one marker site (an offset), so each row's
-  forward kinematics is the unperturbed one plus that translation;
-- the unperturbed E_j(theta) of each difference is a row of the same call, started at the same
-  pose and run for the same iterations as the perturbed rows, so that what the IK still had
-  to converge cancels in the difference;
+- the (P + 1) x N_F problems of an iteration run on the compiled IK
+  (:meth:`IKSolver.solve_frames`), one call per perturbed model over the sampled frames: a
+  perturbed model is the current compiled tree with its body and site positions recomputed
+  for theta + Delta e_i (:meth:`GradientEstimator.perturbed_trees`), the only tables theta
+  enters;
+- the unperturbed E_j(theta) of each difference is solved the same way, started at the same
+  pose and run for the same iterations as the perturbed problems, so that what the IK still
+  had to converge cancels in the difference;
 - the perturbed IK runs at most ``perturbed_iterations`` LM iterations (default 2). From the
   warm start one step lands within O(Delta^2) of the perturbed optimum (measured in
   ``docs/paper.md``: at the true model 2 iterations give the gradient of 100 to 1e-6).
@@ -51,26 +49,30 @@ Frames with too few markers for IK are left out; missing markers do not count in
 
 from __future__ import annotations
 
-import argparse
+import logging
 import time
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from itertools import pairwise
-from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Literal, NamedTuple, get_args
 
-import mujoco
 import numpy as np
 
 from .._threads import single_blas_thread
+from .._tree import Tree
 from ..errors import MocapError, SolverError, check_shape
 from ..ik import IKSettings, IKSolver, Status
-from ..kinematics import Frames, Kinematics
+from ..kinematics import Kinematics
 from ..parameters import ParameterSet
-from .lm import IterationLog, LMResult, Termination, TrialData
+from .heuristics import refit_frames
+from .problem import IdentificationProblem, TrialData, pool, reduced_information, unpool
+from .result import IdentificationResult, ProgressCallback
+from .result import Status as Stop
 
-SAMPLINGS: tuple[str, ...] = ("batch", "even", "random", "stochastic")
+logger = logging.getLogger(__name__)
+
+Sampling = Literal["batch", "even", "random", "stochastic"]
+SAMPLINGS: tuple[str, ...] = get_args(Sampling)
 
 #: IK settings of Algorithm 1: the project's defaults without the relative-RMSE stop. A finite
 #: difference of E divides IK results by Delta, so every IK must be converged to far below
@@ -109,9 +111,6 @@ class PaperSettings:
         LM iterations of each perturbed IK (warm-started at the unperturbed solution).
     ik_iterations : int
         LM iteration limit of each frame's unperturbed IK (warm-started at its last solution).
-    chunk_rows : int
-        Perturbed IK problems per :meth:`IKSolver.solve_frames` call (memory: about 70 kB
-        per row).
     clip_to_bounds : bool
         Keep theta within ``pset.lower``/``pset.upper`` (the model stays valid if a step
         overshoots; inactive in a converging run).
@@ -127,7 +126,7 @@ class PaperSettings:
         Iterations at least between two such refits.
     """
 
-    sampling: str = "batch"
+    sampling: Sampling = "batch"
     iterations: int = 100
     step: float = DEFAULT_STEP
     delta: float = DEFAULT_DELTA
@@ -135,7 +134,6 @@ class PaperSettings:
     seed: int = 0
     perturbed_iterations: int = 2
     ik_iterations: int = 100
-    chunk_rows: int = 1024
     clip_to_bounds: bool = True
     refit_factor: float = 3.0
     refit_margin: float = 0.001
@@ -156,8 +154,8 @@ class PaperSettings:
             raise MocapError(f"fraction must be in (0, 1], got {self.fraction}")
         if self.seed < 0:
             raise MocapError(f"seed must be >= 0, got {self.seed}")
-        if min(self.perturbed_iterations, self.ik_iterations, self.chunk_rows) < 1:
-            raise MocapError("perturbed_iterations, ik_iterations and chunk_rows must be >= 1")
+        if min(self.perturbed_iterations, self.ik_iterations) < 1:
+            raise MocapError("perturbed_iterations and ik_iterations must be >= 1")
 
 
 class PaperIteration(NamedTuple):
@@ -182,134 +180,37 @@ class PaperIteration(NamedTuple):
     seconds: float
     theta: np.ndarray
 
+    @property
+    def cost(self) -> float:
+        """The objective [m^2] (E over the sampled frames), as every trace entry has it."""
+        return self.energy
+
 
 @dataclass
-class PaperResult:
-    """Outcome of :func:`identify_paper`.
+class PaperResult(IdentificationResult):
+    """Outcome of :func:`identify_paper`: the common result (``method="paper"``, status
+    ``MAX_ITERATIONS``, ``trace`` of :class:`PaperIteration`; ``qpos`` every frame's IK under
+    the final theta) and what Algorithm 1 adds.
 
     Attributes
     ----------
-    theta, theta0 : (P,) [m]
-    qpos : list of (T_i, nq) per trial: every frame's IK under the final theta (NaN rows for
-        frames with too few markers)
-    used : list of (T_i,) bool
-    frame_rmse : list of (T_i,) [m], marker RMSE of each frame under the final theta
-    marker_rmse : float [m], over all present samples of the used frames
     energy : float [m^2], E over all used frames at the final theta
-    trace : list of PaperIteration
     settings : PaperSettings
-    seconds : float, the algorithm (initial IK and iterations; not the final IK)
-    init_seconds : float, initial IK of all frames
-    final_seconds : float, final IK of all frames
+    final_seconds : float [s], final IK of all frames (not in ``seconds``)
     ik_problems : int, IK problems solved in the iterations (unperturbed and perturbed)
     clipped : int, iterations in which a bound was active
     repaired : int, frame poses improved by fresh IK (local minima) in the iterations
     refits : list of int, iterations at which every frame's IK was solved afresh
     """
 
-    theta: np.ndarray
-    theta0: np.ndarray
-    qpos: list[np.ndarray]
-    used: list[np.ndarray]
-    frame_rmse: list[np.ndarray]
-    marker_rmse: float
-    energy: float
-    trace: list[PaperIteration]
-    settings: PaperSettings
-    seconds: float
-    init_seconds: float
-    final_seconds: float
-    ik_problems: int
+    trace: Sequence[PaperIteration] = field(default_factory=list)
+    energy: float = 0.0
+    settings: PaperSettings = field(default_factory=PaperSettings)
+    final_seconds: float = 0.0
+    ik_problems: int = 0
     clipped: int = 0
     repaired: int = 0
     refits: list[int] = field(default_factory=list)
-
-
-# ------------------------------------------------------------------ tagged kinematics
-class TaggedKinematics(Kinematics):
-    """Kinematics of many perturbed models at once, one per row.
-
-    The configuration has one column more than the model's: ``qpos[:, -1]`` is the index i of
-    the parameter perturbed by ``delta`` in that row (-1: none), so that one
-    :class:`IKSolver` call can solve frames of P different models. With the pose fixed,
-    ``theta + delta e_i`` moves, exactly,
-
-    - for a kinematic parameter: each target body (and its subtree: bodies, joint anchors and
-      sites) by ``delta * R_parent D[i, b]``;
-    - for a marker offset (marker m, axis c): site m by ``delta * R_body[:, c]``.
-
-    Orientations (and so joint axes) do not change.
-
-    Parameters
-    ----------
-    pset : ParameterSet
-    delta : float [m]
-    """
-
-    compiled = False  # rows carry their own perturbed model: NumPy path only
-
-    def __init__(self, pset: ParameterSet, delta: float) -> None:
-        super().__init__(pset)
-        self.delta = float(delta)
-        self.model_nq = self.nq
-        self.nq = self.model_nq + 1
-        m = self.model
-        site_body = np.array(m.site_bodyid)
-        jnt_body = np.array(m.jnt_bodyid)
-        k = self.pset.n_kappa
-        # Per kinematic parameter: (parent body, direction, body mask, joint mask, site mask).
-        self._moves: list[list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]]
-        self._moves = [[] for _ in range(k)]
-        for i, b in self.kappa_pairs:
-            sub = self.ancestor[:, b]  # bodies in b's subtree
-            self._moves[i].append(
-                (
-                    int(m.body_parentid[b]),
-                    self.pset.direction[i, b].copy(),
-                    np.flatnonzero(sub),
-                    np.flatnonzero(sub[jnt_body]),
-                    np.flatnonzero(sub[site_body]),
-                )
-            )
-        self._site_body = site_body
-
-    def tagged(self, qpos: np.ndarray, params: np.ndarray) -> np.ndarray:
-        """Configuration (B, nq + 1) from qpos (B, nq) and perturbed parameter (B,) (-1: none)."""
-        return np.concatenate([qpos, np.asarray(params, dtype=float)[:, None]], axis=1)
-
-    def forward(self, qpos: np.ndarray) -> Frames:
-        """Forward kinematics of tagged configurations (B, nq + 1), each row's model its own."""
-        qpos = self._check_qpos(qpos)
-        nq = self.model_nq
-        site_xpos, xpos, xmat, xanchor, xaxis = self._kinematics_rows(qpos[:, :nq])
-        tag = np.rint(qpos[:, nq]).astype(int)
-        k = self.pset.n_kappa
-        for i in np.unique(tag[tag >= 0]):
-            rows = np.flatnonzero(tag == i)
-            if i < k:
-                for parent, direction, bodies, joints, sites in self._moves[i]:
-                    shift = self.delta * (xmat[rows, parent] @ direction)  # (r, 3)
-                    xpos[np.ix_(rows, bodies)] += shift[:, None]
-                    xanchor[np.ix_(rows, joints)] += shift[:, None]
-                    site_xpos[np.ix_(rows, sites)] += shift[:, None]
-            else:
-                s, c = divmod(int(i) - k, 3)
-                site_xpos[rows, s] += self.delta * xmat[rows, self._site_body[s], :, c]
-        return Frames(site_xpos, xpos, xmat, xanchor, xaxis)
-
-    def marker_positions(self, qpos: np.ndarray) -> np.ndarray:
-        return self.forward(qpos).site_xpos
-
-    def integrate(self, qpos: np.ndarray, dv: np.ndarray, scale: float = 1.0) -> np.ndarray:
-        qpos = self._check_qpos(qpos)
-        check_shape("dv", dv, (len(qpos), self.nv))
-        out = qpos.copy()
-        nq = self.model_nq
-        for t in range(len(out)):
-            q = out[t, :nq].copy()
-            mujoco.mj_integratePos(self.model, q, dv[t], scale)
-            out[t, :nq] = q
-        return out
 
 
 # ------------------------------------------------------------------ sampling
@@ -360,7 +261,6 @@ class GradientEstimator:
     delta : float [m]
     perturbed_iterations : int
     ik_settings : IKSettings, optional (default :data:`IK_SETTINGS`)
-    chunk_rows : int
     """
 
     def __init__(
@@ -371,24 +271,40 @@ class GradientEstimator:
         perturbed_iterations: int = 3,
         ik_iterations: int = 100,
         ik_settings: IKSettings | None = None,
-        chunk_rows: int = 1024,
     ) -> None:
         self.pset = pset
         self.kin = Kinematics(pset)
-        self.tagged = TaggedKinematics(pset, delta)
-        ik_settings = ik_settings or IK_SETTINGS
-        self.ik = IKSolver(self.kin, ik_settings)
-        self.ik_tagged = IKSolver(self.tagged, ik_settings)
+        self.ik = IKSolver(self.kin, ik_settings or IK_SETTINGS)
         self.delta = float(delta)
         self.perturbed_iterations = perturbed_iterations
         self.ik_iterations = ik_iterations
-        self.chunk_rows = chunk_rows
         self.params = np.flatnonzero(~pset.frozen)
         self.problems = 0
+        self._trees: list[Tree] | None = None
 
     def set_theta(self, theta: np.ndarray) -> None:
         self.kin.set_theta(theta)
-        self.tagged.set_theta(theta)
+        self._trees = None
+
+    def perturbed_trees(self) -> list[Tree]:
+        """The compiled model at theta + Delta e_i for every free parameter i (P_free,).
+
+        theta enters the model only through body positions (kinematic parameters) and site
+        positions (marker offsets), so each perturbed model is the current tree with those
+        two tables recomputed (``ParameterSet.apply``'s own formulas).
+        """
+        if self._trees is None:
+            base, theta = self.kin.tree(), self.kin.theta
+            trees = []
+            for i in self.params:
+                th = theta.copy()
+                th[i] += self.delta
+                offsets = self.pset.split(th)[1]
+                body_pos = np.asarray(self.pset.body_pos(th), dtype=float)
+                site_pos = np.ascontiguousarray(offsets, dtype=float)
+                trees.append(base._replace(body_pos=body_pos, site_pos=site_pos))
+            self._trees = trees
+        return self._trees
 
     def solve(self, markers: np.ndarray, qpos0: np.ndarray) -> np.ndarray:
         """Unperturbed IK (B, nq) of frames (B, M, 3) from qpos0 (B, nq)."""
@@ -400,6 +316,11 @@ class GradientEstimator:
         self.problems += len(markers)
         return r.qpos, r.marker_rmse
 
+    def _energy(self, tree: Tree | None, markers: np.ndarray, qpos: np.ndarray) -> np.ndarray:
+        """E_j (B,) [m^2] after ``perturbed_iterations`` IK iterations from qpos (B, nq)."""
+        r = self.ik.solve_frames(markers, qpos, max_iterations=self.perturbed_iterations, tree=tree)
+        return np.asarray(r.marker_rmse**2 * r.n_markers)
+
     def perturbed_energy(
         self, markers: np.ndarray, qpos: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
@@ -409,22 +330,12 @@ class GradientEstimator:
         runs the same ``perturbed_iterations`` LM iterations, so that what the IK still had to
         converge cancels in the difference.
         """
-        b = len(markers)
-        pf = self.params.size
-        cols = np.concatenate([[-1], self.params])
-        frame = np.repeat(np.arange(b), pf + 1)
-        param = np.tile(cols, b)
-        out = np.empty(b * (pf + 1))
-        for s in range(0, out.size, self.chunk_rows):
-            sl = slice(s, min(s + self.chunk_rows, out.size))
-            q0 = self.tagged.tagged(qpos[frame[sl]], param[sl])
-            r = self.ik_tagged.solve_frames(
-                markers[frame[sl]], q0, max_iterations=self.perturbed_iterations
-            )
-            out[sl] = r.marker_rmse**2 * r.n_markers
-        self.problems += out.size
-        e = out.reshape(b, pf + 1)
-        return e[:, 0], e[:, 1:]
+        e0 = self._energy(None, markers, qpos)
+        ep = np.empty((len(markers), self.params.size))
+        for j, tree in enumerate(self.perturbed_trees()):
+            ep[:, j] = self._energy(tree, markers, qpos)
+        self.problems += len(markers) * (self.params.size + 1)
+        return e0, ep
 
     def gradient(
         self, markers: np.ndarray, qpos0: np.ndarray
@@ -478,8 +389,7 @@ def identify_paper(
     theta0: np.ndarray | None = None,
     settings: PaperSettings | None = None,
     ik_settings: IKSettings | None = None,
-    progress: bool = False,
-    log: list[str] | None = None,
+    progress: ProgressCallback | None = None,
 ) -> PaperResult:
     """Identify theta with Algorithm 1 of Zou & Sugihara (see the module docstring).
 
@@ -494,14 +404,8 @@ def identify_paper(
     settings : PaperSettings, optional
     ik_settings : IKSettings, optional
         Settings of every IK (tolerances, damping); default :data:`IK_SETTINGS`.
-    progress : bool
-        Progress bar over the iterations.
-    log : list of str, optional
-        Receives one line per iteration.
-
-    Returns
-    -------
-    PaperResult
+    progress : callable, optional
+        Called with each iteration's :class:`PaperIteration`.
     """
     st = settings or PaperSettings()
     pset = pset or ParameterSet()
@@ -520,202 +424,189 @@ def identify_paper(
         perturbed_iterations=st.perturbed_iterations,
         ik_iterations=st.ik_iterations,
         ik_settings=ik_settings,
-        chunk_rows=st.chunk_rows,
     )
     est.set_theta(theta)
     iks = [est.ik.solve_trial(t.markers) for t in trials]
     used = [r.status != Status.TOO_FEW_MARKERS for r in iks]
-    markers = np.concatenate([t.markers[u] for t, u in zip(trials, used, strict=True)])
-    qpos = np.concatenate([r.qpos[u] for r, u in zip(iks, used, strict=True)])
-    present = np.all(np.isfinite(markers), axis=2).sum(axis=1)
-    init_seconds = time.perf_counter() - t_start
-    sampler = FrameSampler(len(markers), st.sampling, st.fraction, st.seed)
-    est.problems = 0
-    trace: list[PaperIteration] = []
-    clipped = 0
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(
-            total=st.iterations, desc=f"identify (paper, {st.sampling})", unit="it",
-            leave=False, delay=2,
-        )  # fmt: skip
+    markers, qpos = pool(trials, [r.qpos for r in iks], used)
+    run = _Run(est, st, markers, qpos, used)
     init_rmse = np.concatenate([r.marker_rmse[u] for r, u in zip(iks, used, strict=True)])
-    recent = deque(np.nan_to_num(init_rmse).tolist(), maxlen=100)
-    bounds = np.cumsum([0] + [int(u.sum()) for u in used])
-    segments = [slice(int(a), int(b)) for a, b in pairwise(bounds)]
-    repaired = 0
-    refits: list[int] = []
-    last_refit = -st.refit_interval
+    run.recent.extend(np.nan_to_num(init_rmse).tolist())
+    init_seconds = time.perf_counter() - t_start
+    est.problems = 0
     for it in range(1, st.iterations + 1):
-        frames = sampler.draw()
+        theta = run.iteration(it, theta, pset, t_start)
+        if progress is not None:
+            progress(run.trace[-1])
+    seconds = time.perf_counter() - t_start
+    t_final = time.perf_counter()
+    est.set_theta(theta)
+    final = _final_ik(est.ik, trials, used, run.qpos)
+    return _paper_result(
+        pset,
+        theta,
+        theta_init,
+        trials,
+        final,
+        run,
+        seconds,
+        init_seconds,
+        time.perf_counter() - t_final,
+    )
+
+
+class _Run:
+    """The state of Algorithm 1 between iterations: poses (n, nq) of the pooled frames, the
+    frame sampler, the recent per-frame RMSE [m] (for the refit test) and the trace."""
+
+    def __init__(
+        self,
+        est: GradientEstimator,
+        st: PaperSettings,
+        markers: np.ndarray,
+        qpos: np.ndarray,
+        used: Sequence[np.ndarray],
+    ) -> None:
+        self.est, self.st, self.markers, self.qpos = est, st, markers, qpos
+        self.present = np.all(np.isfinite(markers), axis=2).sum(axis=1)
+        self.sampler = FrameSampler(len(markers), st.sampling, st.fraction, st.seed)
+        self.segments = IdentificationProblem.segments_of(used)
+        self.recent: deque[float] = deque(maxlen=100)
+        self.trace: list[PaperIteration] = []
+        self.clipped = self.repaired = 0
+        self.refits: list[int] = []
+        self.last_refit = -st.refit_interval
+
+    def sampled_poses(self, frames: np.ndarray) -> np.ndarray:
+        """Warm-started IK of the sampled frames (N_F,) under the current theta: RMSE (N_F,)."""
+        q_new, rmse_s = self.est.solve_rmse(self.markers[frames], self.qpos[frames])
+        self.qpos[frames] = q_new
+        return rmse_s
+
+    def iteration(
+        self, it: int, theta: np.ndarray, pset: ParameterSet, t_start: float
+    ) -> np.ndarray:
+        """Iteration ``it`` of Algorithm 1 from theta (P,) [m]; returns the new theta."""
+        st, est = self.st, self.est
+        frames = self.sampler.draw()
         est.set_theta(theta)
-        q_new, rmse_s = est.solve_rmse(markers[frames], qpos[frames])
-        qpos[frames] = q_new
-        limit = st.refit_factor * float(np.median(recent)) + st.refit_margin
-        if np.any(rmse_s > limit) and it - last_refit >= st.refit_interval:
+        rmse_s = self.sampled_poses(frames)
+        limit = st.refit_factor * float(np.median(self.recent)) + st.refit_margin
+        if np.any(rmse_s > limit) and it - self.last_refit >= st.refit_interval:
             # A sampled frame fits far worse than the frames solved recently: its pose is
-            # caught in a local minimum (typically since the initial IK, under a model far
-            # from the subject). Every frame's IK afresh under theta; keep the better poses.
-            fixed = _refit(est.ik, markers, qpos, segments)
-            repaired += fixed
-            refits.append(it)
-            last_refit = it
-            if log is not None:
-                log.append(f"iter {it:4d}  IK of all frames afresh: {fixed} poses improved")
-            q_new, rmse_s = est.solve_rmse(markers[frames], qpos[frames])
-            qpos[frames] = q_new
-        recent.extend(rmse_s.tolist())
-        grad, _, e0 = est.gradient_at(markers[frames], q_new)
+            # caught in a local minimum. Every frame's IK afresh; keep the better poses.
+            fixed = len(refit_frames(est.ik, self.markers, self.qpos, self.segments))
+            self.repaired += fixed
+            self.refits.append(it)
+            self.last_refit = it
+            logger.info("iter %4d  IK of all frames afresh: %d poses improved", it, fixed)
+            rmse_s = self.sampled_poses(frames)
+        self.recent.extend(rmse_s.tolist())
+        grad, _, e0 = est.gradient_at(self.markers[frames], self.qpos[frames])
         step = st.step * grad / len(frames)
         theta = theta - step
         if st.clip_to_bounds:
             clipped_theta = np.clip(theta, pset.lower, pset.upper)
-            clipped += int(np.any(clipped_theta != theta))
+            self.clipped += int(np.any(clipped_theta != theta))
             theta = clipped_theta
         energy = float(e0.sum())
-        rmse = float(np.sqrt(energy / max(int(present[frames].sum()), 1)))
+        rmse = float(np.sqrt(energy / max(int(self.present[frames].sum()), 1)))
         gnorm = float(np.linalg.norm(grad) / len(frames))
-        trace.append(
-            PaperIteration(it, frames, energy, rmse, gnorm, time.perf_counter() - t_start,
-                           theta.copy())
-        )  # fmt: skip
-        if log is not None:
-            log.append(
-                f"iter {it:4d}  frames {len(frames):4d}  E {energy:.6e} m^2  rmse "
-                f"{rmse * 1e3:.4f} mm  |g|/N {gnorm:.3e}  max|dtheta| "
-                f"{np.abs(step).max() * 1e3:.4f} mm"
+        self.trace.append(
+            PaperIteration(
+                it, frames, energy, rmse, gnorm, time.perf_counter() - t_start, theta.copy()
             )
-        if bar is not None:
-            bar.update(1)
-    if bar is not None:
-        bar.close()
-    seconds = time.perf_counter() - t_start
-    problems = est.problems
-    # Every frame's IK under the final theta (for the result, not part of the algorithm).
-    t_final = time.perf_counter()
-    est.set_theta(theta)
-    qpos_out, frame_rmse = [], []
-    start = 0
-    sq, npres = 0.0, 0
-    for t, u in zip(trials, used, strict=True):
-        k = int(u.sum())
-        q = np.full((len(t.markers), est.kin.nq), np.nan)
-        fr = np.full(len(t.markers), np.nan)
-        if k:
-            # Warm from the last poses, and afresh (chains, repair): each frame's better fit.
-            warm = est.ik.solve_trial(t.markers[u], qpos_init=qpos[start : start + k])
-            fresh = est.ik.solve_trial(t.markers[u])
-            better = np.nan_to_num(fresh.marker_rmse, nan=np.inf) < np.nan_to_num(
-                warm.marker_rmse, nan=np.inf
-            )
-            qq = np.where(better[:, None], fresh.qpos, warm.qpos)
-            rr = np.where(better, fresh.marker_rmse, warm.marker_rmse)
-            q[u], fr[u] = qq, rr
-            ok = np.isfinite(rr)
-            sq += float(np.sum(rr[ok] ** 2 * warm.n_markers[ok]))
-            npres += int(warm.n_markers[ok].sum())
-        qpos_out.append(q)
-        frame_rmse.append(fr)
-        start += k
-    final_seconds = time.perf_counter() - t_final
+        )
+        logger.info(
+            "iter %4d  frames %4d  E %.6e m^2  rmse %.4f mm  |g|/N %.3e  max|dtheta| %.4f mm",
+            it,
+            len(frames),
+            energy,
+            rmse * 1e3,
+            gnorm,
+            np.abs(step).max() * 1e3,
+        )
+        return theta
+
+
+class FinalFit(NamedTuple):
+    """Every frame's IK under the final theta: used (T_i,) bool, qpos (T_i, nq) and RMSE
+    (T_i,) [m] per trial; E [m^2] and present samples over the frames solved."""
+
+    used: list[np.ndarray]
+    qpos: list[np.ndarray]
+    frame_rmse: list[np.ndarray]
+    energy: float
+    samples: int
+
+
+def _final_ik(
+    solver: IKSolver, trials: Sequence[TrialData], used: Sequence[np.ndarray], qpos: np.ndarray
+) -> FinalFit:
+    """Every frame's IK under the solver's theta, warm from the last poses (n, nq) and afresh
+    (chains, repair), keeping each frame's better fit (for the result, not part of the
+    algorithm)."""
+    q_rows, r_rows, energy, samples = [], [], 0.0, 0
+    for t, u, seg in zip(trials, used, IdentificationProblem.segments_of(used), strict=True):
+        if not np.any(u):
+            continue
+        warm = solver.solve_trial(t.markers[u], qpos_init=qpos[seg])
+        fresh = solver.solve_trial(t.markers[u])
+        better = np.nan_to_num(fresh.marker_rmse, nan=np.inf) < np.nan_to_num(
+            warm.marker_rmse, nan=np.inf
+        )
+        q_rows.append(np.where(better[:, None], fresh.qpos, warm.qpos))
+        rr = np.where(better, fresh.marker_rmse, warm.marker_rmse)
+        r_rows.append(rr)
+        ok = np.isfinite(rr)
+        energy += float(np.sum(rr[ok] ** 2 * warm.n_markers[ok]))
+        samples += int(warm.n_markers[ok].sum())
+    q_all = np.concatenate(q_rows) if q_rows else np.zeros((0, solver.kin.nq))
+    r_all = np.concatenate(r_rows) if r_rows else np.zeros(0)
+    return FinalFit(list(used), unpool(q_all, used), unpool(r_all, used), energy, samples)
+
+
+def _paper_result(
+    pset: ParameterSet,
+    theta: np.ndarray,
+    theta0: np.ndarray,
+    trials: Sequence[TrialData],
+    final: FinalFit,
+    run: _Run,
+    seconds: float,
+    init_seconds: float,
+    final_seconds: float,
+) -> PaperResult:
+    """The common result of Algorithm 1 with the reduced information at its final poses."""
+    info, sigma, n_res, n_unk = reduced_information(pset, theta, trials, final.qpos)
+    free = ~pset.frozen.copy()
+    at_bound = free & ((theta <= pset.lower) | (theta >= pset.upper)) & run.st.clip_to_bounds
     return PaperResult(
         theta=theta,
-        theta0=theta_init,
-        qpos=qpos_out,
-        used=used,
-        frame_rmse=frame_rmse,
-        marker_rmse=float(np.sqrt(sq / max(npres, 1))),
-        energy=sq,
-        trace=trace,
-        settings=st,
+        theta0=theta0,
+        qpos=final.qpos,
+        used=final.used,
+        frame_rmse=final.frame_rmse,
+        marker_rmse=float(np.sqrt(final.energy / max(final.samples, 1))),
+        reduced_information=info,
+        free=free,
+        sigma=sigma,
+        n_residuals=n_res,
+        n_unknowns=n_unk,
+        iterations=len(run.trace),
+        status=Stop.MAX_ITERATIONS,
+        trace=run.trace,
         seconds=seconds,
         init_seconds=init_seconds,
+        at_bound=at_bound,
+        method="paper",
+        energy=final.energy,
+        settings=run.st,
         final_seconds=final_seconds,
-        ik_problems=problems,
-        clipped=clipped,
-        repaired=repaired,
-        refits=refits,
-    )
-
-
-def _refit(solver: IKSolver, markers: np.ndarray, qpos: np.ndarray, segments: list[slice]) -> int:
-    """Fresh IK (chains, repair) of every trial in place where it fits better; count."""
-    x = solver.kin.marker_positions(qpos)
-    present = np.all(np.isfinite(markers), axis=2)
-    d2 = np.where(present, np.sum((np.nan_to_num(markers) - x) ** 2, axis=2), 0.0)
-    before = np.sqrt(d2.sum(axis=1) / np.maximum(present.sum(axis=1), 1))
-    changed = 0
-    for seg in segments:
-        r = solver.solve_trial(markers[seg])
-        better = np.nan_to_num(r.marker_rmse, nan=np.inf) < 0.98 * before[seg]
-        rows = np.arange(seg.start, seg.stop)[better]
-        qpos[rows] = r.qpos[better]
-        changed += int(better.sum())
-    return changed
-
-
-# ------------------------------------------------------------------ result folder
-def reduced_information(
-    pset: ParameterSet, theta: np.ndarray, trials: Sequence[TrialData], qpos: Sequence[np.ndarray]
-) -> tuple[np.ndarray, float, int, int]:
-    """Reduced information of theta at a solution, as the joint LM reports it.
-
-    Same quantity as ``LMResult.reduced_information`` (Schur complement of the poses, unit
-    weights, no prior; built with the LM's own normal-equation kernel).
-
-    Returns
-    -------
-    information : (P, P) [1], frozen rows/columns zero
-    sigma : float [m], per-axis noise estimated from the fit
-    n_residuals, n_unknowns : int
-    """
-    from .lm import _Problem
-
-    kin = Kinematics(pset)
-    kin.set_theta(theta)
-    ok = [np.all(np.isfinite(q), axis=1) for q in qpos]
-    markers = np.concatenate([t.markers[u] for t, u in zip(trials, ok, strict=True)])
-    q = np.concatenate([qq[u] for qq, u in zip(qpos, ok, strict=True)])
-    free = np.flatnonzero(~pset.frozen)
-    prob = _Problem(kin, markers, q, free)
-    w = prob.present.astype(float)
-    pf = free.size
-    info = prob.information(w, pset.size)
-    dist = prob.residuals(q)
-    n_res = int(3 * prob.present.sum())
-    n_unk = int(kin.nv * prob.n + pf)
-    rmse = float(np.sqrt(np.sum(dist**2) / max(prob.present.sum(), 1)))
-    sigma = rmse / np.sqrt(3 * max(1.0 - n_unk / max(n_res, 1), 1e-6))
-    return info, float(sigma), n_res, n_unk
-
-
-def as_lm_result(
-    result: PaperResult, information: np.ndarray, sigma: float, n_residuals: int, n_unknowns: int
-) -> LMResult:
-    """The fields of :class:`LMResult` that the result folder needs, from a paper result."""
-    trace = [
-        IterationLog(p.iteration, p.energy, p.rmse, float("nan"), True, 0.0, p.seconds, p.theta)
-        for p in result.trace
-    ]
-    return LMResult(
-        theta=result.theta,
-        theta0=result.theta0,
-        qpos=result.qpos,
-        used=result.used,
-        marker_rmse=result.marker_rmse,
-        frame_rmse=result.frame_rmse,
-        reduced_information=information,
-        free=np.ones(len(result.theta), dtype=bool),
-        sigma=sigma,
-        n_residuals=n_residuals,
-        n_unknowns=n_unknowns,
-        iterations=len(result.trace),
-        termination=Termination.MAX_ITERATIONS,
-        trace=trace,
-        seconds=result.seconds,
-        init_seconds=result.init_seconds,
+        ik_problems=run.est.problems,
+        clipped=run.clipped,
+        repaired=run.repaired,
+        refits=run.refits,
     )
 
 
@@ -731,94 +622,3 @@ def trace_lines(result: PaperResult) -> list[str]:
             f"{p.grad_norm:.3e} | {p.seconds:.2f} |"
         )
     return lines
-
-
-def run_paper_cli(
-    args: argparse.Namespace,
-    pset: ParameterSet,
-    trials: list[TrialData],
-    ranges: list[list[int]],
-    out: Path,
-) -> int:
-    """``mocap-mj identify --solver paper``: Algorithm 1, then the same folder as the LM path."""
-    from ..cli import finish
-    from ..io.atomic import atomic_write_text
-    from .identifiability import Identifiability
-    from .output import expected_rmse, report_lines, write_result
-
-    if args.sampling is None:
-        raise MocapError("--solver paper needs --sampling batch, even, random or stochastic")
-    settings = PaperSettings(
-        sampling=args.sampling,
-        iterations=args.iterations,
-        step=DEFAULT_STEP if args.step is None else args.step,
-        delta=DEFAULT_DELTA if args.delta is None else args.delta,
-        fraction=args.fraction,
-        seed=args.seed,
-    )
-    log: list[str] = []
-    result = identify_paper(trials, pset=pset, settings=settings, progress=not args.json, log=log)
-    info, sigma, n_res, n_unk = reduced_information(pset, result.theta, trials, result.qpos)
-    observable_std = args.observable_mm * 1e-3
-    idf = Identifiability(pset, info, sigma, observable_std=observable_std, theta=result.theta)
-    lm_like = as_lm_result(result, info, sigma, n_res, n_unk)
-    n_frames = sum(len(t.markers) for t in trials)
-    n_used = sum(int(u.sum()) for u in result.used)
-    summary: dict[str, Any] = {
-        "markers_files": [t.name for t in trials],
-        "frames_fitted_range": ranges,
-        "solver": "paper",
-        "sampling": settings.sampling,
-        "step": settings.step,
-        "delta_m": settings.delta,
-        "fraction": settings.fraction,
-        "seed": settings.seed,
-        "perturbed_iterations": settings.perturbed_iterations,
-        "loss": "l2",
-        "frames": n_frames,
-        "frames_used": n_used,
-        "frames_skipped": n_frames - n_used,
-        "frames_per_iteration": len(result.trace[0].frames),
-        "seconds": result.seconds,
-        "init_seconds": result.init_seconds,
-        "final_ik_seconds": result.final_seconds,
-        "iterations": len(result.trace),
-        "ik_problems": result.ik_problems,
-        "frames_repaired": result.repaired,
-        "fresh_ik_iterations": result.refits,
-        "termination": Termination.MAX_ITERATIONS.value,
-        "marker_rmse_mm": result.marker_rmse * 1e3,
-        "energy_m2": result.energy,
-        "expected_rmse_mm": expected_rmse(sigma, n_unk, n_res) * 1e3,
-        "sigma_mm": sigma * 1e3,
-        "observable_directions": idf.rank,
-        "unobservable_directions": int(np.sum(~idf.observable)),
-        "kappa_crlb_rms_mm": idf.bound_rms()[0] * 1e3,
-        "offset_crlb_rms_mm": idf.bound_rms()[1] * 1e3,
-        "kappa_mm": {
-            n: float(v) * 1e3 for n, v in zip(pset.kappa_names, result.theta, strict=False)
-        },
-    }
-    write_result(out, pset, lm_like, idf, trials, summary)
-    lines = report_lines(pset, lm_like, idf, summary)
-    cut = lines.index("## Iterations")
-    lines = [
-        *lines[:cut],
-        "## Iterations (Algorithm 1 of Zou & Sugihara)",
-        "",
-        f"sampling {settings.sampling}, alpha {settings.step:g}, Delta {settings.delta:g} m, "
-        f"{result.ik_problems} IK problems",
-        "",
-        *trace_lines(result),
-        "",
-    ]
-    atomic_write_text(out / "report.md", "\n".join(lines))
-    text = (
-        f"identified {pset.size} parameters from {n_used} frames in {result.seconds:.2f} s "
-        f"(Algorithm 1, {settings.sampling} sampling, {len(result.trace)} iterations, "
-        f"{result.ik_problems} IK problems)\n"
-        f"marker RMSE {summary['marker_rmse_mm']:.3f} mm (noise floor "
-        f"{summary['expected_rmse_mm']:.3f} mm); {idf.rank} of {pset.size} directions observable\n"
-        f"wrote {args.out}/model.xml, theta.json, motion.npz, identifiability.json, report.md"
-    )
-    return finish(args, summary, text, out)

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -17,8 +19,10 @@ from ..parameters import ParameterSet
 from ..strict_json import dumps
 from .identifiability import Identifiability
 from .initial import place_markers, scaled_theta, segment_scales
-from .lm import LMResult, LMSettings, TrialData, identify_lm
+from .lm import LMSettings, identify_lm
 from .output import write_result
+from .problem import TrialData
+from .result import IdentificationResult, ProgressCallback
 
 #: Initial models of :func:`identify_to_folder` (``init``).
 INITS = ("placed", "scaled", "nominal")
@@ -32,9 +36,9 @@ def identify_to_folder(
     settings: LMSettings,
     theta0: np.ndarray | None = None,
     init: str = "nominal",
-    progress: bool = False,
+    progress: ProgressCallback | None = None,
     extra: dict[str, Any] | None = None,
-) -> tuple[dict[str, Any], LMResult, Identifiability]:
+) -> tuple[dict[str, Any], IdentificationResult, Identifiability]:
     """Run the joint LM on the trials and write model.xml, theta.json, motion.npz,
     identifiability.json and report.md into ``out``; return (summary, result, identifiability).
 
@@ -48,9 +52,9 @@ def identify_to_folder(
     with the marker offsets placed by IK (:func:`mocap_mj.identify.initial.place_markers`;
     ``mocap-mj identify`` does this by default); for ``init="nominal"`` the nominal model
     (the default here: the demo's synthetic truth is the nominal model perturbed, so the
-    nominal model is its best prior mean).
+    nominal model is its best prior mean). ``progress`` is called with every LM iteration;
+    the solver's log lines (logger ``mocap_mj``) are kept in the summary's ``log``.
     """
-    log: list[str] = []
     t0 = time.perf_counter()
     if init not in INITS:
         raise MocapError(f"init must be one of {', '.join(INITS)}; got {init!r}")
@@ -70,9 +74,8 @@ def identify_to_folder(
         scales = {n: e.value for n, e in estimates.items()}
         if init == "placed":
             theta0 = place_markers(pset, theta0, markers)
-    result = identify_lm(
-        trials, pset=pset, theta0=theta0, settings=settings, progress=progress, log=log
-    )
+    with captured_log() as log:
+        result = identify_lm(trials, pset=pset, theta0=theta0, settings=settings, progress=progress)
     seconds = time.perf_counter() - t0
     idf = Identifiability(
         pset,
@@ -116,6 +119,31 @@ def identify_to_folder(
         write_result(staging, pset, result, idf, trials, summary)
         atomic_write_text(staging / "summary.json", dumps(summary, indent=2) + "\n")
     return summary, result, idf
+
+
+class _ListHandler(logging.Handler):
+    def __init__(self) -> None:
+        super().__init__(logging.INFO)
+        self.lines: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.lines.append(record.getMessage())
+
+
+@contextlib.contextmanager
+def captured_log() -> Iterator[list[str]]:
+    """The INFO messages of the ``mocap_mj`` logger while the block runs, as a list."""
+    handler = _ListHandler()
+    root = logging.getLogger("mocap_mj")
+    level = root.level
+    root.addHandler(handler)
+    if root.getEffectiveLevel() > logging.INFO:
+        root.setLevel(logging.INFO)
+    try:
+        yield handler.lines
+    finally:
+        root.removeHandler(handler)
+        root.setLevel(level)
 
 
 def result_text(summary: dict[str, Any], pset: ParameterSet, out: Path) -> str:
