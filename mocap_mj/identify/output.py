@@ -24,10 +24,13 @@ def write_result(
     idf: Identifiability,
     trials: Sequence[TrialData],
     summary: Mapping[str, Any],
+    *,
+    joint_range: np.ndarray | None = None,
 ) -> None:
     """model.xml, theta.json, motion.npz (first trial; ``motion_<i>.npz`` for the others),
-    identifiability.json and report.md."""
-    pset.export_mjcf(out / "model.xml", result.theta)
+    identifiability.json and report.md. ``joint_range`` (njnt, 2): the limits the solver
+    used, written into model.xml (see :meth:`ParameterSet.to_spec`)."""
+    pset.export_mjcf(out / "model.xml", result.theta, joint_range=joint_range)
     pset.save_json(
         out / "theta.json",
         result.theta,

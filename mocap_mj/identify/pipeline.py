@@ -15,7 +15,7 @@ from ..io.atomic import atomic_write_text
 from ..parameters import ParameterSet
 from .identifiability import Identifiability
 from .initial import place_markers, scaled_theta, segment_scales
-from .lm import LMResult, LMSettings, TrialData, identify_lm
+from .lm import LMResult, LMSettings, TrialData, identify_lm, solver_joint_range
 from .output import write_result
 
 #: Initial models of :func:`identify_to_folder` (``init``).
@@ -99,7 +99,15 @@ def identify_to_folder(
             "log": log,
         }
     )
-    write_result(out, pset, result, idf, trials, summary)
+    write_result(
+        out,
+        pset,
+        result,
+        idf,
+        trials,
+        summary,
+        joint_range=solver_joint_range(pset.model, settings),
+    )
     atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     return summary, result, idf
 
