@@ -16,6 +16,7 @@ from ..io.atomic import atomic_write_text
 from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..results import Motion, save_motion
+from ..tables import write_joint_centres_csv
 from ._markers import add_marker_options, load_trial
 
 
@@ -62,6 +63,7 @@ def run(args: argparse.Namespace) -> int:
         out / "motion.npz", Motion(result.qpos, trial.times, trial.markers, pset.marker_names)
     )
     write_motion_csv(out / "motion.csv", kin.model, trial.times, result.qpos)
+    write_joint_centres_csv(out / "joint_centres.csv", kin.model, trial.times, result.qpos)
     n = len(trial.markers)
     skipped = np.flatnonzero(result.status == Status.TOO_FEW_MARKERS)
     summary = {
@@ -85,6 +87,6 @@ def run(args: argparse.Namespace) -> int:
         f"marker RMSE {summary['marker_rmse_mm']:.3f} mm, "
         f"{summary['converged_fraction']:.0%} converged"
         + (f", {skipped.size} frames skipped (too few markers)" if skipped.size else "")
-        + f"\nwrote {out}/motion.csv, motion.npz, model.xml, summary.json"
+        + f"\nwrote {out}/motion.csv, joint_centres.csv, motion.npz, model.xml, summary.json"
     )
     return finish(args, summary, text, out)

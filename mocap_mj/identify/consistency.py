@@ -75,7 +75,7 @@ def joint_centre_lengths(pset: ParameterSet, theta: np.ndarray) -> dict[str, flo
     return dict(zip(names, (float(v) for v in _lengths(pset, theta)), strict=True))
 
 
-def _length_gradient(pset: ParameterSet, theta: np.ndarray, h: float = 1e-6) -> np.ndarray:
+def length_gradient(pset: ParameterSet, theta: np.ndarray, h: float = 1e-6) -> np.ndarray:
     """d length / d theta (L, P) by central differences over the kinematic parameters."""
     grad = np.zeros((len(_length_pairs(pset)), pset.size))
     for k in range(pset.n_kappa):
@@ -140,7 +140,7 @@ def length_std(
     gradient.
     """
     cov = parameter_covariance(result, tau=tau, settings=settings)
-    g = _length_gradient(pset, result.theta)
+    g = length_gradient(pset, result.theta)
     var = np.einsum("lp,pq,lq->l", g, cov, g)
     names = [n for n, _, _ in _length_pairs(pset)]
     return dict(zip(names, (float(v) for v in np.sqrt(np.maximum(var, 0.0))), strict=True))

@@ -15,6 +15,7 @@ from ..parameters import ParameterSet
 from ..results import Motion, save_motion
 from .identifiability import Identifiability
 from .lm import LMResult, TrialData
+from .segments import uncertainty_lines
 
 
 def write_result(
@@ -93,7 +94,7 @@ def report_lines(
         "",
         "## Kinematic parameters",
         "",
-        "| parameter | initial (mm) | identified (mm) | change (mm) | std (mm) |",
+        "| parameter | initial (mm) | identified (mm) | change (mm) | CRLB std, white (mm) |",
         "|---|---|---|---|---|",
     ]
     for i, name in enumerate(pset.kappa_names):
@@ -101,7 +102,7 @@ def report_lines(
             f"| {name} | {kappa0[i] * 1e3:.1f} | {kappa[i] * 1e3:.2f} | "
             f"{(kappa[i] - kappa0[i]) * 1e3:+.2f} | {idf.param_std[i] * 1e3:.2f} |"
         )
-    lines += ["", *idf.report_lines(), "## Iterations", "", "```"]
+    lines += ["", *uncertainty_lines(summary), *idf.report_lines(), "## Iterations", "", "```"]
     for log in result.trace:
         lines.append(
             f"{log.iteration:3d}  F {log.cost:.6e}  rmse {log.rmse * 1e3:.4f} mm  "
