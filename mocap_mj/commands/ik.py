@@ -11,6 +11,8 @@ import numpy as np
 
 from ..angles import angle_columns, joint_angle_table
 from ..cli import add_json_flag, finish, prepare_out
+from ..errors import MocapError
+from ..identify.output import frame_range
 from ..ik import IKSettings, IKSolver, Status
 from ..io.atomic import atomic_write_text
 from ..kinematics import Kinematics
@@ -25,6 +27,11 @@ def register(sub: Any) -> None:
     add_marker_options(p)
     p.add_argument("--model", help="MJCF model (default: the bundled humanoid)")
     p.add_argument("--out", required=True, help="output folder")
+    p.add_argument(
+        "--frames",
+        help="frames to solve, A:B (default: all); the same as identify's --frames, to "
+        "compare with its fit",
+    )
     p.add_argument("--damping", choices=["adaptive", "sugihara"], default="adaptive")
     p.add_argument("--max-iterations", type=int, default=100)
     p.add_argument("--min-markers", type=int, default=16)
@@ -47,6 +54,10 @@ def write_motion_csv(path: Path, model: Any, times: np.ndarray, qpos: np.ndarray
 def run(args: argparse.Namespace) -> int:
     pset = ParameterSet(args.model)
     trial = load_trial(args.markers, pset.marker_names, args)
+    sl = frame_range(args.frames, len(trial.markers))
+    if sl.stop - sl.start < 1:
+        raise MocapError(f"{trial.path}: --frames {args.frames} selects no frame")
+    markers, times = trial.markers[sl], trial.times[sl]
     out = prepare_out(args.out, force=args.force)
     kin = Kinematics(pset)
     solver = IKSolver(
@@ -56,20 +67,21 @@ def run(args: argparse.Namespace) -> int:
         ),
     )
     t0 = time.perf_counter()
-    result = solver.solve_trial(trial.markers, progress=not args.json)
+    result = solver.solve_trial(markers, progress=not args.json)
     seconds = time.perf_counter() - t0
     pset.export_mjcf(out / "model.xml", pset.nominal)
-    save_motion(
-        out / "motion.npz", Motion(result.qpos, trial.times, trial.markers, pset.marker_names)
+    save_motion(out / "motion.npz", Motion(result.qpos, times, markers, pset.marker_names))
+    write_motion_csv(out / "motion.csv", kin.model, times, result.qpos)
+    write_joint_centres_csv(
+        out / "joint_centres.csv", kin.model, times, result.qpos, first_frame=sl.start
     )
-    write_motion_csv(out / "motion.csv", kin.model, trial.times, result.qpos)
-    write_joint_centres_csv(out / "joint_centres.csv", kin.model, trial.times, result.qpos)
-    n = len(trial.markers)
+    n = len(markers)
     skipped = np.flatnonzero(result.status == Status.TOO_FEW_MARKERS)
     summary = {
         "markers_file": str(trial.path),
         "model": str(pset.path),
         "frames": n,
+        "frames_range": [sl.start, sl.stop],
         "frames_solved": int(n - skipped.size),
         "frames_skipped": [int(i) for i in skipped],
         "marker_rmse_mm": result.rmse() * 1e3,
