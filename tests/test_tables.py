@@ -171,3 +171,26 @@ def test_segments_csv_and_summary(identified: tuple[Path, dict]) -> None:
     assert "## Segment lengths and their uncertainty" in report
     assert "| thigh_r:shank_r |" in report
     assert "### Worst-fitting markers" in report
+
+
+REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
+
+
+def test_exported_model_reproduces_a_real_fit(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Movement_trial (a jump; its fit turns the thorax past the model's 45 degree cone):
+    ``ik --model RESULT/model.xml`` on the same frames gives the identify RMSE within 2 %."""
+    path = REAL / "Movement_trial.c3d"
+    if not path.is_file():
+        pytest.skip("../shared/data/real not present: real-data checks need the shared folder")
+    frames = ["--frames", "0:120"]
+    assert main(["identify", "--markers", str(path), "--out", str(tmp_path / "r"), *frames,
+                 "--json"]) == 0  # fmt: skip
+    fit = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert main(["ik", "--markers", str(path), "--model", str(tmp_path / "r" / "model.xml"),
+                 "--out", str(tmp_path / "ik"), *frames, "--json"]) == 0  # fmt: skip
+    ik = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert ik["frames"] == fit["frames_used"] == 120
+    assert ik["marker_rmse_mm"] <= 1.02 * fit["marker_rmse_mm"]
+    assert ik["marker_rmse_mm"] >= 0.98 * fit["marker_rmse_mm"]
