@@ -13,6 +13,7 @@ from ..angles import angle_columns, joint_angle_table
 from ..cli import add_json_flag, finish, prepare_out
 from ..errors import MocapError
 from ..identify.output import frame_range
+from ..identify.robust_ik import solve_trial_loss
 from ..ik import IKSettings, IKSolver, Status
 from ..io.atomic import atomic_write_text
 from ..kinematics import Kinematics
@@ -33,6 +34,14 @@ def register(sub: Any) -> None:
         "compare with its fit",
     )
     p.add_argument("--damping", choices=["adaptive", "sugihara"], default="adaptive")
+    p.add_argument(
+        "--loss",
+        choices=["l2", "huber", "cauchy"],
+        default="l2",
+        help="per-frame loss of the marker distances, as identify's --loss (default l2); "
+        "use the loss of the fit to reproduce it",
+    )
+    p.add_argument("--robust", action="store_true", help="same as --loss cauchy")
     p.add_argument("--max-iterations", type=int, default=100)
     p.add_argument("--min-markers", type=int, default=16)
     p.add_argument("--force", action="store_true", help="overwrite a non-empty output folder")
@@ -67,7 +76,8 @@ def run(args: argparse.Namespace) -> int:
         ),
     )
     t0 = time.perf_counter()
-    result = solver.solve_trial(markers, progress=not args.json)
+    loss = "cauchy" if args.robust else args.loss
+    result = solve_trial_loss(solver, markers, loss, progress=not args.json)
     seconds = time.perf_counter() - t0
     pset.export_mjcf(out / "model.xml", pset.nominal)
     save_motion(out / "motion.npz", Motion(result.qpos, times, markers, pset.marker_names))
@@ -91,6 +101,7 @@ def run(args: argparse.Namespace) -> int:
         "seconds": seconds,
         "frames_per_second": n / seconds,
         "damping": args.damping,
+        "loss": loss,
         "markers_missing": list(trial.report.missing),
     }
     text = (
