@@ -113,12 +113,7 @@ def identify_to_folder(
         summary,
         joint_range=solver_joint_range(pset.model, settings),
     )
-    write_segments_csv(out / "segments.csv", rows)
-    model = pset.model_for(result.theta)
-    starts = [r[0] for r in summary.get("frames_fitted_range", [])] or [0] * len(trials)
-    for i, (trial, qpos, first) in enumerate(zip(trials, result.qpos, starts, strict=False)):
-        name = "joint_centres.csv" if i == 0 else f"joint_centres_{i}.csv"
-        write_joint_centres_csv(out / name, model, trial.times, qpos, first_frame=int(first))
+    _write_tables(out, pset, result, trials, rows, summary.get("frames_fitted_range"))
     atomic_write_text(out / "summary.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
     return summary, result, idf
 
@@ -141,6 +136,25 @@ def _add_checks(
     entries, rows = uncertainty_summary(pset, result, trials, per_marker, settings)
     summary.update(entries)
     return rows
+
+
+def _write_tables(
+    out: Path,
+    pset: ParameterSet,
+    result: LMResult,
+    trials: Sequence[TrialData],
+    rows: Sequence[SegmentRow],
+    ranges: Sequence[Sequence[int]] | None,
+) -> None:
+    """segments.csv, and joint_centres.csv per trial (``joint_centres_<i>.csv`` for the
+    others, like motion.npz); ``ranges``: each trial's fitted [first, stop) frames of its
+    file (default: from frame 0)."""
+    write_segments_csv(out / "segments.csv", rows)
+    model = pset.model_for(result.theta)
+    starts = [int(r[0]) for r in ranges] if ranges else [0] * len(trials)
+    for i, (trial, qpos, first) in enumerate(zip(trials, result.qpos, starts, strict=True)):
+        name = "joint_centres.csv" if i == 0 else f"joint_centres_{i}.csv"
+        write_joint_centres_csv(out / name, model, trial.times, qpos, first_frame=first)
 
 
 def result_text(summary: dict[str, Any], pset: ParameterSet, out: Path) -> str:
