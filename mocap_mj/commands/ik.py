@@ -49,14 +49,17 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def write_motion_csv(path: Path, model: Any, times: np.ndarray, qpos: np.ndarray) -> None:
-    """Joint angles as CSV: frame, time [s], then named columns in mm and degrees."""
+def write_motion_csv(
+    path: Path, model: Any, times: np.ndarray, qpos: np.ndarray, first_frame: int = 0
+) -> None:
+    """Joint angles as CSV: frame (of the marker file, from ``first_frame``), time [s], then
+    named columns in mm and degrees."""
     table = joint_angle_table(model, qpos)
     header = ",".join(["frame", "time", *angle_columns(model)])
     lines = [header]
     for i, (t, row) in enumerate(zip(times, table, strict=True)):
         cells = ["" if not np.isfinite(v) else f"{v:.6f}" for v in row]
-        lines.append(f"{i},{t:.6f}," + ",".join(cells))
+        lines.append(f"{first_frame + i},{t:.6f}," + ",".join(cells))
     atomic_write_text(path, "\n".join(lines) + "\n")
 
 
@@ -81,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     seconds = time.perf_counter() - t0
     pset.export_mjcf(out / "model.xml", pset.nominal)
     save_motion(out / "motion.npz", Motion(result.qpos, times, markers, pset.marker_names))
-    write_motion_csv(out / "motion.csv", kin.model, times, result.qpos)
+    write_motion_csv(out / "motion.csv", kin.model, times, result.qpos, sl.start)
     write_joint_centres_csv(
         out / "joint_centres.csv", kin.model, times, result.qpos, first_frame=sl.start
     )
