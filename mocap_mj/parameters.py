@@ -304,9 +304,18 @@ class ParameterSet:
             raise MocapError(f"{path}: cannot read parameters JSON: {exc}") from None
         return self.from_dict(data, source=str(path))
 
-    def to_spec(self, theta: np.ndarray) -> mujoco.MjSpec:
-        """An ``MjSpec`` of the model with theta written into its bodies and sites."""
+    def to_spec(self, theta: np.ndarray, *, joint_range: np.ndarray | None = None) -> mujoco.MjSpec:
+        """An ``MjSpec`` of the model with theta written into its bodies and sites.
+
+        ``joint_range`` (njnt, 2) [rad or m], as ``MjModel.jnt_range``: the joint limits to
+        write instead of the file's (only the joints whose range differs are rewritten, in
+        the file's angle unit); default: the file's limits. An identification that solved
+        with other limits (``LMSettings.ball_limit_scale``) passes them so that the written
+        model reproduces its fit.
+        """
         spec = mujoco.MjSpec.from_file(str(self.path))
+        if joint_range is not None:
+            self._write_joint_range(spec, joint_range)
         body_pos = self.body_pos(theta)
         _, offsets = self.split(theta)
         for b in range(1, self.model.nbody):
@@ -315,26 +324,48 @@ class ParameterSet:
             spec.site(name).pos = offsets[s]
         return spec
 
-    def to_xml(self, theta: np.ndarray) -> str:
+    def _write_joint_range(self, spec: mujoco.MjSpec, joint_range: np.ndarray) -> None:
+        model = self.model
+        rng = np.asarray(joint_range, dtype=float)
+        check_shape("joint_range", rng, (model.njnt, 2))
+        angular = (int(mujoco.mjtJoint.mjJNT_BALL), int(mujoco.mjtJoint.mjJNT_HINGE))
+        for j in range(model.njnt):
+            if np.allclose(rng[j], model.jnt_range[j], rtol=0.0, atol=1e-12):
+                continue
+            value = rng[j]
+            if spec.compiler.degree and int(model.jnt_type[j]) in angular:
+                value = np.degrees(value)
+            spec.joint(model.joint(j).name).range = value
+
+    def to_xml(self, theta: np.ndarray, *, joint_range: np.ndarray | None = None) -> str:
         """MJCF text of the model with theta (via ``MjSpec``), positions at full precision.
 
-        ``MjSpec.to_xml`` prints about 6 significant digits; the body and site positions are
-        rewritten with ``repr`` so that the file reloads to the same forward kinematics.
+        ``MjSpec.to_xml`` prints about 6 significant digits; the body and site positions and
+        the joint ranges (the file's, or ``joint_range``, see :meth:`to_spec`) are rewritten
+        with ``repr`` so that the file reloads to the same forward kinematics and limits (a
+        cone rounded to 6 digits is narrower than the solver's by up to 5e-6 rad).
         """
-        spec = self.to_spec(theta)
+        spec = self.to_spec(theta, joint_range=joint_range)
         spec.compile()
         root = ElementTree.fromstring(spec.to_xml())
         body_pos = self.body_pos(theta)
         _, offsets = self.split(theta)
         exact = {("body", self.model.body(b).name): body_pos[b] for b in range(1, self.model.nbody)}
         exact.update({("site", n): offsets[s] for s, n in enumerate(self.marker_names)})
+        rng = self.model.jnt_range if joint_range is None else joint_range
+        # MjSpec.to_xml writes angles in radians, as jnt_range holds them.
+        ranges = {self.model.joint(j).name: rng[j] for j in range(self.model.njnt)}
         for elem in root.iter():
             value = exact.get((elem.tag, elem.get("name", "")))
             if value is not None:
                 elem.set("pos", " ".join(repr(float(v)) for v in value))
+            if elem.tag == "joint" and elem.get("name", "") in ranges and elem.get("range"):
+                elem.set("range", " ".join(repr(float(v)) for v in ranges[elem.get("name", "")]))
         ElementTree.indent(root, space="  ")
         return ElementTree.tostring(root, encoding="unicode") + "\n"
 
-    def export_mjcf(self, path: str | Path, theta: np.ndarray) -> None:
+    def export_mjcf(
+        self, path: str | Path, theta: np.ndarray, *, joint_range: np.ndarray | None = None
+    ) -> None:
         """Write an MJCF file of the model with theta, atomically (see :meth:`to_xml`)."""
-        atomic_write_text(path, self.to_xml(theta))
+        atomic_write_text(path, self.to_xml(theta, joint_range=joint_range))

@@ -25,7 +25,7 @@ from ..identify.losses import LossName
 from ..identify.output import frame_range
 from ..identify.paper import DEFAULT_DELTA, DEFAULT_STEP
 from ..identify.pipeline import INITS, identify_to_folder, result_text
-from ..identify.plausibility import kappa_outside_bounds, marker_rmse_by_marker, plausibility_text
+from ..identify.plausibility import plausibility_text
 from ..identify.problem import TrialData
 from ..ik import IKSettings
 from ..parameters import ParameterSet
@@ -170,7 +170,7 @@ def _identify(
     from .progress import progress_bar
 
     with progress_bar("identify (LM)", enabled=not args.json) as progress:
-        summary, result, _ = identify_to_folder(
+        summary, _, _ = identify_to_folder(
             trials,
             out,
             pset=pset,
@@ -179,13 +179,10 @@ def _identify(
             progress=progress,
             extra={"markers_files": [t.path for t in loaded], "frames_fitted_range": ranges},
         )
-    per_marker = marker_rmse_by_marker(pset, result, trials)
-    outside = kappa_outside_bounds(pset, result.theta)
-    summary["marker_rmse_by_marker_mm"] = {
-        n: None if not np.isfinite(v) else float(v) * 1e3
-        for n, v in zip(pset.marker_names, per_marker, strict=True)
-    }
-    summary["kappa_outside_bounds_mm"] = {n: [v * 1e3 for v in b] for n, b in outside.items()}
+    per_marker = np.array(
+        [np.nan if v is None else v * 1e-3 for v in summary["marker_rmse_by_marker_mm"].values()]
+    )
+    outside = {n: [v * 1e-3 for v in b] for n, b in summary["kappa_outside_bounds_mm"].items()}
     reports = "\n".join(str(t.report) for t in loaded)
     text = f"{reports}\n{result_text(summary, pset, Path(args.out))}\n"
     return summary, text + plausibility_text(pset, per_marker, outside)

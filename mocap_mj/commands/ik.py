@@ -20,11 +20,15 @@ import numpy as np
 from ..angles import angle_columns, joint_angle_table
 from ..checks import check_markers
 from ..cli import add_force_flag, add_json_flag, into_out_folder
+from ..errors import MocapError
+from ..identify.output import frame_range
+from ..identify.robust_ik import solve_trial_loss
 from ..ik import IKSettings, IKSolver, Status
 from ..io.atomic import atomic_write_text
 from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..results import Motion, save_motion
+from ..tables import write_joint_centres_csv
 from ._markers import add_marker_options, load_trial, model_for
 
 
@@ -40,12 +44,26 @@ def register(sub: Any) -> None:
         "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
     )
     p.add_argument(
+        "--frames",
+        metavar="A:B",
+        help="frames to solve, A included, B excluded (default: all); the same as identify's "
+        "--frames, to compare with its fit",
+    )
+    p.add_argument(
         "--damping",
         choices=["adaptive", "sugihara"],
         default="adaptive",
         help="LM damping: adaptive (Nielsen's rule) or sugihara (error-dependent, Sugihara "
         "2011) (default: adaptive)",
     )
+    p.add_argument(
+        "--loss",
+        choices=["l2", "huber", "cauchy"],
+        default="l2",
+        help="per-frame loss of the marker distances, as identify's --loss; use the loss of "
+        "the fit to reproduce it (default: l2)",
+    )
+    p.add_argument("--robust", action="store_true", help="same as --loss cauchy (default: off)")
     p.add_argument(
         "--max-iterations",
         type=int,
@@ -65,27 +83,34 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def write_motion_csv(path: Path, model: Any, times: np.ndarray, qpos: np.ndarray) -> None:
-    """Joint angles as CSV: frame, time [s], then named columns in mm and degrees."""
+def write_motion_csv(
+    path: Path, model: Any, times: np.ndarray, qpos: np.ndarray, first_frame: int = 0
+) -> None:
+    """Joint angles as CSV: frame (of the marker file, from ``first_frame``), time [s], then
+    named columns in mm and degrees."""
     table = joint_angle_table(model, qpos)
     header = ",".join(["frame", "time", *angle_columns(model)])
     lines = [header]
     for i, (t, row) in enumerate(zip(times, table, strict=True)):
         cells = ["" if not np.isfinite(v) else f"{v:.6f}" for v in row]
-        lines.append(f"{i},{t:.6f}," + ",".join(cells))
+        lines.append(f"{first_frame + i},{t:.6f}," + ",".join(cells))
     atomic_write_text(path, "\n".join(lines) + "\n")
 
 
 def run(args: argparse.Namespace) -> int:
     pset = ParameterSet(model_for(args))
     trial = load_trial(args.markers, pset.marker_names, args)
-    check_markers(trial.path, pset.marker_names, trial.markers, args.min_markers)
-    return into_out_folder(args, lambda out: _solve_and_write(args, pset, trial, out))
+    sl = frame_range(args.frames, len(trial.markers))
+    if sl.stop - sl.start < 1:
+        raise MocapError(f"{trial.path}: --frames {args.frames} selects no frame")
+    check_markers(trial.path, pset.marker_names, trial.markers[sl], args.min_markers)
+    return into_out_folder(args, lambda out: _solve_and_write(args, pset, trial, sl, out))
 
 
 def _solve_and_write(
-    args: argparse.Namespace, pset: ParameterSet, trial: Any, out: Path
+    args: argparse.Namespace, pset: ParameterSet, trial: Any, sl: slice, out: Path
 ) -> tuple[dict[str, Any], str]:
+    markers, times = trial.markers[sl], trial.times[sl]
     kin = Kinematics(pset)
     solver = IKSolver(
         kin,
@@ -96,22 +121,25 @@ def _solve_and_write(
     t0 = time.perf_counter()
     from .progress import frames_bar
 
-    with frames_bar("IK", len(trial.markers), enabled=not args.json) as progress:
-        result = solver.solve_trial(trial.markers, progress=progress)
+    loss = "cauchy" if args.robust else args.loss
+    with frames_bar("IK", len(markers), enabled=not args.json) as progress:
+        result = solve_trial_loss(solver, markers, loss, progress=progress)
     seconds = time.perf_counter() - t0
     pset.export_mjcf(out / "model.xml", pset.nominal)
-    save_motion(
-        out / "motion.npz", Motion(result.qpos, trial.times, trial.markers, pset.marker_names)
+    save_motion(out / "motion.npz", Motion(result.qpos, times, markers, pset.marker_names))
+    write_motion_csv(out / "motion.csv", kin.model, times, result.qpos, sl.start)
+    write_joint_centres_csv(
+        out / "joint_centres.csv", kin.model, times, result.qpos, first_frame=sl.start
     )
-    write_motion_csv(out / "motion.csv", kin.model, trial.times, result.qpos)
-    n = len(trial.markers)
+    n = len(markers)
     skipped = np.flatnonzero(result.status == Status.TOO_FEW_MARKERS)
-    seen = np.any(np.all(np.isfinite(trial.markers), axis=2), axis=0)
+    seen = np.any(np.all(np.isfinite(markers), axis=2), axis=0)
     never = [n for n, ok in zip(pset.marker_names, seen, strict=True) if not ok]
     summary = {
         "markers_file": str(trial.path),
         "model": str(pset.path),
         "frames": n,
+        "frames_range": [sl.start, sl.stop],
         "frames_solved": int(n - skipped.size),
         "frames_skipped": [int(i) for i in skipped],
         "marker_rmse_mm": result.rmse() * 1e3,
@@ -121,6 +149,7 @@ def _solve_and_write(
         "seconds": seconds,
         "frames_per_second": n / seconds,
         "damping": args.damping,
+        "loss": loss,
         "markers_missing": list(trial.report.missing),
         "markers_without_data": never,
     }
@@ -131,6 +160,6 @@ def _solve_and_write(
         f"{summary['converged_fraction']:.0%} converged"
         + (f", {skipped.size} frames skipped (too few markers)" if skipped.size else "")
         + (f"\nmarkers in the file without a valid sample: {', '.join(never)}" if never else "")
-        + f"\nwrote {args.out}/motion.csv, motion.npz, model.xml, summary.json"
+        + f"\nwrote {args.out}/motion.csv, joint_centres.csv, motion.npz, model.xml, summary.json"
     )
     return summary, text

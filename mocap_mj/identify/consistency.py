@@ -75,7 +75,7 @@ def joint_centre_lengths(pset: ParameterSet, theta: np.ndarray) -> dict[str, flo
     return dict(zip(names, (float(v) for v in _lengths(pset, theta)), strict=True))
 
 
-def _length_gradient(pset: ParameterSet, theta: np.ndarray, h: float = 1e-6) -> np.ndarray:
+def length_gradient(pset: ParameterSet, theta: np.ndarray, h: float = 1e-6) -> np.ndarray:
     """d length / d theta (L, P) by central differences over the kinematic parameters."""
     grad = np.zeros((len(_length_pairs(pset)), pset.size))
     for k in range(pset.n_kappa):
@@ -105,6 +105,27 @@ def correlation_time(pset: ParameterSet, result: LMResult, trials: Sequence[Tria
     return sum(len(r) for r in res) / max(independent, 1e-12)
 
 
+def parameter_covariance(
+    result: LMResult, *, tau: float = 1.0, settings: LMSettings | None = None
+) -> np.ndarray:
+    """Covariance (P, P) [m^2] of theta given a fit's data and its prior (zero where frozen).
+
+    sigma^2 (S / tau + lambda_p I)^-1 over the free parameters: S the fit's reduced
+    information (unit weights), sigma its per-axis noise, tau the residuals' correlation time
+    in frames (1: white noise, the Cramer-Rao bound; see :func:`correlation_time`),
+    lambda_p the prior weight of ``settings`` (as in the LM's cost), so a direction the data
+    do not determine keeps the prior's width sigma / sqrt(lambda_p) instead of an infinite
+    one.
+    """
+    st = settings or LMSettings()
+    free = np.asarray(result.free, dtype=bool)
+    info = result.reduced_information[np.ix_(free, free)] / tau
+    info += st.prior_weight * np.eye(int(free.sum()))
+    cov = np.zeros(result.reduced_information.shape)
+    cov[np.ix_(free, free)] = result.sigma**2 * np.linalg.inv(info)
+    return cov
+
+
 def length_std(
     pset: ParameterSet,
     result: LMResult,
@@ -114,19 +135,12 @@ def length_std(
 ) -> dict[str, float]:
     """Standard deviation [m] of every joint-centre length given a fit's data.
 
-    sqrt(g^T (S / (sigma^2 tau) + diag(1 / w^2))^-1 g) over the free parameters: S the fit's
-    reduced information (unit weights), sigma its per-axis noise, tau the residuals'
-    correlation time in frames (1: white noise, the Cramer-Rao bound; see
-    :func:`correlation_time`), w = sigma prior_sigma / prior_noise the width the fit's prior
-    weight implies (``settings``), g the length's gradient.
+    sqrt(g^T C g), C the parameter covariance of :func:`parameter_covariance` (the white-noise
+    bound inflated by the correlation time ``tau``, with the fit's prior) and g the length's
+    gradient.
     """
-    st = settings or LMSettings()
-    free = np.asarray(result.free, dtype=bool)
-    noise2 = result.sigma**2
-    info = result.reduced_information[np.ix_(free, free)] / tau
-    info += st.prior_weight * np.eye(int(free.sum()))  # as in the LM's cost
-    cov = noise2 * np.linalg.inv(info)
-    g = _length_gradient(pset, result.theta)[:, free]
+    cov = parameter_covariance(result, tau=tau, settings=settings)
+    g = length_gradient(pset, result.theta)
     var = np.einsum("lp,pq,lq->l", g, cov, g)
     names = [n for n, _, _ in _length_pairs(pset)]
     return dict(zip(names, (float(v) for v in np.sqrt(np.maximum(var, 0.0))), strict=True))

@@ -145,7 +145,10 @@ class LMSettings:
         (at most pi). A joint limit is not a measurement, and at a ball's cone the null
         directions of theta become "determined" by the inequality: a kinked valley in which
         the LM converges linearly. Hinge limits are kept (they keep the IK out of flipped
-        configurations); the written model keeps its own limits. 1.0 keeps them all.
+        configurations). The identified poses may turn a ball beyond the model's cone (by up
+        to the factor), so the written model.xml carries the widened cones
+        (:func:`solver_joint_range`): an IK with it reproduces the fit. 1.0 keeps the model's
+        limits.
     """
 
     max_iterations: int = 100
@@ -546,12 +549,15 @@ def _result(
 
 
 # ------------------------------------------------------------------ the public entry
-def widen_ball_limits(kin: Kinematics, scale: float) -> None:
-    """Widen the cone limit of every limited ball joint of kin's own model copy by ``scale``
-    (at most pi): see ``LMSettings.ball_limit_scale``."""
-    m = kin.model
-    ball = (m.jnt_type == mujoco.mjtJoint.mjJNT_BALL) & (m.jnt_limited > 0)
-    m.jnt_range[ball, 1] = np.minimum(m.jnt_range[ball, 1] * scale, np.pi)
+def solver_joint_range(model: mujoco.MjModel, settings: LMSettings) -> np.ndarray:
+    """The joint limits (njnt, 2) [rad or m] the joint LM solves with, as ``jnt_range``:
+    the model's, with the cone of every limited ball joint widened by
+    ``settings.ball_limit_scale`` (at most pi). ``identify`` writes these into model.xml so
+    that an IK with the written model reproduces the fit."""
+    rng = np.array(model.jnt_range, dtype=float)
+    ball = (model.jnt_type == mujoco.mjtJoint.mjJNT_BALL) & (model.jnt_limited > 0)
+    rng[ball, 1] = np.minimum(rng[ball, 1] * settings.ball_limit_scale, np.pi)
+    return rng
 
 
 def initial_ik(
@@ -610,7 +616,7 @@ def identify_lm(
     for t in trials:
         check_shape(f"{t.name}: markers", t.markers, (None, pset.n_markers, 3))
     kin = Kinematics(pset)
-    widen_ball_limits(kin, st.ball_limit_scale)
+    kin.model.jnt_range[:] = solver_joint_range(kin.model, st)
     kin.set_theta(theta)
     t_start = time.perf_counter()
     if initial_qpos is None:
@@ -650,4 +656,5 @@ __all__ = [
     "identify_lm",
     "initial_ik",
     "solve_lm",
+    "solver_joint_range",
 ]

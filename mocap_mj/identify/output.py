@@ -16,6 +16,7 @@ from ..results import Motion, save_motion
 from .identifiability import Identifiability
 from .problem import TrialData
 from .result import IdentificationResult, IterationLog
+from .segments import uncertainty_lines
 
 
 def write_result(
@@ -26,11 +27,14 @@ def write_result(
     trials: Sequence[TrialData],
     summary: Mapping[str, Any],
     iterations: Sequence[str] | None = None,
+    *,
+    joint_range: np.ndarray | None = None,
 ) -> None:
     """model.xml, theta.json, motion.npz (first trial; ``motion_<i>.npz`` for the others),
     identifiability.json and report.md (its iterations section: ``iterations``, default
-    :func:`iteration_lines`)."""
-    pset.export_mjcf(out / "model.xml", result.theta)
+    :func:`iteration_lines`). ``joint_range`` (njnt, 2): the limits the solver used, written
+    into model.xml (see :meth:`ParameterSet.to_spec`)."""
+    pset.export_mjcf(out / "model.xml", result.theta, joint_range=joint_range)
     pset.save_json(
         out / "theta.json",
         result.theta,
@@ -99,7 +103,7 @@ def report_lines(
         "",
         "## Kinematic parameters",
         "",
-        "| parameter | initial (mm) | identified (mm) | change (mm) | std (mm) |",
+        "| parameter | initial (mm) | identified (mm) | change (mm) | CRLB std, white (mm) |",
         "|---|---|---|---|---|",
     ]
     for i, name in enumerate(pset.kappa_names):
@@ -107,7 +111,7 @@ def report_lines(
             f"| {name} | {kappa0[i] * 1e3:.1f} | {kappa[i] * 1e3:.2f} | "
             f"{(kappa[i] - kappa0[i]) * 1e3:+.2f} | {idf.param_std[i] * 1e3:.2f} |"
         )
-    lines += ["", *idf.report_lines()]
+    lines += ["", *uncertainty_lines(summary), *idf.report_lines()]
     lines += iteration_lines(result) if iterations is None else list(iterations)
     return lines
 

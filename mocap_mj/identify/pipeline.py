@@ -16,13 +16,16 @@ from ..errors import MocapError
 from ..ik import IKSettings
 from ..io.atomic import atomic_folder, atomic_write_text
 from ..parameters import ParameterSet
-from ..strict_json import dumps
+from ..strict_json import dumps, jsonable
+from ..tables import write_joint_centres_csv
 from .identifiability import Identifiability
 from .initial import place_markers, scaled_theta, segment_scales
-from .lm import LMSettings, identify_lm
+from .lm import LMSettings, identify_lm, solver_joint_range
 from .output import write_result
+from .plausibility import kappa_outside_bounds, marker_rmse_by_marker
 from .problem import TrialData
 from .result import IdentificationResult, ProgressCallback
+from .segments import SegmentRow, uncertainty_summary, write_segments_csv
 
 #: Initial models of :func:`identify_to_folder` (``init``).
 INITS = ("placed", "scaled", "nominal")
@@ -115,10 +118,60 @@ def identify_to_folder(
             "log": log,
         }
     )
+    rows = _add_checks(summary, pset, result, trials, settings)
+    summary = jsonable(summary)
     with atomic_folder(out, force=True) as staging:
-        write_result(staging, pset, result, idf, trials, summary)
+        write_result(
+            staging,
+            pset,
+            result,
+            idf,
+            trials,
+            summary,
+            joint_range=solver_joint_range(pset.model, settings),
+        )
+        _write_tables(staging, pset, result, trials, rows, summary.get("frames_fitted_range"))
         atomic_write_text(staging / "summary.json", dumps(summary, indent=2) + "\n")
     return summary, result, idf
+
+
+def _add_checks(
+    summary: dict[str, Any],
+    pset: ParameterSet,
+    result: IdentificationResult,
+    trials: Sequence[TrialData],
+    settings: LMSettings,
+) -> list[SegmentRow]:
+    """Add the real-data checks to ``summary`` (worst markers, parameters outside their range,
+    the segment table with inflated standard deviations); return the segment rows."""
+    per_marker = marker_rmse_by_marker(pset, result, trials)
+    outside = kappa_outside_bounds(pset, result.theta)
+    summary["marker_rmse_by_marker_mm"] = {
+        n: float(v) * 1e3 for n, v in zip(pset.marker_names, per_marker, strict=True)
+    }
+    summary["kappa_outside_bounds_mm"] = {n: [v * 1e3 for v in b] for n, b in outside.items()}
+    entries, rows = uncertainty_summary(pset, result, trials, per_marker, settings)
+    summary.update(entries)
+    return rows
+
+
+def _write_tables(
+    out: Path,
+    pset: ParameterSet,
+    result: IdentificationResult,
+    trials: Sequence[TrialData],
+    rows: Sequence[SegmentRow],
+    ranges: Sequence[Sequence[int]] | None,
+) -> None:
+    """segments.csv, and joint_centres.csv per trial (``joint_centres_<i>.csv`` for the
+    others, like motion.npz); ``ranges``: each trial's fitted [first, stop) frames of its
+    file (default: from frame 0)."""
+    write_segments_csv(out / "segments.csv", rows)
+    model = pset.model_for(result.theta)
+    starts = [int(r[0]) for r in ranges] if ranges else [0] * len(trials)
+    for i, (trial, qpos, first) in enumerate(zip(trials, result.qpos, starts, strict=True)):
+        name = "joint_centres.csv" if i == 0 else f"joint_centres_{i}.csv"
+        write_joint_centres_csv(out / name, model, trial.times, qpos, first_frame=first)
 
 
 class _ListHandler(logging.Handler):
@@ -156,5 +209,6 @@ def result_text(summary: dict[str, Any], pset: ParameterSet, out: Path) -> str:
         f"{summary['n_residuals']} residuals; {summary['observable_directions']} of {pset.size} "
         f"directions observable, CRLB {summary['kappa_crlb_rms_mm']:.3f} mm (kinematic) / "
         f"{summary['offset_crlb_rms_mm']:.3f} mm (offsets)\n"
-        f"wrote {out}/model.xml, theta.json, motion.npz, identifiability.json, report.md"
+        f"wrote {out}/model.xml, theta.json, motion.npz, joint_centres.csv, segments.csv, "
+        "identifiability.json, report.md"
     )

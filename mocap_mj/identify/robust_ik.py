@@ -1,0 +1,73 @@
+"""IK of a trial under the identification's loss (``ik --loss``), to reproduce a robust fit.
+
+``identify --robust`` finds the poses that minimise a Cauchy (or Huber) cost of the marker
+distances, with the threshold c = ``loss_scale`` sigma re-estimated from the current
+distances (sigma = median distance / the chi-3 median; :mod:`mocap_mj.identify.lm`). A
+least-squares IK with the identified model finds other poses (lower RMSE, outliers pulled
+in), so its RMSE cannot be compared with the fit's. :func:`solve_trial_loss` solves the same
+per-frame problem by iteratively reweighted least squares: the least-squares IK, then rounds
+of weights from the current distances and a weighted per-frame IK from the current poses,
+until the robust cost changes by less than ``tol`` (relative).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from ..ik import IKResult, IKSolver
+from .lm import CHI3_MEDIAN, LMSettings
+from .losses import loss_named
+
+
+def solve_trial_loss(
+    solver: IKSolver,
+    markers: np.ndarray,
+    loss: str = "l2",
+    *,
+    loss_scale: float = LMSettings.loss_scale,
+    max_rounds: int = 30,
+    tol_noise: float = LMSettings.tol_noise,
+    progress: Callable[[int], None] | None = None,
+) -> IKResult:
+    """IK of every frame of markers (T, M, 3) [m] (NaN where missing) under ``loss`` ("l2",
+    "huber" or "cauchy", as ``LMSettings.loss``, threshold ``loss_scale`` sigma).
+
+    The result's ``marker_rmse`` (T,) [m] is the unweighted RMS distance of each frame, as the
+    identification reports it.
+    """
+    rho = loss_named(loss)  # validates the name
+    first = solver.solve_trial(markers, progress=progress)
+    if loss == "l2":
+        return first
+    kin = solver.kin
+    markers = np.asarray(markers, dtype=float)
+    ok = np.all(np.isfinite(first.qpos), axis=1)
+    target = markers[ok]
+    present = np.all(np.isfinite(target), axis=2)
+    q = first.qpos[ok].copy()
+    iterations = first.iterations.copy()
+    status = first.status.copy()
+
+    def distances(qpos: np.ndarray) -> np.ndarray:
+        d = np.linalg.norm(kin.marker_positions(qpos) - target, axis=2)
+        return np.where(present, d, 0.0)
+
+    dist = distances(q)
+    for _ in range(max_rounds):
+        c = loss_scale * float(np.median(dist[present])) / CHI3_MEDIAN
+        before = rho.value(dist, present, c)
+        r = solver.solve_frames(target, q, rho.weights(dist, present, c))
+        q = r.qpos
+        iterations[ok] += r.iterations
+        status[ok] = r.status
+        dist = distances(q)
+        sigma2 = float(np.sum(dist**2)) / (3.0 * max(int(present.sum()), 1))
+        if before - rho.value(dist, present, c) <= tol_noise * sigma2:
+            break
+    qpos = np.full_like(first.qpos, np.nan)
+    qpos[ok] = q
+    rmse = np.full(len(markers), np.nan)
+    rmse[ok] = np.sqrt(np.sum(dist**2, axis=1) / np.maximum(present.sum(axis=1), 1))
+    return IKResult(qpos, rmse, iterations, status, first.n_markers)
