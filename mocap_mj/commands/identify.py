@@ -15,6 +15,7 @@ from ..identify.pipeline import INITS, identify_to_folder, result_text
 from ..identify.plausibility import kappa_outside_bounds, marker_rmse_by_marker, plausibility_text
 from ..parameters import ParameterSet
 from ._markers import add_marker_options, load_trial
+from ._subject import add_subject_options, subject_from_args
 
 
 def register(sub: Any) -> None:
@@ -37,6 +38,7 @@ def register(sub: Any) -> None:
     p.add_argument("--max-iterations", type=int, default=100)
     p.add_argument("--prior-mm", type=float, default=50.0, help="weak prior width [mm]")
     p.add_argument("--observable-mm", type=float, default=5.0, help="observable if std below")
+    add_subject_options(p)
     g = p.add_argument_group("paper solver (Algorithm 1 of Zou & Sugihara)")
     g.add_argument("--sampling", choices=["batch", "even", "random", "stochastic"])
     g.add_argument("--iterations", type=int, default=100)
@@ -72,12 +74,16 @@ def run(args: argparse.Namespace) -> int:
         prior_sigma=args.prior_mm * 1e-3,
         observable_std=args.observable_mm * 1e-3,
     )
+    subject = subject_from_args(args, [t.path for t in loaded])
     summary, result, _ = identify_to_folder(
         trials,
         out,
         pset=pset,
         settings=settings,
         init=args.init,
+        subject=subject,
+        anatomical=not args.no_anatomy,
+        symmetric=None if args.symmetric is None else args.symmetric * 1e-3,
         progress=not args.json,
         extra={"markers_files": [t.path for t in loaded], "frames_fitted_range": ranges},
     )

@@ -52,6 +52,7 @@ from ..errors import MocapError, SolverError, check_shape
 from ..ik import IKResult, IKSettings, IKSolver, Status
 from ..kinematics import Kinematics
 from ..parameters import ParameterSet
+from .priors import LinearGaussianPrior
 
 #: Median of the chi distribution with 3 degrees of freedom: median |e| / sigma for 3D noise.
 CHI3_MEDIAN = 1.5381722
@@ -231,6 +232,7 @@ class LMResult:
     trace : list of IterationLog
     seconds : float
     init_seconds : float, IK before the first LM iteration
+    at_bound : (P,) int, -1 / +1 for a parameter that ended at its lower / upper bound, else 0
     """
 
     theta: np.ndarray
@@ -250,6 +252,7 @@ class LMResult:
     seconds: float = 0.0
     init_seconds: float = 0.0
     weights: list[np.ndarray] = field(default_factory=list)
+    at_bound: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
 
 def _robust_weights(dist: np.ndarray, present: np.ndarray, loss: str, c: float) -> np.ndarray:
@@ -436,6 +439,42 @@ def _informed_basis(s_mat: np.ndarray, min_information: float) -> np.ndarray:
     return vec[:, lam > min_information]
 
 
+def _bounded_step(
+    s_info: np.ndarray,
+    s_damped: np.ndarray,
+    rhs: np.ndarray,
+    min_information: float,
+    theta: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+) -> np.ndarray:
+    """#14: the damped step dtheta (Pf,) [m] in the informed directions, with an active set.
+
+    A parameter at a bound whose step points outward is held (its row and column leave the
+    system) and the step re-solved, up to 5 times; the step is then clipped so that
+    ``theta + dtheta`` stays within [lo, hi].
+    """
+    move = np.ones(theta.size, dtype=bool)
+    at_lo = theta <= lo
+    at_hi = theta >= hi
+    dth = np.zeros(theta.size)
+    for _ in range(5):
+        idx = np.flatnonzero(move)
+        if idx.size == 0:
+            break
+        sub = np.ix_(idx, idx)
+        basis = _informed_basis(s_info[sub], min_information)
+        y = np.linalg.solve(basis.T @ s_damped[sub] @ basis, basis.T @ rhs[idx])
+        dth = np.zeros(theta.size)
+        dth[idx] = basis @ y
+        held = move & ((at_lo & (dth < 0)) | (at_hi & (dth > 0)))
+        if not held.any():
+            break
+        move &= ~held
+    dth[~move] = 0.0
+    return np.clip(theta + dth, lo, hi) - theta
+
+
 def _refit_frames(
     solver: IKSolver, markers: np.ndarray, prob: _Problem, segments: list[slice]
 ) -> np.ndarray:
@@ -486,6 +525,9 @@ def identify_lm(
     initial_qpos: Sequence[np.ndarray] | None = None,
     progress: bool = False,
     log: list[str] | None = None,
+    priors: Sequence[LinearGaussianPrior] = (),
+    lower: np.ndarray | None = None,
+    upper: np.ndarray | None = None,
 ) -> LMResult:
     """Identify theta and the motion of every trial by joint Levenberg-Marquardt.
 
@@ -503,12 +545,37 @@ def identify_lm(
         Show a progress bar over the iterations.
     log : list of str, optional
         Receives one line per iteration.
+    priors : sequence of LinearGaussianPrior
+        Added to F, its gradient and the reduced system (:mod:`mocap_mj.identify.priors`).
+    lower, upper : (P,) [m], optional
+        Bounds of theta (-inf / inf: none), kept by an active set: a parameter at a bound whose
+        step points outward is held for that step, and every step is clipped to the box.
+        theta0 is clipped into the box first. ``LMResult.at_bound`` says which ended there.
     """
     st = settings or LMSettings()
     pset = pset or ParameterSet()
     theta = pset.check(pset.nominal if theta0 is None else theta0).copy()
-    theta_init = theta.copy()
+    # ---- #14: priors and bounds (the same semantics as #13's solver layer; keep one) ----
+    lo = np.full(pset.size, -np.inf) if lower is None else np.asarray(lower, dtype=float)
+    hi = np.full(pset.size, np.inf) if upper is None else np.asarray(upper, dtype=float)
+    check_shape("lower", lo, (pset.size,))
+    check_shape("upper", hi, (pset.size,))
+    if np.any(lo > hi):
+        raise MocapError("lower bound above upper bound for " + ", ".join(
+            pset.names[i] for i in np.flatnonzero(lo > hi)))  # fmt: skip
+    theta = np.clip(theta, lo, hi)
     free = np.flatnonzero(~pset.frozen)
+    h_prior = sum((p.hessian() for p in priors), np.zeros((pset.size, pset.size)))
+    h_prior_f = h_prior[np.ix_(free, free)]
+
+    def prior_cost(th: np.ndarray) -> float:
+        return float(sum(p.cost(th) for p in priors))
+
+    def prior_gradient(th: np.ndarray) -> np.ndarray:
+        return sum((p.gradient(th) for p in priors), np.zeros(pset.size))[free]
+
+    # ---- end #14 ----
+    theta_init = theta.copy()
     if free.size == 0:
         raise SolverError("every parameter is frozen: nothing to identify")
     if not trials:
@@ -547,7 +614,8 @@ def identify_lm(
 
     def total_cost(dist: np.ndarray, th: np.ndarray, c: float) -> float:
         dth = th - theta_init
-        return _robust_cost(dist, prob.present, st.loss, c) + 0.5 * lam * float(dth @ dth)
+        weak = 0.5 * lam * float(dth @ dth)
+        return _robust_cost(dist, prob.present, st.loss, c) + weak + prior_cost(th)
 
     dist = prob.residuals(qpos)
     mu = st.mu0
@@ -591,15 +659,16 @@ def identify_lm(
             diag_c += red.diag_c
             if cache:
                 z_cache.append(red)
-        gprior = lam * (theta - theta_init)[free]
-        # Steps stay in the directions the data inform (recomputed every iteration).
-        basis = _informed_basis(s_mat, st.prior_ratio * lam)
-        s_damped = s_mat + np.diag(lam + mu * (diag_c + lam)) + 1e-15 * np.eye(pf)
-        if basis is None:
-            dth_f = np.linalg.solve(s_damped, rhs - gprior)
-        else:
-            y = np.linalg.solve(basis.T @ s_damped @ basis, basis.T @ (rhs - gprior))
-            dth_f = basis @ y
+        gprior = lam * (theta - theta_init)[free] + prior_gradient(theta)
+        # Steps stay in the directions the data (or the anatomical priors) inform.
+        diag_p = np.diag(h_prior_f)
+        s_damped = (
+            s_mat + h_prior_f + np.diag(lam + mu * (diag_c + lam + diag_p)) + 1e-15 * np.eye(pf)
+        )
+        dth_f = _bounded_step(
+            s_mat + h_prior_f, s_damped, rhs - gprior, st.prior_ratio * lam,
+            theta[free], lo[free], hi[free],
+        )  # fmt: skip
         dq = np.empty((n, nv))
         for i, sl in enumerate(chunks):
             red = z_cache[i] if cache else prob.reduce(sl, w, mu)
@@ -616,7 +685,9 @@ def identify_lm(
         cost_new = total_cost(dist_new, theta_new, c_loss)
         # Decrease predicted by the damped quadratic model: 1/2 h^T (mu D h + g) (Nielsen).
         h_g = float(np.einsum("ni,ni->", dq, g_q) + dth_f @ (g_theta - gprior))
-        h_dh = float(np.einsum("ni,ni,ni->", dq, diag_a, dq) + dth_f @ ((diag_c + lam) * dth_f))
+        h_dh = float(
+            np.einsum("ni,ni,ni->", dq, diag_a, dq) + dth_f @ ((diag_c + lam + diag_p) * dth_f)
+        )
         predicted = max(0.5 * (h_g + mu * h_dh), 1e-300)
         rho = (cost - cost_new) / predicted
         accepted = cost_new < cost
@@ -743,4 +814,5 @@ def identify_lm(
         seconds=time.perf_counter() - t_start,
         init_seconds=init_seconds,
         weights=weights_out,
+        at_bound=np.where(theta <= lo, -1, np.where(theta >= hi, 1, 0)),
     )

@@ -13,10 +13,14 @@ import numpy as np
 from ..errors import MocapError
 from ..io.atomic import atomic_write_text
 from ..parameters import ParameterSet
+from ..subject import Subject
+from .consistency import correlation_time
 from .identifiability import Identifiability
 from .initial import place_markers, scaled_theta, segment_scales
 from .lm import LMResult, LMSettings, TrialData, identify_lm
 from .output import write_result
+from .priors import LinearGaussianPrior, landmark_prior, symmetric_prior
+from .ranges import theta_bounds
 
 #: Initial models of :func:`identify_to_folder` (``init``).
 INITS = ("placed", "scaled", "nominal")
@@ -32,6 +36,9 @@ def identify_to_folder(
     init: str = "nominal",
     progress: bool = False,
     extra: dict[str, Any] | None = None,
+    subject: Subject | None = None,
+    anatomical: bool = True,
+    symmetric: float | None = None,
 ) -> tuple[dict[str, Any], LMResult, Identifiability]:
     """Run the joint LM on the trials and write model.xml, theta.json, motion.npz,
     identifiability.json and report.md into ``out``; return (summary, result, identifiability).
@@ -43,6 +50,12 @@ def identify_to_folder(
     ``mocap-mj identify`` does this by default); for ``init="nominal"`` the nominal model
     (the default here: the demo's synthetic truth is the nominal model perturbed, so the
     nominal model is its best prior mean).
+
+    With ``anatomical`` (the default) the solve keeps the kinematic parameters in their
+    anatomical ranges (:mod:`mocap_mj.identify.ranges`, scaled by the subject's height when
+    ``subject`` has it) and adds the landmark priors (:mod:`mocap_mj.identify.priors`,
+    sharpened by ``subject``'s measurements); ``symmetric`` [m] adds a prior tying every
+    left length to the right one with that standard deviation. See :func:`solve_anatomical`.
     """
     log: list[str] = []
     t0 = time.perf_counter()
@@ -57,9 +70,18 @@ def identify_to_folder(
         scales = {n: e.value for n, e in estimates.items()}
         if init == "placed":
             theta0 = place_markers(pset, theta0, markers)
-    result = identify_lm(
-        trials, pset=pset, theta0=theta0, settings=settings, progress=progress, log=log
-    )
+    subject = subject or Subject()
+    if anatomical:
+        size = scales.get("overall", 1.0)
+        result, weighting = solve_anatomical(
+            trials, pset=pset, theta0=theta0, settings=settings, subject=subject, size=size,
+            symmetric=symmetric, progress=progress, log=log,
+        )  # fmt: skip
+    else:
+        result = identify_lm(
+            trials, pset=pset, theta0=theta0, settings=settings, progress=progress, log=log
+        )
+        weighting = {}
     seconds = time.perf_counter() - t0
     idf = Identifiability(
         pset,
@@ -97,6 +119,15 @@ def identify_to_folder(
                 n: float(v) * 1e3 for n, v in zip(pset.kappa_names, result.theta, strict=False)
             },
             "log": log,
+            "anatomical_priors": anatomical,
+            "prior_weighting": weighting,
+            "symmetric_mm": None if symmetric is None else symmetric * 1e3,
+            "measurements": subject.to_dict(),
+            "kappa_at_bound": {
+                n: ("lower" if b < 0 else "upper")
+                for n, b in zip(pset.kappa_names, result.at_bound, strict=False)
+                if b != 0
+            },
         }
     )
     write_result(out, pset, result, idf, trials, summary)
@@ -116,3 +147,75 @@ def result_text(summary: dict[str, Any], pset: ParameterSet, out: Path) -> str:
         f"{summary['offset_crlb_rms_mm']:.3f} mm (offsets)\n"
         f"wrote {out}/model.xml, theta.json, motion.npz, identifiability.json, report.md"
     )
+
+
+#: Effective noise [m] below which one solve with the nominal prior noise is kept.
+REWEIGHT_RATIO = 1.5
+
+
+def anatomical_priors(
+    pset: ParameterSet,
+    subject: Subject,
+    *,
+    size: float = 1.0,
+    symmetric: float | None = None,
+    noise: float = 0.001,
+) -> list[LinearGaussianPrior]:
+    """Landmark priors and, with ``symmetric`` [m], the left/right length prior."""
+    priors = [landmark_prior(pset, subject, size=size, noise=noise)]
+    if symmetric is not None:
+        priors.append(symmetric_prior(pset, symmetric, noise=noise))
+    return priors
+
+
+def solve_anatomical(
+    trials: Sequence[TrialData],
+    *,
+    pset: ParameterSet,
+    theta0: np.ndarray | None,
+    settings: LMSettings,
+    subject: Subject,
+    size: float = 1.0,
+    symmetric: float | None = None,
+    progress: bool = False,
+    log: list[str] | None = None,
+) -> tuple[LMResult, dict[str, float]]:
+    """The joint LM with anatomical ranges as bounds and the anatomical priors.
+
+    The priors are weighed against the markers' effective noise: a first solve uses the
+    nominal marker noise (``settings.prior_noise``, 1 mm); when its per-axis noise sigma
+    times the square root of the residuals' correlation time tau [frames] exceeds that by
+    ``REWEIGHT_RATIO``, a second solve starts from the first one's result with the priors'
+    noise set to sigma sqrt(tau): soft-tissue residuals correlated over tau frames hold
+    about 1 / tau of the information white noise would, and the prior keeps its weight
+    against them. On synthetic white noise (tau about 1, sigma the simulated noise) one
+    solve is kept. The weak prior toward the initial model is unchanged (its mean becomes
+    the first solve's model in the second solve). Returns the result and the weighting
+    used (``noise_mm``, ``sigma_mm``, ``tau_frames``).
+    """
+    lower, upper = theta_bounds(pset, subject)
+    priors = anatomical_priors(pset, subject, size=size, symmetric=symmetric,
+                               noise=settings.prior_noise)  # fmt: skip
+    result = identify_lm(
+        trials, pset=pset, theta0=theta0, settings=settings, progress=progress, log=log,
+        priors=priors, lower=lower, upper=upper,
+    )  # fmt: skip
+    tau = correlation_time(pset, result, trials)
+    noise = result.sigma * float(np.sqrt(tau))
+    weighting = {"sigma_mm": result.sigma * 1e3, "tau_frames": tau, "noise_mm": noise * 1e3}
+    if noise <= REWEIGHT_RATIO * settings.prior_noise:
+        weighting["noise_mm"] = settings.prior_noise * 1e3
+        return result, weighting
+    if log is not None:
+        log.append(f"priors reweighted: noise {noise * 1e3:.2f} mm (sigma x sqrt(tau {tau:.1f}))")
+    first = result
+    result = identify_lm(
+        trials, pset=pset, theta0=first.theta, settings=settings, progress=progress, log=log,
+        initial_qpos=first.qpos, priors=[p.with_noise(noise) for p in priors],
+        lower=lower, upper=upper,
+    )  # fmt: skip
+    result.theta0 = first.theta0
+    result.seconds += first.seconds
+    result.init_seconds = first.init_seconds
+    result.iterations += first.iterations
+    return result, weighting
