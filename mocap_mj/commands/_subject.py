@@ -53,6 +53,12 @@ def add_subject_options(p: Any) -> None:
         "[mm] (default 2 when given without a value)",
     )
     g.add_argument(
+        "--no-asymmetry-prior",
+        action="store_true",
+        help="no population prior on left/right length differences (5 mm; for subjects "
+        "with a known asymmetry, e.g. a limb-length discrepancy)",
+    )
+    g.add_argument(
         "--no-anatomy",
         action="store_true",
         help="no anatomical priors and ranges (the plain joint LM, as before issue #14)",

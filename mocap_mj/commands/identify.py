@@ -84,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
         subject=subject,
         anatomical=not args.no_anatomy,
         symmetric=None if args.symmetric is None else args.symmetric * 1e-3,
+        asymmetry_prior=not args.no_asymmetry_prior,
         progress=not args.json,
         extra={"markers_files": [t.path for t in loaded], "frames_fitted_range": ranges},
     )

@@ -19,7 +19,7 @@ from .identifiability import Identifiability
 from .initial import place_markers, scaled_theta, segment_scales
 from .lm import LMResult, LMSettings, TrialData, identify_lm
 from .output import write_result
-from .priors import LinearGaussianPrior, landmark_prior, symmetric_prior
+from .priors import ASYMMETRY_SIGMA, LinearGaussianPrior, landmark_prior, symmetric_prior
 from .ranges import theta_bounds
 
 #: Initial models of :func:`identify_to_folder` (``init``).
@@ -39,6 +39,7 @@ def identify_to_folder(
     subject: Subject | None = None,
     anatomical: bool = True,
     symmetric: float | None = None,
+    asymmetry_prior: bool = True,
 ) -> tuple[dict[str, Any], LMResult, Identifiability]:
     """Run the joint LM on the trials and write model.xml, theta.json, motion.npz,
     identifiability.json and report.md into ``out``; return (summary, result, identifiability).
@@ -55,7 +56,9 @@ def identify_to_folder(
     anatomical ranges (:mod:`mocap_mj.identify.ranges`, scaled by the subject's height when
     ``subject`` has it) and adds the landmark priors (:mod:`mocap_mj.identify.priors`,
     sharpened by ``subject``'s measurements); ``symmetric`` [m] adds a prior tying every
-    left length to the right one with that standard deviation. See :func:`solve_anatomical`.
+    left length to the right one with that standard deviation, in place of the population
+    asymmetry prior (``ASYMMETRY_SIGMA``, on unless ``asymmetry_prior`` is False). See
+    :func:`solve_anatomical`.
     """
     log: list[str] = []
     t0 = time.perf_counter()
@@ -75,7 +78,8 @@ def identify_to_folder(
         size = scales.get("overall", 1.0)
         result, weighting = solve_anatomical(
             trials, pset=pset, theta0=theta0, settings=settings, subject=subject, size=size,
-            symmetric=symmetric, progress=progress, log=log,
+            symmetric=ASYMMETRY_SIGMA if symmetric is None and asymmetry_prior else symmetric,
+            progress=progress, log=log,
         )  # fmt: skip
     else:
         result = identify_lm(
@@ -122,6 +126,11 @@ def identify_to_folder(
             "anatomical_priors": anatomical,
             "prior_weighting": weighting,
             "symmetric_mm": None if symmetric is None else symmetric * 1e3,
+            "asymmetry_prior_mm": (
+                ASYMMETRY_SIGMA * 1e3
+                if anatomical and asymmetry_prior and symmetric is None
+                else None
+            ),
             "measurements": subject.to_dict(),
             "kappa_at_bound": {
                 n: ("lower" if b < 0 else "upper")

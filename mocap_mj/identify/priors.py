@@ -56,10 +56,12 @@ MarkerClass = Literal["landmark", "cluster", "free"]
 
 SIGMA_LANDMARK = 0.010
 SIGMA_MIDLINE = 0.005
-SIGMA_MEASURED = 0.003
+SIGMA_MEASURED = 0.0015
 SIGMA_REGRESSED = 0.012
 SIGMA_HJC = 0.008
 SIGMA_SOFT = 0.015
+SIGMA_LEG = 0.015
+ASYMMETRY_SIGMA = 0.005
 
 #: Plug-in Gait markers on palpated landmarks (side prefix removed).
 LANDMARKS = frozenset(
@@ -71,12 +73,11 @@ FREE = frozenset({"THI", "TIB", "UPA", "FRM", "BAK"})
 
 #: Joint width (measurement, side removed) -> (kinematic parameter, width / parameter): the
 #: regression used when the width is not measured, from the nominal model (Plug-in Gait
-#: placement of a 14 mm marker on a 1.75 m adult: knee 86 mm, ankle 66, elbow 66, wrist 51).
+#: placement of a 14 mm marker on a 1.75 m adult: knee 86 mm, ankle 66, elbow 66).
 WIDTH_RATIO: dict[str, tuple[str, float]] = {
     "knee_width": ("thigh_length", 2 * (0.050 - 0.007) / 0.43),
     "ankle_width": ("shank_length", 2 * (0.040 - 0.007) / 0.43),
     "elbow_width": ("upperarm_length", 2 * (0.040 - 0.007) / 0.30),
-    "wrist_width": ("forearm_length", 2 * (0.0325 - 0.007) / 0.26),
 }
 
 
@@ -263,20 +264,25 @@ def landmark_prior(
             rows.add({f"{m}.x": 1}, 0.0, lm, f"{m}.x = 0 (on the joint axis)")
             rows.add({f"{m}.z": 1, f"{length}_{side}": 1}, 0.0, lm, f"{m}.z = -{length}")
             _width_rows(rows, subject, side, m, width)
-        for marker, lat in (("WRA", 1.0), ("WRB", -1.0)):
-            m = p + marker
-            rows.add({f"{m}.x": 1}, 0.0, lm, f"{m}.x = 0 (wrist bar on the wrist axis)")
+        # Wrist bar on the dorsum: Plug-in Gait puts the wrist centre wrist_width/2 + r
+        # anterior (palm side) of the WRA-WRB midpoint, perpendicular to the bar.
+        wra, wrb = p + "WRA", p + "WRB"
+        for m in (wra, wrb):
             rows.add({f"{m}.z": 1, f"forearm_length_{side}": 1}, 0.0, lm,
                      f"{m}.z = -forearm_length")  # fmt: skip
-            ww = subject.get(f"wrist_width_{side}")
-            r = subject.marker_radius
-            if ww is not None:
-                rows.add({f"{m}.y": sign * lat}, ww / 2 + r, SIGMA_MEASURED,
-                         f"{m}.y = wrist_width/2 + r")  # fmt: skip
-            else:
-                k, ratio = WIDTH_RATIO["wrist_width"]
-                rows.add({f"{m}.y": sign * lat, f"{k}_{side}": -ratio / 2}, r, SIGMA_REGRESSED,
-                         f"{m}.y = regressed wrist_width/2 + r")  # fmt: skip
+        rows.add({f"{wra}.y": 0.5, f"{wrb}.y": 0.5}, 0.0, lm, f"{p}WRA-WRB midpoint y = 0")
+        ww = subject.get(f"wrist_width_{side}")
+        mid_x = {f"{wra}.x": 0.5, f"{wrb}.x": 0.5}
+        if ww is not None:
+            rows.add(mid_x, -(ww / 2 + subject.marker_radius), SIGMA_MEASURED,
+                     f"{p}WRA-WRB midpoint x = -(wrist_width/2 + r)")  # fmt: skip
+        else:
+            rows.add(mid_x, 0.0, SIGMA_REGRESSED, f"{p}WRA-WRB midpoint x = 0 (nominal model)")
+        leg = subject.get(f"leg_length_{side}")
+        if leg is not None:
+            terms = {f"hip_height_{side}": 1.0, f"thigh_length_{side}": 1.0,
+                     f"shank_length_{side}": 1.0}  # fmt: skip
+            rows.add(terms, leg, SIGMA_LEG, f"ASIS to ankle centre height = leg_length_{side}")
         ht = subject.get(f"hand_thickness_{side}")
         fin_x = -(ht / 2 + subject.marker_radius) if ht is not None else -0.015 * s
         rows.add({f"{p}FIN.x": 1}, fin_x, SIGMA_MEASURED if ht is not None else lm,
