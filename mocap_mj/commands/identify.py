@@ -13,6 +13,7 @@ from ..identify.lm import LMSettings, TrialData
 from ..identify.output import frame_range
 from ..identify.pipeline import INITS, identify_to_folder, result_text
 from ..identify.plausibility import kappa_outside_bounds, marker_rmse_by_marker, plausibility_text
+from ..identify.ranges import kappa_ranges
 from ..parameters import ParameterSet
 from ._markers import add_marker_options, load_trial
 from ._subject import add_subject_options, subject_from_args
@@ -89,7 +90,8 @@ def run(args: argparse.Namespace) -> int:
         extra={"markers_files": [t.path for t in loaded], "frames_fitted_range": ranges},
     )
     per_marker = marker_rmse_by_marker(pset, result, trials)
-    outside = kappa_outside_bounds(pset, result.theta)
+    lower, upper = kappa_ranges(pset, subject)
+    outside = kappa_outside_bounds(pset, result.theta, lower, upper)
     summary["marker_rmse_by_marker_mm"] = {
         n: None if not np.isfinite(v) else float(v) * 1e3
         for n, v in zip(pset.marker_names, per_marker, strict=True)
@@ -97,4 +99,11 @@ def run(args: argparse.Namespace) -> int:
     summary["kappa_outside_bounds_mm"] = {n: [v * 1e3 for v in b] for n, b in outside.items()}
     reports = "\n".join(str(t.report) for t in loaded)
     text = f"{reports}\n{result_text(summary, pset, out)}\n"
-    return finish(args, summary, text + plausibility_text(pset, per_marker, outside), out)
+    measured = "; ".join(
+        f"{n} {m['value'] * (1 if m['unit'] == 'kg' else 1e3):g} "
+        f"{'kg' if m['unit'] == 'kg' else 'mm'} ({m['source']})"
+        for n, m in summary["measurements"].items()
+    )
+    text += f"measurements: {measured or 'none (regressions from the markers)'}\n"
+    plaus = plausibility_text(pset, per_marker, outside, at_bound=summary["kappa_at_bound"])
+    return finish(args, summary, text + plaus, out)

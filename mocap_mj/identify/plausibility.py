@@ -2,9 +2,10 @@
 
 On real recordings the marker RMSE alone says little: 147 parameters and a pose per frame can
 absorb soft-tissue artefact into parameters the motion hardly excites (a foot length of a few
-millimetres, a forearm of 40 cm). These checks name the markers that fit worst and the
-kinematic parameters that left the plausible range of :class:`ParameterSet` (nominal -/+
-max(35 %, 4 cm)), which the solver does not enforce.
+millimetres, a forearm of 40 cm). These checks name the markers that fit worst, the
+kinematic parameters outside a range (the anatomical ranges of
+:mod:`mocap_mj.identify.ranges`, which the solver enforces, so none unless the solve ran
+without them) and those that ended at a bound of the range.
 """
 
 from __future__ import annotations
@@ -39,21 +40,34 @@ def marker_rmse_by_marker(
         return np.where(count > 0, np.sqrt(sq / np.maximum(count, 1)), np.nan)
 
 
-def kappa_outside_bounds(pset: ParameterSet, theta: np.ndarray) -> dict[str, list[float]]:
-    """Kinematic parameters outside [lower, upper]: ``{name: [value, lower, upper]}`` [m]."""
+def kappa_outside_bounds(
+    pset: ParameterSet,
+    theta: np.ndarray,
+    lower: np.ndarray | None = None,
+    upper: np.ndarray | None = None,
+) -> dict[str, list[float]]:
+    """Kinematic parameters outside [lower, upper] (K,) [m] (default: ``pset``'s bounds):
+    ``{name: [value, lower, upper]}`` [m]."""
     kappa, _ = pset.split(theta)
+    lower = pset.lower[: pset.n_kappa] if lower is None else lower
+    upper = pset.upper[: pset.n_kappa] if upper is None else upper
     out = {}
     for i, name in enumerate(pset.kappa_names):
-        lo, hi = float(pset.lower[i]), float(pset.upper[i])
+        lo, hi = float(lower[i]), float(upper[i])
         if not lo <= kappa[i] <= hi:
             out[name] = [float(kappa[i]), lo, hi]
     return out
 
 
 def plausibility_text(
-    pset: ParameterSet, per_marker: np.ndarray, outside: dict[str, list[float]], worst: int = 5
+    pset: ParameterSet,
+    per_marker: np.ndarray,
+    outside: dict[str, list[float]],
+    worst: int = 5,
+    at_bound: dict[str, str] | None = None,
 ) -> str:
-    """Two readable lines: the worst-fitting markers and the implausible parameters."""
+    """Readable lines: the worst-fitting markers, the parameters outside their range and
+    those held at a bound of it (``{name: "lower" | "upper"}``)."""
     order = [int(i) for i in np.argsort(-np.nan_to_num(per_marker, nan=-1.0))[:worst]]
     lines = [
         "worst markers (RMS mm): "
@@ -61,11 +75,16 @@ def plausibility_text(
     ]
     if outside:
         lines.append(
-            "kinematic parameters outside the plausible range (not enforced; weakly excited by "
-            "this motion?): "
+            "kinematic parameters outside the anatomical range: "
             + ", ".join(
                 f"{n} {v * 1e3:.0f} mm [{lo * 1e3:.0f}, {hi * 1e3:.0f}]"
                 for n, (v, lo, hi) in outside.items()
             )
+        )
+    if at_bound:
+        lines.append(
+            "kinematic parameters held at a bound of their anatomical range (the markers pull "
+            "them beyond it; weakly excited or a marker misplaced?): "
+            + ", ".join(f"{n} ({b})" for n, b in at_bound.items())
         )
     return "\n".join(lines)

@@ -16,13 +16,14 @@ thigh, shank, upper arm, forearm lengths  0.80       1.20    long-bone proportio
                                                              about 5 % (Winter 2009; Drillis
                                                              & Contini 1966)
 clavicle length                           0.70       1.30    shoulder breadth varies more
-foot length (ankle to MTP)                0.65       1.35    the MTP centre is not marked
+foot length (ankle to MTP)                0.75       1.30    the MTP centre is not marked
 hip depth, width, height                  0.50       1.60    Harrington et al. 2007: hip
                                                              centre from pelvis geometry,
                                                              pelvis widths vary by ~15 %
 lumbar depth/height, lumbar and thorax    0.60       1.50    spine lengths: Winter's trunk
 length, sc depth/height                                      fractions, posture-dependent
-foot height, sc width                     0.40       2.00    short distances (2.5-4.5 cm)
+foot height (ankle above MTP)             0.60       1.60    ankle 0.039 H above the sole
+sc width                                  0.40       2.00    a short distance (2.5 cm)
 neck depth (C7/T1 ahead of T12/L1)        -0.5       3.0     thoracic kyphosis varies
 ========================================  =========  ======  ==============================
 
@@ -51,7 +52,7 @@ RANGE_FACTORS: dict[str, tuple[float, float]] = {
     "upperarm_length": (0.80, 1.20),
     "forearm_length": (0.80, 1.20),
     "clavicle_length": (0.70, 1.30),
-    "foot_length": (0.65, 1.35),
+    "foot_length": (0.75, 1.30),
     "hip_depth": (0.50, 1.60),
     "hip_width": (0.50, 1.60),
     "hip_height": (0.50, 1.60),
@@ -62,7 +63,7 @@ RANGE_FACTORS: dict[str, tuple[float, float]] = {
     "sc_depth": (0.60, 1.50),
     "sc_height": (0.60, 1.50),
     "sc_width": (0.40, 2.00),
-    "foot_height": (0.40, 2.00),
+    "foot_height": (0.60, 1.60),
     "neck_depth": (-0.50, 3.00),
 }
 
