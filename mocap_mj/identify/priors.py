@@ -296,6 +296,10 @@ def landmark_prior(
         rows.add({f"{p}TOE.x": 1}, 0.03 * s, soft, f"{p}TOE.x = 30 mm ahead of MTP")
         rows.add({f"{p}TOE.y": 1}, 0.0, lm, f"{p}TOE.y = 0")
         rows.add({f"{p}TOE.z": 1}, 0.02 * s, lm, f"{p}TOE.z = 20 mm above MTP")
+        # Plug-in Gait's foot axis runs from HEE to TOE: with the toes straight the two
+        # markers are (nearly: 10 mm on the nominal model) level in the foot frame.
+        rows.add({f"{p}HEE.z": 1, f"foot_height_{side}": 1, f"{p}TOE.z": -1}, -0.01 * s, lm,
+                 f"{p}HEE level with {p}TOE in the foot frame")  # fmt: skip
     return rows.prior(noise)
 
 
