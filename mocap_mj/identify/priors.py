@@ -168,6 +168,19 @@ class _Rows:
         )
 
 
+def _add(*terms: dict[str, float]) -> dict[str, float]:
+    """Sum of linear terms {name: coefficient}."""
+    out: dict[str, float] = {}
+    for t in terms:
+        for n, c in t.items():
+            out[n] = out.get(n, 0.0) + c
+    return out
+
+
+def _scaled(terms: dict[str, float], factor: float) -> dict[str, float]:
+    return {n: factor * c for n, c in terms.items()}
+
+
 def _width_rows(rows: _Rows, subject: Subject, side: str, marker: str, width: str) -> None:
     """``marker.y = +-(width / 2 + marker radius)``: measured, else regressed on a length."""
     sign = 1.0 if side == "l" else -1.0
@@ -207,25 +220,30 @@ def landmark_prior(
     asis = subject.get("asis_distance")
     if asis is not None:
         rows.add({"LASI.y": 1, "RASI.y": -1}, asis, SIGMA_MEASURED, "LASI-RASI = asis_distance")
-    rows.add({"LPSI.y": 1, "RPSI.y": 1}, 0.0, mid, "LPSI.y = -RPSI.y (symmetric PSIS)")
-    # Hip joint centres: Harrington et al. (2007), PW = ASIS width, PD = ASIS-PSIS depth.
-    pd = {"LASI.x": 0.5, "RASI.x": 0.5, "LPSI.x": -0.5, "RPSI.x": -0.5}
+    # Hip joint centres relative to mid-ASIS: Harrington et al. (2007), PW = ASIS width,
+    # PD = ASIS-PSIS depth. Written relative to the markers, so that the rows do not depend
+    # on where the pelvis origin sits against them (an unobservable direction).
+    pd = _add({"LASI.x": 0.5, "RASI.x": 0.5}, {"LPSI.x": -0.5, "RPSI.x": -0.5})
     pw = {"LASI.y": 1.0, "RASI.y": -1.0}
+    mid_x = {"LASI.x": 0.5, "RASI.x": 0.5}
+    mid_y = {"LASI.y": 0.5, "RASI.y": 0.5}
+    mid_z = {"LASI.z": 0.5, "RASI.z": 0.5}
     for side in ("l", "r"):
+        sign = 1.0 if side == "l" else -1.0
         rows.add(
-            {f"hip_depth_{side}": 1, **{k: -0.24 * v for k, v in pd.items()}},
+            _add({f"hip_depth_{side}": 1}, mid_x, _scaled(pd, -0.24)),
             0.0099,
             SIGMA_HJC,
             f"hip_depth_{side} = 0.24 PD + 9.9 mm (Harrington 2007)",
         )
         rows.add(
-            {f"hip_width_{side}": 1, **{k: -0.33 * v for k, v in pw.items()}},
+            _add({f"hip_width_{side}": 1}, _scaled(mid_y, -sign), _scaled(pw, -0.33)),
             0.0073,
             SIGMA_HJC,
             f"hip_width_{side} = 0.33 PW + 7.3 mm (Harrington 2007)",
         )
-        rows.add({f"hip_height_{side}": 1, **{k: -0.30 * v for k, v in pw.items()}}, 0.0109,
-                 SIGMA_HJC, f"hip_height_{side} = 0.30 PW + 10.9 mm (Harrington 2007)")  # fmt: skip
+        rows.add(_add({f"hip_height_{side}": 1}, mid_z, _scaled(pw, -0.30)), 0.0109, SIGMA_HJC,
+                 f"hip_height_{side} = 0.30 PW + 10.9 mm (Harrington 2007)")  # fmt: skip
     # Trunk: midline markers, C7 at the C7/T1 joint's level, CLAV at the SC joints' level.
     for m in ("C7", "T10", "CLAV", "STRN"):
         rows.add({f"{m}.y": 1}, 0.0, mid, f"{m}.y = 0 (midline)")
@@ -237,8 +255,6 @@ def landmark_prior(
     rows.add({"CLAV.z": 1, **sc_mid}, 0.005 * s, lm, "CLAV.z = SC joints' height + 5 mm")
     rows.add({"CLAV.x": 1, "sc_depth": -1}, 0.02 * s, lm, "CLAV.x = sc_depth + 20 mm")
     rows.add({"STRN.x": 1, "sc_depth": -1}, 0.06 * s, soft, "STRN.x = sc_depth + 60 mm")
-    rows.add({"LFHD.y": 1, "RFHD.y": 1}, 0.0, mid, "LFHD.y = -RFHD.y (head band)")
-    rows.add({"LBHD.y": 1, "RBHD.y": 1}, 0.0, mid, "LBHD.y = -RBHD.y (head band)")
     for side, p in (("l", "L"), ("r", "R")):
         sign = 1.0 if side == "l" else -1.0
         # SHO on the acromion, shoulder_offset + r above the glenohumeral centre.
