@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _motion import smooth_motion
 
 from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.errors import MocapError
@@ -22,8 +23,6 @@ from mocap_mj.identify.priors import (
 )
 from mocap_mj.identify.ranges import kappa_ranges, theta_bounds
 from mocap_mj.subject import Subject, from_c3d, from_values, from_yaml
-
-from _motion import smooth_motion
 
 
 @pytest.fixture(scope="module")

@@ -14,8 +14,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
 from ..kinematics import Kinematics
 from ..parameters import ParameterSet
+from ..subject import Subject
 from .lm import LMResult, TrialData
 
 
@@ -88,3 +90,41 @@ def plausibility_text(
             + ", ".join(f"{n} ({b})" for n, b in at_bound.items())
         )
     return "\n".join(lines)
+
+
+#: Paired segment lengths compared left to right (``<name>_length_l/_r``).
+PAIRED_LENGTHS = ("thigh", "shank", "upperarm", "forearm", "clavicle", "foot")
+#: (joint centre, lateral marker, width measurement): Plug-in Gait puts each centre
+#: width/2 + marker radius medial of its marker (the wrist: anterior of the WRA-WRB midpoint).
+WIDTH_CHECKS = (("knee", "KNE", "knee_width"), ("ankle", "ANK", "ankle_width"),
+                ("elbow", "ELB", "elbow_width"), ("wrist", "WRA", "wrist_width"))  # fmt: skip
+
+
+def left_right_differences(pset: ParameterSet, theta: np.ndarray) -> dict[str, float]:
+    """|left - right| [m] of the paired segment lengths of :data:`PAIRED_LENGTHS`."""
+    return {
+        seg: abs(float(theta[pset.index(f"{seg}_length_l")] - theta[pset.index(f"{seg}_length_r")]))
+        for seg in PAIRED_LENGTHS
+    }
+
+
+def width_errors(
+    pset: ParameterSet, theta: np.ndarray, qpos: np.ndarray, markers: np.ndarray, subject: Subject
+) -> dict[str, float]:
+    """Per measured width: median over frames of |centre - lateral marker| minus (width/2 +
+    marker radius) [m], centres of the model theta in poses qpos (T, nq), markers (T, M, 3)
+    [m] measured (model order). Keys ``knee_l``, ...; widths not measured are left out."""
+    jc = joint_centre_trajectories(pset.model_for(theta), qpos)
+    out = {}
+    for side, p in (("l", "L"), ("r", "R")):
+        for joint, marker, width in WIDTH_CHECKS:
+            w = subject.get(f"{width}_{side}")
+            if w is None:
+                continue
+            m = markers[:, pset.marker_index(p + marker)]
+            if marker == "WRA":
+                m = 0.5 * (m + markers[:, pset.marker_index(p + "WRB")])
+            j = JOINT_CENTRE_NAMES.index(f"{joint}_{side}")
+            d = np.nanmedian(np.linalg.norm(jc[:, j] - m, axis=1))
+            out[f"{joint}_{side}"] = float(d - (w / 2 + subject.marker_radius))
+    return out
