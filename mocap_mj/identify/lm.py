@@ -550,7 +550,8 @@ def identify_lm(
     lower, upper : (P,) [m], optional
         Bounds of theta (-inf / inf: none), kept by an active set: a parameter at a bound whose
         step points outward is held for that step, and every step is clipped to the box.
-        theta0 is clipped into the box first. ``LMResult.at_bound`` says which ended there.
+        theta0's free entries are clipped into the box first. ``LMResult.at_bound`` says
+        which ended at a bound.
     """
     st = settings or LMSettings()
     pset = pset or ParameterSet()
@@ -563,8 +564,8 @@ def identify_lm(
     if np.any(lo > hi):
         raise MocapError("lower bound above upper bound for " + ", ".join(
             pset.names[i] for i in np.flatnonzero(lo > hi)))  # fmt: skip
-    theta = np.clip(theta, lo, hi)
     free = np.flatnonzero(~pset.frozen)
+    theta[free] = np.clip(theta[free], lo[free], hi[free])  # frozen ones keep their value
     h_prior = sum((p.hessian() for p in priors), np.zeros((pset.size, pset.size)))
     h_prior_f = h_prior[np.ix_(free, free)]
 
