@@ -23,14 +23,19 @@ Widths (standard deviations, per row) and their sources:
   Della Croce et al. 1999, 2005), for the along-segment and antero-posterior components;
 * :data:`SIGMA_MIDLINE` = 5 mm: C7, T10, CLAV, STRN on the mid-sagittal plane, the ASIS
   markers defining the pelvis origin (mid-ASIS) and plane;
-* :data:`SIGMA_MEASURED` = 3 mm: a lateral offset from a caliper-measured width (caliper
-  precision and skin compression, 2-3 mm);
+* :data:`SIGMA_MEASURED` = 1.5 mm: a lateral offset from a caliper-measured width (caliper
+  precision 1-2 mm). Plug-in Gait takes the measurement as exact; at 3 mm the jump of the
+  pyCGM files pulled the knee centres 10-11 mm toward KNE (docs/real-data.md);
 * :data:`SIGMA_REGRESSED` = 12 mm: the same offset from a width regressed on a segment
   length (:data:`WIDTH_RATIO`; joint widths vary with body mass at a given length);
 * :data:`SIGMA_HJC` = 8 mm: Harrington et al. (2007) hip centre per axis (their regression
   errors, 4-9 mm, plus the ASIS/PSIS marker placement);
 * :data:`SIGMA_SOFT` = 15 mm: landmarks whose depth below the skin or position relative to a
-  joint varies between adults (T10, STRN, C7 depth, HEE, TOE, FIN).
+  joint varies between adults (T10, STRN, C7 depth, HEE, TOE, FIN);
+* :data:`SIGMA_LEG` = 15 mm: hip height + thigh + shank against the measured leg length
+  (a tape measure over the knee, ASIS to medial malleolus);
+* :data:`ASYMMETRY_SIGMA` = 5 mm: left minus right length in healthy adults (anatomic
+  limb-length inequality, mean 5.2 mm; Knutson 2005), :func:`symmetric_prior`.
 
 The data and the prior are weighed against each other through ``noise``: the prior's cost is
 ``1/2 noise^2 sum_r ((a_r . theta - b_r) / sigma_r)^2`` next to the markers' ``1/2 sum d^2``,
