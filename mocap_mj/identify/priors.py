@@ -153,7 +153,7 @@ class _Rows:
         self.labels: list[str] = []
 
     def add(self, terms: dict[str, float], b: float, sigma: float, label: str) -> None:
-        if not all(n in self.names for n in terms):
+        if not all(n in self.names and np.isfinite(c) for n, c in terms.items()):
             return
         row = np.zeros(self.pset.size)
         for n, c in terms.items():
@@ -263,7 +263,10 @@ def landmark_prior(
     for side, p in (("l", "L"), ("r", "R")):
         sign = 1.0 if side == "l" else -1.0
         # SHO on the acromion, shoulder_offset + r above the glenohumeral centre.
-        gh = pset.body_pos_nominal[pset.model.body(f"upperarm_{side}").id]
+        try:
+            gh = pset.body_pos_nominal[pset.model.body(f"upperarm_{side}").id]
+        except KeyError:  # a custom model without this body: no shoulder rows
+            gh = np.full(3, np.nan)
         u = gh / np.linalg.norm(gh)
         off = subject.get(f"shoulder_offset_{side}")
         for ax, c in enumerate("xyz"):
