@@ -63,6 +63,7 @@ def run(args: argparse.Namespace) -> int:
             raise MocapError(f"{t.path}: --frames {args.frames} selects no frame")
         ranges.append([sl.start, sl.stop])
         trials.append(TrialData(t.path, t.markers[sl], t.times[sl]))
+    subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
     out = prepare_out(args.out, force=args.force)
     if args.solver == "paper":
         from ..identify.paper import run_paper_cli
@@ -75,7 +76,6 @@ def run(args: argparse.Namespace) -> int:
         prior_sigma=args.prior_mm * 1e-3,
         observable_std=args.observable_mm * 1e-3,
     )
-    subject = subject_from_args(args, [t.path for t in loaded])
     summary, result, _ = identify_to_folder(
         trials,
         out,
