@@ -25,6 +25,13 @@ _OPTIONS: tuple[tuple[str, str, type, str], ...] = (
     ("--seed", "seed", int, "random seed (default 0)"),
     ("--kappa-scale", "kappa_scale", float, "kinematic parameters scaled by 1 -/+ this (0.1)"),
     ("--offset-mm", "offset_mm", float, "marker offsets moved by up to -/+ this, mm (20)"),
+    (
+        "--marker-placement",
+        "marker_placement",
+        str,
+        "anatomical: landmark markers follow the perturbed skeleton (default); uniform: every "
+        "marker at its nominal offset -/+ --offset-mm, whatever the skeleton",
+    ),
 )
 
 

@@ -15,7 +15,9 @@ from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.identify import LMSettings, TrialData, identify_lm
 from mocap_mj.identify.centres import joint_centre_bound
 from mocap_mj.identify.identifiability import Identifiability
+from mocap_mj.identify.pipeline import solve_anatomical
 from mocap_mj.score import align_truth, joint_centres
+from mocap_mj.subject import Subject
 from mocap_synth import SynthConfig, synthesize
 
 FRAMES = 500
@@ -46,7 +48,11 @@ def clean():  # type: ignore[no-untyped-def]
     pset = ParameterSet()
     exp = synthesize(SynthConfig(frames=FRAMES, seed=0), pset)
     trial = TrialData("rom", np.asarray(exp.markers), np.asarray(exp.times))
-    result = identify_lm([trial], pset=pset)
+    # As `mocap-mj demo` solves it: anatomical ranges and landmark priors on, no population
+    # asymmetry prior (the synthetic truth draws left and right lengths independently).
+    result, _ = solve_anatomical(
+        [trial], pset=pset, theta0=None, settings=LMSettings(), subject=Subject()
+    )
     idf = Identifiability(pset, result.reduced_information, result.sigma, theta=result.theta)
     return pset, exp, result, idf
 
@@ -54,8 +60,11 @@ def clean():  # type: ignore[no-untyped-def]
 def test_reaches_the_bound_on_the_observable_subspace(clean) -> None:  # type: ignore[no-untyped-def]
     pset, exp, result, idf = clean
     k_ratio, o_ratio, jc = errors(pset, result, exp, idf, FRAMES)
-    assert k_ratio <= 1.5, k_ratio
-    assert o_ratio <= 1.5, o_ratio
+    # The target of `mocap-mj demo` with the anatomical priors on: within 1.3x the bound
+    # (1.22x / 1.23x on this trial, docs/real-data.md). The truth's landmark markers sit
+    # where the marker set puts them (SynthConfig.marker_placement), as the priors expect.
+    assert k_ratio <= 1.3, k_ratio
+    assert o_ratio <= 1.3, o_ratio
     # Joint centres (world positions of the body origins over the frames) against their own
     # bound (pose and model uncertainty, identify/centres.py): 1.5 mm RMS on this trial, so
     # the 1 mm is below what 1 mm markers allow (even with the model known the

@@ -177,6 +177,20 @@ def anatomical_priors(
     return priors
 
 
+def prior_information(
+    priors: Sequence[LinearGaussianPrior], settings: LMSettings, size: int
+) -> np.ndarray:
+    """The information (size, size) [1/m^2] the priors of a solve hold about theta: every
+    row's ``a_r a_r^T / sigma_r^2`` plus the weak prior toward the initial model
+    (``1 / settings.prior_sigma^2`` per parameter), as for a marker noise equal to the
+    priors' ``noise`` (the weighting the solve used). For the Cramer-Rao bound with the
+    priors (:meth:`Identifiability.bound_rms_with_prior`)."""
+    info = np.eye(size) / settings.prior_sigma**2
+    for p in priors:
+        info += (p.a.T / p.sigma**2) @ p.a
+    return info
+
+
 def solve_anatomical(
     trials: Sequence[TrialData],
     *,
