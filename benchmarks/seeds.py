@@ -5,7 +5,12 @@ lengths ±10 %, offsets ±20 mm), identified with `identify_to_folder` and score
 truth (`mocap_mj.score`): fit RMSE, iterations, kappa / offset errors over the bound, joint
 centres, observable directions.
 
-Run: python benchmarks/seeds.py [--seeds 0 10] [--set NAME=VALUE ...]
+With the anatomical priors on (the default, as in ``mocap-mj demo``) the bound is printed
+twice: from the data alone (the score's, ``CRLB``) and with the priors' information added
+(``CRLB+prior``, :meth:`Identifiability.bound_rms_with_prior`).
+
+Run: python benchmarks/seeds.py [--seeds 0 10] [--set NAME=VALUE ...] [--no-anatomy]
+[--asymmetry-prior] [--marker-placement anatomical|uniform]
 (--set: other values of `LMSettings` fields, e.g. `--set mu0=1e-6 mu_decrease=nielsen
 refine_iterations=2 tol_noise=0.1` for the previous default.)
 """
@@ -23,9 +28,12 @@ import numpy as np
 
 from mocap_mj import ParameterSet
 from mocap_mj.identify import LMSettings, TrialData
-from mocap_mj.identify.pipeline import identify_to_folder
+from mocap_mj.identify.anatomy import ASYMMETRY_SIGMA
+from mocap_mj.identify.pipeline import anatomical_priors, identify_to_folder, prior_information
 from mocap_mj.score import score
+from mocap_mj.subject import Subject
 from mocap_synth import SynthConfig, synthesize, write_experiment
+from mocap_synth.config import MARKER_PLACEMENTS
 
 
 def main() -> None:
@@ -35,6 +43,11 @@ def main() -> None:
     parser.add_argument(
         "--set", nargs="*", default=[], metavar="NAME=VALUE", help="other LMSettings fields"
     )
+    parser.add_argument("--no-anatomy", action="store_true", help="solve without the priors")
+    parser.add_argument(
+        "--asymmetry-prior", action="store_true", help="add the population L/R prior (demo: off)"
+    )
+    parser.add_argument("--marker-placement", choices=MARKER_PLACEMENTS, default="anatomical")
     args = parser.parse_args()
     pset = ParameterSet()
     fields = {f.name for f in dataclasses.fields(LMSettings)}
@@ -46,36 +59,47 @@ def main() -> None:
         kind = type(getattr(LMSettings(), name))
         extra[name] = value.lower() in ("1", "true", "yes") if kind is bool else kind(value)
     settings = LMSettings(**extra)
-    ratios: list[tuple[float, float, float]] = []
+    ratios: list[tuple[float, ...]] = []
     for seed in range(*args.seeds):
         with tempfile.TemporaryDirectory() as tmp:
             d = Path(tmp)
-            exp = synthesize(SynthConfig(frames=args.frames, seed=seed), pset)
+            cfg = SynthConfig(frames=args.frames, seed=seed, marker_placement=args.marker_placement)
+            exp = synthesize(cfg, pset)
             write_experiment(exp, d / "synth")
             trial = TrialData("rom", np.asarray(exp.markers), np.asarray(exp.times))
             (d / "result").mkdir()
             t0 = time.perf_counter()
-            ident, _, _ = identify_to_folder(
+            ident, _, idf = identify_to_folder(
                 [trial], d / "result", pset=pset, settings=settings,
                 extra={"frames_fitted_range": [[0, args.frames]]},
+                anatomical=not args.no_anatomy, asymmetry_prior=args.asymmetry_prior,
             )  # fmt: skip
             seconds = time.perf_counter() - t0
             s = score(d / "synth", d / "result", pset=pset, plot=False)
+        priors = [] if args.no_anatomy else anatomical_priors(
+            pset, Subject(), symmetric=ASYMMETRY_SIGMA if args.asymmetry_prior else None
+        )  # fmt: skip
+        pk, po = idf.bound_rms_with_prior(prior_information(priors, settings, pset.size))
+        post = (s["kappa_rmse_mm"] / (pk * 1e3), s["offset_rmse_mm"] / (po * 1e3))
         print(
             f"seed {seed}: fit {ident['marker_rmse_mm']:.4f} mm, {ident['iterations']} it, "
             f"{seconds:.1f} s, kappa {s['kappa_crlb_ratio']:.2f}x, offsets "
-            f"{s['offset_crlb_ratio']:.2f}x, joint centres {s['joint_centre_rmse_mm']:.2f} mm "
+            f"{s['offset_crlb_ratio']:.2f}x (CRLB {s['kappa_crlb_mm']:.3f} / "
+            f"{s['offset_crlb_mm']:.3f} mm; CRLB+prior {pk * 1e3:.3f} / {po * 1e3:.3f} mm: "
+            f"{post[0]:.2f}x / {post[1]:.2f}x), joint centres {s['joint_centre_rmse_mm']:.2f} mm "
             f"(bound {s['joint_centre_crlb_mm']:.2f}, {s['joint_centre_crlb_ratio']:.2f}x), "
             f"observable {s['observable_directions']}",
             flush=True,
         )
-        ratios.append((s["kappa_crlb_ratio"], s["offset_crlb_ratio"], s["joint_centre_crlb_ratio"]))
+        ratios.append((s["kappa_crlb_ratio"], s["offset_crlb_ratio"], s["joint_centre_crlb_ratio"],
+                       *post))  # fmt: skip
     # One trial's ratio is a random variable (an error over its standard deviation, with few
     # effective degrees of freedom); over seeds the RMS ratio is 1 for an efficient estimator.
     rms = np.sqrt(np.mean(np.square(ratios), axis=0))
     print(
         f"RMS over {len(ratios)} seeds of the ratio to the bound: kappa {rms[0]:.2f}, "
-        f"offsets {rms[1]:.2f}, joint centres {rms[2]:.2f} (1 for an efficient estimator)"
+        f"offsets {rms[1]:.2f}, joint centres {rms[2]:.2f} (1 for an efficient estimator); "
+        f"with the priors' information: kappa {rms[3]:.2f}, offsets {rms[4]:.2f}"
     )
 
 

@@ -45,6 +45,13 @@ _OPTIONS: tuple[tuple[str, str, type, str], ...] = (
         "kinematic parameters scaled by 1 -/+ this (default: 0.1)",
     ),
     ("--offset-mm", "offset_mm", float, "marker offsets moved by up to -/+ this, mm (default: 20)"),
+    (
+        "--marker-placement",
+        "marker_placement",
+        str,
+        "anatomical: landmark markers follow the perturbed skeleton; uniform: every marker "
+        "at its nominal offset -/+ --offset-mm, whatever the skeleton (default: anatomical)",
+    ),
 )
 
 

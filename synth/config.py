@@ -9,10 +9,12 @@ from typing import Any
 
 from mocap_mj.errors import MocapError
 
-__all__ = ["MOTIONS", "ConfigError", "SynthConfig"]
+__all__ = ["MARKER_PLACEMENTS", "MOTIONS", "ConfigError", "SynthConfig"]
 
 #: Names of the truth-motion presets (see :mod:`mocap_synth.motion`).
 MOTIONS: tuple[str, ...] = ("rom", "walk", "static")
+#: How the truth model's markers are placed (see :func:`mocap_synth.perturb.perturb_theta`).
+MARKER_PLACEMENTS: tuple[str, ...] = ("anatomical", "uniform")
 
 
 class ConfigError(MocapError, ValueError):
@@ -67,6 +69,12 @@ class SynthConfig:
         Each marker-offset component moves by up to ``-/+ offset_mm`` [mm] (>= 0).
     symmetric : bool
         Perturb left and right alike (mirror images) instead of independently.
+    marker_placement : str
+        ``"anatomical"`` (default): the landmark markers follow the perturbed skeleton, each
+        where the marker set's anatomy puts it plus a placement error at its prior's width
+        (:func:`mocap_synth.perturb.place_landmarks`), as on a real subject; ``"uniform"``:
+        every marker keeps its nominal offset plus its ``offset_mm`` shift whatever the
+        skeleton does (the truth of the paper's experiment).
     """
 
     frames: int = 500
@@ -82,6 +90,7 @@ class SynthConfig:
     kappa_scale: float = 0.10
     offset_mm: float = 20.0
     symmetric: bool = False
+    marker_placement: str = "anatomical"
 
     def __post_init__(self) -> None:
         frames = _integer("frames", self.frames)
@@ -93,6 +102,11 @@ class SynthConfig:
         if self.motion not in MOTIONS:
             raise ConfigError(
                 f"motion: unknown preset {self.motion!r}; expected one of {', '.join(MOTIONS)}"
+            )
+        if self.marker_placement not in MARKER_PLACEMENTS:
+            raise ConfigError(
+                f"marker_placement: unknown placement {self.marker_placement!r}; expected one "
+                f"of {', '.join(MARKER_PLACEMENTS)}"
             )
         values: dict[str, Any] = {"frames": frames, "rate": rate}
         for name in ("noise_mm", "sta_mm", "outlier_mm", "offset_mm"):

@@ -1,11 +1,13 @@
 """``mocap-mj demo``: synthesize a trial, identify the model, score it against the truth.
 
 The README's main job: a range-of-motion trial (``--frames``, 100 Hz) of a perturbed copy of
-the bundled humanoid (kinematic parameters within +-10 %, marker offsets within +-20 mm, 1 mm
-noise), identified with the joint Levenberg-Marquardt solver and scored against the truth; a
-walking trial of the same subject (``--holdout`` frames), never seen by the identification,
-tests the identified model by IK. Writes ``synth/`` (the truth), ``walk/`` (the held-out
-trial), ``result/`` (a folder ``view`` and ``render`` open) and ``summary.json``.
+the bundled humanoid (kinematic parameters within +-10 %, landmark markers placed on the
+perturbed skeleton as the marker set defines them, the others within +-20 mm of their
+nominal offsets; 1 mm noise), identified with the joint Levenberg-Marquardt solver
+(anatomical priors and ranges on) and scored against the truth; a walking trial of the same
+subject (``--holdout`` frames), never seen by the identification, tests the identified model
+by IK. Writes ``synth/`` (the truth), ``walk/`` (the held-out trial), ``result/`` (a folder
+``view`` and ``render`` open) and ``summary.json``.
 """
 
 from __future__ import annotations
@@ -22,11 +24,12 @@ from mocap_mj.cli import add_force_flag, add_json_flag, into_out_folder, prepare
 from mocap_mj.commands.progress import progress_bar
 from mocap_mj.identify.lm import LMSettings, TrialData
 from mocap_mj.identify.output import expected_rmse
-from mocap_mj.identify.pipeline import identify_to_folder
+from mocap_mj.identify.pipeline import anatomical_priors, identify_to_folder, prior_information
 from mocap_mj.ik import IKSolver
 from mocap_mj.kinematics import Kinematics
 from mocap_mj.parameters import ParameterSet
 from mocap_mj.score import score
+from mocap_mj.subject import Subject
 
 from .config import SynthConfig
 from .experiment import synthesize, write_experiment
@@ -97,12 +100,16 @@ def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str,
     write_experiment(walk, staging / "walk", force=True)
     n = args.frames
     trial = TrialData("rom", np.asarray(exp.markers), np.asarray(exp.times))
+    settings = LMSettings()
     with progress_bar("identify (LM)", enabled=not args.json) as progress:
-        ident, _, _ = identify_to_folder(
+        ident, _, idf = identify_to_folder(
             [trial],
             prepare_out(staging / "result", force=True),
             pset=pset,
-            settings=LMSettings(),
+            settings=settings,
+            # The synthetic truth perturbs left and right lengths independently (by up to 20 %
+            # apart): not a subject of the population the asymmetry prior describes.
+            asymmetry_prior=False,
             progress=progress,
             extra={
                 "markers_files": [str(out / "synth" / "markers.csv")],
@@ -110,6 +117,9 @@ def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str,
             },
         )
     s = score(staging / "synth", staging / "result", pset=pset)
+    # The bound with the landmark priors' information added (the score's is the data's own).
+    info = prior_information(anatomical_priors(pset, Subject()), settings, pset.size)
+    pk, po = (b * 1e3 for b in idf.bound_rms_with_prior(info))
     kin = Kinematics(pset)
     kin.set_theta(pset.load_json(staging / "result" / "theta.json"))
     held = IKSolver(kin).solve_trial(np.asarray(walk.markers))
@@ -137,6 +147,10 @@ def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str,
         "offset_crlb_mm": s["offset_crlb_mm"],
         "kappa_crlb_ratio": s["kappa_crlb_ratio"],
         "offset_crlb_ratio": s["offset_crlb_ratio"],
+        "kappa_crlb_with_priors_mm": pk,
+        "offset_crlb_with_priors_mm": po,
+        "kappa_crlb_with_priors_ratio": s["kappa_rmse_mm"] / pk,
+        "offset_crlb_with_priors_ratio": s["offset_rmse_mm"] / po,
         "joint_centre_rmse_mm": s["joint_centre_rmse_mm"],
         "joint_centre_crlb_mm": s["joint_centre_crlb_mm"],
         "joint_centre_crlb_ratio": s["joint_centre_crlb_ratio"],
@@ -150,8 +164,9 @@ def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str,
     text = "\n".join(
         [
             f"mocap-mj demo: {n} frames of a synthetic range-of-motion trial, noise "
-            f"{args.noise_mm:g} mm, truth = nominal humanoid perturbed (seed {args.seed}); "
-            f"a {args.holdout}-frame walk of the same subject held out",
+            f"{args.noise_mm:g} mm, truth = nominal humanoid perturbed, landmark markers "
+            f"placed on it (seed {args.seed}); a {args.holdout}-frame walk of the same subject "
+            "held out",
             "",
             f"{'':<26}{'before':>9}{'after':>9}{'CRLB':>9}{'ratio':>8}",
             f"{'kinematic params (mm)':<26}{summary['kappa_rmse_before_mm']:>9.2f}"
@@ -167,6 +182,9 @@ def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str,
             f"{s.get('heldout_marker_rmse_mm', float('nan')):>9.3f}"
             f"   (noise alone: {s.get('heldout_expected_rmse_mm', float('nan')):.3f})",
             "",
+            f"CRLB above: the data's alone; with the landmark priors' information added: "
+            f"kinematic {pk:.3f} mm (ratio {s['kappa_rmse_mm'] / pk:.2f}), offsets "
+            f"{po:.3f} mm (ratio {s['offset_rmse_mm'] / po:.2f})",
             f"identification: {ident['seconds']:.2f} s, {ident['iterations']} iterations; "
             f"whole demo {seconds:.1f} s",
             s["exclusion"] + ".",

@@ -121,7 +121,8 @@ class Experiment:
 def synthesize(config: SynthConfig | None = None, pset: ParameterSet | None = None) -> Experiment:
     """Build the experiment ``config`` describes (deterministic given ``config.seed``).
 
-    Steps: perturb the nominal parameters (:func:`mocap_synth.perturb.perturb_theta`); generate
+    Steps: perturb the nominal parameters and place the markers on the perturbed skeleton
+    (:func:`mocap_synth.perturb.perturb_theta`, ``config.marker_placement``); generate
     the truth motion (:mod:`mocap_synth.motion`); forward kinematics of the truth model; add the
     soft-tissue artefact and the white noise; swap labels; cut the occlusion gaps; displace the
     outliers among the samples still visible. Each step draws from its own stream spawned from
@@ -143,7 +144,8 @@ def synthesize(config: SynthConfig | None = None, pset: ParameterSet | None = No
     seeds = np.random.SeedSequence(cfg.seed).spawn(len(STREAMS))
     rng = {name: np.random.default_rng(s) for name, s in zip(STREAMS, seeds, strict=True)}
 
-    theta = perturb_theta(pset, rng["model"], cfg.kappa_scale, cfg.offset_mm, cfg.symmetric)
+    theta = perturb_theta(pset, rng["model"], cfg.kappa_scale, cfg.offset_mm, cfg.symmetric,
+                          cfg.marker_placement)  # fmt: skip
     kin = Kinematics(pset)
     kin.set_theta(theta)
     qpos = generate(cfg.motion, kin.model, cfg.frames, cfg.rate, rng["motion"])

@@ -181,7 +181,9 @@ def run_experiment(
 ) -> dict[str, Any]:
     """Run every method, evaluate every model, write the files; return the summary."""
     t_all = time.perf_counter()
-    exp = synthesize(SynthConfig(frames=cfg.frames, rate=100.0, seed=cfg.seed))
+    exp = synthesize(
+        SynthConfig(frames=cfg.frames, rate=100.0, seed=cfg.seed, marker_placement="uniform")
+    )
     pset = exp.pset
     trials = [TrialData("synthetic", np.array(exp.markers), np.array(exp.times))]
     rows: list[Row] = []
@@ -551,7 +553,7 @@ def measure_steps(
     """Gradient accuracy against Delta and IK iterations; runs for several alpha and Delta."""
     from mocap_mj.identify.paper import GradientEstimator, analytic_gradient
 
-    exp = synthesize(SynthConfig(frames=frames, rate=100.0, seed=seed))
+    exp = synthesize(SynthConfig(frames=frames, rate=100.0, seed=seed, marker_placement="uniform"))
     pset = exp.pset
     markers = np.array(exp.markers)
     trials = [TrialData("synthetic", markers, np.array(exp.times))]

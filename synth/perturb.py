@@ -5,9 +5,12 @@ from __future__ import annotations
 import numpy as np
 
 from mocap_mj.errors import MocapError
+from mocap_mj.identify.anatomy import landmark_prior
 from mocap_mj.parameters import ParameterSet
 
-__all__ = ["mirror_pairs", "perturb_theta"]
+from .config import MARKER_PLACEMENTS
+
+__all__ = ["mirror_pairs", "perturb_theta", "place_landmarks"]
 
 
 def _partner(name: str, names: set[str]) -> str | None:
@@ -43,6 +46,7 @@ def perturb_theta(
     kappa_scale: float = 0.10,
     offset_mm: float = 20.0,
     symmetric: bool = False,
+    placement: str = "uniform",
 ) -> np.ndarray:
     """A random subject: theta (P,) [m] around ``pset.nominal``, clipped to the bounds.
 
@@ -51,8 +55,11 @@ def perturb_theta(
     ``[-offset_mm, +offset_mm]`` [mm]. With ``symmetric``, every right-side parameter takes the
     factor of its left partner and every right marker the mirror image ``(dx, -dy, dz)`` of
     its left partner's shift (midline markers and unpaired parameters are drawn on their
-    own); otherwise all are independent. The result is clipped to ``[pset.lower, pset.upper]``
-    (which the defaults never reach).
+    own); otherwise all are independent. With ``placement="anatomical"`` the landmark
+    markers are then moved onto the perturbed skeleton (:func:`place_landmarks`, further
+    draws from ``rng``); the default ``"uniform"`` leaves every marker at its nominal offset
+    plus its shift, so a landmark does not follow the joint it marks. The result is clipped
+    to ``[pset.lower, pset.upper]`` (which the defaults never reach).
 
     Parameters
     ----------
@@ -64,6 +71,8 @@ def perturb_theta(
     offset_mm : float
         Half-width of the marker-offset shifts [mm], >= 0.
     symmetric : bool
+    placement : str
+        One of :data:`mocap_synth.config.MARKER_PLACEMENTS`.
 
     Returns
     -------
@@ -73,6 +82,10 @@ def perturb_theta(
         raise MocapError(f"kappa_scale: expected a fraction in [0, 1), got {kappa_scale:g}")
     if not offset_mm >= 0.0:
         raise MocapError(f"offset_mm: expected a value >= 0, got {offset_mm:g}")
+    if placement not in MARKER_PLACEMENTS:
+        raise MocapError(
+            f"placement: expected one of {', '.join(MARKER_PLACEMENTS)}, got {placement!r}"
+        )
     kappa0, offsets0 = pset.split(pset.nominal)
     factor = rng.uniform(1.0 - kappa_scale, 1.0 + kappa_scale, pset.n_kappa)
     shift = rng.uniform(-offset_mm, offset_mm, (pset.n_markers, 3)) / 1000.0
@@ -82,4 +95,36 @@ def perturb_theta(
         for left, right in mirror_pairs(pset.marker_names):
             shift[right] = shift[left] * np.array([1.0, -1.0, 1.0])
     theta = pset.join(kappa0 * factor, offsets0 + shift)
+    if placement == "anatomical":
+        theta = place_landmarks(pset, theta, rng)
     return np.clip(theta, pset.lower, pset.upper)
+
+
+def place_landmarks(pset: ParameterSet, theta: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """theta (P,) [m] with its landmark markers where the marker set's anatomy puts them.
+
+    The rows of :func:`mocap_mj.identify.anatomy.landmark_prior` (no subject measurements,
+    nominal stature) say where each Plug-in Gait landmark sits relative to the skeleton, as
+    ``a_r . theta = b_r`` with a placement width ``sigma_r`` per row. Each row draws a
+    placement error ``e_r ~ N(0, sigma_r^2)``, and the marker offsets the rows name are moved
+    by the least-squares correction ``d`` (rows weighted by ``1 / sigma_r``) that makes
+    ``a_r . (theta + d) = b_r + e_r``; where the rows leave a combination of offsets free
+    (a WRA-WRB bar's own width, PSIS heights) ``d`` is the minimum-norm one, so that
+    combination keeps its draw from ``theta``. Rows that cannot all hold at once (the left and
+    right Harrington rows share the PSIS depth) are met in the weighted least-squares sense.
+    The kinematic parameters and the markers no row names (wand and free-placed markers, head
+    markers) are unchanged. Why: a real subject's KNE sits on the knee's axis whatever the
+    thigh's length; moving the skeleton alone would place landmarks where no subject has them,
+    and priors centred on anatomy would be biased against such a truth (docs/synth.md).
+    """
+    prior = landmark_prior(pset)
+    k = pset.n_kappa
+    a_off = prior.a[:, k:]
+    rows = np.flatnonzero(np.any(a_off != 0.0, axis=1))
+    cols = np.flatnonzero(np.any(a_off[rows] != 0.0, axis=0))
+    sigma = prior.sigma[rows]
+    target = prior.b[rows] + rng.normal(0.0, sigma) - prior.a[rows] @ theta
+    d, *_ = np.linalg.lstsq(a_off[np.ix_(rows, cols)] / sigma[:, None], target / sigma, rcond=None)
+    out = np.array(theta, dtype=float, copy=True)
+    out[k + cols] += d
+    return out

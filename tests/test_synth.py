@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 from mocap_mj import MocapError, ParameterSet
+from mocap_mj.identify.anatomy import landmark_prior
 from mocap_mj.io import MarkerTrajectory, load_markers
+from mocap_mj.marker_set import marker_class
 from mocap_mj.results import load_motion
 from mocap_synth import (
     FILES,
@@ -172,6 +174,35 @@ def test_symmetric_perturbation(pset: ParameterSet) -> None:
         same_m = [np.allclose(shift[a] * [1, -1, 1], shift[b]) for a, b in marker_pairs]
         assert all(same_k) == equal and all(same_m) == equal
         assert any(same_k) == equal and any(same_m) == equal
+
+
+def test_anatomical_marker_placement(pset: ParameterSet) -> None:
+    """Landmark markers follow the perturbed skeleton, within the priors' widths; the
+    skeleton and the free markers are the uniform draw's (the same stream)."""
+    prior = landmark_prior(pset)
+    k = pset.n_kappa
+    named = np.any(prior.a[:, k:] != 0.0, axis=0).reshape(-1, 3).any(axis=1)
+    for seed in range(4):
+        uniform = perturb_theta(pset, np.random.default_rng(seed))
+        placed = perturb_theta(pset, np.random.default_rng(seed), placement="anatomical")
+        again = perturb_theta(pset, np.random.default_rng(seed), placement="anatomical")
+        np.testing.assert_array_equal(placed, again)
+        np.testing.assert_array_equal(placed[:k], uniform[:k])
+        moved = np.any(pset.split(placed)[1] != pset.split(uniform)[1], axis=1)
+        np.testing.assert_array_equal(moved, named)  # exactly the markers the rows name
+        assert all(marker_class(n) == "landmark" for n in np.array(pset.marker_names)[moved])
+        # Each row holds to its own width: normalized residuals of unit scale (a few rows
+        # overlap, e.g. the left and right Harrington rows share the PSIS depth, so the RMS
+        # is a little below 1), where the uniform truth's stray up to 4 widths.
+        r = prior.residuals(placed)
+        assert 0.5 < np.sqrt(np.mean(r**2)) < 1.2 and np.abs(r).max() < 3.5, r
+    # KNE on the knee's level whatever the thigh length: within 3 widths (30 mm).
+    knee = placed[k + 3 * pset.marker_index("LKNE") + 2] + placed[pset.index("thigh_length_l")]
+    assert abs(knee) < 0.03
+    with pytest.raises(MocapError, match="placement"):
+        perturb_theta(pset, np.random.default_rng(0), placement="random")
+    with pytest.raises(ConfigError, match="marker_placement"):
+        SynthConfig(marker_placement="random")
 
 
 # ------------------------------------------------------------------------ measurement model

@@ -29,7 +29,9 @@ from ..identify.plausibility import plausibility_text
 from ..identify.problem import TrialData
 from ..ik import IKSettings
 from ..parameters import ParameterSet
+from ..subject import Subject
 from ._markers import add_marker_options, load_trial, model_for
+from ._subject import add_subject_options, subject_from_args
 
 
 def register(sub: Any) -> None:
@@ -96,6 +98,7 @@ def register(sub: Any) -> None:
         help="a parameter direction counts as observable when its standard deviation is "
         "below this, in mm (default: 5)",
     )
+    add_subject_options(p)
     g = p.add_argument_group("paper solver (Algorithm 1 of Zou & Sugihara)")
     g.add_argument(
         "--sampling",
@@ -149,7 +152,10 @@ def run(args: argparse.Namespace) -> int:
 
         with output_folder(args.out, force=args.force) as out:
             return run_paper(args, pset, trials, ranges, out)
-    return into_out_folder(args, lambda out: _identify(args, pset, loaded, trials, ranges, out))
+    subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
+    return into_out_folder(
+        args, lambda out: _identify(args, pset, loaded, trials, ranges, subject, out)
+    )
 
 
 def _identify(
@@ -158,6 +164,7 @@ def _identify(
     loaded: list[Any],
     trials: list[TrialData],
     ranges: list[list[int]],
+    subject: Subject,
     out: Path,
 ) -> tuple[dict[str, Any], str]:
     loss: LossName = "cauchy" if args.robust else args.loss
@@ -176,6 +183,10 @@ def _identify(
             pset=pset,
             settings=settings,
             init=args.init,
+            subject=subject,
+            anatomical=not args.no_anatomy,
+            symmetric=None if args.symmetric is None else args.symmetric * 1e-3,
+            asymmetry_prior=not args.no_asymmetry_prior,
             progress=progress,
             extra={"markers_files": [t.path for t in loaded], "frames_fitted_range": ranges},
         )
@@ -185,4 +196,11 @@ def _identify(
     outside = {n: [v * 1e-3 for v in b] for n, b in summary["kappa_outside_bounds_mm"].items()}
     reports = "\n".join(str(t.report) for t in loaded)
     text = f"{reports}\n{result_text(summary, pset, Path(args.out))}\n"
-    return summary, text + plausibility_text(pset, per_marker, outside)
+    measured = "; ".join(
+        f"{n} {m['value'] * (1 if m['unit'] == 'kg' else 1e3):g} "
+        f"{'kg' if m['unit'] == 'kg' else 'mm'} ({m['source']})"
+        for n, m in summary["measurements"].items()
+    )
+    text += f"measurements: {measured or 'none (regressions from the markers)'}\n"
+    plaus = plausibility_text(pset, per_marker, outside, at_bound=summary["kappa_at_bound"])
+    return summary, text + plaus

@@ -105,6 +105,22 @@ class Identifiability:
         d = np.diag(self.crlb)
         return float(np.sqrt(np.mean(d[:k]))), float(np.sqrt(np.mean(d[k:])))
 
+    def bound_rms_with_prior(self, prior_information: np.ndarray) -> tuple[float, float]:
+        """(kappa, offsets) [m]: RMS CRLB standard deviations on the observable subspace when
+        a Gaussian prior adds ``prior_information`` (P, P) [1/m^2] to the data's ``S /
+        sigma^2`` (the Bayesian bound: a prior centred on the truth's distribution informs
+        directions the data leave loose, and an estimator using it can beat
+        :meth:`bound_rms`). The prior must make the total information invertible (the LM's
+        weak prior toward the initial model does).
+        """
+        check_shape("prior_information", prior_information, (self.pset.size, self.pset.size))
+        total = self._info() / self.sigma**2 + prior_information
+        with one_blas_thread():
+            cov = self.basis.T @ np.linalg.solve(total, self.basis)
+        d = np.einsum("pi,ij,pj->p", self.basis, cov, self.basis)
+        k = self.pset.n_kappa
+        return float(np.sqrt(np.mean(d[:k]))), float(np.sqrt(np.mean(d[k:])))
+
     # ------------------------------------------------------------- in words
     def directions(self) -> list[Direction]:
         """Weak and unobservable directions, least determined first.

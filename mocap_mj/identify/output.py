@@ -100,6 +100,7 @@ def report_lines(
         f"- marker RMSE: {result.marker_rmse * 1e3:.3f} mm: a per-axis noise sigma of "
         f"{result.sigma * 1e3:.3f} mm (RMSE / sqrt(3 (1 - p/n)), p = {result.n_unknowns} "
         f"unknowns, n = {result.n_residuals} residuals)",
+        *_anatomy_lines(summary),
         "",
         "## Kinematic parameters",
         "",
@@ -129,6 +130,32 @@ def iteration_lines(result: IdentificationResult) -> list[str]:
             )
         lines.append(text)
     return [*lines, "```", ""]
+
+
+def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
+    """The subject measurements used (value, source), prior weighting, parameters at a
+    bound of their anatomical range."""
+    if not summary.get("anatomical_priors"):
+        return []
+    lines = ["", "## Subject measurements and anatomical priors", ""]
+    meas = summary.get("measurements", {})
+    for n, m in meas.items():
+        value = m["value"] if m["unit"] == "kg" else m["value"] * 1e3
+        lines.append(f"- {n}: {value:g} {'kg' if m['unit'] == 'kg' else 'mm'} ({m['source']})")
+    if not meas:
+        lines.append("- no measurements: widths and the hip centres regressed from the markers")
+    w = summary.get("prior_weighting", {})
+    if w:
+        lines.append(
+            f"- priors weighed against a marker noise of {w['noise_mm']:.2f} mm (fit sigma "
+            f"{w['sigma_mm']:.2f} mm, residual correlation time {w['tau_frames']:.1f} frames)"
+        )
+    bound = summary.get("kappa_at_bound", {})
+    lines.append(
+        "- parameters at a bound of their anatomical range: "
+        + (", ".join(f"{n} ({b})" for n, b in bound.items()) or "none")
+    )
+    return lines
 
 
 def frame_range(text: str | None, n: int) -> slice:

@@ -17,15 +17,22 @@ from ..ik import IKSettings
 from ..io.atomic import atomic_folder, atomic_write_text
 from ..parameters import ParameterSet
 from ..strict_json import dumps, jsonable
+from ..subject import Subject
 from ..tables import write_joint_centres_csv
+from .anatomy import ASYMMETRY_SIGMA, landmark_prior, symmetric_prior
+from .consistency import correlation_time
 from .identifiability import Identifiability
 from .initial import place_markers, scaled_theta, segment_scales
 from .lm import LMSettings, identify_lm, solver_joint_range
 from .output import write_result
 from .plausibility import kappa_outside_bounds, marker_rmse_by_marker
+from .priors import LinearGaussianPrior, Prior, weak_prior
 from .problem import TrialData
+from .ranges import kappa_ranges, theta_bounds
 from .result import IdentificationResult, ProgressCallback
 from .segments import SegmentRow, uncertainty_summary, write_segments_csv
+
+logger = logging.getLogger(__name__)
 
 #: Initial models of :func:`identify_to_folder` (``init``).
 INITS = ("placed", "scaled", "nominal")
@@ -41,6 +48,10 @@ def identify_to_folder(
     init: str = "nominal",
     progress: ProgressCallback | None = None,
     extra: dict[str, Any] | None = None,
+    subject: Subject | None = None,
+    anatomical: bool = True,
+    symmetric: float | None = None,
+    asymmetry_prior: bool = True,
 ) -> tuple[dict[str, Any], IdentificationResult, Identifiability]:
     """Run the joint LM on the trials and write model.xml, theta.json, motion.npz,
     identifiability.json and report.md into ``out``; return (summary, result, identifiability).
@@ -57,6 +68,14 @@ def identify_to_folder(
     (the default here: the demo's synthetic truth is the nominal model perturbed, so the
     nominal model is its best prior mean). ``progress`` is called with every LM iteration;
     the solver's log lines (logger ``mocap_mj``) are kept in the summary's ``log``.
+
+    With ``anatomical`` (the default) the solve keeps the kinematic parameters in their
+    anatomical ranges (:mod:`mocap_mj.identify.ranges`, scaled by the subject's height when
+    ``subject`` has it) and adds the landmark priors (:mod:`mocap_mj.identify.anatomy`,
+    sharpened by ``subject``'s measurements); ``symmetric`` [m] adds a prior tying every
+    left length to the right one with that standard deviation, in place of the population
+    asymmetry prior (``ASYMMETRY_SIGMA``, on unless ``asymmetry_prior`` is False). See
+    :func:`solve_anatomical`.
     """
     t0 = time.perf_counter()
     if init not in INITS:
@@ -77,8 +96,24 @@ def identify_to_folder(
         scales = {n: e.value for n, e in estimates.items()}
         if init == "placed":
             theta0 = place_markers(pset, theta0, markers)
+    subject = subject or Subject()
+    weighting: dict[str, float] = {}
     with captured_log() as log:
-        result = identify_lm(trials, pset=pset, theta0=theta0, settings=settings, progress=progress)
+        if anatomical:
+            result, weighting = solve_anatomical(
+                trials,
+                pset=pset,
+                theta0=theta0,
+                settings=settings,
+                subject=subject,
+                size=scales.get("overall", 1.0),
+                symmetric=ASYMMETRY_SIGMA if symmetric is None and asymmetry_prior else symmetric,
+                progress=progress,
+            )
+        else:
+            result = identify_lm(
+                trials, pset=pset, theta0=theta0, settings=settings, progress=progress
+            )
     seconds = time.perf_counter() - t0
     idf = Identifiability(
         pset,
@@ -116,9 +151,26 @@ def identify_to_folder(
                 n: float(v) * 1e3 for n, v in zip(pset.kappa_names, result.theta, strict=False)
             },
             "log": log,
+            "anatomical_priors": anatomical,
+            "prior_weighting": weighting,
+            "symmetric_mm": None if symmetric is None else symmetric * 1e3,
+            "asymmetry_prior_mm": (
+                ASYMMETRY_SIGMA * 1e3
+                if anatomical and asymmetry_prior and symmetric is None
+                else None
+            ),
+            "measurements": subject.to_dict(),
+            "kappa_at_bound": {
+                n: ("lower" if th < nom else "upper")
+                for n, b, th, nom in zip(
+                    pset.kappa_names, result.at_bound, result.theta, pset.nominal, strict=False
+                )
+                if b
+            },
         }
     )
-    rows = _add_checks(summary, pset, result, trials, settings)
+    ranges = kappa_ranges(pset, subject) if anatomical else None
+    rows = _add_checks(summary, pset, result, trials, settings, ranges)
     summary = jsonable(summary)
     with atomic_folder(out, force=True) as staging:
         write_result(
@@ -141,16 +193,19 @@ def _add_checks(
     result: IdentificationResult,
     trials: Sequence[TrialData],
     settings: LMSettings,
+    ranges: tuple[np.ndarray, np.ndarray] | None,
 ) -> list[SegmentRow]:
-    """Add the real-data checks to ``summary`` (worst markers, parameters outside their range,
-    the segment table with inflated standard deviations); return the segment rows."""
+    """Add the real-data checks to ``summary`` (worst markers, parameters outside their range
+    ``ranges`` (K,) [m], default ``pset``'s, the segment table with inflated standard
+    deviations); return the segment rows."""
     per_marker = marker_rmse_by_marker(pset, result, trials)
-    outside = kappa_outside_bounds(pset, result.theta)
+    lower, upper = ranges if ranges is not None else (None, None)
+    outside = kappa_outside_bounds(pset, result.theta, lower, upper)
     summary["marker_rmse_by_marker_mm"] = {
         n: float(v) * 1e3 for n, v in zip(pset.marker_names, per_marker, strict=True)
     }
     summary["kappa_outside_bounds_mm"] = {n: [v * 1e3 for v in b] for n, b in outside.items()}
-    entries, rows = uncertainty_summary(pset, result, trials, per_marker, settings)
+    entries, rows = uncertainty_summary(pset, result, trials, per_marker, settings, ranges=ranges)
     summary.update(entries)
     return rows
 
@@ -212,3 +267,107 @@ def result_text(summary: dict[str, Any], pset: ParameterSet, out: Path) -> str:
         f"wrote {out}/model.xml, theta.json, motion.npz, joint_centres.csv, segments.csv, "
         "identifiability.json, report.md"
     )
+
+
+#: Effective noise [m] below which one solve with the nominal prior noise is kept.
+REWEIGHT_RATIO = 1.5
+
+
+def anatomical_priors(
+    pset: ParameterSet,
+    subject: Subject,
+    *,
+    size: float = 1.0,
+    symmetric: float | None = None,
+    noise: float = 0.001,
+) -> list[LinearGaussianPrior]:
+    """Landmark priors and, with ``symmetric`` [m], the left/right length prior."""
+    priors = [landmark_prior(pset, subject, size=size, noise=noise)]
+    if symmetric is not None:
+        priors.append(symmetric_prior(pset, symmetric, noise=noise))
+    return priors
+
+
+def prior_information(
+    priors: Sequence[LinearGaussianPrior], settings: LMSettings, size: int
+) -> np.ndarray:
+    """The information (size, size) [1/m^2] the priors of a solve hold about theta: every
+    row's ``a_r a_r^T / sigma_r^2`` plus the weak prior toward the initial model
+    (``1 / settings.prior_sigma^2`` per parameter), as for a marker noise equal to the
+    priors' ``noise`` (the weighting the solve used). For the Cramer-Rao bound with the
+    priors (:meth:`Identifiability.bound_rms_with_prior`)."""
+    info = np.eye(size) / settings.prior_sigma**2
+    for p in priors:
+        info += (p.a.T / p.sigma**2) @ p.a
+    return info
+
+
+def solve_anatomical(
+    trials: Sequence[TrialData],
+    *,
+    pset: ParameterSet,
+    theta0: np.ndarray | None,
+    settings: LMSettings,
+    subject: Subject,
+    size: float = 1.0,
+    symmetric: float | None = None,
+    progress: ProgressCallback | None = None,
+) -> tuple[IdentificationResult, dict[str, float]]:
+    """The joint LM with anatomical ranges as bounds and the anatomical priors.
+
+    The priors are weighed against the markers' effective noise: a first solve uses the
+    nominal marker noise (``settings.prior_noise``, 1 mm); when its per-axis noise sigma
+    times the square root of the residuals' correlation time tau [frames] exceeds that by
+    ``REWEIGHT_RATIO``, a second solve starts from the first one's result with the priors'
+    noise set to sigma sqrt(tau): soft-tissue residuals correlated over tau frames hold
+    about 1 / tau of the information white noise would, and the prior keeps its weight
+    against them. On synthetic white noise (tau about 1, sigma the simulated noise) one
+    solve is kept. The weak prior toward the initial model is unchanged (its mean becomes
+    the first solve's model in the second solve). Returns the result and the weighting
+    used (``noise_mm``, ``sigma_mm``, ``tau_frames``).
+    """
+    lower, upper = theta_bounds(pset, subject)
+    priors = anatomical_priors(
+        pset, subject, size=size, symmetric=symmetric, noise=settings.prior_noise
+    )
+    start = pset.nominal if theta0 is None else theta0
+    result = identify_lm(
+        trials,
+        pset=pset,
+        theta0=theta0,
+        settings=settings,
+        progress=progress,
+        priors=[_weak(start, settings), *priors],
+        lower=lower,
+        upper=upper,
+    )
+    tau = correlation_time(pset, result, trials)
+    noise = result.sigma * float(np.sqrt(tau))
+    weighting = {"sigma_mm": result.sigma * 1e3, "tau_frames": tau, "noise_mm": noise * 1e3}
+    if noise <= REWEIGHT_RATIO * settings.prior_noise:
+        weighting["noise_mm"] = settings.prior_noise * 1e3
+        return result, weighting
+    logger.info("priors reweighted: noise %.2f mm (sigma x sqrt(tau %.1f))", noise * 1e3, tau)
+    first = result
+    result = identify_lm(
+        trials,
+        pset=pset,
+        theta0=first.theta,
+        settings=settings,
+        progress=progress,
+        initial_qpos=first.qpos,
+        priors=[_weak(first.theta, settings), *(p.with_noise(noise) for p in priors)],
+        lower=lower,
+        upper=upper,
+    )
+    result.theta0 = first.theta0
+    result.seconds += first.seconds
+    result.init_seconds = first.init_seconds
+    result.iterations += first.iterations
+    return result, weighting
+
+
+def _weak(theta0: np.ndarray, settings: LMSettings) -> Prior:
+    """The LM's weak prior toward theta0 (P,) [m] (``settings.prior_sigma``, ``prior_noise``):
+    a solve given its own priors replaces the default one, so the anatomical solves add it."""
+    return weak_prior(theta0, settings.prior_sigma, settings.prior_noise)

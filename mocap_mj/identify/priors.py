@@ -9,7 +9,7 @@ marker noise, which pins the directions of theta the markers cannot determine.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -48,12 +48,14 @@ class LinearGaussianPrior:
     b : (R,) [m]
     sigma : (R,) [m], positive
     noise : float [m], the marker noise the widths are stated against (default 1 mm)
+    labels : (R,) str, what each row says (for reports; default none)
     """
 
     a: np.ndarray
     b: np.ndarray
     sigma: np.ndarray
     noise: float = 0.001
+    labels: tuple[str, ...] = field(default=())
 
     def __post_init__(self) -> None:
         a = np.atleast_2d(np.asarray(self.a, dtype=float))
@@ -70,6 +72,14 @@ class LinearGaussianPrior:
 
     def _residual(self, theta: np.ndarray) -> np.ndarray:
         return np.asarray(self.a, dtype=float) @ theta - np.asarray(self.b, dtype=float)
+
+    def residuals(self, theta: np.ndarray) -> np.ndarray:
+        """(a theta - b) / sigma (R,) [1]: each row's misfit in its own widths."""
+        return self._residual(theta) / np.asarray(self.sigma, dtype=float)
+
+    def with_noise(self, noise: float) -> LinearGaussianPrior:
+        """The same rows weighed against another marker noise [m]."""
+        return replace(self, noise=float(noise))
 
     def cost(self, theta: np.ndarray) -> float:
         r = self._residual(theta)

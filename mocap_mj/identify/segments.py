@@ -117,16 +117,19 @@ def parameter_flag(value: float, lower: float, upper: float) -> str:
 
 
 def segment_table(
-    pset: ParameterSet, result: LMResult, tau: float, settings: LMSettings | None = None
+    pset: ParameterSet,
+    result: LMResult,
+    tau: float,
+    settings: LMSettings | None = None,
+    ranges: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> list[SegmentRow]:
     """The rows (lengths, then kinematic parameters) for a fit whose residuals have
-    correlation time ``tau`` [frames]; ``settings`` gives the fit's prior weight."""
+    correlation time ``tau`` [frames]; ``settings`` gives the fit's prior weight, ``ranges``
+    the kinematic parameters' lower and upper bounds (K,) [m] (default: ``pset``'s)."""
     kappa, _ = pset.split(result.theta)
     k = pset.n_kappa
-    flags = [
-        parameter_flag(float(kappa[i]), float(pset.lower[i]), float(pset.upper[i]))
-        for i in range(k)
-    ]
+    lower, upper = ranges if ranges is not None else (pset.lower[:k], pset.upper[:k])
+    flags = [parameter_flag(float(kappa[i]), float(lower[i]), float(upper[i])) for i in range(k)]
     white_cov = parameter_covariance(result, settings=settings)
     slow_cov = parameter_covariance(result, tau=tau, settings=settings)
     rows = []
@@ -149,7 +152,7 @@ def segment_table(
         rows.append(
             SegmentRow(name, "kappa", float(kappa[i]), math.sqrt(max(white_cov[i, i], 0.0)),
                        math.sqrt(max(slow_cov[i, i], 0.0)), float(pset.nominal[i]),
-                       float(pset.lower[i]), float(pset.upper[i]), flags[i])
+                       float(lower[i]), float(upper[i]), flags[i])
         )  # fmt: skip
     return rows
 
@@ -171,13 +174,14 @@ def uncertainty_summary(
     per_marker: np.ndarray,
     settings: LMSettings | None = None,
     *,
+    ranges: tuple[np.ndarray, np.ndarray] | None = None,
     worst: int = 5,
 ) -> tuple[dict[str, Any], list[SegmentRow]]:
     """The summary.json entries of the segment table and the rows: ``correlation_time_frames``,
     ``segments`` ({name: row}), ``parameters_flagged`` ({name: flag}), ``worst_markers_mm``
     (the ``worst`` markers by RMS distance, per_marker (M,) [m], NaN for unseen markers)."""
     tau = correlation_time(pset, result, trials)
-    rows = segment_table(pset, result, tau, settings)
+    rows = segment_table(pset, result, tau, settings, ranges)
     order = [int(i) for i in np.argsort(-np.nan_to_num(per_marker, nan=-1.0))[:worst]]
     entries = {
         "correlation_time_frames": tau,

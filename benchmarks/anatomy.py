@@ -1,0 +1,84 @@
+"""Real-data skeleton checks of identified models (issue #14 targets); prints figures.
+
+    python benchmarks/anatomy.py OUT_DIR [OUT_DIR ...] [--pair A B [C ...]]
+
+For every ``mocap-mj identify`` result folder: marker RMSE, kinematic parameters outside
+their anatomical range (:mod:`mocap_mj.identify.ranges`, with the measurements the run used)
+or held at a bound, left/right differences of the paired segment lengths and, where the run
+had the joint widths, the median over frames of the distance from the knee, ankle, elbow and
+wrist centres to their lateral marker minus width/2 + marker radius
+(:mod:`mocap_mj.identify.plausibility`). With ``--pair A B ...``: the largest difference
+of the joint-centre distances (:func:`mocap_mj.identify.consistency.joint_centre_lengths`)
+between every two of the models.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+from pathlib import Path
+
+from mocap_mj.identify.consistency import joint_centre_lengths
+from mocap_mj.identify.plausibility import (
+    kappa_outside_bounds,
+    left_right_differences,
+    width_errors,
+)
+from mocap_mj.identify.ranges import kappa_ranges
+from mocap_mj.parameters import ParameterSet
+from mocap_mj.results import load_motion
+from mocap_mj.subject import Measurement, Subject
+
+
+def report(folder: Path, pset: ParameterSet) -> str:
+    summary = json.loads((folder / "summary.json").read_text())
+    theta = pset.load_json(folder / "theta.json")
+    subject = Subject(
+        {
+            n: Measurement(v["value"], v["source"])
+            for n, v in summary.get("measurements", {}).items()
+        }
+    )
+    outside = kappa_outside_bounds(pset, theta, *kappa_ranges(pset, subject))
+    lr = {k: v * 1e3 for k, v in left_right_differences(pset, theta).items()}
+    motion = load_motion(folder / "motion.npz")
+    wid = {
+        k: v * 1e3
+        for k, v in width_errors(pset, theta, motion.qpos, motion.markers, subject).items()
+    }
+    lines = [
+        f"{folder.name}: RMSE {summary['marker_rmse_mm']:.2f} mm; outside range: "
+        f"{list(outside) or 'none'}; at bound: {summary.get('kappa_at_bound') or 'none'}",
+        "  L/R |diff| mm: " + ", ".join(f"{k} {v:.1f}" for k, v in lr.items())
+        + f"  (max {max(lr.values()):.1f})",
+    ]  # fmt: skip
+    if wid:
+        lines.append(
+            "  centre-to-lateral-marker minus (width/2 + r), median over frames, mm: "
+            + ", ".join(f"{k} {v:+.1f}" for k, v in wid.items())
+            + f"  (max |.| {max(abs(v) for v in wid.values()):.1f})"
+        )
+    return "\n".join(lines)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
+    ap.add_argument("folders", nargs="+", type=Path)
+    ap.add_argument("--pair", nargs="+", action="append", default=[], metavar="FOLDER")
+    args = ap.parse_args()
+    pset = ParameterSet()
+    for f in args.folders:
+        print(report(f, pset))
+    for group in args.pair:
+        for a, b in itertools.combinations(group, 2):
+            la = joint_centre_lengths(pset, pset.load_json(Path(a) / "theta.json"))
+            lb = joint_centre_lengths(pset, pset.load_json(Path(b) / "theta.json"))
+            diff = sorted(((abs(la[n] - lb[n]) * 1e3, n) for n in la), reverse=True)
+            print(f"{Path(a).name} vs {Path(b).name}: max joint-centre distance difference "
+                  f"{diff[0][0]:.1f} mm; worst: " + ", ".join(f"{n} {v:.1f}" for v, n in diff[:4])
+                  + f"; median {sorted(v for v, _ in diff)[len(diff) // 2]:.1f}")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()

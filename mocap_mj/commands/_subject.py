@@ -1,0 +1,91 @@
+"""Command-line options for the subject's measurements (:mod:`mocap_mj.subject`)."""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Sequence
+from typing import Any
+
+from ..errors import MocapError
+from ..subject import Subject, from_c3d, from_values, from_yaml
+
+#: Flag -> measurement base name; sided ones take one value (both sides) or two (left right).
+_SIDED = {
+    "leg-length": "leg_length",
+    "knee-width": "knee_width",
+    "ankle-width": "ankle_width",
+    "elbow-width": "elbow_width",
+    "wrist-width": "wrist_width",
+    "hand-thickness": "hand_thickness",
+    "shoulder-offset": "shoulder_offset",
+}
+
+
+def add_subject_options(p: Any) -> None:
+    """``--subject-file``, measurement flags, ``--symmetric`` and ``--no-anatomy``."""
+    g = p.add_argument_group(
+        "subject measurements (override those in the C3D files' PROCESSING/SUBJECTS groups)"
+    )
+    g.add_argument(
+        "--subject-file",
+        help="YAML file of measurements, name: value in SI units or with a unit "
+        "('144 mm'); names as in summary.json's 'measurements'",
+    )
+    g.add_argument("--height", type=float, metavar="MM", help="standing height [mm]")
+    g.add_argument("--mass", type=float, metavar="KG", help="body mass [kg]")
+    g.add_argument("--asis-distance", type=float, metavar="MM", help="inter-ASIS distance [mm]")
+    g.add_argument("--marker-diameter", type=float, metavar="MM", help="marker diameter [mm]")
+    for flag, name in _SIDED.items():
+        g.add_argument(
+            f"--{flag}",
+            type=float,
+            nargs="+",
+            metavar="MM",
+            help=f"{name.replace('_', ' ')} [mm]: one value for both sides, or LEFT RIGHT",
+        )
+    g.add_argument(
+        "--symmetric",
+        type=float,
+        nargs="?",
+        const=2.0,
+        metavar="WIDTH_MM",
+        help="tie every left segment length to the right one with this standard deviation "
+        "[mm] (default 2 when given without a value)",
+    )
+    g.add_argument(
+        "--no-asymmetry-prior",
+        action="store_true",
+        help="no population prior on left/right length differences (5 mm; for subjects "
+        "with a known asymmetry, e.g. a limb-length discrepancy)",
+    )
+    g.add_argument(
+        "--no-anatomy",
+        action="store_true",
+        help="no anatomical priors and ranges (the plain joint LM, as before issue #14)",
+    )
+
+
+def subject_from_args(args: argparse.Namespace, c3d_paths: Sequence[str]) -> Subject:
+    """Measurements of the C3D files (first file that has each), the YAML file, then flags."""
+    subject = Subject()
+    for path in c3d_paths:
+        if str(path).lower().endswith(".c3d"):
+            found = from_c3d(path)
+            subject = found.update(subject)  # earlier files win
+    if args.subject_file:
+        subject = subject.update(from_yaml(args.subject_file))
+    pairs: list[tuple[str, float | None]] = [
+        ("height", None if args.height is None else args.height * 1e-3),
+        ("mass", args.mass),
+        ("asis_distance", None if args.asis_distance is None else args.asis_distance * 1e-3),
+        ("marker_diameter", None if args.marker_diameter is None else args.marker_diameter * 1e-3),
+    ]
+    for flag, name in _SIDED.items():
+        values = getattr(args, flag.replace("-", "_"))
+        if values is None:
+            continue
+        if len(values) > 2:
+            raise MocapError(f"--{flag}: expected one value or LEFT RIGHT, got {len(values)}")
+        left, right = values[0], values[-1]
+        pairs += [(f"{name}_l", left * 1e-3), (f"{name}_r", right * 1e-3)]
+    return subject.update(from_values(pairs, "command line"))

@@ -1,0 +1,324 @@
+"""Anatomical priors on theta: where each Plug-in Gait marker sits on its segment.
+
+The markers cannot determine every parameter (the position of a joint centre along a hinge
+axis, the pelvis frame against its markers, a segment's origin seen through one marker):
+there the prior decides, so it must be anatomy, not the nominal model. Every prior here is
+linear in theta and Gaussian (:class:`LinearGaussianPrior`): ``a_r . theta = b_r`` with a
+standard deviation ``sigma_r`` [m]. A row may tie a marker offset to a kinematic parameter
+(KNE's offset along the thigh equals minus the thigh length: Plug-in Gait puts KNE on the
+lateral epicondyle, on the knee flexion axis), a marker's lateral offset to a subject
+measurement (KNE lateral of the knee centre by KneeWidth/2 + marker radius), a hip centre to
+the pelvis markers (Harrington et al. 2007), or a left length to a right one (``--symmetric``).
+
+Marker classes (:func:`mocap_mj.marker_set.marker_class`, from the marker-set file):
+*landmark* markers sit on a palpated bony landmark
+that the marker set defines relative to the joint centres: they get the rows of
+:data:`LANDMARK_ROWS`; *cluster* and *free* markers (wands, free-placed THI, TIB, UPA, FRM,
+RBAK) get no anatomical row, only the weak prior of the LM toward the initial placement
+(``LMSettings.prior_sigma``, 50 mm).
+
+Widths (standard deviations, per row) and their sources:
+
+* :data:`SIGMA_LANDMARK` = 10 mm: a palpated landmark's position relative to the joint centre
+  it defines (inter-examiner palpation precision of pelvis, knee and ankle landmarks 5-15 mm,
+  Della Croce et al. 1999, 2005), for the along-segment and antero-posterior components;
+* :data:`SIGMA_MIDLINE` = 5 mm: C7, T10, CLAV, STRN on the mid-sagittal plane, the ASIS
+  markers defining the pelvis origin (mid-ASIS) and plane;
+* :data:`SIGMA_MEASURED` = 1.5 mm: a lateral offset from a caliper-measured width (caliper
+  precision 1-2 mm). Plug-in Gait takes the measurement as exact; at 3 mm the jump of the
+  pyCGM files pulled the knee centres 10-11 mm toward KNE (docs/real-data.md);
+* :data:`SIGMA_REGRESSED` = 12 mm: the same offset from a width regressed on a segment
+  length (:data:`WIDTH_RATIO`; joint widths vary with body mass at a given length);
+* :data:`SIGMA_HJC` = 8 mm: Harrington et al. (2007) hip centre per axis (their regression
+  errors, 4-9 mm, plus the ASIS/PSIS marker placement);
+* :data:`SIGMA_SOFT` = 15 mm: landmarks whose depth below the skin or position relative to a
+  joint varies between adults (T10, STRN, C7 depth, HEE, TOE, FIN);
+* :data:`SIGMA_LEG` = 15 mm: hip height + thigh + shank against the measured leg length
+  (a tape measure over the knee, ASIS to medial malleolus);
+* :data:`ASYMMETRY_SIGMA` = 5 mm: left minus right length in healthy adults (anatomic
+  limb-length inequality, mean 5.2 mm; Knutson 2005), :func:`symmetric_prior`.
+
+The data and the prior are weighed against each other through ``noise``: the prior's cost is
+``1/2 noise^2 sum_r ((a_r . theta - b_r) / sigma_r)^2`` next to the markers' ``1/2 sum d^2``,
+so ``noise`` is the per-axis marker noise of an independent observation. On real recordings
+the residuals are soft-tissue artefact correlated over tens of frames
+(:func:`mocap_mj.identify.noise.residual_correlation_time`): the pipeline sets ``noise`` to
+the fit's sigma times the square root of that time.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..parameters import ParameterSet
+from ..subject import Subject
+from .priors import LinearGaussianPrior
+from .ranges import NOMINAL_HEIGHT
+
+SIGMA_LANDMARK = 0.010
+SIGMA_MIDLINE = 0.005
+SIGMA_MEASURED = 0.0015
+SIGMA_REGRESSED = 0.012
+SIGMA_HJC = 0.008
+SIGMA_SOFT = 0.015
+SIGMA_LEG = 0.015
+ASYMMETRY_SIGMA = 0.005
+
+#: Joint width (measurement, side removed) -> (kinematic parameter, width / parameter): the
+#: regression used when the width is not measured, from the nominal model (Plug-in Gait
+#: placement of a 14 mm marker on a 1.75 m adult: knee 86 mm, ankle 66, elbow 66).
+WIDTH_RATIO: dict[str, tuple[str, float]] = {
+    "knee_width": ("thigh_length", 2 * (0.050 - 0.007) / 0.43),
+    "ankle_width": ("shank_length", 2 * (0.040 - 0.007) / 0.43),
+    "elbow_width": ("upperarm_length", 2 * (0.040 - 0.007) / 0.30),
+}
+
+
+class _Rows:
+    """Accumulates prior rows over theta's names, skipping those naming absent parameters."""
+
+    def __init__(self, pset: ParameterSet) -> None:
+        self.pset = pset
+        self.names = set(pset.names)
+        self.a: list[np.ndarray] = []
+        self.b: list[float] = []
+        self.sigma: list[float] = []
+        self.labels: list[str] = []
+
+    def add(self, terms: dict[str, float], b: float, sigma: float, label: str) -> None:
+        if not all(n in self.names and np.isfinite(c) for n, c in terms.items()):
+            return
+        row = np.zeros(self.pset.size)
+        for n, c in terms.items():
+            row[self.pset.index(n)] += c
+        self.a.append(row)
+        self.b.append(float(b))
+        self.sigma.append(float(sigma))
+        self.labels.append(label)
+
+    def prior(self, noise: float) -> LinearGaussianPrior:
+        return LinearGaussianPrior(
+            np.array(self.a).reshape(-1, self.pset.size),
+            np.array(self.b),
+            np.array(self.sigma),
+            noise,
+            tuple(self.labels),
+        )
+
+
+def _add(*terms: dict[str, float]) -> dict[str, float]:
+    """Sum of linear terms {name: coefficient}."""
+    out: dict[str, float] = {}
+    for t in terms:
+        for n, c in t.items():
+            out[n] = out.get(n, 0.0) + c
+    return out
+
+
+def _scaled(terms: dict[str, float], factor: float) -> dict[str, float]:
+    return {n: factor * c for n, c in terms.items()}
+
+
+def _width_rows(rows: _Rows, subject: Subject, side: str, marker: str, width: str) -> None:
+    """``marker.y = +-(width / 2 + marker radius)``: measured, else regressed on a length."""
+    sign = 1.0 if side == "l" else -1.0
+    r = subject.marker_radius
+    measured = subject.get(f"{width}_{side}")
+    name = f"{marker}.y"
+    if measured is not None:
+        rows.add({name: sign}, measured / 2 + r, SIGMA_MEASURED, f"{name} = {width}/2 + r")
+        return
+    kappa, ratio = WIDTH_RATIO[width]
+    rows.add(
+        {name: sign, f"{kappa}_{side}": -ratio / 2},
+        r,
+        SIGMA_REGRESSED,
+        f"{name} = {ratio:.3f} {kappa}/2 + r (regressed {width})",
+    )
+
+
+def landmark_prior(
+    pset: ParameterSet, subject: Subject | None = None, *, size: float = 1.0, noise: float = 0.001
+) -> LinearGaussianPrior:
+    """The landmark rows of every Plug-in Gait marker the model has (module docstring).
+
+    ``size``: the subject's stature over the nominal 1.75 m (from ``subject``'s height when
+    given, else the caller's estimate), scaling the few constants that no parameter carries
+    (a heel's distance behind the ankle, the C7 spinous process depth).
+    """
+    subject = subject or Subject()
+    h = subject.get("height")
+    s = h / NOMINAL_HEIGHT if h is not None else size
+    rows = _Rows(pset)
+    lm, mid, soft = SIGMA_LANDMARK, SIGMA_MIDLINE, SIGMA_SOFT
+    # Pelvis: origin at mid-ASIS, ASIS on its y axis (the pelvis frame is defined by them).
+    for m in ("LASI", "RASI"):
+        rows.add({f"{m}.x": 1}, 0.0, mid, f"{m}.x = 0 (pelvis origin mid-ASIS)")
+        rows.add({f"{m}.z": 1}, 0.0, mid, f"{m}.z = 0 (ASIS plane)")
+    asis = subject.get("asis_distance")
+    if asis is not None:
+        rows.add({"LASI.y": 1, "RASI.y": -1}, asis, SIGMA_MEASURED, "LASI-RASI = asis_distance")
+    # Hip joint centres relative to mid-ASIS: Harrington et al. (2007), PW = ASIS width,
+    # PD = ASIS-PSIS depth. Written relative to the markers, so that the rows do not depend
+    # on where the pelvis origin sits against them (an unobservable direction).
+    pd = _add({"LASI.x": 0.5, "RASI.x": 0.5}, {"LPSI.x": -0.5, "RPSI.x": -0.5})
+    pw = {"LASI.y": 1.0, "RASI.y": -1.0}
+    mid_x = {"LASI.x": 0.5, "RASI.x": 0.5}
+    mid_y = {"LASI.y": 0.5, "RASI.y": 0.5}
+    mid_z = {"LASI.z": 0.5, "RASI.z": 0.5}
+    for side in ("l", "r"):
+        sign = 1.0 if side == "l" else -1.0
+        rows.add(
+            _add({f"hip_depth_{side}": 1}, mid_x, _scaled(pd, -0.24)),
+            0.0099,
+            SIGMA_HJC,
+            f"hip_depth_{side} = 0.24 PD + 9.9 mm (Harrington 2007)",
+        )
+        rows.add(
+            _add({f"hip_width_{side}": 1}, _scaled(mid_y, -sign), _scaled(pw, -0.33)),
+            0.0073,
+            SIGMA_HJC,
+            f"hip_width_{side} = 0.33 PW + 7.3 mm (Harrington 2007)",
+        )
+        rows.add(_add({f"hip_height_{side}": 1}, mid_z, _scaled(pw, -0.30)), 0.0109, SIGMA_HJC,
+                 f"hip_height_{side} = 0.30 PW + 10.9 mm (Harrington 2007)")  # fmt: skip
+    # Trunk: midline markers, C7 at the C7/T1 joint's level, CLAV at the SC joints' level.
+    for m in ("C7", "T10", "CLAV", "STRN"):
+        rows.add({f"{m}.y": 1}, 0.0, mid, f"{m}.y = 0 (midline)")
+    rows.add({"C7.z": 1, "thorax_length": -1}, -0.005 * s, lm, "C7.z = thorax_length - 5 mm")
+    rows.add({"C7.x": 1, "neck_depth": -1}, -0.075 * s, soft, "C7.x = neck_depth - 75 mm")
+    rows.add({"T10.z": 1}, 0.05 * s, soft, "T10.z = 50 mm above T12/L1")
+    rows.add({"T10.x": 1}, -0.075 * s, soft, "T10.x = 75 mm behind T12/L1")
+    sc_mid = {"sc_height_l": -0.5, "sc_height_r": -0.5}
+    rows.add({"CLAV.z": 1, **sc_mid}, 0.005 * s, lm, "CLAV.z = SC joints' height + 5 mm")
+    rows.add({"CLAV.x": 1, "sc_depth": -1}, 0.02 * s, lm, "CLAV.x = sc_depth + 20 mm")
+    rows.add({"STRN.x": 1, "sc_depth": -1}, 0.06 * s, soft, "STRN.x = sc_depth + 60 mm")
+    for side, p in (("l", "L"), ("r", "R")):
+        sign = 1.0 if side == "l" else -1.0
+        # SHO on the acromion, shoulder_offset + r above the glenohumeral centre.
+        try:
+            gh = pset.body_pos_nominal[pset.model.body(f"upperarm_{side}").id]
+        except KeyError:  # a custom model without this body: no shoulder rows
+            gh = np.full(3, np.nan)
+        u = gh / np.linalg.norm(gh)
+        off = subject.get(f"shoulder_offset_{side}")
+        for ax, c in enumerate("xyz"):
+            terms = {f"{p}SHO.{c}": 1.0, f"clavicle_length_{side}": -u[ax]}
+            if c == "z":
+                mean = (off + subject.marker_radius) if off is not None else 0.045 * s
+                sig = SIGMA_MEASURED if off is not None else lm
+                rows.add(terms, mean, sig, f"{p}SHO.z = GH.z + shoulder_offset + r")
+            else:
+                mean = (0.0, sign * 0.01 * s)[ax]
+                rows.add(terms, mean, lm, f"{p}SHO.{c} = GH.{c} {mean * 1e3:+.0f} mm")
+        # Epicondyles, malleolus and styloids on their joint's axis, at the joint's level.
+        for marker, length, width in (
+            ("KNE", "thigh_length", "knee_width"),
+            ("ANK", "shank_length", "ankle_width"),
+            ("ELB", "upperarm_length", "elbow_width"),
+        ):
+            m = p + marker
+            rows.add({f"{m}.x": 1}, 0.0, lm, f"{m}.x = 0 (on the joint axis)")
+            rows.add({f"{m}.z": 1, f"{length}_{side}": 1}, 0.0, lm, f"{m}.z = -{length}")
+            _width_rows(rows, subject, side, m, width)
+        # Wrist bar on the dorsum: Plug-in Gait puts the wrist centre wrist_width/2 + r
+        # anterior (palm side) of the WRA-WRB midpoint, perpendicular to the bar.
+        wra, wrb = p + "WRA", p + "WRB"
+        for m in (wra, wrb):
+            rows.add({f"{m}.z": 1, f"forearm_length_{side}": 1}, 0.0, lm,
+                     f"{m}.z = -forearm_length")  # fmt: skip
+        rows.add({f"{wra}.y": 0.5, f"{wrb}.y": 0.5}, 0.0, lm, f"{p}WRA-WRB midpoint y = 0")
+        ww = subject.get(f"wrist_width_{side}")
+        mid_x = {f"{wra}.x": 0.5, f"{wrb}.x": 0.5}
+        if ww is not None:
+            rows.add(mid_x, -(ww / 2 + subject.marker_radius), SIGMA_MEASURED,
+                     f"{p}WRA-WRB midpoint x = -(wrist_width/2 + r)")  # fmt: skip
+        else:
+            rows.add(mid_x, 0.0, SIGMA_REGRESSED, f"{p}WRA-WRB midpoint x = 0 (nominal model)")
+        leg = subject.get(f"leg_length_{side}")
+        if leg is not None:
+            terms = {f"hip_height_{side}": 1.0, f"thigh_length_{side}": 1.0,
+                     f"shank_length_{side}": 1.0}  # fmt: skip
+            rows.add(terms, leg, SIGMA_LEG, f"ASIS to ankle centre height = leg_length_{side}")
+        ht = subject.get(f"hand_thickness_{side}")
+        fin_x = -(ht / 2 + subject.marker_radius) if ht is not None else -0.015 * s
+        rows.add({f"{p}FIN.x": 1}, fin_x, SIGMA_MEASURED if ht is not None else lm,
+                 f"{p}FIN.x = -(hand_thickness/2 + r)")  # fmt: skip
+        rows.add({f"{p}FIN.y": 1}, sign * 0.02 * s, soft, f"{p}FIN.y")
+        rows.add({f"{p}FIN.z": 1}, -0.08 * s, soft, f"{p}FIN.z = 80 mm beyond the wrist")
+        # Foot: heel behind and below the ankle centre, toe marker over the MTP joint.
+        rows.add({f"{p}HEE.x": 1}, -0.07 * s, soft, f"{p}HEE.x = 70 mm behind the ankle")
+        rows.add({f"{p}HEE.y": 1}, 0.0, lm, f"{p}HEE.y = 0")
+        rows.add({f"{p}HEE.z": 1}, -0.035 * s, soft, f"{p}HEE.z = 35 mm below the ankle")
+        rows.add({f"{p}TOE.x": 1}, 0.03 * s, soft, f"{p}TOE.x = 30 mm ahead of MTP")
+        rows.add({f"{p}TOE.y": 1}, 0.0, lm, f"{p}TOE.y = 0")
+        rows.add({f"{p}TOE.z": 1}, 0.02 * s, lm, f"{p}TOE.z = 20 mm above MTP")
+        # Plug-in Gait's foot axis runs from HEE to TOE: with the toes straight the two
+        # markers are (nearly: 10 mm on the nominal model) level in the foot frame.
+        rows.add({f"{p}HEE.z": 1, f"foot_height_{side}": 1, f"{p}TOE.z": -1}, -0.01 * s, lm,
+                 f"{p}HEE level with {p}TOE in the foot frame")  # fmt: skip
+    return rows.prior(noise)
+
+
+#: Left/right kinematic parameter pairs tied by :func:`symmetric_prior`.
+def _sided_pairs(pset: ParameterSet) -> list[tuple[str, str]]:
+    names = set(pset.kappa_names)
+    return [
+        (n, n[:-2] + "_r") for n in pset.kappa_names if n.endswith("_l") and n[:-2] + "_r" in names
+    ]
+
+
+def symmetric_prior(
+    pset: ParameterSet, width: float, *, noise: float = 0.001
+) -> LinearGaussianPrior:
+    """``kappa_l - kappa_r = 0`` with standard deviation ``width`` [m] for every sided pair."""
+    rows = _Rows(pset)
+    for left, right in _sided_pairs(pset):
+        rows.add({left: 1.0, right: -1.0}, 0.0, width, f"{left} = {right}")
+    return rows.prior(noise)
+
+
+def marker_prior_table(
+    pset: ParameterSet, prior: LinearGaussianPrior, theta: np.ndarray
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per marker: prior mean (3,) [m] and width (3,) [m] of its offset, the kinematic
+    parameters held at ``theta``'s (rows naming only that marker's offset and kappa).
+
+    Components without a row have mean NaN and width inf.
+    """
+    k = pset.n_kappa
+    out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    for i, name in enumerate(pset.marker_names):
+        cols = k + 3 * i + np.arange(3)
+        mean = np.full(3, np.nan)
+        width = np.full(3, np.inf)
+        for r in range(len(prior.b)):
+            row = prior.a[r]
+            nz = np.flatnonzero(row)
+            offs = nz[nz >= k]
+            if offs.size != 1 or offs[0] not in cols:
+                continue
+            ax = int(offs[0] - cols[0])
+            c = row[offs[0]]
+            rest = row.copy()
+            rest[offs[0]] = 0.0
+            mean[ax] = (prior.b[r] - rest @ theta) / c
+            width[ax] = prior.sigma[r] / abs(c)
+        out[name] = (mean, width)
+    return out
+
+
+def combined(priors: Sequence[LinearGaussianPrior]) -> LinearGaussianPrior | None:
+    """All rows of several priors of one noise as one prior (None when there are none)."""
+    priors = [p for p in priors if len(p.b)]
+    if not priors:
+        return None
+    return LinearGaussianPrior(
+        np.vstack([p.a for p in priors]),
+        np.concatenate([p.b for p in priors]),
+        np.concatenate([p.sigma for p in priors]),
+        priors[0].noise,
+        tuple(lab for p in priors for lab in p.labels),
+    )

@@ -1,0 +1,112 @@
+"""Anatomical ranges of the kinematic parameters, enforced as bounds during the solve.
+
+Every kinematic parameter kappa_k of the bundled humanoid is a proportion of stature: its
+nominal value is that of a 1.75 m adult (:data:`NOMINAL_HEIGHT`, Winter 2009 segment
+fractions, see ``models/humanoid.xml``). Its range is ``[lo_k, hi_k] x nominal_k x H / 1.75``
+with H the subject's height when measured, and ``[lo_k x H_min, hi_k x H_max] x nominal_k /
+1.75`` over the adult heights :data:`ADULT_HEIGHTS` when it is not. The factors are wide
+(about 3-4 standard deviations of the proportion between adults): a bound is a guard
+against a non-human skeleton (a negative foot, a 320 mm clavicle, an 11 mm thorax), not a
+prior; the priors of :mod:`mocap_mj.identify.anatomy` say where a parameter probably is.
+
+========================================  =========  ======  ==============================
+parameters                                lo         hi      why
+========================================  =========  ======  ==============================
+thigh, shank, upper arm, forearm lengths  0.80       1.20    long-bone proportions vary by
+                                                             about 5 % (Winter 2009; Drillis
+                                                             & Contini 1966)
+clavicle length                           0.70       1.30    shoulder breadth varies more
+foot length (ankle to MTP)                0.75       1.30    the MTP centre is not marked
+hip depth, width, height                  0.50       1.60    Harrington et al. 2007: hip
+                                                             centre from pelvis geometry,
+                                                             pelvis widths vary by ~15 %
+lumbar depth/height, lumbar and thorax    0.60       1.50    spine lengths: Winter's trunk
+length, sc depth/height                                      fractions, posture-dependent
+foot height (ankle above MTP)             0.60       1.60    ankle 0.039 H above the sole
+sc width                                  0.40       2.00    a short distance (2.5 cm)
+neck depth (C7/T1 ahead of T12/L1)        -0.5       3.0     thoracic kyphosis varies
+========================================  =========  ======  ==============================
+
+Every lower bound of a length is positive (``lo > 0``): no zero or negative length can leave
+the solver. Marker offsets are not bounded here (wand markers can sit anywhere; the priors
+place the landmark ones).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import MocapError
+from ..parameters import ParameterSet
+from ..subject import Subject
+
+#: Height [m] of the adult whose proportions the nominal model has.
+NOMINAL_HEIGHT = 1.75
+#: Heights [m] the ranges span when the subject's height is unknown (adults).
+ADULT_HEIGHTS = (1.40, 2.10)
+
+#: Kinematic parameter (side suffix removed) -> (lo, hi) factors of the height-scaled nominal.
+RANGE_FACTORS: dict[str, tuple[float, float]] = {
+    "thigh_length": (0.80, 1.20),
+    "shank_length": (0.80, 1.20),
+    "upperarm_length": (0.80, 1.20),
+    "forearm_length": (0.80, 1.20),
+    "clavicle_length": (0.70, 1.30),
+    "foot_length": (0.75, 1.30),
+    "hip_depth": (0.50, 1.60),
+    "hip_width": (0.50, 1.60),
+    "hip_height": (0.50, 1.60),
+    "lumbar_depth": (0.60, 1.50),
+    "lumbar_height": (0.60, 1.50),
+    "lumbar_length": (0.60, 1.50),
+    "thorax_length": (0.60, 1.50),
+    "sc_depth": (0.60, 1.50),
+    "sc_height": (0.60, 1.50),
+    "sc_width": (0.40, 2.00),
+    "foot_height": (0.60, 1.60),
+    "neck_depth": (-0.50, 3.00),
+}
+
+#: Parameters that are not lengths (may be zero or negative within their range).
+SIGNED = frozenset({"neck_depth"})
+
+
+def base_name(name: str) -> str:
+    """Parameter or marker name without its side suffix (``thigh_length_l`` -> ``thigh_length``)."""
+    return name[:-2] if name.endswith(("_l", "_r")) else name
+
+
+def kappa_ranges(
+    pset: ParameterSet, subject: Subject | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper bounds (K,) [m] of the kinematic parameters (module docstring).
+
+    A parameter this table does not know (a custom model's) gets the nominal -/+ 35 % range
+    of :class:`~mocap_mj.parameters.ParameterSet`.
+    """
+    height = subject.get("height") if subject is not None else None
+    h_lo, h_hi = (height, height) if height is not None else ADULT_HEIGHTS
+    k = pset.n_kappa
+    nominal = pset.nominal[:k]
+    lower = pset.lower[:k].copy()
+    upper = pset.upper[:k].copy()
+    for i, name in enumerate(pset.kappa_names):
+        factors = RANGE_FACTORS.get(base_name(name))
+        if factors is None:
+            continue
+        lo, hi = factors
+        scale = nominal[i] / NOMINAL_HEIGHT
+        lower[i] = lo * scale * (h_lo if lo > 0 else h_hi)
+        upper[i] = hi * scale * h_hi
+        if base_name(name) not in SIGNED and lower[i] <= 0:
+            raise MocapError(f"range of {name}: lower bound {lower[i]} m is not positive")
+    return lower, upper
+
+
+def theta_bounds(
+    pset: ParameterSet, subject: Subject | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds (P,) [m] of the whole theta: the kappa ranges, marker offsets unbounded."""
+    lo, hi = kappa_ranges(pset, subject)
+    n = pset.size - pset.n_kappa
+    return np.concatenate([lo, np.full(n, -np.inf)]), np.concatenate([hi, np.full(n, np.inf)])

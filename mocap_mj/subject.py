@@ -1,0 +1,197 @@
+"""Subject measurements (height, mass, joint widths, ...) and where each came from.
+
+A measurement sharpens the anatomical priors of :mod:`mocap_mj.identify.anatomy` (the knee
+centre half a knee width plus a marker radius medial to KNE, ...) and scales the ranges of
+:mod:`mocap_mj.identify.ranges`. Three sources, later ones overriding earlier ones:
+
+1. the C3D file: Vicon Nexus writes the Plug-in Gait subject measurements into the
+   ``PROCESSING`` group (``Height``, ``Bodymass``, ``LKneeWidth``, ... in mm and kg; pyCGM2
+   and the Vicon VSK spell them ``LeftKneeWidth``, also accepted), other software into
+   ``SUBJECTS`` (same names). A value of 0 means "not entered" in Nexus and is ignored;
+2. a YAML file (``--subject-file``): ``name: value`` with the names of :data:`MEASUREMENTS`,
+   a number in SI units (m, kg) or a string with a unit (``"144 mm"``, ``"1.68 m"``);
+3. command-line flags (mm and kg, as Nexus shows them).
+
+Inside, every length is in metres and the mass in kilograms.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import InputFileError, MocapError
+
+#: Measurement name -> (unit inside, description). ``_l``/``_r`` are the sides.
+MEASUREMENTS: dict[str, tuple[str, str]] = {
+    "height": ("m", "standing height"),
+    "mass": ("kg", "body mass"),
+    "asis_distance": ("m", "distance between the anterior superior iliac spines"),
+    "marker_diameter": ("m", "diameter of the reflective markers"),
+    **{
+        f"{base}_{side}": (unit, f"{text} ({'left' if side == 'l' else 'right'})")
+        for base, unit, text in (
+            ("leg_length", "m", "ASIS to medial malleolus, through the knee"),
+            ("knee_width", "m", "distance between the femoral epicondyles"),
+            ("ankle_width", "m", "distance between the malleoli"),
+            ("elbow_width", "m", "distance between the humeral epicondyles"),
+            ("wrist_width", "m", "wrist width where the wrist bar sits"),
+            ("hand_thickness", "m", "hand thickness at the metacarpal heads"),
+            ("shoulder_offset", "m", "acromion marker to glenohumeral centre, vertical"),
+        )
+        for side in ("l", "r")
+    },
+}
+
+#: Default marker diameter [m] when none is given (the common 14 mm Vicon marker).
+DEFAULT_MARKER_DIAMETER = 0.014
+
+# C3D parameter names (PROCESSING / SUBJECTS groups) -> measurement, with the factor to SI.
+_C3D_NAMES: dict[str, tuple[str, float]] = {
+    "HEIGHT": ("height", 1e-3),
+    "BODYMASS": ("mass", 1.0),
+    "INTERASISDISTANCE": ("asis_distance", 1e-3),
+    "MARKERDIAMETER": ("marker_diameter", 1e-3),
+}
+for _base, _nexus in (
+    ("leg_length", "LegLength"),
+    ("knee_width", "KneeWidth"),
+    ("ankle_width", "AnkleWidth"),
+    ("elbow_width", "ElbowWidth"),
+    ("wrist_width", "WristWidth"),
+    ("hand_thickness", "HandThickness"),
+    ("shoulder_offset", "ShoulderOffset"),
+):
+    for _side, _prefixes in (("l", ("L", "LEFT")), ("r", ("R", "RIGHT"))):
+        for _p in _prefixes:
+            _C3D_NAMES[(_p + _nexus).upper()] = (f"{_base}_{_side}", 1e-3)
+
+_UNITS = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "kg": 1.0}
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """One measurement: value [m or kg] and where it came from (file and field, or flag)."""
+
+    value: float
+    source: str
+
+
+@dataclass
+class Subject:
+    """The subject's measurements by name (:data:`MEASUREMENTS`); absent ones are unknown."""
+
+    values: dict[str, Measurement] = field(default_factory=dict)
+
+    def get(self, name: str) -> float | None:
+        """The value [m or kg] of ``name``, or None when not measured."""
+        _check_name(name, "measurement")
+        m = self.values.get(name)
+        return None if m is None else m.value
+
+    def set(self, name: str, value: float, source: str) -> None:
+        """Record ``name`` = ``value`` [SI]; a non-positive or non-finite value is an error."""
+        _check_name(name, source)
+        if not np.isfinite(value) or value <= 0:
+            raise MocapError(f"{source}: {name} must be a positive number, got {value}")
+        self.values[name] = Measurement(float(value), source)
+
+    def update(self, other: Subject) -> Subject:
+        """A copy with ``other``'s measurements overriding these."""
+        return Subject({**self.values, **other.values})
+
+    @property
+    def marker_radius(self) -> float:
+        """Half the marker diameter [m] (``DEFAULT_MARKER_DIAMETER`` when not given)."""
+        d = self.get("marker_diameter")
+        return 0.5 * (DEFAULT_MARKER_DIAMETER if d is None else d)
+
+    def to_dict(self) -> dict[str, dict[str, Any]]:
+        """``{name: {"value": v, "unit": u, "source": s}}`` for the summary and report."""
+        return {
+            n: {"value": m.value, "unit": MEASUREMENTS[n][0], "source": m.source}
+            for n, m in sorted(self.values.items())
+        }
+
+
+def _check_name(name: str, source: str) -> None:
+    if name not in MEASUREMENTS:
+        raise MocapError(
+            f"{source}: unknown measurement {name!r}; known: {', '.join(MEASUREMENTS)}"
+        )
+
+
+def from_c3d(path: str | Path) -> Subject:
+    """Measurements stored in a C3D file's PROCESSING or SUBJECTS group (mm and kg there).
+
+    PROCESSING wins over SUBJECTS where both hold a value; zeros (Nexus' "not entered") and
+    names that are not measurements (model outputs such as ``UpperLegLength``) are ignored.
+    """
+    import ezc3d
+
+    try:
+        params = ezc3d.c3d(str(path), extract_forceplat_data=False)["parameters"]
+    except Exception as exc:  # ezc3d raises plain RuntimeError/IOError
+        raise InputFileError(f"{path}: cannot read the C3D parameters: {exc}") from None
+    subject = Subject()
+    for group in ("SUBJECTS", "PROCESSING"):
+        if group not in params:
+            continue
+        for key, entry in params[group].items():
+            spec = _C3D_NAMES.get(str(key).upper())
+            if spec is None or not isinstance(entry, dict) or "value" not in entry:
+                continue
+            try:
+                value = float(np.asarray(entry["value"], dtype=float).ravel()[0])
+            except (ValueError, IndexError, TypeError):
+                continue
+            if np.isfinite(value) and value > 0:
+                subject.set(spec[0], value * spec[1], f"{path}: {group}:{key}")
+    return subject
+
+
+def _parse_value(raw: Any, name: str, source: str) -> float:
+    if isinstance(raw, bool):
+        raise MocapError(f"{source}: {name}: expected a number, got {raw!r}")
+    if isinstance(raw, int | float):
+        return float(raw)
+    m = re.fullmatch(r"\s*([-+0-9.eE]+)\s*([a-z]+)\s*", str(raw))
+    if m is None or m.group(2) not in _UNITS:
+        raise MocapError(
+            f"{source}: {name}: expected a number in SI units or '<number> mm|cm|m|kg', got {raw!r}"
+        )
+    try:
+        return float(m.group(1)) * _UNITS[m.group(2)]
+    except ValueError:
+        raise MocapError(f"{source}: {name}: {m.group(1)!r} is not a number") from None
+
+
+def from_yaml(path: str | Path) -> Subject:
+    """Measurements of a YAML mapping ``name: value`` (:data:`MEASUREMENTS`, SI or with unit)."""
+    import yaml
+
+    try:
+        data = yaml.safe_load(Path(path).read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise InputFileError(f"{path}: cannot read the subject file: {exc}") from None
+    if not isinstance(data, Mapping):
+        raise InputFileError(f"{path}: expected a mapping of measurement names to values")
+    subject = Subject()
+    for name, raw in data.items():
+        _check_name(str(name), str(path))
+        subject.set(str(name), _parse_value(raw, str(name), str(path)), f"{path}: {name}")
+    return subject
+
+
+def from_values(values: Iterable[tuple[str, float | None]], source: str) -> Subject:
+    """Measurements from (name, value [SI]) pairs, None values skipped."""
+    subject = Subject()
+    for name, value in values:
+        if value is not None:
+            subject.set(name, value, source)
+    return subject

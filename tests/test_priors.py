@@ -1,0 +1,188 @@
+"""Anatomical priors, subject measurements and the anatomical ranges enforced by the LM."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from _motion import smooth_motion
+
+from mocap_mj import Kinematics, ParameterSet
+from mocap_mj.errors import MocapError
+from mocap_mj.identify.anatomy import (
+    SIGMA_LANDMARK,
+    SIGMA_MEASURED,
+    SIGMA_REGRESSED,
+    landmark_prior,
+    marker_prior_table,
+    symmetric_prior,
+)
+from mocap_mj.identify.lm import LMSettings, TrialData, identify_lm
+from mocap_mj.identify.priors import LinearGaussianPrior
+from mocap_mj.identify.ranges import kappa_ranges, theta_bounds
+from mocap_mj.marker_set import marker_class
+from mocap_mj.subject import Subject, from_c3d, from_values, from_yaml
+
+
+@pytest.fixture(scope="module")
+def pset() -> ParameterSet:
+    return ParameterSet()
+
+
+def test_marker_classes() -> None:
+    assert marker_class("LKNE") == "landmark"
+    assert marker_class("RASI") == "landmark"
+    assert marker_class("C7") == "landmark"
+    assert marker_class("CLAV") == "landmark"
+    assert marker_class("LTHI") == "cluster"
+    assert marker_class("RBAK") == "cluster"
+    with pytest.raises(MocapError):  # not a Plug-in Gait marker: no class, no prior
+        marker_class("LKNEM")
+
+
+def test_prior_mean_and_width_per_class(pset: ParameterSet) -> None:
+    """A landmark's mean follows the skeleton (KNE at the knee's level, on its axis); its
+    lateral width is the regression's without a measurement, the caliper's with one; a free
+    marker has no anatomical row."""
+    theta = pset.nominal.copy()
+    theta[pset.index("thigh_length_l")] = 0.40
+    table = marker_prior_table(pset, landmark_prior(pset), theta)
+    mean, width = table["LKNE"]
+    r = 0.007  # default 14 mm marker
+    ratio = 2 * (0.050 - 0.007) / 0.43
+    np.testing.assert_allclose(mean, [0.0, ratio * 0.40 / 2 + r, -0.40], atol=1e-12)
+    np.testing.assert_allclose(width, [SIGMA_LANDMARK, SIGMA_REGRESSED, SIGMA_LANDMARK])
+    mean_r, _ = table["RKNE"]
+    assert mean_r[1] == pytest.approx(-(ratio * pset.nominal[pset.index("thigh_length_r")] / 2 + r))
+    assert np.all(np.isinf(table["LTHI"][1])) and np.all(np.isnan(table["LTHI"][0]))
+    measured = from_values([("knee_width_l", 0.120), ("marker_diameter", 0.016)], "test")
+    mean, width = marker_prior_table(pset, landmark_prior(pset, measured), theta)["LKNE"]
+    assert mean[1] == pytest.approx(0.060 + 0.008)
+    assert width[1] == pytest.approx(SIGMA_MEASURED)
+
+
+def test_nominal_model_satisfies_its_regressed_priors(pset: ParameterSet) -> None:
+    """Without measurements the priors are centred on the nominal model's geometry (so the
+    synthetic demo, whose truth is the nominal model perturbed, is not pulled elsewhere)."""
+    prior = landmark_prior(pset)
+    z = prior.residuals(pset.nominal)
+    big = {lab: float(v) for lab, v in zip(prior.labels, z, strict=True) if abs(v) > 0.5}
+    # The one known difference: the nominal hip centre is Bell et al.'s (1989), 11 mm higher
+    # than Harrington et al.'s (2007) for a 250 mm pelvis.
+    for side in "lr":
+        assert big.pop(f"hip_height_{side} = 0.30 PW + 10.9 mm (Harrington 2007)") == (
+            pytest.approx((0.075 - 0.30 * 0.25 - 0.0109) / 0.008)
+        )
+    assert not big, big
+
+
+def test_prior_gradient_and_hessian_match_the_cost(pset: ParameterSet) -> None:
+    rng = np.random.default_rng(1)
+    prior = landmark_prior(pset, noise=0.004)
+    theta = pset.nominal + rng.normal(0, 0.01, pset.size)
+    g = prior.gradient(theta)
+    h = prior.hessian()
+    d = rng.normal(0, 1e-3, pset.size)
+    # The cost is quadratic: the second-order expansion is exact.
+    expected = prior.cost(theta) + g @ d + 0.5 * d @ h @ d
+    assert prior.cost(theta + d) == pytest.approx(expected, rel=1e-10)
+    sym = symmetric_prior(pset, 0.002)
+    th = pset.nominal.copy()
+    th[pset.index("thigh_length_l")] += 0.004
+    assert sym.cost(th) == pytest.approx(0.5 * (0.001 / 0.002) ** 2 * 0.004**2)
+
+
+def _write_c3d(path: Path, processing: dict[str, float]) -> None:
+    import ezc3d
+
+    c3d = ezc3d.c3d()
+    c3d["parameters"]["POINT"]["RATE"]["value"] = [100.0]
+    c3d["parameters"]["POINT"]["LABELS"]["value"] = ("LKNE",)
+    c3d["data"]["points"] = np.ones((4, 1, 3))
+    for name, value in processing.items():
+        c3d.add_parameter("PROCESSING", name, [value])
+    c3d.write(str(path))
+
+
+def test_c3d_processing_measurement_reaches_the_prior(tmp_path: Path, pset: ParameterSet) -> None:
+    path = tmp_path / "subject.c3d"
+    _write_c3d(path, {"LKneeWidth": 110.0, "Height": 1600.0, "RKneeWidth": 0.0, "Bodymass": 61.0})
+    subject = from_c3d(path)
+    assert subject.get("knee_width_l") == pytest.approx(0.110)
+    assert subject.get("height") == pytest.approx(1.6)
+    assert subject.get("mass") == pytest.approx(61.0)
+    assert subject.get("knee_width_r") is None  # Nexus' 0 = not entered
+    assert "PROCESSING:LKneeWidth" in subject.values["knee_width_l"].source
+    mean, width = marker_prior_table(pset, landmark_prior(pset, subject), pset.nominal)["LKNE"]
+    assert mean[1] == pytest.approx(0.055 + 0.007)
+    assert width[1] == pytest.approx(SIGMA_MEASURED)
+    # Height scales the ranges.
+    lo, hi = kappa_ranges(pset, subject)
+    k = pset.index("thigh_length_l")
+    assert lo[k] == pytest.approx(0.8 * 0.43 * 1.6 / 1.75)
+    assert hi[k] == pytest.approx(1.2 * 0.43 * 1.6 / 1.75)
+
+
+def test_yaml_and_flags_override_and_reject_bad_values(tmp_path: Path) -> None:
+    f = tmp_path / "s.yaml"
+    f.write_text("height: 1.72\nknee_width_l: 105 mm\n")
+    s = Subject().update(from_yaml(f))
+    assert s.get("knee_width_l") == pytest.approx(0.105)
+    s = s.update(from_values([("knee_width_l", 0.1)], "command line"))
+    assert s.values["knee_width_l"].source == "command line"
+    assert s.to_dict()["height"]["source"].endswith("height")
+    f.write_text("knee_wdth_l: 0.1\n")
+    with pytest.raises(MocapError, match="unknown measurement 'knee_wdth_l'"):
+        from_yaml(f)
+    f.write_text("height: tall\n")
+    with pytest.raises(MocapError, match="height"):
+        from_yaml(f)
+    with pytest.raises(MocapError, match="positive"):
+        from_values([("mass", -3.0)], "command line")
+
+
+def test_ranges_have_positive_lengths(pset: ParameterSet) -> None:
+    lo, hi = kappa_ranges(pset)
+    assert np.all(lo < pset.nominal[: pset.n_kappa]) and np.all(hi > pset.nominal[: pset.n_kappa])
+    lengths = [i for i, n in enumerate(pset.kappa_names) if n != "neck_depth"]
+    assert np.all(lo[lengths] > 0)
+
+
+def test_bounds_are_never_crossed(pset: ParameterSet) -> None:
+    """Random starts, some far outside the ranges, and bounds that cut through the truth:
+    every solver output stays inside and the parameters pushed outward end at a bound."""
+    kin = Kinematics(pset)
+    qpos = smooth_motion(kin, 40, seed=3)
+    rng = np.random.default_rng(5)
+    lower, upper = theta_bounds(pset)
+    k = pset.n_kappa
+    truth = pset.nominal.copy()
+    truth[:k] *= rng.uniform(0.9, 1.1, k)
+    kin.set_theta(truth)
+    markers = kin.marker_positions(qpos) + rng.normal(0, 1e-3, (40, pset.n_markers, 3))
+    # Tight bounds below the truth on two lengths: the data push them outward.
+    upper = upper.copy()
+    for name in ("thigh_length_l", "shank_length_r"):
+        upper[pset.index(name)] = truth[pset.index(name)] - 0.01
+    settings = LMSettings(max_iterations=6, refine_iterations=5)
+    for seed in range(3):
+        theta0 = pset.nominal.copy()
+        if seed:
+            theta0[:k] *= np.random.default_rng(seed).uniform(0.3, 2.0, k)  # many outside
+        res = identify_lm(
+            [TrialData("t", markers, np.arange(40) / 100.0)],
+            pset=pset, theta0=theta0, settings=settings, lower=lower, upper=upper,
+            priors=[landmark_prior(pset)],
+        )  # fmt: skip
+        assert np.all(res.theta >= lower) and np.all(res.theta <= upper)
+        assert np.array_equal(res.at_bound != 0, (res.theta == lower) | (res.theta == upper))
+        if seed == 0:  # from the nominal model the fit reaches the cut bounds
+            for name in ("thigh_length_l", "shank_length_r"):
+                assert res.at_bound[pset.index(name)] == 1, name
+
+
+def test_prior_interface_shapes(pset: ParameterSet) -> None:
+    prior = LinearGaussianPrior(np.zeros((2, pset.size)), np.zeros(2), np.ones(2))
+    assert prior.hessian().shape == (pset.size, pset.size)
+    assert prior.gradient(pset.nominal).shape == (pset.size,)
