@@ -17,6 +17,7 @@ from mocap_mj import ParameterSet
 from mocap_mj.cli import main
 from mocap_mj.identify.consistency import joint_centre_lengths
 from mocap_mj.identify.lm import LMSettings, solver_joint_range
+from mocap_mj.identify.ranges import kappa_ranges
 from mocap_mj.identify.robust_ik import solve_trial_loss
 from mocap_mj.identify.segments import COLUMNS, parameter_flag
 from mocap_mj.ik import IKSolver
@@ -154,11 +155,13 @@ def test_segments_csv_and_summary(identified: tuple[Path, dict]) -> None:
         assert float(r["value_mm"]) == pytest.approx(value * 1e3, abs=1e-3)
         assert 0.0 < float(r["std_white_mm"]) <= float(r["std_mm"]) + 1e-9
         assert r["lower_mm"] == r["upper_mm"] == ""
+    lower, upper = kappa_ranges(pset)  # the anatomical ranges the fit was bounded by
     for i, name in enumerate(pset.kappa_names):
         r = by_name[name]
         assert r["kind"] == "kappa"
         assert float(r["nominal_mm"]) == pytest.approx(pset.nominal[i] * 1e3, abs=1e-3)
-        assert float(r["lower_mm"]) == pytest.approx(pset.lower[i] * 1e3, abs=1e-3)
+        assert float(r["lower_mm"]) == pytest.approx(lower[i] * 1e3, abs=1e-3)
+        assert float(r["upper_mm"]) == pytest.approx(upper[i] * 1e3, abs=1e-3)
         assert r["flag"] == summary["parameters_flagged"].get(name, "")
     # White synthetic noise: the thigh is determined, to about the CRLB, well below the prior.
     thigh = summary["segments"]["thigh_r:shank_r"]

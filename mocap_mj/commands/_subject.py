@@ -28,20 +28,39 @@ def add_subject_options(p: Any) -> None:
     )
     g.add_argument(
         "--subject-file",
+        metavar="FILE",
         help="YAML file of measurements, name: value in SI units or with a unit "
-        "('144 mm'); names as in summary.json's 'measurements'",
+        "('144 mm'); names as in summary.json's 'measurements' (default: none)",
     )
-    g.add_argument("--height", type=float, metavar="MM", help="standing height [mm]")
-    g.add_argument("--mass", type=float, metavar="KG", help="body mass [kg]")
-    g.add_argument("--asis-distance", type=float, metavar="MM", help="inter-ASIS distance [mm]")
-    g.add_argument("--marker-diameter", type=float, metavar="MM", help="marker diameter [mm]")
+    g.add_argument(
+        "--height",
+        type=float,
+        metavar="MM",
+        help="standing height [mm] (default: from the C3D, else none)",
+    )
+    g.add_argument(
+        "--mass", type=float, metavar="KG", help="body mass [kg] (default: from the C3D, else none)"
+    )
+    g.add_argument(
+        "--asis-distance",
+        type=float,
+        metavar="MM",
+        help="inter-ASIS distance [mm] (default: from the C3D, else the markers)",
+    )
+    g.add_argument(
+        "--marker-diameter",
+        type=float,
+        metavar="MM",
+        help="marker diameter [mm] (default: from the C3D, else 14)",
+    )
     for flag, name in _SIDED.items():
         g.add_argument(
             f"--{flag}",
             type=float,
             nargs="+",
             metavar="MM",
-            help=f"{name.replace('_', ' ')} [mm]: one value for both sides, or LEFT RIGHT",
+            help=f"{name.replace('_', ' ')} [mm]: one value for both sides, or LEFT RIGHT "
+            "(default: from the C3D, else regressed from the markers)",
         )
     g.add_argument(
         "--symmetric",
@@ -50,18 +69,18 @@ def add_subject_options(p: Any) -> None:
         const=2.0,
         metavar="WIDTH_MM",
         help="tie every left segment length to the right one with this standard deviation "
-        "[mm] (default 2 when given without a value)",
+        "[mm] (default: off; 2 when given without a value)",
     )
     g.add_argument(
         "--no-asymmetry-prior",
         action="store_true",
         help="no population prior on left/right length differences (5 mm; for subjects "
-        "with a known asymmetry, e.g. a limb-length discrepancy)",
+        "with a known asymmetry, e.g. a limb-length discrepancy; default: the prior is on)",
     )
     g.add_argument(
         "--no-anatomy",
         action="store_true",
-        help="no anatomical priors and ranges (the plain joint LM, as before issue #14)",
+        help="no anatomical priors and ranges: the plain joint LM (default: priors and ranges on)",
     )
 
 

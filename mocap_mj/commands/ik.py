@@ -46,7 +46,7 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--frames",
         metavar="A:B",
-        help="frames to solve, A included, B excluded (default: all); the same as identify's "
+        help="frames to solve, from A up to but excluding B (default: all); the same as identify's "
         "--frames, to compare with its fit",
     )
     p.add_argument(

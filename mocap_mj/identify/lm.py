@@ -244,7 +244,8 @@ def bounded_step(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The parameter step dtheta (Pf,) [m] within the box, and which parameters were held.
 
-    s_mat (Pf, Pf): the reduced information (for the informed directions, ``floor``);
+    s_mat (Pf, Pf): the information of the data and the priors (for the informed directions,
+    ``floor``);
     s_damped: the damped system with the priors; rhs (Pf,); theta_f, lower_f, upper_f (Pf,) [m].
 
     Active set: a parameter on a bound whose step points outward is held (its row and column
@@ -295,8 +296,10 @@ def propose(
     d_prior = np.diag(h_prior)
     s_damped = system.s + h_prior + np.diag(mu * (system.diag_c + d_prior)) + 1e-15 * np.eye(f.size)
     rhs = system.rhs - g_prior
+    # Steps move in the directions the data or the priors inform (an anatomical prior decides
+    # where the markers cannot); the others keep their value.
     dth, _ = bounded_step(
-        system.s,
+        system.s + h_prior,
         rhs,
         s_damped,
         theta[f],
