@@ -102,7 +102,10 @@ def model_for(args: argparse.Namespace) -> str | None:
         return base
     xml = model_with_marker_set(load_marker_set(marker_set), base).to_xml()
     digest = hashlib.sha256(xml.encode()).hexdigest()[:16]
-    path = Path(tempfile.gettempdir()) / "mocap_mj" / f"model_{Path(marker_set).stem}_{digest}.xml"
+    # "mocap-mj-models", not "mocap_mj": a folder named like the package in the temporary
+    # folder would shadow it for any Python started there.
+    folder = Path(tempfile.gettempdir()) / "mocap-mj-models"
+    path = folder / f"model_{Path(marker_set).stem}_{digest}.xml"
     if not path.is_file():
         path.parent.mkdir(parents=True, exist_ok=True)
         atomic_write_text(path, xml)
