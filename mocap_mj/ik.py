@@ -54,6 +54,15 @@ PELVIS_MARKERS = ("LASI", "RASI", "LPSI", "RPSI")
 Damping = Literal["adaptive", "sugihara"]
 COMPILED_CHAIN = 32  # longest chain of the compiled solver (chain_length=0)
 PROGRESS_FRAMES = 20_000  # frames per kernel call when progress is reported
+#: Alternative arm configurations a chain's first frame is also solved from (ball joint ->
+#: rotation vector [rad] in its parent's frame): arms abducted and arms forward, besides the
+#: reference pose (arms at the sides). A static trial in a T-pose or with the arms abducted
+#: has a single pose, and a start with the arms down can settle with an arm twisted about
+#: itself in every frame; the chain starts where the first frame fits best.
+ARM_STARTS: tuple[dict[str, tuple[float, float, float]], ...] = (
+    {"shoulder_l": (np.pi / 2, 0.0, 0.0), "shoulder_r": (-np.pi / 2, 0.0, 0.0)},
+    {"shoulder_l": (0.0, -np.pi / 2, 0.0), "shoulder_r": (0.0, -np.pi / 2, 0.0)},
+)
 
 
 class Status(enum.IntEnum):
@@ -268,6 +277,38 @@ class IKSolver:
         qpos[ok, :3] = pos[ok]
         return qpos
 
+    def _arm_starts(self, cold: np.ndarray) -> list[np.ndarray]:
+        """``cold`` (B, nq) with the arms set to each configuration of :data:`ARM_STARTS`
+        (the ones whose joints the model has)."""
+        m = self.kin.model
+        names = {m.joint(j).name: j for j in range(m.njnt)}
+        out = []
+        for config in ARM_STARTS:
+            if not all(n in names for n in config):
+                continue
+            q = cold.copy()
+            for name, rotvec in config.items():
+                adr = int(m.jnt_qposadr[names[name]])
+                q[:, adr : adr + 4] = Rotation.from_rotvec(rotvec).as_quat(scalar_first=True)
+            out.append(self.project(q))
+        return out
+
+    def _best_start(self, markers: np.ndarray, w: np.ndarray, cold: np.ndarray) -> np.ndarray:
+        """Starting poses (B, nq) of chain heads: ``cold`` or, where one fits the frame better
+        once solved, the solution from one of the arm configurations of :data:`ARM_STARTS`."""
+        best = cold.copy()
+        alternatives = self._arm_starts(cold)
+        if not alternatives:
+            return best
+        fit = np.nan_to_num(self.solve_frames(markers, cold, w).marker_rmse, nan=np.inf)
+        for q0 in alternatives:
+            r = self.solve_frames(markers, q0, w)
+            rmse = np.nan_to_num(r.marker_rmse, nan=np.inf)
+            better = rmse < 0.9 * fit
+            best[better] = r.qpos[better]
+            fit = np.where(better, rmse, fit)
+        return best
+
     def _chain_length(self, n: int) -> int:
         if self.settings.chain_length > 0:
             return self.settings.chain_length
@@ -324,6 +365,7 @@ class IKSolver:
         length = self._chain_length(n)
         starts = np.arange(0, n, length)
         ends = np.minimum(starts + length, n)
+        cold[starts] = self._best_start(markers[starts], w[starts], cold[starts])
         qpos = np.full((n, self.kin.nq), np.nan)
         rmse = np.full(n, np.nan)
         iters = np.zeros(n, dtype=int)

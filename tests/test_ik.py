@@ -147,3 +147,43 @@ def test_bad_shapes(kin: Kinematics) -> None:
         solver.solve_trial(np.zeros((5, 38, 3)))
     with pytest.raises(ShapeError, match="weights"):
         solver.solve_trial(np.zeros((5, 39, 3)), np.ones(12))
+
+
+def test_static_poses_with_arms_raised(kin: Kinematics, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Static trials with the arms abducted 60-110 degrees (T-pose-like), random arm rotation,
+    elbow and forearm: one pose in every frame, so a chain head that settles with an arm
+    twisted in a wrong minimum leaves the whole trial there. The heads also start from the
+    arm configurations of ARM_STARTS: every trial fits to the noise. Without them
+    (monkeypatched away) some of these trials do not."""
+    from scipy.spatial.transform import Rotation
+
+    import mocap_mj.ik as ik_module
+
+    m = kin.model
+    rng = np.random.default_rng(0)
+    trials = []
+    for _ in range(13):
+        q = np.array(m.qpos0, dtype=float)
+        q[2] = 1.0
+        for name, sign in (("shoulder_l", 1.0), ("shoulder_r", -1.0)):
+            adr = int(m.jnt_qposadr[m.joint(name).id])
+            ab, twist, flex = np.radians([rng.uniform(60, 110), rng.uniform(-80, 80),
+                                          rng.uniform(-30, 30)])  # fmt: skip
+            rot = (
+                Rotation.from_rotvec([sign * ab, 0, 0])
+                * Rotation.from_rotvec([0, flex, 0])
+                * Rotation.from_rotvec([0, 0, twist])
+            )
+            q[adr : adr + 4] = rot.as_quat(scalar_first=True)
+        for joint, lo, hi in (("elbow", 0, 90), ("pronation", -50, 80)):
+            for side in "lr":
+                q[int(m.jnt_qposadr[m.joint(f"{joint}_{side}").id])] = np.radians(
+                    rng.uniform(lo, hi)
+                )
+        qpos = np.tile(q, (8, 1))
+        trials.append(kin.marker_positions(qpos) + rng.normal(0, 5e-4, (8, kin.n_markers, 3)))
+    solved = [IKSolver(kin).solve_trial(markers).rmse() for markers in trials]
+    assert max(solved) < 1.5e-3  # 0.5 mm per-axis noise: about 0.85 mm
+    monkeypatch.setattr(ik_module, "ARM_STARTS", ())
+    stuck = [IKSolver(kin).solve_trial(markers).rmse() for markers in trials]
+    assert max(stuck) > 5e-3
