@@ -199,8 +199,8 @@ def _motion_errors(
     out["joint_centre_max_mm"] = float(jc.max()) * 1e3
     # Its Cramer-Rao bound: the pose's and the model's uncertainty (identify/centres.py).
     cb = joint_centre_bound(kin_hat, motion.markers[ok], motion.qpos[ok], idf)
-    out["joint_centre_crlb_mm"] = cb._rms() * 1e3
-    out["joint_centre_crlb_ratio"] = _rms(jc) / cb._rms()
+    out["joint_centre_crlb_mm"] = cb.rms() * 1e3
+    out["joint_centre_crlb_ratio"] = _rms(jc) / cb.rms()
     out["joint_centre_pose_crlb_mm"] = float(np.sqrt(np.mean(cb.pose**2))) * 1e3
     out["joint_centre_errors_mm"] = {
         n: float(np.sqrt(np.mean(e**2))) * 1e3 for n, e in zip(cb.names, jc.T, strict=True)
