@@ -78,16 +78,8 @@ def identify_to_folder(
     :func:`solve_anatomical`.
     """
     t0 = time.perf_counter()
-    if init not in INITS:
-        raise MocapError(f"init must be one of {', '.join(INITS)}; got {init!r}")
+    _check_inputs(trials, pset, init)
     init_used = "given" if theta0 is not None else init
-    check_determined(
-        [t.name for t in trials],
-        [t.markers for t in trials],
-        IKSettings().min_markers,
-        pset.model.nv,
-        int(np.sum(~pset.frozen)),
-    )
     theta0, scales = _initial_theta(trials, pset, theta0, init)
     subject = subject or Subject()
     with captured_log() as log:
@@ -115,24 +107,46 @@ def identify_to_folder(
         _summary_fields(trials, pset, settings, result, idf, init_used, scales, seconds, log)
     )
     summary.update(
-        {
-            "anatomical_priors": anatomical,
-            "prior_weighting": weighting,
-            "symmetric_mm": None if symmetric is None else symmetric * 1e3,
-            "asymmetry_prior_mm": (
-                ASYMMETRY_SIGMA * 1e3
-                if anatomical and asymmetry_prior and symmetric is None
-                else None
-            ),
-            "measurements": subject.to_dict(),
-            "kappa_at_bound": _kappa_at_bound(pset, result),
-        }
+        _prior_fields(anatomical, weighting, symmetric, asymmetry_prior, subject)
+        | {"kappa_at_bound": _kappa_at_bound(pset, result)}
     )
     ranges = kappa_ranges(pset, subject) if anatomical else None
     rows = _add_checks(summary, pset, result, trials, settings, ranges)
     summary = jsonable(summary)
     _write_folder(out, pset, result, idf, trials, settings, rows, summary)
     return summary, result, idf
+
+
+def _check_inputs(trials: Sequence[TrialData], pset: ParameterSet, init: str) -> None:
+    """Refuse an unknown ``init`` and trials with fewer marker coordinates than unknowns."""
+    if init not in INITS:
+        raise MocapError(f"init must be one of {', '.join(INITS)}; got {init!r}")
+    check_determined(
+        [t.name for t in trials],
+        [t.markers for t in trials],
+        IKSettings().min_markers,
+        pset.model.nv,
+        int(np.sum(~pset.frozen)),
+    )
+
+
+def _prior_fields(
+    anatomical: bool,
+    weighting: dict[str, float],
+    symmetric: float | None,
+    asymmetry_prior: bool,
+    subject: Subject,
+) -> dict[str, Any]:
+    """The priors part of the summary (standard deviations in millimetres)."""
+    return {
+        "anatomical_priors": anatomical,
+        "prior_weighting": weighting,
+        "symmetric_mm": None if symmetric is None else symmetric * 1e3,
+        "asymmetry_prior_mm": (
+            ASYMMETRY_SIGMA * 1e3 if anatomical and asymmetry_prior and symmetric is None else None
+        ),
+        "measurements": subject.to_dict(),
+    }
 
 
 def _initial_theta(
