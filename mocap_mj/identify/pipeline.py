@@ -106,10 +106,8 @@ def identify_to_folder(
     summary.update(
         _summary_fields(trials, pset, settings, result, idf, init_used, scales, seconds, log)
     )
-    summary.update(
-        _prior_fields(anatomical, weighting, symmetric, asymmetry_prior, subject)
-        | {"kappa_at_bound": _kappa_at_bound(pset, result)}
-    )
+    summary.update(_prior_fields(anatomical, weighting, symmetric, asymmetry_prior, subject))
+    summary["kappa_at_bound"] = _kappa_at_bound(pset, result)
     ranges = kappa_ranges(pset, subject) if anatomical else None
     rows = _add_checks(summary, pset, result, trials, settings, ranges)
     summary = jsonable(summary)
