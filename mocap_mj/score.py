@@ -94,27 +94,66 @@ def score(
     motion = load_motion(result_dir / "motion.npz")
     idf = Identifiability.from_json(pset, _read_json(result_dir / "identifiability.json"))
 
-    k = pset.n_kappa
     ranges = summary.get("frames_fitted_range") or [[0, len(motion.qpos)]]
     a, b = ranges[0]
     check_same_trial(truth_dir, result_dir, truth_motion, motion, a, b)
     aligned = align_truth(pset, theta_hat, truth_motion.markers[a:b], truth_motion.times[a:b])
     err = theta_hat - aligned
+    e_obs, _ = idf.project(err)
+    out = _parameter_errors(pset, idf, err, aligned, theta_true)
+    out["sigma_true_mm"] = float(truth_info.get("sigma_m", float("nan"))) * 1e3
+    kin_hat = Kinematics(pset)
+    kin_hat.set_theta(theta_hat)
+    out.update(_motion_errors(pset, idf, kin_hat, theta_true, truth_motion.qpos[a:b], motion))
+    # Held-out frames: the truth trial's frames outside the fitted range, by IK.
+    held = np.r_[0:a, b : len(truth_motion.qpos)]
+    out["frames_held_out"] = int(held.size)
+    if plot:
+        from .plots import plot_parameter_errors
+
+        k = pset.n_kappa
+        plot_parameter_errors(
+            result_dir / "parameter_errors.png",
+            pset.kappa_names,
+            e_obs[:k] * 1e3,
+            idf.param_std[:k] * 1e3,
+            title="Kinematic parameters: error vs Cramer-Rao bound",
+        )
+    if held.size:
+        sig = float(truth_info.get("sigma_m", np.nan))
+        out.update(_held_out(truth_dir, pset, kin_hat, held, sig))
+    return out
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.square(x))))
+
+
+def _parameter_errors(
+    pset: ParameterSet,
+    idf: Identifiability,
+    err: np.ndarray,
+    aligned: np.ndarray,
+    theta_true: np.ndarray,
+) -> dict[str, Any]:
+    """The parameter part of :func:`score`: the error ``err`` (P,) [m] of the estimate against
+    the aligned truth ``aligned`` (P,) [m], projected on the observable directions and beside
+    its Cramer-Rao bounds, and the gauge displacement from the nominal truth ``theta_true``."""
+    k = pset.n_kappa
     e_obs, e_rest = idf.project(err)
     bk, bo = idf.bound_rms()
-    rms = lambda x: float(np.sqrt(np.mean(np.square(x))))  # noqa: E731
     off_err = err[k:].reshape(-1, 3)
-    out: dict[str, Any] = {
-        "kappa_rmse_mm": rms(e_obs[:k]) * 1e3,
-        "offset_rmse_mm": rms(e_obs[k:]) * 1e3,
+    return {
+        "kappa_rmse_mm": _rms(e_obs[:k]) * 1e3,
+        "offset_rmse_mm": _rms(e_obs[k:]) * 1e3,
         "kappa_crlb_mm": bk * 1e3,
         "offset_crlb_mm": bo * 1e3,
-        "kappa_crlb_ratio": rms(e_obs[:k]) / bk,
-        "offset_crlb_ratio": rms(e_obs[k:]) / bo,
-        "theta_observable_rmse_mm": rms(e_obs) * 1e3,
+        "kappa_crlb_ratio": _rms(e_obs[:k]) / bk,
+        "offset_crlb_ratio": _rms(e_obs[k:]) / bo,
+        "theta_observable_rmse_mm": _rms(e_obs) * 1e3,
         "theta_crlb_rms_mm": float(np.sqrt(np.mean(np.diag(idf.crlb)))) * 1e3,
-        "kappa_rmse_all_mm": rms(err[:k]) * 1e3,
-        "offset_rmse_all_mm": rms(err[k:]) * 1e3,
+        "kappa_rmse_all_mm": _rms(err[:k]) * 1e3,
+        "offset_rmse_all_mm": _rms(err[k:]) * 1e3,
         "unobservable_error_norm_mm": float(np.linalg.norm(e_rest)) * 1e3,
         "gauge_displacement_mm": float(np.linalg.norm(aligned - theta_true)) * 1e3,
         "observable_directions": idf.rank,
@@ -135,23 +174,33 @@ def score(
             n: float(np.linalg.norm(e)) * 1e3
             for n, e in zip(pset.marker_names, off_err, strict=True)
         },
-        "sigma_true_mm": float(truth_info.get("sigma_m", float("nan"))) * 1e3,
     }
-    # Motion: frames the result fitted (its range into the truth trial).
-    q_true = truth_motion.qpos[a:b]
+
+
+def _motion_errors(
+    pset: ParameterSet,
+    idf: Identifiability,
+    kin_hat: Kinematics,
+    theta_true: np.ndarray,
+    q_true: np.ndarray,
+    motion: Motion,
+) -> dict[str, Any]:
+    """The motion part of :func:`score` over the frames the result fitted: joint centre errors
+    beside their Cramer-Rao bound, joint angle errors and the marker fit. ``q_true`` (T, nq)
+    is the truth's motion over the result's fitted range."""
+    out: dict[str, Any] = {}
     ok = np.all(np.isfinite(motion.qpos), axis=1)
-    kin_true, kin_hat = Kinematics(pset), Kinematics(pset)
+    kin_true = Kinematics(pset)
     kin_true.set_theta(theta_true)
-    kin_hat.set_theta(theta_hat)
     jc = np.linalg.norm(
         joint_centres(kin_hat, motion.qpos[ok]) - joint_centres(kin_true, q_true[ok]), axis=2
     )
-    out["joint_centre_rmse_mm"] = rms(jc) * 1e3
+    out["joint_centre_rmse_mm"] = _rms(jc) * 1e3
     out["joint_centre_max_mm"] = float(jc.max()) * 1e3
     # Its Cramer-Rao bound: the pose's and the model's uncertainty (identify/centres.py).
     cb = joint_centre_bound(kin_hat, motion.markers[ok], motion.qpos[ok], idf)
     out["joint_centre_crlb_mm"] = cb.rms() * 1e3
-    out["joint_centre_crlb_ratio"] = rms(jc) / cb.rms()
+    out["joint_centre_crlb_ratio"] = _rms(jc) / cb.rms()
     out["joint_centre_pose_crlb_mm"] = float(np.sqrt(np.mean(cb.pose**2))) * 1e3
     out["joint_centre_errors_mm"] = {
         n: float(np.sqrt(np.mean(e**2))) * 1e3 for n, e in zip(cb.names, jc.T, strict=True)
@@ -160,34 +209,28 @@ def score(
         n: float(b) * 1e3 for n, b in zip(cb.names, cb.total, strict=True)
     }
     dq = kin_true.difference(q_true[ok], motion.qpos[ok])[:, 6:]
-    out["joint_rmse_deg"] = float(np.degrees(rms(dq)))
+    out["joint_rmse_deg"] = float(np.degrees(_rms(dq)))
     fitted = kin_hat.marker_positions(motion.qpos[ok])
     d = np.linalg.norm(motion.markers[ok] - fitted, axis=2)
     present = np.isfinite(d)
     out["marker_rmse_mm"] = float(np.sqrt(np.mean(d[present] ** 2))) * 1e3
     out["frames_fitted"] = int(ok.sum())
-    # Held-out frames: the truth trial's frames outside the fitted range, by IK.
-    held = np.r_[0:a, b : len(truth_motion.qpos)]
-    out["frames_held_out"] = int(held.size)
-    if plot:
-        from .plots import plot_parameter_errors
-
-        plot_parameter_errors(
-            result_dir / "parameter_errors.png",
-            pset.kappa_names,
-            e_obs[:k] * 1e3,
-            idf.param_std[:k] * 1e3,
-            title="Kinematic parameters: error vs Cramer-Rao bound",
-        )
-    if held.size:
-        measured = _measured(truth_dir, pset)
-        ik = IKSolver(kin_hat).solve_trial(measured[held])
-        out["heldout_marker_rmse_mm"] = ik.rmse() * 1e3
-        sig = float(truth_info.get("sigma_m", np.nan))
-        out["heldout_expected_rmse_mm"] = float(
-            np.sqrt(3) * sig * np.sqrt(1 - kin_hat.nv / (3 * pset.n_markers)) * 1e3
-        )
     return out
+
+
+def _held_out(
+    truth_dir: Path, pset: ParameterSet, kin_hat: Kinematics, held: np.ndarray, sig: float
+) -> dict[str, float]:
+    """The identified model's IK marker RMSE on the truth trial's held-out frames ``held``,
+    beside what noise of ``sig`` [m] per coordinate alone would give."""
+    measured = _measured(truth_dir, pset)
+    ik = IKSolver(kin_hat).solve_trial(measured[held])
+    return {
+        "heldout_marker_rmse_mm": ik.rmse() * 1e3,
+        "heldout_expected_rmse_mm": float(
+            np.sqrt(3) * sig * np.sqrt(1 - kin_hat.nv / (3 * pset.n_markers)) * 1e3
+        ),
+    }
 
 
 def align_truth(

@@ -47,6 +47,16 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--model", metavar="MJCF", help="initial MJCF model (default: the bundled humanoid)"
     )
+    _add_fit_options(p)
+    add_subject_options(p)
+    _add_paper_options(p)
+    add_force_flag(p)
+    add_json_flag(p)
+    p.set_defaults(func=run)
+
+
+def _add_fit_options(p: argparse.ArgumentParser) -> None:
+    """The solver, initial model, frames, loss and LM options of ``identify``."""
     p.add_argument(
         "--solver",
         choices=["lm", "paper"],
@@ -98,7 +108,10 @@ def register(sub: Any) -> None:
         help="a parameter direction counts as observable when its standard deviation is "
         "below this, in mm (default: 5)",
     )
-    add_subject_options(p)
+
+
+def _add_paper_options(p: argparse.ArgumentParser) -> None:
+    """The options of the paper solver (Algorithm 1 of Zou & Sugihara), in their own group."""
     g = p.add_argument_group("paper solver (Algorithm 1 of Zou & Sugihara)")
     g.add_argument(
         "--sampling",
@@ -130,9 +143,6 @@ def register(sub: Any) -> None:
     g.add_argument(
         "--seed", type=int, default=0, metavar="N", help="seed of the frame sampling (default: 0)"
     )
-    add_force_flag(p)
-    add_json_flag(p)
-    p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:

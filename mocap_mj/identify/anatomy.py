@@ -152,7 +152,19 @@ def landmark_prior(
     h = subject.get("height")
     s = h / NOMINAL_HEIGHT if h is not None else size
     rows = _Rows(pset)
-    lm, mid, soft = SIGMA_LANDMARK, SIGMA_MIDLINE, SIGMA_SOFT
+    _pelvis_rows(rows, subject)
+    _trunk_rows(rows, s)
+    for side, p in (("l", "L"), ("r", "R")):
+        _shoulder_rows(rows, pset, subject, side, p, s)
+        _limb_rows(rows, subject, side, p)
+        _hand_rows(rows, subject, side, p, s)
+        _foot_rows(rows, side, p, s)
+    return rows.prior(noise)
+
+
+def _pelvis_rows(rows: _Rows, subject: Subject) -> None:
+    """The pelvis rows: ASIS markers and the hip joint centres (Harrington 2007)."""
+    mid = SIGMA_MIDLINE
     # Pelvis: origin at mid-ASIS, ASIS on its y axis (the pelvis frame is defined by them).
     for m in ("LASI", "RASI"):
         rows.add({f"{m}.x": 1}, 0.0, mid, f"{m}.x = 0 (pelvis origin mid-ASIS)")
@@ -184,6 +196,11 @@ def landmark_prior(
         )
         rows.add(_add({f"hip_height_{side}": 1}, mid_z, _scaled(pw, -0.30)), 0.0109, SIGMA_HJC,
                  f"hip_height_{side} = 0.30 PW + 10.9 mm (Harrington 2007)")  # fmt: skip
+
+
+def _trunk_rows(rows: _Rows, s: float) -> None:
+    """The trunk rows: midline markers, C7, T10, CLAV and STRN (``s`` the stature ratio)."""
+    lm, mid, soft = SIGMA_LANDMARK, SIGMA_MIDLINE, SIGMA_SOFT
     # Trunk: midline markers, C7 at the C7/T1 joint's level, CLAV at the SC joints' level.
     for m in ("C7", "T10", "CLAV", "STRN"):
         rows.add({f"{m}.y": 1}, 0.0, mid, f"{m}.y = 0 (midline)")
@@ -195,71 +212,92 @@ def landmark_prior(
     rows.add({"CLAV.z": 1, **sc_mid}, 0.005 * s, lm, "CLAV.z = SC joints' height + 5 mm")
     rows.add({"CLAV.x": 1, "sc_depth": -1}, 0.02 * s, lm, "CLAV.x = sc_depth + 20 mm")
     rows.add({"STRN.x": 1, "sc_depth": -1}, 0.06 * s, soft, "STRN.x = sc_depth + 60 mm")
-    for side, p in (("l", "L"), ("r", "R")):
-        sign = 1.0 if side == "l" else -1.0
-        # SHO on the acromion, shoulder_offset + r above the glenohumeral centre.
-        try:
-            gh = pset.body_pos_nominal[pset.model.body(f"upperarm_{side}").id]
-        except KeyError:  # a custom model without this body: no shoulder rows
-            gh = np.full(3, np.nan)
-        u = gh / np.linalg.norm(gh)
-        off = subject.get(f"shoulder_offset_{side}")
-        for ax, c in enumerate("xyz"):
-            terms = {f"{p}SHO.{c}": 1.0, f"clavicle_length_{side}": -u[ax]}
-            if c == "z":
-                mean = (off + subject.marker_radius) if off is not None else 0.045 * s
-                sig = SIGMA_MEASURED if off is not None else lm
-                rows.add(terms, mean, sig, f"{p}SHO.z = GH.z + shoulder_offset + r")
-            else:
-                mean = (0.0, sign * 0.01 * s)[ax]
-                rows.add(terms, mean, lm, f"{p}SHO.{c} = GH.{c} {mean * 1e3:+.0f} mm")
-        # Epicondyles, malleolus and styloids on their joint's axis, at the joint's level.
-        for marker, length, width in (
-            ("KNE", "thigh_length", "knee_width"),
-            ("ANK", "shank_length", "ankle_width"),
-            ("ELB", "upperarm_length", "elbow_width"),
-        ):
-            m = p + marker
-            rows.add({f"{m}.x": 1}, 0.0, lm, f"{m}.x = 0 (on the joint axis)")
-            rows.add({f"{m}.z": 1, f"{length}_{side}": 1}, 0.0, lm, f"{m}.z = -{length}")
-            _width_rows(rows, subject, side, m, width)
-        # Wrist bar on the dorsum: Plug-in Gait puts the wrist centre wrist_width/2 + r
-        # anterior (palm side) of the WRA-WRB midpoint, perpendicular to the bar.
-        wra, wrb = p + "WRA", p + "WRB"
-        for m in (wra, wrb):
-            rows.add({f"{m}.z": 1, f"forearm_length_{side}": 1}, 0.0, lm,
-                     f"{m}.z = -forearm_length")  # fmt: skip
-        rows.add({f"{wra}.y": 0.5, f"{wrb}.y": 0.5}, 0.0, lm, f"{p}WRA-WRB midpoint y = 0")
-        ww = subject.get(f"wrist_width_{side}")
-        mid_x = {f"{wra}.x": 0.5, f"{wrb}.x": 0.5}
-        if ww is not None:
-            rows.add(mid_x, -(ww / 2 + subject.marker_radius), SIGMA_MEASURED,
-                     f"{p}WRA-WRB midpoint x = -(wrist_width/2 + r)")  # fmt: skip
+
+
+def _shoulder_rows(
+    rows: _Rows, pset: ParameterSet, subject: Subject, side: str, p: str, s: float
+) -> None:
+    """The rows of one side's shoulder marker ``p``SHO (``p`` "L" or "R") on the acromion."""
+    lm = SIGMA_LANDMARK
+    sign = 1.0 if side == "l" else -1.0
+    # SHO on the acromion, shoulder_offset + r above the glenohumeral centre.
+    try:
+        gh = pset.body_pos_nominal[pset.model.body(f"upperarm_{side}").id]
+    except KeyError:  # a custom model without this body: no shoulder rows
+        gh = np.full(3, np.nan)
+    u = gh / np.linalg.norm(gh)
+    off = subject.get(f"shoulder_offset_{side}")
+    for ax, c in enumerate("xyz"):
+        terms = {f"{p}SHO.{c}": 1.0, f"clavicle_length_{side}": -u[ax]}
+        if c == "z":
+            mean = (off + subject.marker_radius) if off is not None else 0.045 * s
+            sig = SIGMA_MEASURED if off is not None else lm
+            rows.add(terms, mean, sig, f"{p}SHO.z = GH.z + shoulder_offset + r")
         else:
-            rows.add(mid_x, 0.0, SIGMA_REGRESSED, f"{p}WRA-WRB midpoint x = 0 (nominal model)")
-        leg = subject.get(f"leg_length_{side}")
-        if leg is not None:
-            terms = {f"hip_height_{side}": 1.0, f"thigh_length_{side}": 1.0,
-                     f"shank_length_{side}": 1.0}  # fmt: skip
-            rows.add(terms, leg, SIGMA_LEG, f"ASIS to ankle centre height = leg_length_{side}")
-        ht = subject.get(f"hand_thickness_{side}")
-        fin_x = -(ht / 2 + subject.marker_radius) if ht is not None else -0.015 * s
-        rows.add({f"{p}FIN.x": 1}, fin_x, SIGMA_MEASURED if ht is not None else lm,
-                 f"{p}FIN.x = -(hand_thickness/2 + r)")  # fmt: skip
-        rows.add({f"{p}FIN.y": 1}, sign * 0.02 * s, soft, f"{p}FIN.y")
-        rows.add({f"{p}FIN.z": 1}, -0.08 * s, soft, f"{p}FIN.z = 80 mm beyond the wrist")
-        # Foot: heel behind and below the ankle centre, toe marker over the MTP joint.
-        rows.add({f"{p}HEE.x": 1}, -0.07 * s, soft, f"{p}HEE.x = 70 mm behind the ankle")
-        rows.add({f"{p}HEE.y": 1}, 0.0, lm, f"{p}HEE.y = 0")
-        rows.add({f"{p}HEE.z": 1}, -0.035 * s, soft, f"{p}HEE.z = 35 mm below the ankle")
-        rows.add({f"{p}TOE.x": 1}, 0.03 * s, soft, f"{p}TOE.x = 30 mm ahead of MTP")
-        rows.add({f"{p}TOE.y": 1}, 0.0, lm, f"{p}TOE.y = 0")
-        rows.add({f"{p}TOE.z": 1}, 0.02 * s, lm, f"{p}TOE.z = 20 mm above MTP")
-        # Plug-in Gait's foot axis runs from HEE to TOE: with the toes straight the two
-        # markers are (nearly: 10 mm on the nominal model) level in the foot frame.
-        rows.add({f"{p}HEE.z": 1, f"foot_height_{side}": 1, f"{p}TOE.z": -1}, -0.01 * s, lm,
-                 f"{p}HEE level with {p}TOE in the foot frame")  # fmt: skip
-    return rows.prior(noise)
+            mean = (0.0, sign * 0.01 * s)[ax]
+            rows.add(terms, mean, lm, f"{p}SHO.{c} = GH.{c} {mean * 1e3:+.0f} mm")
+
+
+def _limb_rows(rows: _Rows, subject: Subject, side: str, p: str) -> None:
+    """The rows of one side's joint-axis markers (knee, ankle, elbow), wrist bar and leg length."""
+    lm = SIGMA_LANDMARK
+    # Epicondyles, malleolus and styloids on their joint's axis, at the joint's level.
+    for marker, length, width in (
+        ("KNE", "thigh_length", "knee_width"),
+        ("ANK", "shank_length", "ankle_width"),
+        ("ELB", "upperarm_length", "elbow_width"),
+    ):
+        m = p + marker
+        rows.add({f"{m}.x": 1}, 0.0, lm, f"{m}.x = 0 (on the joint axis)")
+        rows.add({f"{m}.z": 1, f"{length}_{side}": 1}, 0.0, lm, f"{m}.z = -{length}")
+        _width_rows(rows, subject, side, m, width)
+    # Wrist bar on the dorsum: Plug-in Gait puts the wrist centre wrist_width/2 + r
+    # anterior (palm side) of the WRA-WRB midpoint, perpendicular to the bar.
+    wra, wrb = p + "WRA", p + "WRB"
+    for m in (wra, wrb):
+        rows.add({f"{m}.z": 1, f"forearm_length_{side}": 1}, 0.0, lm,
+                 f"{m}.z = -forearm_length")  # fmt: skip
+    rows.add({f"{wra}.y": 0.5, f"{wrb}.y": 0.5}, 0.0, lm, f"{p}WRA-WRB midpoint y = 0")
+    ww = subject.get(f"wrist_width_{side}")
+    mid_x = {f"{wra}.x": 0.5, f"{wrb}.x": 0.5}
+    if ww is not None:
+        rows.add(mid_x, -(ww / 2 + subject.marker_radius), SIGMA_MEASURED,
+                 f"{p}WRA-WRB midpoint x = -(wrist_width/2 + r)")  # fmt: skip
+    else:
+        rows.add(mid_x, 0.0, SIGMA_REGRESSED, f"{p}WRA-WRB midpoint x = 0 (nominal model)")
+    leg = subject.get(f"leg_length_{side}")
+    if leg is not None:
+        terms = {f"hip_height_{side}": 1.0, f"thigh_length_{side}": 1.0,
+                 f"shank_length_{side}": 1.0}  # fmt: skip
+        rows.add(terms, leg, SIGMA_LEG, f"ASIS to ankle centre height = leg_length_{side}")
+
+
+def _hand_rows(rows: _Rows, subject: Subject, side: str, p: str, s: float) -> None:
+    """The rows of one side's finger marker ``p``FIN."""
+    lm, soft = SIGMA_LANDMARK, SIGMA_SOFT
+    sign = 1.0 if side == "l" else -1.0
+    ht = subject.get(f"hand_thickness_{side}")
+    fin_x = -(ht / 2 + subject.marker_radius) if ht is not None else -0.015 * s
+    rows.add({f"{p}FIN.x": 1}, fin_x, SIGMA_MEASURED if ht is not None else lm,
+             f"{p}FIN.x = -(hand_thickness/2 + r)")  # fmt: skip
+    rows.add({f"{p}FIN.y": 1}, sign * 0.02 * s, soft, f"{p}FIN.y")
+    rows.add({f"{p}FIN.z": 1}, -0.08 * s, soft, f"{p}FIN.z = 80 mm beyond the wrist")
+
+
+def _foot_rows(rows: _Rows, side: str, p: str, s: float) -> None:
+    """The rows of one side's heel and toe markers."""
+    lm, soft = SIGMA_LANDMARK, SIGMA_SOFT
+    # Foot: heel behind and below the ankle centre, toe marker over the MTP joint.
+    rows.add({f"{p}HEE.x": 1}, -0.07 * s, soft, f"{p}HEE.x = 70 mm behind the ankle")
+    rows.add({f"{p}HEE.y": 1}, 0.0, lm, f"{p}HEE.y = 0")
+    rows.add({f"{p}HEE.z": 1}, -0.035 * s, soft, f"{p}HEE.z = 35 mm below the ankle")
+    rows.add({f"{p}TOE.x": 1}, 0.03 * s, soft, f"{p}TOE.x = 30 mm ahead of MTP")
+    rows.add({f"{p}TOE.y": 1}, 0.0, lm, f"{p}TOE.y = 0")
+    rows.add({f"{p}TOE.z": 1}, 0.02 * s, lm, f"{p}TOE.z = 20 mm above MTP")
+    # Plug-in Gait's foot axis runs from HEE to TOE: with the toes straight the two
+    # markers are (nearly: 10 mm on the nominal model) level in the foot frame.
+    rows.add({f"{p}HEE.z": 1, f"foot_height_{side}": 1, f"{p}TOE.z": -1}, -0.01 * s, lm,
+             f"{p}HEE level with {p}TOE in the foot frame")  # fmt: skip
 
 
 #: Left/right kinematic parameter pairs tied by :func:`symmetric_prior`.

@@ -271,69 +271,102 @@ def segment_scales(
     dict of ScaleEstimate
         Keys: those of :data:`SCALES`, and ``"overall"``.
     """
-    s = _Subject(pset, stack_trials(markers, pset.n_markers))
-    raw: dict[str, tuple[float, float]] = {}  # scale -> (measured, nominal) [m]
+    d = _Distances(_Subject(pset, stack_trials(markers, pset.n_markers)))
+    _marker_distances(d)
+    pelvis, thorax = _trunk_frames(d)
+    _joint_distances(d, pelvis, thorax)
+    return _estimates(d.raw)
 
-    def value(name: str) -> float:
+
+class _Distances:
+    """The measured and nominal distances [m] behind each scale of :func:`segment_scales`."""
+
+    def __init__(self, s: _Subject):
+        self.s = s
+        self.raw: dict[str, tuple[float, float]] = {}  # scale -> (measured, nominal) [m]
+
+    def value(self, name: str) -> float:
         """Scale measured so far (clipped), else 1: used to place joint centres."""
-        if name not in raw:
+        if name not in self.raw:
             return 1.0
-        meas, nom = raw[name]
+        meas, nom = self.raw[name]
         return float(np.clip(meas / nom, MIN_SCALE, MAX_SCALE)) if np.isfinite(meas) else 1.0
 
-    def distance(name: str, a: np.ndarray, b: np.ndarray, nominal: float) -> None:
-        raw[name] = (_median_distance(a, b), nominal)
+    def distance(self, name: str, a: np.ndarray, b: np.ndarray, nominal: float) -> None:
+        self.raw[name] = (_median_distance(a, b), nominal)
 
-    def pair(name: str, a: str, b: str) -> None:
+    def pair(self, name: str, a: str, b: str) -> None:
+        s = self.s
         if s.has(a, b):
-            distance(name, s.traj(a), s.traj(b), float(np.linalg.norm(s.nom(a) - s.nom(b))))
+            self.distance(name, s.traj(a), s.traj(b), float(np.linalg.norm(s.nom(a) - s.nom(b))))
 
-    def spread(name: str, names: Sequence[str]) -> None:
+    def spread(self, name: str, names: Sequence[str]) -> None:
+        s = self.s
         if s.has(*names):
             d = _rms_spread(s.trajs(names))
             d = d[np.isfinite(d)]
-            raw[name] = (float(np.median(d)) if d.size else float("nan"),
-                         float(_rms_spread(s.noms(names))))  # fmt: skip
+            self.raw[name] = (float(np.median(d)) if d.size else float("nan"),
+                              float(_rms_spread(s.noms(names))))  # fmt: skip
 
-    pair("pelvis_width", "LASI", "RASI")
-    pair("psis_width", "LPSI", "RPSI")
+
+def _marker_distances(d: _Distances) -> None:
+    """The scales measured between markers alone: pelvis, thorax, head, shanks, feet, forearms."""
+    s = d.s
+    d.pair("pelvis_width", "LASI", "RASI")
+    d.pair("psis_width", "LPSI", "RPSI")
     if s.has(*_PELVIS):
         asis = 0.5 * (s.traj("LASI") + s.traj("RASI"))
         psis = 0.5 * (s.traj("LPSI") + s.traj("RPSI"))
         nom = 0.5 * (s.nom("LASI") + s.nom("RASI") - s.nom("LPSI") - s.nom("RPSI"))
-        distance("pelvis_depth", asis, psis, float(np.linalg.norm(nom)))
-    spread("thorax", _THORAX)
-    spread("head", _HEAD)
+        d.distance("pelvis_depth", asis, psis, float(np.linalg.norm(nom)))
+    d.spread("thorax", _THORAX)
+    d.spread("head", _HEAD)
     for side, up in _SIDES:
-        pair(f"shank_{side}", f"{up}KNE", f"{up}ANK")
-        pair(f"foot_{side}", f"{up}HEE", f"{up}TOE")
+        d.pair(f"shank_{side}", f"{up}KNE", f"{up}ANK")
+        d.pair(f"foot_{side}", f"{up}HEE", f"{up}TOE")
         if s.has(f"{up}ELB", f"{up}WRA", f"{up}WRB"):
             wrist = 0.5 * (s.traj(f"{up}WRA") + s.traj(f"{up}WRB"))
             wrist0 = 0.5 * (s.nom(f"{up}WRA") + s.nom(f"{up}WRB"))
-            distance(f"forearm_{side}", s.traj(f"{up}ELB"), wrist,
-                     float(np.linalg.norm(s.nom(f"{up}ELB") - wrist0)))  # fmt: skip
+            d.distance(f"forearm_{side}", s.traj(f"{up}ELB"), wrist,
+                       float(np.linalg.norm(s.nom(f"{up}ELB") - wrist0)))  # fmt: skip
 
+
+_Frame = tuple[np.ndarray, np.ndarray]
+
+
+def _trunk_frames(d: _Distances) -> tuple[_Frame | None, _Frame | None]:
+    """The pelvis and thorax frames per frame (rotations (T, 3, 3), origins (T, 3) [m]) fitted
+    to their markers on the nominal model scaled so far; None where markers or bodies lack."""
+    s = d.s
     pelvis = None
     if s.has(*_PELVIS) and s.has_bodies("pelvis"):
         ref = s.noms(_PELVIS) - s.body["pelvis"]
-        ref[:2, 1] *= value("pelvis_width")
-        ref[2:, 0::2] *= value("pelvis_depth")
-        ref[2:, 1] *= value("psis_width")
+        ref[:2, 1] *= d.value("pelvis_width")
+        ref[2:, 0::2] *= d.value("pelvis_depth")
+        ref[2:, 1] *= d.value("psis_width")
         pelvis = rigid_fit(s.trajs(_PELVIS), ref)
     thorax = None
     if s.has(*_THORAX) and s.has_bodies("thorax"):
-        ref = (s.noms(_THORAX) - s.body["thorax"]) * value("thorax")
+        ref = (s.noms(_THORAX) - s.body["thorax"]) * d.value("thorax")
         thorax = rigid_fit(s.trajs(_THORAX), ref)
+    return pelvis, thorax
 
-    def place(frame: tuple[np.ndarray, np.ndarray], local: np.ndarray) -> np.ndarray:
-        rot, pos = frame
-        return pos + np.einsum("tij,j->ti", rot, local)
 
+def _place(frame: _Frame, local: np.ndarray) -> np.ndarray:
+    """A point ``local`` (3,) [m] of the frame, per frame (T, 3) [m]."""
+    rot, pos = frame
+    return pos + np.einsum("tij,j->ti", rot, local)
+
+
+def _joint_distances(d: _Distances, pelvis: _Frame | None, thorax: _Frame | None) -> None:
+    """The scales measured from joint centres placed in the trunk frames: thighs (from the
+    hip joint centres), clavicles and upper arms (from the glenohumeral centres)."""
+    s, value, distance = d.s, d.value, d.distance
     if pelvis is not None:
         for side, up in _SIDES:
             if s.has_bodies(f"thigh_{side}") and s.has(f"{up}KNE"):
-                hjc = place(pelvis, (s.body[f"thigh_{side}"] - s.body["pelvis"]) *
-                            value("pelvis_width"))  # fmt: skip
+                hjc = _place(pelvis, (s.body[f"thigh_{side}"] - s.body["pelvis"]) *
+                             value("pelvis_width"))  # fmt: skip
                 knee = s.nom(f"{up}KNE") - s.body[f"thigh_{side}"]
                 distance(f"thigh_{side}", hjc, s.traj(f"{up}KNE"), float(np.linalg.norm(knee)))
     if thorax is not None:
@@ -343,12 +376,11 @@ def segment_scales(
                 continue
             to_gh = (s.body[arm] - s.nom(f"{up}SHO")) * value("thorax")
             gh = s.traj(f"{up}SHO") + np.einsum("tij,j->ti", thorax[0], to_gh)
-            sc = place(thorax, (s.body[clav] - s.body["thorax"]) * value("thorax"))
+            sc = _place(thorax, (s.body[clav] - s.body["thorax"]) * value("thorax"))
             distance(clav, sc, gh, float(np.linalg.norm(s.body[arm] - s.body[clav])))
             if s.has(f"{up}ELB"):
                 distance(arm, gh, s.traj(f"{up}ELB"),
                          float(np.linalg.norm(s.nom(f"{up}ELB") - s.body[arm])))  # fmt: skip
-    return _estimates(raw)
 
 
 def shrink(ratio: float, overall: float, distance: float) -> float:

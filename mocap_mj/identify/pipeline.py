@@ -78,42 +78,22 @@ def identify_to_folder(
     :func:`solve_anatomical`.
     """
     t0 = time.perf_counter()
-    if init not in INITS:
-        raise MocapError(f"init must be one of {', '.join(INITS)}; got {init!r}")
+    _check_inputs(trials, pset, init)
     init_used = "given" if theta0 is not None else init
-    check_determined(
-        [t.name for t in trials],
-        [t.markers for t in trials],
-        IKSettings().min_markers,
-        pset.model.nv,
-        int(np.sum(~pset.frozen)),
-    )
-    scales: dict[str, float] = {}
-    if theta0 is None and init != "nominal":
-        markers = [t.markers for t in trials]
-        estimates = segment_scales(pset, markers)
-        theta0 = scaled_theta(pset, markers, scales=estimates)
-        scales = {n: e.value for n, e in estimates.items()}
-        if init == "placed":
-            theta0 = place_markers(pset, theta0, markers)
+    theta0, scales = _initial_theta(trials, pset, theta0, init)
     subject = subject or Subject()
-    weighting: dict[str, float] = {}
     with captured_log() as log:
-        if anatomical:
-            result, weighting = solve_anatomical(
-                trials,
-                pset=pset,
-                theta0=theta0,
-                settings=settings,
-                subject=subject,
-                size=scales.get("overall", 1.0),
-                symmetric=ASYMMETRY_SIGMA if symmetric is None and asymmetry_prior else symmetric,
-                progress=progress,
-            )
-        else:
-            result = identify_lm(
-                trials, pset=pset, theta0=theta0, settings=settings, progress=progress
-            )
+        result, weighting = _solve(
+            trials,
+            pset=pset,
+            theta0=theta0,
+            settings=settings,
+            subject=subject,
+            size=scales.get("overall", 1.0),
+            anatomical=anatomical,
+            symmetric=ASYMMETRY_SIGMA if symmetric is None and asymmetry_prior else symmetric,
+            progress=progress,
+        )
     seconds = time.perf_counter() - t0
     idf = Identifiability(
         pset,
@@ -122,56 +102,171 @@ def identify_to_folder(
         observable_std=settings.observable_std,
         theta=result.theta,
     )
-    n_frames = sum(len(t.markers) for t in trials)
-    n_used = sum(int(u.sum()) for u in result.used)
-    bk, bo = idf.bound_rms()
     summary: dict[str, Any] = dict(extra or {})
     summary.update(
-        {
-            "solver": "lm",
-            "loss": settings.loss,
-            "init": init_used,
-            "init_scales": scales,
-            "frames": n_frames,
-            "frames_used": n_used,
-            "frames_skipped": n_frames - n_used,
-            "seconds": seconds,
-            "init_seconds": result.init_seconds,
-            "iterations": result.iterations,
-            "termination": result.termination.value,
-            "marker_rmse_mm": result.marker_rmse * 1e3,
-            "sigma_mm": result.sigma * 1e3,
-            "n_residuals": result.n_residuals,
-            "n_unknowns": result.n_unknowns,
-            "observable_directions": idf.rank,
-            "unobservable_directions": int(np.sum(~idf.observable)),
-            "kappa_crlb_rms_mm": bk * 1e3,
-            "offset_crlb_rms_mm": bo * 1e3,
-            "kappa_mm": {
-                n: float(v) * 1e3 for n, v in zip(pset.kappa_names, result.theta, strict=False)
-            },
-            "log": log,
-            "anatomical_priors": anatomical,
-            "prior_weighting": weighting,
-            "symmetric_mm": None if symmetric is None else symmetric * 1e3,
-            "asymmetry_prior_mm": (
-                ASYMMETRY_SIGMA * 1e3
-                if anatomical and asymmetry_prior and symmetric is None
-                else None
-            ),
-            "measurements": subject.to_dict(),
-            "kappa_at_bound": {
-                n: ("lower" if th < nom else "upper")
-                for n, b, th, nom in zip(
-                    pset.kappa_names, result.at_bound, result.theta, pset.nominal, strict=False
-                )
-                if b
-            },
-        }
+        _summary_fields(trials, pset, settings, result, idf, init_used, scales, seconds, log)
     )
+    summary.update(_prior_fields(anatomical, weighting, symmetric, asymmetry_prior, subject))
+    summary["kappa_at_bound"] = _kappa_at_bound(pset, result)
     ranges = kappa_ranges(pset, subject) if anatomical else None
     rows = _add_checks(summary, pset, result, trials, settings, ranges)
     summary = jsonable(summary)
+    _write_folder(out, pset, result, idf, trials, settings, rows, summary)
+    return summary, result, idf
+
+
+def _check_inputs(trials: Sequence[TrialData], pset: ParameterSet, init: str) -> None:
+    """Refuse an unknown ``init`` and trials with fewer marker coordinates than unknowns."""
+    if init not in INITS:
+        raise MocapError(f"init must be one of {', '.join(INITS)}; got {init!r}")
+    check_determined(
+        [t.name for t in trials],
+        [t.markers for t in trials],
+        IKSettings().min_markers,
+        pset.model.nv,
+        int(np.sum(~pset.frozen)),
+    )
+
+
+def _prior_fields(
+    anatomical: bool,
+    weighting: dict[str, float],
+    symmetric: float | None,
+    asymmetry_prior: bool,
+    subject: Subject,
+) -> dict[str, Any]:
+    """The priors part of the summary (standard deviations in millimetres)."""
+    return {
+        "anatomical_priors": anatomical,
+        "prior_weighting": weighting,
+        "symmetric_mm": None if symmetric is None else symmetric * 1e3,
+        "asymmetry_prior_mm": (
+            ASYMMETRY_SIGMA * 1e3 if anatomical and asymmetry_prior and symmetric is None else None
+        ),
+        "measurements": subject.to_dict(),
+    }
+
+
+def _initial_theta(
+    trials: Sequence[TrialData],
+    pset: ParameterSet,
+    theta0: np.ndarray | None,
+    init: str,
+) -> tuple[np.ndarray | None, dict[str, float]]:
+    """The initial model (P,) of :func:`identify_to_folder` and the segment scale estimates
+    behind it (name -> factor; empty unless ``init`` scaled the nominal model).
+
+    A given ``theta0`` is kept; otherwise ``init="nominal"`` leaves it None (the solver starts
+    from the nominal model), ``"scaled"`` scales the nominal model to the trials' marker
+    distances and ``"placed"`` also places the marker offsets by IK."""
+    scales: dict[str, float] = {}
+    if theta0 is None and init != "nominal":
+        markers = [t.markers for t in trials]
+        estimates = segment_scales(pset, markers)
+        theta0 = scaled_theta(pset, markers, scales=estimates)
+        scales = {n: e.value for n, e in estimates.items()}
+        if init == "placed":
+            theta0 = place_markers(pset, theta0, markers)
+    return theta0, scales
+
+
+def _solve(
+    trials: Sequence[TrialData],
+    *,
+    pset: ParameterSet,
+    theta0: np.ndarray | None,
+    settings: LMSettings,
+    subject: Subject,
+    size: float,
+    anatomical: bool,
+    symmetric: float | None,
+    progress: ProgressCallback | None,
+) -> tuple[IdentificationResult, dict[str, float]]:
+    """The joint LM of :func:`identify_to_folder`: with ``anatomical`` through
+    :func:`solve_anatomical` (ranges and landmark priors; ``symmetric`` [m] the left/right
+    prior's standard deviation or None), else the plain :func:`identify_lm`; return the
+    result and the prior weighting (empty without ``anatomical``)."""
+    if anatomical:
+        return solve_anatomical(
+            trials,
+            pset=pset,
+            theta0=theta0,
+            settings=settings,
+            subject=subject,
+            size=size,
+            symmetric=symmetric,
+            progress=progress,
+        )
+    result = identify_lm(trials, pset=pset, theta0=theta0, settings=settings, progress=progress)
+    return result, {}
+
+
+def _summary_fields(
+    trials: Sequence[TrialData],
+    pset: ParameterSet,
+    settings: LMSettings,
+    result: IdentificationResult,
+    idf: Identifiability,
+    init_used: str,
+    scales: dict[str, float],
+    seconds: float,
+    log: list[str],
+) -> dict[str, Any]:
+    """The solver part of the summary: initial model, frames, timing, fit (millimetres) and
+    observability."""
+    n_frames = sum(len(t.markers) for t in trials)
+    n_used = sum(int(u.sum()) for u in result.used)
+    bk, bo = idf.bound_rms()
+    return {
+        "solver": "lm",
+        "loss": settings.loss,
+        "init": init_used,
+        "init_scales": scales,
+        "frames": n_frames,
+        "frames_used": n_used,
+        "frames_skipped": n_frames - n_used,
+        "seconds": seconds,
+        "init_seconds": result.init_seconds,
+        "iterations": result.iterations,
+        "termination": result.termination.value,
+        "marker_rmse_mm": result.marker_rmse * 1e3,
+        "sigma_mm": result.sigma * 1e3,
+        "n_residuals": result.n_residuals,
+        "n_unknowns": result.n_unknowns,
+        "observable_directions": idf.rank,
+        "unobservable_directions": int(np.sum(~idf.observable)),
+        "kappa_crlb_rms_mm": bk * 1e3,
+        "offset_crlb_rms_mm": bo * 1e3,
+        "kappa_mm": {
+            n: float(v) * 1e3 for n, v in zip(pset.kappa_names, result.theta, strict=False)
+        },
+        "log": log,
+    }
+
+
+def _kappa_at_bound(pset: ParameterSet, result: IdentificationResult) -> dict[str, str]:
+    """Kinematic parameters the solve left at a bound: name -> "lower" or "upper" (which side
+    of the nominal value they stopped on)."""
+    return {
+        n: ("lower" if th < nom else "upper")
+        for n, b, th, nom in zip(
+            pset.kappa_names, result.at_bound, result.theta, pset.nominal, strict=False
+        )
+        if b
+    }
+
+
+def _write_folder(
+    out: Path,
+    pset: ParameterSet,
+    result: IdentificationResult,
+    idf: Identifiability,
+    trials: Sequence[TrialData],
+    settings: LMSettings,
+    rows: list[SegmentRow],
+    summary: dict[str, Any],
+) -> None:
+    """Write the result files, the tables and summary.json into ``out``, replaced whole."""
     with atomic_folder(out, force=True) as staging:
         write_result(
             staging,
@@ -184,7 +279,6 @@ def identify_to_folder(
         )
         _write_tables(staging, pset, result, trials, rows, summary.get("frames_fitted_range"))
         atomic_write_text(staging / "summary.json", dumps(summary, indent=2) + "\n")
-    return summary, result, idf
 
 
 def _add_checks(

@@ -6,7 +6,7 @@ import logging
 import os
 from collections.abc import Collection, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -95,6 +95,20 @@ def load_markers(
     UnknownNameError
         ``up`` is not an axis name.
     """
+    file, wanted_up, rename = _arguments(path, marker_map, up, units)
+    raw = read_raw(file)
+    selection = _selection(file, raw, subject, rename, model_names)
+    return _trajectory(file, raw, selection, units, wanted_up, rename)
+
+
+def _arguments(
+    path: str | os.PathLike[str],
+    marker_map: Mapping[str, str] | str | os.PathLike[str] | None,
+    up: str | None,
+    units: str | None,
+) -> tuple[Path, str | None, Mapping[str, str]]:
+    """:func:`load_markers`'s arguments checked: the file, the normalised ``up`` (None to
+    detect) and the marker map (empty without one)."""
     file = Path(path)
     wanted_up = normalize_up(up) if up is not None else None
     rename = load_marker_map(marker_map) if marker_map is not None else {}
@@ -102,8 +116,29 @@ def load_markers(
         raise InputFileError(f"{file}: no such file")
     if units is not None and metres_per_unit(units) is None:
         raise InputFileError(f"{file}: --units: expected mm, cm or m, got {units!r}")
-    raw = read_raw(file)
+    return file, wanted_up, rename
 
+
+class _Selection(NamedTuple):
+    """The markers :func:`load_markers` keeps and how they were chosen and named."""
+
+    keep: list[tuple[int, str]]  # (column, name without prefix)
+    names: list[str]  # model names, in ``keep``'s order
+    subject: str | None
+    subjects: list[str]
+    dropped: list[str]
+    others: list[str]  # other subjects' markers
+    aliased: dict[str, str]
+
+
+def _selection(
+    file: Path,
+    raw: RawMarkers,
+    subject: str | None,
+    rename: Mapping[str, str],
+    model_names: Collection[str],
+) -> _Selection:
+    """Keep one subject's markers, rename and alias them; refuse duplicates and no markers."""
     keep, chosen_subject, subjects, dropped, others = _select_markers(file, raw, subject, rename)
     names = [rename.get(name, name) for _, name in keep]
     aliased = _apply_aliases(names, rename, set(model_names))
@@ -113,7 +148,20 @@ def load_markers(
             f"{file}: {raw.labels_where}: expected at least one marker, got none "
             f"(dropped: {', '.join(dropped) or 'nothing'})"
         )
+    return _Selection(keep, names, chosen_subject, subjects, dropped, others, aliased)
 
+
+def _trajectory(
+    file: Path,
+    raw: RawMarkers,
+    sel: _Selection,
+    units: str | None,
+    wanted_up: str | None,
+    rename: Mapping[str, str],
+) -> MarkerTrajectory:
+    """The selected markers in metres (zeros and NaN missing), rotated Z up, with their
+    ``source`` record; warnings logged once."""
+    keep, names = sel.keep, sel.names
     scale, unit, units_note = _metres(file, raw, units)
     positions = raw.positions[:, [i for i, _ in keep]] * scale
     if not (np.all(np.isfinite(raw.times)) and not np.isinf(positions).any()):
@@ -137,13 +185,13 @@ def load_markers(
         "up_detected": detected,
         "up_how": up_how,
         "rotation": rotation.tolist(),
-        "subject": chosen_subject,
-        "subjects": subjects,
-        "dropped": raw.dropped + dropped,
-        "other_subjects_markers": others,
+        "subject": sel.subject,
+        "subjects": sel.subjects,
+        "dropped": raw.dropped + sel.dropped,
+        "other_subjects_markers": sel.others,
         "extras": [n for n in names if n not in MARKER_NAMES],
         "renamed": {k: v for k, v in rename.items() if k in {n for _, n in keep}},
-        "aliased": aliased,
+        "aliased": sel.aliased,
         "missing_samples": {n: int(c) for n, c in zip(names, missing, strict=True) if c},
         "zero_samples": {n: int(c) for n, c in zip(names, zeros.sum(axis=0), strict=True) if c},
         **raw.info,

@@ -208,6 +208,23 @@ def check_c3d(path: Path) -> C3DLayout:
         Naming the file and the byte or ``group GROUP:PARAMETER`` that is wrong.
     """
     data = path.read_bytes()
+    reader, params = _read_parameters(path, data)
+    if not any(group == "POINT" for group, _ in params):
+        return C3DLayout(params, 0, 0, 0, False, 0, 0)
+    _check_scalars(path, params)
+    points = _check_points(path, params, reader, data)
+    if points is None:
+        return C3DLayout(params, 0, 0, 0, False, 0, 0)
+    n_points, n_frames, rate, float_data = points
+    n_analogs, per_frame = _check_analogs(path, params, rate)
+    return _data_layout(
+        path, params, reader, data, n_points, n_frames, float_data, n_analogs, per_frame
+    )
+
+
+def _read_parameters(path: Path, data: bytes) -> tuple[_Reader, dict[tuple[str, str], Param]]:
+    """Check the header's pointer to the parameter section and its processor type; return
+    the reader (byte order of that processor) and the parameters by (group, name)."""
     if len(data) < BLOCK:
         raise _cut(path, "header", f"a C3D file of at least {BLOCK} bytes", f"{len(data)} bytes")
     if data[1] != 0x50:
@@ -227,9 +244,11 @@ def check_c3d(path: Path) -> C3DLayout:
         raise _err(path, f"byte {start + 4}", "processor type 84, 85 or 86", str(processor))
     reader = _Reader(path, data, processor, start + max(1, data[start + 2]) * BLOCK)
     params = _walk_parameters(reader, start + 4)
+    return reader, params
 
-    if not any(group == "POINT" for group, _ in params):
-        return C3DLayout(params, 0, 0, 0, False, 0, 0)
+
+def _check_scalars(path: Path, params: dict[tuple[str, str], Param]) -> None:
+    """Check that the counts and rates present (``_SCALARS``) are numbers in their range."""
     for key in _SCALARS:
         if key == ("ANALOG", "RATE") and _empty(params, key) and _is_zero(params, "ANALOG"):
             continue  # an empty ANALOG:RATE with no channels (Theia3D): ezc3d reads it as 0
@@ -242,32 +261,43 @@ def check_c3d(path: Path) -> C3DLayout:
                 raise _err(path, f"group {key[0]}:{key[1]}", f"a count in 0..{limit}", f"{value:g}")
             if key[1] == "RATE" and value < 0:
                 raise _err(path, f"group {key[0]}:{key[1]}", "a rate of 0 or more", f"{value:g}")
+
+
+def _check_points(
+    path: Path, params: dict[tuple[str, str], Param], reader: _Reader, data: bytes
+) -> tuple[float, float, float, bool] | None:
+    """Check the POINT group; return (points, frames, rate [Hz], float data), or None when
+    POINT:USED is 0 (no marker points to read)."""
     n_points = _number(path, params, ("POINT", "USED"))
     n_frames = _number(path, params, ("POINT", "FRAMES"))
     rate = _number(path, params, ("POINT", "RATE"))
     if not (0 <= n_points < 32768 and n_points == int(n_points)):
         raise _err(path, "group POINT:USED", "a point count in 0..32767", f"{n_points:g}")
     if n_points == 0:
-        return C3DLayout(params, 0, 0, 0, False, 0, 0)
+        return None
     if n_frames < 1 or n_frames != int(n_frames):
         raise _err(path, "group POINT:FRAMES", "at least one frame", f"{n_frames:g}")
     if not 1e-3 <= rate <= 1e6:
         raise _err(path, "group POINT:RATE", "a frame rate in 0.001..1e6 Hz", f"{rate:g}")
     float_data = reader.floats(data[12:16])[0] < 0  # header scale factor: negative = float data
-    if n_points:
-        scale = _number(path, params, ("POINT", "SCALE"))
-        if not float_data and scale == 0:
-            raise _err(path, "group POINT:SCALE", "a non-zero scale for integer data", "0")
-        labels = sum(
-            len(p.values)
-            for (group, name), p in params.items()
-            if group == "POINT" and p.type == -1 and _is_labels(name)
-        )
-        if labels < n_points:
-            raise _err(
-                path, "group POINT:LABELS", f"{int(n_points)} labels (POINT:USED)", str(labels)
-            )
+    scale = _number(path, params, ("POINT", "SCALE"))
+    if not float_data and scale == 0:
+        raise _err(path, "group POINT:SCALE", "a non-zero scale for integer data", "0")
+    labels = sum(
+        len(p.values)
+        for (group, name), p in params.items()
+        if group == "POINT" and p.type == -1 and _is_labels(name)
+    )
+    if labels < n_points:
+        raise _err(path, "group POINT:LABELS", f"{int(n_points)} labels (POINT:USED)", str(labels))
+    return n_points, n_frames, rate, float_data
 
+
+def _check_analogs(
+    path: Path, params: dict[tuple[str, str], Param], rate: float
+) -> tuple[float, float]:
+    """Check the ANALOG group (and that there is no rotation data) against the point ``rate``
+    [Hz]; return (analog channels, analog samples per point frame), 0 without ANALOG."""
     n_analogs, per_frame = 0.0, 0.0
     if any(group == "ANALOG" for group, _ in params):
         n_analogs = _number(path, params, ("ANALOG", "USED"))
@@ -293,7 +323,22 @@ def check_c3d(path: Path) -> C3DLayout:
                     raise _err(path, f"group ANALOG:{per_channel}", want, have)
     if ("ROTATION", "USED") in params and _number(path, params, ("ROTATION", "USED")) != 0:
         raise _err(path, "group ROTATION:USED", "0 (rotation data is not supported)", "more")
+    return n_analogs, per_frame
 
+
+def _data_layout(
+    path: Path,
+    params: dict[tuple[str, str], Param],
+    reader: _Reader,
+    data: bytes,
+    n_points: float,
+    n_frames: float,
+    float_data: bool,
+    n_analogs: float,
+    per_frame: float,
+) -> C3DLayout:
+    """Check the header's pointer to the data section and that it holds a frame at least;
+    return the layout (frames cut to those the file holds)."""
     value_bytes = 4 if float_data else 2
     data_block = struct.unpack(reader.int_fmt + "H", data[16:18])[0]
     if data_block < 2:

@@ -65,18 +65,44 @@ def read(path: Path) -> RawMarkers:
     rate_no, names_no, axes_no, units_no = top + 2, top + 3, top + 4, top + 5
     rate = check_rate(path, rate_no, lines[top + 1].split(",")[0], "Trajectories rate")
 
-    axes = [c.strip() for c in strip_trailing_empty(csv_cells(lines[top + 3]))]
-    if axes[:2] != ["Frame", "Sub Frame"] or len(axes) < 5 or (len(axes) - 2) % 3:
-        raise line_error(path, axes_no, "'Frame,Sub Frame,X,Y,Z,...'", show(lines[top + 3]))
+    axes = _axes(path, lines[top + 3], axes_no)
     n_markers = (len(axes) - 2) // 3
     width = len(axes)
+    labels = _labels(path, lines[top + 2], names_no, n_markers, width)
+    units, data_start = _units(path, lines, top, units_no, width)
+    block, row_lines = _data_block(path, lines, data_start, labels, width)
+    frames = block[:, 0]
+    check_times(path, frames, row_lines, "Frame")
+    return RawMarkers(
+        format="vicon nexus csv",
+        labels=labels,
+        positions=xyz_positions(block, 2, n_markers),
+        times=(frames - frames[0]) / rate,
+        rate=rate,
+        units=units,
+        units_where=f"line {units_no}",
+        labels_where=f"line {names_no}",
+        info={"first_frame": int(frames[0]) if np.isfinite(frames[0]) else None},
+    )
+
+
+def _axes(path: Path, line: str, axes_no: int) -> list[str]:
+    """The axes line 'Frame,Sub Frame,X,Y,Z,...' (line ``axes_no``) checked, as cells."""
+    axes = [c.strip() for c in strip_trailing_empty(csv_cells(line))]
+    if axes[:2] != ["Frame", "Sub Frame"] or len(axes) < 5 or (len(axes) - 2) % 3:
+        raise line_error(path, axes_no, "'Frame,Sub Frame,X,Y,Z,...'", show(line))
+    n_markers = (len(axes) - 2) // 3
     for k in range(n_markers):
         if [a.upper() for a in axes[2 + 3 * k : 5 + 3 * k]] != ["X", "Y", "Z"]:
             raise line_error(
                 path, axes_no, f"X,Y,Z at column {3 + 3 * k}", show(axes[2 + 3 * k : 5 + 3 * k])
             )
+    return axes
 
-    named = csv_cells(lines[top + 2])
+
+def _labels(path: Path, line: str, names_no: int, n_markers: int, width: int) -> list[str]:
+    """The marker names of the names line (line ``names_no``): one every three columns."""
+    named = csv_cells(line)
     if any(c.strip() for c in named[width:]) or any(c.strip() for c in named[:2]):
         raise line_error(path, names_no, f"{n_markers} names over {width} columns", show(named))
     named = named + [""] * (width - len(named))
@@ -91,7 +117,14 @@ def read(path: Path) -> RawMarkers:
                 show(named[2 + 3 * k : 5 + 3 * k]),
             )
         labels.append(cell)
+    return labels
 
+
+def _units(
+    path: Path, lines: list[str], top: int, units_no: int, width: int
+) -> tuple[str | None, int]:
+    """The length unit of the optional units row (line ``units_no``), None without one, and
+    the index of the first data line."""
     units: str | None = None
     data_start = top + 4
     unit_cells = csv_cells(lines[top + 4])
@@ -102,7 +135,14 @@ def read(path: Path) -> RawMarkers:
             raise line_error(path, units_no, "one length unit for every column", show(seen))
         units = seen[0]
         data_start = top + 5
+    return units, data_start
 
+
+def _data_block(
+    path: Path, lines: list[str], data_start: int, labels: list[str], width: int
+) -> tuple[np.ndarray, list[int]]:
+    """The block's data rows (to a blank line, the next block or the end) as numbers
+    (rows, 2 + 3 markers), and the 1-based line number of each row."""
     end = data_start
     while (
         end < len(lines)
@@ -119,16 +159,4 @@ def read(path: Path) -> RawMarkers:
     row_lines = list(range(data_start + 1, end + 1))
     columns = ["Frame", "Sub Frame"] + [f"{lab}.{a}" for lab in labels for a in "XYZ"]
     block = parse_numbers(path, rows, row_lines, columns)
-    frames = block[:, 0]
-    check_times(path, frames, row_lines, "Frame")
-    return RawMarkers(
-        format="vicon nexus csv",
-        labels=labels,
-        positions=xyz_positions(block, 2, n_markers),
-        times=(frames - frames[0]) / rate,
-        rate=rate,
-        units=units,
-        units_where=f"line {units_no}",
-        labels_where=f"line {names_no}",
-        info={"first_frame": int(frames[0]) if np.isfinite(frames[0]) else None},
-    )
+    return block, row_lines
