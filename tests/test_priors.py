@@ -176,10 +176,13 @@ def test_bounds_are_never_crossed(pset: ParameterSet) -> None:
             priors=[landmark_prior(pset)],
         )  # fmt: skip
         assert np.all(res.theta >= lower) and np.all(res.theta <= upper)
-        assert np.array_equal(res.at_bound != 0, (res.theta == lower) | (res.theta == upper))
+        # at_bound: within 1e-12 (relative) of a bound, as IdentificationResult documents it.
+        tol = 1e-12 * np.maximum(1.0, np.abs(res.theta))
+        on_bound = (res.theta <= lower + tol) | (res.theta >= upper - tol)
+        assert np.array_equal(res.at_bound, on_bound)
         if seed == 0:  # from the nominal model the fit reaches the cut bounds
             for name in ("thigh_length_l", "shank_length_r"):
-                assert res.at_bound[pset.index(name)] == 1, name
+                assert res.at_bound[pset.index(name)], name
 
 
 def test_prior_interface_shapes(pset: ParameterSet) -> None:

@@ -74,7 +74,8 @@ class IdentificationResult:
     trace : list of the solver's per-iteration entries (:class:`TraceEntry`)
     seconds : float [s], init_seconds : float [s] (IK before the first iteration)
     weights : list of (T_i, M) [1], final IRLS weights per trial
-    at_bound : (P,) bool, parameters that ended on a bound of the problem's box
+    at_bound : (P,) bool, parameters that ended on a bound of the problem's box (within
+        1e-12 relative)
     method : "lm" or "paper"
     """
 
