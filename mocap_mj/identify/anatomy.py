@@ -33,6 +33,14 @@ Widths (standard deviations, per row) and their sources:
   errors, 4-9 mm, plus the ASIS/PSIS marker placement);
 * :data:`SIGMA_SOFT` = 15 mm: landmarks whose depth below the skin or position relative to a
   joint varies between adults (T10, STRN, C7 depth, HEE, TOE, FIN);
+* :data:`SIGMA_SPINE` = 10 mm: the joints no marker determines (C7/T1, T12/L1, L5/S1, the
+  MTP joint) from the markers around them, written so that they do not depend on how the
+  segment's frame is tilted against its markers (a direction the data leave free): Dumas et
+  al. (2007) C7/T1 from C7 and CLAV; T12/L1 from T10 and C7, L5/S1 from the ASIS and PSIS
+  markers and the MTP joint from HEE and the ankle centre with the nominal model's
+  proportions. At 15 mm the real trials' data (the functional centre of the head's motion,
+  of the toes') still moved these joints 40-90 mm between trials of one subject
+  (docs/real-data.md);
 * :data:`SIGMA_LEG` = 15 mm: hip height + thigh + shank against the measured leg length
   (a tape measure over the knee, ASIS to medial malleolus);
 * :data:`ASYMMETRY_SIGMA` = 5 mm: left minus right length in healthy adults (anatomic
@@ -65,6 +73,23 @@ SIGMA_HJC = 0.008
 SIGMA_SOFT = 0.015
 SIGMA_LEG = 0.015
 ASYMMETRY_SIGMA = 0.005
+SIGMA_SPINE = 0.010
+
+#: C7/T1 from the C7 marker: fraction of the C7-CLAV distance and angle [deg] above that line
+#: (Dumas, Cheze, Verriest 2007, Table 2, men; after Reed, Manary, Schneider 1999).
+CJC_RATIO, CJC_ANGLE = 0.55, 8.0
+#: T12/L1 from the T10 marker, fractions of the C7-T10 distance along that line (downward)
+#: and anterior of it: the nominal model's (T10 50 mm above and 75 mm behind T12/L1).
+T12_ALONG, T12_FORWARD = 0.206, 0.386
+#: L5/S1 from mid-ASIS, fractions of the mid-ASIS to mid-PSIS distance along that line and
+#: above it: the nominal model's (L5/S1 100 mm behind and 50 mm above mid-ASIS, PSIS 165 mm
+#: behind and 20 mm above). Reed et al. (1999) / Dumas et al. (2007) put it 0.264 and 0.126
+#: of the ASIS width behind and above mid-ASIS in the anterior pelvic plane (docs/model.md).
+L5S1_ALONG, L5S1_UP = 0.634, -0.2265
+#: MTP joint from the heel marker: coefficients (A, B) of v = ankle centre - HEE and of v
+#: turned a quarter upward, the nominal model's (MTP 210 mm ahead of and 10 mm below HEE,
+#: HEE 70 mm behind and 35 mm below the ankle centre).
+MTP_FROM_HEE = (2.343, -1.314)
 
 #: Joint width (measurement, side removed) -> (kinematic parameter, width / parameter): the
 #: regression used when the width is not measured, from the nominal model (Plug-in Gait
@@ -196,6 +221,15 @@ def _pelvis_rows(rows: _Rows, subject: Subject) -> None:
         )
         rows.add(_add({f"hip_height_{side}": 1}, mid_z, _scaled(pw, -0.30)), 0.0109, SIGMA_HJC,
                  f"hip_height_{side} = 0.30 PW + 10.9 mm (Harrington 2007)")  # fmt: skip
+    # L5/S1 relative to the pelvis markers, invariant to the pelvis frame's tilt against them:
+    # mid-ASIS + a d + b R90 d, d = mid-PSIS - mid-ASIS in the sagittal plane (module docstring).
+    for c, joint, sign in (("x", "lumbar_depth", 1.0), ("z", "lumbar_height", -1.0)):
+        terms = {joint: sign, f"LASI.{c}": 0.5, f"RASI.{c}": 0.5}
+        for m in ("LPSI", "RPSI"):
+            terms = _add(terms, _scaled(_rotated("LASI", m, L5S1_ALONG, L5S1_UP, c), 0.25))
+            terms = _add(terms, _scaled(_rotated("RASI", m, L5S1_ALONG, L5S1_UP, c), 0.25))
+        rows.add(terms, 0.0, SIGMA_SPINE,
+                 f"L5/S1.{c} from mid-ASIS along and above the ASIS-PSIS line")  # fmt: skip
 
 
 def _trunk_rows(rows: _Rows, s: float) -> None:
@@ -212,6 +246,36 @@ def _trunk_rows(rows: _Rows, s: float) -> None:
     rows.add({"CLAV.z": 1, **sc_mid}, 0.005 * s, lm, "CLAV.z = SC joints' height + 5 mm")
     rows.add({"CLAV.x": 1, "sc_depth": -1}, 0.02 * s, lm, "CLAV.x = sc_depth + 20 mm")
     rows.add({"STRN.x": 1, "sc_depth": -1}, 0.06 * s, soft, "STRN.x = sc_depth + 60 mm")
+    _spine_joint_rows(rows)
+
+
+def _rotated(v_from: str, v_to: str, along: float, up: float, c: str) -> dict[str, float]:
+    """Component ``c`` ("x" or "z") of ``along (to - from) + up R90 (to - from)`` over the
+    marker offsets, R90 the quarter turn in the sagittal plane taking +x to +z."""
+    if c == "x":  # along dx - up dz
+        return {f"{v_to}.x": along, f"{v_from}.x": -along, f"{v_to}.z": -up, f"{v_from}.z": up}
+    return {f"{v_to}.z": along, f"{v_from}.z": -along, f"{v_to}.x": up, f"{v_from}.x": -up}
+
+
+def _spine_joint_rows(rows: _Rows) -> None:
+    """C7/T1 and T12/L1 relative to the trunk markers, invariant to the thorax frame's tilt.
+
+    C7/T1 (the head's origin, ``(neck_depth, thorax_length)`` in the thorax frame): on the
+    line from C7 to CLAV (the jugular notch) turned 8 degrees upward, at 55 % of the C7-CLAV
+    distance (Dumas et al. 2007 after Reed et al. 1999, men). T12/L1 (the thorax origin): from
+    T10 along the C7-to-T10 line and anterior of it by the fractions of the C7-T10 distance
+    the nominal model has (two vertebral levels down, the vertebral body's depth forward).
+    """
+    along, up = CJC_RATIO * np.cos(np.radians(CJC_ANGLE)), CJC_RATIO * np.sin(np.radians(CJC_ANGLE))
+    for c, joint in (("x", "neck_depth"), ("z", "thorax_length")):
+        terms = _add(
+            {joint: 1.0, "C7." + c: -1.0}, _scaled(_rotated("C7", "CLAV", along, up, c), -1)
+        )
+        rows.add(terms, 0.0, SIGMA_SPINE, f"C7/T1.{c} = C7 + {CJC_RATIO:.2f} (CLAV - C7) "
+                 f"turned {CJC_ANGLE:.0f} deg up (Dumas 2007)")  # fmt: skip
+        # The thorax origin (0) = T10 + a (T10 - C7) + b R90 (T10 - C7).
+        terms = _add({"T10." + c: 1.0}, _rotated("C7", "T10", T12_ALONG, T12_FORWARD, c))
+        rows.add(terms, 0.0, SIGMA_SPINE, f"T12/L1.{c} from T10 along and anterior of C7-T10")
 
 
 def _shoulder_rows(
@@ -298,6 +362,15 @@ def _foot_rows(rows: _Rows, side: str, p: str, s: float) -> None:
     # markers are (nearly: 10 mm on the nominal model) level in the foot frame.
     rows.add({f"{p}HEE.z": 1, f"foot_height_{side}": 1, f"{p}TOE.z": -1}, -0.01 * s, lm,
              f"{p}HEE level with {p}TOE in the foot frame")  # fmt: skip
+    # The MTP joint relative to the heel marker and the ankle centre (the foot's origin),
+    # invariant to the foot frame's tilt against its markers (the TOE marker alone cannot
+    # place it: the toe angle turns TOE about it): MTP = HEE + A v + B R90 v, v = ankle - HEE.
+    a, b = MTP_FROM_HEE
+    for c, joint, sign in (("x", f"foot_length_{side}", 1.0), ("z", f"foot_height_{side}", -1.0)):
+        other = "z" if c == "x" else "x"
+        rot = -b if c == "x" else b
+        terms = {joint: sign, f"{p}HEE.{c}": -(1.0 - a), f"{p}HEE.{other}": rot}
+        rows.add(terms, 0.0, SIGMA_SPINE, f"MTP.{c} from {p}HEE and the ankle centre")
 
 
 #: Left/right kinematic parameter pairs tied by :func:`symmetric_prior`.
