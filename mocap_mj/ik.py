@@ -296,11 +296,13 @@ class IKSolver:
     def _best_start(self, markers: np.ndarray, w: np.ndarray, cold: np.ndarray) -> np.ndarray:
         """Starting poses (B, nq) of chain heads: ``cold`` or, where one fits the frame better
         once solved, the solution from one of the arm configurations of :data:`ARM_STARTS`."""
-        best = cold.copy()
         alternatives = self._arm_starts(cold)
         if not alternatives:
-            return best
-        fit = np.nan_to_num(self.solve_frames(markers, cold, w).marker_rmse, nan=np.inf)
+            return cold.copy()
+        # The solution from ``cold`` is a start too: the chain then only confirms it.
+        first = self.solve_frames(markers, cold, w)
+        fit = np.nan_to_num(first.marker_rmse, nan=np.inf)
+        best = np.where(np.isfinite(fit)[:, None], first.qpos, cold)
         for q0 in alternatives:
             r = self.solve_frames(markers, q0, w)
             rmse = np.nan_to_num(r.marker_rmse, nan=np.inf)

@@ -59,7 +59,7 @@ from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from .heuristics import RefitSchedule, StallMonitor, frame_rmse, refit_frames
 from .losses import LossName, loss_named
-from .priors import Prior, weak_prior
+from .priors import LinearGaussianPrior, Prior, weak_prior
 from .problem import (
     CHI3_MEDIAN,
     IdentificationProblem,
@@ -189,6 +189,12 @@ class LMSettings:
     def prior_weight(self) -> float:
         """lambda_p = (prior_noise / prior_sigma)^2 [1], the weak prior's weight."""
         return (self.prior_noise / self.prior_sigma) ** 2
+
+    def weak_prior(self, theta0: np.ndarray) -> LinearGaussianPrior:
+        """The weak prior toward theta0 (P,) [m]: ``prior_sigma`` wide against
+        ``prior_noise``. :func:`identify_lm` uses it when given no priors; callers that pass
+        their own priors add it themselves."""
+        return weak_prior(theta0, self.prior_sigma, self.prior_noise)
 
 
 # ------------------------------------------------------------------ one damped step
@@ -631,7 +637,7 @@ def identify_lm(
         used = [np.all(np.isfinite(q), axis=1) for q in init_q]
     init_seconds = time.perf_counter() - t_start
     if priors is None:
-        priors = [weak_prior(theta, st.prior_sigma, st.prior_noise)]
+        priors = [st.weak_prior(theta)]
     problem = build_problem(
         kin,
         trials,

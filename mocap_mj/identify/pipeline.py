@@ -26,7 +26,7 @@ from .initial import place_markers, scaled_theta, segment_scales
 from .lm import LMSettings, identify_lm, solver_joint_range
 from .output import write_result
 from .plausibility import kappa_outside_bounds, marker_rmse_by_marker
-from .priors import LinearGaussianPrior, Prior, weak_prior
+from .priors import LinearGaussianPrior
 from .problem import TrialData
 from .ranges import kappa_ranges, theta_bounds
 from .result import IdentificationResult, ProgressCallback
@@ -390,8 +390,8 @@ def prior_information(
     (``1 / settings.prior_sigma^2`` per parameter), as for a marker noise equal to the
     priors' ``noise`` (the weighting the solve used). For the Cramer-Rao bound with the
     priors (:meth:`Identifiability.bound_rms_with_prior`)."""
-    info = np.eye(size) / settings.prior_sigma**2
-    for p in priors:
+    info = np.zeros((size, size))
+    for p in (settings.weak_prior(np.zeros(size)), *priors):
         info += (p.a.T / p.sigma**2) @ p.a
     return info
 
@@ -431,7 +431,7 @@ def solve_anatomical(
         theta0=theta0,
         settings=settings,
         progress=progress,
-        priors=[_weak(start, settings), *priors],
+        priors=[settings.weak_prior(start), *priors],
         lower=lower,
         upper=upper,
     )
@@ -450,7 +450,7 @@ def solve_anatomical(
         settings=settings,
         progress=progress,
         initial_qpos=first.qpos,
-        priors=[_weak(first.theta, settings), *(p.with_noise(noise) for p in priors)],
+        priors=[settings.weak_prior(first.theta), *(p.with_noise(noise) for p in priors)],
         lower=lower,
         upper=upper,
     )
@@ -459,9 +459,3 @@ def solve_anatomical(
     result.init_seconds = first.init_seconds
     result.iterations += first.iterations
     return result, weighting
-
-
-def _weak(theta0: np.ndarray, settings: LMSettings) -> Prior:
-    """The LM's weak prior toward theta0 (P,) [m] (``settings.prior_sigma``, ``prior_noise``):
-    a solve given its own priors replaces the default one, so the anatomical solves add it."""
-    return weak_prior(theta0, settings.prior_sigma, settings.prior_noise)
