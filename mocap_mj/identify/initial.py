@@ -483,7 +483,10 @@ FLOATING_MARKERS: tuple[str, ...] = (
 def _local_medians(
     kin: Kinematics, markers: list[np.ndarray], qpos: list[np.ndarray], which: np.ndarray
 ) -> np.ndarray:
-    """Median over frames of markers ``which`` in their body's frame (n, 3) [m]."""
+    """Median over frames of markers ``which`` in their body's frame (n, 3) [m].
+
+    A marker with no data in any frame gets NaN (the caller keeps its nominal offset).
+    """
     local = []
     for mk, q in zip(markers, qpos, strict=True):
         ok = np.all(np.isfinite(q), axis=1)
@@ -495,7 +498,11 @@ def _local_medians(
         local.append(np.einsum("tmji,tmj->tmi", fr.xmat[:, body], rel))
     if not local:
         return np.full((len(which), 3), np.nan)
-    return np.nanmedian(np.concatenate(local, axis=0), axis=0)
+    stacked = np.concatenate(local, axis=0)
+    out = np.full((len(which), 3), np.nan)
+    seen = np.any(np.isfinite(stacked[..., 0]), axis=0)
+    out[seen] = np.nanmedian(stacked[:, seen], axis=0)
+    return out
 
 
 def place_markers(
