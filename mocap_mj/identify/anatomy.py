@@ -86,10 +86,9 @@ T12_ALONG, T12_FORWARD = 0.206, 0.386
 #: behind and 20 mm above). Reed et al. (1999) / Dumas et al. (2007) put it 0.264 and 0.126
 #: of the ASIS width behind and above mid-ASIS in the anterior pelvic plane (docs/model.md).
 L5S1_ALONG, L5S1_UP = 0.634, -0.2265
-#: MTP joint from the heel marker: coefficients (A, B) of v = ankle centre - HEE and of v
-#: turned a quarter upward, the nominal model's (MTP 210 mm ahead of and 10 mm below HEE,
-#: HEE 70 mm behind and 35 mm below the ankle centre).
-MTP_FROM_HEE = (2.343, -1.314)
+#: TOE above the MTP joint centre [m] on a 1.75 m adult: half the metatarsal head's height,
+#: the dorsal skin and the marker radius.
+TOE_ABOVE_MTP = 0.02
 
 #: Joint width (measurement, side removed) -> (kinematic parameter, width / parameter): the
 #: regression used when the width is not measured, from the nominal model (Plug-in Gait
@@ -349,28 +348,26 @@ def _hand_rows(rows: _Rows, subject: Subject, side: str, p: str, s: float) -> No
 
 
 def _foot_rows(rows: _Rows, side: str, p: str, s: float) -> None:
-    """The rows of one side's heel and toe markers."""
+    """The rows of one side's heel and toe markers, and the MTP joint from the toe marker.
+
+    Plug-in Gait's foot runs rigidly from the ankle centre to TOE, on the second metatarsal
+    head: TOE is on the foot body, over the MTP joint, which no marker sees (the toes carry
+    none). So the MTP joint (``foot_length``, ``foot_height``) is placed from TOE alone:
+    below it by the dorsal thickness of the forefoot (bone, skin, marker radius).
+    """
     lm, soft = SIGMA_LANDMARK, SIGMA_SOFT
-    # Foot: heel behind and below the ankle centre, toe marker over the MTP joint.
     rows.add({f"{p}HEE.x": 1}, -0.07 * s, soft, f"{p}HEE.x = 70 mm behind the ankle")
     rows.add({f"{p}HEE.y": 1}, 0.0, lm, f"{p}HEE.y = 0")
     rows.add({f"{p}HEE.z": 1}, -0.035 * s, soft, f"{p}HEE.z = 35 mm below the ankle")
-    rows.add({f"{p}TOE.x": 1}, 0.03 * s, soft, f"{p}TOE.x = 30 mm ahead of MTP")
+    rows.add({f"{p}TOE.x": 1, f"foot_length_{side}": -1}, 0.0, lm,
+             f"{p}TOE.x = foot_length_{side} (over the MTP joint)")  # fmt: skip
     rows.add({f"{p}TOE.y": 1}, 0.0, lm, f"{p}TOE.y = 0")
-    rows.add({f"{p}TOE.z": 1}, 0.02 * s, lm, f"{p}TOE.z = 20 mm above MTP")
-    # Plug-in Gait's foot axis runs from HEE to TOE: with the toes straight the two
-    # markers are (nearly: 10 mm on the nominal model) level in the foot frame.
-    rows.add({f"{p}HEE.z": 1, f"foot_height_{side}": 1, f"{p}TOE.z": -1}, -0.01 * s, lm,
+    rows.add({f"{p}TOE.z": 1, f"foot_height_{side}": 1}, TOE_ABOVE_MTP * s, lm,
+             f"{p}TOE.z = {TOE_ABOVE_MTP * 1e3:.0f} mm above the MTP joint")  # fmt: skip
+    # Plug-in Gait's foot axis runs from HEE to TOE: the two markers are (nearly: 10 mm on
+    # the nominal model) level in the foot frame.
+    rows.add({f"{p}HEE.z": 1, f"{p}TOE.z": -1}, -0.01 * s, lm,
              f"{p}HEE level with {p}TOE in the foot frame")  # fmt: skip
-    # The MTP joint relative to the heel marker and the ankle centre (the foot's origin),
-    # invariant to the foot frame's tilt against its markers (the TOE marker alone cannot
-    # place it: the toe angle turns TOE about it): MTP = HEE + A v + B R90 v, v = ankle - HEE.
-    a, b = MTP_FROM_HEE
-    for c, joint, sign in (("x", f"foot_length_{side}", 1.0), ("z", f"foot_height_{side}", -1.0)):
-        other = "z" if c == "x" else "x"
-        rot = -b if c == "x" else b
-        terms = {joint: sign, f"{p}HEE.{c}": -(1.0 - a), f"{p}HEE.{other}": rot}
-        rows.add(terms, 0.0, SIGMA_SPINE, f"MTP.{c} from {p}HEE and the ankle centre")
 
 
 #: Left/right kinematic parameter pairs tied by :func:`symmetric_prior`.
