@@ -175,7 +175,7 @@ def test_static_poses_with_arms_raised(kin: Kinematics, monkeypatch: pytest.Monk
                 * Rotation.from_rotvec([0, 0, twist])
             )
             q[adr : adr + 4] = rot.as_quat(scalar_first=True)
-        for joint, lo, hi in (("elbow", 0, 90), ("pronation", -50, 80)):
+        for joint, lo, hi in (("elbow", 0, 90), ("pronation", -130, 20)):
             for side in "lr":
                 q[int(m.jnt_qposadr[m.joint(f"{joint}_{side}").id])] = np.radians(
                     rng.uniform(lo, hi)

@@ -28,9 +28,9 @@ SEGMENT = {
     "RSHO": "clavicle_r", "RUPA": "upperarm_r", "RELB": "upperarm_r", "RFRM": "radius_r",
     "RWRA": "radius_r", "RWRB": "radius_r", "RFIN": "hand_r",
     "LTHI": "thigh_l", "LKNE": "thigh_l", "LTIB": "shank_l", "LANK": "shank_l",
-    "LHEE": "foot_l", "LTOE": "toes_l",
+    "LHEE": "foot_l", "LTOE": "foot_l",
     "RTHI": "thigh_r", "RKNE": "thigh_r", "RTIB": "shank_r", "RANK": "shank_r",
-    "RHEE": "foot_r", "RTOE": "toes_r",
+    "RHEE": "foot_r", "RTOE": "foot_r",
 }  # fmt: skip
 
 

@@ -255,6 +255,20 @@ def _components(pset: ParameterSet, v: np.ndarray, share: float = 0.9) -> list[t
     return out
 
 
+def _moves_a_marker(pset: ParameterSet, name: str) -> bool:
+    """Whether kinematic parameter ``name`` moves a body carrying a marker or one of its
+    descendants (a body it moves whose subtree holds no marker site, such as the toes, it
+    does not)."""
+    model = pset.model
+    moved = np.flatnonzero(np.any(pset.direction[pset.index(name)] != 0.0, axis=1))
+    for b in model.site_bodyid:
+        while b > 0:
+            if b in moved:
+                return True
+            b = int(model.body_parentid[b])
+    return False
+
+
 def _describe(
     pset: ParameterSet, theta: np.ndarray, v: np.ndarray, comps: list[tuple[str, float]]
 ) -> str:
@@ -264,6 +278,8 @@ def _describe(
     off = v[k:].reshape(-1, 3)
     _, offsets = pset.split(theta)
     top_name, top_w = comps[0]
+    if top_name in pset.kappa_names and top_w > 0.8 and not _moves_a_marker(pset, top_name):
+        return f"{top_name}: moves no marker (its prior rows alone decide it)"
     if top_name.endswith(" offset") and top_w > 0.8:
         marker = top_name.split()[0]
         s = pset.marker_index(marker)
