@@ -11,9 +11,9 @@ from _motion import smooth_motion
 from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.errors import MocapError
 from mocap_mj.identify.anatomy import (
+    SIGMA_CONVENTION,
     SIGMA_LANDMARK,
     SIGMA_MEASURED,
-    SIGMA_CONVENTION,
     SIGMA_REGRESSED,
     landmark_prior,
     marker_prior_table,

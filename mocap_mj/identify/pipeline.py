@@ -437,9 +437,9 @@ def solve_anatomical(
     solve starts from the first one's result with the priors' noise set to it: soft-tissue
     residuals correlated over tau frames hold about 1 / tau of the information white noise
     would, and the prior keeps its weight against them. On synthetic white noise (tau about
-    1, sigma the simulated noise) one solve is kept. The weak prior toward the initial model is unchanged (its mean becomes
-    the first solve's model in the second solve). Returns the result and the weighting
-    used (``noise_mm``, ``sigma_mm``, ``tau_frames``).
+    1, sigma the simulated noise) one solve is kept. The weak prior toward the initial model
+    is unchanged (its mean becomes the first solve's model in the second solve). Returns
+    the result and the weighting used (``noise_mm``, ``sigma_mm``, ``tau_frames``).
     """
     lower, upper = theta_bounds(pset, subject)
     priors = anatomical_priors(
