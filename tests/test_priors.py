@@ -240,7 +240,7 @@ def test_bounds_are_never_crossed(pset: ParameterSet) -> None:
     # Tight bounds below the truth on two lengths: the data push them outward.
     upper = upper.copy()
     for name in ("thigh_length_l", "shank_length_r"):
-        upper[pset.index(name)] = truth[pset.index(name)] - 0.01
+        upper[pset.index(name)] = truth[pset.index(name)] - 0.02
     settings = LMSettings(max_iterations=10, refine_iterations=5)
     for seed in range(3):
         theta0 = pset.nominal.copy()

@@ -255,18 +255,24 @@ def _components(pset: ParameterSet, v: np.ndarray, share: float = 0.9) -> list[t
     return out
 
 
-def _moves_a_marker(pset: ParameterSet, name: str) -> bool:
-    """Whether kinematic parameter ``name`` moves a body carrying a marker or one of its
-    descendants (a body it moves whose subtree holds no marker site, such as the toes, it
-    does not)."""
-    model = pset.model
-    moved = np.flatnonzero(np.any(pset.direction[pset.index(name)] != 0.0, axis=1))
+def seen_bodies(model: mujoco.MjModel) -> np.ndarray:
+    """(nbody,) bool: the bodies whose origin some marker follows, i.e. that carry a marker
+    site or have a descendant that does. The others (the toes: TOE is on the foot) are placed
+    by their prior rows alone; the data say nothing about them."""
+    seen = np.zeros(model.nbody, dtype=bool)
     for b in model.site_bodyid:
-        while b > 0:
-            if b in moved:
-                return True
+        b = int(b)
+        while b > 0 and not seen[b]:
+            seen[b] = True
             b = int(model.body_parentid[b])
-    return False
+    return seen
+
+
+def _moves_a_marker(pset: ParameterSet, name: str) -> bool:
+    """Whether kinematic parameter ``name`` moves a body that some marker follows
+    (:func:`seen_bodies`)."""
+    moved = np.any(pset.direction[pset.index(name)] != 0.0, axis=1)
+    return bool(np.any(moved & seen_bodies(pset.model)))
 
 
 def _describe(
