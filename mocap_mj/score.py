@@ -24,9 +24,10 @@ import numpy as np
 from ._threads import single_blas_thread
 from .errors import InputFileError
 from .identify.centres import joint_centre_bound
-from .identify.identifiability import Identifiability, seen_bodies
+from .identify.identifiability import Identifiability
 from .ik import IKSolver
 from .kinematics import Kinematics
+from .marker_set import marked_bodies
 from .parameters import ParameterSet
 from .results import Motion, load_motion
 
@@ -197,7 +198,7 @@ def _motion_errors(
     )
     # The headline is over the centres some marker follows; the others (the toes: no marker)
     # are placed by their prior rows alone and have no data bound (listed per body below).
-    seen = seen_bodies(kin_hat.model)[2:]
+    seen = marked_bodies(kin_hat.model)[2:]
     out["joint_centre_rmse_mm"] = _rms(jc[:, seen]) * 1e3
     out["joint_centre_max_mm"] = float(jc[:, seen].max()) * 1e3
     # Its Cramer-Rao bound: the pose's and the model's uncertainty (identify/centres.py).
@@ -214,7 +215,7 @@ def _motion_errors(
         n: float(b) * 1e3 for n, b in zip(cb.names, cb.total, strict=True)
     }
     # Joint angles of the joints some marker sees (not the MTP: no marker on the toes).
-    dof_seen = seen_bodies(kin_hat.model)[kin_hat.model.dof_bodyid]
+    dof_seen = marked_bodies(kin_hat.model)[kin_hat.model.dof_bodyid]
     dq = kin_true.difference(q_true[ok], motion.qpos[ok])[:, 6:][:, dof_seen[6:]]
     out["joint_rmse_deg"] = float(np.degrees(_rms(dq)))
     fitted = kin_hat.marker_positions(motion.qpos[ok])

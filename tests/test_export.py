@@ -346,7 +346,7 @@ def test_opensim_ik_reproduces_our_joint_angles(tmp_path: Path) -> None:
     returns the truth joint angles within 0.5 degree."""
     _opensim()
     from mocap_mj.export.opensim_ik import run_opensim_ik
-    from mocap_mj.identify.identifiability import seen_bodies
+    from mocap_mj.marker_set import marked_bodies
     from mocap_synth.config import SynthConfig
     from mocap_synth.experiment import synthesize
 
@@ -366,7 +366,7 @@ def test_opensim_ik_reproduces_our_joint_angles(tmp_path: Path) -> None:
     )
     dv = kin.difference(qpos, got.qpos)
     # Joints no marker sees (the MTP: TOE is on the foot) are free in OpenSim's IK too.
-    seen = seen_bodies(model)[model.dof_bodyid]
+    seen = marked_bodies(model)[model.dof_bodyid]
     assert np.degrees(np.max(np.abs(dv[:, 3:][:, seen[3:]]))) < 0.5
     assert np.max(np.abs(dv[:, :3])) < 1e-3  # root position [m]
 

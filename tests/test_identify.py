@@ -14,8 +14,9 @@ import pytest
 from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.identify import LMSettings, TrialData, identify_lm
 from mocap_mj.identify.centres import joint_centre_bound
-from mocap_mj.identify.identifiability import Identifiability, seen_bodies
+from mocap_mj.identify.identifiability import Identifiability
 from mocap_mj.identify.pipeline import anatomical_priors, prior_information, solve_anatomical
+from mocap_mj.marker_set import marked_bodies
 from mocap_mj.score import align_truth, joint_centres
 from mocap_mj.subject import Subject
 from mocap_synth import SynthConfig, synthesize
@@ -86,7 +87,7 @@ def test_reaches_the_bound_on_the_observable_subspace(clean) -> None:  # type: i
     kin_hat.set_theta(result.theta)
     bound = joint_centre_bound(kin_hat, np.asarray(exp.markers), result.qpos[0], idf)
     # The centres some marker follows (not the toes: their origin is the TOE rows' alone).
-    seen = seen_bodies(pset.model)[2:]
+    seen = marked_bodies(pset.model)[2:]
     assert seen.sum() == len(seen) - 2
     assert np.sqrt(np.mean(jc[:, seen] ** 2)) <= 1.3 * np.sqrt(np.mean(bound.total[seen] ** 2))
     per_body = np.sqrt(np.mean(jc[:, seen] ** 2, axis=0))

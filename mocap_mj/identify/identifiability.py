@@ -25,6 +25,7 @@ import numpy as np
 
 from .._threads import one_blas_thread
 from ..errors import check_shape
+from ..marker_set import marked_bodies
 from ..parameters import ParameterSet
 
 
@@ -255,24 +256,11 @@ def _components(pset: ParameterSet, v: np.ndarray, share: float = 0.9) -> list[t
     return out
 
 
-def seen_bodies(model: mujoco.MjModel) -> np.ndarray:
-    """(nbody,) bool: the bodies whose origin some marker follows, i.e. that carry a marker
-    site or have a descendant that does. The others (the toes: TOE is on the foot) are placed
-    by their prior rows alone; the data say nothing about them."""
-    seen = np.zeros(model.nbody, dtype=bool)
-    for b in model.site_bodyid:
-        b = int(b)
-        while b > 0 and not seen[b]:
-            seen[b] = True
-            b = int(model.body_parentid[b])
-    return seen
-
-
 def _moves_a_marker(pset: ParameterSet, name: str) -> bool:
     """Whether kinematic parameter ``name`` moves a body that some marker follows
-    (:func:`seen_bodies`)."""
+    (:func:`mocap_mj.marker_set.marked_bodies`)."""
     moved = np.any(pset.direction[pset.index(name)] != 0.0, axis=1)
-    return bool(np.any(moved & seen_bodies(pset.model)))
+    return bool(np.any(moved & marked_bodies(pset.model)))
 
 
 def _describe(
