@@ -38,6 +38,7 @@ __all__ = [
     "MarkerSet",
     "SetMarker",
     "load_marker_set",
+    "marked_bodies",
     "marker_class",
     "model_with_marker_set",
     "plug_in_gait",
@@ -197,6 +198,21 @@ def model_with_marker_set(
     return spec
 
 
+def marked_bodies(model: mujoco.MjModel, present: Collection[str] | None = None) -> np.ndarray:
+    """(nbody,) bool: the bodies that carry one of the markers ``present`` (default: every
+    marker site of ``model``) or have a descendant that does, i.e. whose pose those markers
+    follow."""
+    wanted = None if present is None else set(present)
+    seen = np.zeros(model.nbody, dtype=bool)
+    for i in range(model.nsite):
+        if wanted is None or model.site(i).name in wanted:
+            b = int(model.site_bodyid[i])
+            while b > 0 and not seen[b]:
+                seen[b] = True
+                b = int(model.body_parentid[b])
+    return seen
+
+
 def undetermined_segments(model: mujoco.MjModel, present: Collection[str]) -> tuple[str, ...]:
     """Bodies of ``model`` whose motion the markers ``present`` cannot determine.
 
@@ -204,18 +220,14 @@ def undetermined_segments(model: mujoco.MjModel, present: Collection[str]) -> tu
     a body below it in the tree; otherwise its joint angles, and the segment lengths leading
     to it, are left to the prior. Identification then still runs, and this list says which
     segments its result does not measure (e.g. hand_l, hand_r without wrist and finger
-    markers). Returns body names in model order.
+    markers). A body no marker of the model's set could determine (the toes: Plug-in Gait
+    puts TOE on the foot) is not listed: no trial measures it, and identifiability names its
+    parameters. Returns body names in model order.
     """
-    wanted = set(present)
-    seen = np.zeros(model.nbody, dtype=bool)
-    for i in range(model.nsite):
-        if model.site(i).name in wanted:
-            b = int(model.site_bodyid[i])
-            while b > 0 and not seen[b]:
-                seen[b] = True
-                b = int(model.body_parentid[b])
+    seen = marked_bodies(model, present)
+    markable = marked_bodies(model)
     return tuple(
         model.body(b).name
         for b in range(1, model.nbody)
-        if model.body_jntnum[b] > 0 and not seen[b]
+        if model.body_jntnum[b] > 0 and markable[b] and not seen[b]
     )

@@ -524,7 +524,8 @@ def walk(model: mujoco.MjModel, frames: int, rate: float, rng: np.random.Generat
             [flip * (8 * d + jitter()), -arm_flex, -flip * (5 * d + jitter())], axis=-1
         )
         hinge[f"elbow_{side}"] = 22 * d + 0.8 * (arm_flex - 5 * d)
-        hinge[f"pronation_{side}"] = 40 * d + jitter()
+        # Forearm half pronated from palms forward (thumb forward at -90 degrees).
+        hinge[f"pronation_{side}"] = -60 * d + jitter()
         hinge[f"wrist_flex_{side}"] = 5 * d + jitter()
         hinge[f"wrist_dev_{side}"] = 5 * d + jitter()
         hinge[f"clav_elev_{side}"] = 3 * d + 0.1 * arm_flex

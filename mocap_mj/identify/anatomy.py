@@ -23,7 +23,10 @@ Widths (standard deviations, per row) and their sources:
   it defines (inter-examiner palpation precision of pelvis, knee and ankle landmarks 5-15 mm,
   Della Croce et al. 1999, 2005), for the along-segment and antero-posterior components;
 * :data:`SIGMA_MIDLINE` = 5 mm: C7, T10, CLAV, STRN on the mid-sagittal plane, the ASIS
-  markers defining the pelvis origin (mid-ASIS) and plane;
+  markers defining the pelvis origin (mid-ASIS) and plane, and the tilt of the pelvis and
+  thorax frames against their markers (mid-PSIS 20 mm above mid-ASIS; Plug-in Gait's thorax
+  axis from mid(T10, STRN) to mid(C7, CLAV)): directions the data leave free, fixed so that
+  the rows written in those frames mean the same on every trial;
 * :data:`SIGMA_MEASURED` = 1.5 mm: a lateral offset from a caliper-measured width (caliper
   precision 1-2 mm). Plug-in Gait takes the measurement as exact; at 3 mm the jump of the
   pyCGM files pulled the knee centres 10-11 mm toward KNE (docs/real-data.md);
@@ -31,16 +34,19 @@ Widths (standard deviations, per row) and their sources:
   length (:data:`WIDTH_RATIO`; joint widths vary with body mass at a given length);
 * :data:`SIGMA_HJC` = 8 mm: Harrington et al. (2007) hip centre per axis (their regression
   errors, 4-9 mm, plus the ASIS/PSIS marker placement);
-* :data:`SIGMA_SOFT` = 15 mm: landmarks whose depth below the skin or position relative to a
-  joint varies between adults (T10, STRN, C7 depth, HEE, TOE, FIN);
-* :data:`SIGMA_SPINE` = 10 mm: the joints no marker determines (C7/T1, T12/L1, L5/S1, the
-  MTP joint) from the markers around them, written so that they do not depend on how the
-  segment's frame is tilted against its markers (a direction the data leave free): Dumas et
-  al. (2007) C7/T1 from C7 and CLAV; T12/L1 from T10 and C7, L5/S1 from the ASIS and PSIS
-  markers and the MTP joint from HEE and the ankle centre with the nominal model's
-  proportions. At 15 mm the real trials' data (the functional centre of the head's motion,
-  of the toes') still moved these joints 40-90 mm between trials of one subject
-  (docs/real-data.md);
+* :data:`SIGMA_SOFT` = 15 mm: landmarks whose position relative to a joint varies between
+  adults (HEE, FIN);
+* :data:`SIGMA_CONVENTION` = 3 mm: the joints of the model that stand in for a chain of
+  joints (C7/T1 for the cervical spine, T12/L1 and L5/S1 for the thoracolumbar spine, the
+  sternoclavicular joints for the shoulder girdle, whose clavicle carries the acromion marker
+  of the scapula). Such a joint has no functional centre: the point about which the data
+  turn it moves with the motion (model error, not information about the subject), so these
+  rows define it from the markers of its segment, as Plug-in Gait defines its segments, and
+  must outweigh the data: Dumas et al. (2007) C7/T1 from C7 and CLAV; T12/L1 from T10 and
+  C7 and L5/S1 from the ASIS and PSIS markers with the nominal model's proportions, written
+  so that they do not depend on how the frame is tilted against its markers; the SC joints
+  beside and level with CLAV. At 10 mm the data moved them 30-60 mm between trials of one
+  subject, at 3 mm they hold within a few mm (docs/real-data.md);
 * :data:`SIGMA_LEG` = 15 mm: hip height + thigh + shank against the measured leg length
   (a tape measure over the knee, ASIS to medial malleolus);
 * :data:`ASYMMETRY_SIGMA` = 5 mm: left minus right length in healthy adults (anatomic
@@ -51,7 +57,8 @@ The data and the prior are weighed against each other through ``noise``: the pri
 so ``noise`` is the per-axis marker noise of an independent observation. On real recordings
 the residuals are soft-tissue artefact correlated over tens of frames
 (:func:`mocap_mj.identify.noise.residual_correlation_time`): the pipeline sets ``noise`` to
-the fit's sigma times the square root of that time.
+the artefact's per-axis size (at least the fit's sigma, at least
+:data:`~mocap_mj.identify.pipeline.SOFT_TISSUE_SIGMA`) times the square root of that time.
 """
 
 from __future__ import annotations
@@ -73,7 +80,7 @@ SIGMA_HJC = 0.008
 SIGMA_SOFT = 0.015
 SIGMA_LEG = 0.015
 ASYMMETRY_SIGMA = 0.005
-SIGMA_SPINE = 0.010
+SIGMA_CONVENTION = 0.003
 
 #: C7/T1 from the C7 marker: fraction of the C7-CLAV distance and angle [deg] above that line
 #: (Dumas, Cheze, Verriest 2007, Table 2, men; after Reed, Manary, Schneider 1999).
@@ -86,10 +93,11 @@ T12_ALONG, T12_FORWARD = 0.206, 0.386
 #: behind and 20 mm above). Reed et al. (1999) / Dumas et al. (2007) put it 0.264 and 0.126
 #: of the ASIS width behind and above mid-ASIS in the anterior pelvic plane (docs/model.md).
 L5S1_ALONG, L5S1_UP = 0.634, -0.2265
-#: MTP joint from the heel marker: coefficients (A, B) of v = ankle centre - HEE and of v
-#: turned a quarter upward, the nominal model's (MTP 210 mm ahead of and 10 mm below HEE,
-#: HEE 70 mm behind and 35 mm below the ankle centre).
-MTP_FROM_HEE = (2.343, -1.314)
+#: mid-PSIS above mid-ASIS in the pelvis frame [m] on a 1.75 m adult (the nominal model's).
+PSIS_ABOVE_ASIS = 0.02
+#: TOE above the MTP joint centre [m] on a 1.75 m adult: half the metatarsal head's height,
+#: the dorsal skin and the marker radius.
+TOE_ABOVE_MTP = 0.02
 
 #: Joint width (measurement, side removed) -> (kinematic parameter, width / parameter): the
 #: regression used when the width is not measured, from the nominal model (Plug-in Gait
@@ -177,7 +185,7 @@ def landmark_prior(
     h = subject.get("height")
     s = h / NOMINAL_HEIGHT if h is not None else size
     rows = _Rows(pset)
-    _pelvis_rows(rows, subject)
+    _pelvis_rows(rows, subject, s)
     _trunk_rows(rows, s)
     for side, p in (("l", "L"), ("r", "R")):
         _shoulder_rows(rows, pset, subject, side, p, s)
@@ -187,13 +195,19 @@ def landmark_prior(
     return rows.prior(noise)
 
 
-def _pelvis_rows(rows: _Rows, subject: Subject) -> None:
+def _pelvis_rows(rows: _Rows, subject: Subject, s: float) -> None:
     """The pelvis rows: ASIS markers and the hip joint centres (Harrington 2007)."""
     mid = SIGMA_MIDLINE
     # Pelvis: origin at mid-ASIS, ASIS on its y axis (the pelvis frame is defined by them).
     for m in ("LASI", "RASI"):
         rows.add({f"{m}.x": 1}, 0.0, mid, f"{m}.x = 0 (pelvis origin mid-ASIS)")
         rows.add({f"{m}.z": 1}, 0.0, mid, f"{m}.z = 0 (ASIS plane)")
+    # The pelvis frame's tilt against its markers (left free by the data: the root absorbs
+    # it), as on the nominal model: mid-PSIS 20 mm above mid-ASIS (7 degrees from the
+    # ASIS-PSIS plane of Plug-in Gait's pelvis), so that the Harrington rows below, written
+    # in the frame, mean the same on every trial.
+    rows.add({"LPSI.z": 0.5, "RPSI.z": 0.5, "LASI.z": -0.5, "RASI.z": -0.5}, PSIS_ABOVE_ASIS * s,
+             mid, "pelvis tilt: mid-PSIS 20 mm above mid-ASIS")  # fmt: skip
     asis = subject.get("asis_distance")
     if asis is not None:
         rows.add({"LASI.y": 1, "RASI.y": -1}, asis, SIGMA_MEASURED, "LASI-RASI = asis_distance")
@@ -228,24 +242,27 @@ def _pelvis_rows(rows: _Rows, subject: Subject) -> None:
         for m in ("LPSI", "RPSI"):
             terms = _add(terms, _scaled(_rotated("LASI", m, L5S1_ALONG, L5S1_UP, c), 0.25))
             terms = _add(terms, _scaled(_rotated("RASI", m, L5S1_ALONG, L5S1_UP, c), 0.25))
-        rows.add(terms, 0.0, SIGMA_SPINE,
+        rows.add(terms, 0.0, SIGMA_CONVENTION,
                  f"L5/S1.{c} from mid-ASIS along and above the ASIS-PSIS line")  # fmt: skip
 
 
 def _trunk_rows(rows: _Rows, s: float) -> None:
-    """The trunk rows: midline markers, C7, T10, CLAV and STRN (``s`` the stature ratio)."""
-    lm, mid, soft = SIGMA_LANDMARK, SIGMA_MIDLINE, SIGMA_SOFT
-    # Trunk: midline markers, C7 at the C7/T1 joint's level, CLAV at the SC joints' level.
+    """The trunk rows (``s`` the stature ratio): midline markers, the thorax frame's tilt,
+    and the joints around the thorax placed from its markers (C7/T1, T12/L1, SC joints)."""
+    mid, conv = SIGMA_MIDLINE, SIGMA_CONVENTION
     for m in ("C7", "T10", "CLAV", "STRN"):
         rows.add({f"{m}.y": 1}, 0.0, mid, f"{m}.y = 0 (midline)")
-    rows.add({"C7.z": 1, "thorax_length": -1}, -0.005 * s, lm, "C7.z = thorax_length - 5 mm")
-    rows.add({"C7.x": 1, "neck_depth": -1}, -0.075 * s, soft, "C7.x = neck_depth - 75 mm")
-    rows.add({"T10.z": 1}, 0.05 * s, soft, "T10.z = 50 mm above T12/L1")
-    rows.add({"T10.x": 1}, -0.075 * s, soft, "T10.x = 75 mm behind T12/L1")
+    # The thorax frame's tilt against its markers (left free by the data: the thorax ball
+    # absorbs it): Plug-in Gait's thorax axis, mid(T10, STRN) to mid(C7, CLAV), 3 degrees
+    # forward of the frame's z axis as on the nominal model.
+    rows.add({"C7.x": 0.5, "CLAV.x": 0.5, "T10.x": -0.5, "STRN.x": -0.5}, -0.01 * s, mid,
+             "thorax axis: mid(C7, CLAV) 10 mm behind mid(T10, STRN)")  # fmt: skip
+    # Sternoclavicular joints beside the jugular notch (CLAV), at its level.
     sc_mid = {"sc_height_l": -0.5, "sc_height_r": -0.5}
-    rows.add({"CLAV.z": 1, **sc_mid}, 0.005 * s, lm, "CLAV.z = SC joints' height + 5 mm")
-    rows.add({"CLAV.x": 1, "sc_depth": -1}, 0.02 * s, lm, "CLAV.x = sc_depth + 20 mm")
-    rows.add({"STRN.x": 1, "sc_depth": -1}, 0.06 * s, soft, "STRN.x = sc_depth + 60 mm")
+    rows.add({"CLAV.z": 1, **sc_mid}, 0.005 * s, conv, "CLAV.z = SC joints' height + 5 mm")
+    rows.add({"CLAV.x": 1, "sc_depth": -1}, 0.02 * s, conv, "CLAV.x = sc_depth + 20 mm")
+    for side in ("l", "r"):
+        rows.add({f"sc_width_{side}": 1}, 0.025 * s, conv, f"sc_width_{side} = 25 mm")
     _spine_joint_rows(rows)
 
 
@@ -271,11 +288,11 @@ def _spine_joint_rows(rows: _Rows) -> None:
         terms = _add(
             {joint: 1.0, "C7." + c: -1.0}, _scaled(_rotated("C7", "CLAV", along, up, c), -1)
         )
-        rows.add(terms, 0.0, SIGMA_SPINE, f"C7/T1.{c} = C7 + {CJC_RATIO:.2f} (CLAV - C7) "
+        rows.add(terms, 0.0, SIGMA_CONVENTION, f"C7/T1.{c} = C7 + {CJC_RATIO:.2f} (CLAV - C7) "
                  f"turned {CJC_ANGLE:.0f} deg up (Dumas 2007)")  # fmt: skip
         # The thorax origin (0) = T10 + a (T10 - C7) + b R90 (T10 - C7).
         terms = _add({"T10." + c: 1.0}, _rotated("C7", "T10", T12_ALONG, T12_FORWARD, c))
-        rows.add(terms, 0.0, SIGMA_SPINE, f"T12/L1.{c} from T10 along and anterior of C7-T10")
+        rows.add(terms, 0.0, SIGMA_CONVENTION, f"T12/L1.{c} from T10 along and anterior of C7-T10")
 
 
 def _shoulder_rows(
@@ -349,28 +366,26 @@ def _hand_rows(rows: _Rows, subject: Subject, side: str, p: str, s: float) -> No
 
 
 def _foot_rows(rows: _Rows, side: str, p: str, s: float) -> None:
-    """The rows of one side's heel and toe markers."""
+    """The rows of one side's heel and toe markers, and the MTP joint from the toe marker.
+
+    Plug-in Gait's foot runs rigidly from the ankle centre to TOE, on the second metatarsal
+    head: TOE is on the foot body, over the MTP joint, which no marker sees (the toes carry
+    none). So the MTP joint (``foot_length``, ``foot_height``) is placed from TOE alone:
+    below it by the dorsal thickness of the forefoot (bone, skin, marker radius).
+    """
     lm, soft = SIGMA_LANDMARK, SIGMA_SOFT
-    # Foot: heel behind and below the ankle centre, toe marker over the MTP joint.
     rows.add({f"{p}HEE.x": 1}, -0.07 * s, soft, f"{p}HEE.x = 70 mm behind the ankle")
     rows.add({f"{p}HEE.y": 1}, 0.0, lm, f"{p}HEE.y = 0")
     rows.add({f"{p}HEE.z": 1}, -0.035 * s, soft, f"{p}HEE.z = 35 mm below the ankle")
-    rows.add({f"{p}TOE.x": 1}, 0.03 * s, soft, f"{p}TOE.x = 30 mm ahead of MTP")
+    rows.add({f"{p}TOE.x": 1, f"foot_length_{side}": -1}, 0.0, lm,
+             f"{p}TOE.x = foot_length_{side} (over the MTP joint)")  # fmt: skip
     rows.add({f"{p}TOE.y": 1}, 0.0, lm, f"{p}TOE.y = 0")
-    rows.add({f"{p}TOE.z": 1}, 0.02 * s, lm, f"{p}TOE.z = 20 mm above MTP")
-    # Plug-in Gait's foot axis runs from HEE to TOE: with the toes straight the two
-    # markers are (nearly: 10 mm on the nominal model) level in the foot frame.
-    rows.add({f"{p}HEE.z": 1, f"foot_height_{side}": 1, f"{p}TOE.z": -1}, -0.01 * s, lm,
+    rows.add({f"{p}TOE.z": 1, f"foot_height_{side}": 1}, TOE_ABOVE_MTP * s, lm,
+             f"{p}TOE.z = {TOE_ABOVE_MTP * 1e3:.0f} mm above the MTP joint")  # fmt: skip
+    # Plug-in Gait's foot axis runs from HEE to TOE: the two markers are (nearly: 10 mm on
+    # the nominal model) level in the foot frame.
+    rows.add({f"{p}HEE.z": 1, f"{p}TOE.z": -1}, -0.01 * s, lm,
              f"{p}HEE level with {p}TOE in the foot frame")  # fmt: skip
-    # The MTP joint relative to the heel marker and the ankle centre (the foot's origin),
-    # invariant to the foot frame's tilt against its markers (the TOE marker alone cannot
-    # place it: the toe angle turns TOE about it): MTP = HEE + A v + B R90 v, v = ankle - HEE.
-    a, b = MTP_FROM_HEE
-    for c, joint, sign in (("x", f"foot_length_{side}", 1.0), ("z", f"foot_height_{side}", -1.0)):
-        other = "z" if c == "x" else "x"
-        rot = -b if c == "x" else b
-        terms = {joint: sign, f"{p}HEE.{c}": -(1.0 - a), f"{p}HEE.{other}": rot}
-        rows.add(terms, 0.0, SIGMA_SPINE, f"MTP.{c} from {p}HEE and the ankle centre")
 
 
 #: Left/right kinematic parameter pairs tied by :func:`symmetric_prior`.

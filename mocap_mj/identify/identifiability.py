@@ -25,6 +25,7 @@ import numpy as np
 
 from .._threads import one_blas_thread
 from ..errors import check_shape
+from ..marker_set import marked_bodies
 from ..parameters import ParameterSet
 
 
@@ -255,6 +256,13 @@ def _components(pset: ParameterSet, v: np.ndarray, share: float = 0.9) -> list[t
     return out
 
 
+def _moves_a_marker(pset: ParameterSet, name: str) -> bool:
+    """Whether kinematic parameter ``name`` moves a body that some marker follows
+    (:func:`mocap_mj.marker_set.marked_bodies`)."""
+    moved = np.any(pset.direction[pset.index(name)] != 0.0, axis=1)
+    return bool(np.any(moved & marked_bodies(pset.model)))
+
+
 def _describe(
     pset: ParameterSet, theta: np.ndarray, v: np.ndarray, comps: list[tuple[str, float]]
 ) -> str:
@@ -264,6 +272,8 @@ def _describe(
     off = v[k:].reshape(-1, 3)
     _, offsets = pset.split(theta)
     top_name, top_w = comps[0]
+    if top_name in pset.kappa_names and top_w > 0.8 and not _moves_a_marker(pset, top_name):
+        return f"{top_name}: moves no marker (its prior rows alone decide it)"
     if top_name.endswith(" offset") and top_w > 0.8:
         marker = top_name.split()[0]
         s = pset.marker_index(marker)

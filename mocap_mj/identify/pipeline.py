@@ -365,6 +365,26 @@ def result_text(summary: dict[str, Any], pset: ParameterSet, out: Path) -> str:
 
 #: Effective noise [m] below which one solve with the nominal prior noise is kept.
 REWEIGHT_RATIO = 1.5
+#: Per-axis soft-tissue artefact [m] assumed at least on a real recording (residuals
+#: correlated over ``CORRELATED_TAU`` frames or more). The fit's residual is only the part of
+#: the artefact the model could not absorb: the part that looks like joint motion or a
+#: shifted joint centre is taken up by the skeleton and never appears in it. Skin markers
+#: move 5-30 mm against the bone (Leardini et al. 2005, Peters et al. 2010): 5 mm per axis
+#: (8.7 mm in 3-D) is the low end.
+SOFT_TISSUE_SIGMA = 0.005
+#: Residual correlation time [frames] from which residuals are taken as soft-tissue artefact
+#: rather than white measurement noise (tau about 1).
+CORRELATED_TAU = 2.0
+
+
+def artefact_noise(sigma: float, tau: float) -> float:
+    """The per-axis noise [m] of one independent observation that the priors are weighed
+    against: ``sigma`` [m] (the fit's per-axis residual) times sqrt(``tau``) [frames], with
+    ``sigma`` raised to ``SOFT_TISSUE_SIGMA`` when the residuals are correlated (``tau`` >=
+    ``CORRELATED_TAU``): the fit's residual underestimates the artefact it absorbed."""
+    if tau >= CORRELATED_TAU:
+        sigma = max(sigma, SOFT_TISSUE_SIGMA)
+    return sigma * float(np.sqrt(tau))
 
 
 def anatomical_priors(
@@ -410,15 +430,16 @@ def solve_anatomical(
     """The joint LM with anatomical ranges as bounds and the anatomical priors.
 
     The priors are weighed against the markers' effective noise: a first solve uses the
-    nominal marker noise (``settings.prior_noise``, 1 mm); when its per-axis noise sigma
-    times the square root of the residuals' correlation time tau [frames] exceeds that by
-    ``REWEIGHT_RATIO``, a second solve starts from the first one's result with the priors'
-    noise set to sigma sqrt(tau): soft-tissue residuals correlated over tau frames hold
-    about 1 / tau of the information white noise would, and the prior keeps its weight
-    against them. On synthetic white noise (tau about 1, sigma the simulated noise) one
-    solve is kept. The weak prior toward the initial model is unchanged (its mean becomes
-    the first solve's model in the second solve). Returns the result and the weighting
-    used (``noise_mm``, ``sigma_mm``, ``tau_frames``).
+    nominal marker noise (``settings.prior_noise``, 1 mm); when the artefact's noise of one
+    independent observation (:func:`artefact_noise`: the per-axis noise sigma, at least
+    ``SOFT_TISSUE_SIGMA`` when the residuals are correlated, times the square root of the
+    residuals' correlation time tau [frames]) exceeds that by ``REWEIGHT_RATIO``, a second
+    solve starts from the first one's result with the priors' noise set to it: soft-tissue
+    residuals correlated over tau frames hold about 1 / tau of the information white noise
+    would, and the prior keeps its weight against them. On synthetic white noise (tau about
+    1, sigma the simulated noise) one solve is kept. The weak prior toward the initial model
+    is unchanged (its mean becomes the first solve's model in the second solve). Returns
+    the result and the weighting used (``noise_mm``, ``sigma_mm``, ``tau_frames``).
     """
     lower, upper = theta_bounds(pset, subject)
     priors = anatomical_priors(
@@ -436,7 +457,7 @@ def solve_anatomical(
         upper=upper,
     )
     tau = correlation_time(pset, result, trials)
-    noise = result.sigma * float(np.sqrt(tau))
+    noise = artefact_noise(result.sigma, tau)
     weighting = {"sigma_mm": result.sigma * 1e3, "tau_frames": tau, "noise_mm": noise * 1e3}
     if noise <= REWEIGHT_RATIO * settings.prior_noise:
         weighting["noise_mm"] = settings.prior_noise * 1e3
