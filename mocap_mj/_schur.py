@@ -29,6 +29,7 @@ from ._tree import (
     KappaTables,
     Tree,
     _jit,
+    _kernel,
     blocked_dofs,
     blocks,
     factor,
@@ -55,7 +56,7 @@ def _rows_lt_solve(tr, a, y):
             i = parent[i]
 
 
-@_jit
+@_kernel
 def _schur_range(
     tr, kt, target, wts, qpos, free, lo, hi, use_limits, mu, y_out, yg_out, ld_out, gq_out,
     diag_out, c_acc, gt_acc,
@@ -115,7 +116,7 @@ def _schur_range(
                 c_acc[off + j, off + j] += ws
         h, g = w.h, w.g
         if use_limits and blocked_dofs(tr, qpos[t], g, w.blocked, g):
-            hold_blocked(tr, qpos[t], w.blocked, h, True)
+            hold_blocked(tr, qpos[t], w.blocked, h)
             for v in range(nv):
                 if w.blocked[v] and tr.jnt_type[tr.dof_jnt[v]] == HINGE:
                     bmat[v, :] = 0.0
@@ -128,10 +129,12 @@ def _schur_range(
                 a[i, k] = h[i, k]
             a[i, i] += mu * h[i, i] + 1e-12
         factor(tr, a)
-        ld_out[t] = a
-        for c in range(free.size):
-            yb[:, c] = bmat[:, free[c]]
-        yb[:, free.size] = g
+        for i in range(nv):
+            for k in range(nv):
+                ld_out[t, i, k] = a[i, k]
+            for c in range(free.size):
+                yb[i, c] = bmat[i, free[c]]
+            yb[i, free.size] = g[i]
         _rows_lt_solve(tr, a, yb)
         for i in range(nv):
             sd = 1.0 / np.sqrt(a[i, i])
@@ -202,7 +205,7 @@ def frame_blocks(
     return FrameBlocks(y, y_g, ld, g_q, diag_a, c.sum(axis=0), g_theta.sum(axis=0))
 
 
-@_jit
+@_kernel
 def _back_range(tr, ld, u, out):
     parent = tr.dof_parent
     nv = ld.shape[1]
