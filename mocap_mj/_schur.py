@@ -24,10 +24,12 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import _numba_prewarm
 from ._tree import (
     HINGE,
     KappaTables,
     Tree,
+    _floats,
     _jit,
     _kernel,
     blocked_dofs,
@@ -182,6 +184,7 @@ def frame_blocks(
     ``A`` is damped as ``A + mu diag(A) + 1e-12 I``. With ``limits``, hinges at a joint limit
     that the gradient pushes outward are held (their rows leave A, B and g_q).
     """
+    _numba_prewarm.wait()
     n = len(qpos)
     nv = tr.dof_jnt.size
     n_par = kt.n_kappa + 3 * tr.site_body.size
@@ -195,7 +198,7 @@ def frame_blocks(
     k = bounds.size - 1
     c = np.zeros((k, n_par, n_par))
     g_theta = np.zeros((k, n_par))
-    args = (tr, kt, target, wts, np.ascontiguousarray(qpos), free)
+    args = (tr, kt, *_floats(target, wts, qpos), free)
     outs = (bool(limits), float(mu), y, y_g, ld, g_q, diag_a)
     run_blocks(
         _schur_range,
@@ -223,6 +226,7 @@ def _back_range(tr, ld, u, out):
 
 def back_substitute(tr: Tree, blocks: FrameBlocks, dtheta: np.ndarray) -> np.ndarray:
     """The frames' joint steps dq (n, nv) for the free-parameter step dtheta (Pf,)."""
+    _numba_prewarm.wait()
     u = blocks.y_g - blocks.y @ dtheta
     out = np.empty_like(u)
     _back_range(tr, blocks.ld, u, out)

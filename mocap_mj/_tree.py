@@ -34,6 +34,7 @@ import mujoco
 import numba as nb
 import numpy as np
 
+from . import _numba_prewarm
 from ._kernel_cache import share_cache
 
 FREE, BALL, HINGE = 0, 1, 3  # mjtJoint values
@@ -107,6 +108,7 @@ class Work(NamedTuple):
 #: (Python threads run kernels side by side, see :func:`run_blocks`), and numpy's error model
 #: (a division by zero gives inf/nan instead of raising: no exception paths to compile).
 _OPTIONS: dict[str, Any] = {"cache": True, "nogil": True, "error_model": "numpy"}
+_INNER_OPTIONS: dict[str, Any] = {**_OPTIONS, "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
 
 
 def _kernel(fn: Callable[..., Any]) -> Any:
@@ -124,7 +126,7 @@ def _jit(fn: Callable[..., Any]) -> Any:
     run"). Calling such a helper from Python crashes the interpreter: use
     :func:`python_callable` (tests do).
     """
-    return share_cache(nb.njit(**_OPTIONS, no_cpython_wrapper=True, no_cfunc_wrapper=True)(fn))
+    return share_cache(nb.njit(**_INNER_OPTIONS)(fn))
 
 
 @cache
@@ -866,9 +868,14 @@ def solve_batch(
 
 
 def _floats(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The arrays as C-contiguous float64 (copies only where needed), so that every call of
-    :func:`_ik_range` has one signature and the kernel is compiled once."""
-    return tuple(np.ascontiguousarray(a, dtype=float) for a in arrays)
+    """The arrays as C-contiguous, writeable float64 (copied only where needed).
+
+    Numba compiles a kernel once per argument type, and a strided or read-only array is
+    another type: one call with such an array would compile the whole entry kernel again
+    (for :func:`_ik_range`, most of the first run's compile).
+    """
+    out = [np.ascontiguousarray(a, dtype=float) for a in arrays]
+    return tuple(a if a.flags.writeable else a.copy() for a in out)
 
 
 def _unused(nq: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
@@ -975,8 +982,9 @@ def _forward_range(tr, qpos, site_xpos):
 
 def forward(tr: Tree, qpos: np.ndarray) -> np.ndarray:
     """Site positions (T, ns, 3) [m] of qpos (T, nq)."""
+    _numba_prewarm.wait()
     out = np.empty((len(qpos), tr.site_body.size, 3))
-    _forward_range(tr, np.ascontiguousarray(qpos, dtype=float), out)
+    _forward_range(tr, *_floats(qpos), out)
     return out
 
 
@@ -995,7 +1003,7 @@ def compile_notice() -> None:
         return
     _notice_given = True
     try:
-        index = Path(solve_frame._cache._cache_file._index_path)
+        index = Path(_ik_range._cache._cache_file._index_path)
     except AttributeError:  # a numba without this cache layout: say nothing
         return
     if not index.exists():
