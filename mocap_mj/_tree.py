@@ -991,7 +991,7 @@ def forward(tr: Tree, qpos: np.ndarray) -> np.ndarray:
 # ------------------------------------------------------------------ tables
 #: What the first run of an install spends compiling the kernels on a 2-core machine
 #: (``benchmarks/cold_start.py``), said once when the on-disk cache is empty.
-COMPILE_SECONDS = 40
+COMPILE_SECONDS = 15
 _notice_given = False
 
 
