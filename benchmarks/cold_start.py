@@ -9,8 +9,11 @@ the compile's CPU time hardly does.
 
 With ``--kernels`` the first run also prints the compile time of every kernel compiled from
 Python (the entry kernels; each includes the helpers compiled for it), from numba's
-``numba:compile`` events. ``--prewarm 0/1`` sets ``MOCAP_MJ_PREWARM`` (the identification
-kernels compiled in a second process, ``mocap_mj/_numba_prewarm.py``; default: its own rule).
+``numba:compile`` events, and the CPU time of the demo's own process (without the second
+process that ``--prewarm 1`` starts; with it, that process's compile is off the demo's
+critical path). ``--prewarm 0/1``
+sets ``MOCAP_MJ_PREWARM`` (the identification kernels compiled in a second process,
+``mocap_mj/_numba_prewarm.py``; default: its own rule).
 
 Run: python benchmarks/cold_start.py [--python PATH] [--frames 500] [--runs 2] [--kernels]
 [--prewarm 0|1] (``--python`` another environment's interpreter, e.g. to compare with an
@@ -52,6 +55,7 @@ else:
 for name, s in seconds.items():
     print(f"  compile {name:<24} {s:6.2f} s", file=sys.stderr)
 print(f"  compile total{'':<19} {sum(seconds.values()):6.2f} s", file=sys.stderr)
+print(f"  compile main process CPU {time.process_time():6.2f} s", file=sys.stderr)
 sys.exit(status)
 """
 
