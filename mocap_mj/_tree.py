@@ -122,7 +122,7 @@ def _jit(fn: Callable[..., Any]) -> Any:
     Numba gives every compiled function a wrapper that unboxes its arguments from Python
     objects (for a :class:`Tree` and a :class:`Work`, 38 arrays) and a C-callable one, and
     compiles and optimises them with the function; a helper never called from Python does not
-    need them, and they were about a fifth of the first run's compile (docs/ik.md, "First
+    need them, and leaving them out shortens the first run's compile (docs/ik.md, "First
     run"). Calling such a helper from Python crashes the interpreter: use
     :func:`python_callable` (tests do).
     """
@@ -224,7 +224,8 @@ def _rot(q0, q1, q2, q3, v0, v1, v2):
 @_jit
 def _copy(dst, src):
     """dst[:] = src for 1-D arrays of one size, element by element: numpy's slice assignment
-    compiles a shape check whose error message alone took seconds of the first run."""
+    compiles a shape check with a formatted error message (string code) in every kernel that
+    uses it, a large part of the first run's compile."""
     for i in range(dst.size):
         dst[i] = src[i]
 
@@ -762,11 +763,12 @@ def _ik_range(
     :func:`solve_batch`), chains (CHAINS, :func:`solve_chains`) or walks (WALKS,
     :func:`walk`).
 
-    Numba compiles an entry kernel with everything it calls linked in and optimised again,
-    and each intermediate kernel likewise: one entry with the three loops in its own body
-    compiles the per-frame solver once instead of six times. ``starts`` (T, nq) are the cold
-    starts of CHAINS or the seeds of WALKS; ``firsts``, ``lasts`` (K,) the chains' bounds
-    [first, last) or the walks' ends [first, last] (all three unused by FRAMES).
+    Numba optimises every compiled function, entry or helper, with all of its callees linked
+    in, so each kernel between this entry and :func:`solve_frame` (and each further entry)
+    would optimise the per-frame solver once more: the three loops are in this one body.
+    ``starts`` (T, nq) [m, rad] are the cold starts of CHAINS or the seeds of WALKS;
+    ``firsts``, ``lasts`` (K,) the chains' bounds [first, last) or the walks' ends
+    [first, last] (all three unused by FRAMES).
     """
     nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
     nq = qpos.shape[1]
