@@ -24,11 +24,14 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import _numba_prewarm
 from ._tree import (
     HINGE,
     KappaTables,
     Tree,
+    _floats,
     _jit,
+    _kernel,
     blocked_dofs,
     blocks,
     factor,
@@ -55,7 +58,7 @@ def _rows_lt_solve(tr, a, y):
             i = parent[i]
 
 
-@_jit
+@_kernel
 def _schur_range(
     tr, kt, target, wts, qpos, free, lo, hi, use_limits, mu, y_out, yg_out, ld_out, gq_out,
     diag_out, c_acc, gt_acc,
@@ -115,7 +118,7 @@ def _schur_range(
                 c_acc[off + j, off + j] += ws
         h, g = w.h, w.g
         if use_limits and blocked_dofs(tr, qpos[t], g, w.blocked, g):
-            hold_blocked(tr, qpos[t], w.blocked, h, True)
+            hold_blocked(tr, qpos[t], w.blocked, h)
             for v in range(nv):
                 if w.blocked[v] and tr.jnt_type[tr.dof_jnt[v]] == HINGE:
                     bmat[v, :] = 0.0
@@ -128,10 +131,12 @@ def _schur_range(
                 a[i, k] = h[i, k]
             a[i, i] += mu * h[i, i] + 1e-12
         factor(tr, a)
-        ld_out[t] = a
-        for c in range(free.size):
-            yb[:, c] = bmat[:, free[c]]
-        yb[:, free.size] = g
+        for i in range(nv):
+            for k in range(nv):
+                ld_out[t, i, k] = a[i, k]
+            for c in range(free.size):
+                yb[i, c] = bmat[i, free[c]]
+            yb[i, free.size] = g[i]
         _rows_lt_solve(tr, a, yb)
         for i in range(nv):
             sd = 1.0 / np.sqrt(a[i, i])
@@ -179,6 +184,7 @@ def frame_blocks(
     ``A`` is damped as ``A + mu diag(A) + 1e-12 I``. With ``limits``, hinges at a joint limit
     that the gradient pushes outward are held (their rows leave A, B and g_q).
     """
+    _numba_prewarm.wait()
     n = len(qpos)
     nv = tr.dof_jnt.size
     n_par = kt.n_kappa + 3 * tr.site_body.size
@@ -192,7 +198,7 @@ def frame_blocks(
     k = bounds.size - 1
     c = np.zeros((k, n_par, n_par))
     g_theta = np.zeros((k, n_par))
-    args = (tr, kt, target, wts, np.ascontiguousarray(qpos), free)
+    args = (tr, kt, *_floats(target, wts, qpos), free)
     outs = (bool(limits), float(mu), y, y_g, ld, g_q, diag_a)
     run_blocks(
         _schur_range,
@@ -202,7 +208,7 @@ def frame_blocks(
     return FrameBlocks(y, y_g, ld, g_q, diag_a, c.sum(axis=0), g_theta.sum(axis=0))
 
 
-@_jit
+@_kernel
 def _back_range(tr, ld, u, out):
     parent = tr.dof_parent
     nv = ld.shape[1]
@@ -220,6 +226,7 @@ def _back_range(tr, ld, u, out):
 
 def back_substitute(tr: Tree, blocks: FrameBlocks, dtheta: np.ndarray) -> np.ndarray:
     """The frames' joint steps dq (n, nv) for the free-parameter step dtheta (Pf,)."""
+    _numba_prewarm.wait()
     u = blocks.y_g - blocks.y @ dtheta
     out = np.empty_like(u)
     _back_range(tr, blocks.ld, u, out)

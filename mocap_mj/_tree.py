@@ -23,8 +23,10 @@ from __future__ import annotations
 
 import math
 import sys
+import types
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from functools import cache
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -32,6 +34,7 @@ import mujoco
 import numba as nb
 import numpy as np
 
+from . import _numba_prewarm
 from ._kernel_cache import share_cache
 
 FREE, BALL, HINGE = 0, 1, 3  # mjtJoint values
@@ -101,10 +104,45 @@ class Work(NamedTuple):
     blocked: np.ndarray
 
 
+#: Options of every kernel: cached on disk (:mod:`mocap_mj._kernel_cache`), releasing the GIL
+#: (Python threads run kernels side by side, see :func:`run_blocks`), and numpy's error model
+#: (a division by zero gives inf/nan instead of raising: no exception paths to compile).
+_OPTIONS: dict[str, Any] = {"cache": True, "nogil": True, "error_model": "numpy"}
+_INNER_OPTIONS: dict[str, Any] = {**_OPTIONS, "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+
+
+def _kernel(fn: Callable[..., Any]) -> Any:
+    """An entry kernel: compiled with the wrapper that Python calls it through."""
+    return share_cache(nb.njit(**_OPTIONS)(fn))
+
+
 def _jit(fn: Callable[..., Any]) -> Any:
-    """A compiled kernel, cached on disk (:mod:`mocap_mj._kernel_cache`), releasing the GIL
-    (so Python threads run kernels side by side, see :func:`run_blocks`)."""
-    return share_cache(nb.njit(cache=True, nogil=True, error_model="numpy")(fn))
+    """A kernel called only from other kernels: compiled without the Python and C wrappers.
+
+    Numba gives every compiled function a wrapper that unboxes its arguments from Python
+    objects (for a :class:`Tree` and a :class:`Work`, 38 arrays) and a C-callable one, and
+    compiles and optimises them with the function; a helper never called from Python does not
+    need them, and leaving them out shortens the first run's compile (docs/ik.md, "First
+    run"). Calling such a helper from Python crashes the interpreter: use
+    :func:`python_callable` (tests do).
+    """
+    return share_cache(nb.njit(**_INNER_OPTIONS)(fn))
+
+
+@cache
+def python_callable(helper: Any) -> Any:
+    """A :func:`_jit` helper compiled again with a Python entry point (for tests).
+
+    A copy of the function under its own name, so the two compilations have separate entries
+    in the on-disk cache (numba keys them by qualified name, not by options).
+    """
+    fn = helper.py_func
+    copy = types.FunctionType(
+        fn.__code__, fn.__globals__, fn.__name__, fn.__defaults__, fn.__closure__
+    )
+    copy.__qualname__ = f"{fn.__qualname__}_from_python"
+    copy.__doc__ = fn.__doc__
+    return _kernel(copy)
 
 
 #: Small helpers are compiled like any kernel and LLVM inlines them where it pays. Numba's
@@ -182,6 +220,26 @@ def _rot(q0, q1, q2, q3, v0, v1, v2):
     )
 
 
+# ------------------------------------------------------------------ array helpers
+@_jit
+def _copy(dst, src):
+    """dst[:] = src for 1-D arrays of one size, element by element: numpy's slice assignment
+    compiles a shape check with a formatted error message (string code) in every kernel that
+    uses it, a large part of the first run's compile."""
+    for i in range(dst.size):
+        dst[i] = src[i]
+
+
+@_jit
+def _count_present(wts):
+    """Number of markers with positive weight in wts (M,)."""
+    n = 0
+    for s in range(wts.size):
+        if wts[s] > 0:
+            n += 1
+    return n
+
+
 # ------------------------------------------------------------------ forward kinematics
 @_jit
 def fk(tr, qpos, w):
@@ -209,7 +267,8 @@ def fk(tr, qpos, w):
                 x0, x1, x2 = qpos[a], qpos[a + 1], qpos[a + 2]
                 q0, q1, q2, q3 = _qnormalize(qpos[a + 3], qpos[a + 4], qpos[a + 5], qpos[a + 6])
                 w.xanchor[j, 0], w.xanchor[j, 1], w.xanchor[j, 2] = x0, x1, x2
-                w.xaxis[j, :] = tr.jnt_axis[j]  # as MuJoCo: a free joint's axis is not rotated
+                ax = tr.jnt_axis[j]  # as MuJoCo: a free joint's axis is not rotated
+                w.xaxis[j, 0], w.xaxis[j, 1], w.xaxis[j, 2] = ax[0], ax[1], ax[2]
                 continue
             ax = tr.jnt_axis[j]
             jp = tr.jnt_pos[j]
@@ -262,7 +321,7 @@ def dof_axes(tr, w):
             w.axis[v, :] = 0.0
             w.axis[v, c] = 1.0
         elif kind == HINGE_AXIS:
-            w.axis[v, :] = w.xaxis[j]
+            w.axis[v, 0], w.axis[v, 1], w.axis[v, 2] = w.xaxis[j, 0], w.xaxis[j, 1], w.xaxis[j, 2]
         else:
             b = tr.dof_body[v]
             w.axis[v, 0], w.axis[v, 1], w.axis[v, 2] = (
@@ -270,7 +329,11 @@ def dof_axes(tr, w):
                 w.xmat[b, 1, c],
                 w.xmat[b, 2, c],
             )
-        w.anchor[v, :] = w.xanchor[j]
+        w.anchor[v, 0], w.anchor[v, 1], w.anchor[v, 2] = (
+            w.xanchor[j, 0],
+            w.xanchor[j, 1],
+            w.xanchor[j, 2],
+        )
 
 
 @_inline
@@ -312,7 +375,7 @@ def normal_equations(tr, target, wts, w):
                 h[v, u] += c0 * jc[m, 0] + c1 * jc[m, 1] + c2 * jc[m, 2]
 
 
-@_jit
+@_kernel
 def jacobian(tr, w, out):
     """Dense d(site position)/d(qvel) (ns, 3, nv) into out (zeros where a dof does not act)."""
     dof_axes(tr, w)
@@ -454,7 +517,7 @@ def project(tr, qpos):
             qpos[a], qpos[a + 1], qpos[a + 2], qpos[a + 3] = q0, q1, q2, q3
 
 
-@_jit
+@_kernel
 def project_rows(tr, qpos):
     """:func:`project` applied in place to every row of qpos (B, nq)."""
     for t in range(qpos.shape[0]):
@@ -465,7 +528,7 @@ def project_rows(tr, qpos):
 def work(tr: Tree, nq: int) -> Work:
     """Scratch arrays for one frame (see :class:`Work`)."""
     nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
-    return work_arrays(nbody, njnt, ns, nv, nq)
+    return python_callable(work_arrays)(nbody, njnt, ns, nv, nq)
 
 
 @_jit
@@ -546,23 +609,22 @@ def blocked_dofs(tr, q, dv, out, gb):
 
 
 @_jit
-def hold_blocked(tr, q, blocked, h, full):
-    """Apply the holds flagged by :func:`blocked_dofs` to the normal matrix h (nv, nv): a held
-    hinge's row and column leave it (unit diagonal; the caller zeroes its right-hand side), a
-    held ball's radial component gets a stiffness 1e6 times the ball's diagonal, so the step
-    keeps its rotation angle to about 1e-6 of what it would otherwise take. ``full``: h holds
-    both triangles (else the lower one, as factored)."""
+def hold_blocked(tr, q, blocked, h):
+    """Apply the holds flagged by :func:`blocked_dofs` to the lower triangle of the normal
+    matrix h (nv, nv) (the part :func:`normal_equations` fills and :func:`factor` reads): a
+    held hinge's row and column leave it (unit diagonal; the caller zeroes its right-hand
+    side), a held ball's radial component gets a stiffness 1e6 times the ball's diagonal, so
+    the step keeps its rotation angle to about 1e-6 of what it would otherwise take."""
     nv = h.shape[0]
     v = 0
     for j in range(tr.jnt_type.size):
         typ = tr.jnt_type[j]
         if typ == HINGE:
             if blocked[v]:
-                for k in range(nv):
-                    if full or k < v:
-                        h[v, k] = 0.0
-                    if full or k > v:
-                        h[k, v] = 0.0
+                for k in range(v):
+                    h[v, k] = 0.0
+                for k in range(v + 1, nv):
+                    h[k, v] = 0.0
                 h[v, v] = 1.0
             v += 1
         elif typ == BALL:
@@ -570,7 +632,7 @@ def hold_blocked(tr, q, blocked, h, full):
                 n = _ball_axis(q, tr.jnt_qposadr[j])
                 stiff = 1e6 * (h[v, v] + h[v + 1, v + 1] + h[v + 2, v + 2]) + 1e-6
                 for i in range(3):
-                    for k in range(3 if full else i + 1):
+                    for k in range(i + 1):
                         h[v + i, v + k] += stiff * n[i] * n[k]
             v += 3
         else:
@@ -589,7 +651,7 @@ def _damped_solve(tr, w, q, damp, blocked, use_blocked):
         a[i, i] += damp[i]
         dv[i] = w.g[i]
     if use_blocked:
-        hold_blocked(tr, q, blocked, a, False)
+        hold_blocked(tr, q, blocked, a)
         for v in range(n):
             if blocked[v] and tr.jnt_type[tr.dof_jnt[v]] == HINGE:
                 dv[v] = 0.0
@@ -605,11 +667,7 @@ def solve_frame(tr, target, wts, q, w, max_it, damping, tol_step, tol_cost, tol_
     (iterations, status, marker RMSE [m] over the sites with wts > 0).
     """
     nv = w.g.size
-    n_present = 0
-    for s in range(wts.size):
-        if wts[s] > 0:
-            n_present += 1
-    n_i = max(n_present, 1)
+    n_i = max(_count_present(wts), 1)
     project(tr, q)
     fk(tr, q, w)
     f = cost(tr, target, wts, w)
@@ -625,10 +683,16 @@ def solve_frame(tr, target, wts, q, w, max_it, damping, tol_step, tol_cost, tol_
             need_jac = False
         for i in range(nv):
             damp[i] = mu * (w.h[i, i] + 1e-9) if damping == ADAPTIVE else f + wbar
-        _damped_solve(tr, w, q, damp, w.blocked, False)
-        if blocked_dofs(tr, q, dv, w.blocked, w.g):
-            _damped_solve(tr, w, q, damp, w.blocked, True)
-        q_new[:] = q
+        # The step without holds; if it pushes a joint out of its limits, again with holds.
+        # (``hold`` a variable, not two calls with the constants False and True: numba would
+        # compile _damped_solve once for each constant.)
+        hold = False
+        while True:
+            _damped_solve(tr, w, q, damp, w.blocked, hold)
+            if hold or not blocked_dofs(tr, q, dv, w.blocked, w.g):
+                break
+            hold = True
+        _copy(q_new, q)
         integrate(tr, q_new, dv, 1.0)
         project(tr, q_new)
         fk(tr, q_new, w)
@@ -656,7 +720,7 @@ def solve_frame(tr, target, wts, q, w, max_it, damping, tol_step, tol_cost, tol_
             rmse_new = math.sqrt(2 * max(f_new, 0.0) / n_i)
             d_rmse = math.sqrt(2 * f / n_i) - rmse_new
             done |= f - f_new <= tol_cost * f or d_rmse < tol_rmse * rmse_new
-            q[:] = q_new
+            _copy(q, q_new)
             f = f_new
             need_jac = True
         if done:
@@ -686,22 +750,90 @@ def blocks(items: int, frames: int) -> np.ndarray:
     return np.linspace(0, items, k + 1).round().astype(np.int64)
 
 
-@_jit
-def _solve_range(
-    tr, target, wts, qpos, lo, hi, rmse, iters, status, max_it, damping, tol_step, tol_cost,
-    tol_rmse, mu0, wbar, min_markers,
+#: Jobs of :func:`_ik_range`.
+FRAMES, CHAINS, WALKS = 0, 1, 2
+
+
+@_kernel
+def _ik_range(
+    job, tr, target, wts, qpos, rmse, iters, status, starts, firsts, lasts, early, lo, hi,
+    max_it, damping, tol_step, tol_cost, tol_rmse, mu0, wbar, min_markers,
 ):  # fmt: skip
+    """The one entry kernel of the IK jobs, for items lo..hi: frames (FRAMES,
+    :func:`solve_batch`), chains (CHAINS, :func:`solve_chains`) or walks (WALKS,
+    :func:`walk`).
+
+    Numba optimises every compiled function, entry or helper, with all of its callees linked
+    in, so each kernel between this entry and :func:`solve_frame` (and each further entry)
+    would optimise the per-frame solver once more: the three loops are in this one body.
+    ``starts`` (T, nq) [m, rad] are the cold starts of CHAINS or the seeds of WALKS;
+    ``firsts``, ``lasts`` (K,) the chains' bounds [first, last) or the walks' ends
+    [first, last] (all three unused by FRAMES).
+    """
     nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
-    w = work_arrays(nbody, njnt, ns, nv, qpos.shape[1])
-    for t in range(lo, hi):
-        if np.count_nonzero(wts[t] > 0) < min_markers:
-            status[t] = TOO_FEW_MARKERS
-            qpos[t, :] = np.nan
-            continue
-        iters[t], status[t], rmse[t] = solve_frame(
-            tr, target[t], wts[t], qpos[t], w, max_it, damping, tol_step, tol_cost, tol_rmse,
-            mu0, wbar,
-        )  # fmt: skip
+    nq = qpos.shape[1]
+    w = work_arrays(nbody, njnt, ns, nv, nq)
+    vel = np.zeros(nv)
+    if job == FRAMES:
+        for t in range(lo, hi):
+            if _count_present(wts[t]) < min_markers:
+                status[t] = TOO_FEW_MARKERS
+                qpos[t, :] = np.nan
+                continue
+            iters[t], status[t], rmse[t] = solve_frame(
+                tr, target[t], wts[t], qpos[t], w, max_it, damping, tol_step, tol_cost,
+                tol_rmse, mu0, wbar,
+            )  # fmt: skip
+    elif job == CHAINS:
+        for c in range(lo, hi):
+            for t in range(firsts[c], lasts[c]):
+                if _count_present(wts[t]) < min_markers:
+                    status[t] = TOO_FEW_MARKERS
+                    continue
+                k = t - firsts[c]
+                q = qpos[t]
+                if k >= 1 and status[t - 1] != TOO_FEW_MARKERS:
+                    _copy(q, qpos[t - 1])
+                    if k >= 2 and status[t - 2] != TOO_FEW_MARKERS:
+                        difference(tr, qpos[t - 2], qpos[t - 1], vel)
+                        integrate(tr, q, vel, 1.0)
+                else:
+                    _copy(q, starts[t])
+                iters[t], status[t], rmse[t] = solve_frame(
+                    tr, target[t], wts[t], q, w, max_it, damping, tol_step, tol_cost,
+                    tol_rmse, mu0, wbar,
+                )  # fmt: skip
+    else:
+        prev2 = np.zeros(nq)
+        prev = np.zeros(nq)
+        qw = np.zeros(nq)
+        for r in range(lo, hi):
+            step = 1 if lasts[r] >= firsts[r] else -1
+            _copy(prev, starts[r])
+            have2 = False
+            for t in range(firsts[r], lasts[r] + step, step):
+                if status[t] == TOO_FEW_MARKERS:
+                    break
+                _copy(qw, prev)
+                if have2:
+                    difference(tr, prev2, prev, vel)
+                    integrate(tr, qw, vel, 1.0)
+                it, stat, err = solve_frame(
+                    tr, target[t], wts[t], qw, w, max_it, damping, tol_step, tol_cost,
+                    tol_rmse, mu0, wbar,
+                )  # fmt: skip
+                iters[t] += it
+                better = err < rmse[t] * (1.0 - 1e-6)
+                if better:
+                    _copy(qpos[t], qw)
+                    rmse[t], status[t] = err, stat
+                elif early:
+                    break  # same basin as the frame's own solution: the rest follows
+                else:
+                    _copy(qw, qpos[t])
+                _copy(prev2, prev)
+                _copy(prev, qw)
+                have2 = True
 
 
 def solve_batch(
@@ -723,13 +855,34 @@ def solve_batch(
     iters = np.zeros(n, dtype=np.int64)
     status = np.zeros(n, dtype=np.int64)
     args = _settings(settings)
+    target, wts = _floats(target, wts)
     bounds = blocks(n, n)
+    none = _unused(qpos.shape[1])
     run_blocks(
-        _solve_range,
+        _ik_range,
         bounds,
-        lambda b: (tr, target, wts, qpos, bounds[b], bounds[b + 1], rmse, iters, status, *args),
-    )
+        lambda b: (
+            FRAMES, tr, target, wts, qpos, rmse, iters, status, *none, bounds[b],
+            bounds[b + 1], *args,
+        ),
+    )  # fmt: skip
     return rmse, iters, status
+
+
+def _floats(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The arrays as C-contiguous, writeable float64 (copied only where needed).
+
+    Numba compiles a kernel once per argument type, and a strided or read-only array is
+    another type: one call with such an array would compile the whole entry kernel again
+    (for :func:`_ik_range`, most of the first run's compile).
+    """
+    out = [np.ascontiguousarray(a, dtype=float) for a in arrays]
+    return tuple(a if a.flags.writeable else a.copy() for a in out)
+
+
+def _unused(nq: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+    """Placeholders for :func:`_ik_range`'s starts, firsts, lasts and early (FRAMES)."""
+    return np.empty((0, nq)), np.empty(0, np.int64), np.empty(0, np.int64), False
 
 
 def _settings(settings: tuple[float, ...]) -> tuple[int | float, ...]:
@@ -738,34 +891,6 @@ def _settings(settings: tuple[float, ...]) -> tuple[int | float, ...]:
         int(max_it), int(damping), float(tol_step), float(tol_cost), float(tol_rmse),
         float(mu0), float(wbar), int(min_markers),
     )  # fmt: skip
-
-
-@_jit
-def _chains_range(
-    tr, target, wts, cold, starts, ends, c0, c1, qpos, rmse, iters, status, max_it, damping,
-    tol_step, tol_cost, tol_rmse, mu0, wbar, min_markers,
-):  # fmt: skip
-    nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
-    w = work_arrays(nbody, njnt, ns, nv, qpos.shape[1])
-    vel = np.zeros(nv)
-    for c in range(c0, c1):
-        for t in range(starts[c], ends[c]):
-            if np.count_nonzero(wts[t] > 0) < min_markers:
-                status[t] = TOO_FEW_MARKERS
-                continue
-            k = t - starts[c]
-            q = qpos[t]
-            if k >= 1 and status[t - 1] != TOO_FEW_MARKERS:
-                q[:] = qpos[t - 1]
-                if k >= 2 and status[t - 2] != TOO_FEW_MARKERS:
-                    difference(tr, qpos[t - 2], qpos[t - 1], vel)
-                    integrate(tr, q, vel, 1.0)
-            else:
-                q[:] = cold[t]
-            iters[t], status[t], rmse[t] = solve_frame(
-                tr, target[t], wts[t], q, w, max_it, damping, tol_step, tol_cost, tol_rmse,
-                mu0, wbar,
-            )  # fmt: skip
 
 
 def solve_chains(
@@ -787,6 +912,7 @@ def solve_chains(
     status (T,)).
     """
     n, nq = cold.shape
+    target, wts, cold = _floats(target, wts, cold)
     qpos = np.full((n, nq), np.nan)
     rmse = np.full(n, np.nan)
     iters = np.zeros(n, dtype=np.int64)
@@ -796,55 +922,14 @@ def solve_chains(
     ends = np.ascontiguousarray(ends, dtype=np.int64)
     bounds = blocks(starts.size, n)
     run_blocks(
-        _chains_range,
+        _ik_range,
         bounds,
         lambda b: (
-            tr, target, wts, cold, starts, ends, bounds[b], bounds[b + 1], qpos, rmse, iters,
-            status, *args,
+            CHAINS, tr, target, wts, qpos, rmse, iters, status, cold, starts, ends, False,
+            bounds[b], bounds[b + 1], *args,
         ),
     )  # fmt: skip
     return qpos, rmse, iters, status
-
-
-@_jit
-def _walk_range(
-    tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, early, r0, r1, max_it,
-    damping, tol_step, tol_cost, tol_rmse, mu0, wbar, min_markers,
-):  # fmt: skip
-    nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
-    nq = qpos.shape[1]
-    w = work_arrays(nbody, njnt, ns, nv, nq)
-    vel = np.zeros(nv)
-    prev2 = np.zeros(nq)
-    prev = np.zeros(nq)
-    q = np.zeros(nq)
-    for r in range(r0, r1):
-        step = 1 if lasts[r] >= firsts[r] else -1
-        prev[:] = seeds[r]
-        have2 = False
-        for t in range(firsts[r], lasts[r] + step, step):
-            if status[t] == TOO_FEW_MARKERS:
-                break
-            q[:] = prev
-            if have2:
-                difference(tr, prev2, prev, vel)
-                integrate(tr, q, vel, 1.0)
-            it, stat, err = solve_frame(
-                tr, target[t], wts[t], q, w, max_it, damping, tol_step, tol_cost, tol_rmse,
-                mu0, wbar,
-            )  # fmt: skip
-            iters[t] += it
-            better = err < rmse[t] * (1.0 - 1e-6)
-            if better:
-                qpos[t, :] = q
-                rmse[t], status[t] = err, stat
-            elif early:
-                break  # same basin as the frame's own solution: the rest follows
-            else:
-                q[:] = qpos[t]
-            prev2[:] = prev
-            prev[:] = q
-            have2 = True
 
 
 def walk(
@@ -872,40 +957,43 @@ def walk(
     """
     args = _settings(settings)
     firsts, lasts = (np.ascontiguousarray(a, dtype=np.int64) for a in (firsts, lasts))
-    seeds = np.ascontiguousarray(seeds, dtype=float)
+    target, wts, seeds = _floats(target, wts, seeds)
     frames = int(np.abs(lasts - firsts).sum()) + firsts.size
     bounds = blocks(firsts.size, frames)
     run_blocks(
-        _walk_range,
+        _ik_range,
         bounds,
         lambda b: (
-            tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts, bool(early),
-            bounds[b], bounds[b + 1], *args,
+            WALKS, tr, target, wts, qpos, rmse, iters, status, seeds, firsts, lasts,
+            bool(early), bounds[b], bounds[b + 1], *args,
         ),
     )  # fmt: skip
 
 
-@_jit
+@_kernel
 def _forward_range(tr, qpos, site_xpos):
     w = work_arrays(
         tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size, qpos.shape[1]
     )
     for t in range(qpos.shape[0]):
         fk(tr, qpos[t], w)
-        site_xpos[t] = w.site_xpos
+        for s in range(site_xpos.shape[1]):
+            for i in range(3):
+                site_xpos[t, s, i] = w.site_xpos[s, i]
 
 
 def forward(tr: Tree, qpos: np.ndarray) -> np.ndarray:
     """Site positions (T, ns, 3) [m] of qpos (T, nq)."""
+    _numba_prewarm.wait()
     out = np.empty((len(qpos), tr.site_body.size, 3))
-    _forward_range(tr, np.ascontiguousarray(qpos, dtype=float), out)
+    _forward_range(tr, *_floats(qpos), out)
     return out
 
 
 # ------------------------------------------------------------------ tables
 #: What the first run of an install spends compiling the kernels on a 2-core machine
 #: (``benchmarks/cold_start.py``), said once when the on-disk cache is empty.
-COMPILE_SECONDS = 40
+COMPILE_SECONDS = 15
 _notice_given = False
 
 
@@ -917,7 +1005,7 @@ def compile_notice() -> None:
         return
     _notice_given = True
     try:
-        index = Path(solve_frame._cache._cache_file._index_path)
+        index = Path(_ik_range._cache._cache_file._index_path)
     except AttributeError:  # a numba without this cache layout: say nothing
         return
     if not index.exists():

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from mocap_mj import _numba_prewarm
 from mocap_mj.cli import add_force_flag, add_json_flag, into_out_folder, prepare_out
 from mocap_mj.commands.progress import progress_bar
 from mocap_mj.identify.lm import LMSettings, TrialData
@@ -91,6 +92,7 @@ def run(args: argparse.Namespace) -> int:
 def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str, Any], str]:
     """Run the demo writing into ``staging``; messages and paths name ``out``."""
     t0 = time.perf_counter()
+    _numba_prewarm.start()  # the identification kernels compile on the other core meanwhile
     cfg = SynthConfig(frames=args.frames, noise_mm=args.noise_mm, seed=args.seed)
     pset = ParameterSet()
     exp = synthesize(cfg, pset)

@@ -13,6 +13,19 @@ from mocap_mj import Kinematics
 from mocap_mj import _tree as tree_kernels
 from mocap_mj.ik import IKSettings, IKSolver
 
+# Helpers that only kernels call have no Python entry point: these copies have one.
+fk, normal_equations, factor, solve, integrate, difference = (
+    tree_kernels.python_callable(k)
+    for k in (
+        tree_kernels.fk,
+        tree_kernels.normal_equations,
+        tree_kernels.factor,
+        tree_kernels.solve,
+        tree_kernels.integrate,
+        tree_kernels.difference,
+    )
+)
+
 
 @pytest.fixture(scope="module")
 def kin() -> Kinematics:
@@ -36,7 +49,7 @@ def test_fk_matches_mj_kinematics(kin: Kinematics) -> None:
     for q in poses(kin, 20, 1):
         data.qpos[:] = q
         mujoco.mj_kinematics(kin.model, data)
-        tree_kernels.fk(tr, q, w)
+        fk(tr, q, w)
         np.testing.assert_allclose(w.site_xpos, data.site_xpos, rtol=0, atol=1e-12)
         np.testing.assert_allclose(w.xpos, data.xpos, rtol=0, atol=1e-12)
         np.testing.assert_allclose(w.xmat.reshape(-1, 9), data.xmat, rtol=0, atol=1e-12)
@@ -64,7 +77,7 @@ def test_jacobian_matches_mj_jac_site(kin: Kinematics) -> None:
         data.qpos[:] = q
         mujoco.mj_kinematics(kin.model, data)
         mujoco.mj_comPos(kin.model, data)
-        tree_kernels.fk(tr, q, w)
+        fk(tr, q, w)
         tree_kernels.jacobian(tr, w, jac)
         for s in range(kin.n_markers):
             mujoco.mj_jacSite(kin.model, data, jac_p, None, s)
@@ -76,11 +89,11 @@ def test_normal_equations_and_sparse_solve(kin: Kinematics) -> None:
     w = tree_kernels.work(tr, kin.nq)
     rng = np.random.default_rng(4)
     q = poses(kin, 1, 4)[0]
-    tree_kernels.fk(tr, q, w)
+    fk(tr, q, w)
     target = w.site_xpos + rng.normal(0, 0.01, w.site_xpos.shape)
     wts = rng.uniform(0.5, 2.0, kin.n_markers)
     wts[[3, 17]] = 0.0  # missing markers drop out
-    tree_kernels.normal_equations(tr, target, wts, w)
+    normal_equations(tr, target, wts, w)
     jac = np.zeros((kin.n_markers, 3, kin.nv))
     tree_kernels.jacobian(tr, w, jac)
     jw = jac * np.sqrt(wts)[:, None, None]
@@ -99,8 +112,8 @@ def test_normal_equations_and_sparse_solve(kin: Kinematics) -> None:
     a = np.tril(w.h).copy()
     a[np.diag_indices(kin.nv)] += 1e-6
     x = w.g.copy()
-    tree_kernels.factor(tr, a)
-    tree_kernels.solve(tr, a, x)
+    factor(tr, a)
+    solve(tr, a, x)
     np.testing.assert_allclose(x, np.linalg.solve(h + 1e-6 * np.eye(kin.nv), g), rtol=1e-9)
 
 
@@ -110,10 +123,10 @@ def test_integrate_and_difference_match_mujoco(kin: Kinematics) -> None:
     qa, qb = poses(kin, 2, 5)
     dv = rng.normal(0, 0.7, kin.nv)
     mine = qa.copy()
-    tree_kernels.integrate(tr, mine, dv, 0.3)
+    integrate(tr, mine, dv, 0.3)
     np.testing.assert_allclose(mine, kin.integrate(qa[None], dv[None], 0.3)[0], atol=1e-14)
     d = np.zeros(kin.nv)
-    tree_kernels.difference(tr, qa, qb, d)
+    difference(tr, qa, qb, d)
     np.testing.assert_allclose(d, kin.difference(qa[None], qb[None])[0], atol=1e-12)
 
 

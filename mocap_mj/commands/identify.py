@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import _numba_prewarm
 from ..checks import check_markers
 from ..cli import add_force_flag, add_json_flag, into_out_folder, output_folder
 from ..errors import MocapError
@@ -177,6 +178,7 @@ def _identify(
     subject: Subject,
     out: Path,
 ) -> tuple[dict[str, Any], str]:
+    _numba_prewarm.start()  # the identification kernels compile on the other core meanwhile
     loss: LossName = "cauchy" if args.robust else args.loss
     settings = LMSettings(
         max_iterations=args.max_iterations,
