@@ -33,6 +33,7 @@ from typing import Any, NamedTuple
 import mujoco
 import numba as nb
 import numpy as np
+from numba.core.registry import CPUDispatcher
 
 from . import _numba_prewarm
 from ._kernel_cache import share_cache
@@ -116,6 +117,16 @@ def _kernel(fn: Callable[..., Any]) -> Any:
     return share_cache(nb.njit(**_OPTIONS)(fn))
 
 
+class _KernelOnly(CPUDispatcher):  # type: ignore[misc]
+    """A :func:`_jit` helper's dispatcher: a call from Python raises instead of crashing."""
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        raise TypeError(
+            f"{self.py_func.__qualname__} is compiled for calls from kernels only "
+            "(no Python entry point): use mocap_mj._tree.python_callable"
+        )
+
+
 def _jit(fn: Callable[..., Any]) -> Any:
     """A kernel called only from other kernels: compiled without the Python and C wrappers.
 
@@ -123,10 +134,12 @@ def _jit(fn: Callable[..., Any]) -> Any:
     objects (for a :class:`Tree` and a :class:`Work`, 38 arrays) and a C-callable one, and
     compiles and optimises them with the function; a helper never called from Python does not
     need them, and leaving them out shortens the first run's compile (docs/ik.md, "First
-    run"). Calling such a helper from Python crashes the interpreter: use
-    :func:`python_callable` (tests do).
+    run"). Without its wrapper a call from Python would crash the interpreter, so the
+    dispatcher raises :class:`TypeError` instead: use :func:`python_callable` (tests do).
     """
-    return share_cache(nb.njit(**_INNER_OPTIONS)(fn))
+    disp = share_cache(nb.njit(**_INNER_OPTIONS)(fn))
+    disp.__class__ = _KernelOnly
+    return disp
 
 
 @cache

@@ -208,3 +208,9 @@ def test_ball_at_its_limit_slides_along_it(kin: Kinematics) -> None:
     assert np.all(scale > 1e-4), radial
     np.testing.assert_array_less(np.linalg.norm(tangential, axis=1), 1e-3 * scale)
     np.testing.assert_array_less(np.abs(others).max(axis=1), 1e-3 * scale)
+
+
+def test_kernel_only_helper_refuses_a_python_call() -> None:
+    """A helper compiled without a Python entry raises TypeError from Python, never crashes."""
+    with pytest.raises(TypeError, match="python_callable"):
+        tree_kernels.hold_blocked(None, None, None, None)
