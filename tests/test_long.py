@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -63,3 +68,36 @@ def test_identify_long_reaches_the_bound_of_its_selection(pset: ParameterSet) ->
     # Errors are random with the bound as their RMS: 2x leaves room for one draw.
     assert np.sqrt(np.mean(e_obs[:k] ** 2)) < 2.0 * bk
     assert np.sqrt(np.mean(e_obs[k:] ** 2)) < 2.0 * bo
+
+
+def _cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "mocap_mj", *args], capture_output=True, text=True, timeout=600
+    )
+
+
+def test_identify_select_fits_a_subset_and_moves_every_frame(tmp_path: Path) -> None:
+    """``identify --select N``: the model from N pose-diverse frames, the motion of all."""
+    truth, out = tmp_path / "truth", tmp_path / "sel"
+    proc = _cli("synth", "--out", str(truth), "--frames", "300", "--motion", "rom", "--seed", "5")
+    assert proc.returncode == 0, proc.stderr
+    markers = str(truth / "markers.trc")
+    proc = _cli("identify", "--markers", markers, "--select", "90", "--out", str(out), "--json")
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads(proc.stdout)
+    kept = np.array(summary["frames_selected"][0])
+    assert len(kept) == 90 and np.all(np.diff(kept) > 0) and kept[-1] < 300
+    assert summary["motion_frames"] == [300]
+    with np.load(out / "motion.npz") as motion:
+        assert motion["qpos"].shape == (300, 55) and np.all(np.isfinite(motion["qpos"]))
+    # 1 mm per-axis noise: about sqrt(3 (1 - 48/117)) = 1.33 mm after every frame's IK
+    assert 1.2 < summary["motion_marker_rmse_mm"] < 1.5
+    score = _cli("score", "--truth", str(truth), "--result", str(out), "--json")
+    assert score.returncode == 0, score.stderr
+    ratios = json.loads(score.stdout)
+    # Within 1.5x the Cramer-Rao bound of the 90 frames identified on.
+    assert ratios["kappa_crlb_ratio"] < 1.5 and ratios["offset_crlb_ratio"] < 1.5
+    bad = _cli("identify", "--markers", markers, "--select", "many", "--out", str(tmp_path / "b"))
+    lines = bad.stderr.strip().splitlines()
+    assert bad.returncode != 0 and len(lines) == 1 and "--select" in lines[0]
+    assert not (tmp_path / "b").exists()

@@ -28,11 +28,19 @@ from ..identify.paper import DEFAULT_DELTA, DEFAULT_STEP
 from ..identify.pipeline import INITS, identify_to_folder, result_text
 from ..identify.plausibility import plausibility_text
 from ..identify.problem import TrialData
+from ..identify.selection import select_in_trials
 from ..ik import IKSettings
 from ..parameters import ParameterSet
 from ..subject import Subject
 from ._markers import add_marker_options, load_trial, model_for
 from ._subject import add_subject_options, subject_from_args
+
+#: ``--select auto``: above this many frames in all the trials, identify on a pose-diverse
+#: subset. The cost of an LM iteration grows with the frames while an hour of motion repeats
+#: a few thousand poses (docs/long-recordings.md).
+AUTO_SELECT_ABOVE = 20_000
+#: ``--select auto``: the subset's size (the long-recording benchmark's, 1000 frames).
+AUTO_SELECT_COUNT = 1000
 
 
 def register(sub: Any) -> None:
@@ -78,6 +86,16 @@ def _add_fit_options(p: argparse.ArgumentParser) -> None:
         metavar="A:B",
         help="frames to fit, from A up to but excluding B, counted from 0 in every trial "
         "(default: all)",
+    )
+    p.add_argument(
+        "--select",
+        default="auto",
+        metavar="N",
+        help="N, auto or all: identify on N frames chosen for pose diversity (shared among the "
+        "trials by their length), then solve every frame's IK with the identified model for "
+        f"motion.npz and joint_centres.csv; auto: {AUTO_SELECT_COUNT} frames when the trials "
+        f"hold more than {AUTO_SELECT_ABOVE} in all, else every frame; all: every frame "
+        "(default: auto)",
     )
     p.add_argument(
         "--loss",
@@ -164,9 +182,40 @@ def run(args: argparse.Namespace) -> int:
         with output_folder(args.out, force=args.force) as out:
             return run_paper(args, pset, trials, ranges, out)
     subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
+    count = _select_count(args.select, sum(len(t.markers) for t in trials), len(trials))
     return into_out_folder(
-        args, lambda out: _identify(args, pset, loaded, trials, ranges, subject, out)
+        args, lambda out: _identify(args, pset, loaded, trials, ranges, subject, out, count)
     )
+
+
+def _select_count(text: str, frames: int, n_trials: int) -> int | None:
+    """Frames to identify on for ``--select`` (None: every frame)."""
+    if text == "all":
+        return None
+    if text == "auto":
+        return AUTO_SELECT_COUNT if frames > AUTO_SELECT_ABOVE else None
+    try:
+        count = int(text)
+    except ValueError:
+        raise MocapError(
+            f"--select: expected a number of frames, auto or all, got {text!r}"
+        ) from None
+    if count < n_trials:
+        raise MocapError(
+            f"--select: expected at least one frame per trial ({n_trials}), got {count}"
+        )
+    return count if count < frames else None
+
+
+def _selected(
+    trials: list[TrialData], names: tuple[str, ...], count: int
+) -> tuple[list[TrialData], list[list[int]]]:
+    """The trials' pose-diverse frames (:func:`select_in_trials`) and their indices."""
+    kept = select_in_trials([t.markers for t in trials], names, count)
+    subsets = [
+        TrialData(t.name, t.markers[k], t.times[k]) for t, k in zip(trials, kept, strict=True)
+    ]
+    return subsets, [k.tolist() for k in kept]
 
 
 def _identify(
@@ -177,8 +226,18 @@ def _identify(
     ranges: list[list[int]],
     subject: Subject,
     out: Path,
+    count: int | None = None,
 ) -> tuple[dict[str, Any], str]:
     _numba_prewarm.start()  # the identification kernels compile on the other core meanwhile
+    extra: dict[str, Any] = {
+        "markers_files": [t.path for t in loaded],
+        "frames_fitted_range": ranges,
+    }
+    fitted, motion_trials = trials, None
+    if count is not None:
+        fitted, kept = _selected(trials, pset.marker_names, count)
+        motion_trials = trials
+        extra["frames_selected"] = kept
     loss: LossName = "cauchy" if args.robust else args.loss
     settings = LMSettings(
         max_iterations=args.max_iterations,
@@ -186,11 +245,17 @@ def _identify(
         prior_sigma=args.prior_mm * 1e-3,
         observable_std=args.observable_mm * 1e-3,
     )
-    from .progress import progress_bar
+    from .progress import frames_bar, progress_bar
 
-    with progress_bar("identify (LM)", enabled=not args.json) as progress:
+    total = sum(len(t.markers) for t in trials) if count is not None else 0
+    with (
+        progress_bar("identify (LM)", enabled=not args.json) as progress,
+        frames_bar(
+            "IK of every frame", total, enabled=count is not None and not args.json
+        ) as motion_progress,
+    ):
         summary, _, _ = identify_to_folder(
-            trials,
+            fitted,
             out,
             pset=pset,
             settings=settings,
@@ -200,7 +265,9 @@ def _identify(
             symmetric=None if args.symmetric is None else args.symmetric * 1e-3,
             asymmetry_prior=not args.no_asymmetry_prior,
             progress=progress,
-            extra={"markers_files": [t.path for t in loaded], "frames_fitted_range": ranges},
+            extra=extra,
+            motion_trials=motion_trials,
+            motion_progress=motion_progress,
         )
     per_marker = np.array(
         [np.nan if v is None else v * 1e-3 for v in summary["marker_rmse_by_marker_mm"].values()]
@@ -208,6 +275,13 @@ def _identify(
     outside = {n: [v * 1e-3 for v in b] for n, b in summary["kappa_outside_bounds_mm"].items()}
     reports = "\n".join(str(t.report) for t in loaded)
     text = f"{reports}\n{result_text(summary, pset, Path(args.out))}\n"
+    if count is not None:
+        text += (
+            f"identified on {sum(map(len, summary['frames_selected']))} of {total} frames "
+            "chosen for pose diversity (--select); motion.npz and joint_centres.csv: every "
+            f"frame by IK with the identified model, marker RMSE "
+            f"{summary['motion_marker_rmse_mm']:.3f} mm\n"
+        )
     measured = "; ".join(
         f"{n} {m['value'] * (1 if m['unit'] == 'kg' else 1e3):g} "
         f"{'kg' if m['unit'] == 'kg' else 'mm'} ({m['source']})"

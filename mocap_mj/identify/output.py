@@ -29,11 +29,13 @@ def write_result(
     iterations: Sequence[str] | None = None,
     *,
     joint_range: np.ndarray | None = None,
+    motion: tuple[Sequence[TrialData], Sequence[np.ndarray]] | None = None,
 ) -> None:
     """model.xml, theta.json, motion.npz (first trial; ``motion_<i>.npz`` for the others),
     identifiability.json and report.md (its iterations section: ``iterations``, default
     :func:`iteration_lines`). ``joint_range`` (njnt, 2): the limits the solver used, written
-    into model.xml (see :meth:`ParameterSet.to_spec`)."""
+    into model.xml (see :meth:`ParameterSet.to_spec`). ``motion`` (trials, poses (T_i, nq)):
+    what motion.npz holds (default: ``trials`` and the fit's poses)."""
     pset.export_mjcf(out / "model.xml", result.theta, joint_range=joint_range)
     pset.save_json(
         out / "theta.json",
@@ -46,7 +48,8 @@ def write_result(
             },
         },
     )
-    for i, (trial, qpos) in enumerate(zip(trials, result.qpos, strict=True)):
+    moved, poses = motion or (trials, result.qpos)
+    for i, (trial, qpos) in enumerate(zip(moved, poses, strict=True)):
         name = "motion.npz" if i == 0 else f"motion_{i}.npz"
         save_motion(out / name, Motion(qpos, trial.times, trial.markers, pset.marker_names))
     atomic_write_text(out / "identifiability.json", json.dumps(idf.to_json()) + "\n")

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import tempfile
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -13,8 +14,9 @@ import numpy as np
 
 from ..checks import check_determined
 from ..errors import MocapError
-from ..ik import IKSettings
+from ..ik import IKResult, IKSettings, IKSolver
 from ..io.atomic import atomic_folder, atomic_write_text
+from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..strict_json import dumps, jsonable
 from ..subject import Subject
@@ -52,9 +54,16 @@ def identify_to_folder(
     anatomical: bool = True,
     symmetric: float | None = None,
     asymmetry_prior: bool = True,
+    motion_trials: Sequence[TrialData] | None = None,
+    motion_progress: Callable[[int], None] | None = None,
 ) -> tuple[dict[str, Any], IdentificationResult, Identifiability]:
     """Run the joint LM on the trials and write model.xml, theta.json, motion.npz,
     identifiability.json and report.md into ``out``; return (summary, result, identifiability).
+
+    ``motion_trials`` (one per trial, e.g. the whole recordings the trials' frames were
+    selected from): motion.npz and joint_centres.csv then hold every frame of these, solved
+    by IK with the identified model as written to model.xml (:func:`every_frame_motion`,
+    ``motion_progress`` called with the frames done); default: the fitted frames' poses.
 
     ``out`` is replaced whole at the end (:func:`mocap_mj.io.atomic.atomic_folder`): it holds
     the complete result or what it held before. Trials with fewer marker coordinates than
@@ -110,9 +119,52 @@ def identify_to_folder(
     summary["kappa_at_bound"] = _kappa_at_bound(pset, result)
     ranges = kappa_ranges(pset, subject) if anatomical else None
     rows = _add_checks(summary, pset, result, trials, settings, ranges)
+    motion = None
+    if motion_trials is not None:
+        solved = every_frame_motion(pset, result.theta, settings, motion_trials, motion_progress)
+        motion = (list(motion_trials), [r.qpos for r in solved])
+        summary["motion_frames"] = [len(t.markers) for t in motion_trials]
+        summary["motion_marker_rmse_mm"] = _pooled_rmse(solved) * 1e3
     summary = jsonable(summary)
-    _write_folder(out, pset, result, idf, trials, settings, rows, summary)
+    _write_folder(out, pset, result, idf, trials, settings, rows, summary, motion)
     return summary, result, idf
+
+
+def every_frame_motion(
+    pset: ParameterSet,
+    theta: np.ndarray,
+    settings: LMSettings,
+    trials: Sequence[TrialData],
+    progress: Callable[[int], None] | None = None,
+) -> list[IKResult]:
+    """IK of every frame of ``trials`` with the model as ``identify`` writes it (parameters
+    theta (P,) [m], the joint limits the solver used), as ``mocap-mj ik --model model.xml``
+    solves it: one result per trial (poses (T_i, nq) [m, rad], NaN rows where too few
+    markers). ``progress`` is called with the frames done over all trials."""
+    with tempfile.TemporaryDirectory(prefix="mocap-mj-") as tmp:
+        path = Path(tmp) / "model.xml"
+        pset.export_mjcf(path, theta, joint_range=solver_joint_range(pset.model, settings))
+        solver = IKSolver(Kinematics(ParameterSet(path)))
+    done = 0
+    out = []
+    for t in trials:
+        first = done
+
+        def report(n: int, first: int = first) -> None:
+            if progress is not None:
+                progress(first + n)
+
+        out.append(solver.solve_trial(t.markers, progress=report))
+        done += len(t.markers)
+        report(0, done)
+    return out
+
+
+def _pooled_rmse(results: Sequence[IKResult]) -> float:
+    """Marker RMSE [m] over every present sample of the solved frames of all results."""
+    sq = sum(float(np.sum(r.marker_rmse[r.solved] ** 2 * r.n_markers[r.solved])) for r in results)
+    n = sum(int(r.n_markers[r.solved].sum()) for r in results)
+    return float(np.sqrt(sq / n)) if n else float("nan")
 
 
 def _check_inputs(trials: Sequence[TrialData], pset: ParameterSet, init: str) -> None:
@@ -265,8 +317,12 @@ def _write_folder(
     settings: LMSettings,
     rows: list[SegmentRow],
     summary: dict[str, Any],
+    motion: tuple[list[TrialData], list[np.ndarray]] | None = None,
 ) -> None:
-    """Write the result files, the tables and summary.json into ``out``, replaced whole."""
+    """Write the result files, the tables and summary.json into ``out``, replaced whole;
+    ``motion`` (trials, poses (T_i, nq)): what motion.npz and joint_centres.csv hold
+    (default: the fitted trials and their poses)."""
+    motion = motion or (list(trials), list(result.qpos))
     with atomic_folder(out, force=True) as staging:
         write_result(
             staging,
@@ -276,8 +332,9 @@ def _write_folder(
             trials,
             summary,
             joint_range=solver_joint_range(pset.model, settings),
+            motion=motion,
         )
-        _write_tables(staging, pset, result, trials, rows, summary.get("frames_fitted_range"))
+        _write_tables(staging, pset, result.theta, motion, rows, summary.get("frames_fitted_range"))
         atomic_write_text(staging / "summary.json", dumps(summary, indent=2) + "\n")
 
 
@@ -307,18 +364,19 @@ def _add_checks(
 def _write_tables(
     out: Path,
     pset: ParameterSet,
-    result: IdentificationResult,
-    trials: Sequence[TrialData],
+    theta: np.ndarray,
+    motion: tuple[list[TrialData], list[np.ndarray]],
     rows: Sequence[SegmentRow],
     ranges: Sequence[Sequence[int]] | None,
 ) -> None:
-    """segments.csv, and joint_centres.csv per trial (``joint_centres_<i>.csv`` for the
-    others, like motion.npz); ``ranges``: each trial's fitted [first, stop) frames of its
-    file (default: from frame 0)."""
+    """segments.csv, and joint_centres.csv per trial of ``motion`` (trials, poses;
+    ``joint_centres_<i>.csv`` for the others, like motion.npz) of the model theta (P,) [m];
+    ``ranges``: each trial's [first, stop) frames of its file (default: from frame 0)."""
     write_segments_csv(out / "segments.csv", rows)
-    model = pset.model_for(result.theta)
+    model = pset.model_for(theta)
+    trials, poses = motion
     starts = [int(r[0]) for r in ranges] if ranges else [0] * len(trials)
-    for i, (trial, qpos, first) in enumerate(zip(trials, result.qpos, starts, strict=True)):
+    for i, (trial, qpos, first) in enumerate(zip(trials, poses, starts, strict=True)):
         name = "joint_centres.csv" if i == 0 else f"joint_centres_{i}.csv"
         write_joint_centres_csv(out / name, model, trial.times, qpos, first_frame=first)
 

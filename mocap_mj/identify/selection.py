@@ -121,3 +121,26 @@ def select_frames(
     dist = np.maximum(dist, 0.0)
     cover = np.sqrt(dist)
     return Selection(np.sort(cand[kept]), len(cand), float(cover.max()), float(np.median(cover)))
+
+
+def select_in_trials(
+    markers: list[np.ndarray], names: tuple[str, ...], count: int
+) -> list[np.ndarray]:
+    """``count`` pose-diverse frames over several trials: sorted frame indices (K_i,) int per
+    trial.
+
+    The count is shared in proportion to the trials' frames (at least one frame each) and
+    each trial's share is chosen by :func:`select_frames`; a trial shorter than its share
+    keeps every frame.
+
+    Parameters
+    ----------
+    markers : per trial (T_i, M, 3) float [m], NaN where missing
+    names : (M,) marker names
+    count : frames to keep in all (at least one per trial)
+    """
+    total = sum(len(m) for m in markers)
+    if count < len(markers):
+        raise MocapError(f"count: expected at least one frame per trial, got {count}")
+    shares = [max(1, round(count * len(m) / total)) for m in markers]
+    return [select_frames(m, names, k).frames for m, k in zip(markers, shares, strict=True)]
