@@ -37,6 +37,7 @@ from ._tree import (
     normal_equations,
     run_blocks,
     site_column,
+    solve,
     work_arrays,
 )
 
@@ -56,48 +57,48 @@ def _rows_lt_solve(tr, a, y):
 
 
 @_jit
-def _schur_range(
-    tr, kt, target, wts, qpos, free, lo, hi, use_limits, mu, y_out, yg_out, ld_out, gq_out,
-    diag_out, c_acc, gt_acc,
-):  # fmt: skip
-    nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
-    w = work_arrays(nbody, njnt, ns, nv, qpos.shape[1])
+def _pair_directions(kt, w, vp):
+    """vp (pairs, 3): the world direction R_parent d of every (kappa, body) pair."""
+    for p in range(kt.pair_k.size):
+        m = w.xmat[kt.pair_parent[p]]
+        d = kt.pair_dir[p]
+        for i in range(3):
+            vp[p, i] = m[i, 0] * d[0] + m[i, 1] * d[1] + m[i, 2] * d[2]
+
+
+@_jit
+def _model_blocks(tr, kt, target, wts, w, vp, bmat, c_acc, gt_acc, with_c):
+    """One frame's model-parameter blocks, after ``fk`` and ``normal_equations``: B into bmat
+    (nv, P) (overwritten), J_th^T W r added to gt_acc (P,) and, when ``with_c``,
+    J_th^T W J_th added to c_acc (P, P). A marker's offsets touch only its own residuals
+    (dx/do = R_body): their B columns are J_q^T w R, their C block w I_3."""
+    ns = tr.site_body.size
     kn = kt.n_kappa
-    n_par = kn + 3 * ns
-    vp = np.zeros((kt.pair_k.size, 3))
-    bmat = np.zeros((nv, n_par))
-    yb = np.zeros((nv, free.size + 1))
-    for t in range(lo, hi):
-        fk(tr, qpos[t], w)
-        normal_equations(tr, target[t], wts[t], w)
-        for p in range(kt.pair_k.size):
-            m = w.xmat[kt.pair_parent[p]]
-            d = kt.pair_dir[p]
-            for i in range(3):
-                vp[p, i] = m[i, 0] * d[0] + m[i, 1] * d[1] + m[i, 2] * d[2]
-        bmat[:, :] = 0.0
-        for s in range(ns):
-            ws = wts[t, s]
-            if ws <= 0:
-                continue
-            r0 = target[t, s, 0] - w.site_xpos[s, 0]
-            r1 = target[t, s, 1] - w.site_xpos[s, 1]
-            r2 = target[t, s, 2] - w.site_xpos[s, 2]
-            d_lo, d_hi = tr.site_dofptr[s], tr.site_dofptr[s + 1]
+    _pair_directions(kt, w, vp)
+    bmat[:, :] = 0.0
+    for s in range(ns):
+        ws = wts[s]
+        if ws <= 0:
+            continue
+        r0 = target[s, 0] - w.site_xpos[s, 0]
+        r1 = target[s, 1] - w.site_xpos[s, 1]
+        r2 = target[s, 2] - w.site_xpos[s, 2]
+        d_lo, d_hi = tr.site_dofptr[s], tr.site_dofptr[s + 1]
+        for k in range(d_hi - d_lo):
+            v = tr.site_dofs[d_lo + k]
+            w.jcol[k, 0], w.jcol[k, 1], w.jcol[k, 2] = site_column(tr, w, v, s)
+        rot = w.xmat[tr.site_body[s]]
+        off = kn + 3 * s
+        for pi in range(kt.site_pairptr[s], kt.site_pairptr[s + 1]):
+            p = kt.site_pairs[pi]
+            kk = kt.pair_k[p]
+            v0, v1, v2 = ws * vp[p, 0], ws * vp[p, 1], ws * vp[p, 2]
             for k in range(d_hi - d_lo):
-                v = tr.site_dofs[d_lo + k]
-                w.jcol[k, 0], w.jcol[k, 1], w.jcol[k, 2] = site_column(tr, w, v, s)
-            rot = w.xmat[tr.site_body[s]]
-            off = kn + 3 * s
-            for pi in range(kt.site_pairptr[s], kt.site_pairptr[s + 1]):
-                p = kt.site_pairs[pi]
-                kk = kt.pair_k[p]
-                v0, v1, v2 = ws * vp[p, 0], ws * vp[p, 1], ws * vp[p, 2]
-                for k in range(d_hi - d_lo):
-                    bmat[tr.site_dofs[d_lo + k], kk] += (
-                        w.jcol[k, 0] * v0 + w.jcol[k, 1] * v1 + w.jcol[k, 2] * v2
-                    )
-                gt_acc[kk] += v0 * r0 + v1 * r1 + v2 * r2
+                bmat[tr.site_dofs[d_lo + k], kk] += (
+                    w.jcol[k, 0] * v0 + w.jcol[k, 1] * v1 + w.jcol[k, 2] * v2
+                )
+            gt_acc[kk] += v0 * r0 + v1 * r1 + v2 * r2
+            if with_c:
                 for pj in range(kt.site_pairptr[s], kt.site_pairptr[s + 1]):
                     q = kt.site_pairs[pj]
                     c_acc[kk, kt.pair_k[q]] += v0 * vp[q, 0] + v1 * vp[q, 1] + v2 * vp[q, 2]
@@ -105,21 +106,48 @@ def _schur_range(
                     x = v0 * rot[0, j] + v1 * rot[1, j] + v2 * rot[2, j]
                     c_acc[kk, off + j] += x
                     c_acc[off + j, kk] += x
-            for j in range(3):
-                e0, e1, e2 = ws * rot[0, j], ws * rot[1, j], ws * rot[2, j]
-                for k in range(d_hi - d_lo):
-                    bmat[tr.site_dofs[d_lo + k], off + j] += (
-                        w.jcol[k, 0] * e0 + w.jcol[k, 1] * e1 + w.jcol[k, 2] * e2
-                    )
-                gt_acc[off + j] += e0 * r0 + e1 * r1 + e2 * r2
+        for j in range(3):
+            e0, e1, e2 = ws * rot[0, j], ws * rot[1, j], ws * rot[2, j]
+            for k in range(d_hi - d_lo):
+                bmat[tr.site_dofs[d_lo + k], off + j] += (
+                    w.jcol[k, 0] * e0 + w.jcol[k, 1] * e1 + w.jcol[k, 2] * e2
+                )
+            gt_acc[off + j] += e0 * r0 + e1 * r1 + e2 * r2
+            if with_c:
                 c_acc[off + j, off + j] += ws
+
+
+@_jit
+def _hold_limits(tr, q, w, bmat):
+    """Hinges at a joint limit that the gradient ``w.g`` pushes outward are held: their rows
+    leave A (``w.h``), B (bmat) and g."""
+    h, g = w.h, w.g
+    if blocked_dofs(tr, q, g, w.blocked, g):
+        hold_blocked(tr, q, w.blocked, h, True)
+        for v in range(h.shape[0]):
+            if w.blocked[v] and tr.jnt_type[tr.dof_jnt[v]] == HINGE:
+                bmat[v, :] = 0.0
+                g[v] = 0.0
+
+
+@_jit
+def _schur_range(
+    tr, kt, target, wts, qpos, free, lo, hi, use_limits, mu, y_out, yg_out, ld_out, gq_out,
+    diag_out, c_acc, gt_acc,
+):  # fmt: skip
+    nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
+    w = work_arrays(nbody, njnt, ns, nv, qpos.shape[1])
+    n_par = kt.n_kappa + 3 * ns
+    vp = np.zeros((kt.pair_k.size, 3))
+    bmat = np.zeros((nv, n_par))
+    yb = np.zeros((nv, free.size + 1))
+    for t in range(lo, hi):
+        fk(tr, qpos[t], w)
+        normal_equations(tr, target[t], wts[t], w)
+        _model_blocks(tr, kt, target[t], wts[t], w, vp, bmat, c_acc, gt_acc, True)
         h, g = w.h, w.g
-        if use_limits and blocked_dofs(tr, qpos[t], g, w.blocked, g):
-            hold_blocked(tr, qpos[t], w.blocked, h, True)
-            for v in range(nv):
-                if w.blocked[v] and tr.jnt_type[tr.dof_jnt[v]] == HINGE:
-                    bmat[v, :] = 0.0
-                    g[v] = 0.0
+        if use_limits:
+            _hold_limits(tr, qpos[t], w, bmat)
         a = w.a
         for i in range(nv):
             gq_out[t, i] = g[i]
@@ -200,6 +228,86 @@ def frame_blocks(
         lambda b: (*args, bounds[b], bounds[b + 1], *outs, c[b], g_theta[b]),
     )
     return FrameBlocks(y, y_g, ld, g_q, diag_a, c.sum(axis=0), g_theta.sum(axis=0))
+
+
+@_jit
+def _gradient_range(tr, kt, target, wts, qpos, lo, hi, use_limits, gt_acc):
+    nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
+    w = work_arrays(nbody, njnt, ns, nv, qpos.shape[1])
+    vp = np.zeros((kt.pair_k.size, 3))
+    x = np.zeros(nv)
+    no_b = np.zeros((nv, 0))
+    kn = kt.n_kappa
+    for t in range(lo, hi):
+        if np.isnan(qpos[t, 0]):
+            continue
+        fk(tr, qpos[t], w)
+        normal_equations(tr, target[t], wts[t], w)
+        if use_limits:
+            _hold_limits(tr, qpos[t], w, no_b)
+        h, g, a = w.h, w.g, w.a
+        for i in range(nv):
+            x[i] = g[i]
+            for k in range(i + 1):
+                a[i, k] = h[i, k]
+            a[i, i] += 1e-12
+        factor(tr, a)
+        solve(tr, a, x)
+        _pair_directions(kt, w, vp)
+        for s in range(ns):
+            ws = wts[t, s]
+            if ws <= 0:
+                continue
+            # r - J_q x: the residual left after the frame's own Gauss-Newton pose step
+            r0 = target[t, s, 0] - w.site_xpos[s, 0]
+            r1 = target[t, s, 1] - w.site_xpos[s, 1]
+            r2 = target[t, s, 2] - w.site_xpos[s, 2]
+            for k in range(tr.site_dofptr[s], tr.site_dofptr[s + 1]):
+                v = tr.site_dofs[k]
+                c0, c1, c2 = site_column(tr, w, v, s)
+                r0 -= c0 * x[v]
+                r1 -= c1 * x[v]
+                r2 -= c2 * x[v]
+            r0, r1, r2 = ws * r0, ws * r1, ws * r2
+            for pi in range(kt.site_pairptr[s], kt.site_pairptr[s + 1]):
+                p = kt.site_pairs[pi]
+                gt_acc[kt.pair_k[p]] += vp[p, 0] * r0 + vp[p, 1] * r1 + vp[p, 2] * r2
+            rot = w.xmat[tr.site_body[s]]
+            for j in range(3):
+                gt_acc[kn + 3 * s + j] += rot[0, j] * r0 + rot[1, j] * r1 + rot[2, j] * r2
+
+
+def reduced_gradient(
+    tr: Tree,
+    kt: KappaTables,
+    target: np.ndarray,
+    wts: np.ndarray,
+    qpos: np.ndarray,
+    *,
+    limits: bool = True,
+) -> np.ndarray:
+    """The reduced gradient ``sum_t g_th - B^T A^-1 g_q`` (P,) [m^2 per m] of frames target
+    (n, M, 3) [m], weights wts (n, M), at poses qpos (n, nq) (NaN rows skipped).
+
+    The right-hand side of the undamped reduced system (:func:`frame_blocks` with mu = 0)
+    without its matrix: ``B^T A^-1 g_q = J_th^T W J_q x`` for the frame's own Gauss-Newton
+    pose step ``x = A^-1 g_q``, so the gradient is ``J_th^T W (r - J_q x)``: one solve per
+    frame instead of Pf, no B formed and nothing stored per frame, so it can be summed over
+    every frame of a long recording. With ``limits``, hinges at a
+    joint limit that the gradient pushes outward are held, as in :func:`frame_blocks`.
+    """
+    n = len(qpos)
+    n_par = kt.n_kappa + 3 * tr.site_body.size
+    bounds = blocks(n, n)
+    k = bounds.size - 1
+    gt = np.zeros((k, n_par))
+    args = (tr, kt, target, wts, np.ascontiguousarray(qpos))
+    run_blocks(
+        _gradient_range,
+        bounds,
+        lambda b: (*args, bounds[b], bounds[b + 1], bool(limits), gt[b]),
+    )
+    return gt.sum(axis=0)
 
 
 @_jit
