@@ -180,6 +180,8 @@ class FrameBlocks(NamedTuple):
     diag_a : (n, nv) float, diag(A) (undamped)
     c : (P, P) float, sum over the frames of J_th^T W J_th
     g_theta : (P,) float, sum of J_th^T W r
+    yty : (Pf, Pf) float, sum of B^T A_d^-1 B = Y^T Y over the frames
+    ytg : (Pf,) float, sum of B^T A_d^-1 g_q = Y^T y_g
     """
 
     y: np.ndarray
@@ -189,6 +191,8 @@ class FrameBlocks(NamedTuple):
     diag_a: np.ndarray
     c: np.ndarray
     g_theta: np.ndarray
+    yty: np.ndarray
+    ytg: np.ndarray
 
 
 def frame_blocks(
@@ -205,13 +209,16 @@ def frame_blocks(
     """Blocks of frames target (n, M, 3) [m], weights wts (n, M), poses qpos (n, nq).
 
     ``A`` is damped as ``A + mu diag(A) + 1e-12 I``. With ``limits``, hinges at a joint limit
-    that the gradient pushes outward are held (their rows leave A, B and g_q).
+    that the gradient pushes outward are held (their rows leave A, B and g_q). Each thread
+    forms its frames' Y^T Y and Y^T y_g (BLAS, the only dense step) right after its kernel,
+    so that both cores share the products too.
     """
     n = len(qpos)
     nv = tr.dof_jnt.size
     n_par = kt.n_kappa + 3 * tr.site_body.size
     free = np.ascontiguousarray(free, dtype=np.int64)
-    y = np.empty((n, nv, free.size))
+    pf = free.size
+    y = np.empty((n, nv, pf))
     y_g = np.empty((n, nv))
     ld = np.empty((n, nv, nv))
     g_q = np.empty((n, nv))
@@ -220,14 +227,23 @@ def frame_blocks(
     k = bounds.size - 1
     c = np.zeros((k, n_par, n_par))
     g_theta = np.zeros((k, n_par))
+    yty = np.zeros((k, pf, pf))
+    ytg = np.zeros((k, pf))
     args = (tr, kt, target, wts, np.ascontiguousarray(qpos), free)
     outs = (bool(limits), float(mu), y, y_g, ld, g_q, diag_a)
-    run_blocks(
-        _schur_range,
-        bounds,
-        lambda b: (*args, bounds[b], bounds[b + 1], *outs, c[b], g_theta[b]),
-    )
-    return FrameBlocks(y, y_g, ld, g_q, diag_a, c.sum(axis=0), g_theta.sum(axis=0))
+
+    def block(b: int) -> None:
+        lo, hi = bounds[b], bounds[b + 1]
+        _schur_range(*args, lo, hi, *outs, c[b], g_theta[b])
+        yb = y[lo:hi].reshape(-1, pf)
+        yty[b] = yb.T @ yb
+        ytg[b] = yb.T @ y_g[lo:hi].reshape(-1)
+
+    run_blocks(block, bounds, lambda b: (b,))
+    return FrameBlocks(
+        y, y_g, ld, g_q, diag_a, c.sum(axis=0), g_theta.sum(axis=0), yty.sum(axis=0),
+        ytg.sum(axis=0),
+    )  # fmt: skip
 
 
 @_jit
