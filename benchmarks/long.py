@@ -165,6 +165,7 @@ def main() -> None:
         "kappa_crlb_all_mm": bk_a * 1e3,
         "offset_crlb_all_mm": bo_a * 1e3,
         "kappa_error_over_all_bound": ek / bk_a,
+        "refine_steps_std": res.steps,
         "refined_kappa_error_mm": ek1 * 1e3,
         "refined_offset_error_mm": eo1 * 1e3,
         "refined_kappa_error_over_all_bound": ek1 / bk_a,
@@ -195,8 +196,8 @@ def main() -> None:
     s = res.seconds
     print(
         f"{n} frames: {wall:.1f} s end to end (select {s['select']:.1f} s, identify on "
-        f"{args.count} frames {s['identify']:.1f} s / {lm.iterations} iterations, one-step "
-        f"refinement on every frame (IK + reduced gradient) {s.get('refine', 0.0):.1f} s, IK "
+        f"{args.count} frames {s['identify']:.1f} s / {lm.iterations} iterations, refinement "
+        f"(sample steps, IK + reduced gradient of every frame) {s['refine']:.1f} s, last IK "
         f"{s['ik']:.1f} s = {out['ik_frames_per_second']:,.0f} frames/s); peak RSS "
         f"{peak:.2f} GiB; IK marker RMSE {out['marker_rmse_mm']:.3f} mm\n"
         f"selection: {args.count} of a {res.selection.pool}-frame pool, "

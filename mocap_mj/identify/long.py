@@ -8,22 +8,26 @@ that of a thousand frames, not of the hour. :func:`identify_long` therefore
 1. selects ``count`` frames by pose diversity,
 2. identifies the model on them (the joint LM, initial model scaled and its markers placed
    from the selected frames, as ``mocap-mj identify`` does by default),
-3. solves the IK of every frame with that model (chained, ``chunk`` frames at a time),
-4. refines the model on every frame: the one-step estimator (Le Cam), iterated.
-   From the subset's estimate theta_0, Gauss-Newton steps on the reduced system of
-   *every* frame, ``theta_k+1 = theta_k + S^-1 g(theta_k)``. g
-   (:func:`mocap_mj._schur.reduced_gradient`) is summed over every frame at its IK pose
-   under theta_k; S, the reduced information with the joint limits held as in g (the
-   curvature of the same objective), is summed over at most ``info_frames`` evenly spaced
-   frames and scaled to all, at every step (the set of frames at a limit changes with
-   theta: a matrix kept from the start let later steps diverge). S only has to be a
-   consistent estimate; g includes every frame, since it carries their averaging of the
-   noise. From a root-n-consistent start one step is asymptotically efficient; up to
-   ``steps`` are taken, until one is below ``tol_std`` of a standard deviation,
-5. solves the IK of every frame again with the refined model, warm-started from step 3's
-   poses (theta moved by a fraction of a millimetre: about two iterations per frame).
+3. refines the model on every frame (:func:`refine`): the one-step estimator (Le Cam),
+   with its start brought closer first. One Gauss-Newton step on the reduced system of
+   *every* frame, ``theta_1 = theta_0 + S^-1 g``, is asymptotically efficient from a
+   root-n-consistent start theta_0; g, the reduced gradient
+   (:func:`mocap_mj._schur.reduced_gradient`), is summed over every frame at its IK pose
+   under theta_0 in one streamed pass, and S, the reduced information, only has to be a
+   consistent estimate, so it comes from an evenly spaced sample, scaled. From the subset's
+   estimate the step was not enough: directions the subset barely determined start
+   millimetres away, where the curvature changes over the step. So theta_0 is first
+   brought to the sample's own optimum by Gauss-Newton steps on the sample (``sample``
+   frames, default 20,000; the information recomputed at every step: kept fixed, the steps
+   diverged), which costs a fraction of a pass over every frame; the last step is the
+   one on every frame. Joint limits are not held in these steps (g and S of the problem
+   without limits, like the Cramer-Rao bound): held, the set of frames at a limit changed
+   with theta and the steps oscillated or diverged,
+4. solves the IK of every frame with the refined model, warm-started from the poses of
+   the pass of step 3 (theta moved by a fraction of a millimetre: about two iterations per
+   frame).
 
-Steps 3 to 5 stream ``chunk`` frames at a time through ``qpos_out`` (an array or a
+Steps 3 and 4 stream ``chunk`` frames at a time through ``qpos_out`` (an array or a
 memory-mapped ``.npy``): no more than one chunk's poses and per-frame work arrays are in
 memory at once, never all Jacobians.
 """
@@ -49,11 +53,11 @@ from .selection import Selection, select_frames
 
 #: IK chunk [frames]: 20,000 frames' poses are 9 MB, their IK working set a few tens of MB.
 CHUNK = 20_000
-#: The reduced information of at most INFO_FRAMES evenly spaced frames, scaled, estimates
-#: all frames' (docs/long-recordings.md: the one-step estimate's error against it).
-INFO_FRAMES = 20_000
-#: Refinement steps at most, and the step (in standard deviations) below which they stop.
-STEPS = 3
+#: The refinement's sample [frames], its steps at most, and the step (in standard
+#: deviations) below which they stop.
+SAMPLE = 20_000
+INFO_FRAMES = 5_000
+STEPS = 8
 TOL_STD = 0.05
 
 
@@ -64,10 +68,10 @@ class LongResult(NamedTuple):
     ------
     selection : the kept frames
     lm : the identification on them (its theta is the start of the refinement)
-    theta : (P,) [m], the model: ``lm.theta`` refined on every frame (itself with no steps)
+    theta : (P,) [m], the model: ``lm.theta`` refined on every frame (itself unrefined)
     information : (P, P) [1], the refinement's matrix: reduced information of every solved
         frame at ``lm.theta``, joint limits held (:func:`refine`; ``lm.reduced_information``
-        with no steps), frozen rows and columns zero
+        unrefined), frozen rows and columns zero
     steps : list of float, the refinement steps' sizes (:class:`Refinement`)
     marker_rmse : [m] over all present samples of every solved frame under ``theta``
     frames_solved : int
@@ -91,9 +95,9 @@ class Refinement(NamedTuple):
     Fields
     ------
     theta : (P,) [m], the refined model
-    information : (P, P) [1], reduced information of every solved frame at the start, joint
-        limits held (the steps' matrix), frozen rows and columns zero
-    gradient : (P,) [m], the reduced gradient of every solved frame at the start
+    information : (P, P) [1], reduced information of every solved frame at the last step's
+        start, joint limits held (the step's matrix), frozen rows and columns zero
+    gradient : (P,) [m], the reduced gradient of every solved frame there
     steps : list of float, each step's largest component in units of that parameter's
         standard deviation (informed directions; sigma the noise of the start)
     """
@@ -145,8 +149,9 @@ def _ik_pass(
     gradient: bool,
 ) -> tuple[_Fit, np.ndarray]:
     """IK of every frame under kin's theta, chunk by chunk, in place in qpos (T, nq)
-    (:func:`_solve_chunk`); with ``gradient``, each chunk's reduced gradient at its new
-    poses is summed (P,) [m] (zeros otherwise)."""
+    (:func:`_solve_chunk`); with ``gradient``, the sum (P,) [m] of each chunk's reduced
+    gradient at its new poses (:func:`mocap_mj._schur.reduced_gradient`, joint limits not
+    held, see :func:`refine`; zeros otherwise)."""
     solver = IKSolver(kin)
     tree, kt = kin.tree(), kin.kappa_tables()
     grad = np.zeros(kin.pset.size)
@@ -160,28 +165,45 @@ def _ik_pass(
         if gradient:
             present = np.all(np.isfinite(m), axis=2)
             target = np.where(present[..., None], m, 0.0)
-            grad += _schur.reduced_gradient(tree, kt, target, present.astype(float), q)
+            w = present.astype(float)
+            grad += _schur.reduced_gradient(tree, kt, target, w, q, limits=False)
     return fit, grad
 
 
-def _information(
-    markers: NDArray[np.floating],
-    kin: Kinematics,
-    qpos: NDArray[np.floating],
-    free: np.ndarray,
-    info_frames: int,
-) -> np.ndarray:
-    """Reduced information (P, P) [1] of every solved frame, joint limits held, from every
-    k-th frame (k = ceil(T / info_frames)) times k."""
-    stride = max(1, -(-len(markers) // max(info_frames, 1)))
-    rows = np.arange(0, len(markers), stride)
-    q = np.asarray(qpos[rows], dtype=float)
-    ok = np.isfinite(q[:, 0])
+def _information(kin: Kinematics, markers: np.ndarray, qpos: np.ndarray) -> np.ndarray:
+    """Reduced information (P, P) [1] of frames markers (n, M, 3) [m] at poses qpos (n, nq)
+    (NaN rows skipped), joint limits not held."""
+    ok = np.isfinite(qpos[:, 0])
     if not ok.any():
         return np.zeros((kin.pset.size,) * 2)
-    m = np.asarray(markers[rows[ok]], dtype=float)
-    prob = IdentificationProblem(kin, m, q[ok], free, theta0=kin.theta.copy())
-    return stride * prob.information(prob.present.astype(float), limits=True)
+    free = np.flatnonzero(~kin.pset.frozen)
+    prob = IdentificationProblem(kin, markers[ok], qpos[ok], free, theta0=kin.theta.copy())
+    return prob.information(prob.present.astype(float))
+
+
+class _Solver:
+    """Gauss-Newton steps for a fixed reduced information (P, P) [1] with the weak prior
+    toward theta0 (P,) [m], within the informed directions (as every LM step); step sizes
+    in standard deviations for the noise sigma [m]."""
+
+    def __init__(
+        self, info: np.ndarray, theta0: np.ndarray, free: np.ndarray, sigma: float, st: LMSettings
+    ) -> None:
+        self.free, self.prior = free, st.weak_prior(theta0)
+        self.floor = st.prior_ratio * st.prior_weight
+        self.s_mat = info[np.ix_(free, free)] + self.prior.hessian()[np.ix_(free, free)]
+        lam, vec = np.linalg.eigh(0.5 * (self.s_mat + self.s_mat.T))
+        basis, lam = vec[:, lam > self.floor], lam[lam > self.floor]
+        self.std = sigma * np.sqrt(np.einsum("ij,j,ij->i", basis, 1.0 / lam, basis))
+
+    def step(self, theta: np.ndarray, grad: np.ndarray) -> float:
+        """theta (P,) [m] advanced in place by the step for the data gradient grad (P,) [m];
+        returns the step's largest component in standard deviations."""
+        f = self.free
+        rhs = grad[f] - self.prior.gradient(theta)[f]
+        dth = informed_solve(self.s_mat, self.s_mat, rhs, self.floor)
+        theta[f] += dth
+        return float(np.max(np.abs(dth) / np.maximum(self.std, 1e-300), initial=0.0))
 
 
 @single_blas_thread
@@ -196,60 +218,57 @@ def refine(
     steps: int = STEPS,
     tol_std: float = TOL_STD,
     chunk: int = CHUNK,
+    sample: int = SAMPLE,
     info_frames: int = INFO_FRAMES,
 ) -> Refinement:
-    """Gauss-Newton steps of theta on the reduced system of every frame (module docstring).
+    """The model refined on every frame (module docstring, step 4).
 
     Parameters
     ----------
     markers : (T, M, 3) float [m], NaN where missing; read ``chunk`` frames at a time
     theta0 : (P,) [m], a consistent start (the identification on a subset); also the mean of
         the weak prior (``settings.weak_prior``), as in the identification
-    qpos : (T, nq) float, written: every frame's IK pose under the last step's start (NaN
-        rows: too few markers); its finite rows are the first IK's warm starts (NaN: a
-        chained IK). Each step solves every frame's IK (warm) under the current theta and
-        sums the reduced gradient at those poses, in one pass over the markers
+    qpos : (T, nq) float, written: every frame's IK pose under the sample's estimate (NaN
+        rows: too few markers); finite rows are warm starts
     sigma : [m], per-axis marker noise (the start's estimate), for ``tol_std``
     settings : LM settings for the prior and the informed directions (``prior_ratio``:
         directions with less information keep their value, as in every LM step)
-    steps : at most this many steps (default 3: from the 1000-frame start on the hour-long
-        benchmark the first step leaves weakly determined directions mm away, which the
-        next ones correct; docs/long-recordings.md)
-    tol_std : stop once a step's largest component is below this fraction of its
-        parameter's standard deviation (default 0.05: further steps cannot change the
+    steps : Gauss-Newton steps on the sample at most (default 8)
+    tol_std : the sample's steps stop once one's largest component is below this fraction
+        of its parameter's standard deviation (default 0.05: further steps cannot change the
         estimate measurably)
-    info_frames : the information is summed over every k-th frame, k = ceil(T / info_frames),
-        and scaled by k (default 20,000 frames; an estimate of the information only slows
-        the steps' convergence, the gradient over every frame decides where they converge)
+    sample : every k-th frame, k = ceil(T / sample), is the sample (default 20,000 frames)
+    info_frames : the information is summed over at most this many evenly spaced frames of
+        the sample and scaled to all (default 5,000)
     """
     st = settings or LMSettings()
+    n = len(markers)
     kin = Kinematics(pset)
-    check_shape("qpos", qpos, (len(markers), kin.nq))
+    kin.set_theta(theta0)
+    check_shape("qpos", qpos, (n, kin.nq))
     free = np.flatnonzero(~pset.frozen)
-    prior = st.weak_prior(theta0)
-    floor = st.prior_ratio * st.prior_weight
+    stride = max(1, -(-n // max(sample, 1)))
+    m_s = np.asarray(markers[::stride], dtype=float)
+    q_s = np.full((len(m_s), kin.nq), np.nan)
     theta = np.array(theta0, dtype=float)
     sizes: list[float] = []
+    info_rows = slice(None, None, max(1, -(-len(m_s) // max(info_frames, 1))))
+    scale = len(m_s) / len(m_s[info_rows])
     info = np.zeros((pset.size, pset.size))
-    grad0 = np.zeros(pset.size)
-    for i in range(steps):
+    for _ in range(steps):
         kin.set_theta(theta)
-        _, grad = _ik_pass(markers, kin, qpos, chunk, gradient=True)
-        # The matrix at every step: with the joint limits held, the set of frames at a limit
-        # changes with theta, and a matrix kept from the start let later steps diverge.
-        s_info = _information(markers, kin, qpos, free, info_frames)
-        if i == 0:
-            grad0, info = grad, s_info
-        s_mat = s_info[np.ix_(free, free)] + prior.hessian()[np.ix_(free, free)]
-        lam, vec = np.linalg.eigh(0.5 * (s_mat + s_mat.T))
-        basis, lam = vec[:, lam > floor], lam[lam > floor]
-        std = sigma * np.sqrt(np.einsum("ij,j,ij->i", basis, 1.0 / lam, basis))
-        dth = informed_solve(s_mat, s_mat, grad[free] - prior.gradient(theta)[free], floor)
-        theta[free] += dth
-        sizes.append(float(np.max(np.abs(dth) / np.maximum(std, 1e-300), initial=0.0)))
+        _, grad = _ik_pass(m_s, kin, q_s, chunk, gradient=True)
+        # The information at every step: kept from the start, the steps diverged.
+        info = scale * _information(kin, m_s[info_rows], q_s[info_rows])
+        sizes.append(_Solver(info, theta0, free, sigma, st).step(theta, grad))
         if sizes[-1] < tol_std:
             break
-    return Refinement(theta, info, grad0, sizes)
+    # The one step on every frame, from the sample's estimate, its information scaled.
+    info *= stride
+    kin.set_theta(theta)
+    _, grad = _ik_pass(markers, kin, qpos, chunk, gradient=True)
+    sizes.append(_Solver(info, theta0, free, sigma, st).step(theta, grad))
+    return Refinement(theta, info, grad, sizes)
 
 
 def refit_all(
@@ -281,8 +300,8 @@ def identify_long(
     count: int = 1000,
     settings: LMSettings | None = None,
     chunk: int = CHUNK,
-    steps: int = STEPS,
-    info_frames: int = INFO_FRAMES,
+    refine_on_all: bool = True,
+    sample: int = SAMPLE,
 ) -> LongResult:
     """Identify a long recording on ``count`` selected frames, IK every frame, refine the
     model on every frame (:func:`refine`), then IK every frame again (warm) with it.
@@ -296,9 +315,10 @@ def identify_long(
     count : frames identified on (default 1000: see docs/long-recordings.md)
     settings : LM settings (default ``LMSettings()``)
     chunk : frames per IK chunk
-    steps : refinement steps on every frame at most (:func:`refine`; 0: none, the model's
-        error is then that of ``count`` frames, many times the bound of the whole recording)
-    info_frames : see :func:`refine`
+    refine_on_all : refine the model on every frame (:func:`refine`; default on: without,
+        the model's error is that of ``count`` frames, many times the bound of the whole
+        recording)
+    sample : frames of the refinement's sample (:func:`refine`)
     """
     n = len(markers)
     st = settings or LMSettings()
@@ -317,11 +337,10 @@ def identify_long(
     qpos_out[:] = np.nan
     theta, info, sizes = lm.theta, lm.reduced_information, []
     t3 = time.perf_counter()
-    if steps > 0:
+    if refine_on_all:
         ref = refine(
-            markers, pset, lm.theta, qpos_out, lm.sigma, settings=st, steps=steps,
-            chunk=chunk, info_frames=info_frames,
-        )  # fmt: skip
+            markers, pset, lm.theta, qpos_out, lm.sigma, settings=st, chunk=chunk, sample=sample
+        )
         theta, info, sizes = ref.theta, ref.information, ref.steps
         t3 = time.perf_counter()
     rmse, solved = refit_all(markers, pset, theta, qpos_out, chunk=chunk)
