@@ -7,9 +7,9 @@ The recording is synthetic: a ROM trial (first half) then a walk (second half) o
 subject (one seed: one truth model), 1 mm noise. It is synthesized once into ``--cache`` (in a
 child process, so that its memory is not counted) as ``.npy`` files that the timed run reads
 as memory maps. The timed part is :func:`mocap_mj.identify.long.identify_long`: selection,
-identification on the selection, the one-step refinement on every frame (IK of every frame
-at the subset's model and the reduced gradient, in chunks), IK of every frame with the
-refined model into a memory-mapped ``.npy``.
+identification on the selection, the refinement (Gauss-Newton steps on a 20,000-frame
+sample, then one step on every frame: IK of every frame and its reduced gradient, in
+chunks), the IK of every frame with the refined model into a memory-mapped ``.npy``.
 
 Then, untimed, the accuracy: the parameter error against the truth (aligned along the
 directions the data cannot determine, as ``mocap-mj score`` does), in the observable
@@ -207,7 +207,7 @@ def main() -> None:
         f"({bk_s * 1e3:.3f} mm), {ek / bk_a:.2f}x all frames' ({bk_a * 1e3:.3f} mm)\n"
         f"offset error {eo * 1e3:.3f} mm: {eo / bo_s:.2f}x the subset's bound "
         f"({bo_s * 1e3:.3f} mm), {eo / bo_a:.2f}x all frames' ({bo_a * 1e3:.3f} mm)\n"
-        f"after the one-step refinement on every frame: kinematic error {ek1 * 1e3:.3f} mm = "
+        f"after the refinement on every frame: kinematic error {ek1 * 1e3:.3f} mm = "
         f"{ek1 / bk_a:.2f}x all frames' bound, offsets {eo1 * 1e3:.3f} mm = {eo1 / bo_a:.2f}x"
     )
     if args.even:
