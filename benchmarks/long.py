@@ -197,7 +197,8 @@ def main() -> None:
     print(
         f"{n} frames: {wall:.1f} s end to end (select {s['select']:.1f} s, identify on "
         f"{args.count} frames {s['identify']:.1f} s / {lm.iterations} iterations, refinement "
-        f"(sample steps, IK + reduced gradient of every frame) {s['refine']:.1f} s, last IK "
+        f"{s['refine']:.1f} s (sample steps {s.get('refine_sample', 0.0):.1f} s, IK + reduced "
+        f"gradient of every frame {s.get('refine_pass', 0.0):.1f} s), last IK "
         f"{s['ik']:.1f} s = {out['ik_frames_per_second']:,.0f} frames/s); peak RSS "
         f"{peak:.2f} GiB; IK marker RMSE {out['marker_rmse_mm']:.3f} mm\n"
         f"selection: {args.count} of a {res.selection.pool}-frame pool, "

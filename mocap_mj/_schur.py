@@ -67,57 +67,6 @@ def _pair_directions(kt, w, vp):
 
 
 @_jit
-def _model_blocks(tr, kt, target, wts, w, vp, bmat, c_acc, gt_acc, with_c):
-    """One frame's model-parameter blocks, after ``fk`` and ``normal_equations``: B into bmat
-    (nv, P) (overwritten), J_th^T W r added to gt_acc (P,) and, when ``with_c``,
-    J_th^T W J_th added to c_acc (P, P). A marker's offsets touch only its own residuals
-    (dx/do = R_body): their B columns are J_q^T w R, their C block w I_3."""
-    ns = tr.site_body.size
-    kn = kt.n_kappa
-    _pair_directions(kt, w, vp)
-    bmat[:, :] = 0.0
-    for s in range(ns):
-        ws = wts[s]
-        if ws <= 0:
-            continue
-        r0 = target[s, 0] - w.site_xpos[s, 0]
-        r1 = target[s, 1] - w.site_xpos[s, 1]
-        r2 = target[s, 2] - w.site_xpos[s, 2]
-        d_lo, d_hi = tr.site_dofptr[s], tr.site_dofptr[s + 1]
-        for k in range(d_hi - d_lo):
-            v = tr.site_dofs[d_lo + k]
-            w.jcol[k, 0], w.jcol[k, 1], w.jcol[k, 2] = site_column(tr, w, v, s)
-        rot = w.xmat[tr.site_body[s]]
-        off = kn + 3 * s
-        for pi in range(kt.site_pairptr[s], kt.site_pairptr[s + 1]):
-            p = kt.site_pairs[pi]
-            kk = kt.pair_k[p]
-            v0, v1, v2 = ws * vp[p, 0], ws * vp[p, 1], ws * vp[p, 2]
-            for k in range(d_hi - d_lo):
-                bmat[tr.site_dofs[d_lo + k], kk] += (
-                    w.jcol[k, 0] * v0 + w.jcol[k, 1] * v1 + w.jcol[k, 2] * v2
-                )
-            gt_acc[kk] += v0 * r0 + v1 * r1 + v2 * r2
-            if with_c:
-                for pj in range(kt.site_pairptr[s], kt.site_pairptr[s + 1]):
-                    q = kt.site_pairs[pj]
-                    c_acc[kk, kt.pair_k[q]] += v0 * vp[q, 0] + v1 * vp[q, 1] + v2 * vp[q, 2]
-                for j in range(3):
-                    x = v0 * rot[0, j] + v1 * rot[1, j] + v2 * rot[2, j]
-                    c_acc[kk, off + j] += x
-                    c_acc[off + j, kk] += x
-        for j in range(3):
-            e0, e1, e2 = ws * rot[0, j], ws * rot[1, j], ws * rot[2, j]
-            for k in range(d_hi - d_lo):
-                bmat[tr.site_dofs[d_lo + k], off + j] += (
-                    w.jcol[k, 0] * e0 + w.jcol[k, 1] * e1 + w.jcol[k, 2] * e2
-                )
-            gt_acc[off + j] += e0 * r0 + e1 * r1 + e2 * r2
-            if with_c:
-                c_acc[off + j, off + j] += ws
-
-
-@_jit
 def _hold_limits(tr, q, w, bmat):
     """Hinges at a joint limit that the gradient ``w.g`` pushes outward are held: their rows
     leave A (``w.h``), B (bmat) and g."""
@@ -137,14 +86,53 @@ def _schur_range(
 ):  # fmt: skip
     nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
     w = work_arrays(nbody, njnt, ns, nv, qpos.shape[1])
-    n_par = kt.n_kappa + 3 * ns
+    kn = kt.n_kappa
+    n_par = kn + 3 * ns
     vp = np.zeros((kt.pair_k.size, 3))
     bmat = np.zeros((nv, n_par))
     yb = np.zeros((nv, free.size + 1))
     for t in range(lo, hi):
         fk(tr, qpos[t], w)
         normal_equations(tr, target[t], wts[t], w)
-        _model_blocks(tr, kt, target[t], wts[t], w, vp, bmat, c_acc, gt_acc, True)
+        _pair_directions(kt, w, vp)
+        bmat[:, :] = 0.0
+        for s in range(ns):
+            ws = wts[t, s]
+            if ws <= 0:
+                continue
+            r0 = target[t, s, 0] - w.site_xpos[s, 0]
+            r1 = target[t, s, 1] - w.site_xpos[s, 1]
+            r2 = target[t, s, 2] - w.site_xpos[s, 2]
+            d_lo, d_hi = tr.site_dofptr[s], tr.site_dofptr[s + 1]
+            for k in range(d_hi - d_lo):
+                v = tr.site_dofs[d_lo + k]
+                w.jcol[k, 0], w.jcol[k, 1], w.jcol[k, 2] = site_column(tr, w, v, s)
+            rot = w.xmat[tr.site_body[s]]
+            off = kn + 3 * s
+            for pi in range(kt.site_pairptr[s], kt.site_pairptr[s + 1]):
+                p = kt.site_pairs[pi]
+                kk = kt.pair_k[p]
+                v0, v1, v2 = ws * vp[p, 0], ws * vp[p, 1], ws * vp[p, 2]
+                for k in range(d_hi - d_lo):
+                    bmat[tr.site_dofs[d_lo + k], kk] += (
+                        w.jcol[k, 0] * v0 + w.jcol[k, 1] * v1 + w.jcol[k, 2] * v2
+                    )
+                gt_acc[kk] += v0 * r0 + v1 * r1 + v2 * r2
+                for pj in range(kt.site_pairptr[s], kt.site_pairptr[s + 1]):
+                    q = kt.site_pairs[pj]
+                    c_acc[kk, kt.pair_k[q]] += v0 * vp[q, 0] + v1 * vp[q, 1] + v2 * vp[q, 2]
+                for j in range(3):
+                    x = v0 * rot[0, j] + v1 * rot[1, j] + v2 * rot[2, j]
+                    c_acc[kk, off + j] += x
+                    c_acc[off + j, kk] += x
+            for j in range(3):
+                e0, e1, e2 = ws * rot[0, j], ws * rot[1, j], ws * rot[2, j]
+                for k in range(d_hi - d_lo):
+                    bmat[tr.site_dofs[d_lo + k], off + j] += (
+                        w.jcol[k, 0] * e0 + w.jcol[k, 1] * e1 + w.jcol[k, 2] * e2
+                    )
+                gt_acc[off + j] += e0 * r0 + e1 * r1 + e2 * r2
+                c_acc[off + j, off + j] += ws
         h, g = w.h, w.g
         if use_limits:
             _hold_limits(tr, qpos[t], w, bmat)

@@ -75,8 +75,9 @@ class LongResult(NamedTuple):
     steps : list of float, the refinement steps' sizes (:class:`Refinement`)
     marker_rmse : [m] over all present samples of every solved frame under ``theta``
     frames_solved : int
-    seconds : per stage (``select``, ``identify``, ``refine``: its IK and gradient passes,
-        ``ik``: the last IK, under theta)
+    seconds : per stage (``select``, ``identify``, ``refine``: its sample steps and its pass
+        over every frame, also apart as ``refine_sample`` and ``refine_pass``; ``ik``: the
+        last IK, under theta)
     """
 
     selection: Selection
@@ -98,6 +99,8 @@ class Refinement(NamedTuple):
     information : (P, P) [1], reduced information of every solved frame at the last step's
         start, joint limits held (the step's matrix), frozen rows and columns zero
     gradient : (P,) [m], the reduced gradient of every solved frame there
+    seconds : dict, wall time [s] of the ``sample`` steps and of the ``pass`` over every
+        frame (its IK and reduced gradient)
     steps : list of float, each step's largest component in units of that parameter's
         standard deviation (informed directions; sigma the noise of the start)
     """
@@ -106,6 +109,7 @@ class Refinement(NamedTuple):
     information: np.ndarray
     gradient: np.ndarray
     steps: list[float]
+    seconds: dict[str, float]
 
 
 class _Fit(NamedTuple):
@@ -242,6 +246,7 @@ def refine(
         the sample and scaled to all (default 5,000)
     """
     st = settings or LMSettings()
+    t0 = time.perf_counter()
     n = len(markers)
     kin = Kinematics(pset)
     kin.set_theta(theta0)
@@ -264,11 +269,13 @@ def refine(
         if sizes[-1] < tol_std:
             break
     # The one step on every frame, from the sample's estimate, its information scaled.
+    t1 = time.perf_counter()
     info *= stride
     kin.set_theta(theta)
     _, grad = _ik_pass(markers, kin, qpos, chunk, gradient=True)
     sizes.append(_Solver(info, theta0, free, sigma, st).step(theta, grad))
-    return Refinement(theta, info, grad, sizes)
+    seconds = {"sample": t1 - t0, "pass": time.perf_counter() - t1}
+    return Refinement(theta, info, grad, sizes, seconds)
 
 
 def refit_all(
@@ -336,14 +343,16 @@ def identify_long(
     t2 = time.perf_counter()
     qpos_out[:] = np.nan
     theta, info, sizes = lm.theta, lm.reduced_information, []
+    extra: dict[str, float] = {}
     t3 = time.perf_counter()
     if refine_on_all:
         ref = refine(
             markers, pset, lm.theta, qpos_out, lm.sigma, settings=st, chunk=chunk, sample=sample
         )
         theta, info, sizes = ref.theta, ref.information, ref.steps
+        extra = {f"refine_{k}": v for k, v in ref.seconds.items()}
         t3 = time.perf_counter()
     rmse, solved = refit_all(markers, pset, theta, qpos_out, chunk=chunk)
     t4 = time.perf_counter()
-    stages = {"select": t1 - t0, "identify": t2 - t1, "refine": t3 - t2, "ik": t4 - t3}
+    stages = {"select": t1 - t0, "identify": t2 - t1, "refine": t3 - t2, "ik": t4 - t3, **extra}
     return LongResult(sel, lm, theta, info, sizes, rmse, solved, stages)

@@ -209,16 +209,10 @@ class IdentificationProblem:
             lambda d: _schur.back_substitute(tree, fb, d),
         )
 
-    def information(self, w: np.ndarray, chunk: int = 1000, *, limits: bool = False) -> np.ndarray:
+    def information(self, w: np.ndarray, chunk: int = 1000) -> np.ndarray:
         """Reduced information (P, P) [1] of theta for weights w (n, M): the Schur complement
-        of the poses without damping or prior; frozen rows and columns zero.
-
-        By default without joint limits (a limit is not a measurement: the Cramer-Rao
-        information). With ``limits``, hinges at a limit that the gradient pushes outward
-        are held, as in the LM's steps and :func:`mocap_mj._schur.reduced_gradient`: the
-        curvature of the objective with that active set, the matrix of a Newton step from
-        poses at their IK solution (a held joint cannot absorb a change of theta, so those
-        frames constrain theta more).
+        of the poses without damping, prior or joint limits (a limit is not a measurement);
+        frozen rows and columns zero.
 
         Uses (A + 1e-12 I)^-1: B has no component in A's null space (B = J_q^T W J_th), so
         this equals the pseudo-inverse's result to ~1e-8 relative.
@@ -226,7 +220,7 @@ class IdentificationProblem:
         f = self.free
         s_free = np.zeros((f.size, f.size))
         for s in range(0, self.n, chunk):
-            s_free += self.reduce(slice(s, min(s + chunk, self.n)), w, 0.0, limits=limits).s
+            s_free += self.reduce(slice(s, min(s + chunk, self.n)), w, 0.0, limits=False).s
         size = self.kin.pset.size
         info = np.zeros((size, size))
         info[np.ix_(f, f)] = 0.5 * (s_free + s_free.T)
