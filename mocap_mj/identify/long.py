@@ -69,9 +69,9 @@ class LongResult(NamedTuple):
     selection : the kept frames
     lm : the identification on them (its theta is the start of the refinement)
     theta : (P,) [m], the model: ``lm.theta`` refined on every frame (itself unrefined)
-    information : (P, P) [1], the refinement's matrix: reduced information of every solved
-        frame at ``lm.theta``, joint limits held (:func:`refine`; ``lm.reduced_information``
-        unrefined), frozen rows and columns zero
+    information : (P, P) [1], the refinement's last matrix: the reduced information of
+        every frame, estimated from the sample (:class:`Refinement`; unrefined:
+        ``lm.reduced_information``), frozen rows and columns zero
     steps : list of float, the refinement steps' sizes (:class:`Refinement`)
     marker_rmse : [m] over all present samples of every solved frame under ``theta``
     frames_solved : int
@@ -96,13 +96,14 @@ class Refinement(NamedTuple):
     Fields
     ------
     theta : (P,) [m], the refined model
-    information : (P, P) [1], reduced information of every solved frame at the last step's
-        start, joint limits held (the step's matrix), frozen rows and columns zero
-    gradient : (P,) [m], the reduced gradient of every solved frame there
+    information : (P, P) [1], the last step's matrix: reduced information (joint limits not
+        held) of the sample at the sample's estimate, scaled to every frame; frozen rows and
+        columns zero
+    gradient : (P,) [m], the reduced gradient of every solved frame at the sample's estimate
+    steps : list of float, each step's largest component in units of that parameter's
+        standard deviation (the sample's steps, then the step on every frame)
     seconds : dict, wall time [s] of the ``sample`` steps and of the ``pass`` over every
         frame (its IK and reduced gradient)
-    steps : list of float, each step's largest component in units of that parameter's
-        standard deviation (informed directions; sigma the noise of the start)
     """
 
     theta: np.ndarray
@@ -225,7 +226,7 @@ def refine(
     sample: int = SAMPLE,
     info_frames: int = INFO_FRAMES,
 ) -> Refinement:
-    """The model refined on every frame (module docstring, step 4).
+    """The model refined on every frame (module docstring, step 3).
 
     Parameters
     ----------
