@@ -40,6 +40,7 @@ from ._tree import (
     normal_equations,
     run_blocks,
     site_column,
+    solve,
     work_arrays,
 )
 
@@ -58,6 +59,29 @@ def _rows_lt_solve(tr, a, y):
             i = parent[i]
 
 
+@_jit
+def _pair_directions(kt, w, vp):
+    """vp (pairs, 3): the world direction R_parent d of every (kappa, body) pair."""
+    for p in range(kt.pair_k.size):
+        m = w.xmat[kt.pair_parent[p]]
+        d = kt.pair_dir[p]
+        for i in range(3):
+            vp[p, i] = m[i, 0] * d[0] + m[i, 1] * d[1] + m[i, 2] * d[2]
+
+
+@_jit
+def _hold_limits(tr, q, w, bmat):
+    """Hinges at a joint limit that the gradient ``w.g`` pushes outward are held: their rows
+    leave A (``w.h``), B (bmat) and g."""
+    h, g = w.h, w.g
+    if blocked_dofs(tr, q, g, w.blocked, g):
+        hold_blocked(tr, q, w.blocked, h)
+        for v in range(h.shape[0]):
+            if w.blocked[v] and tr.jnt_type[tr.dof_jnt[v]] == HINGE:
+                bmat[v, :] = 0.0
+                g[v] = 0.0
+
+
 @_kernel
 def _schur_range(
     tr, kt, target, wts, qpos, free, lo, hi, use_limits, mu, y_out, yg_out, ld_out, gq_out,
@@ -73,11 +97,7 @@ def _schur_range(
     for t in range(lo, hi):
         fk(tr, qpos[t], w)
         normal_equations(tr, target[t], wts[t], w)
-        for p in range(kt.pair_k.size):
-            m = w.xmat[kt.pair_parent[p]]
-            d = kt.pair_dir[p]
-            for i in range(3):
-                vp[p, i] = m[i, 0] * d[0] + m[i, 1] * d[1] + m[i, 2] * d[2]
+        _pair_directions(kt, w, vp)
         bmat[:, :] = 0.0
         for s in range(ns):
             ws = wts[t, s]
@@ -117,12 +137,8 @@ def _schur_range(
                 gt_acc[off + j] += e0 * r0 + e1 * r1 + e2 * r2
                 c_acc[off + j, off + j] += ws
         h, g = w.h, w.g
-        if use_limits and blocked_dofs(tr, qpos[t], g, w.blocked, g):
-            hold_blocked(tr, qpos[t], w.blocked, h)
-            for v in range(nv):
-                if w.blocked[v] and tr.jnt_type[tr.dof_jnt[v]] == HINGE:
-                    bmat[v, :] = 0.0
-                    g[v] = 0.0
+        if use_limits:
+            _hold_limits(tr, qpos[t], w, bmat)
         a = w.a
         for i in range(nv):
             gq_out[t, i] = g[i]
@@ -157,6 +173,8 @@ class FrameBlocks(NamedTuple):
     diag_a : (n, nv) float, diag(A) (undamped)
     c : (P, P) float, sum over the frames of J_th^T W J_th
     g_theta : (P,) float, sum of J_th^T W r
+    yty : (Pf, Pf) float, sum of B^T A_d^-1 B = Y^T Y over the frames
+    ytg : (Pf,) float, sum of B^T A_d^-1 g_q = Y^T y_g
     """
 
     y: np.ndarray
@@ -166,6 +184,8 @@ class FrameBlocks(NamedTuple):
     diag_a: np.ndarray
     c: np.ndarray
     g_theta: np.ndarray
+    yty: np.ndarray
+    ytg: np.ndarray
 
 
 def frame_blocks(
@@ -182,14 +202,17 @@ def frame_blocks(
     """Blocks of frames target (n, M, 3) [m], weights wts (n, M), poses qpos (n, nq).
 
     ``A`` is damped as ``A + mu diag(A) + 1e-12 I``. With ``limits``, hinges at a joint limit
-    that the gradient pushes outward are held (their rows leave A, B and g_q).
+    that the gradient pushes outward are held (their rows leave A, B and g_q). Each thread
+    forms its frames' Y^T Y and Y^T y_g (BLAS, the only dense step) right after its kernel,
+    so that both cores share the products too.
     """
     _numba_prewarm.wait()
     n = len(qpos)
     nv = tr.dof_jnt.size
     n_par = kt.n_kappa + 3 * tr.site_body.size
     free = np.ascontiguousarray(free, dtype=np.int64)
-    y = np.empty((n, nv, free.size))
+    pf = free.size
+    y = np.empty((n, nv, pf))
     y_g = np.empty((n, nv))
     ld = np.empty((n, nv, nv))
     g_q = np.empty((n, nv))
@@ -198,14 +221,104 @@ def frame_blocks(
     k = bounds.size - 1
     c = np.zeros((k, n_par, n_par))
     g_theta = np.zeros((k, n_par))
+    yty = np.zeros((k, pf, pf))
+    ytg = np.zeros((k, pf))
     args = (tr, kt, *_floats(target, wts, qpos), free)
     outs = (bool(limits), float(mu), y, y_g, ld, g_q, diag_a)
+
+    def block(b: int) -> None:
+        lo, hi = bounds[b], bounds[b + 1]
+        _schur_range(*args, lo, hi, *outs, c[b], g_theta[b])
+        yb = y[lo:hi].reshape(-1, pf)
+        yty[b] = yb.T @ yb
+        ytg[b] = yb.T @ y_g[lo:hi].reshape(-1)
+
+    run_blocks(block, bounds, lambda b: (b,))
+    return FrameBlocks(
+        y, y_g, ld, g_q, diag_a, c.sum(axis=0), g_theta.sum(axis=0), yty.sum(axis=0),
+        ytg.sum(axis=0),
+    )  # fmt: skip
+
+
+@_kernel
+def _gradient_range(tr, kt, target, wts, qpos, lo, hi, use_limits, gt_acc):
+    nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
+    w = work_arrays(nbody, njnt, ns, nv, qpos.shape[1])
+    vp = np.zeros((kt.pair_k.size, 3))
+    x = np.zeros(nv)
+    no_b = np.zeros((nv, 0))
+    kn = kt.n_kappa
+    for t in range(lo, hi):
+        if np.isnan(qpos[t, 0]):
+            continue
+        fk(tr, qpos[t], w)
+        normal_equations(tr, target[t], wts[t], w)
+        if use_limits:
+            _hold_limits(tr, qpos[t], w, no_b)
+        h, g, a = w.h, w.g, w.a
+        for i in range(nv):
+            x[i] = g[i]
+            for k in range(i + 1):
+                a[i, k] = h[i, k]
+            a[i, i] += 1e-12
+        factor(tr, a)
+        solve(tr, a, x)
+        _pair_directions(kt, w, vp)
+        for s in range(ns):
+            ws = wts[t, s]
+            if ws <= 0:
+                continue
+            # r - J_q x: the residual left after the frame's own Gauss-Newton pose step
+            r0 = target[t, s, 0] - w.site_xpos[s, 0]
+            r1 = target[t, s, 1] - w.site_xpos[s, 1]
+            r2 = target[t, s, 2] - w.site_xpos[s, 2]
+            for k in range(tr.site_dofptr[s], tr.site_dofptr[s + 1]):
+                v = tr.site_dofs[k]
+                c0, c1, c2 = site_column(tr, w, v, s)
+                r0 -= c0 * x[v]
+                r1 -= c1 * x[v]
+                r2 -= c2 * x[v]
+            r0, r1, r2 = ws * r0, ws * r1, ws * r2
+            for pi in range(kt.site_pairptr[s], kt.site_pairptr[s + 1]):
+                p = kt.site_pairs[pi]
+                gt_acc[kt.pair_k[p]] += vp[p, 0] * r0 + vp[p, 1] * r1 + vp[p, 2] * r2
+            rot = w.xmat[tr.site_body[s]]
+            for j in range(3):
+                gt_acc[kn + 3 * s + j] += rot[0, j] * r0 + rot[1, j] * r1 + rot[2, j] * r2
+
+
+def reduced_gradient(
+    tr: Tree,
+    kt: KappaTables,
+    target: np.ndarray,
+    wts: np.ndarray,
+    qpos: np.ndarray,
+    *,
+    limits: bool = True,
+) -> np.ndarray:
+    """The reduced gradient ``sum_t g_th - B^T A^-1 g_q`` (P,) [m^2 per m] of frames target
+    (n, M, 3) [m], weights wts (n, M), at poses qpos (n, nq) (NaN rows skipped).
+
+    The right-hand side of the undamped reduced system (:func:`frame_blocks` with mu = 0)
+    without its matrix: ``B^T A^-1 g_q = J_th^T W J_q x`` for the frame's own Gauss-Newton
+    pose step ``x = A^-1 g_q``, so the gradient is ``J_th^T W (r - J_q x)``: one solve per
+    frame instead of Pf, no B formed and nothing stored per frame, so it can be summed over
+    every frame of a long recording. With ``limits``, hinges at a
+    joint limit that the gradient pushes outward are held, as in :func:`frame_blocks`.
+    """
+    n = len(qpos)
+    n_par = kt.n_kappa + 3 * tr.site_body.size
+    bounds = blocks(n, n)
+    k = bounds.size - 1
+    gt = np.zeros((k, n_par))
+    _numba_prewarm.wait()
+    args = (tr, kt, *_floats(target, wts, qpos))
     run_blocks(
-        _schur_range,
+        _gradient_range,
         bounds,
-        lambda b: (*args, bounds[b], bounds[b + 1], *outs, c[b], g_theta[b]),
+        lambda b: (*args, bounds[b], bounds[b + 1], bool(limits), gt[b]),
     )
-    return FrameBlocks(y, y_g, ld, g_q, diag_a, c.sum(axis=0), g_theta.sum(axis=0))
+    return gt.sum(axis=0)
 
 
 @_kernel

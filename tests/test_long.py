@@ -10,10 +10,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mocap_mj import ParameterSet
+from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.errors import MocapError
 from mocap_mj.identify.identifiability import Identifiability
 from mocap_mj.identify.long import identify_long
+from mocap_mj.identify.problem import IdentificationProblem
 from mocap_mj.identify.selection import select_frames
 from mocap_mj.score import align_truth
 from mocap_synth import SynthConfig, synthesize
@@ -101,3 +102,29 @@ def test_identify_select_fits_a_subset_and_moves_every_frame(tmp_path: Path) -> 
     lines = bad.stderr.strip().splitlines()
     assert bad.returncode != 0 and len(lines) == 1 and "--select" in lines[0]
     assert not (tmp_path / "b").exists()
+
+
+def test_refinement_on_every_frame_reaches_the_all_frames_bound(pset: ParameterSet) -> None:
+    exp = synthesize(SynthConfig(frames=2400, motion="rom", seed=6), pset)
+    qpos = np.full((2400, 55), np.nan)
+    # 120 frames identified on; the refinement's sample every 3rd frame, its last step on all.
+    res = identify_long(exp.markers, exp.times, pset, qpos, count=120, chunk=1000, sample=800)
+    assert res.frames_solved == 2400 and np.all(np.isfinite(qpos))
+    assert len(res.steps) >= 2 and res.steps[-1] < res.steps[0]
+    # The bound of every frame, from their information at the truth (poses: the IK's).
+    kin = Kinematics(pset)
+    kin.set_theta(exp.theta_true)
+    free = np.flatnonzero(~pset.frozen)
+    prob = IdentificationProblem(kin, exp.markers, qpos.copy(), free)
+    idf = Identifiability(pset, prob.information(prob.present.astype(float)), 1e-3)
+    errors = {}
+    k = pset.n_kappa
+    for name, theta in (("subset", res.lm.theta), ("refined", res.theta)):
+        aligned = align_truth(pset, theta, exp.markers_clean[::10], exp.times[::10])
+        e, _ = idf.project(theta - aligned)
+        errors[name] = (np.sqrt(np.mean(e[:k] ** 2)), np.sqrt(np.mean(e[k:] ** 2)))
+    bk, bo = idf.bound_rms()
+    # An efficient estimate's RMS error is the bound; 1.6x leaves room for one draw. The
+    # subset's error is several bounds (it has 1/20 of the frames).
+    assert errors["refined"][0] < 1.6 * bk and errors["refined"][1] < 1.6 * bo
+    assert errors["subset"][0] > 2.0 * errors["refined"][0]

@@ -50,10 +50,29 @@ def test_blocks_match_numpy_normal_equations(problem, limits: bool) -> None:  # 
     rhs = fb.g_theta[free] - yf.T @ fb.y_g.reshape(-1)
     np.testing.assert_allclose(s, s_ref, rtol=0, atol=1e-10 * np.abs(s_ref).max())
     np.testing.assert_allclose(rhs, rhs_ref, rtol=0, atol=1e-10 * np.abs(rhs_ref).max())
+    # The products the threads form beside the kernel are the same sums.
+    s_fb = fb.c[np.ix_(free, free)] - fb.yty
+    np.testing.assert_allclose(s_fb, s_ref, rtol=0, atol=1e-10 * np.abs(s_ref).max())
+    rhs_fb = fb.g_theta[free] - fb.ytg
+    np.testing.assert_allclose(rhs_fb, rhs_ref, rtol=0, atol=1e-10 * np.abs(rhs_ref).max())
     np.testing.assert_allclose(fb.g_q, gq, rtol=0, atol=1e-12)
     held = np.count_nonzero(gq[:, kin.model.jnt_dofadr[hinges]] == 0.0)
     assert held > 0 if limits else held == 0
     np.testing.assert_allclose(fb.diag_a, np.einsum("nii->ni", a), rtol=0, atol=1e-12)
+    # The reduced gradient alone (no damping): g_th - B^T A^-1 g_q over the free parameters.
+    z0 = damped_inverse(a, 0.0) @ gq[..., None]
+    grad_ref = gt - np.einsum("nip,ni->p", b, z0[..., 0])
+    target, q_nan = prob_q.target, q.copy()
+    q_nan[0] = np.nan  # a frame without a pose is skipped
+    grad = _schur.reduced_gradient(kin.tree(), kin.kappa_tables(), target, w, q, limits=limits)
+    np.testing.assert_allclose(grad[free], grad_ref, rtol=0, atol=1e-9 * np.abs(grad_ref).max())
+    skipped = _schur.reduced_gradient(
+        kin.tree(), kin.kappa_tables(), target, w, q_nan, limits=limits
+    )
+    one = _schur.reduced_gradient(
+        kin.tree(), kin.kappa_tables(), target[:1], w[:1], q[:1], limits=limits
+    )
+    np.testing.assert_allclose(skipped, grad - one, rtol=0, atol=1e-9 * np.abs(grad).max())
     dth = np.random.default_rng(1).normal(0, 1e-3, pf)
     dq_ref = z[..., pf] - z[..., :pf] @ dth
     dq = _schur.back_substitute(kin.tree(), fb, dth)

@@ -1,15 +1,35 @@
-"""Long recordings: identify on a pose-diverse subset, then IK of every frame in chunks.
+"""Long recordings: identify on a pose-diverse subset, refine on every frame, IK in chunks.
 
-Identification on all frames of an hour at 100 Hz (360,000 frames) costs about 15 minutes;
-the model is determined by the distinct poses, which a subset of about a thousand frames
-covers (:mod:`mocap_mj.identify.selection`). :func:`identify_long` therefore
+Identification on all frames of an hour at 100 Hz (360,000 frames) by the joint LM costs
+many minutes. A subset of about a thousand pose-diverse frames
+(:mod:`mocap_mj.identify.selection`) gives a consistent estimate cheaply, but its error is
+that of a thousand frames, not of the hour. :func:`identify_long` therefore
 
 1. selects ``count`` frames by pose diversity,
 2. identifies the model on them (the joint LM, initial model scaled and its markers placed
    from the selected frames, as ``mocap-mj identify`` does by default),
-3. solves the IK of every frame with the identified model, ``chunk`` frames at a time,
-   writing each chunk's poses into ``qpos_out`` (an array or a memory-mapped ``.npy``) so
-   that no more than one chunk's poses and Jacobians are in memory at once.
+3. refines the model on every frame (:func:`refine`): the one-step estimator (Le Cam),
+   with its start brought closer first. One Gauss-Newton step on the reduced system of
+   *every* frame, ``theta_1 = theta_0 + S^-1 g``, is asymptotically efficient from a
+   root-n-consistent start theta_0; g, the reduced gradient
+   (:func:`mocap_mj._schur.reduced_gradient`), is summed over every frame at its IK pose
+   under theta_0 in one streamed pass, and S, the reduced information, only has to be a
+   consistent estimate, so it comes from an evenly spaced sample, scaled. From the subset's
+   estimate the step was not enough: directions the subset barely determined start
+   millimetres away, where the curvature changes over the step. So theta_0 is first
+   brought to the sample's own optimum by Gauss-Newton steps on the sample (``sample``
+   frames, default 20,000; the information recomputed at every step: kept fixed, the steps
+   diverged), which costs a fraction of a pass over every frame; the last step is the
+   one on every frame. Joint limits are not held in these steps (g and S of the problem
+   without limits, like the Cramer-Rao bound): held, the set of frames at a limit changed
+   with theta and the steps oscillated or diverged,
+4. solves the IK of every frame with the refined model, warm-started from the poses of
+   the pass of step 3 (theta moved by a fraction of a millimetre: about two iterations per
+   frame).
+
+Steps 3 and 4 stream ``chunk`` frames at a time through ``qpos_out`` (an array or a
+memory-mapped ``.npy``): no more than one chunk's poses and per-frame work arrays are in
+memory at once, never all Jacobians.
 """
 
 from __future__ import annotations
@@ -20,31 +40,263 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import _schur
+from .._threads import single_blas_thread
 from ..errors import check_shape
-from ..ik import IKSolver
+from ..ik import IKResult, IKSolver
 from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from .initial import place_markers, scaled_theta, segment_scales
-from .lm import LMResult, LMSettings, TrialData, identify_lm
+from .lm import LMResult, LMSettings, TrialData, identify_lm, informed_solve
+from .problem import IdentificationProblem
 from .selection import Selection, select_frames
 
 #: IK chunk [frames]: 20,000 frames' poses are 9 MB, their IK working set a few tens of MB.
 CHUNK = 20_000
+#: The refinement's sample [frames], its steps at most, and the step (in standard
+#: deviations) below which they stop.
+SAMPLE = 20_000
+INFO_FRAMES = 5_000
+STEPS = 8
+TOL_STD = 0.05
 
 
 class LongResult(NamedTuple):
     """Outcome of :func:`identify_long`.
 
-    Fields: selection (the kept frames); lm (the identification on them); marker_rmse [m]
-    over all present samples of every solved frame; frames_solved; seconds per stage
-    (``select``, ``identify``, ``ik``).
+    Fields
+    ------
+    selection : the kept frames
+    lm : the identification on them (its theta is the start of the refinement)
+    theta : (P,) [m], the model: ``lm.theta`` refined on every frame (itself unrefined)
+    information : (P, P) [1], the refinement's last matrix: the reduced information of
+        every frame, estimated from the sample (:class:`Refinement`; unrefined:
+        ``lm.reduced_information``), frozen rows and columns zero
+    steps : list of float, the refinement steps' sizes (:class:`Refinement`)
+    marker_rmse : [m] over all present samples of every solved frame under ``theta``
+    frames_solved : int
+    seconds : per stage (``select``, ``identify``, ``refine``: its sample steps and its pass
+        over every frame, also apart as ``refine_sample`` and ``refine_pass``; ``ik``: the
+        last IK, under theta)
     """
 
     selection: Selection
     lm: LMResult
+    theta: np.ndarray
+    information: np.ndarray
+    steps: list[float]
     marker_rmse: float
     frames_solved: int
     seconds: dict[str, float]
+
+
+class Refinement(NamedTuple):
+    """The refinement on every frame (:func:`refine`).
+
+    Fields
+    ------
+    theta : (P,) [m], the refined model
+    information : (P, P) [1], the last step's matrix: reduced information (joint limits not
+        held) of the sample at the sample's estimate, scaled to every frame; frozen rows and
+        columns zero
+    gradient : (P,) [m], the reduced gradient of every solved frame at the sample's estimate
+    steps : list of float, each step's largest component in units of that parameter's
+        standard deviation (the sample's steps, then the step on every frame)
+    seconds : dict, wall time [s] of the ``sample`` steps and of the ``pass`` over every
+        frame (its IK and reduced gradient)
+    """
+
+    theta: np.ndarray
+    information: np.ndarray
+    gradient: np.ndarray
+    steps: list[float]
+    seconds: dict[str, float]
+
+
+class _Fit(NamedTuple):
+    """Sums over the solved frames of an IK pass: squared marker distances [m^2], present
+    samples, frames."""
+
+    sq: float
+    present: int
+    solved: int
+
+    @property
+    def rmse(self) -> float:
+        return float(np.sqrt(self.sq / self.present)) if self.present else float("nan")
+
+
+def _solve_chunk(solver: IKSolver, m: np.ndarray, q: np.ndarray) -> _Fit:
+    """IK of one chunk's markers m (n, M, 3) [m] in place in q (n, nq): frames with a pose
+    (finite rows) start there (warm; NaN rows had too few markers and stay NaN); a chunk of
+    NaN rows is solved afresh (chained, :meth:`IKSolver.solve_trial`)."""
+    warm = np.isfinite(q[:, 0])
+    r: IKResult
+    if warm.any():
+        r = solver.solve_frames(m[warm], q[warm])
+        q[warm] = r.qpos
+    else:
+        r = solver.solve_trial(m)
+        q[:] = r.qpos
+    ok = r.solved
+    return _Fit(
+        float(np.sum(r.marker_rmse[ok] ** 2 * r.n_markers[ok])),
+        int(r.n_markers[ok].sum()),
+        int(ok.sum()),
+    )
+
+
+def _ik_pass(
+    markers: NDArray[np.floating],
+    kin: Kinematics,
+    qpos: NDArray[np.floating],
+    chunk: int,
+    gradient: bool,
+) -> tuple[_Fit, np.ndarray]:
+    """IK of every frame under kin's theta, chunk by chunk, in place in qpos (T, nq)
+    (:func:`_solve_chunk`); with ``gradient``, the sum (P,) [m] of each chunk's reduced
+    gradient at its new poses (:func:`mocap_mj._schur.reduced_gradient`, joint limits not
+    held, see :func:`refine`; zeros otherwise)."""
+    solver = IKSolver(kin)
+    tree, kt = kin.tree(), kin.kappa_tables()
+    grad = np.zeros(kin.pset.size)
+    fit = _Fit(0.0, 0, 0)
+    for s in range(0, len(markers), chunk):
+        m = np.asarray(markers[s : s + chunk], dtype=float)
+        q = np.array(qpos[s : s + chunk], dtype=float)
+        f = _solve_chunk(solver, m, q)
+        qpos[s : s + chunk] = q
+        fit = _Fit(fit.sq + f.sq, fit.present + f.present, fit.solved + f.solved)
+        if gradient:
+            present = np.all(np.isfinite(m), axis=2)
+            target = np.where(present[..., None], m, 0.0)
+            w = present.astype(float)
+            grad += _schur.reduced_gradient(tree, kt, target, w, q, limits=False)
+    return fit, grad
+
+
+def _information(kin: Kinematics, markers: np.ndarray, qpos: np.ndarray) -> np.ndarray:
+    """Reduced information (P, P) [1] of frames markers (n, M, 3) [m] at poses qpos (n, nq)
+    (NaN rows skipped), joint limits not held."""
+    ok = np.isfinite(qpos[:, 0])
+    if not ok.any():
+        return np.zeros((kin.pset.size,) * 2)
+    free = np.flatnonzero(~kin.pset.frozen)
+    prob = IdentificationProblem(kin, markers[ok], qpos[ok], free, theta0=kin.theta.copy())
+    return prob.information(prob.present.astype(float))
+
+
+class _Solver:
+    """Gauss-Newton steps for a fixed reduced information (P, P) [1] with the weak prior
+    toward theta0 (P,) [m], within the informed directions (as every LM step); step sizes
+    in standard deviations for the noise sigma [m]."""
+
+    def __init__(
+        self, info: np.ndarray, theta0: np.ndarray, free: np.ndarray, sigma: float, st: LMSettings
+    ) -> None:
+        self.free, self.prior = free, st.weak_prior(theta0)
+        self.floor = st.prior_ratio * st.prior_weight
+        self.s_mat = info[np.ix_(free, free)] + self.prior.hessian()[np.ix_(free, free)]
+        lam, vec = np.linalg.eigh(0.5 * (self.s_mat + self.s_mat.T))
+        basis, lam = vec[:, lam > self.floor], lam[lam > self.floor]
+        self.std = sigma * np.sqrt(np.einsum("ij,j,ij->i", basis, 1.0 / lam, basis))
+
+    def step(self, theta: np.ndarray, grad: np.ndarray) -> float:
+        """theta (P,) [m] advanced in place by the step for the data gradient grad (P,) [m];
+        returns the step's largest component in standard deviations."""
+        f = self.free
+        rhs = grad[f] - self.prior.gradient(theta)[f]
+        dth = informed_solve(self.s_mat, self.s_mat, rhs, self.floor)
+        theta[f] += dth
+        return float(np.max(np.abs(dth) / np.maximum(self.std, 1e-300), initial=0.0))
+
+
+@single_blas_thread
+def refine(
+    markers: NDArray[np.floating],
+    pset: ParameterSet,
+    theta0: np.ndarray,
+    qpos: NDArray[np.floating],
+    sigma: float,
+    *,
+    settings: LMSettings | None = None,
+    steps: int = STEPS,
+    tol_std: float = TOL_STD,
+    chunk: int = CHUNK,
+    sample: int = SAMPLE,
+    info_frames: int = INFO_FRAMES,
+) -> Refinement:
+    """The model refined on every frame (module docstring, step 3).
+
+    Parameters
+    ----------
+    markers : (T, M, 3) float [m], NaN where missing; read ``chunk`` frames at a time
+    theta0 : (P,) [m], a consistent start (the identification on a subset); also the mean of
+        the weak prior (``settings.weak_prior``), as in the identification
+    qpos : (T, nq) float, written: every frame's IK pose under the sample's estimate (NaN
+        rows: too few markers); finite rows are warm starts
+    sigma : [m], per-axis marker noise (the start's estimate), for ``tol_std``
+    settings : LM settings for the prior and the informed directions (``prior_ratio``:
+        directions with less information keep their value, as in every LM step)
+    steps : Gauss-Newton steps on the sample at most (default 8)
+    tol_std : the sample's steps stop once one's largest component is below this fraction
+        of its parameter's standard deviation (default 0.05: further steps cannot change the
+        estimate measurably)
+    sample : every k-th frame, k = ceil(T / sample), is the sample (default 20,000 frames)
+    info_frames : the information is summed over at most this many evenly spaced frames of
+        the sample and scaled to all (default 5,000)
+    """
+    st = settings or LMSettings()
+    t0 = time.perf_counter()
+    n = len(markers)
+    kin = Kinematics(pset)
+    kin.set_theta(theta0)
+    check_shape("qpos", qpos, (n, kin.nq))
+    free = np.flatnonzero(~pset.frozen)
+    stride = max(1, -(-n // max(sample, 1)))
+    m_s = np.asarray(markers[::stride], dtype=float)
+    q_s = np.full((len(m_s), kin.nq), np.nan)
+    theta = np.array(theta0, dtype=float)
+    sizes: list[float] = []
+    info_rows = slice(None, None, max(1, -(-len(m_s) // max(info_frames, 1))))
+    scale = len(m_s) / len(m_s[info_rows])
+    info = np.zeros((pset.size, pset.size))
+    for _ in range(steps):
+        kin.set_theta(theta)
+        _, grad = _ik_pass(m_s, kin, q_s, chunk, gradient=True)
+        # The information at every step: kept from the start, the steps diverged.
+        info = scale * _information(kin, m_s[info_rows], q_s[info_rows])
+        sizes.append(_Solver(info, theta0, free, sigma, st).step(theta, grad))
+        if sizes[-1] < tol_std:
+            break
+    # The one step on every frame, from the sample's estimate, its information scaled.
+    t1 = time.perf_counter()
+    info *= stride
+    kin.set_theta(theta)
+    _, grad = _ik_pass(markers, kin, qpos, chunk, gradient=True)
+    sizes.append(_Solver(info, theta0, free, sigma, st).step(theta, grad))
+    seconds = {"sample": t1 - t0, "pass": time.perf_counter() - t1}
+    return Refinement(theta, info, grad, sizes, seconds)
+
+
+def refit_all(
+    markers: NDArray[np.floating],
+    pset: ParameterSet,
+    theta: np.ndarray,
+    qpos: NDArray[np.floating],
+    *,
+    chunk: int = CHUNK,
+) -> tuple[float, int]:
+    """IK of every frame under theta (P,) [m], ``chunk`` frames at a time, in place in qpos
+    (T, nq): warm from its finite rows, chained in chunks of NaN rows.
+
+    Returns the marker RMSE [m] over the present samples of the solved frames, and their
+    number."""
+    kin = Kinematics(pset)
+    kin.set_theta(theta)
+    check_shape("qpos", qpos, (len(markers), kin.nq))
+    fit, _ = _ik_pass(markers, kin, qpos, chunk, gradient=False)
+    return fit.rmse, fit.solved
 
 
 def identify_long(
@@ -56,8 +308,11 @@ def identify_long(
     count: int = 1000,
     settings: LMSettings | None = None,
     chunk: int = CHUNK,
+    refine_on_all: bool = True,
+    sample: int = SAMPLE,
 ) -> LongResult:
-    """Identify a long recording on ``count`` selected frames, then IK every frame.
+    """Identify a long recording on ``count`` selected frames, IK every frame, refine the
+    model on every frame (:func:`refine`), then IK every frame again (warm) with it.
 
     Parameters
     ----------
@@ -68,10 +323,16 @@ def identify_long(
     count : frames identified on (default 1000: see docs/long-recordings.md)
     settings : LM settings (default ``LMSettings()``)
     chunk : frames per IK chunk
+    refine_on_all : refine the model on every frame (:func:`refine`; default on: without,
+        the model's error is that of ``count`` frames, many times the bound of the whole
+        recording)
+    sample : frames of the refinement's sample (:func:`refine`)
     """
     n = len(markers)
+    st = settings or LMSettings()
     check_shape("markers", markers, (None, pset.n_markers, 3))
     check_shape("times", times, (n,))
+    check_shape("qpos_out", qpos_out, (n, pset.model.nq))
     t0 = time.perf_counter()
     sel = select_frames(markers, pset.marker_names, count)
     t1 = time.perf_counter()
@@ -79,23 +340,20 @@ def identify_long(
     scales = segment_scales(pset, [sub])
     theta0 = place_markers(pset, scaled_theta(pset, [sub], scales=scales), [sub])
     trial = TrialData("selection", sub, np.asarray(times[sel.frames], dtype=float))
-    lm = identify_lm([trial], pset=pset, theta0=theta0, settings=settings or LMSettings())
+    lm = identify_lm([trial], pset=pset, theta0=theta0, settings=st)
     t2 = time.perf_counter()
-    kin = Kinematics(pset)
-    kin.set_theta(lm.theta)
-    check_shape("qpos_out", qpos_out, (n, kin.nq))
-    solver = IKSolver(kin)
-    sq = 0.0
-    present = 0
-    solved = 0
-    for s in range(0, n, chunk):
-        r = solver.solve_trial(np.asarray(markers[s : s + chunk], dtype=float))
-        qpos_out[s : s + chunk] = r.qpos
-        ok = r.solved
-        sq += float(np.sum(r.marker_rmse[ok] ** 2 * r.n_markers[ok]))
-        present += int(r.n_markers[ok].sum())
-        solved += int(ok.sum())
+    qpos_out[:] = np.nan
+    theta, info, sizes = lm.theta, lm.reduced_information, []
+    extra: dict[str, float] = {}
     t3 = time.perf_counter()
-    rmse = float(np.sqrt(sq / present)) if present else float("nan")
-    stages = {"select": t1 - t0, "identify": t2 - t1, "ik": t3 - t2}
-    return LongResult(sel, lm, rmse, solved, stages)
+    if refine_on_all:
+        ref = refine(
+            markers, pset, lm.theta, qpos_out, lm.sigma, settings=st, chunk=chunk, sample=sample
+        )
+        theta, info, sizes = ref.theta, ref.information, ref.steps
+        extra = {f"refine_{k}": v for k, v in ref.seconds.items()}
+        t3 = time.perf_counter()
+    rmse, solved = refit_all(markers, pset, theta, qpos_out, chunk=chunk)
+    t4 = time.perf_counter()
+    stages = {"select": t1 - t0, "identify": t2 - t1, "refine": t3 - t2, "ik": t4 - t3, **extra}
+    return LongResult(sel, lm, theta, info, sizes, rmse, solved, stages)

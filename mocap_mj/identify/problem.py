@@ -198,11 +198,10 @@ class IdentificationProblem:
         fb = _schur.frame_blocks(
             tree, kin.kappa_tables(), self.target[sl], w[sl], self.qpos[sl], f, mu, limits=limits
         )
-        yf = fb.y.reshape(-1, f.size)
         c = fb.c[np.ix_(f, f)]
         return ReducedChunk(
-            c - yf.T @ yf,
-            fb.g_theta[f] - yf.T @ fb.y_g.reshape(-1),
+            c - fb.yty,
+            fb.g_theta[f] - fb.ytg,
             fb.g_theta[f],
             np.diag(c).copy(),
             fb.g_q,
