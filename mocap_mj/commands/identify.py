@@ -177,6 +177,8 @@ def run(args: argparse.Namespace) -> int:
         trials.append(TrialData(t.path, t.markers[sl], t.times[sl]))
         check_markers(t.path, pset.marker_names, trials[-1].markers, IKSettings().min_markers)
     if args.solver == "paper":
+        if args.select not in ("auto", "all"):
+            raise MocapError("--select: the paper's solver samples its own frames (--sampling)")
         from .paper import run_paper
 
         with output_folder(args.out, force=args.force) as out:
