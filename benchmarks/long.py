@@ -74,6 +74,29 @@ def errors(
     return float(np.sqrt(np.mean(e_obs[:k] ** 2))), float(np.sqrt(np.mean(e_obs[k:] ** 2)))
 
 
+def worst_markers(
+    pset: ParameterSet,
+    theta: np.ndarray,
+    idf: Identifiability,
+    frames: np.ndarray,
+    clean: np.ndarray,
+    times: np.ndarray,
+    count: int = 6,
+) -> dict[str, list[float]]:
+    """The ``count`` markers whose offset (observable part) is furthest from the truth: per
+    marker its largest component in standard deviations of the bound and its error [mm]."""
+    aligned = align_truth(pset, theta, np.asarray(clean[frames]), times[frames])
+    e_obs, _ = idf.project(theta - aligned)
+    k = pset.n_kappa
+    e = e_obs[k:].reshape(-1, 3)
+    sd = np.abs(e) / np.maximum(idf.param_std[k:].reshape(-1, 3), 1e-300)
+    order = np.argsort(-sd.max(axis=1))[:count]
+    return {
+        pset.marker_names[i]: [float(sd[i].max()), float(np.linalg.norm(e[i]) * 1e3)]
+        for i in order
+    }
+
+
 def subset_errors(
     pset: ParameterSet, lm: LMResult, frames: np.ndarray, clean: np.ndarray, times: np.ndarray
 ) -> tuple[Identifiability, float, float]:
@@ -140,6 +163,8 @@ def main() -> None:
     idf_all = all_frames_bound(pset, lm, markers, qpos, args.info_stride)
     info_seconds = time.perf_counter() - t
     ek1, eo1 = errors(pset, res.theta, idf_all, res.selection.frames, clean, times)
+    worst = worst_markers(pset, res.theta, idf_all, res.selection.frames, clean, times)
+    np.save(cache / "theta_refined.npy", res.theta)
     bk_s, bo_s = idf_sub.bound_rms()
     bk_a, bo_a = idf_all.bound_rms()
     n = len(markers)
@@ -171,6 +196,7 @@ def main() -> None:
         "refined_kappa_error_over_all_bound": ek1 / bk_a,
         "refined_offset_error_over_all_bound": eo1 / bo_a,
         "kappa_error_over_subset_bound": ek / bk_s,
+        "refined_worst_offsets_std_mm": worst,
         "all_frames_information_seconds": info_seconds,
         "kappa_error_before_mm": float(np.sqrt(np.mean((pset.nominal - theta_true)[:30] ** 2)))
         * 1e3,
@@ -210,6 +236,8 @@ def main() -> None:
         f"({bo_s * 1e3:.3f} mm), {eo / bo_a:.2f}x all frames' ({bo_a * 1e3:.3f} mm)\n"
         f"after the refinement on every frame: kinematic error {ek1 * 1e3:.3f} mm = "
         f"{ek1 / bk_a:.2f}x all frames' bound, offsets {eo1 * 1e3:.3f} mm = {eo1 / bo_a:.2f}x"
+        "\nworst offsets (standard deviations, mm): "
+        + ", ".join(f"{k} {v[0]:.1f} sd {v[1]:.3f}" for k, v in worst.items())
     )
     if args.even:
         print(
