@@ -92,8 +92,7 @@ def worst_markers(
     sd = np.abs(e) / np.maximum(idf.param_std[k:].reshape(-1, 3), 1e-300)
     order = np.argsort(-sd.max(axis=1))[:count]
     return {
-        pset.marker_names[i]: [float(sd[i].max()), float(np.linalg.norm(e[i]) * 1e3)]
-        for i in order
+        pset.marker_names[i]: [float(sd[i].max()), float(np.linalg.norm(e[i]) * 1e3)] for i in order
     }
 
 

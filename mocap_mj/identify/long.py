@@ -42,10 +42,10 @@ from numpy.typing import NDArray
 
 from .. import _schur
 from .._threads import single_blas_thread
+from .._tree import Tree
 from ..errors import check_shape
 from ..ik import IKResult, IKSolver
 from ..kinematics import Kinematics
-from .._tree import Tree
 from ..parameters import ParameterSet
 from .initial import place_markers, scaled_theta, segment_scales
 from .lm import LMResult, LMSettings, TrialData, identify_lm, informed_solve
