@@ -42,7 +42,6 @@ from numpy.typing import NDArray
 
 from .. import _schur
 from .._threads import single_blas_thread
-from .._tree import Tree
 from ..errors import check_shape
 from ..ik import IKResult, IKSolver
 from ..kinematics import Kinematics
@@ -147,23 +146,6 @@ def _solve_chunk(solver: IKSolver, m: np.ndarray, q: np.ndarray) -> _Fit:
     )
 
 
-def _unlimited(tree: Tree) -> Tree:
-    """tree without joint limits.
-
-    The refinement's gradient and information are the problem's without limits (see
-    :func:`refine`), so its poses must be that problem's too: the limited IK's poses,
-    polished without limits. At a pose held at a limit the linear pose correction of the
-    reduced gradient (``J_q A^-1 g_q``) stands in for the rest of the fit, which it does
-    badly when the optimum lies degrees beyond the limit: the model's unobservable
-    directions (e.g. a hand's zero angles against its one marker's offset) can put the
-    true poses of many frames beyond a limit, and those frames then bias the offsets of
-    the markers the held dof moves (docs/long-recordings.md)."""
-    nj = len(tree.jnt_lo)
-    return tree._replace(
-        jnt_ballmax=np.full(nj, np.inf), jnt_lo=np.full(nj, -np.inf), jnt_hi=np.full(nj, np.inf)
-    )
-
-
 def _ik_pass(
     markers: NDArray[np.floating],
     kin: Kinematics,
@@ -177,17 +159,12 @@ def _ik_pass(
     held, see :func:`refine`; zeros otherwise)."""
     solver = IKSolver(kin)
     tree, kt = kin.tree(), kin.kappa_tables()
-    free = _unlimited(tree)
     grad = np.zeros(kin.pset.size)
     fit = _Fit(0.0, 0, 0)
     for s in range(0, len(markers), chunk):
         m = np.asarray(markers[s : s + chunk], dtype=float)
         q = np.array(qpos[s : s + chunk], dtype=float)
         f = _solve_chunk(solver, m, q)
-        if gradient:
-            # The gradient is the problem's without limits: at its poses (see _unlimited).
-            ok = np.isfinite(q[:, 0])
-            q[ok] = solver.solve_frames(m[ok], q[ok], tree=free).qpos
         qpos[s : s + chunk] = q
         fit = _Fit(fit.sq + f.sq, fit.present + f.present, fit.solved + f.solved)
         if gradient:
