@@ -12,13 +12,14 @@ sample, then one step on every frame: IK of every frame and its reduced gradient
 chunks), the IK of every frame with the refined model into a memory-mapped ``.npy``.
 
 Then, untimed, the accuracy: the parameter error against the truth (aligned along the
-directions the data cannot determine, as ``mocap-mj score`` does), in the observable
-directions, of the subset's estimate and of the refined one, against the Cramer-Rao bound
-of the selected frames and of all frames. The
-all-frames information is summed over every ``--info-stride``-th frame and scaled by the
-stride (frames of an hour repeat their poses, so the sample's mean information is the
-recording's). With ``--even`` the same number of evenly spaced frames is identified too, for
-comparison. Prints the figures and a JSON line.
+directions the data cannot determine, as ``mocap-mj score`` does, but with the wrist's
+hinges widened: :func:`mocap_mj.score.gauge_free`; also printed aligned within the limits),
+in the observable directions, of the subset's estimate and of the refined one, against the
+Cramer-Rao bound of the selected frames and of all frames. The all-frames information is
+summed over every ``--info-stride``-th frame and scaled by the stride (frames of an hour
+repeat their poses, so the sample's mean information is the recording's). With ``--even``
+the same number of evenly spaced frames is identified too, for comparison. Prints the
+figures and a JSON line.
 """
 
 from __future__ import annotations
