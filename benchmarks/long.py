@@ -60,34 +60,31 @@ def synthesize_cache(cache: Path, frames: int, seed: int) -> None:
     (cache / "done").write_text(json.dumps({"frames": frames, "seed": seed, "sigma": 1e-3}))
 
 
-def errors(
+def observable_error(
     pset: ParameterSet,
     theta: np.ndarray,
     idf: Identifiability,
     frames: np.ndarray,
     clean: np.ndarray,
     times: np.ndarray,
-) -> tuple[float, float]:
-    """Observable kappa and offset RMS error [m] of theta (P,) in idf's observable directions."""
+) -> np.ndarray:
+    """The error (P,) [m] of theta against the truth aligned with pset on the clean markers
+    of ``frames``, in idf's observable directions."""
     aligned = align_truth(pset, theta, np.asarray(clean[frames]), times[frames])
-    e_obs, _ = idf.project(theta - aligned)
+    return idf.project(theta - aligned)[0]
+
+
+def rms(pset: ParameterSet, e_obs: np.ndarray) -> tuple[float, float]:
+    """RMS [m] of an error (P,) [m] over the kinematic parameters and over the offsets."""
     k = pset.n_kappa
     return float(np.sqrt(np.mean(e_obs[:k] ** 2))), float(np.sqrt(np.mean(e_obs[k:] ** 2)))
 
 
 def worst_markers(
-    pset: ParameterSet,
-    theta: np.ndarray,
-    idf: Identifiability,
-    frames: np.ndarray,
-    clean: np.ndarray,
-    times: np.ndarray,
-    count: int = 6,
+    pset: ParameterSet, idf: Identifiability, e_obs: np.ndarray, count: int = 6
 ) -> dict[str, list[float]]:
-    """The ``count`` markers whose offset (observable part) is furthest from the truth: per
-    marker its largest component in standard deviations of the bound and its error [mm]."""
-    aligned = align_truth(pset, theta, np.asarray(clean[frames]), times[frames])
-    e_obs, _ = idf.project(theta - aligned)
+    """The ``count`` markers whose offset error e_obs (P,) [m] is largest: per marker its
+    largest component in standard deviations of idf's bound and its error [mm]."""
     k = pset.n_kappa
     e = e_obs[k:].reshape(-1, 3)
     sd = np.abs(e) / np.maximum(idf.param_std[k:].reshape(-1, 3), 1e-300)
@@ -104,7 +101,7 @@ def subset_errors(
     idf = Identifiability(
         pset, lm.reduced_information, lm.sigma, observable_std=0.005, theta=lm.theta
     )
-    return idf, *errors(pset, lm.theta, idf, frames, clean, times)
+    return idf, *rms(pset, observable_error(pset, lm.theta, idf, frames, clean, times))
 
 
 def all_frames_bound(
@@ -163,10 +160,13 @@ def main() -> None:
     t = time.perf_counter()
     idf_all = all_frames_bound(pset, lm, markers, qpos, args.info_stride)
     info_seconds = time.perf_counter() - t
-    ek1, eo1 = errors(apset, res.theta, idf_all, res.selection.frames, clean, times)
-    worst = worst_markers(apset, res.theta, idf_all, res.selection.frames, clean, times)
+    e1 = observable_error(apset, res.theta, idf_all, res.selection.frames, clean, times)
+    ek1, eo1 = rms(pset, e1)
+    worst = worst_markers(pset, idf_all, e1)
     # The same aligned within the model's own ranges (why not: gauge_free).
-    ek1_h, eo1_h = errors(pset, res.theta, idf_all, res.selection.frames, clean, times)
+    ek1_h, eo1_h = rms(
+        pset, observable_error(pset, res.theta, idf_all, res.selection.frames, clean, times)
+    )
     np.save(cache / "theta_refined.npy", res.theta)
     bk_s, bo_s = idf_sub.bound_rms()
     bk_a, bo_a = idf_all.bound_rms()
