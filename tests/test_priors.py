@@ -11,7 +11,6 @@ from _motion import smooth_motion
 from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.errors import MocapError
 from mocap_mj.identify.anatomy import (
-    MEDIAL_MALLEOLUS_ABOVE,
     SIGMA_CONVENTION,
     SIGMA_LANDMARK,
     SIGMA_MEASURED,
@@ -81,47 +80,7 @@ def test_nominal_model_satisfies_its_regressed_priors(pset: ParameterSet) -> Non
     cjc = "C7/T1.{} = C7 + 0.55 (CLAV - C7) turned 8 deg up (Dumas 2007)"
     assert big.pop(cjc.format("x")) == pytest.approx(-0.0245 / SIGMA_CONVENTION, abs=0.05)
     assert big.pop(cjc.format("z")) == pytest.approx(0.0216 / SIGMA_CONVENTION, abs=0.05)
-    # Reed et al. (1999) put L5/S1 0.264 and 0.126 ASIS widths (250 mm) behind and above
-    # mid-ASIS: 34 mm ahead of and 18.5 mm below the nominal model's (100, 50 mm).
-    assert big.pop("L5/S1.x = mid-ASIS.x - 0.264 PW (Reed 1999)") == pytest.approx(
-        (0.100 - 0.264 * 0.25) / SIGMA_CONVENTION
-    )
-    assert big.pop("L5/S1.z = mid-ASIS.z + 0.126 PW (Reed 1999)") == pytest.approx(
-        (0.050 - 0.126 * 0.25) / SIGMA_CONVENTION
-    )
     assert not big, big
-
-
-def test_leg_length_row_is_the_tape_from_asis_to_medial_malleolus(pset: ParameterSet) -> None:
-    """Plug-in Gait's LegLength is a tape from the ASIS to the medial malleolus over the
-    straight leg: on random skeletons standing at qpos0 (forward kinematics, the ASIS bone a
-    marker radius behind LASI, the medial malleolus half the ankle width medial of and 10 mm
-    above the ankle centre) the row given that distance holds within 1.5 mm (its
-    linearisation), where hip height + thigh + shank is 5-15 mm off."""
-    import mujoco
-
-    rng = np.random.default_rng(3)
-    r, aw = 0.007, 0.07
-    names = ["hip_depth_l", "hip_width_l", "hip_height_l", "thigh_length_l", "shank_length_l"]
-    for _ in range(5):
-        theta = pset.nominal.copy()
-        for n in names:
-            theta[pset.index(n)] *= rng.uniform(0.85, 1.15)
-        for c in "xy":
-            theta[pset.index(f"LASI.{c}")] += rng.uniform(-0.01, 0.01)
-        model = pset.model_for(theta)
-        data = mujoco.MjData(model)
-        mujoco.mj_kinematics(model, data)
-        asis = data.site_xpos[model.site("LASI").id] - np.array([r, 0.0, 0.0])
-        ankle = data.xpos[model.body("foot_l").id]
-        malleolus = ankle + np.array([0.0, -aw / 2, MEDIAL_MALLEOLUS_ABOVE])
-        tape = float(np.linalg.norm(asis - malleolus))
-        subject = from_values([("leg_length_l", tape), ("ankle_width_l", aw)], "test")
-        prior = landmark_prior(pset, subject)
-        i = prior.labels.index("ASIS to medial malleolus = leg_length_l")
-        assert abs(prior.a[i] @ theta - prior.b[i]) < 0.0015
-        chain = sum(theta[pset.index(n)] for n in names[2:])
-        assert 0.005 < chain - tape < 0.015
 
 
 def test_toe_marker_places_the_mtp_joint(pset: ParameterSet) -> None:
@@ -158,10 +117,9 @@ def _turned(pset: ParameterSet, theta: np.ndarray, markers: list[str], joints: l
 
 
 def test_convention_joints_follow_their_markers_not_the_frame(pset: ParameterSet) -> None:
-    """C7/T1 and T12/L1 are placed from the thorax markers in a form that a tilt of the
-    frame against its markers (with the joints turned along) leaves unchanged; the
-    frame-tilt rows themselves do see the tilt (they fix it). (L5/S1 is Reed's, in the pelvis
-    frame that the pelvis-tilt row fixes: ``test_l5s1_row_is_reeds_and_ignores_the_psis``.)"""
+    """C7/T1, T12/L1 and L5/S1 are placed from the markers of their segment in a form that
+    a tilt of the segment's frame against its markers (with the joint turned along) leaves
+    unchanged; the frame-tilt rows themselves do see the tilt (they fix it)."""
     prior = landmark_prior(pset)
     rng = np.random.default_rng(3)
     theta = pset.nominal + rng.normal(0, 0.01, pset.size)
@@ -169,6 +127,8 @@ def test_convention_joints_follow_their_markers_not_the_frame(pset: ParameterSet
     for markers, joints, names, tilt in (
         (["C7", "T10", "CLAV", "STRN"], [("+neck_depth", "+thorax_length")],
          ("C7/T1", "T12/L1"), "thorax axis"),
+        (["LASI", "RASI", "LPSI", "RPSI"], [("-lumbar_depth", "+lumbar_height")],
+         ("L5/S1",), "pelvis tilt"),
     ):  # fmt: skip
         turned = _turned(pset, theta, markers, joints, np.radians(15))
         r0, r1 = prior.residuals(theta), prior.residuals(turned)
@@ -183,30 +143,6 @@ def test_convention_joints_follow_their_markers_not_the_frame(pset: ParameterSet
     for lab, sd in widths.items():
         if lab.startswith(("C7/T1", "T12/L1", "L5/S1", "sc_width", "CLAV.z", "CLAV.x")):
             assert sd == SIGMA_CONVENTION, lab
-
-
-def test_l5s1_row_is_reeds_and_ignores_the_psis(pset: ParameterSet) -> None:
-    """L5/S1 is 0.264 and 0.126 ASIS widths behind and above mid-ASIS in the pelvis frame
-    (Reed et al. 1999): a skeleton built so holds the rows exactly whatever its ASIS width,
-    and moving the PSIS markers (placed higher or deeper) does not move the rows, where
-    the nominal-proportion rows along the ASIS-PSIS line followed them."""
-    prior = landmark_prior(pset)
-    sel = np.array([lab.startswith("L5/S1.") for lab in prior.labels])
-    assert sel.sum() == 2
-    rng = np.random.default_rng(5)
-    for _ in range(3):
-        theta = pset.nominal + rng.normal(0, 0.005, pset.size)
-        pw = theta[pset.index("LASI.y")] - theta[pset.index("RASI.y")]
-        mid_x = 0.5 * (theta[pset.index("LASI.x")] + theta[pset.index("RASI.x")])
-        mid_z = 0.5 * (theta[pset.index("LASI.z")] + theta[pset.index("RASI.z")])
-        theta[pset.index("lumbar_depth")] = 0.264 * pw - mid_x
-        theta[pset.index("lumbar_height")] = mid_z + 0.126 * pw
-        np.testing.assert_allclose(prior.a[sel] @ theta - prior.b[sel], 0.0, atol=1e-12)
-        moved = theta.copy()
-        for m in ("LPSI", "RPSI"):
-            moved[pset.index(f"{m}.z")] += 0.08
-            moved[pset.index(f"{m}.x")] -= 0.03
-        np.testing.assert_allclose(prior.a[sel] @ moved - prior.b[sel], 0.0, atol=1e-12)
 
 
 def test_artefact_noise_floor_only_for_correlated_residuals() -> None:
