@@ -11,6 +11,7 @@ from _motion import smooth_motion
 from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.errors import MocapError
 from mocap_mj.identify.anatomy import (
+    MEDIAL_MALLEOLUS_ABOVE,
     SIGMA_CONVENTION,
     SIGMA_LANDMARK,
     SIGMA_MEASURED,
@@ -81,6 +82,38 @@ def test_nominal_model_satisfies_its_regressed_priors(pset: ParameterSet) -> Non
     assert big.pop(cjc.format("x")) == pytest.approx(-0.0245 / SIGMA_CONVENTION, abs=0.05)
     assert big.pop(cjc.format("z")) == pytest.approx(0.0216 / SIGMA_CONVENTION, abs=0.05)
     assert not big, big
+
+
+def test_leg_length_row_is_the_tape_from_asis_to_medial_malleolus(pset: ParameterSet) -> None:
+    """Plug-in Gait's LegLength is a tape from the ASIS to the medial malleolus over the
+    straight leg: on random skeletons standing at qpos0 (forward kinematics, the ASIS bone a
+    marker radius behind LASI, the medial malleolus half the ankle width medial of and 10 mm
+    above the ankle centre) the row given that distance holds within 1.5 mm (its
+    linearisation), where hip height + thigh + shank is 5-15 mm off."""
+    import mujoco
+
+    rng = np.random.default_rng(3)
+    r, aw = 0.007, 0.07
+    names = ["hip_depth_l", "hip_width_l", "hip_height_l", "thigh_length_l", "shank_length_l"]
+    for _ in range(5):
+        theta = pset.nominal.copy()
+        for n in names:
+            theta[pset.index(n)] *= rng.uniform(0.85, 1.15)
+        for c in "xy":
+            theta[pset.index(f"LASI.{c}")] += rng.uniform(-0.01, 0.01)
+        model = pset.model_for(theta)
+        data = mujoco.MjData(model)
+        mujoco.mj_kinematics(model, data)
+        asis = data.site_xpos[model.site("LASI").id] - np.array([r, 0.0, 0.0])
+        ankle = data.xpos[model.body("foot_l").id]
+        malleolus = ankle + np.array([0.0, -aw / 2, MEDIAL_MALLEOLUS_ABOVE])
+        tape = float(np.linalg.norm(asis - malleolus))
+        subject = from_values([("leg_length_l", tape), ("ankle_width_l", aw)], "test")
+        prior = landmark_prior(pset, subject)
+        i = prior.labels.index("ASIS to medial malleolus = leg_length_l")
+        assert abs(prior.a[i] @ theta - prior.b[i]) < 0.0015
+        chain = sum(theta[pset.index(n)] for n in names[2:])
+        assert 0.005 < chain - tape < 0.015
 
 
 def test_toe_marker_places_the_mtp_joint(pset: ParameterSet) -> None:

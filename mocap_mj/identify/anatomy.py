@@ -47,8 +47,10 @@ Widths (standard deviations, per row) and their sources:
   so that they do not depend on how the frame is tilted against its markers; the SC joints
   beside and level with CLAV. At 10 mm the data moved them 30-60 mm between trials of one
   subject, at 3 mm they hold within a few mm (docs/real-data.md);
-* :data:`SIGMA_LEG` = 15 mm: hip height + thigh + shank against the measured leg length
-  (a tape measure over the knee, ASIS to medial malleolus);
+* :data:`SIGMA_LEG` = 15 mm: the ASIS-to-medial-malleolus distance of the straight leg against
+  the measured leg length (:func:`_leg_length_row`): the tape's precision (about 10 mm), the
+  hip's angle in the pelvis frame while it was measured (5 degrees of pelvic tilt: 4 mm),
+  the malleolus's level and the tape's path over the knee (5 mm each);
 * :data:`ASYMMETRY_SIGMA` = 5 mm: left minus right length in healthy adults (anatomic
   limb-length inequality, mean 5.2 mm; Knutson 2005), :func:`symmetric_prior`.
 
@@ -95,6 +97,10 @@ T12_ALONG, T12_FORWARD = 0.206, 0.386
 L5S1_ALONG, L5S1_UP = 0.634, -0.2265
 #: mid-PSIS above mid-ASIS in the pelvis frame [m] on a 1.75 m adult (the nominal model's).
 PSIS_ABOVE_ASIS = 0.02
+#: The medial malleolus's prominence above the ankle centre [m] on a 1.75 m adult: Plug-in
+#: Gait puts the ankle centre at the level of ANK on the lateral malleolus, whose tip reaches
+#: about 10 mm further distally than the medial one's.
+MEDIAL_MALLEOLUS_ABOVE = 0.010
 #: TOE above the MTP joint centre [m] on a 1.75 m adult: half the metatarsal head's height,
 #: the dorsal skin and the marker radius.
 TOE_ABOVE_MTP = 0.02
@@ -189,7 +195,7 @@ def landmark_prior(
     _trunk_rows(rows, s)
     for side, p in (("l", "L"), ("r", "R")):
         _shoulder_rows(rows, pset, subject, side, p, s)
-        _limb_rows(rows, subject, side, p)
+        _limb_rows(rows, subject, side, p, s)
         _hand_rows(rows, subject, side, p, s)
         _foot_rows(rows, side, p, s)
     return rows.prior(noise)
@@ -319,7 +325,7 @@ def _shoulder_rows(
             rows.add(terms, mean, lm, f"{p}SHO.{c} = GH.{c} {mean * 1e3:+.0f} mm")
 
 
-def _limb_rows(rows: _Rows, subject: Subject, side: str, p: str) -> None:
+def _limb_rows(rows: _Rows, subject: Subject, side: str, p: str, s: float) -> None:
     """The rows of one side's joint-axis markers (knee, ankle, elbow), wrist bar and leg length."""
     lm = SIGMA_LANDMARK
     # Epicondyles, malleolus and styloids on their joint's axis, at the joint's level.
@@ -348,9 +354,49 @@ def _limb_rows(rows: _Rows, subject: Subject, side: str, p: str) -> None:
         rows.add(mid_x, 0.0, SIGMA_REGRESSED, f"{p}WRA-WRB midpoint x = 0 (nominal model)")
     leg = subject.get(f"leg_length_{side}")
     if leg is not None:
-        terms = {f"hip_height_{side}": 1.0, f"thigh_length_{side}": 1.0,
-                 f"shank_length_{side}": 1.0}  # fmt: skip
-        rows.add(terms, leg, SIGMA_LEG, f"ASIS to ankle centre height = leg_length_{side}")
+        _leg_length_row(rows, subject, side, p, leg, s)
+
+
+def _leg_length_row(rows: _Rows, subject: Subject, side: str, p: str, leg: float, s: float) -> None:
+    """``leg`` [m], Plug-in Gait's LegLength: the tape from the ASIS to the medial malleolus
+    over the extended knee, linearised in theta at the nominal model scaled by ``s``.
+
+    The tape's ends are the ASIS (the marker less its radius, behind it) and the medial
+    malleolus (:data:`MEDIAL_MALLEOLUS_ABOVE` above the ankle centre, which Plug-in Gait puts
+    at the lateral malleolus's level, and half the ankle width medial of it); the leg straight
+    below the hip centre in the pelvis frame. So the tape is the length of
+    ``v = (ASIS.x + hip_depth - r, ASIS.y - hip_width + ankle_width/2,
+    hip_height + thigh + shank - MEDIAL_MALLEOLUS_ABOVE)`` (left side; the right mirrors y),
+    not ``hip_height + thigh + shank``: the ASIS lies 40-60 mm ahead of and lateral of the
+    hip centre, the malleolus above the ankle centre. ``|v|`` is linearised at the nominal
+    ``v0``: ``|v| ~ |v0| + (v0 / |v0|) . (v - v0)``, within 1.5 mm for skeletons within 15 %
+    of the nominal one.
+    """
+    sign = 1.0 if side == "l" else -1.0
+    kappa0 = {n: float(v) for n, v in zip(rows.pset.names, rows.pset.nominal, strict=True)}
+    asis = p + "ASI"
+    aw = subject.get(f"ankle_width_{side}")
+    if aw is None:
+        kappa, ratio = WIDTH_RATIO["ankle_width"]
+        aw = ratio * kappa0.get(f"{kappa}_{side}", 0.0) * s
+    comps = (  # (terms linear in theta, constant) per axis of v
+        ({f"{asis}.x": 1.0, f"hip_depth_{side}": 1.0}, -subject.marker_radius),
+        ({f"{asis}.y": sign, f"hip_width_{side}": -1.0}, aw / 2),
+        ({f"hip_height_{side}": 1.0, f"thigh_length_{side}": 1.0, f"shank_length_{side}": 1.0},
+         -MEDIAL_MALLEOLUS_ABOVE * s),
+    )  # fmt: skip
+    if not all(n in kappa0 for terms, _ in comps for n in terms):
+        return
+    v0 = np.array([sum(c * kappa0[n] * s for n, c in t.items()) + k for t, k in comps])
+    g = v0 / np.linalg.norm(v0)
+    terms = _add(*(_scaled(t, gi) for (t, _), gi in zip(comps, g, strict=True)))
+    b = (
+        leg
+        - float(np.linalg.norm(v0))
+        + float(g @ v0)
+        - sum(gi * k for (_, k), gi in zip(comps, g, strict=True))
+    )
+    rows.add(terms, b, SIGMA_LEG, f"ASIS to medial malleolus = leg_length_{side}")
 
 
 def _hand_rows(rows: _Rows, subject: Subject, side: str, p: str, s: float) -> None:
