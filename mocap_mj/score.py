@@ -98,7 +98,11 @@ def score(
     ranges = summary.get("frames_fitted_range") or [[0, len(motion.qpos)]]
     a, b = ranges[0]
     check_same_trial(truth_dir, result_dir, truth_motion, motion, a, b)
-    aligned = align_truth(pset, theta_hat, truth_motion.markers[a:b], truth_motion.times[a:b])
+    # The hand's zero is free (gauge_free): an estimate whose hand zero differs from the
+    # truth's is the same model, and the alignment must not be stopped by the wrist limits.
+    aligned = align_truth(
+        gauge_free(pset), theta_hat, truth_motion.markers[a:b], truth_motion.times[a:b]
+    )
     err = theta_hat - aligned
     e_obs, _ = idf.project(err)
     out = _parameter_errors(pset, idf, err, aligned, theta_true)
