@@ -311,7 +311,6 @@ def reduced_gradient(
     bounds = blocks(n, n)
     k = bounds.size - 1
     gt = np.zeros((k, n_par))
-    _numba_prewarm.wait()
     args = (tr, kt, *_floats(target, wts, qpos))
     run_blocks(
         _gradient_range,

@@ -390,12 +390,8 @@ def _leg_length_row(rows: _Rows, subject: Subject, side: str, p: str, leg: float
     v0 = np.array([sum(c * kappa0[n] * s for n, c in t.items()) + k for t, k in comps])
     g = v0 / np.linalg.norm(v0)
     terms = _add(*(_scaled(t, gi) for (t, _), gi in zip(comps, g, strict=True)))
-    b = (
-        leg
-        - float(np.linalg.norm(v0))
-        + float(g @ v0)
-        - sum(gi * k for (_, k), gi in zip(comps, g, strict=True))
-    )
+    # |v0| + g . (v - v0) = g . v, as g . v0 = |v0|: the row is g . (v - k) = leg - g . k.
+    b = leg - sum(gi * k for (_, k), gi in zip(comps, g, strict=True))
     rows.add(terms, b, SIGMA_LEG, f"ASIS to medial malleolus = leg_length_{side}")
 
 
