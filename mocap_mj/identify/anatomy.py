@@ -48,8 +48,9 @@ Widths (standard deviations, per row) and their sources:
   and above mid-ASIS in proportion to the ASIS width, in the pelvis frame (whose tilt the
   pelvis-tilt row fixes, as for Harrington's hip centres; Reed's frame is the anterior pelvic
   plane, which Plug-in Gait's markers do not give): not along the ASIS-PSIS line, which
-  moves L5/S1 with the PSIS markers' placement (the most variable of the pelvis's; 60-120 mm
-  higher than on the nominal model on one shared subject, docs/real-data.md); the SC joints
+  moves L5/S1 with the PSIS markers' placement (the most variable of the pelvis's,
+  docs/real-data.md); the nominal model's L5/S1 is Reed's, so these rows are centred on the
+  synthetic truth; the SC joints
   beside and level with CLAV. At 10 mm the data moved them 30-60 mm between trials of one
   subject, at 3 mm they hold within a few mm (docs/real-data.md);
 * :data:`SIGMA_LEG` = 15 mm: the ASIS-to-medial-malleolus distance of the straight leg against
