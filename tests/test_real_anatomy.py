@@ -27,7 +27,10 @@ REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 SKIP = "../shared/data/real not present: real-data checks need the shared folder beside the repo"
 
 
-@pytest.mark.parametrize(("name", "frames"), [("Static_trial.c3d", "0:150"),
+#: Static_trial's first 300 frames: with the nominal proportions' L5/S1 row the lumbar rows
+#: conflicted there and a knee centre sat 5.9 mm off its width (6.3 on the whole trial); the
+#: first 150 frames did not show it (docs/real-data.md, "Fourth round").
+@pytest.mark.parametrize(("name", "frames"), [("Static_trial.c3d", "0:300"),
                                               ("anatomical_posture.c3d", "0:122")])  # fmt: skip
 def test_real_skeleton_targets(tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str,
                                frames: str) -> None:  # fmt: skip

@@ -42,9 +42,15 @@ Widths (standard deviations, per row) and their sources:
   of the scapula). Such a joint has no functional centre: the point about which the data
   turn it moves with the motion (model error, not information about the subject), so these
   rows define it from the markers of its segment, as Plug-in Gait defines its segments, and
-  must outweigh the data: Dumas et al. (2007) C7/T1 from C7 and CLAV; T12/L1 from T10 and
-  C7 and L5/S1 from the ASIS and PSIS markers with the nominal model's proportions, written
-  so that they do not depend on how the frame is tilted against its markers; the SC joints
+  must outweigh the data: Dumas et al. (2007) C7/T1 from C7 and CLAV and T12/L1 from T10
+  and C7 with the nominal model's proportions, written so that they do not depend on how
+  the frame is tilted against its markers; L5/S1 as Reed et al. (1999) define it, behind
+  and above mid-ASIS in proportion to the ASIS width, in the pelvis frame (whose tilt the
+  pelvis-tilt row fixes, as for Harrington's hip centres; Reed's frame is the anterior pelvic
+  plane, which Plug-in Gait's markers do not give): not along the ASIS-PSIS line, which
+  moves L5/S1 with the PSIS markers' placement (the most variable of the pelvis's,
+  docs/real-data.md); the nominal model's L5/S1 is Reed's, so these rows are centred on the
+  synthetic truth; the SC joints
   beside and level with CLAV. At 10 mm the data moved them 30-60 mm between trials of one
   subject, at 3 mm they hold within a few mm (docs/real-data.md);
 * :data:`SIGMA_LEG` = 15 mm: the ASIS-to-medial-malleolus distance of the straight leg against
@@ -90,11 +96,9 @@ CJC_RATIO, CJC_ANGLE = 0.55, 8.0
 #: T12/L1 from the T10 marker, fractions of the C7-T10 distance along that line (downward)
 #: and anterior of it: the nominal model's (T10 50 mm above and 75 mm behind T12/L1).
 T12_ALONG, T12_FORWARD = 0.206, 0.386
-#: L5/S1 from mid-ASIS, fractions of the mid-ASIS to mid-PSIS distance along that line and
-#: above it: the nominal model's (L5/S1 100 mm behind and 50 mm above mid-ASIS, PSIS 165 mm
-#: behind and 20 mm above). Reed et al. (1999) / Dumas et al. (2007) put it 0.264 and 0.126
-#: of the ASIS width behind and above mid-ASIS in the anterior pelvic plane (docs/model.md).
-L5S1_ALONG, L5S1_UP = 0.634, -0.2265
+#: L5/S1 behind and above mid-ASIS, fractions of the ASIS width (Reed, Manary, Schneider
+#: 1999, men, as Dumas et al. 2007 use it), in the pelvis frame (module docstring).
+L5S1_BEHIND, L5S1_ABOVE = 0.264, 0.126
 #: mid-PSIS above mid-ASIS in the pelvis frame [m] on a 1.75 m adult (the nominal model's).
 PSIS_ABOVE_ASIS = 0.02
 #: The medial malleolus's prominence above the ankle centre [m] on a 1.75 m adult: Plug-in
@@ -241,15 +245,12 @@ def _pelvis_rows(rows: _Rows, subject: Subject, s: float) -> None:
         )
         rows.add(_add({f"hip_height_{side}": 1}, mid_z, _scaled(pw, -0.30)), 0.0109, SIGMA_HJC,
                  f"hip_height_{side} = 0.30 PW + 10.9 mm (Harrington 2007)")  # fmt: skip
-    # L5/S1 relative to the pelvis markers, invariant to the pelvis frame's tilt against them:
-    # mid-ASIS + a d + b R90 d, d = mid-PSIS - mid-ASIS in the sagittal plane (module docstring).
-    for c, joint, sign in (("x", "lumbar_depth", 1.0), ("z", "lumbar_height", -1.0)):
-        terms = {joint: sign, f"LASI.{c}": 0.5, f"RASI.{c}": 0.5}
-        for m in ("LPSI", "RPSI"):
-            terms = _add(terms, _scaled(_rotated("LASI", m, L5S1_ALONG, L5S1_UP, c), 0.25))
-            terms = _add(terms, _scaled(_rotated("RASI", m, L5S1_ALONG, L5S1_UP, c), 0.25))
-        rows.add(terms, 0.0, SIGMA_CONVENTION,
-                 f"L5/S1.{c} from mid-ASIS along and above the ASIS-PSIS line")  # fmt: skip
+    # L5/S1 from mid-ASIS in the pelvis frame, in proportion to the ASIS width (Reed 1999,
+    # module docstring): not from the PSIS markers, whose placement varies most.
+    rows.add(_add({"lumbar_depth": 1.0}, mid_x, _scaled(pw, -L5S1_BEHIND)), 0.0,
+             SIGMA_CONVENTION, f"L5/S1.x = mid-ASIS.x - {L5S1_BEHIND} PW (Reed 1999)")  # fmt: skip
+    rows.add(_add({"lumbar_height": 1.0}, _scaled(mid_z, -1.0), _scaled(pw, -L5S1_ABOVE)), 0.0,
+             SIGMA_CONVENTION, f"L5/S1.z = mid-ASIS.z + {L5S1_ABOVE} PW (Reed 1999)")  # fmt: skip
 
 
 def _trunk_rows(rows: _Rows, s: float) -> None:
