@@ -11,13 +11,14 @@ In one process on the synthetic ROM trial (`mocap_synth`, seed 0, 1 mm noise, se
 2. Algorithm 1 (this project's faithful implementation, `--solver paper`) with stochastic
    and batch sampling on the same data, run for a time budget: the time it needs to reach
    the LM's parameter error (or how far it got), and the speed ratio;
-3. the LM at 500, 5,000 (and, with --large, 50,000) frames: seconds and peak traced memory.
+3. the LM at 500, 5,000 (and, with --large, 50,000; or --sizes) frames: seconds and peak
+   traced memory (coarse+fine iterations; with --baseline also without the coarse phase).
 
 The parameter error is the RMS, over the observable directions of theta, of the difference
 to the truth aligned with the LM's estimate along the unobservable ones (`mocap_mj.score`).
 
 Run: python benchmarks/identify.py [--budget 120] [--large] [--seeds 10] [--baseline]
-     [--repeats 3] [--only-500]
+     [--repeats 3] [--only-500] [--sizes 50000 --skip-to-sizes]
 """
 
 from __future__ import annotations
@@ -51,6 +52,8 @@ def main() -> None:
     )
     parser.add_argument("--repeats", type=int, default=1, help="timed solves per seed (median)")
     parser.add_argument("--only-500", action="store_true", help="stop after the 500-frame part")
+    parser.add_argument("--sizes", type=int, nargs="*", help="frames of part 3 (default 500 5000)")
+    parser.add_argument("--skip-to-sizes", action="store_true", help="only part 3")
     args = parser.parse_args()
     pset = ParameterSet()
 
@@ -65,6 +68,9 @@ def main() -> None:
         settings=LMSettings(max_iterations=1),
     )
     print(f"0. kernels loaded in {time.perf_counter() - t0:.2f} s (first call in a process)\n")
+    if args.skip_to_sizes:
+        _scaling(pset, args.sizes or [500, 5000, 50_000], args.baseline)
+        return
     t0 = time.perf_counter()
     lm = identify_lm([data], pset=pset)
     t_lm = time.perf_counter() - t0
@@ -132,22 +138,41 @@ def main() -> None:
                     f"{last_s / t_lm:.0f}x its time); not reached"
                 )
 
+    _scaling(pset, args.sizes or [500, 5000] + ([50_000] if args.large else []), args.baseline)
+
+
+def _scaling(pset: ParameterSet, sizes: list[int], baseline: bool) -> None:
+    """Part 3: the LM at each size (seed 1), with ``baseline`` also without the coarse phase."""
     print("\n3. joint LM: frames vs time (linear?) and peak traced memory")
-    sizes = [500, 5000] + ([50_000] if args.large else [])
+    paths = {"coarse": LMSettings()}
+    if baseline:
+        paths["plain"] = LMSettings(coarse_frames=0)
     for n in sizes:
         _, d = trial(n, seed=1)
-        tracemalloc.start()
-        t0 = time.perf_counter()
-        r = identify_lm([d], pset=pset, settings=LMSettings())
-        seconds = time.perf_counter() - t0
-        peak = tracemalloc.get_traced_memory()[1]
-        tracemalloc.stop()
-        per_it = np.mean([log.seconds for log in r.trace])
-        print(
-            f"   {n:>7} frames: {seconds:8.1f} s, {r.iterations:3d} iterations, "
-            f"{per_it * 1e3:8.1f} ms/iteration ({per_it / n * 1e6:.1f} us/frame), "
-            f"peak {peak / 2**20:8.0f} MiB, RMSE {r.marker_rmse * 1e3:.3f} mm"
-        )
+        final = {}
+        for name, st in paths.items():
+            tracemalloc.start()
+            t0 = time.perf_counter()
+            r = identify_lm([d], pset=pset, settings=st)
+            seconds = time.perf_counter() - t0
+            peak = tracemalloc.get_traced_memory()[1]
+            tracemalloc.stop()
+            full = [log for log in r.trace if log.frames == n]
+            per_it = np.mean([log.seconds for log in full])
+            final[name] = r
+            print(
+                f"   {n:>7} frames, {name:<6}: {seconds:8.1f} s, {r.iterations - len(full)}+"
+                f"{len(full)} iterations, {per_it * 1e3:8.1f} ms/iteration on every frame "
+                f"({per_it / n * 1e6:.1f} us/frame), peak {peak / 2**20:6.0f} MiB, "
+                f"RMSE {r.marker_rmse * 1e3:.3f} mm"
+            )
+        if baseline:
+            a, b = final["coarse"], final["plain"]
+            print(
+                f"   {n:>7} frames: F - F_plain "
+                f"{(a.trace[-1].cost - b.trace[-1].cost) / b.sigma**2:+.2f} sigma^2, "
+                f"max|dtheta| {np.abs(a.theta - b.theta).max() * 1e3:.2f} mm"
+            )
 
 
 def _compare_seeds(pset: ParameterSet, seeds: int, repeats: int, baseline: bool) -> None:
