@@ -30,6 +30,11 @@ from .problem import TrialData
 from .result import IterationLog, TraceEntry
 from .selection import select_in_trials
 
+#: A subset has at least a tenth of the frames it stands for: a long trial is approached
+#: through subsets growing tenfold (at 50,000 frames: 500, 5,000, then every frame), each
+#: starting a few iterations from its own minimum.
+SUBSET_FRACTION = 10
+
 
 def coarse_rows(
     trials: Sequence[TrialData], pset: ParameterSet, count: int
@@ -38,12 +43,14 @@ def coarse_rows(
     phase does not apply: ``count`` is 0 or the trials have at most 2 ``count`` frames in
     all (the subset would save little).
 
-    Frames are chosen by pose diversity; without the pelvis markers the selection needs,
-    evenly spaced frames are taken instead.
+    The subset has ``count`` frames or a tenth of all (:data:`SUBSET_FRACTION`), whichever is
+    more. Frames are chosen by pose diversity; without the pelvis markers the selection
+    needs, evenly spaced frames are taken instead.
     """
     total = sum(len(t.markers) for t in trials)
     if count < 1 or total <= 2 * count or count < len(trials):
         return None
+    count = max(count, total // SUBSET_FRACTION)
     markers = [np.asarray(t.markers) for t in trials]
     try:
         return select_in_trials(markers, pset.marker_names, count)
@@ -72,4 +79,4 @@ def joined_trace(coarse: Sequence[TraceEntry], fine: Sequence[TraceEntry]) -> li
     return [*coarse, *(shifted(log, len(coarse)) for log in fine)]
 
 
-__all__ = ["coarse_rows", "joined_trace", "shifted", "subset_trials"]
+__all__ = ["SUBSET_FRACTION", "coarse_rows", "joined_trace", "shifted", "subset_trials"]

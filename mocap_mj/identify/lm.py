@@ -665,15 +665,39 @@ def identify_lm(
         "upper": upper,
         "loss": loss_named(st.loss),
     }
+    result = _solve_levels(
+        kin, trials, free, options, st, ik_settings, initial_qpos, progress, information=True
+    )
+    result.seconds = time.perf_counter() - t_start
+    return result
+
+
+def _solve_levels(
+    kin: Kinematics,
+    trials: Sequence[TrialData],
+    free: np.ndarray,
+    options: ProblemOptions,
+    st: LMSettings,
+    ik_settings: IKSettings | None,
+    initial_qpos: Sequence[np.ndarray] | None,
+    progress: ProgressCallback | None,
+    *,
+    information: bool,
+) -> IdentificationResult:
+    """:func:`identify_lm` from the kinematics' theta: the coarse phase first when it applies
+    (itself solved this way, so a long trial is approached through subsets growing tenfold:
+    :func:`~mocap_mj.identify.coarse.coarse_rows`), then the IK of every frame and the LM on
+    all of them."""
     coarse: IdentificationResult | None = None
-    rows = None if initial_qpos is not None else coarse_rows(trials, pset, st.coarse_frames)
+    rows = None if initial_qpos is not None else coarse_rows(trials, kin.pset, st.coarse_frames)
     if rows is not None:
-        coarse = _coarse_phase(kin, subset_trials(trials, rows), free, options, st, ik_settings)
-        if coarse is not None:
-            kin.set_theta(coarse.theta)
-            if progress is not None:
-                for log in coarse.trace:
-                    progress(log)
+        start, sub = kin.theta.copy(), subset_trials(trials, rows)
+        coarse = _solve_levels(
+            kin, sub, free, options, st, ik_settings, None, progress, information=False
+        )
+        if 2 * sum(int(u.sum()) for u in coarse.used) < sum(len(r) for r in rows):
+            coarse = None  # most of the subset unsolvable: no approach worth continuing
+        kin.set_theta(start if coarse is None else coarse.theta)
     t_ik = time.perf_counter()
     if initial_qpos is None:
         iks = initial_ik(kin, trials, ik_settings)
@@ -685,37 +709,20 @@ def identify_lm(
     init_seconds = time.perf_counter() - t_ik
     problem = build_problem(kin, trials, init_q, used, free, **options)
     if coarse is None:
-        result = solve_lm(problem, st, progress=progress)
+        result = solve_lm(problem, st, progress=progress, information=information)
     else:
         k = coarse.iterations
         fine_st = replace(st, max_iterations=max(1, st.max_iterations - k))
         renumbered = None if progress is None else _shifted(progress, k)
         last = coarse.trace[-1]
         mu = last.mu if isinstance(last, IterationLog) else st.mu0
-        result = solve_lm(problem, fine_st, progress=renumbered, continued=mu)
+        result = solve_lm(
+            problem, fine_st, progress=renumbered, continued=mu, information=information
+        )
         result.trace = joined_trace(coarse.trace, result.trace)
         result.iterations += k
-    result.seconds = time.perf_counter() - t_start
     result.init_seconds = init_seconds
     return result
-
-
-def _coarse_phase(
-    kin: Kinematics,
-    trials: Sequence[TrialData],
-    free: np.ndarray,
-    options: ProblemOptions,
-    st: LMSettings,
-    ik_settings: IKSettings | None,
-) -> IdentificationResult | None:
-    """The joint LM on the subset's trials (:mod:`mocap_mj.identify.coarse`) from the
-    kinematics' theta, or None when fewer than half the subset's frames can be solved."""
-    iks = initial_ik(kin, trials, ik_settings)
-    used = [r.status != IKStatus.TOO_FEW_MARKERS for r in iks]
-    if 2 * sum(int(u.sum()) for u in used) < sum(len(u) for u in used):
-        return None
-    problem = build_problem(kin, trials, [r.qpos for r in iks], used, free, **options)
-    return solve_lm(problem, st, information=False)
 
 
 def _shifted(progress: ProgressCallback, k: int) -> ProgressCallback:
