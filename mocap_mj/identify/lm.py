@@ -27,6 +27,11 @@ accepted step and raised after a rejected one (``LMSettings.mu_decrease``). Afte
 every frame finishes its own pose by per-frame LM under the new theta (``refine_iterations``).
 Bounds: a parameter at a bound whose step points outward is held for that step (the reduced
 system is solved without it), and the step is then projected onto the box.
+Coarse to fine (:mod:`mocap_mj.identify.coarse`, ``coarse_frames``): on more than twice
+``coarse_frames`` frames, :func:`identify_lm` first converges on a pose-diverse subset (the
+approach from the initial model, at a fraction of the cost per iteration), solves every
+frame's IK under the subset's model and continues on every frame from there; only this last
+phase decides the answer, by the stopping rules below.
 Stopping: an accepted step that lowers F by less than ``tol_noise * sigma^2`` or
 ``tol_cost * F``, or a step whose largest
 theta component is below ``tol_theta`` [m] and pose component below ``tol_q``, or ``mu`` beyond
@@ -153,10 +158,12 @@ class LMSettings:
         limits.
     coarse_frames : int
         Coarse to fine (:mod:`mocap_mj.identify.coarse`): with more than twice this many
-        frames, the LM first converges on this many pose-diverse frames, then continues on
-        every frame from there (default 100: the approach costs a fifth per iteration at 500
-        frames and the frames' IK is solved once under a model near the answer; 0 disables).
-        Only when :func:`identify_lm` solves the initial IK itself (no ``initial_qpos``).
+        frames, the LM first converges on a pose-diverse subset of this many frames (or a
+        tenth of all, whichever is more; itself approached the same way), then continues on
+        every frame from there (default 100: at 500 frames the approach then costs about a
+        fifth per iteration, and every frame's IK is solved once, under a model near the
+        answer; 0 disables). Only when :func:`identify_lm` solves the initial IK itself (no
+        ``initial_qpos``).
     """
 
     max_iterations: int = 100
