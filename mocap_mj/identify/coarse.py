@@ -30,6 +30,13 @@ from .problem import TrialData
 from .result import IterationLog, TraceEntry
 from .selection import select_in_trials
 
+#: Refits (``LMSettings.max_refits``) in a subset's LM: the first catches the frames the
+#: initial model put in a wrong configuration; later ones cost a fresh IK of the subset each
+#: (chains do not help on pose-diverse frames) and are superseded by the IK of every frame
+#: under the subset's model. With none, seed 7 of the 500-frame benchmark took 4 more
+#: iterations on every frame.
+COARSE_REFITS = 1
+
 #: A subset has at least a tenth of the frames it stands for: a long trial is approached
 #: through subsets growing tenfold (at 50,000 frames: 500, 5,000, then every frame), each
 #: starting a few iterations from its own minimum.
@@ -79,4 +86,11 @@ def joined_trace(coarse: Sequence[TraceEntry], fine: Sequence[TraceEntry]) -> li
     return [*coarse, *(shifted(log, len(coarse)) for log in fine)]
 
 
-__all__ = ["SUBSET_FRACTION", "coarse_rows", "joined_trace", "shifted", "subset_trials"]
+__all__ = [
+    "COARSE_REFITS",
+    "SUBSET_FRACTION",
+    "coarse_rows",
+    "joined_trace",
+    "shifted",
+    "subset_trials",
+]

@@ -62,7 +62,7 @@ from ..ik import IKResult, IKSettings, IKSolver
 from ..ik import Status as IKStatus
 from ..kinematics import Kinematics
 from ..parameters import ParameterSet
-from .coarse import coarse_rows, joined_trace, shifted, subset_trials
+from .coarse import COARSE_REFITS, coarse_rows, joined_trace, shifted, subset_trials
 from .heuristics import RefitSchedule, StallMonitor, frame_rmse, refit_frames
 from .losses import LossName, loss_named
 from .priors import LinearGaussianPrior, Prior, weak_prior
@@ -699,8 +699,9 @@ def _solve_levels(
     rows = None if initial_qpos is not None else coarse_rows(trials, kin.pset, st.coarse_frames)
     if rows is not None:
         start, sub = kin.theta.copy(), subset_trials(trials, rows)
+        sub_st = replace(st, max_refits=min(st.max_refits, COARSE_REFITS))
         coarse = _solve_levels(
-            kin, sub, free, options, st, ik_settings, None, progress, information=False
+            kin, sub, free, options, sub_st, ik_settings, None, progress, information=False
         )
         if 2 * sum(int(u.sum()) for u in coarse.used) < sum(len(r) for r in rows):
             coarse = None  # most of the subset unsolvable: no approach worth continuing
