@@ -9,6 +9,7 @@ from mocap_mj import ParameterSet
 from mocap_mj.identify import LMSettings, TrialData, identify_lm
 from mocap_mj.identify.coarse import coarse_rows
 from mocap_mj.identify.identifiability import Identifiability
+from mocap_mj.identify.selection import PELVIS
 from mocap_synth import SynthConfig, synthesize
 
 FRAMES, SUBSET = 300, 60
@@ -50,3 +51,8 @@ def test_coarse_rows_only_for_long_enough_trials() -> None:
     rows = coarse_rows([trial, trial], pset, 50)
     assert rows is not None and [len(r) for r in rows] == [25, 25]
     assert all(np.all(np.diff(r) > 0) and r[-1] < 120 for r in rows)
+    # Without the pelvis markers the pose features need: evenly spaced frames.
+    blind = np.asarray(exp.markers).copy()
+    blind[:, [pset.marker_index(n) for n in PELVIS]] = np.nan
+    rows = coarse_rows([TrialData("blind", blind, trial.times)], pset, 50)
+    assert rows is not None and np.array_equal(rows[0], np.linspace(0, 119, 50).round())

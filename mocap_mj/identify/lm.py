@@ -700,10 +700,13 @@ def _solve_levels(
     if rows is not None:
         start, sub = kin.theta.copy(), subset_trials(trials, rows)
         sub_st = replace(st, max_refits=min(st.max_refits, COARSE_REFITS))
-        coarse = _solve_levels(
-            kin, sub, free, options, sub_st, ik_settings, None, progress, information=False
-        )
-        if 2 * sum(int(u.sum()) for u in coarse.used) < sum(len(r) for r in rows):
+        try:
+            coarse = _solve_levels(
+                kin, sub, free, options, sub_st, ik_settings, None, progress, information=False
+            )
+        except SolverError:  # no frame of the subset solvable: every frame decides
+            coarse = None
+        if coarse and 2 * sum(int(u.sum()) for u in coarse.used) < sum(len(r) for r in rows):
             coarse = None  # most of the subset unsolvable: no approach worth continuing
         kin.set_theta(start if coarse is None else coarse.theta)
     t_ik = time.perf_counter()
