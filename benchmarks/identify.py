@@ -5,15 +5,20 @@ In one process on the synthetic ROM trial (`mocap_synth`, seed 0, 1 mm noise, se
 
 1. the joint LM on 500 frames, 147 parameters: time to convergence, error vs its bound
    (seed 0), and the time on seeds 1 to 9 (after the kernels loaded, which is timed apart);
+   with --baseline, each seed is also solved without the coarse phase (`coarse_frames=0`),
+   back to back in the same process: times, iterations, errors against the bound, and the
+   difference of the final F in sigma^2 (the same minimum: well below 1);
 2. Algorithm 1 (this project's faithful implementation, `--solver paper`) with stochastic
    and batch sampling on the same data, run for a time budget: the time it needs to reach
    the LM's parameter error (or how far it got), and the speed ratio;
-3. the LM at 500, 5,000 (and, with --large, 50,000) frames: seconds and peak traced memory.
+3. the LM at 500, 5,000 (and, with --large, 50,000; or --sizes) frames: seconds and peak
+   traced memory (coarse+fine iterations; with --baseline also without the coarse phase).
 
 The parameter error is the RMS, over the observable directions of theta, of the difference
 to the truth aligned with the LM's estimate along the unobservable ones (`mocap_mj.score`).
 
-Run: python benchmarks/identify.py [--budget 120] [--large] [--seeds 10]
+Run: python benchmarks/identify.py [--budget 120] [--large] [--seeds 10] [--baseline]
+     [--repeats 3] [--only-500] [--sizes 50000 --skip-to-sizes]
 """
 
 from __future__ import annotations
@@ -42,6 +47,13 @@ def main() -> None:
     parser.add_argument("--budget", type=float, default=120.0, help="seconds per paper run")
     parser.add_argument("--large", action="store_true", help="also 50,000 frames")
     parser.add_argument("--seeds", type=int, default=10, help="500-frame trials timed (seeds)")
+    parser.add_argument(
+        "--baseline", action="store_true", help="also solve every seed without the coarse phase"
+    )
+    parser.add_argument("--repeats", type=int, default=1, help="timed solves per seed (median)")
+    parser.add_argument("--only-500", action="store_true", help="stop after the 500-frame part")
+    parser.add_argument("--sizes", type=int, nargs="*", help="frames of part 3 (default 500 5000)")
+    parser.add_argument("--skip-to-sizes", action="store_true", help="only part 3")
     args = parser.parse_args()
     pset = ParameterSet()
 
@@ -56,6 +68,9 @@ def main() -> None:
         settings=LMSettings(max_iterations=1),
     )
     print(f"0. kernels loaded in {time.perf_counter() - t0:.2f} s (first call in a process)\n")
+    if args.skip_to_sizes:
+        _scaling(pset, args.sizes or [500, 5000, 50_000], args.baseline)
+        return
     t0 = time.perf_counter()
     lm = identify_lm([data], pset=pset)
     t_lm = time.perf_counter() - t0
@@ -80,19 +95,24 @@ def main() -> None:
     )
     for log in lm.trace[:: max(1, len(lm.trace) // 8)]:
         print(f"   iter {log.iteration:3d}  error {err(log.theta) * 1e3:8.3f} mm")
-    times = []
-    for seed in range(1, args.seeds):
-        _, d = trial(500, seed=seed)
-        t0 = time.perf_counter()
-        r = identify_lm([d], pset=pset)
-        times.append(time.perf_counter() - t0)
-        print(f"   seed {seed}: {times[-1]:.2f} s, {r.iterations} iterations")
-    if times:
-        times.append(t_lm)
-        print(
-            f"   seeds 0-{args.seeds - 1}: median {np.median(times):.2f} s, "
-            f"{sum(t <= 1.0 for t in times)} of {len(times)} within 1 s"
-        )
+    if args.baseline or args.repeats > 1:
+        _compare_seeds(pset, args.seeds, args.repeats, args.baseline)
+    else:
+        times = []
+        for seed in range(1, args.seeds):
+            _, d = trial(500, seed=seed)
+            t0 = time.perf_counter()
+            r = identify_lm([d], pset=pset)
+            times.append(time.perf_counter() - t0)
+            print(f"   seed {seed}: {times[-1]:.2f} s, {r.iterations} iterations")
+        if times:
+            times.append(t_lm)
+            print(
+                f"   seeds 0-{args.seeds - 1}: median {np.median(times):.2f} s, "
+                f"{sum(t <= 1.0 for t in times)} of {len(times)} within 1 s"
+            )
+    if args.only_500:
+        return
 
     print(f"\n2. Algorithm 1 (finite differences through IK), budget {args.budget:.0f} s each")
     try:
@@ -118,22 +138,92 @@ def main() -> None:
                     f"{last_s / t_lm:.0f}x its time); not reached"
                 )
 
+    _scaling(pset, args.sizes or [500, 5000] + ([50_000] if args.large else []), args.baseline)
+
+
+def _scaling(pset: ParameterSet, sizes: list[int], baseline: bool) -> None:
+    """Part 3: the LM at each size (seed 1), with ``baseline`` also without the coarse phase."""
     print("\n3. joint LM: frames vs time (linear?) and peak traced memory")
-    sizes = [500, 5000] + ([50_000] if args.large else [])
+    paths = {"coarse": LMSettings()}
+    if baseline:
+        paths["plain"] = LMSettings(coarse_frames=0)
     for n in sizes:
         _, d = trial(n, seed=1)
-        tracemalloc.start()
-        t0 = time.perf_counter()
-        r = identify_lm([d], pset=pset, settings=LMSettings())
-        seconds = time.perf_counter() - t0
-        peak = tracemalloc.get_traced_memory()[1]
-        tracemalloc.stop()
-        per_it = np.mean([log.seconds for log in r.trace])
+        final = {}
+        for name, st in paths.items():
+            tracemalloc.start()
+            t0 = time.perf_counter()
+            r = identify_lm([d], pset=pset, settings=st)
+            seconds = time.perf_counter() - t0
+            peak = tracemalloc.get_traced_memory()[1]
+            tracemalloc.stop()
+            full = [log for log in r.trace if log.frames == n]
+            per_it = np.mean([log.seconds for log in full])
+            final[name] = r
+            print(
+                f"   {n:>7} frames, {name:<6}: {seconds:8.1f} s, {r.iterations - len(full)}+"
+                f"{len(full)} iterations, {per_it * 1e3:8.1f} ms/iteration on every frame "
+                f"({per_it / n * 1e6:.1f} us/frame), peak {peak / 2**20:6.0f} MiB, "
+                f"RMSE {r.marker_rmse * 1e3:.3f} mm"
+            )
+        if baseline:
+            a, b = final["coarse"], final["plain"]
+            print(
+                f"   {n:>7} frames: F - F_plain "
+                f"{(a.trace[-1].cost - b.trace[-1].cost) / b.sigma**2:+.2f} sigma^2, "
+                f"max|dtheta| {np.abs(a.theta - b.theta).max() * 1e3:.2f} mm"
+            )
+
+
+def _compare_seeds(pset: ParameterSet, seeds: int, repeats: int, baseline: bool) -> None:
+    """Seeds 0..seeds-1 at 500 frames: the median of ``repeats`` timed solves each, with
+    (``baseline``) the LM without the coarse phase solved right after on the same data."""
+    paths = {"coarse": LMSettings()}
+    if baseline:
+        paths["plain"] = LMSettings(coarse_frames=0)
+    times: dict[str, list[float]] = {k: [] for k in paths}
+    print(f"   seeds 0-{seeds - 1}, median of {repeats} solves; error / bound on observable theta")
+    for seed in range(seeds):
+        exp, d = trial(500, seed=seed)
+        out = {}
+        for name, st in paths.items():
+            ts = []
+            for _ in range(repeats):
+                t0 = time.perf_counter()
+                r = identify_lm([d], pset=pset, settings=st)
+                ts.append(time.perf_counter() - t0)
+            times[name].append(float(np.median(ts)))
+            out[name] = r
+        line = f"   seed {seed}:"
+        for name, r in out.items():
+            coarse = sum(1 for log in r.trace if 0 < log.frames < 500)
+            line += (
+                f"  {name} {times[name][-1]:.3f} s, {coarse}+{r.iterations - coarse} it, "
+                f"error {_error_ratio(pset, exp, d, r):.3f}x"
+            )
+        if baseline:
+            a, b = out["coarse"], out["plain"]
+            d_cost = (a.trace[-1].cost - b.trace[-1].cost) / b.sigma**2
+            d_theta = float(np.abs(a.theta - b.theta).max())
+            line += f"  | F - F_plain {d_cost:+.2f} sigma^2, max|dtheta| {d_theta * 1e3:.2f} mm"
+        print(line)
+    for name, ts in times.items():
         print(
-            f"   {n:>7} frames: {seconds:8.1f} s, {r.iterations:3d} iterations, "
-            f"{per_it * 1e3:8.1f} ms/iteration ({per_it / n * 1e6:.1f} us/frame), "
-            f"peak {peak / 2**20:8.0f} MiB, RMSE {r.marker_rmse * 1e3:.3f} mm"
+            f"   {name}: median {np.median(ts):.3f} s (range {min(ts):.3f}-{max(ts):.3f} s), "
+            f"{sum(t <= 0.3 for t in ts)} of {len(ts)} within 0.3 s"
         )
+    if baseline:
+        ratio = np.array(times["coarse"]) / np.array(times["plain"])
+        print(f"   coarse / plain time: median {np.median(ratio):.2f}")
+
+
+def _error_ratio(pset: ParameterSet, exp: Any, data: TrialData, r: Any) -> float:
+    """RMS error of r.theta over its observable directions against the truth, over the
+    RMS Cramer-Rao bound."""
+    idf = Identifiability(pset, r.reduced_information, r.sigma, theta=r.theta)
+    aligned = align_truth(pset, r.theta, np.asarray(exp.markers_clean), data.times)
+    e = idf.basis @ (idf.basis.T @ (r.theta - aligned))
+    return float(np.sqrt(np.mean(e**2)) / np.sqrt(np.mean(np.diag(idf.crlb))))
 
 
 def _run_budget(identify_paper, data, pset, settings, budget):  # type: ignore[no-untyped-def]

@@ -22,7 +22,9 @@ thread count).
 from __future__ import annotations
 
 import math
+import os
 import sys
+import threading
 import types
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -164,22 +166,46 @@ def python_callable(helper: Any) -> Any:
 _inline = _jit
 
 
+_POOL: tuple[int, int, ThreadPoolExecutor] | None = None
+_POOL_LOCK = threading.Lock()
+
+
+def _worker_pool(workers: int) -> ThreadPoolExecutor:
+    """The process's worker threads for :func:`run_blocks`, at least ``workers`` of them.
+
+    Kept for the process: starting threads for every call cost 0.5 ms per call on a loaded
+    machine (tens of calls per identification). Made again in a forked child, whose copy of
+    the pool has no threads.
+    """
+    global _POOL
+    with _POOL_LOCK:
+        if _POOL is None or _POOL[0] != os.getpid() or _POOL[1] < workers:
+            pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="mocap-mj")
+            _POOL = (os.getpid(), workers, pool)
+        return _POOL[2]
+
+
 def run_blocks(
     kernel: Callable[..., Any], bounds: np.ndarray, args: Callable[[int], tuple]
 ) -> None:
-    """``kernel(*args(b))`` for each block b of ``bounds`` (k + 1,), one Python thread per block.
+    """``kernel(*args(b))`` for each block b of ``bounds`` (k + 1,), one thread per block.
 
     The kernels release the GIL (:func:`_jit`), so the blocks run in parallel without numba's
     ``parallel=True``, whose parfor compilation cost most of the first run's compile time.
-    One block runs in the calling thread.
+    The first block runs in the calling thread, the others in the process's worker threads
+    (:func:`_worker_pool`); all have finished when this returns.
     """
     k = bounds.size - 1
     if k <= 1:
         if k == 1:
             kernel(*args(0))
         return
-    with ThreadPoolExecutor(max_workers=k, thread_name_prefix="mocap-mj") as pool:
-        for future in [pool.submit(kernel, *args(b)) for b in range(k)]:
+    pool = _worker_pool(k - 1)
+    futures = [pool.submit(kernel, *args(b)) for b in range(1, k)]
+    try:
+        kernel(*args(0))
+    finally:
+        for future in futures:
             future.result()
 
 

@@ -27,6 +27,11 @@ accepted step and raised after a rejected one (``LMSettings.mu_decrease``). Afte
 every frame finishes its own pose by per-frame LM under the new theta (``refine_iterations``).
 Bounds: a parameter at a bound whose step points outward is held for that step (the reduced
 system is solved without it), and the step is then projected onto the box.
+Coarse to fine (:mod:`mocap_mj.identify.coarse`, ``coarse_frames``): on more than twice
+``coarse_frames`` frames, :func:`identify_lm` first converges on a pose-diverse subset (the
+approach from the initial model, at a fraction of the cost per iteration), solves every
+frame's IK under the subset's model and continues on every frame from there; only this last
+phase decides the answer, by the stopping rules below.
 Stopping: an accepted step that lowers F by less than ``tol_noise * sigma^2`` or
 ``tol_cost * F``, or a step whose largest
 theta component is below ``tol_theta`` [m] and pose component below ``tol_q``, or ``mu`` beyond
@@ -45,7 +50,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal, NamedTuple
 
 import mujoco
@@ -57,18 +62,20 @@ from ..ik import IKResult, IKSettings, IKSolver
 from ..ik import Status as IKStatus
 from ..kinematics import Kinematics
 from ..parameters import ParameterSet
+from .coarse import COARSE_REFITS, coarse_rows, joined_trace, shifted, subset_trials
 from .heuristics import RefitSchedule, StallMonitor, frame_rmse, refit_frames
 from .losses import LossName, loss_named
 from .priors import LinearGaussianPrior, Prior, weak_prior
 from .problem import (
     CHI3_MEDIAN,
     IdentificationProblem,
+    ProblemOptions,
     ReducedChunk,
     TrialData,
     build_problem,
     unpool,
 )
-from .result import IdentificationResult, IterationLog, ProgressCallback, Status
+from .result import IdentificationResult, IterationLog, ProgressCallback, Status, TraceEntry
 
 logger = logging.getLogger(__name__)
 
@@ -149,6 +156,14 @@ class LMSettings:
         to the factor), so the written model.xml carries the widened cones
         (:func:`solver_joint_range`): an IK with it reproduces the fit. 1.0 keeps the model's
         limits.
+    coarse_frames : int
+        Coarse to fine (:mod:`mocap_mj.identify.coarse`): with more than twice this many
+        frames, the LM first converges on a pose-diverse subset of this many frames (or a
+        tenth of all, whichever is more; itself approached the same way), then continues on
+        every frame from there (default 100: at 500 frames the approach then costs about a
+        fifth per iteration, and every frame's IK is solved once, under a model near the
+        answer; 0 disables). Only when :func:`identify_lm` solves the initial IK itself (no
+        ``initial_qpos``).
     """
 
     max_iterations: int = 100
@@ -173,6 +188,7 @@ class LMSettings:
     refine_iterations: int = 30
     mu_decrease: MuDecrease = "third"
     ball_limit_scale: float = 1.5
+    coarse_frames: int = 100
 
     def __post_init__(self) -> None:
         if self.mu_decrease not in ("nielsen", "third"):
@@ -184,6 +200,8 @@ class LMSettings:
             raise MocapError(f"ball_limit_scale must be >= 1, got {self.ball_limit_scale}")
         if self.max_iterations < 1 or self.chunk < 1:
             raise MocapError("max_iterations and chunk must be at least 1")
+        if self.coarse_frames < 0:
+            raise MocapError(f"coarse_frames must be >= 0, got {self.coarse_frames}")
 
     @property
     def prior_weight(self) -> float:
@@ -402,8 +420,17 @@ def solve_lm(
     settings: LMSettings | None = None,
     *,
     progress: ProgressCallback | None = None,
+    continued: float | None = None,
+    information: bool = True,
 ) -> IdentificationResult:
     """Minimise the problem's F by joint LM from its kinematics' theta and its poses.
+
+    ``continued``: the damping mu of an LM that converged on a subset of these frames (the
+    coarse phase, :mod:`mocap_mj.identify.coarse`), whose model the poses were just solved
+    under by a fresh IK. The LM starts with that damping instead of ``mu0``, and the refits
+    are those of an LM that has settled (the fresh IK stands in for the approach's).
+    ``information``: compute the reduced information at the solution (False: zeros; the
+    coarse phase's result needs only theta and the damping).
 
     Returns the common :class:`IdentificationResult` (per-trial poses, the reduced
     information at the solution, the status and the trace of :class:`IterationLog`).
@@ -412,9 +439,11 @@ def solve_lm(
     t_start = time.perf_counter()
     theta = np.clip(problem.kin.theta.copy(), problem.lower, problem.upper)
     problem.kin.set_theta(theta)
-    state = _State(problem, theta, st.mu0)
+    state = _State(problem, theta, st.mu0 if continued is None else continued)
     chunks = [slice(s, min(s + st.chunk, problem.n)) for s in range(0, problem.n, st.chunk)]
     schedule = RefitSchedule(st.refit_factor, st.settle_gain, st.max_refits, state.rmse(problem))
+    if continued is not None:
+        schedule.settled, schedule.last_iteration = True, 0
     stall = StallMonitor(st.stall_window, st.stall_rel)
     trace: list[IterationLog] = []
     status, it = Status.MAX_ITERATIONS, 0
@@ -427,7 +456,7 @@ def solve_lm(
             status = stop
             break
     problem.kin.set_theta(state.theta)
-    result = _result(problem, st, state, it, status, trace)
+    result = _result(problem, st, state, it, status, trace, information)
     result.seconds = time.perf_counter() - t_start
     return result
 
@@ -467,6 +496,7 @@ def _iterate(
             step.step_theta,
             time.perf_counter() - t_it,
             state.theta.copy(),
+            problem.n,
         )
     )
     logger.info(
@@ -526,6 +556,7 @@ def _result(
     it: int,
     status: Status,
     trace: list[IterationLog],
+    information: bool = True,
 ) -> IdentificationResult:
     """The per-trial result at the final iterate, with the reduced information (no damping,
     no prior; the final IRLS weights)."""
@@ -543,7 +574,11 @@ def _result(
         used=problem.used,
         marker_rmse=stats.rmse,
         frame_rmse=unpool(frame_rmse(state.dist, problem.present), problem.used),
-        reduced_information=problem.information(w_final, st.chunk),
+        reduced_information=(
+            problem.information(w_final, st.chunk)
+            if information
+            else np.zeros((problem.kin.pset.size,) * 2)
+        ),
         free=free,
         sigma=stats.sigma,
         n_residuals=stats.n_residuals,
@@ -628,6 +663,53 @@ def identify_lm(
     kin.model.jnt_range[:] = solver_joint_range(kin.model, st)
     kin.set_theta(theta)
     t_start = time.perf_counter()
+    if priors is None:
+        priors = [st.weak_prior(theta)]
+    options: ProblemOptions = {
+        "theta0": theta,
+        "priors": priors,
+        "lower": lower,
+        "upper": upper,
+        "loss": loss_named(st.loss),
+    }
+    result = _solve_levels(
+        kin, trials, free, options, st, ik_settings, initial_qpos, progress, information=True
+    )
+    result.seconds = time.perf_counter() - t_start
+    return result
+
+
+def _solve_levels(
+    kin: Kinematics,
+    trials: Sequence[TrialData],
+    free: np.ndarray,
+    options: ProblemOptions,
+    st: LMSettings,
+    ik_settings: IKSettings | None,
+    initial_qpos: Sequence[np.ndarray] | None,
+    progress: ProgressCallback | None,
+    *,
+    information: bool,
+) -> IdentificationResult:
+    """:func:`identify_lm` from the kinematics' theta: the coarse phase first when it applies
+    (itself solved this way, so a long trial is approached through subsets growing tenfold:
+    :func:`~mocap_mj.identify.coarse.coarse_rows`), then the IK of every frame and the LM on
+    all of them."""
+    coarse: IdentificationResult | None = None
+    rows = None if initial_qpos is not None else coarse_rows(trials, kin.pset, st.coarse_frames)
+    if rows is not None:
+        start, sub = kin.theta.copy(), subset_trials(trials, rows)
+        sub_st = replace(st, max_refits=min(st.max_refits, COARSE_REFITS))
+        try:
+            coarse = _solve_levels(
+                kin, sub, free, options, sub_st, ik_settings, None, progress, information=False
+            )
+        except SolverError:  # no frame of the subset solvable: every frame decides
+            coarse = None
+        if coarse and 2 * sum(int(u.sum()) for u in coarse.used) < sum(len(r) for r in rows):
+            coarse = None  # most of the subset unsolvable: no approach worth continuing
+        kin.set_theta(start if coarse is None else coarse.theta)
+    t_ik = time.perf_counter()
     if initial_qpos is None:
         iks = initial_ik(kin, trials, ik_settings)
         init_q = [r.qpos for r in iks]
@@ -635,25 +717,32 @@ def identify_lm(
     else:
         init_q = [np.asarray(q, dtype=float) for q in initial_qpos]
         used = [np.all(np.isfinite(q), axis=1) for q in init_q]
-    init_seconds = time.perf_counter() - t_start
-    if priors is None:
-        priors = [st.weak_prior(theta)]
-    problem = build_problem(
-        kin,
-        trials,
-        init_q,
-        used,
-        free,
-        theta0=theta,
-        priors=priors,
-        lower=lower,
-        upper=upper,
-        loss=loss_named(st.loss),
-    )
-    result = solve_lm(problem, st, progress=progress)
-    result.seconds = time.perf_counter() - t_start
+    init_seconds = time.perf_counter() - t_ik
+    problem = build_problem(kin, trials, init_q, used, free, **options)
+    if coarse is None:
+        result = solve_lm(problem, st, progress=progress, information=information)
+    else:
+        k = coarse.iterations
+        fine_st = replace(st, max_iterations=max(1, st.max_iterations - k))
+        renumbered = None if progress is None else _shifted(progress, k)
+        last = coarse.trace[-1]
+        mu = last.mu if isinstance(last, IterationLog) else st.mu0
+        result = solve_lm(
+            problem, fine_st, progress=renumbered, continued=mu, information=information
+        )
+        result.trace = joined_trace(coarse.trace, result.trace)
+        result.iterations += k
     result.init_seconds = init_seconds
     return result
+
+
+def _shifted(progress: ProgressCallback, k: int) -> ProgressCallback:
+    """``progress`` with iteration numbers shifted by k (the coarse phase's iterations)."""
+
+    def call(log: TraceEntry) -> None:
+        progress(shifted(log, k))
+
+    return call
 
 
 __all__ = [

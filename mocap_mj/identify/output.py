@@ -124,6 +124,8 @@ def iteration_lines(result: IdentificationResult) -> list[str]:
     """The report's iterations section: one line per trace entry (cost, RMSE; for the joint
     LM also damping, acceptance and time)."""
     lines = ["## Iterations", "", "```"]
+    # The coarse phase's iterations run on subsets (their F is the subset's): say on which.
+    levels = {log.frames for log in result.trace if isinstance(log, IterationLog)}
     for log in result.trace:
         text = f"{log.iteration:3d}  F {log.cost:.6e}  rmse {log.rmse * 1e3:.4f} mm"
         if isinstance(log, IterationLog):
@@ -131,6 +133,8 @@ def iteration_lines(result: IdentificationResult) -> list[str]:
                 f"  mu {log.mu:.1e}  {'accepted' if log.accepted else 'rejected'}  "
                 f"{log.seconds:.2f} s"
             )
+            if len(levels) > 1:
+                text += f"  {log.frames} frames"
         lines.append(text)
     return [*lines, "```", ""]
 

@@ -51,6 +51,7 @@ class IterationLog(NamedTuple):
     step_theta: float  # max |dtheta| [m]
     seconds: float  # this iteration's wall time [s]
     theta: np.ndarray
+    frames: int = 0  # frames the iteration solved over (the coarse phase: its subset's)
 
 
 @dataclass
