@@ -270,6 +270,7 @@ def _identify(
             extra=extra,
             motion_trials=motion_trials,
             motion_progress=motion_progress,
+            refine=True,
         )
     per_marker = np.array(
         [np.nan if v is None else v * 1e-3 for v in summary["marker_rmse_by_marker_mm"].values()]
