@@ -245,6 +245,7 @@ class _Solver:
         free: np.ndarray,
         sigma: float,
         st: LMSettings,
+        mu: float = 0.0,
     ) -> None:
         self.free, self.priors, self.box = free, priors, box
         self.floor = st.prior_ratio * st.prior_weight
@@ -253,6 +254,7 @@ class _Solver:
         lam, vec = np.linalg.eigh(0.5 * (self.s_mat + self.s_mat.T))
         basis, lam = vec[:, lam > self.floor], lam[lam > self.floor]
         self.std = sigma * np.sqrt(np.einsum("ij,j,ij->i", basis, 1.0 / lam, basis))
+        self.damped = self.s_mat + mu * np.diag(np.diag(self.s_mat))
 
     def step(self, theta: np.ndarray, grad: np.ndarray) -> float:
         """theta (P,) [m] advanced in place by the step for the data gradient grad (P,) [m];
@@ -261,7 +263,7 @@ class _Solver:
         g_prior = sum((p.gradient(theta) for p in self.priors), np.zeros_like(theta))
         lower, upper = (b[f] for b in self.box)
         dth, _ = bounded_step(
-            self.s_mat, grad[f] - g_prior[f], self.s_mat, theta[f], lower, upper, self.floor
+            self.s_mat, grad[f] - g_prior[f], self.damped, theta[f], lower, upper, self.floor
         )
         theta[f] += dth
         theta[f] = np.clip(theta[f], lower, upper)  # exactly inside, as the LM's iterates
@@ -328,28 +330,61 @@ def refine(
     stride = max(1, -(-n // max(sample, 1)))
     m_s = np.concatenate([np.asarray(m[::stride], dtype=float) for m in parts])
     q_s = np.full((len(m_s), kin.nq), np.nan)
+    weight = n / len(m_s)  # the sample's gradient, information and cost stand for every frame
+    info_rows = slice(None, None, max(1, -(-len(m_s) // max(info_frames, 1))))
+    scale = weight * len(m_s) / len(m_s[info_rows])
     theta = np.clip(np.array(theta0, dtype=float), *box)
     sizes: list[float] = []
-    info_rows = slice(None, None, max(1, -(-len(m_s) // max(info_frames, 1))))
-    scale = len(m_s) / len(m_s[info_rows])
-    info = np.zeros((pset.size, pset.size))
+    best: _Point | None = None
+    mu = 0.0
     for _ in range(steps):
         kin.set_theta(theta)
-        _, grad = _ik_pass(m_s, kin, q_s, chunk, gradient=True)
-        # The information at every step: kept from the start, the steps diverged.
-        info = scale * _information(kin, m_s[info_rows], q_s[info_rows])
-        solver = _Solver(info * (n / len(m_s)), prior_list, box, free, sigma, st)
-        sizes.append(solver.step(theta, grad * (n / len(m_s))))
+        fit, grad = _ik_pass(m_s, kin, q_s, chunk, gradient=True)
+        cost = weight * 0.5 * fit.sq + sum(p.cost(theta) for p in prior_list)
+        if best is not None and cost > best.cost:
+            # The step raised the cost (real data: frames at joint limits, soft tissue): back
+            # to the last point, with more damping (Levenberg-Marquardt, as the LM's steps).
+            theta, mu = best.theta.copy(), max(10.0 * mu, 1e-3)
+        else:
+            # The information at every accepted point: kept from the start, the steps diverged.
+            info = scale * _information(kin, m_s[info_rows], q_s[info_rows])
+            best, mu = _Point(theta.copy(), cost, weight * grad, info), mu / 10.0
+        solver = _Solver(best.info, prior_list, box, free, sigma, st, mu)
+        sizes.append(solver.step(theta, best.grad))
         if sizes[-1] < tol_std:
             break
-    # The one step on every frame, from the sample's estimate, its information scaled.
     t1 = time.perf_counter()
-    info *= n / len(m_s)
-    kin.set_theta(theta)
-    _, grad = _ik_pass(parts, kin, qpos, chunk, gradient=True)
-    sizes.append(_Solver(info, prior_list, box, free, sigma, st).step(theta, grad))
+    if best is None:  # no step asked for
+        return Refinement(theta, np.zeros((pset.size,) * 2), np.zeros(pset.size), sizes, {})
+    theta, grad = best.theta, best.grad
+    if stride == 1:
+        # The sample is every frame: its last accepted point is the refined model.
+        _fill(qpos, q_s)
+    else:
+        # The one step on every frame, from the sample's estimate, its information scaled.
+        kin.set_theta(theta)
+        _, grad = _ik_pass(parts, kin, qpos, chunk, gradient=True)
+        sizes.append(_Solver(best.info, prior_list, box, free, sigma, st, mu).step(theta, grad))
     seconds = {"sample": t1 - t0, "pass": time.perf_counter() - t1}
-    return Refinement(theta, info, grad, sizes, seconds)
+    return Refinement(theta, best.info, grad, sizes, seconds)
+
+
+class _Point(NamedTuple):
+    """An accepted point of the sample's steps: theta (P,) [m], the cost [m^2] (data and
+    priors), the reduced gradient (P,) [m] and information (P, P) [1], all for every frame."""
+
+    theta: np.ndarray
+    cost: float
+    grad: np.ndarray
+    info: np.ndarray
+
+
+def _fill(qpos: Parts, rows: np.ndarray) -> None:
+    """Copy rows (T, nq), every trial's frames one after the other, into qpos (per trial)."""
+    k = 0
+    for q in _parts(qpos):
+        q[:] = rows[k : k + len(q)]
+        k += len(q)
 
 
 def refit_all(

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import ezc3d
 import numpy as np
@@ -82,6 +82,12 @@ def read(path: Path) -> RawMarkers:
     section holds fewer frames than the header declares, the frames present are read and
     ``info["warnings"]`` says so (the loader logs it once).
     """
+    layout = _checked(path)
+    return _raw(path, _ezc3d(path), layout)
+
+
+def _checked(path: Path) -> C3DLayout | None:
+    """The structural check's layout; None for a file it refuses that ezc3d reads."""
     try:
         layout: C3DLayout | None = check_c3d(path)
     except C3DTruncatedError:
@@ -92,37 +98,57 @@ def read(path: Path) -> RawMarkers:
         layout = None
     if layout is not None and layout.n_points == 0:
         raise _no_points(path)
+    return layout
+
+
+class _Read(NamedTuple):
+    """What ezc3d read: parameters, the header's point section, points (4, M, T) [file
+    units] and residuals (1, M, T)."""
+
+    params: dict[str, Any]
+    header: dict[str, Any]
+    points: np.ndarray
+    residuals: np.ndarray
+
+
+def _ezc3d(path: Path | str, shown: Path | None = None) -> _Read:
+    """The file read by ezc3d (``shown``: the name for errors, default ``path``)."""
     try:
         c3d = ezc3d.c3d(str(path))
-        params = c3d["parameters"]
-        points = np.asarray(c3d["data"]["points"], dtype=np.float64)
-        residuals = np.asarray(c3d["data"]["meta_points"]["residuals"], dtype=np.float64)
-        header = c3d["header"]["points"]
+        return _Read(
+            c3d["parameters"],
+            c3d["header"]["points"],
+            np.asarray(c3d["data"]["points"], dtype=np.float64),
+            np.asarray(c3d["data"]["meta_points"]["residuals"], dtype=np.float64),
+        )
     except Exception as exc:  # ezc3d raises RuntimeError, OSError, ValueError...
         message = " ".join(str(exc).split())[:200]
-        raise InputFileError(f"{path}: ezc3d could not read it: {message}") from exc
-    point = params.get("POINT", {})
+        raise InputFileError(f"{shown or path}: ezc3d could not read it: {message}") from exc
+
+
+def _raw(path: Path, got: _Read, layout: C3DLayout | None, frames: int | None = None) -> RawMarkers:
+    """The RawMarkers of ezc3d's reading; ``frames``: the file's frames when ``got`` holds
+    only its first few (a streamed read: positions then hold those few)."""
+    point = got.params.get("POINT", {})
+    points, residuals = got.points, got.residuals
     if points.ndim != 3 or points.shape[1] == 0:
         raise _no_points(path)
-    n_points, n_frames = int(points.shape[1]), int(points.shape[2])
-    if n_frames == 0:
+    n_points, n_read = int(points.shape[1]), int(points.shape[2])
+    n_frames = n_read if frames is None else frames
+    if n_frames == 0 or n_read == 0:
         raise InputFileError(f"{path}: data section: expected at least one frame, got none")
     labels = _point_labels(point)[:n_points]
     labels += [f"*{k + 1}" for k in range(len(labels), n_points)]  # unlabelled: dropped
     positions = points[:3].transpose(2, 1, 0).copy()  # (T, M, 3)
-    if residuals.shape == (1, n_points, n_frames):
+    if residuals.shape == (1, n_points, n_read):
         positions[residuals[0].T < 0] = np.nan
     positions[np.isnan(positions).any(axis=2)] = np.nan
-    bad = np.argwhere(np.isinf(positions))
-    if len(bad):
-        frame, k = int(bad[0][0]), int(bad[0][1])
-        raise InputFileError(
-            f"{path}: data section: expected finite coordinates, got infinity in frame "
-            f"{frame + 1} for point {labels[k]!r}"
-        )
-    rate = _rate(path, point, header)
-    units, units_where = _units(path, positions, labels, point)
-    subjects = [str(v).strip() for v in _values(params, "SUBJECTS", "NAMES") if str(v).strip()]
+    _check_finite(path, positions, labels)
+    rate = _rate(path, point, got.header)
+    units, units_where, per_point = _units(path, labels, point)
+    if per_point is not None:
+        positions *= per_point[:, None]
+    subjects = [str(v).strip() for v in _values(got.params, "SUBJECTS", "NAMES") if str(v).strip()]
     warnings = []
     declared = layout.frames_declared if layout is not None else n_frames
     if declared > n_frames:
@@ -142,8 +168,20 @@ def read(path: Path) -> RawMarkers:
         up_hint=_up_hint(point),
         non_markers=_non_marker_names(point),
         subjects=subjects,
-        info={"first_frame": int(header["first_frame"]), "warnings": warnings},
+        info={"first_frame": int(got.header["first_frame"]), "warnings": warnings},
     )
+
+
+def _check_finite(path: Path, positions: np.ndarray, labels: list[str], first: int = 0) -> None:
+    """Error naming the first frame (``first``: the frame of row 0) and point holding an
+    infinite coordinate."""
+    bad = np.argwhere(np.isinf(positions))
+    if len(bad):
+        frame, k = int(bad[0][0]), int(bad[0][1])
+        raise InputFileError(
+            f"{path}: data section: expected finite coordinates, got infinity in frame "
+            f"{first + frame + 1} for point {labels[k]!r}"
+        )
 
 
 def _no_points(path: Path) -> InputFileError:
@@ -166,19 +204,20 @@ def _rate(path: Path, point: dict[str, Any], header: dict[str, Any]) -> float:
 
 
 def _units(
-    path: Path, positions: np.ndarray, labels: list[str], point: dict[str, Any]
-) -> tuple[str | None, str]:
-    """The points' length unit (None if unstated); mixed per-point units are converted to m.
+    path: Path, labels: list[str], point: dict[str, Any]
+) -> tuple[str | None, str, np.ndarray | None]:
+    """The points' length unit (None if unstated), where it was read, and the per-point
+    factors (M,) to metres when the points' units differ (the unit is then "m"), else None.
 
-    POINT:UNITS holds one unit, or one per point (NDI Optotrak). When the per-point units
-    differ, ``positions`` (T, M, 3) is rescaled in place to metres and "m" is returned.
+    POINT:UNITS holds one unit, or one per point (NDI Optotrak).
     """
     units = [str(v).strip() for v in _values({"POINT": point}, "POINT", "UNITS")]
     if not units or not units[0]:
-        return None, "group POINT:UNITS"
+        return None, "group POINT:UNITS", None
     per_point = units[: len(labels)] if len(units) > 1 else []
     if len({u.lower() for u in per_point if u}) <= 1:
-        return units[0], "group POINT:UNITS"
+        return units[0], "group POINT:UNITS", None
+    scales = np.ones(len(labels))
     for k, unit in enumerate(per_point):
         scale = metres_per_unit(unit or units[0])
         if scale is None:
@@ -186,5 +225,5 @@ def _units(
                 f"{path}: group POINT:UNITS: expected length units mm, cm or m for point "
                 f"{labels[k]!r}, got {unit!r}"
             )
-        positions[:, k] *= scale
-    return "m", "group POINT:UNITS (per point, converted to m)"
+        scales[k] = scale
+    return "m", "group POINT:UNITS (per point, converted to m)", scales
