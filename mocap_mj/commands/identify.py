@@ -12,6 +12,7 @@ only when the fit is complete; a fit that cannot be determined by the data is re
 from __future__ import annotations
 
 import argparse
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -165,8 +166,15 @@ def _add_paper_options(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    # Long C3D recordings are read chunk by chunk into memory maps in a scratch folder that
+    # lives as long as the command (load_trial).
+    with tempfile.TemporaryDirectory(prefix="mocap-mj-identify-") as scratch:
+        return _run(args, Path(scratch))
+
+
+def _run(args: argparse.Namespace, scratch: Path) -> int:
     pset = ParameterSet(model_for(args))
-    loaded = [load_trial(path, pset.marker_names, args) for path in args.markers]
+    loaded = [load_trial(path, pset.marker_names, args, scratch) for path in args.markers]
     trials = []
     ranges = []
     for t in loaded:

@@ -27,7 +27,7 @@ from mocap_mj.errors import InputFileError
 BLOCK = 512
 #: A file's bytes: read, or memory-mapped.
 _Bytes = bytes | mmap.mmap
-_INTEL, _DEC, _MIPS = 84, 85, 86
+INTEL, DEC, MIPS = 84, 85, 86
 _TYPES = {-1: 1, 1: 1, 2: 2, 4: 4}
 _MAX_ENTRIES = 65536
 #: Parameters ezc3d reads as one number without checking they hold one (else it crashes).
@@ -59,7 +59,7 @@ class C3DLayout:
     float_data: bool
     data_offset: int
     data_bytes: int
-    processor: int = _INTEL
+    processor: int = INTEL
 
 
 class C3DTruncatedError(InputFileError):
@@ -81,7 +81,7 @@ def _cut(path: Path, where: str, expected: str, got: str) -> C3DTruncatedError:
 class _Reader:
     def __init__(self, path: Path, data: _Bytes, processor: int, section_end: int) -> None:
         self.path, self.data, self.processor = path, data, processor
-        self.int_fmt = ">" if processor == _MIPS else "<"
+        self.int_fmt = ">" if processor == MIPS else "<"
         self.section_end = section_end  # where the parameter section says it ends
 
     def need(self, start: int, length: int, what: str) -> bytes:
@@ -108,7 +108,7 @@ class _Reader:
 
     def floats(self, raw: bytes) -> tuple[float, ...]:
         n = len(raw) // 4
-        if self.processor == _DEC:  # swap the 16-bit words, then scale the exponent
+        if self.processor == DEC:  # swap the 16-bit words, then scale the exponent
             swapped = b"".join(raw[i + 2 : i + 4] + raw[i : i + 2] for i in range(0, 4 * n, 4))
             return tuple(v / 4.0 for v in struct.unpack(f"<{n}f", swapped))
         return struct.unpack(f"{self.int_fmt}{n}f", raw)
@@ -266,7 +266,7 @@ def _read_parameters(path: Path, data: _Bytes) -> tuple[_Reader, dict[tuple[str,
             f"a file of {len(data)} bytes (truncated)",
         )
     processor = data[start + 3]
-    if processor not in (_INTEL, _DEC, _MIPS):
+    if processor not in (INTEL, DEC, MIPS):
         raise _err(path, f"byte {start + 4}", "processor type 84, 85 or 86", str(processor))
     reader = _Reader(path, data, processor, start + max(1, data[start + 2]) * BLOCK)
     params = _walk_parameters(reader, start + 4)
