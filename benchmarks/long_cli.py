@@ -50,6 +50,10 @@ def main() -> None:
     ap.add_argument("--work", default="/tmp/mocap-mj-long-cli", help="hour.c3d and the result")
     ap.add_argument("--info-stride", type=int, default=10)
     ap.add_argument("--select", default="auto", help="identify --select (default: auto)")
+    ap.add_argument(
+        "--result", default="result", help="the result folder's name in --work (default: result)"
+    )
+    ap.add_argument("identify_args", nargs="*", help="more identify options (after --)")
     args = ap.parse_args()
     cache = Path(args.cache) / f"{args.frames}-{args.seed}"
     if not (cache / "done").exists():
@@ -68,11 +72,13 @@ def main() -> None:
         mb = c3d.stat().st_size / 2**20
         print(f"wrote {c3d} ({mb:.0f} MB) in {time.perf_counter() - t:.0f} s")
 
-    out = work / "result"
+    out = work / args.result
     cmd = [sys.executable, "-m", "mocap_mj", "identify", "--markers", str(c3d), "--out", str(out)]
     t0 = time.perf_counter()
     proc = subprocess.run(
-        [*cmd, "--select", args.select, "--force", "--json"], capture_output=True, text=True
+        [*cmd, "--select", args.select, *args.identify_args, "--force", "--json"],
+        capture_output=True,
+        text=True,
     )
     wall = time.perf_counter() - t0
     peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 2**20  # GiB (Linux: KiB)
@@ -96,7 +102,10 @@ def main() -> None:
         "select": args.select,
         "seconds_total": wall,
         "peak_rss_gib": peak,
+        "read_seconds": summary.get("read_seconds"),
+        "select_seconds": summary.get("select_seconds"),
         "identify_seconds": summary["seconds"],
+        "motion_seconds": summary.get("motion_seconds", {}),
         "identify_iterations": summary["iterations"],
         "refine_seconds": ref.get("seconds", {}),
         "refine_steps_std": ref.get("steps_std", []),
@@ -110,12 +119,15 @@ def main() -> None:
         "worst_offsets_std_mm": worst_markers(pset, idf_all, e),
         "kappa_at_bound": summary.get("kappa_at_bound", {}),
     }
-    rs = result["refine_seconds"]
+    rs, ms = result["refine_seconds"], result["motion_seconds"]
     print(
         f"{len(markers)} frames through `mocap-mj identify --markers {c3d.name}`: {wall:.1f} s "
-        f"end to end (identification incl. the refinement {summary['seconds']:.1f} s: "
-        f"refinement sample steps {rs.get('sample', 0.0):.1f} s, pass over every frame "
-        f"{rs.get('pass', 0.0):.1f} s; the rest: reading, the motion's IK and writing), peak "
+        f"end to end (reading {result['read_seconds'] or 0.0:.1f} s, selection "
+        f"{result['select_seconds'] or 0.0:.1f} s, identification incl. the refinement "
+        f"{summary['seconds']:.1f} s / {summary['iterations']} LM iterations: refinement "
+        f"sample steps {rs.get('sample', 0.0):.1f} s, pass over every frame "
+        f"{rs.get('pass', 0.0):.1f} s; motion {ms.get('all', 0.0):.1f} s: IK "
+        f"{ms.get('ik', 0.0):.1f} s, the rest writing; the rest: start-up, checks, report), peak "
         f"RSS {peak:.2f} GiB; motion marker RMSE {result['motion_marker_rmse_mm']:.3f} mm\n"
         f"kinematic error {ek * 1e3:.3f} mm = {ek / bk:.2f}x all frames' bound "
         f"({bk * 1e3:.3f} mm); offsets {eo * 1e3:.3f} mm = {eo / bo:.2f}x ({bo * 1e3:.3f} mm)"

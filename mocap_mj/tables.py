@@ -60,8 +60,15 @@ def joint_centre_rows(
     check_shape("times", times, (len(qpos),))
     centres = joint_centre_trajectories(model, qpos)
     flat = centres.reshape(len(centres), -1) * 1e3
+    # One %-format per row (a row without NaN: every solved frame) is ten times faster than a
+    # format per cell, with the same text ("%.4f" and f"{:.4f}" agree).
+    whole = "%d,%.6f," + ",".join(["%.4f"] * flat.shape[1])
+    finite = np.all(np.isfinite(flat), axis=1)
     lines = []
-    for i, (t, row) in enumerate(zip(times, flat, strict=True)):
-        cells = ("" if not np.isfinite(v) else f"{v:.4f}" for v in row)
-        lines.append(f"{first_frame + i},{t:.6f}," + ",".join(cells))
+    for i, (t, row) in enumerate(zip(times.tolist(), flat.tolist(), strict=True)):
+        if finite[i]:
+            lines.append(whole % (first_frame + i, t, *row))
+        else:
+            cells = ("" if not np.isfinite(v) else f"{v:.4f}" for v in row)
+            lines.append(f"{first_frame + i},{t:.6f}," + ",".join(cells))
     return lines, centres

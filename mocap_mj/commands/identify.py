@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import tempfile
+import time
 from pathlib import Path
 from typing import Any
 
@@ -174,7 +175,9 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace, scratch: Path) -> int:
     pset = ParameterSet(model_for(args))
+    t0 = time.perf_counter()
     loaded = [load_trial(path, pset.marker_names, args, scratch) for path in args.markers]
+    read_seconds = time.perf_counter() - t0
     trials = []
     ranges = []
     for t in loaded:
@@ -194,7 +197,10 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
     subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
     count = _select_count(args.select, sum(len(t.markers) for t in trials), len(trials))
     return into_out_folder(
-        args, lambda out: _identify(args, pset, loaded, trials, ranges, subject, out, count)
+        args,
+        lambda out: _identify(
+            args, pset, loaded, trials, ranges, subject, out, count, read_seconds
+        ),
     )
 
 
@@ -237,15 +243,19 @@ def _identify(
     subject: Subject,
     out: Path,
     count: int | None = None,
+    read_seconds: float | None = None,
 ) -> tuple[dict[str, Any], str]:
     _numba_prewarm.start()  # the identification kernels compile on the other core meanwhile
     extra: dict[str, Any] = {
         "markers_files": [t.path for t in loaded],
         "frames_fitted_range": ranges,
+        "read_seconds": read_seconds,
     }
     fitted, motion_trials = trials, None
     if count is not None:
+        t0 = time.perf_counter()
         fitted, kept = _selected(trials, pset.marker_names, count)
+        extra["select_seconds"] = time.perf_counter() - t0
         motion_trials = trials
         extra["frames_selected"] = kept
     loss: LossName = "cauchy" if args.robust else args.loss

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import tempfile
+import time
 import zipfile
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -36,12 +37,14 @@ from .problem import TrialData
 
 class MotionFit(NamedTuple):
     """Sums over the solved frames of the motion: squared marker distances [m^2], present
-    samples, solved frames, all frames."""
+    samples, solved frames, all frames; wall time [s] in the IK and in all."""
 
     sq: float
     present: int
     solved: int
     frames: int
+    ik_seconds: float = 0.0
+    seconds: float = 0.0
 
     @property
     def rmse(self) -> float:
@@ -146,6 +149,7 @@ def write_every_frame_motion(
         written = ParameterSet(path)
     solver = IKSolver(Kinematics(written))
     model = pset.model_for(theta)
+    t0 = time.perf_counter()
     firsts = list(first_frames) if first_frames is not None else [0] * len(trials)
     tally = _Tally(progress)
     for i, (trial, first) in enumerate(zip(trials, firsts, strict=True)):
@@ -165,7 +169,7 @@ def write_every_frame_motion(
                 poses,
                 chunk,
             )
-    return tally.fit
+    return tally.fit._replace(seconds=time.perf_counter() - t0)
 
 
 class _Tally:
@@ -174,12 +178,13 @@ class _Tally:
     def __init__(self, progress: Callable[[int], None] | None) -> None:
         self.fit, self.progress = MotionFit(0.0, 0, 0, 0), progress
 
-    def add(self, f: ChunkFit, frames: int) -> None:
+    def add(self, f: ChunkFit, frames: int, seconds: float) -> None:
         self.fit = MotionFit(
             self.fit.sq + f.sq,
             self.fit.present + f.present,
             self.fit.solved + f.solved,
             self.fit.frames + frames,
+            self.fit.ik_seconds + seconds,
         )
         if self.progress is not None:
             self.progress(self.fit.frames)
@@ -200,7 +205,8 @@ def _solved(
         m = np.asarray(trial.markers[s : s + chunk], dtype=float)
         q = np.array(q0[s : s + chunk], dtype=float) if q0 is not None else None
         q = q if q is not None else np.full((len(m), nq), np.nan)
+        t0 = time.perf_counter()
         f = solve_chunk(solver, m, q)
+        tally.add(f, len(m), time.perf_counter() - t0)
         table.append(np.asarray(trial.times[s : s + chunk], dtype=float), q)
-        tally.add(f, len(m))
         yield q

@@ -156,7 +156,10 @@ def identify_to_folder(
                 start=refined.get("qpos"),
                 progress=motion_progress,
             )
-            return {"motion_marker_rmse_mm": fit.rmse * 1e3}
+            return {
+                "motion_marker_rmse_mm": fit.rmse * 1e3,
+                "motion_seconds": {"ik": fit.ik_seconds, "all": fit.seconds},
+            }
 
     summary = jsonable(summary)
     _write_folder(out, pset, result, idf, trials, settings, rows, summary, stream=stream)
