@@ -96,17 +96,15 @@ def identify_to_folder(
     init_used = "given" if theta0 is not None else init
     theta0, scales = _initial_theta(trials, pset, theta0, init)
     subject = subject or Subject()
+    prior_options: dict[str, Any] = {
+        "subject": subject,
+        "size": scales.get("overall", 1.0),
+        "anatomical": anatomical,
+        "symmetric": ASYMMETRY_SIGMA if symmetric is None and asymmetry_prior else symmetric,
+    }
     with captured_log() as log:
         result, weighting = _solve(
-            trials,
-            pset=pset,
-            theta0=theta0,
-            settings=settings,
-            subject=subject,
-            size=scales.get("overall", 1.0),
-            anatomical=anatomical,
-            symmetric=ASYMMETRY_SIGMA if symmetric is None and asymmetry_prior else symmetric,
-            progress=progress,
+            trials, pset=pset, theta0=theta0, settings=settings, progress=progress, **prior_options
         )
     refined: dict[str, Any] = {}
     if refine and motion_trials is not None and settings.loss == "l2":
@@ -117,10 +115,7 @@ def identify_to_folder(
             pset=pset,
             settings=settings,
             weighting=weighting,
-            subject=subject,
-            size=scales.get("overall", 1.0),
-            anatomical=anatomical,
-            symmetric=ASYMMETRY_SIGMA if symmetric is None and asymmetry_prior else symmetric,
+            **prior_options,
         )
     seconds = time.perf_counter() - t0
     idf = Identifiability(

@@ -104,8 +104,15 @@ def load_markers(
     """
     file, wanted_up, rename = _arguments(path, marker_map, up, units)
     raw = read_raw(file)
-    selection = _selection(file, raw, subject, rename, model_names)
-    return _trajectory(file, raw, selection, units, wanted_up, rename)
+    sel = _selection(file, raw, subject, rename, model_names)
+    reading = Reading(file, raw, sel, units, wanted_up, rename, lambda: iter([raw.positions]))
+    return MarkerTrajectory(
+        times=raw.times,
+        positions=reading.convert(raw.positions),
+        names=tuple(sel.names),
+        rate=raw.rate,
+        source=reading.source,
+    )
 
 
 def _arguments(
@@ -156,26 +163,6 @@ def _selection(
             f"(dropped: {', '.join(dropped) or 'nothing'})"
         )
     return _Selection(keep, names, chosen_subject, subjects, dropped, others, aliased)
-
-
-def _trajectory(
-    file: Path,
-    raw: RawMarkers,
-    sel: _Selection,
-    units: str | None,
-    wanted_up: str | None,
-    rename: Mapping[str, str],
-) -> MarkerTrajectory:
-    """The selected markers in metres (zeros and NaN missing), rotated Z up, with their
-    ``source`` record; warnings logged once."""
-    reading = Reading(file, raw, sel, units, wanted_up, rename, lambda: iter([raw.positions]))
-    return MarkerTrajectory(
-        times=raw.times,
-        positions=reading.convert(raw.positions),
-        names=tuple(sel.names),
-        rate=raw.rate,
-        source=reading.source,
-    )
 
 
 class Reading:
