@@ -22,7 +22,11 @@ that of a thousand frames, not of the hour. :func:`identify_long` therefore
    diverged), which costs a fraction of a pass over every frame; the last step is the
    one on every frame. Joint limits are not held in these steps (g and S of the problem
    without limits, like the Cramer-Rao bound): held, the set of frames at a limit changed
-   with theta and the steps oscillated or diverged,
+   with theta and the steps oscillated or diverged. The sample's gradient, information and
+   cost are scaled to every frame, so that priors (``identify``'s landmark rows, its box)
+   weigh against the whole recording; a sample step that raises that cost is taken back and
+   the next one damped (Levenberg-Marquardt): on a real trial with its priors the undamped
+   steps did not converge (docs/long-recordings.md),
 4. solves the IK of every frame with the refined model, warm-started from the poses of
    the pass of step 3 (theta moved by a fraction of a millimetre: about two iterations per
    frame).
