@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import struct
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +16,7 @@ from mocap_mj.commands import _markers
 from mocap_mj.errors import InputFileError
 from mocap_mj.identify.motion_out import write_motion_chunks
 from mocap_mj.identify.problem import TrialData
-from mocap_mj.io import load_markers
+from mocap_mj.io import MarkerTrajectory, load_markers, save_trc
 from mocap_mj.io.formats.c3d_check import check_c3d
 from mocap_mj.io.formats.c3d_write import frame_records, write_markers_c3d
 from mocap_mj.io.stream import open_markers
@@ -158,3 +159,56 @@ def test_motion_written_in_chunks_is_save_motions_bytes(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match=r"qpos\.npy"):
         write_motion_chunks(tmp_path / "bad.npz", trial, names, 7, short, chunk=7)
     assert not (tmp_path / "bad.npz").exists()
+
+
+def _trc_text(tmp_path: Path) -> str:
+    """A synthetic ROM as save_trc writes it (tab-separated, a few samples missing)."""
+    names = ParameterSet().marker_names
+    path = tmp_path / "base.trc"
+    save_trc(path, MarkerTrajectory(np.arange(120) / 100.0, _markers_of(120), names, 100.0, {}))
+    return path.read_text()
+
+
+def _rows(text: str, edit: Callable[[list[str]], None]) -> str:
+    lines = text.split("\n")
+    edit(lines)
+    return "\n".join(lines)
+
+
+def _set(k: int, value: str) -> Callable[[list[str]], None]:
+    def edit(lines: list[str]) -> None:
+        lines[k] = value
+
+    return edit
+
+
+VARIANTS: dict[str, Callable[[str], str]] = {
+    "as written": lambda t: t,
+    "CRLF": lambda t: t.replace("\n", "\r\n"),
+    "trailing blank lines": lambda t: t + "\n\n  \n",
+    "blank line inside": lambda t: _rows(t, _set(40, "")),
+    "short row": lambda t: _rows(t, _set(50, "45\t0.44\t1.0")),  # its last samples missing
+    "narrow row": lambda t: _rows(t, _set(50, "45")),
+    "bad cell": lambda t: _rows(t, _set(60, "55\tx" + "\t1" * 117)),
+    "bad cell, second chunk": lambda t: _rows(t, _set(100, "95\t0.94" + "\t1" * 116 + "\tx")),
+    "empty columns": lambda t: "\n".join(line + "\t\t" for line in t.split("\n")),
+    "extra column": lambda t: "\n".join(
+        line + "\t7" if line[:1].isdigit() else line for line in t.split("\n")
+    ),
+    "Latin-1 name": lambda t: t.replace("LASI", "L\xc4SI"),
+}
+
+
+@pytest.mark.parametrize("variant", list(VARIANTS))
+def test_chunked_trc_equals_load_markers(tmp_path: Path, variant: str) -> None:
+    """TRC rows parsed ``CHUNK`` at a time into a memory map: the same positions, source and
+    errors as the whole read, or read whole when a row is wider than the header."""
+    path = tmp_path / "v.trc"
+    path.write_bytes(VARIANTS[variant](_trc_text(tmp_path)).encode("latin-1"))
+    how = _same(path)
+    if variant == "extra column":
+        assert how.startswith("read whole: rows wider")
+    elif variant in ("blank line inside", "narrow row", "bad cell", "bad cell, second chunk"):
+        assert how == "error"
+    else:
+        assert how == "in chunks"

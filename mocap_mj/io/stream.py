@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.lib.format import open_memmap
 
-from mocap_mj.io.formats import c3d, detect_format
+from mocap_mj.io.formats import c3d, detect_format, trc
 from mocap_mj.io.load import Reading, _arguments, _selection, load_markers
 from mocap_mj.io.trajectory import MarkerReport, marker_report
 from mocap_mj.markers import MARKER_NAMES
@@ -112,9 +112,12 @@ def open_markers(
     :func:`load_markers`.
     """
     file, wanted_up, rename = _arguments(path, marker_map, up, units)
-    reason = "not a C3D file"
-    if detect_format(file) == "c3d":
-        opened = c3d.open_chunks(file)
+    fmt = detect_format(file)
+    reason = f"{fmt} files are read whole"
+    if fmt in ("c3d", "trc"):
+        opened = (
+            c3d.open_chunks(file) if fmt == "c3d" else trc.open_chunks(file, min(chunk, trc.ROWS))
+        )
         if not isinstance(opened, str):
             sel = _selection(file, opened.raw, subject, rename, model_names)
 
