@@ -3,11 +3,13 @@
 An hour at 100 Hz holds 360,000 frames: 39 markers in float64 are 340 MB, and the C3D
 reader (ezc3d) holds every point, analog sample and residual of the file besides. Here a
 C3D file's point block is read from a memory map of its fixed-size frame records
-(:func:`mocap_mj.io.formats.c3d.open_chunks`), ``chunk`` frames at a time; the names,
-units, vertical axis and missing-sample rules are :func:`load_markers`' own
-(:class:`mocap_mj.io.load.Reading`), so that both give the same positions bit for bit.
-Other files (text formats, DEC/MIPS C3D) are read whole and served from memory: ``how``
-says which and why.
+(:func:`mocap_mj.io.formats.c3d.open_chunks`), ``chunk`` frames at a time, and a TRC file's
+rows are parsed a few thousand at a time into a memory map
+(:func:`mocap_mj.io.formats.trc.open_chunks`); the names, units, vertical axis and
+missing-sample rules are :func:`load_markers`' own (:class:`mocap_mj.io.load.Reading`), so
+that both give the same positions bit for bit. Other files (the CSV formats, DEC/MIPS C3D,
+TRC rows wider than the header) are read whole and served from memory: ``how`` says which
+and why.
 """
 
 from __future__ import annotations
@@ -106,10 +108,10 @@ def open_markers(
     units, vertical axis, missing samples and errors), its positions read on demand.
 
     C3D files with Intel float or 16-bit integer points are read in chunks from a memory
-    map (:func:`mocap_mj.io.formats.c3d.open_chunks`): the whole file is read twice at most
-    (once for the units check, the missing-sample counts and the vertical axis, then as the
-    caller asks), never held, ``chunk`` frames at a time. Any other file is read whole by
-    :func:`load_markers`.
+    map (:func:`mocap_mj.io.formats.c3d.open_chunks`), TRC files parsed in chunks into one
+    (:func:`mocap_mj.io.formats.trc.open_chunks`): the positions are read for the units
+    check, the missing-sample counts and the vertical axis, then as the caller asks, never
+    held, ``chunk`` frames at a time. Any other file is read whole by :func:`load_markers`.
     """
     file, wanted_up, rename = _arguments(path, marker_map, up, units)
     fmt = detect_format(file)
