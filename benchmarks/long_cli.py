@@ -7,13 +7,14 @@ Uses the synthetic recording of ``benchmarks/long.py`` (360,000 frames: a 30-min
 30-minute walk, 1 mm noise; synthesized there once, read here as memory maps, never written)
 and writes it, once and untimed, as a real C3D file (``--work``/hour.c3d: Intel floats in mm,
 the frames past the header's 16-bit count declared in TRIAL:ACTUAL_END_FIELD and
-POINT:LONG_FRAMES, :mod:`mocap_mj.io.formats.c3d_write`). Then it times, in a child process,
+POINT:LONG_FRAMES, :mod:`mocap_mj.io.formats.c3d_write`), or with ``--format trc`` as an
+OpenSim TRC file (``save_trc``). Then it times, in a child process,
 
     mocap-mj identify --markers hour.c3d --out DIR --force --json
 
 with the defaults a user gets (``--select auto``: 1000 pose-diverse frames, the anatomical
 priors and ranges, the refinement on every frame, the IK of every frame written chunk by
-chunk): wall time, the child's peak RSS (``getrusage(RUSAGE_CHILDREN)``), and its stages from
+chunk): wall time, the child's peak RSS (``/usr/bin/time``), and its stages from
 summary.json. Untimed, the accuracy: the identified theta (theta.json) against the cached
 truth, aligned and restricted to the observable directions as ``benchmarks/long.py`` does
 (the hand's zero free, :func:`mocap_mj.score.gauge_free`), beside the Cramer-Rao bound of all
@@ -35,6 +36,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from mocap_mj import ParameterSet
+from mocap_mj.io import MarkerTrajectory, save_trc
 from mocap_mj.io.formats.c3d_write import write_markers_c3d
 from mocap_mj.score import gauge_free
 
@@ -51,6 +53,9 @@ def main() -> None:
     ap.add_argument("--info-stride", type=int, default=10)
     ap.add_argument("--select", default="auto", help="identify --select (default: auto)")
     ap.add_argument(
+        "--format", choices=["c3d", "trc"], default="c3d", help="the file written (default: c3d)"
+    )
+    ap.add_argument(
         "--result", default="result", help="the result folder's name in --work (default: result)"
     )
     ap.add_argument("identify_args", nargs="*", help="more identify options (after --)")
@@ -65,25 +70,36 @@ def main() -> None:
     pset = ParameterSet()
     markers = np.load(cache / "markers.npy", mmap_mode="r")
     times = np.load(cache / "times.npy")
-    c3d = work / f"hour-{args.frames}-{args.seed}.c3d"
+    c3d = work / f"hour-{args.frames}-{args.seed}.{args.format}"
     if not c3d.exists():
         t = time.perf_counter()
-        write_markers_c3d(c3d, markers, pset.marker_names, 1.0 / (times[1] - times[0]))
+        rate = 1.0 / (times[1] - times[0])
+        if args.format == "c3d":
+            write_markers_c3d(c3d, markers, pset.marker_names, rate)
+        else:
+            traj = MarkerTrajectory(times, np.asarray(markers), pset.marker_names, rate, {})
+            save_trc(c3d, traj)
         mb = c3d.stat().st_size / 2**20
         print(f"wrote {c3d} ({mb:.0f} MB) in {time.perf_counter() - t:.0f} s")
 
     out = work / args.result
     cmd = [sys.executable, "-m", "mocap_mj", "identify", "--markers", str(c3d), "--out", str(out)]
+    # The child's peak RSS from /usr/bin/time: getrusage(RUSAGE_CHILDREN) would also count
+    # this process's own resident memory at the spawn (Linux keeps the pre-exec high-water
+    # mark), e.g. the text of a TRC file just written.
+    timer = ["/usr/bin/time", "-f", "peak_kib %M"] if Path("/usr/bin/time").exists() else []
     t0 = time.perf_counter()
     proc = subprocess.run(
-        [*cmd, "--select", args.select, *args.identify_args, "--force", "--json"],
+        [*timer, *cmd, "--select", args.select, *args.identify_args, "--force", "--json"],
         capture_output=True,
         text=True,
     )
     wall = time.perf_counter() - t0
-    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 2**20  # GiB (Linux: KiB)
     if proc.returncode != 0:
         sys.exit(f"identify failed ({proc.returncode}): {proc.stderr.strip()[-2000:]}")
+    kib = [ln.split()[1] for ln in proc.stderr.splitlines() if ln.startswith("peak_kib ")]
+    peak_kib = int(kib[-1]) if kib else resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    peak = peak_kib / 2**20  # GiB
     summary = json.loads(proc.stdout)
 
     theta = pset.load_json(out / "theta.json")
