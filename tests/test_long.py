@@ -14,7 +14,8 @@ from scipy.spatial.transform import Rotation
 from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.errors import MocapError
 from mocap_mj.identify.identifiability import Identifiability
-from mocap_mj.identify.long import identify_long
+from mocap_mj.identify.long import identify_long, refine
+from mocap_mj.identify.priors import LinearGaussianPrior
 from mocap_mj.identify.problem import IdentificationProblem
 from mocap_mj.identify.selection import select_frames
 from mocap_mj.score import align_truth, gauge_free
@@ -155,3 +156,32 @@ def test_an_equivalent_hand_zero_scores_no_error(pset: ParameterSet) -> None:
     # Within the limits, the turn's curved part (8 cm x (1 - cos 8 deg) ~ 0.8 mm along FIN's
     # lever, in part) is read as an error: the scenario does exercise the cause.
     assert err["limits"] > 0.1e-3
+
+
+def test_refinement_holds_its_box_and_weighs_its_priors(pset: ParameterSet) -> None:
+    """``refine`` with the identification's box and prior rows (``identify --select``): a
+    parameter the data pull past its bound stays on it, a sharp prior row holds its value,
+    and without either the data bring both back to the truth."""
+    exp = synthesize(SynthConfig(frames=400, motion="rom", seed=8), pset)
+    names = list(pset.kappa_names)
+    shank, thigh = names.index("shank_length_l"), names.index("thigh_length_l")
+    theta0 = exp.theta_true.copy()
+    theta0[shank] -= 3e-3  # the data pull it up by 3 mm
+    theta0[thigh] += 3e-3
+    upper = np.full(pset.size, np.inf)
+    upper[shank] = theta0[shank] + 1e-3
+    row = np.zeros((1, pset.size))
+    row[0, thigh] = 1.0
+    sharp = LinearGaussianPrior(row, np.array([theta0[thigh]]), np.array([1e-5]))
+    runs = {}
+    for name, priors, up in (("free", None, None), ("held", [sharp], upper)):
+        qpos = np.full((len(exp.markers), pset.model.nq), np.nan)
+        ref = refine(exp.markers, pset, theta0, qpos, 1e-3, priors=priors, upper=up)
+        runs[name] = ref.theta
+        assert np.all(np.isfinite(qpos))
+    # Free: within 0.5 mm of the truth (400 frames: a bound of about 0.1 mm here).
+    assert abs(runs["free"][shank] - exp.theta_true[shank]) < 0.5e-3
+    assert abs(runs["free"][thigh] - exp.theta_true[thigh]) < 0.5e-3
+    # Held: on the bound exactly; the prior's value to 0.1 mm (its width is 0.01 mm).
+    assert runs["held"][shank] == upper[shank]
+    assert abs(runs["held"][thigh] - theta0[thigh]) < 0.1e-3

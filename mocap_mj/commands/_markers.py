@@ -12,7 +12,8 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import MocapError
-from ..io import MarkerReport, atomic_write_text, load_markers
+from ..io import MarkerReport, MarkerTrajectory, atomic_write_text, load_markers
+from ..io.stream import CHUNK, open_markers
 from ..marker_set import load_marker_set, model_with_marker_set, undetermined_segments
 from ..model import load_model
 
@@ -54,6 +55,11 @@ def add_marker_options(parser: argparse.ArgumentParser, *, several: bool = False
     )
 
 
+#: Frames above which ``load_trial`` with a scratch folder reads a C3D or TRC file in chunks
+#: into a memory map (one chunk of the reader's).
+STREAM_ABOVE = CHUNK
+
+
 class Trial(NamedTuple):
     """Markers of one file in model site order.
 
@@ -69,23 +75,42 @@ class Trial(NamedTuple):
     report: MarkerReport
 
 
-def load_trial(path: str, names: tuple[str, ...], args: argparse.Namespace) -> Trial:
-    traj = load_markers(
-        path,
-        subject=args.subject,
-        marker_map=args.marker_map,
-        up=getattr(args, "up", None),
-        units=getattr(args, "units", None),
-        model_names=names,
-    )
-    report = traj.marker_report(names)
+def load_trial(
+    path: str, names: tuple[str, ...], args: argparse.Namespace, scratch: Path | None = None
+) -> Trial:
+    """The file's markers in the model's order ``names``. With a ``scratch`` folder, a C3D
+    or TRC file of more than ``STREAM_ABOVE`` frames is read chunk by chunk
+    (:func:`mocap_mj.io.stream.open_markers`, the same positions bit for bit) into a
+    memory-mapped ``.npy`` there: ``markers`` is then that memory map, and no more than a
+    chunk of the file is held at once."""
+    options = {
+        "subject": args.subject,
+        "marker_map": args.marker_map,
+        "up": getattr(args, "up", None),
+        "units": getattr(args, "units", None),
+        "model_names": names,
+    }
+    if scratch is None:
+        traj = load_markers(path, **options)
+        markers, file_names = traj.select(names), traj.names
+        report, times, rate = traj.marker_report(names), traj.times, traj.rate
+    else:
+        stream = open_markers(path, **options)
+        file_names, times, rate = stream.names, stream.times, stream.rate
+        report = stream.marker_report(names)
+        if stream.how == "in chunks" and stream.n_frames > STREAM_ABOVE:
+            digest = hashlib.sha256(str(Path(path).resolve()).encode()).hexdigest()[:16]
+            markers = stream.select_to_npy(names, scratch / f"markers_{digest}.npy")
+        else:
+            whole = stream.positions(0, stream.n_frames)
+            markers = MarkerTrajectory(times, whole, file_names, rate, stream.source).select(names)
     model = load_model(model_for(args))
     report = dataclasses.replace(
         report, undetermined=undetermined_segments(model, [n for n in report.found if n in names])
     )
     if not report.found:
-        raise MocapError(f"{path}: none of the model's markers found (names: {traj.names[:8]}...)")
-    return Trial(path, np.asarray(traj.times), traj.select(names), float(traj.rate), report)
+        raise MocapError(f"{path}: none of the model's markers found (names: {file_names[:8]}...)")
+    return Trial(path, np.asarray(times), markers, float(rate), report)
 
 
 def model_for(args: argparse.Namespace) -> str | None:

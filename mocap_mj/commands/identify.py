@@ -12,6 +12,8 @@ only when the fit is complete; a fit that cannot be determined by the data is re
 from __future__ import annotations
 
 import argparse
+import tempfile
+import time
 from pathlib import Path
 from typing import Any
 
@@ -165,8 +167,17 @@ def _add_paper_options(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    # Long C3D recordings are read chunk by chunk into memory maps in a scratch folder that
+    # lives as long as the command (load_trial).
+    with tempfile.TemporaryDirectory(prefix="mocap-mj-identify-") as scratch:
+        return _run(args, Path(scratch))
+
+
+def _run(args: argparse.Namespace, scratch: Path) -> int:
     pset = ParameterSet(model_for(args))
-    loaded = [load_trial(path, pset.marker_names, args) for path in args.markers]
+    t0 = time.perf_counter()
+    loaded = [load_trial(path, pset.marker_names, args, scratch) for path in args.markers]
+    read_seconds = time.perf_counter() - t0
     trials = []
     ranges = []
     for t in loaded:
@@ -186,7 +197,10 @@ def run(args: argparse.Namespace) -> int:
     subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
     count = _select_count(args.select, sum(len(t.markers) for t in trials), len(trials))
     return into_out_folder(
-        args, lambda out: _identify(args, pset, loaded, trials, ranges, subject, out, count)
+        args,
+        lambda out: _identify(
+            args, pset, loaded, trials, ranges, subject, out, count, read_seconds
+        ),
     )
 
 
@@ -229,15 +243,19 @@ def _identify(
     subject: Subject,
     out: Path,
     count: int | None = None,
+    read_seconds: float | None = None,
 ) -> tuple[dict[str, Any], str]:
     _numba_prewarm.start()  # the identification kernels compile on the other core meanwhile
     extra: dict[str, Any] = {
         "markers_files": [t.path for t in loaded],
         "frames_fitted_range": ranges,
+        "read_seconds": read_seconds,
     }
     fitted, motion_trials = trials, None
     if count is not None:
+        t0 = time.perf_counter()
         fitted, kept = _selected(trials, pset.marker_names, count)
+        extra["select_seconds"] = time.perf_counter() - t0
         motion_trials = trials
         extra["frames_selected"] = kept
     loss: LossName = "cauchy" if args.robust else args.loss
@@ -270,6 +288,7 @@ def _identify(
             extra=extra,
             motion_trials=motion_trials,
             motion_progress=motion_progress,
+            refine=True,
         )
     per_marker = np.array(
         [np.nan if v is None else v * 1e-3 for v in summary["marker_rmse_by_marker_mm"].values()]

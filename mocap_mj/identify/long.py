@@ -22,7 +22,11 @@ that of a thousand frames, not of the hour. :func:`identify_long` therefore
    diverged), which costs a fraction of a pass over every frame; the last step is the
    one on every frame. Joint limits are not held in these steps (g and S of the problem
    without limits, like the Cramer-Rao bound): held, the set of frames at a limit changed
-   with theta and the steps oscillated or diverged,
+   with theta and the steps oscillated or diverged. The sample's gradient, information and
+   cost are scaled to every frame, so that priors (``identify``'s landmark rows, its box)
+   weigh against the whole recording; a sample step that raises that cost is taken back and
+   the next one damped (Levenberg-Marquardt): on a real trial with its priors the undamped
+   steps did not converge (docs/long-recordings.md),
 4. solves the IK of every frame with the refined model, warm-started from the poses of
    the pass of step 3 (theta moved by a fraction of a millimetre: about two iterations per
    frame).
@@ -34,21 +38,33 @@ memory at once, never all Jacobians.
 
 from __future__ import annotations
 
+import dataclasses
+import tempfile
 import time
-from typing import NamedTuple
+from collections.abc import Iterator, Sequence
+from typing import NamedTuple, TypeAlias
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .. import _schur
 from .._threads import single_blas_thread
-from ..errors import check_shape
+from ..errors import MocapError, check_shape
 from ..ik import IKResult, IKSolver
 from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from .initial import place_markers, scaled_theta, segment_scales
-from .lm import LMResult, LMSettings, TrialData, identify_lm, informed_solve
-from .problem import IdentificationProblem
+from .lm import (
+    LMResult,
+    LMSettings,
+    TrialData,
+    bounded_step,
+    identify_lm,
+    solver_joint_range,
+)
+from .priors import Prior
+from .problem import IdentificationProblem, reduced_information
+from .result import IdentificationResult
 from .selection import Selection, select_frames
 
 #: IK chunk [frames]: 20,000 frames' poses are 9 MB, their IK working set a few tens of MB.
@@ -59,6 +75,9 @@ SAMPLE = 20_000
 INFO_FRAMES = 5_000
 STEPS = 8
 TOL_STD = 0.05
+
+#: Markers (T, M, 3) or poses (T, nq) of one trial, or one array per trial.
+Parts: TypeAlias = NDArray[np.floating] | Sequence[NDArray[np.floating]]
 
 
 class LongResult(NamedTuple):
@@ -113,7 +132,7 @@ class Refinement(NamedTuple):
     seconds: dict[str, float]
 
 
-class _Fit(NamedTuple):
+class ChunkFit(NamedTuple):
     """Sums over the solved frames of an IK pass: squared marker distances [m^2], present
     samples, frames."""
 
@@ -126,7 +145,7 @@ class _Fit(NamedTuple):
         return float(np.sqrt(self.sq / self.present)) if self.present else float("nan")
 
 
-def _solve_chunk(solver: IKSolver, m: np.ndarray, q: np.ndarray) -> _Fit:
+def solve_chunk(solver: IKSolver, m: np.ndarray, q: np.ndarray) -> ChunkFit:
     """IK of one chunk's markers m (n, M, 3) [m] in place in q (n, nq): frames with a pose
     (finite rows) start there (warm; NaN rows had too few markers and stay NaN); a chunk of
     NaN rows is solved afresh (chained, :meth:`IKSolver.solve_trial`)."""
@@ -139,7 +158,7 @@ def _solve_chunk(solver: IKSolver, m: np.ndarray, q: np.ndarray) -> _Fit:
         r = solver.solve_trial(m)
         q[:] = r.qpos
     ok = r.solved
-    return _Fit(
+    return ChunkFit(
         float(np.sum(r.marker_rmse[ok] ** 2 * r.n_markers[ok])),
         int(r.n_markers[ok].sum()),
         int(ok.sum()),
@@ -147,32 +166,61 @@ def _solve_chunk(solver: IKSolver, m: np.ndarray, q: np.ndarray) -> _Fit:
 
 
 def _ik_pass(
-    markers: NDArray[np.floating],
+    markers: Parts,
     kin: Kinematics,
-    qpos: NDArray[np.floating],
+    qpos: Parts,
     chunk: int,
     gradient: bool,
-) -> tuple[_Fit, np.ndarray]:
-    """IK of every frame under kin's theta, chunk by chunk, in place in qpos (T, nq)
-    (:func:`_solve_chunk`); with ``gradient``, the sum (P,) [m] of each chunk's reduced
-    gradient at its new poses (:func:`mocap_mj._schur.reduced_gradient`, joint limits not
-    held, see :func:`refine`; zeros otherwise)."""
+) -> tuple[ChunkFit, np.ndarray]:
+    """IK of every frame under kin's theta, chunk by chunk, in place in qpos (T, nq) (or one
+    such array per trial of ``markers``; :func:`solve_chunk`); with ``gradient``, the sum
+    (P,) [m] of each chunk's reduced gradient at its new poses
+    (:func:`mocap_mj._schur.reduced_gradient`, joint limits not held, see :func:`refine`;
+    zeros otherwise)."""
     solver = IKSolver(kin)
     tree, kt = kin.tree(), kin.kappa_tables()
     grad = np.zeros(kin.pset.size)
-    fit = _Fit(0.0, 0, 0)
-    for s in range(0, len(markers), chunk):
-        m = np.asarray(markers[s : s + chunk], dtype=float)
-        q = np.array(qpos[s : s + chunk], dtype=float)
-        f = _solve_chunk(solver, m, q)
-        qpos[s : s + chunk] = q
-        fit = _Fit(fit.sq + f.sq, fit.present + f.present, fit.solved + f.solved)
+    fit = ChunkFit(0.0, 0, 0)
+    for span, m, q in _chunks(markers, qpos, chunk):
+        f = solve_chunk(solver, m, q)
+        span.qpos[span.start : span.stop] = q
+        fit = ChunkFit(fit.sq + f.sq, fit.present + f.present, fit.solved + f.solved)
         if gradient:
             present = np.all(np.isfinite(m), axis=2)
             target = np.where(present[..., None], m, 0.0)
             w = present.astype(float)
             grad += _schur.reduced_gradient(tree, kt, target, w, q, limits=False)
     return fit, grad
+
+
+class _Span(NamedTuple):
+    """Frames [start, stop) of one trial's poses ``qpos`` (T_i, nq)."""
+
+    trial: int
+    start: int
+    stop: int
+    qpos: NDArray[np.floating]
+
+
+def _chunks(
+    markers: Parts, qpos: Parts, chunk: int
+) -> Iterator[tuple[_Span, np.ndarray, np.ndarray]]:
+    """Every trial's frames ``chunk`` at a time: the span, its markers (n, M, 3) [m] and a
+    copy of its poses (n, nq), both in memory."""
+    ms, qs = _parts(markers), _parts(qpos)
+    if len(ms) != len(qs):
+        raise MocapError(f"qpos: expected one array per trial ({len(ms)}), got {len(qs)}")
+    for i, (mt, qt) in enumerate(zip(ms, qs, strict=True)):
+        check_shape(f"qpos[{i}]", qt, (len(mt), None))
+        for s in range(0, len(mt), chunk):
+            e = min(s + chunk, len(mt))
+            m = np.asarray(mt[s:e], dtype=float)
+            yield _Span(i, s, e, qt), m, np.array(qt[s:e], dtype=float)
+
+
+def _parts(x: Parts) -> list[NDArray[np.floating]]:
+    """One array, or one per trial, as a list."""
+    return [x] if isinstance(x, np.ndarray) else list(x)
 
 
 def _information(kin: Kinematics, markers: np.ndarray, qpos: np.ndarray) -> np.ndarray:
@@ -187,39 +235,57 @@ def _information(kin: Kinematics, markers: np.ndarray, qpos: np.ndarray) -> np.n
 
 
 class _Solver:
-    """Gauss-Newton steps for a fixed reduced information (P, P) [1] with the weak prior
-    toward theta0 (P,) [m], within the informed directions (as every LM step); step sizes
-    in standard deviations for the noise sigma [m]."""
+    """Gauss-Newton steps for a fixed reduced information (P, P) [1] with the priors (the
+    weak prior toward the start and any others, as in the LM) and the box lower..upper (P,)
+    [m] (a parameter at a bound that the step pushes outward is held there, as in every LM
+    step: :func:`mocap_mj.identify.lm.bounded_step`), within the informed directions; step
+    sizes in standard deviations for the noise sigma [m]."""
 
     def __init__(
-        self, info: np.ndarray, theta0: np.ndarray, free: np.ndarray, sigma: float, st: LMSettings
+        self,
+        info: np.ndarray,
+        priors: Sequence[Prior],
+        box: tuple[np.ndarray, np.ndarray],
+        free: np.ndarray,
+        sigma: float,
+        st: LMSettings,
+        mu: float = 0.0,
     ) -> None:
-        self.free, self.prior = free, st.weak_prior(theta0)
+        self.free, self.priors, self.box = free, priors, box
         self.floor = st.prior_ratio * st.prior_weight
-        self.s_mat = info[np.ix_(free, free)] + self.prior.hessian()[np.ix_(free, free)]
+        hess = sum((p.hessian() for p in priors), np.zeros_like(info))
+        self.s_mat = info[np.ix_(free, free)] + hess[np.ix_(free, free)]
         lam, vec = np.linalg.eigh(0.5 * (self.s_mat + self.s_mat.T))
         basis, lam = vec[:, lam > self.floor], lam[lam > self.floor]
         self.std = sigma * np.sqrt(np.einsum("ij,j,ij->i", basis, 1.0 / lam, basis))
+        self.damped = self.s_mat + mu * np.diag(np.diag(self.s_mat))
 
     def step(self, theta: np.ndarray, grad: np.ndarray) -> float:
         """theta (P,) [m] advanced in place by the step for the data gradient grad (P,) [m];
         returns the step's largest component in standard deviations."""
         f = self.free
-        rhs = grad[f] - self.prior.gradient(theta)[f]
-        dth = informed_solve(self.s_mat, self.s_mat, rhs, self.floor)
+        g_prior = sum((p.gradient(theta) for p in self.priors), np.zeros_like(theta))
+        lower, upper = (b[f] for b in self.box)
+        dth, _ = bounded_step(
+            self.s_mat, grad[f] - g_prior[f], self.damped, theta[f], lower, upper, self.floor
+        )
         theta[f] += dth
+        theta[f] = np.clip(theta[f], lower, upper)  # exactly inside, as the LM's iterates
         return float(np.max(np.abs(dth) / np.maximum(self.std, 1e-300), initial=0.0))
 
 
 @single_blas_thread
 def refine(
-    markers: NDArray[np.floating],
+    markers: Parts,
     pset: ParameterSet,
     theta0: np.ndarray,
-    qpos: NDArray[np.floating],
+    qpos: Parts,
     sigma: float,
     *,
     settings: LMSettings | None = None,
+    priors: Sequence[Prior] | None = None,
+    lower: np.ndarray | None = None,
+    upper: np.ndarray | None = None,
     steps: int = STEPS,
     tol_std: float = TOL_STD,
     chunk: int = CHUNK,
@@ -230,71 +296,117 @@ def refine(
 
     Parameters
     ----------
-    markers : (T, M, 3) float [m], NaN where missing; read ``chunk`` frames at a time
-    theta0 : (P,) [m], a consistent start (the identification on a subset); also the mean of
-        the weak prior (``settings.weak_prior``), as in the identification
-    qpos : (T, nq) float, written: every frame's IK pose under the sample's estimate (NaN
-        rows: too few markers); finite rows are warm starts
+    markers : (T, M, 3) float [m], NaN where missing, or one such array per trial; read
+        ``chunk`` frames at a time
+    theta0 : (P,) [m], a consistent start (the identification on a subset)
+    qpos : (T, nq) float (one per trial of ``markers``), written: every frame's IK pose under
+        the sample's estimate (NaN rows: too few markers); finite rows are warm starts
     sigma : [m], per-axis marker noise (the start's estimate), for ``tol_std``
-    settings : LM settings for the prior and the informed directions (``prior_ratio``:
+    settings : LM settings for the weak prior and the informed directions (``prior_ratio``:
         directions with less information keep their value, as in every LM step)
+    priors : the priors of the identification, the weak prior among them (default: the weak
+        prior toward theta0 alone, ``settings.weak_prior``): their gradient and information
+        are added to the data's, so that the refinement minimises the identification's cost
+        over every frame
+    lower, upper : (P,) [m], the identification's box (default: none): a parameter at a
+        bound that a step pushes outward is held there
     steps : Gauss-Newton steps on the sample at most (default 8)
     tol_std : the sample's steps stop once one's largest component is below this fraction
         of its parameter's standard deviation (default 0.05: further steps cannot change the
         estimate measurably)
-    sample : every k-th frame, k = ceil(T / sample), is the sample (default 20,000 frames)
+    sample : every k-th frame of each trial, k = ceil(T / sample) with T the frames of all
+        trials, is the sample (default 20,000 frames)
     info_frames : the information is summed over at most this many evenly spaced frames of
         the sample and scaled to all (default 5,000)
     """
     st = settings or LMSettings()
     t0 = time.perf_counter()
-    n = len(markers)
+    parts = _parts(markers)
+    n = sum(len(m) for m in parts)
     kin = Kinematics(pset)
     kin.set_theta(theta0)
-    check_shape("qpos", qpos, (n, kin.nq))
     free = np.flatnonzero(~pset.frozen)
+    prior_list = list(priors) if priors is not None else [st.weak_prior(theta0)]
+    box = (
+        np.full(pset.size, -np.inf) if lower is None else np.asarray(lower, dtype=float),
+        np.full(pset.size, np.inf) if upper is None else np.asarray(upper, dtype=float),
+    )
     stride = max(1, -(-n // max(sample, 1)))
-    m_s = np.asarray(markers[::stride], dtype=float)
+    m_s = np.concatenate([np.asarray(m[::stride], dtype=float) for m in parts])
     q_s = np.full((len(m_s), kin.nq), np.nan)
-    theta = np.array(theta0, dtype=float)
-    sizes: list[float] = []
+    weight = n / len(m_s)  # the sample's gradient, information and cost stand for every frame
     info_rows = slice(None, None, max(1, -(-len(m_s) // max(info_frames, 1))))
-    scale = len(m_s) / len(m_s[info_rows])
-    info = np.zeros((pset.size, pset.size))
+    scale = weight * len(m_s) / len(m_s[info_rows])
+    theta = np.clip(np.array(theta0, dtype=float), *box)
+    sizes: list[float] = []
+    best: _Point | None = None
+    mu = 0.0
     for _ in range(steps):
         kin.set_theta(theta)
-        _, grad = _ik_pass(m_s, kin, q_s, chunk, gradient=True)
-        # The information at every step: kept from the start, the steps diverged.
-        info = scale * _information(kin, m_s[info_rows], q_s[info_rows])
-        sizes.append(_Solver(info, theta0, free, sigma, st).step(theta, grad))
+        fit, grad = _ik_pass(m_s, kin, q_s, chunk, gradient=True)
+        cost = weight * 0.5 * fit.sq + sum(p.cost(theta) for p in prior_list)
+        if best is not None and cost > best.cost:
+            # The step raised the cost (real data: frames at joint limits, soft tissue): back
+            # to the last point, with more damping (Levenberg-Marquardt, as the LM's steps).
+            theta, mu = best.theta.copy(), max(10.0 * mu, 1e-3)
+        else:
+            # The information at every accepted point: kept from the start, the steps diverged.
+            info = scale * _information(kin, m_s[info_rows], q_s[info_rows])
+            best, mu = _Point(theta.copy(), cost, weight * grad, info), mu / 10.0
+        solver = _Solver(best.info, prior_list, box, free, sigma, st, mu)
+        sizes.append(solver.step(theta, best.grad))
         if sizes[-1] < tol_std:
             break
-    # The one step on every frame, from the sample's estimate, its information scaled.
     t1 = time.perf_counter()
-    info *= stride
-    kin.set_theta(theta)
-    _, grad = _ik_pass(markers, kin, qpos, chunk, gradient=True)
-    sizes.append(_Solver(info, theta0, free, sigma, st).step(theta, grad))
+    if best is None:  # no step asked for
+        return Refinement(theta, np.zeros((pset.size,) * 2), np.zeros(pset.size), sizes, {})
+    theta, grad = best.theta, best.grad
+    if stride == 1:
+        # The sample is every frame: its last accepted point is the refined model.
+        _fill(qpos, q_s)
+    else:
+        # The one step on every frame, from the sample's estimate, its information scaled.
+        kin.set_theta(theta)
+        _, grad = _ik_pass(parts, kin, qpos, chunk, gradient=True)
+        sizes.append(_Solver(best.info, prior_list, box, free, sigma, st, mu).step(theta, grad))
     seconds = {"sample": t1 - t0, "pass": time.perf_counter() - t1}
-    return Refinement(theta, info, grad, sizes, seconds)
+    return Refinement(theta, best.info, grad, sizes, seconds)
+
+
+class _Point(NamedTuple):
+    """An accepted point of the sample's steps: theta (P,) [m], the cost [m^2] (data and
+    priors), the reduced gradient (P,) [m] and information (P, P) [1], all for every frame."""
+
+    theta: np.ndarray
+    cost: float
+    grad: np.ndarray
+    info: np.ndarray
+
+
+def _fill(qpos: Parts, rows: np.ndarray) -> None:
+    """Copy rows (T, nq), every trial's frames one after the other, into qpos (per trial)."""
+    k = 0
+    for q in _parts(qpos):
+        q[:] = rows[k : k + len(q)]
+        k += len(q)
 
 
 def refit_all(
-    markers: NDArray[np.floating],
+    markers: Parts,
     pset: ParameterSet,
     theta: np.ndarray,
-    qpos: NDArray[np.floating],
+    qpos: Parts,
     *,
     chunk: int = CHUNK,
 ) -> tuple[float, int]:
     """IK of every frame under theta (P,) [m], ``chunk`` frames at a time, in place in qpos
-    (T, nq): warm from its finite rows, chained in chunks of NaN rows.
+    (T, nq) (one per trial of ``markers``): warm from its finite rows, chained in chunks of
+    NaN rows.
 
     Returns the marker RMSE [m] over the present samples of the solved frames, and their
     number."""
     kin = Kinematics(pset)
     kin.set_theta(theta)
-    check_shape("qpos", qpos, (len(markers), kin.nq))
     fit, _ = _ik_pass(markers, kin, qpos, chunk, gradient=False)
     return fit.rmse, fit.solved
 
@@ -357,3 +469,70 @@ def identify_long(
     t4 = time.perf_counter()
     stages = {"select": t1 - t0, "identify": t2 - t1, "refine": t3 - t2, "ik": t4 - t3, **extra}
     return LongResult(sel, lm, theta, info, sizes, rmse, solved, stages)
+
+
+def result_at(
+    result: IdentificationResult,
+    trials: Sequence[TrialData],
+    pset: ParameterSet,
+    theta: np.ndarray,
+    settings: LMSettings,
+    box: tuple[np.ndarray, np.ndarray] | None = None,
+) -> IdentificationResult:
+    """The identification's ``result`` on ``trials`` described at another model theta (P,)
+    [m] (the refined one): the trials' poses solved again under theta (warm from the
+    result's, with the solver's joint limits), their fit (RMSE, sigma), the reduced
+    information at them and the parameters on a bound of ``box`` (lower, upper) (P,) [m];
+    the initial model, iterations and trace stay the identification's."""
+    kin = Kinematics(pset)
+    kin.model.jnt_range[:] = solver_joint_range(kin.model, settings)
+    kin.set_theta(theta)
+    solver = IKSolver(kin)
+    qpos, frame_rmse = [], []
+    for t, q0 in zip(trials, result.qpos, strict=True):
+        q, f = np.array(q0, dtype=float), np.full(len(q0), np.nan)
+        ok = np.isfinite(q[:, 0])
+        if ok.any():
+            r = solver.solve_frames(np.asarray(t.markers, dtype=float)[ok], q[ok])
+            q[ok], f[ok] = r.qpos, r.marker_rmse
+        qpos.append(q)
+        frame_rmse.append(f)
+    info, sigma, n_res, n_unk = reduced_information(pset, theta, trials, qpos)
+    used = [np.isfinite(q[:, 0]) for q in qpos]
+    n_markers = [
+        np.all(np.isfinite(np.asarray(t.markers, dtype=float)), axis=2).sum(axis=1) for t in trials
+    ]
+    sq = sum(
+        float(np.sum(f[u] ** 2 * k[u])) for f, u, k in zip(frame_rmse, used, n_markers, strict=True)
+    )
+    present = sum(int(k[u].sum()) for u, k in zip(used, n_markers, strict=True))
+    lower, upper = (
+        box if box is not None else (np.full(pset.size, -np.inf), np.full(pset.size, np.inf))
+    )
+    eps = 1e-12 * np.maximum(1.0, np.abs(theta))
+    at_bound = result.free & ((theta <= lower + eps) | (theta >= upper - eps))
+    return dataclasses.replace(
+        result,
+        theta=np.array(theta, dtype=float),
+        qpos=qpos,
+        used=used,
+        marker_rmse=float(np.sqrt(sq / present)) if present else float("nan"),
+        frame_rmse=frame_rmse,
+        reduced_information=info,
+        sigma=sigma,
+        n_residuals=n_res,
+        n_unknowns=n_unk,
+        at_bound=at_bound,
+    )
+
+
+def scratch_array(shape: tuple[int, int]) -> NDArray[np.floating]:
+    """A float array of ``shape`` filled with NaN: in memory up to ``CHUNK`` rows, else a
+    memory map on an anonymous temporary file (the poses of an hour, 160 MB, are paged by
+    the system rather than held; the file disappears with the array)."""
+    if shape[0] <= CHUNK:
+        return np.full(shape, np.nan)
+    arr = np.memmap(tempfile.TemporaryFile(prefix="mocap-mj-"), float, "w+", shape=shape)
+    for s in range(0, shape[0], CHUNK):
+        arr[s : s + CHUNK] = np.nan
+    return arr

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import contextlib
 import logging
-import tempfile
 import time
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -14,9 +13,8 @@ import numpy as np
 
 from ..checks import check_determined
 from ..errors import MocapError
-from ..ik import IKResult, IKSettings, IKSolver
+from ..ik import IKSettings
 from ..io.atomic import atomic_folder, atomic_write_text
-from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..strict_json import dumps, jsonable
 from ..subject import Subject
@@ -26,9 +24,11 @@ from .consistency import correlation_time
 from .identifiability import Identifiability
 from .initial import place_markers, scaled_theta, segment_scales
 from .lm import LMSettings, identify_lm, solver_joint_range
+from .long import refine, result_at, scratch_array
+from .motion_out import write_every_frame_motion
 from .output import write_result
 from .plausibility import kappa_outside_bounds, marker_rmse_by_marker
-from .priors import LinearGaussianPrior
+from .priors import LinearGaussianPrior, Prior
 from .problem import TrialData
 from .ranges import kappa_ranges, theta_bounds
 from .result import IdentificationResult, ProgressCallback
@@ -56,14 +56,19 @@ def identify_to_folder(
     asymmetry_prior: bool = True,
     motion_trials: Sequence[TrialData] | None = None,
     motion_progress: Callable[[int], None] | None = None,
+    refine: bool = False,
 ) -> tuple[dict[str, Any], IdentificationResult, Identifiability]:
     """Run the joint LM on the trials and write model.xml, theta.json, motion.npz,
     identifiability.json and report.md into ``out``; return (summary, result, identifiability).
 
     ``motion_trials`` (one per trial, e.g. the whole recordings the trials' frames were
     selected from): motion.npz and joint_centres.csv then hold every frame of these, solved
-    by IK with the identified model as written to model.xml (:func:`every_frame_motion`,
-    ``motion_progress`` called with the frames done); default: the fitted frames' poses.
+    by IK with the identified model as written to model.xml, written chunk by chunk
+    (:func:`mocap_mj.identify.motion_out.write_every_frame_motion`, ``motion_progress``
+    called with the frames done); default: the fitted
+    frames' poses. With ``refine`` (and the l2 loss) the model identified on ``trials`` is
+    then refined on every frame of ``motion_trials`` with the same priors and bounds
+    (:func:`refine_on_every_frame`) and everything written describes the refined model.
 
     ``out`` is replaced whole at the end (:func:`mocap_mj.io.atomic.atomic_folder`): it holds
     the complete result or what it held before. Trials with fewer marker coordinates than
@@ -91,17 +96,26 @@ def identify_to_folder(
     init_used = "given" if theta0 is not None else init
     theta0, scales = _initial_theta(trials, pset, theta0, init)
     subject = subject or Subject()
+    prior_options: dict[str, Any] = {
+        "subject": subject,
+        "size": scales.get("overall", 1.0),
+        "anatomical": anatomical,
+        "symmetric": ASYMMETRY_SIGMA if symmetric is None and asymmetry_prior else symmetric,
+    }
     with captured_log() as log:
         result, weighting = _solve(
+            trials, pset=pset, theta0=theta0, settings=settings, progress=progress, **prior_options
+        )
+    refined: dict[str, Any] = {}
+    if refine and motion_trials is not None and settings.loss == "l2":
+        result, refined = refine_on_every_frame(
+            result,
             trials,
+            motion_trials,
             pset=pset,
-            theta0=theta0,
             settings=settings,
-            subject=subject,
-            size=scales.get("overall", 1.0),
-            anatomical=anatomical,
-            symmetric=ASYMMETRY_SIGMA if symmetric is None and asymmetry_prior else symmetric,
-            progress=progress,
+            weighting=weighting,
+            **prior_options,
         )
     seconds = time.perf_counter() - t0
     idf = Identifiability(
@@ -119,52 +133,85 @@ def identify_to_folder(
     summary["kappa_at_bound"] = _kappa_at_bound(pset, result)
     ranges = kappa_ranges(pset, subject) if anatomical else None
     rows = _add_checks(summary, pset, result, trials, settings, ranges)
-    motion = None
+    stream = None
     if motion_trials is not None:
-        solved = every_frame_motion(pset, result.theta, settings, motion_trials, motion_progress)
-        motion = (list(motion_trials), [r.qpos for r in solved])
         summary["motion_frames"] = [len(t.markers) for t in motion_trials]
-        summary["motion_marker_rmse_mm"] = _pooled_rmse(solved) * 1e3
+        if refined:
+            summary["refinement"] = {k: v for k, v in refined.items() if k != "qpos"}
+        starts = summary.get("frames_fitted_range")
+
+        def stream(staging: Path) -> dict[str, Any]:
+            fit = write_every_frame_motion(
+                staging,
+                pset,
+                result.theta,
+                settings,
+                list(motion_trials),
+                first_frames=[int(r[0]) for r in starts] if starts else None,
+                start=refined.get("qpos"),
+                progress=motion_progress,
+            )
+            return {
+                "motion_marker_rmse_mm": fit.rmse * 1e3,
+                "motion_seconds": {"ik": fit.ik_seconds, "all": fit.seconds},
+            }
+
     summary = jsonable(summary)
-    _write_folder(out, pset, result, idf, trials, settings, rows, summary, motion)
+    _write_folder(out, pset, result, idf, trials, settings, rows, summary, stream=stream)
     return summary, result, idf
 
 
-def every_frame_motion(
-    pset: ParameterSet,
-    theta: np.ndarray,
-    settings: LMSettings,
+def refine_on_every_frame(
+    result: IdentificationResult,
     trials: Sequence[TrialData],
-    progress: Callable[[int], None] | None = None,
-) -> list[IKResult]:
-    """IK of every frame of ``trials`` with the model as ``identify`` writes it (parameters
-    theta (P,) [m], the joint limits the solver used), as ``mocap-mj ik --model model.xml``
-    solves it: one result per trial (poses (T_i, nq) [m, rad], NaN rows where too few
-    markers). ``progress`` is called with the frames done over all trials."""
-    with tempfile.TemporaryDirectory(prefix="mocap-mj-") as tmp:
-        path = Path(tmp) / "model.xml"
-        pset.export_mjcf(path, theta, joint_range=solver_joint_range(pset.model, settings))
-        solver = IKSolver(Kinematics(ParameterSet(path)))
-    done = 0
-    out = []
-    for t in trials:
-        first = done
-
-        def report(n: int, first: int = first) -> None:
-            if progress is not None:
-                progress(first + n)
-
-        out.append(solver.solve_trial(t.markers, progress=report))
-        done += len(t.markers)
-        report(0, done)
-    return out
-
-
-def _pooled_rmse(results: Sequence[IKResult]) -> float:
-    """Marker RMSE [m] over every present sample of the solved frames of all results."""
-    sq = sum(float(np.sum(r.marker_rmse[r.solved] ** 2 * r.n_markers[r.solved])) for r in results)
-    n = sum(int(r.n_markers[r.solved].sum()) for r in results)
-    return float(np.sqrt(sq / n)) if n else float("nan")
+    motion_trials: Sequence[TrialData],
+    *,
+    pset: ParameterSet,
+    settings: LMSettings,
+    weighting: dict[str, float],
+    subject: Subject,
+    size: float,
+    anatomical: bool,
+    symmetric: float | None,
+) -> tuple[IdentificationResult, dict[str, Any]]:
+    """The identification on ``trials`` (frames selected from ``motion_trials``) refined on
+    every frame of ``motion_trials`` (:func:`mocap_mj.identify.long.refine`) with the priors
+    and bounds of its solve: with ``anatomical`` the landmark priors (and the left/right
+    prior of width ``symmetric`` [m]) weighed against the noise of ``weighting``, the
+    anatomical ranges as bounds; always the weak prior, toward the subset's estimate (the
+    directions the subset barely determined keep its value unless every frame determines
+    them). The result is described at the refined model (:func:`~mocap_mj.identify.long.result_at`);
+    the dict holds the refinement's ``steps_std``, ``seconds``, the subset's own estimate
+    (``subset_kappa_mm``) and ``qpos``: every frame's pose under the sample's estimate per
+    motion trial (T_i, nq), the start of the motion's IK."""
+    noise = weighting.get("noise_mm", settings.prior_noise * 1e3) * 1e-3
+    priors: list[Prior] = [settings.weak_prior(result.theta)]
+    box = None
+    if anatomical:
+        priors += anatomical_priors(pset, subject, size=size, symmetric=symmetric, noise=noise)
+        box = theta_bounds(pset, subject)
+    qpos = [scratch_array((len(t.markers), pset.model.nq)) for t in motion_trials]
+    ref = refine(
+        [t.markers for t in motion_trials],
+        pset,
+        result.theta,
+        qpos,
+        result.sigma,
+        settings=settings,
+        priors=priors,
+        lower=None if box is None else box[0],
+        upper=None if box is None else box[1],
+    )
+    refined = result_at(result, trials, pset, ref.theta, settings, box)
+    info = {
+        "steps_std": ref.steps,
+        "seconds": ref.seconds,
+        "subset_kappa_mm": {
+            n: float(v) * 1e3 for n, v in zip(pset.kappa_names, result.theta, strict=False)
+        },
+        "qpos": qpos,
+    }
+    return refined, info
 
 
 def _check_inputs(trials: Sequence[TrialData], pset: ParameterSet, init: str) -> None:
@@ -317,13 +364,16 @@ def _write_folder(
     settings: LMSettings,
     rows: list[SegmentRow],
     summary: dict[str, Any],
-    motion: tuple[list[TrialData], list[np.ndarray]] | None = None,
+    stream: Callable[[Path], dict[str, Any]] | None = None,
 ) -> None:
     """Write the result files, the tables and summary.json into ``out``, replaced whole;
-    ``motion`` (trials, poses (T_i, nq)): what motion.npz and joint_centres.csv hold
+    ``stream``: writes motion.npz and joint_centres.csv into the folder given to it itself
+    (every frame of long trials, chunk by chunk) and returns what it adds to the summary
     (default: the fitted trials and their poses)."""
-    motion = motion or (list(trials), list(result.qpos))
+    motion = ([], []) if stream is not None else (list(trials), list(result.qpos))
     with atomic_folder(out, force=True) as staging:
+        if stream is not None:
+            summary.update(jsonable(stream(staging)))
         write_result(
             staging,
             pset,
@@ -375,7 +425,7 @@ def _write_tables(
     write_segments_csv(out / "segments.csv", rows)
     model = pset.model_for(theta)
     trials, poses = motion
-    starts = [int(r[0]) for r in ranges] if ranges else [0] * len(trials)
+    starts = [int(r[0]) for r in ranges][: len(trials)] if ranges else [0] * len(trials)
     for i, (trial, qpos, first) in enumerate(zip(trials, poses, starts, strict=True)):
         name = "joint_centres.csv" if i == 0 else f"joint_centres_{i}.csv"
         write_joint_centres_csv(out / name, model, trial.times, qpos, first_frame=first)

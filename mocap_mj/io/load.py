@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Collection, Mapping
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -13,9 +13,16 @@ import numpy as np
 from mocap_mj.errors import InputFileError
 from mocap_mj.io.formats import RawMarkers, read_raw
 from mocap_mj.io.names import builtin_alias, is_non_marker, load_marker_map, split_prefix
-from mocap_mj.io.orientation import detect_up, normalize_up, rotation_to_z_up
+from mocap_mj.io.orientation import (
+    FOOT_MARKERS,
+    HEAD_MARKERS,
+    TRUNK_MARKERS,
+    detect_up,
+    normalize_up,
+    rotation_to_z_up,
+)
 from mocap_mj.io.trajectory import MarkerTrajectory
-from mocap_mj.io.units import check_cloud_size, metres_per_unit
+from mocap_mj.io.units import check_extent, frame_extents, median_extent, metres_per_unit
 from mocap_mj.markers import MARKER_NAMES
 
 __all__ = ["load_markers"]
@@ -97,8 +104,15 @@ def load_markers(
     """
     file, wanted_up, rename = _arguments(path, marker_map, up, units)
     raw = read_raw(file)
-    selection = _selection(file, raw, subject, rename, model_names)
-    return _trajectory(file, raw, selection, units, wanted_up, rename)
+    sel = _selection(file, raw, subject, rename, model_names)
+    reading = Reading(file, raw, sel, units, wanted_up, rename, lambda: iter([raw.positions]))
+    return MarkerTrajectory(
+        times=raw.times,
+        positions=reading.convert(raw.positions),
+        names=tuple(sel.names),
+        rate=raw.rate,
+        source=reading.source,
+    )
 
 
 def _arguments(
@@ -151,57 +165,110 @@ def _selection(
     return _Selection(keep, names, chosen_subject, subjects, dropped, others, aliased)
 
 
-def _trajectory(
-    file: Path,
-    raw: RawMarkers,
-    sel: _Selection,
-    units: str | None,
-    wanted_up: str | None,
-    rename: Mapping[str, str],
-) -> MarkerTrajectory:
-    """The selected markers in metres (zeros and NaN missing), rotated Z up, with their
-    ``source`` record; warnings logged once."""
-    keep, names = sel.keep, sel.names
-    scale, unit, units_note = _metres(file, raw, units)
-    positions = raw.positions[:, [i for i, _ in keep]] * scale
-    if not (np.all(np.isfinite(raw.times)) and not np.isinf(positions).any()):
-        raise InputFileError(
-            f"{file}: {raw.labels_where}: expected finite times and coordinates, got infinity"
-        )
-    zeros = np.all(positions == 0.0, axis=2)  # (T, M)
-    positions[zeros] = np.nan
-    check_cloud_size(file, positions, unit, units_note)
-    missing = np.isnan(positions).any(axis=2).sum(axis=0)
-    up_axis, up_how, detected = _vertical(raw, positions, names, wanted_up)
-    rotation = rotation_to_z_up(up_axis)
-    positions = positions @ rotation.T
+class Reading:
+    """How :func:`load_markers` turns a file's points into the trajectory, learnt from every
+    frame once: the unit, the vertical axis and the ``source`` record; :meth:`convert` then
+    applies it to any frames. One code path for a file read whole and one read chunk by
+    chunk (:mod:`mocap_mj.io.stream`), so that the two cannot drift.
 
-    source: dict[str, Any] = {
-        "path": str(file.resolve()),
-        "format": raw.format,
-        "units": unit,
-        "units_note": units_note,
-        "up": up_axis,
-        "up_detected": detected,
-        "up_how": up_how,
-        "rotation": rotation.tolist(),
-        "subject": sel.subject,
-        "subjects": sel.subjects,
-        "dropped": raw.dropped + sel.dropped,
-        "other_subjects_markers": sel.others,
-        "extras": [n for n in names if n not in MARKER_NAMES],
-        "renamed": {k: v for k, v in rename.items() if k in {n for _, n in keep}},
-        "aliased": sel.aliased,
-        "missing_samples": {n: int(c) for n, c in zip(names, missing, strict=True) if c},
-        "zero_samples": {n: int(c) for n, c in zip(names, zeros.sum(axis=0), strict=True) if c},
-        **raw.info,
-    }
-    source["warnings"] = list(raw.info.get("warnings", []))
-    for message in source["warnings"]:
-        _log.warning(message)
-    return MarkerTrajectory(
-        times=raw.times, positions=positions, names=tuple(names), rate=raw.rate, source=source
-    )
+    ``chunks`` yields the file's positions (n, M_file, 3) [file units] in frame order, all
+    frames once.
+    """
+
+    def __init__(
+        self,
+        file: Path,
+        raw: RawMarkers,
+        sel: _Selection,
+        units: str | None,
+        wanted_up: str | None,
+        rename: Mapping[str, str],
+        chunks: Callable[[], Iterator[np.ndarray]],
+    ) -> None:
+        self.file, self.raw, self.columns = file, raw, [i for i, _ in sel.keep]
+        names = sel.names
+        self.scale, unit, units_note = _metres(file, raw, units)
+        if not np.all(np.isfinite(raw.times)):
+            raise self._infinite()
+        survey = _Survey(names)
+        for chunk in chunks():
+            survey.add(*self._metres(chunk))
+        check_extent(file, median_extent(np.concatenate(survey.extents)), unit, units_note)
+        up_axis, up_how, detected = _vertical(
+            raw, survey.up_positions(), survey.up_names, wanted_up
+        )
+        self.rotation = rotation_to_z_up(up_axis)
+        self.source: dict[str, Any] = {
+            "path": str(file.resolve()),
+            "format": raw.format,
+            "units": unit,
+            "units_note": units_note,
+            "up": up_axis,
+            "up_detected": detected,
+            "up_how": up_how,
+            "rotation": self.rotation.tolist(),
+            "subject": sel.subject,
+            "subjects": sel.subjects,
+            "dropped": raw.dropped + sel.dropped,
+            "other_subjects_markers": sel.others,
+            "extras": [n for n in names if n not in MARKER_NAMES],
+            "renamed": {k: v for k, v in rename.items() if k in {n for _, n in sel.keep}},
+            "aliased": sel.aliased,
+            "missing_samples": {n: int(c) for n, c in zip(names, survey.missing, strict=True) if c},
+            "zero_samples": {n: int(c) for n, c in zip(names, survey.zeros, strict=True) if c},
+            **raw.info,
+        }
+        self.source["warnings"] = list(raw.info.get("warnings", []))
+        for message in self.source["warnings"]:
+            _log.warning(message)
+
+    def _infinite(self) -> InputFileError:
+        return InputFileError(
+            f"{self.file}: {self.raw.labels_where}: expected finite times and coordinates, got "
+            "infinity"
+        )
+
+    def _metres(self, chunk: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The selected markers of ``chunk`` (n, M_file, 3) in metres, missing samples NaN
+        (all-zero samples included), unrotated; and which samples were zeros (n, M)."""
+        positions = chunk[:, self.columns] * self.scale
+        if np.isinf(positions).any():
+            raise self._infinite()
+        zeros = np.all(positions == 0.0, axis=2)  # (n, M)
+        positions[zeros] = np.nan
+        return positions, zeros
+
+    def convert(self, chunk: np.ndarray) -> np.ndarray:
+        """The selected markers of ``chunk`` (n, M_file, 3) [file units] (n, M, 3) [m],
+        NaN where missing, rotated Z up."""
+        positions, _ = self._metres(chunk)
+        return np.asarray(positions @ self.rotation.T)
+
+
+class _Survey:
+    """What the loader needs from every frame before it converts any: missing and zero
+    samples per marker, the cloud's extent per frame, and the markers the vertical axis is
+    detected from (:func:`mocap_mj.io.orientation.detect_up`: head, trunk and foot)."""
+
+    def __init__(self, names: list[str]) -> None:
+        n = len(names)
+        self.missing, self.zeros = np.zeros(n, dtype=int), np.zeros(n, dtype=int)
+        self.extents: list[np.ndarray] = [np.zeros(0)]
+        wanted = {*HEAD_MARKERS, *TRUNK_MARKERS, *FOOT_MARKERS}
+        self.up_columns = [i for i, name in enumerate(names) if name in wanted]
+        self.up_names = [names[i] for i in self.up_columns]
+        self._up: list[np.ndarray] = []
+
+    def add(self, positions: np.ndarray, zeros: np.ndarray) -> None:
+        """Count a chunk's positions (n, M, 3) [m] (NaN missing) and zero samples (n, M)."""
+        self.missing += np.isnan(positions).any(axis=2).sum(axis=0)
+        self.zeros += zeros.sum(axis=0)
+        self.extents.append(frame_extents(positions))
+        self._up.append(positions[:, self.up_columns])
+
+    def up_positions(self) -> np.ndarray:
+        """The vertical-axis markers of every frame (T, K, 3) [m]."""
+        return np.concatenate(self._up) if self._up else np.zeros((0, len(self.up_columns), 3))
 
 
 def _select_markers(
@@ -298,7 +365,7 @@ def _metres(file: Path, raw: RawMarkers, given: str | None) -> tuple[float, str,
 
 
 def _vertical(
-    raw: RawMarkers, positions: np.ndarray, names: list[str], wanted: str | None
+    raw: RawMarkers, positions: np.ndarray, names: Sequence[str], wanted: str | None
 ) -> tuple[str, str, bool]:
     """(up axis, how it was chosen, whether it was detected from markers)."""
     if wanted is not None:

@@ -129,26 +129,38 @@ class MarkerTrajectory:
         model_names : sequence of str
             The markers the model expects (default: the 39 Plug-in Gait markers).
         """
-        model = tuple(model_names)
-        model_set = set(model)
         present = np.all(np.isfinite(self.positions), axis=2)  # (T, M)
-        seen = present.mean(axis=0) if self.n_frames else np.zeros(self.n_markers)
-        by_name = {name: float(seen[i]) for i, name in enumerate(self.names)}
-        found = tuple(n for n in model if n in by_name)
-        missing = tuple(n for n in model if n not in by_name)
-        extras = tuple(n for n in self.names if n not in model_set)
-        fraction = {n: by_name.get(n, 0.0) for n in model}
-        fraction.update({n: by_name[n] for n in extras})
         absent = (~present).sum(axis=0)
-        return MarkerReport(
-            found=found,
-            missing=missing,
-            extras=extras,
-            fraction_present=fraction,
-            n_frames=self.n_frames,
-            missing_samples={n: int(absent[i]) for i, n in enumerate(self.names) if absent[i]},
-            zero_samples=dict(self.source.get("zero_samples", {})),
-        )
+        return marker_report(self.names, self.n_frames, absent, self.source, model_names)
+
+
+def marker_report(
+    names: Sequence[str],
+    n_frames: int,
+    absent: np.ndarray,
+    source: dict[str, Any],
+    model_names: Sequence[str] = MARKER_NAMES,
+) -> MarkerReport:
+    """:meth:`MarkerTrajectory.marker_report` from the frames each marker ``names`` lacks
+    (absent (M,) int of ``n_frames``): also for a file read chunk by chunk."""
+    model = tuple(model_names)
+    model_set = set(model)
+    seen = (n_frames - np.asarray(absent)) / n_frames if n_frames else np.zeros(len(names))
+    by_name = {name: float(seen[i]) for i, name in enumerate(names)}
+    found = tuple(n for n in model if n in by_name)
+    missing = tuple(n for n in model if n not in by_name)
+    extras = tuple(n for n in names if n not in model_set)
+    fraction = {n: by_name.get(n, 0.0) for n in model}
+    fraction.update({n: by_name[n] for n in extras})
+    return MarkerReport(
+        found=found,
+        missing=missing,
+        extras=extras,
+        fraction_present=fraction,
+        n_frames=n_frames,
+        missing_samples={n: int(absent[i]) for i, n in enumerate(names) if absent[i]},
+        zero_samples=dict(source.get("zero_samples", {})),
+    )
 
 
 @dataclass(frozen=True)

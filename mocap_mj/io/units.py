@@ -33,14 +33,23 @@ def cloud_extent(positions: np.ndarray) -> float | None:
     ``positions`` (T, M, 3); NaN samples are ignored; frames with fewer than 2 markers seen
     do not count. None when no frame has 2 markers.
     """
+    return median_extent(frame_extents(positions))
+
+
+def frame_extents(positions: np.ndarray) -> np.ndarray:
+    """The diagonal of the markers' bounding box (T',) [same unit as input] of every frame
+    of ``positions`` (T, M, 3) with 2 markers seen or more (NaN samples ignored): the
+    per-frame part of :func:`cloud_extent`, for a file read in chunks."""
     seen = np.isfinite(positions).all(axis=2)  # (T, M)
-    frames = seen.sum(axis=1) >= 2
-    if not frames.any():
-        return None
-    pos = positions[frames]
-    with np.errstate(invalid="ignore"):
-        span = np.nanmax(pos, axis=1) - np.nanmin(pos, axis=1)  # (T', 3)
-    return float(np.median(np.linalg.norm(span, axis=1)))
+    pos = positions[seen.sum(axis=1) >= 2]
+    # fmax/fmin skip NaN as nanmax/nanmin do (every row has a marker seen), without a copy
+    span = np.fmax.reduce(pos, axis=1) - np.fmin.reduce(pos, axis=1)  # (T', 3)
+    return np.asarray(np.linalg.norm(span, axis=1))
+
+
+def median_extent(extents: np.ndarray) -> float | None:
+    """The median of per-frame extents (:func:`frame_extents`), None without any."""
+    return float(np.median(extents)) if len(extents) else None
 
 
 def check_cloud_size(path: Path, positions: np.ndarray, unit: str, where: str) -> None:
@@ -50,7 +59,11 @@ def check_cloud_size(path: Path, positions: np.ndarray, unit: str, where: str) -
     the measured size, the unit used and where it came from, the unit that would make the
     size plausible, and the ``--units`` flag.
     """
-    extent = cloud_extent(positions)
+    check_extent(path, cloud_extent(positions), unit, where)
+
+
+def check_extent(path: Path, extent: float | None, unit: str, where: str) -> None:
+    """:func:`check_cloud_size` for the cloud's extent [m] (None: no frame with 2 markers)."""
     low, high = CLOUD_EXTENT
     if extent is None or low <= extent <= high or extent == 0.0:
         return

@@ -10,15 +10,24 @@ the loader applies the missing-data rule shared by every format (NaN, all-zero s
 from __future__ import annotations
 
 import math
+import os
+import tempfile
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import ezc3d
 import numpy as np
 
 from mocap_mj.errors import InputFileError
 from mocap_mj.io.formats._common import RawMarkers
-from mocap_mj.io.formats.c3d_check import C3DLayout, C3DTruncatedError, check_c3d
+from mocap_mj.io.formats.c3d_check import (
+    DEC,
+    INTEL,
+    C3DLayout,
+    C3DTruncatedError,
+    check_c3d,
+)
 from mocap_mj.io.formats.c3d_probe import ezc3d_failure
 from mocap_mj.io.units import metres_per_unit
 
@@ -82,6 +91,12 @@ def read(path: Path) -> RawMarkers:
     section holds fewer frames than the header declares, the frames present are read and
     ``info["warnings"]`` says so (the loader logs it once).
     """
+    layout = _checked(path)
+    return _raw(path, _ezc3d(path), layout)
+
+
+def _checked(path: Path) -> C3DLayout | None:
+    """The structural check's layout; None for a file it refuses that ezc3d reads."""
     try:
         layout: C3DLayout | None = check_c3d(path)
     except C3DTruncatedError:
@@ -92,37 +107,57 @@ def read(path: Path) -> RawMarkers:
         layout = None
     if layout is not None and layout.n_points == 0:
         raise _no_points(path)
+    return layout
+
+
+class _Read(NamedTuple):
+    """What ezc3d read: parameters, the header's point section, points (4, M, T) [file
+    units] and residuals (1, M, T)."""
+
+    params: dict[str, Any]
+    header: dict[str, Any]
+    points: np.ndarray
+    residuals: np.ndarray
+
+
+def _ezc3d(path: Path | str, shown: Path | None = None) -> _Read:
+    """The file read by ezc3d (``shown``: the name for errors, default ``path``)."""
     try:
         c3d = ezc3d.c3d(str(path))
-        params = c3d["parameters"]
-        points = np.asarray(c3d["data"]["points"], dtype=np.float64)
-        residuals = np.asarray(c3d["data"]["meta_points"]["residuals"], dtype=np.float64)
-        header = c3d["header"]["points"]
+        return _Read(
+            c3d["parameters"],
+            c3d["header"]["points"],
+            np.asarray(c3d["data"]["points"], dtype=np.float64),
+            np.asarray(c3d["data"]["meta_points"]["residuals"], dtype=np.float64),
+        )
     except Exception as exc:  # ezc3d raises RuntimeError, OSError, ValueError...
         message = " ".join(str(exc).split())[:200]
-        raise InputFileError(f"{path}: ezc3d could not read it: {message}") from exc
-    point = params.get("POINT", {})
+        raise InputFileError(f"{shown or path}: ezc3d could not read it: {message}") from exc
+
+
+def _raw(path: Path, got: _Read, layout: C3DLayout | None, frames: int | None = None) -> RawMarkers:
+    """The RawMarkers of ezc3d's reading; ``frames``: the file's frames when ``got`` holds
+    only its first few (a streamed read: positions then hold those few)."""
+    point = got.params.get("POINT", {})
+    points, residuals = got.points, got.residuals
     if points.ndim != 3 or points.shape[1] == 0:
         raise _no_points(path)
-    n_points, n_frames = int(points.shape[1]), int(points.shape[2])
-    if n_frames == 0:
+    n_points, n_read = int(points.shape[1]), int(points.shape[2])
+    n_frames = n_read if frames is None else frames
+    if n_frames == 0 or n_read == 0:
         raise InputFileError(f"{path}: data section: expected at least one frame, got none")
     labels = _point_labels(point)[:n_points]
     labels += [f"*{k + 1}" for k in range(len(labels), n_points)]  # unlabelled: dropped
     positions = points[:3].transpose(2, 1, 0).copy()  # (T, M, 3)
-    if residuals.shape == (1, n_points, n_frames):
+    if residuals.shape == (1, n_points, n_read):
         positions[residuals[0].T < 0] = np.nan
     positions[np.isnan(positions).any(axis=2)] = np.nan
-    bad = np.argwhere(np.isinf(positions))
-    if len(bad):
-        frame, k = int(bad[0][0]), int(bad[0][1])
-        raise InputFileError(
-            f"{path}: data section: expected finite coordinates, got infinity in frame "
-            f"{frame + 1} for point {labels[k]!r}"
-        )
-    rate = _rate(path, point, header)
-    units, units_where = _units(path, positions, labels, point)
-    subjects = [str(v).strip() for v in _values(params, "SUBJECTS", "NAMES") if str(v).strip()]
+    _check_finite(path, positions, labels)
+    rate = _rate(path, point, got.header)
+    units, units_where, per_point = _units(path, labels, point)
+    if per_point is not None:
+        positions *= per_point[:, None]
+    subjects = [str(v).strip() for v in _values(got.params, "SUBJECTS", "NAMES") if str(v).strip()]
     warnings = []
     declared = layout.frames_declared if layout is not None else n_frames
     if declared > n_frames:
@@ -142,8 +177,20 @@ def read(path: Path) -> RawMarkers:
         up_hint=_up_hint(point),
         non_markers=_non_marker_names(point),
         subjects=subjects,
-        info={"first_frame": int(header["first_frame"]), "warnings": warnings},
+        info={"first_frame": int(got.header["first_frame"]), "warnings": warnings},
     )
+
+
+def _check_finite(path: Path, positions: np.ndarray, labels: list[str], first: int = 0) -> None:
+    """Error naming the first frame (``first``: the frame of row 0) and point holding an
+    infinite coordinate."""
+    bad = np.argwhere(np.isinf(positions))
+    if len(bad):
+        frame, k = int(bad[0][0]), int(bad[0][1])
+        raise InputFileError(
+            f"{path}: data section: expected finite coordinates, got infinity in frame "
+            f"{first + frame + 1} for point {labels[k]!r}"
+        )
 
 
 def _no_points(path: Path) -> InputFileError:
@@ -166,19 +213,20 @@ def _rate(path: Path, point: dict[str, Any], header: dict[str, Any]) -> float:
 
 
 def _units(
-    path: Path, positions: np.ndarray, labels: list[str], point: dict[str, Any]
-) -> tuple[str | None, str]:
-    """The points' length unit (None if unstated); mixed per-point units are converted to m.
+    path: Path, labels: list[str], point: dict[str, Any]
+) -> tuple[str | None, str, np.ndarray | None]:
+    """The points' length unit (None if unstated), where it was read, and the per-point
+    factors (M,) to metres when the points' units differ (the unit is then "m"), else None.
 
-    POINT:UNITS holds one unit, or one per point (NDI Optotrak). When the per-point units
-    differ, ``positions`` (T, M, 3) is rescaled in place to metres and "m" is returned.
+    POINT:UNITS holds one unit, or one per point (NDI Optotrak).
     """
     units = [str(v).strip() for v in _values({"POINT": point}, "POINT", "UNITS")]
     if not units or not units[0]:
-        return None, "group POINT:UNITS"
+        return None, "group POINT:UNITS", None
     per_point = units[: len(labels)] if len(units) > 1 else []
     if len({u.lower() for u in per_point if u}) <= 1:
-        return units[0], "group POINT:UNITS"
+        return units[0], "group POINT:UNITS", None
+    scales = np.ones(len(labels))
     for k, unit in enumerate(per_point):
         scale = metres_per_unit(unit or units[0])
         if scale is None:
@@ -186,5 +234,143 @@ def _units(
                 f"{path}: group POINT:UNITS: expected length units mm, cm or m for point "
                 f"{labels[k]!r}, got {unit!r}"
             )
-        positions[:, k] *= scale
-    return "m", "group POINT:UNITS (per point, converted to m)"
+        scales[k] = scale
+    return "m", "group POINT:UNITS (per point, converted to m)", scales
+
+
+#: Frames ezc3d reads of a streamed file (header, parameters and these frames, from a copy
+#: of the file's start): the decoder below must reproduce them exactly.
+PROBE_FRAMES = 4
+
+
+class C3DChunks(NamedTuple):
+    """A C3D file opened for reading in chunks (:func:`open_chunks`).
+
+    Fields: ``raw``, the file as :func:`read` describes it (labels, units, rate, times of
+    every frame...) with ``positions`` of its first frames only; ``frames``, the frames the
+    file holds; ``read(start, stop)``: positions (n, M, 3) [file units] of those frames, as
+    :func:`read` gives them (residual < 0 and NaN samples missing, per-point units applied).
+    """
+
+    raw: RawMarkers
+    frames: int
+    read: Callable[[int, int], np.ndarray]
+
+
+def open_chunks(path: Path) -> C3DChunks | str:
+    """Open a C3D file to read its points chunk by chunk, or say why it is read whole (the
+    reason, a str).
+
+    ezc3d reads a file whole: its Python API has no way to read the header and parameters
+    alone. So ezc3d reads a copy of the file's start (header, parameters, ``PROBE_FRAMES``
+    frames), which gives the names, units and rate exactly as :func:`read` gets them, and the
+    point block is then read from a memory map of fixed-size frame records: Intel floats or
+    Intel 16-bit integers times POINT:SCALE, the residual's sign from the record's fourth
+    word, as ezc3d decodes them. The decoder must reproduce ezc3d's first frames bit for
+    bit, else the file is read whole. DEC and MIPS files, per-point scales, and a scale
+    whose sign contradicts the header are read whole (by ezc3d).
+    """
+    try:
+        layout = check_c3d(path)
+    except InputFileError as exc:
+        return f"the structural check refused it ({exc})"
+    if layout.n_points == 0 or layout.n_frames == 0:
+        return "it holds no marker points"
+    if layout.processor != INTEL:
+        kind = "DEC" if layout.processor == DEC else "MIPS"
+        return f"{kind} processor encoding (ezc3d reads it)"
+    frame_bytes = layout.data_bytes // layout.n_frames
+    frames = _long_frames(path, layout, frame_bytes)
+    probe = min(layout.n_frames, PROBE_FRAMES)
+    with tempfile.TemporaryDirectory(prefix="mocap-mj-") as tmp:
+        head = Path(tmp) / "head.c3d"
+        with open(path, "rb") as src, open(head, "wb") as dst:
+            dst.write(src.read(layout.data_offset + probe * frame_bytes))
+        got = _ezc3d(head, shown=path)
+    raw = _raw(path, got, layout, frames=frames)
+    scales = {float(v) for v in _values(got.params, "POINT", "SCALE")}
+    if len(scales) != 1:
+        return f"POINT:SCALE holds {len(scales)} different values"
+    scale = scales.pop()
+    if (scale < 0) != layout.float_data:
+        return "POINT:SCALE's sign contradicts the header's (float or integer data)"
+    _, _, per_point = _units(path, raw.labels, got.params.get("POINT", {}))
+    decoder = _Decoder(path, layout, frames, frame_bytes, scale, per_point, raw.labels)
+    first = decoder(0, probe)
+    if first.shape != raw.positions.shape or not np.array_equal(
+        first, raw.positions, equal_nan=True
+    ):
+        return "its first frames decode differently from ezc3d's reading"
+    return C3DChunks(raw, frames, decoder)
+
+
+def _long_frames(path: Path, layout: C3DLayout, frame_bytes: int) -> int:
+    """The frames of the data section: more than the header's 16-bit count (65,535) when
+    TRIAL:ACTUAL_START_FIELD and ACTUAL_END_FIELD (Vicon: two 16-bit words each, low word
+    first) or POINT:LONG_FRAMES (C3Dserver, a float) say so and the file holds them; else
+    the structural check's count. ezc3d stops at the header's count."""
+    count = layout.n_frames
+    end, start = (
+        layout.params.get(("TRIAL", "ACTUAL_END_FIELD")),
+        layout.params.get(("TRIAL", "ACTUAL_START_FIELD")),
+    )
+    long_frames = layout.params.get(("POINT", "LONG_FRAMES"))
+    words = [
+        [int(v) & 0xFFFF for v in p.values]
+        for p in (start, end)
+        if p is not None and p.type == 2 and len(p.values) == 2
+    ]
+    if len(words) == 2:
+        first, last = (w[0] + (w[1] << 16) for w in words)
+        count = max(count, last - first + 1)
+    elif long_frames is not None and long_frames.type == 4 and long_frames.values:
+        count = max(count, int(float(long_frames.values[0])))
+    held = (os.path.getsize(path) - layout.data_offset) // frame_bytes
+    return count if count <= held else layout.n_frames
+
+
+class _Decoder:
+    """Positions (n, M, 3) [file units] of frames [start, stop) from the memory-mapped
+    point block (see :func:`open_chunks`)."""
+
+    def __init__(
+        self,
+        path: Path,
+        layout: C3DLayout,
+        frames: int,
+        frame_bytes: int,
+        scale: float,
+        per_point: np.ndarray | None,
+        labels: list[str],
+    ) -> None:
+        self.path, self.scale, self.per_point, self.labels = path, scale, per_point, labels
+        self.float_data, self.n_points = layout.float_data, layout.n_points
+        dtype = np.dtype("<f4" if layout.float_data else "<i2")
+        self.words = np.memmap(
+            path,
+            dtype=dtype,
+            mode="r",
+            offset=layout.data_offset,
+            shape=(frames, frame_bytes // dtype.itemsize),
+        )
+
+    def __call__(self, start: int, stop: int) -> np.ndarray:
+        m = self.n_points
+        block = np.array(self.words[start:stop, : 4 * m]).reshape(-1, m, 4)
+        if self.float_data:
+            # x, y, z: floats; the fourth float's high 16-bit word: the residual, signed,
+            # times -scale (ezc3d Point: camera mask word first, residual word second)
+            positions = block[..., :3].astype(np.float64)
+            word = np.ascontiguousarray(block[..., 3]).view("<i2").reshape(-1, m, 2)[..., 1]
+            residual = word.astype(np.float64) * -self.scale
+        else:
+            # integers times scale; the fourth word's second byte: the residual, signed
+            positions = block[..., :3].astype(np.float64) * self.scale
+            byte = np.ascontiguousarray(block[..., 3]).view(np.int8).reshape(-1, m, 2)[..., 1]
+            residual = byte.astype(np.float64) * self.scale
+        positions[residual < 0] = np.nan
+        positions[np.isnan(positions).any(axis=2)] = np.nan
+        _check_finite(self.path, positions, self.labels, first=start)
+        if self.per_point is not None:
+            positions *= self.per_point[:, None]
+        return positions

@@ -12,15 +12,22 @@ present (``C3DLayout.n_frames``) and the reader warns.
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
 import math
+import mmap
+import os
 import struct
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 from mocap_mj.errors import InputFileError
 
 BLOCK = 512
-_INTEL, _DEC, _MIPS = 84, 85, 86
+#: A file's bytes: read, or memory-mapped.
+_Bytes = bytes | mmap.mmap
+INTEL, DEC, MIPS = 84, 85, 86
 _TYPES = {-1: 1, 1: 1, 2: 2, 4: 4}
 _MAX_ENTRIES = 65536
 #: Parameters ezc3d reads as one number without checking they hold one (else it crashes).
@@ -52,6 +59,7 @@ class C3DLayout:
     float_data: bool
     data_offset: int
     data_bytes: int
+    processor: int = INTEL
 
 
 class C3DTruncatedError(InputFileError):
@@ -71,9 +79,9 @@ def _cut(path: Path, where: str, expected: str, got: str) -> C3DTruncatedError:
 
 
 class _Reader:
-    def __init__(self, path: Path, data: bytes, processor: int, section_end: int) -> None:
+    def __init__(self, path: Path, data: _Bytes, processor: int, section_end: int) -> None:
         self.path, self.data, self.processor = path, data, processor
-        self.int_fmt = ">" if processor == _MIPS else "<"
+        self.int_fmt = ">" if processor == MIPS else "<"
         self.section_end = section_end  # where the parameter section says it ends
 
     def need(self, start: int, length: int, what: str) -> bytes:
@@ -100,7 +108,7 @@ class _Reader:
 
     def floats(self, raw: bytes) -> tuple[float, ...]:
         n = len(raw) // 4
-        if self.processor == _DEC:  # swap the 16-bit words, then scale the exponent
+        if self.processor == DEC:  # swap the 16-bit words, then scale the exponent
             swapped = b"".join(raw[i + 2 : i + 4] + raw[i : i + 2] for i in range(0, 4 * n, 4))
             return tuple(v / 4.0 for v in struct.unpack(f"<{n}f", swapped))
         return struct.unpack(f"{self.int_fmt}{n}f", raw)
@@ -207,7 +215,24 @@ def check_c3d(path: Path) -> C3DLayout:
     InputFileError
         Naming the file and the byte or ``group GROUP:PARAMETER`` that is wrong.
     """
-    data = path.read_bytes()
+    with _mapped(path) as data:
+        return _check(path, data)
+
+
+@contextlib.contextmanager
+def _mapped(path: Path) -> Iterator[_Bytes]:
+    """The file's bytes, memory-mapped: the check touches the header and parameter section
+    only, so an hour's data section is never read (an empty file: no bytes)."""
+    with open(path, "rb") as handle:
+        if os.fstat(handle.fileno()).st_size == 0:
+            yield b""
+            return
+        with mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ) as data:
+            yield data
+
+
+def _check(path: Path, data: _Bytes) -> C3DLayout:
+    """:func:`check_c3d` on the file's bytes."""
     reader, params = _read_parameters(path, data)
     if not any(group == "POINT" for group, _ in params):
         return C3DLayout(params, 0, 0, 0, False, 0, 0)
@@ -217,12 +242,13 @@ def check_c3d(path: Path) -> C3DLayout:
         return C3DLayout(params, 0, 0, 0, False, 0, 0)
     n_points, n_frames, rate, float_data = points
     n_analogs, per_frame = _check_analogs(path, params, rate)
-    return _data_layout(
+    layout = _data_layout(
         path, params, reader, data, n_points, n_frames, float_data, n_analogs, per_frame
     )
+    return dataclasses.replace(layout, processor=reader.processor)
 
 
-def _read_parameters(path: Path, data: bytes) -> tuple[_Reader, dict[tuple[str, str], Param]]:
+def _read_parameters(path: Path, data: _Bytes) -> tuple[_Reader, dict[tuple[str, str], Param]]:
     """Check the header's pointer to the parameter section and its processor type; return
     the reader (byte order of that processor) and the parameters by (group, name)."""
     if len(data) < BLOCK:
@@ -240,7 +266,7 @@ def _read_parameters(path: Path, data: bytes) -> tuple[_Reader, dict[tuple[str, 
             f"a file of {len(data)} bytes (truncated)",
         )
     processor = data[start + 3]
-    if processor not in (_INTEL, _DEC, _MIPS):
+    if processor not in (INTEL, DEC, MIPS):
         raise _err(path, f"byte {start + 4}", "processor type 84, 85 or 86", str(processor))
     reader = _Reader(path, data, processor, start + max(1, data[start + 2]) * BLOCK)
     params = _walk_parameters(reader, start + 4)
@@ -264,7 +290,7 @@ def _check_scalars(path: Path, params: dict[tuple[str, str], Param]) -> None:
 
 
 def _check_points(
-    path: Path, params: dict[tuple[str, str], Param], reader: _Reader, data: bytes
+    path: Path, params: dict[tuple[str, str], Param], reader: _Reader, data: _Bytes
 ) -> tuple[float, float, float, bool] | None:
     """Check the POINT group; return (points, frames, rate [Hz], float data), or None when
     POINT:USED is 0 (no marker points to read)."""
@@ -330,7 +356,7 @@ def _data_layout(
     path: Path,
     params: dict[tuple[str, str], Param],
     reader: _Reader,
-    data: bytes,
+    data: _Bytes,
     n_points: float,
     n_frames: float,
     float_data: bool,

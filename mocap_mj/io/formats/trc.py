@@ -36,9 +36,15 @@ model's Z-up world); OpenSim's own convention is Y up, so rotate on import there
 
 from __future__ import annotations
 
+import codecs
+import contextlib
+import itertools
 import os
 import re
+import tempfile
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -77,6 +83,71 @@ def _cells(line: str) -> list[str]:
 def read(path: Path) -> RawMarkers:
     """Read an OpenSim TRC file (see the module docstring for the layout and leniencies)."""
     lines = read_lines(path)
+    head = _header(path, lines)
+    start = head.start
+    body = lines[start:]
+    while body and not body[-1].strip():
+        body.pop()
+    if not body:
+        raise line_error(path, start + 1, "at least one row of data", "end of file")
+    for n, line in enumerate(body):
+        if not line.strip():
+            raise line_error(path, start + 1 + n, "a row of data (no blank line inside)", "none")
+    rows, ignored = _data_cells(path, body, start + 1, head.width)
+    row_lines = list(range(start + 1, start + 1 + len(rows)))
+    block = parse_numbers(path, rows, row_lines, head.columns)
+    check_times(path, block[:, 1], row_lines, "Time")
+    return head.raw(path, xyz_positions(block, 2, head.n_markers), block[:, 1].copy(), ignored)
+
+
+class _Header(NamedTuple):
+    """What a TRC file's header lines say: marker names, the rate (None: from the times),
+    NumFrames (None if absent), the units, and the index of the first data line."""
+
+    names: list[str]
+    n_frames: int | None
+    rate: float | None
+    units: str | None
+    start: int
+
+    @property
+    def n_markers(self) -> int:
+        return len(self.names)
+
+    @property
+    def width(self) -> int:
+        return 2 + 3 * self.n_markers
+
+    @property
+    def columns(self) -> list[str]:
+        return ["Frame#", "Time"] + [f"{n}.{a}" for n in self.names for a in "XYZ"]
+
+    def raw(self, path: Path, positions: np.ndarray, times: np.ndarray, ignored: int) -> RawMarkers:
+        """The RawMarkers of the file's positions (T, M, 3) and times (T,) [s]."""
+        rate = self.rate
+        if rate is None:
+            rate = rate_from_times(path, times, self.start + 1, "DataRate or two rows of Time")
+        warnings = []
+        if self.n_frames is not None and self.n_frames != len(times):
+            warnings.append(
+                f"{path}: line 3: NumFrames is {self.n_frames}, the file holds {len(times)} rows "
+                f"of data: read the {len(times)} rows present"
+            )
+        return RawMarkers(
+            format="trc",
+            labels=self.names,
+            positions=positions,
+            times=times,
+            rate=rate,
+            units=self.units,
+            units_where="line 3",
+            labels_where="line 4",
+            info={"warnings": warnings, "ignored_columns": ignored},
+        )
+
+
+def _header(path: Path, lines: Sequence[str]) -> _Header:
+    """The header of a TRC file whose first lines are ``lines`` (its data start included)."""
     if len(lines) < 4:
         raise line_error(path, len(lines) + 1, "the 4 header lines of a TRC file", "end of file")
     keys, values = _cells(lines[1]), _cells(lines[2])
@@ -94,7 +165,6 @@ def read(path: Path) -> RawMarkers:
     rate_key = "DataRate" if "DataRate" in header else "CameraRate"
     rate = check_rate(path, 3, header[rate_key], rate_key) if rate_key in header else None
     units = header.get("Units") or None
-
     names = _marker_names(path, lines[3], n_markers)
     start = 4
     if start < len(lines) and _is_axes_line(lines[start]):
@@ -102,39 +172,7 @@ def read(path: Path) -> RawMarkers:
         start += 1
     while start < len(lines) and not lines[start].strip():
         start += 1
-    body = lines[start:]
-    while body and not body[-1].strip():
-        body.pop()
-    if not body:
-        raise line_error(path, start + 1, "at least one row of data", "end of file")
-    for n, line in enumerate(body):
-        if not line.strip():
-            raise line_error(path, start + 1 + n, "a row of data (no blank line inside)", "none")
-    width = 2 + 3 * n_markers
-    rows, ignored = _data_cells(path, body, start + 1, width)
-    row_lines = list(range(start + 1, start + 1 + len(rows)))
-    columns = ["Frame#", "Time"] + [f"{n}.{a}" for n in names for a in "XYZ"]
-    block = parse_numbers(path, rows, row_lines, columns)
-    check_times(path, block[:, 1], row_lines, "Time")
-    if rate is None:
-        rate = rate_from_times(path, block[:, 1], start + 1, "DataRate or two rows of Time")
-    warnings = []
-    if n_frames is not None and n_frames != len(rows):
-        warnings.append(
-            f"{path}: line 3: NumFrames is {n_frames}, the file holds {len(rows)} rows of "
-            f"data: read the {len(rows)} rows present"
-        )
-    return RawMarkers(
-        format="trc",
-        labels=names,
-        positions=xyz_positions(block, 2, n_markers),
-        times=block[:, 1].copy(),
-        rate=rate,
-        units=units,
-        units_where="line 3",
-        labels_where="line 4",
-        info={"warnings": warnings, "ignored_columns": ignored},
-    )
+    return _Header(names, n_frames, rate, units, start)
 
 
 def _marker_names(path: Path, line: str, n_markers: int) -> list[str]:
@@ -228,3 +266,124 @@ def save_trc(path: str | os.PathLike[str], traj: MarkerTrajectory) -> None:
         *_format_rows(traj, "\t", 1),
     ]
     atomic_write_text(target, "\n".join(lines) + "\n")
+
+
+#: Lines read to find the header's end (its axes line and blank lines) before the data.
+HEAD_LINES = 64
+#: Rows parsed at a time by :func:`open_chunks`: their cells as Python strings take about
+#: 20 kB per row of 39 markers, 100 MB for 5,000 rows.
+ROWS = 5_000
+
+
+class TRCChunks(NamedTuple):
+    """A TRC file read chunk by chunk (:func:`open_chunks`): ``raw`` as :func:`read` gives it,
+    its positions (T, M, 3) [file units] a memory map on an anonymous temporary file;
+    ``frames``; ``read(start, stop)``: those frames' positions."""
+
+    raw: RawMarkers
+    frames: int
+    read: Callable[[int, int], np.ndarray]
+
+
+def open_chunks(path: Path, chunk: int = ROWS) -> TRCChunks | str:
+    """Read a TRC file ``chunk`` rows at a time into a memory map of its positions, with
+    :func:`read`'s rules and errors, or say why it is read whole (the reason, a str).
+
+    Three passes over the file, none holding it: the encoding (UTF-8, else Latin-1, as
+    :func:`read_lines` decides for the whole file), the rows' layout (blank lines, tabs, the
+    cells each row uses: the rules of :func:`_data_cells`, which look at every row), then the
+    numbers, parsed ``chunk`` rows at a time by :func:`parse_numbers` into the memory map.
+    Rows wider than the header (unnamed or empty extra columns, whose handling depends on
+    every row at once) are left to :func:`read`.
+    """
+    encoding = _encoding(path)
+    with _lines(path, encoding) as lines:
+        head = list(itertools.islice(lines, HEAD_LINES))
+    h = _header(path, head)
+    if h.start >= HEAD_LINES:
+        return f"more than {HEAD_LINES} lines before the data"
+    layout = _layout(path, encoding, h)
+    if isinstance(layout, str):
+        return layout
+    tabbed, n = layout
+    positions = np.memmap(tempfile.TemporaryFile(prefix="mocap-mj-"), float, "w+",
+                          shape=(n, h.n_markers, 3))  # fmt: skip
+    times = np.empty(n)
+    with _lines(path, encoding) as lines:
+        body = itertools.islice(lines, h.start, h.start + n)
+        for s in range(0, n, chunk):
+            text = list(itertools.islice(body, chunk))
+            raw = [line.split("\t") if tabbed else line.split() for line in text]
+            rows = [r[: h.width] + [""] * (h.width - len(r)) for r in raw]
+            first = h.start + 1 + s
+            block = parse_numbers(path, rows, range(first, first + len(rows)), h.columns)
+            positions[s : s + len(rows)] = xyz_positions(block, 2, h.n_markers)
+            times[s : s + len(rows)] = block[:, 1]
+    check_times(path, times, range(h.start + 1, h.start + 1 + n), "Time")
+    positions.flush()
+
+    def frames(start: int, stop: int) -> np.ndarray:
+        return np.asarray(positions[start:stop])
+
+    return TRCChunks(h.raw(path, positions, times, 0), n, frames)
+
+
+def _encoding(path: Path) -> str:
+    """ "utf-8-sig" if the whole file decodes as UTF-8, else "latin-1" (:func:`read_lines`)."""
+    decoder = codecs.getincrementaldecoder("utf-8")()
+    with open(path, "rb") as handle:
+        try:
+            while block := handle.read(1 << 20):
+                decoder.decode(block)
+            decoder.decode(b"", final=True)
+        except UnicodeDecodeError:
+            return "latin-1"
+    return "utf-8-sig"
+
+
+@contextlib.contextmanager
+def _lines(path: Path, encoding: str) -> Iterator[Iterator[str]]:
+    """The file's lines as :func:`read_lines` splits them (on "\\n", a trailing "\\r" cut),
+    decoded one at a time."""
+    with open(path, "rb") as handle:
+
+        def lines() -> Iterator[str]:
+            for k, raw in enumerate(handle):
+                text = raw.decode(encoding if k == 0 else encoding.replace("-sig", ""))
+                text = text[:-1] if text.endswith("\n") else text
+                yield text[:-1] if text.endswith("\r") else text
+
+        yield lines()
+
+
+def _layout(path: Path, encoding: str, h: _Header) -> tuple[bool, int] | str:
+    """Whether the data rows are tab-separated and how many there are, checked as
+    :func:`read` and :func:`_data_cells` check them (blank lines, narrow rows: the same
+    errors); the reason to read the file whole when a row is wider than the header."""
+    tabbed, last = False, -1
+    blank: int | None = None  # the first of the blank lines since the last row
+    inside: int | None = None  # the first blank line followed by a row
+    tab_used: list[int] = []
+    space_used: list[int] = []
+    with _lines(path, encoding) as lines:
+        for n, line in enumerate(itertools.islice(lines, h.start, None)):
+            if not line.strip():
+                blank = n if blank is None else blank
+            else:
+                inside = blank if inside is None else inside
+                blank, last = None, n
+                tabbed = tabbed or "\t" in line
+            tab_used.append(len(strip_trailing_empty(line.split("\t"))))
+            space_used.append(len(line.split()))
+    if last < 0:
+        raise line_error(path, h.start + 1, "at least one row of data", "end of file")
+    if inside is not None:
+        raise line_error(path, h.start + 1 + inside, "a row of data (no blank line inside)", "none")
+    used = (tab_used if tabbed else space_used)[: last + 1]
+    if max(used) > h.width:
+        return "rows wider than the header (read whole: which columns to keep needs every row)"
+    for k, u in enumerate(used):
+        if u < (2 if tabbed else h.width):
+            raise line_error(path, h.start + 1 + k, f"{h.width} cells (Frame#, Time, 3 per "
+                             "marker)", str(u))  # fmt: skip
+    return tabbed, last + 1

@@ -1,0 +1,214 @@
+"""Marker files read chunk by chunk (io.stream, c3d.open_chunks, c3d_write) and motion
+written chunk by chunk (identify.motion_out): the same bytes and positions as whole."""
+
+from __future__ import annotations
+
+import argparse
+import struct
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mocap_mj import ParameterSet
+from mocap_mj.commands import _markers
+from mocap_mj.errors import InputFileError
+from mocap_mj.identify.motion_out import write_motion_chunks
+from mocap_mj.identify.problem import TrialData
+from mocap_mj.io import MarkerTrajectory, load_markers, save_trc
+from mocap_mj.io.formats.c3d_check import check_c3d
+from mocap_mj.io.formats.c3d_write import frame_records, write_markers_c3d
+from mocap_mj.io.stream import open_markers
+from mocap_mj.results import Motion, save_motion
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+FILES = sorted((SHARED / "real").glob("*.c3d")) + sorted((SHARED / "vendors").glob("*.c3d"))
+CHUNK = 64  # frames: every shared file spans several chunks but the smallest
+
+
+def _markers_of(frames: int, seed: int = 3) -> np.ndarray:
+    """A synthetic ROM's markers (frames, 39, 3) [m], a few samples missing."""
+    from mocap_synth import SynthConfig, synthesize
+
+    m = synthesize(SynthConfig(frames=frames, motion="rom", seed=seed)).markers.copy()
+    m[10:14, 5] = np.nan
+    m[40, :, :] = np.nan
+    return m
+
+
+def _same(path: Path) -> str:
+    """Assert that the chunked read of ``path`` equals load_markers' bit for bit; returns how
+    it was read."""
+    try:
+        whole = load_markers(path)
+    except InputFileError as exc:
+        with pytest.raises(InputFileError) as got:
+            open_markers(path, chunk=CHUNK)
+        assert str(got.value) == str(exc)
+        return "error"
+    stream = open_markers(path, chunk=CHUNK)
+    positions = np.concatenate([p for _, p in stream.chunks(CHUNK)])
+    assert np.array_equal(positions, whole.positions, equal_nan=True)
+    assert stream.names == whole.names and np.array_equal(stream.times, whole.times)
+    assert stream.source == whole.source
+    assert stream.marker_report() == whole.marker_report()
+    return stream.how
+
+
+@pytest.mark.skipif(not FILES, reason=f"no shared C3D files in {SHARED}")
+def test_chunked_c3d_equals_load_markers_on_the_shared_files() -> None:
+    how = {p.name: _same(p) for p in FILES}
+    streamed = [n for n, h in how.items() if h == "in chunks"]
+    # Intel float files are read in chunks (the DEC one whole, by ezc3d); files without
+    # points fail alike.
+    assert len(streamed) >= 8, how
+    assert all(h in ("in chunks", "error") or "DEC" in h for h in how.values()), how
+
+
+def test_chunked_c3d_of_a_synthetic_recording(tmp_path: Path) -> None:
+    """Float and 16-bit integer C3D files of a synthetic ROM, and one longer than its
+    header's count: read in chunks exactly as whole (ezc3d), to float32 of the truth."""
+    names = ParameterSet().marker_names
+    m = _markers_of(300)
+    path = tmp_path / "rom.c3d"
+    write_markers_c3d(path, m, names, 100.0)
+    assert _same(path) == "in chunks"
+    got = np.concatenate([p for _, p in open_markers(path, chunk=CHUNK).chunks(CHUNK)])
+    assert np.array_equal(np.isnan(got), np.isnan(m))
+    assert np.nanmax(np.abs(got - m)) < 1e-6  # float32 mm of metre-sized coordinates
+    ints = tmp_path / "rom_int16.c3d"
+    _int16_copy(path, ints, scale=0.1)
+    assert not check_c3d(ints).float_data
+    assert _same(ints) == "in chunks"
+    err = np.nanmax(np.abs(load_markers(ints).positions - m))
+    assert err <= 0.05e-3 + 1e-7, err  # scale / 2, and float32 of the float file
+
+    # Past the header's 16-bit count (here cut to 120 frames): ezc3d reads the header's
+    # frames, the chunked reader every frame TRIAL:ACTUAL_END_FIELD declares.
+    long = tmp_path / "long.c3d"
+    write_markers_c3d(long, m, names, 100.0, header_frames=120)
+    stream = open_markers(long, chunk=CHUNK)
+    assert stream.how == "in chunks" and stream.n_frames == 300
+    every = np.concatenate([p for _, p in stream.chunks(CHUNK)])
+    assert np.array_equal(every, got, equal_nan=True)
+    assert np.array_equal(every[:120], load_markers(long).positions, equal_nan=True)
+
+
+def _int16_copy(src: Path, dst: Path, scale: float) -> None:
+    """``src`` (Intel float, written by write_markers_c3d) as Intel 16-bit integers times
+    ``scale`` [mm]: POINT:SCALE and the header's scale set to it, the records rewritten
+    (residual byte -1 where missing, as ezc3d reads it)."""
+    data = bytearray(src.read_bytes())
+    layout = check_c3d(src)
+    section = bytes(data[512 * (data[0] - 1) : layout.data_offset])
+    group = section.find(b"POINT") - 1
+    gid = -struct.unpack("b", section[group : group + 1])[0]
+    name = section.find(bytes([gid]) + b"SCALE") + 1  # n_char (-5 if locked), gid, name
+    assert abs(struct.unpack("b", section[name - 2 : name - 1])[0]) == 5
+    assert section[name + 7] == 4 and section[name + 8] == 0  # a float, no dimension
+    value = 512 * (data[0] - 1) + name + 9  # after the name, the offset, type, dimensions
+    data[value : value + 4] = struct.pack("<f", scale)
+    data[12:16] = struct.pack("<f", scale)
+    rec = np.frombuffer(bytes(data[layout.data_offset :]), dtype="<f4").reshape(
+        layout.n_frames, layout.n_points, 4
+    )
+    ints = np.zeros(rec.shape, dtype="<i2")
+    ints[..., :3] = np.round(rec[..., :3] / scale).astype("<i2")
+    missing = rec[..., 3] < 0
+    words = np.zeros((*missing.shape, 2), dtype=np.int8)  # camera mask byte, residual byte
+    words[..., 1] = np.where(missing, -1, 0)
+    ints[..., 3] = words.view("<i2")[..., 0]
+    dst.write_bytes(bytes(data[: layout.data_offset]) + ints.tobytes())
+
+
+def test_frame_records_encode_as_ezc3d() -> None:
+    rec = frame_records(np.array([[[0.001, 0.002, 0.003], [np.nan, 0.0, 0.0]]]))
+    assert rec.tolist() == [[[1.0, 2.0, 3.0, 0.0], [0.0, 0.0, 0.0, -1.0]]]
+
+
+def test_load_trial_maps_a_long_c3d_chunk_by_chunk(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """identify's reader: a C3D file above the threshold becomes a memory-mapped .npy in the
+    model's order, equal to the whole read."""
+    names = ParameterSet().marker_names
+    path = tmp_path / "rom.c3d"
+    write_markers_c3d(path, _markers_of(300), names, 100.0)
+    args = argparse.Namespace(subject=None, marker_map=None, up=None, units=None)
+    whole = _markers.load_trial(str(path), names, args)
+    monkeypatch.setattr(_markers, "STREAM_ABOVE", 100)
+    mapped = _markers.load_trial(str(path), names, args, scratch=tmp_path)
+    assert isinstance(mapped.markers, np.memmap) and not isinstance(whole.markers, np.memmap)
+    assert np.array_equal(mapped.markers, whole.markers, equal_nan=True)
+    assert np.array_equal(mapped.times, whole.times) and mapped.report == whole.report
+
+
+def test_motion_written_in_chunks_is_save_motions_bytes(tmp_path: Path) -> None:
+    rng = np.random.default_rng(0)
+    n, names = 50, ("A", "BB", "CCC")
+    qpos, markers = rng.normal(size=(n, 7)), rng.normal(size=(n, 3, 3))
+    markers[3, 1] = np.nan
+    times = np.arange(n) / 100.0
+    save_motion(tmp_path / "whole.npz", Motion(qpos, times, markers, names))
+    chunks = (qpos[s : s + 7] for s in range(0, n, 7))
+    trial = TrialData("t", markers, times)
+    write_motion_chunks(tmp_path / "chunks.npz", trial, names, 7, chunks, chunk=7)
+    assert (tmp_path / "chunks.npz").read_bytes() == (tmp_path / "whole.npz").read_bytes()
+    short = (qpos[s : s + 7] for s in range(0, n - 7, 7))
+    with pytest.raises(ValueError, match=r"qpos\.npy"):
+        write_motion_chunks(tmp_path / "bad.npz", trial, names, 7, short, chunk=7)
+    assert not (tmp_path / "bad.npz").exists()
+
+
+def _trc_text(tmp_path: Path) -> str:
+    """A synthetic ROM as save_trc writes it (tab-separated, a few samples missing)."""
+    names = ParameterSet().marker_names
+    path = tmp_path / "base.trc"
+    save_trc(path, MarkerTrajectory(np.arange(120) / 100.0, _markers_of(120), names, 100.0, {}))
+    return path.read_text()
+
+
+def _rows(text: str, edit: Callable[[list[str]], None]) -> str:
+    lines = text.split("\n")
+    edit(lines)
+    return "\n".join(lines)
+
+
+def _set(k: int, value: str) -> Callable[[list[str]], None]:
+    def edit(lines: list[str]) -> None:
+        lines[k] = value
+
+    return edit
+
+
+VARIANTS: dict[str, Callable[[str], str]] = {
+    "as written": lambda t: t,
+    "CRLF": lambda t: t.replace("\n", "\r\n"),
+    "trailing blank lines": lambda t: t + "\n\n  \n",
+    "blank line inside": lambda t: _rows(t, _set(40, "")),
+    "short row": lambda t: _rows(t, _set(50, "45\t0.44\t1.0")),  # its last samples missing
+    "narrow row": lambda t: _rows(t, _set(50, "45")),
+    "bad cell": lambda t: _rows(t, _set(60, "55\tx" + "\t1" * 117)),
+    "bad cell, second chunk": lambda t: _rows(t, _set(100, "95\t0.94" + "\t1" * 116 + "\tx")),
+    "empty columns": lambda t: "\n".join(line + "\t\t" for line in t.split("\n")),
+    "extra column": lambda t: "\n".join(
+        line + "\t7" if line[:1].isdigit() else line for line in t.split("\n")
+    ),
+    "Latin-1 name": lambda t: t.replace("LASI", "L\xc4SI"),
+}
+
+
+@pytest.mark.parametrize("variant", list(VARIANTS))
+def test_chunked_trc_equals_load_markers(tmp_path: Path, variant: str) -> None:
+    """TRC rows parsed ``CHUNK`` at a time into a memory map: the same positions, source and
+    errors as the whole read, or read whole when a row is wider than the header."""
+    path = tmp_path / "v.trc"
+    path.write_bytes(VARIANTS[variant](_trc_text(tmp_path)).encode("latin-1"))
+    how = _same(path)
+    if variant == "extra column":
+        assert how.startswith("read whole: rows wider")
+    elif variant in ("blank line inside", "narrow row", "bad cell", "bad cell, second chunk"):
+        assert how == "error"
+    else:
+        assert how == "in chunks"
