@@ -16,6 +16,7 @@ result.
 from __future__ import annotations
 
 import argparse
+import atexit
 import contextlib
 import importlib
 import signal
@@ -72,6 +73,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if getattr(args, "func", None) is None:
         parser.print_help()
         return 2
+    atexit.unregister(_ignore_late_interrupts)
+    atexit.register(_ignore_late_interrupts)
     try:
         with _sigterm_as_exit(), one_blas_thread():
             return int(args.func(args) or 0)
@@ -84,6 +87,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"mocap-mj {args.command}: interrupted", file=sys.stderr)
         return 130
+
+
+def _ignore_late_interrupts() -> None:
+    """At interpreter exit, ignore Ctrl-C, so that the exit status stays the command's: the
+    interpreter restores the default SIGINT action while it shuts down (which takes a while
+    with the numeric libraries loaded), and a Ctrl-C in that window would otherwise kill the
+    process by the signal after its result was written or its folder cleaned up. An ignored
+    signal is the one disposition shutdown leaves alone. Registered as an exit handler, so
+    that a caller running :func:`main` in its own process keeps its Ctrl-C until it exits."""
+    with contextlib.suppress(ValueError):  # not the main thread: leave signals alone
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 @contextlib.contextmanager

@@ -131,3 +131,20 @@ def _dead_pid() -> int:
         return pid
     pytest.skip("could not find a pid that is not running")
     raise AssertionError  # unreachable
+
+
+def test_ctrl_c_during_shutdown_keeps_the_exit_status() -> None:
+    """A Ctrl-C that arrives while the interpreter shuts down, after the command finished,
+    neither kills the process by the signal nor changes its exit status (the interpreter
+    restores the default SIGINT action during shutdown unless the signal is ignored)."""
+    code = (
+        "import atexit, os, signal, sys\n"
+        # Registered before main: exit handlers run last-in first-out, so this one runs
+        # after the command's own and stands for a Ctrl-C late in the shutdown.
+        "atexit.register(lambda: os.kill(os.getpid(), signal.SIGINT))\n"
+        "from mocap_mj.cli import main\n"
+        "sys.exit(main(['info']))\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.returncode == 0, (proc.returncode, proc.stderr)
+    assert "Traceback" not in proc.stderr
