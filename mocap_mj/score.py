@@ -296,7 +296,7 @@ def gauge_free(pset: ParameterSet, margin: float = GAUGE_MARGIN) -> ParameterSet
     return out
 
 
-#: The widenings [rad] :func:`align_gauge_free` tries, narrowest first.
+#: The widenings [rad] :func:`align_gauge_free` tries.
 GAUGE_MARGINS = tuple(np.radians([10.0, 20.0, 30.0]))
 #: The fit [m] of the truth's noise-free markers below which an alignment is exact.
 EXACT_FIT = 1e-6
@@ -307,24 +307,22 @@ def align_gauge_free(
 ) -> np.ndarray:
     """The model equivalent to the truth nearest the estimate theta_hat (P,) [m], the hand's
     zero free: :func:`align_truth` with :func:`gauge_free` widened by each of
-    ``GAUGE_MARGINS`` in turn, the first whose fit of the noise-free markers clean
-    (T, M, 3) [m] is exact (RMSE below ``EXACT_FIT``); none exact: the best fit.
+    ``GAUGE_MARGINS``; of the alignments that fit the noise-free markers clean (T, M, 3) [m]
+    exactly (RMSE below ``EXACT_FIT``) the one nearest theta_hat (Euclidean), else the best
+    fit.
 
-    The estimate's hand zero may lie further from the truth's than one margin allows; the
-    alignment then stops at the widened limit, fits the truth only approximately, and that
-    misfit reads as an error of the estimate. A wider margin everywhere is no cure: the
-    wider the hinges, the further the LM may walk along the zero's curved path before it
-    settles, and that curvature, too, lands in the observable directions; the narrowest
-    exact alignment is the nearest equivalent model (docs/long-recordings.md)."""
-    best: LMResult | None = None
-    for margin in GAUGE_MARGINS:
-        r = _align(gauge_free(pset, margin), theta_hat, clean, times)
-        if best is None or r.marker_rmse < best.marker_rmse:
-            best = r
-        if r.marker_rmse < EXACT_FIT:
-            break
-    assert best is not None
-    return best.theta
+    One margin is not enough for every estimate: where the estimate's hand zero lies
+    further from the truth's than the margin allows, the alignment has to turn the zero
+    (and may stall before it fits), and the turn reads as an error of the estimate (the
+    zero's path is curved: its direction at the estimate is not the truth's). A wider margin
+    is no cure either: the LM may then walk further along that path before it settles. The
+    nearest exact alignment is the definition of :func:`align_truth`'s
+    (docs/long-recordings.md)."""
+    fits = [_align(gauge_free(pset, m), theta_hat, clean, times) for m in GAUGE_MARGINS]
+    exact = [r for r in fits if r.marker_rmse < EXACT_FIT]
+    if not exact:
+        return min(fits, key=lambda r: r.marker_rmse).theta
+    return min(exact, key=lambda r: float(np.linalg.norm(r.theta - theta_hat))).theta
 
 
 def _measured(truth_dir: Path, pset: ParameterSet) -> np.ndarray:
