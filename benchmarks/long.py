@@ -13,7 +13,7 @@ chunks), the IK of every frame with the refined model into a memory-mapped ``.np
 
 Then, untimed, the accuracy: the parameter error against the truth (aligned along the
 directions the data cannot determine, as ``mocap-mj score`` does, but with the wrist's
-hinges widened: :func:`mocap_mj.score.gauge_free`; also printed aligned within the limits),
+hinges widened: :func:`mocap_mj.score.align_gauge_free`; also printed aligned within the limits),
 in the observable directions, of the subset's estimate and of the refined one, against the
 Cramer-Rao bound of the selected frames and of all frames. The all-frames information is
 summed over every ``--info-stride``-th frame and scaled by the stride (frames of an hour
@@ -40,7 +40,7 @@ from mocap_mj.identify.identifiability import Identifiability
 from mocap_mj.identify.lm import LMResult, LMSettings, TrialData, identify_lm
 from mocap_mj.identify.long import identify_long
 from mocap_mj.identify.problem import IdentificationProblem
-from mocap_mj.score import align_truth, gauge_free
+from mocap_mj.score import align_gauge_free, align_truth
 
 
 def synthesize_cache(cache: Path, frames: int, seed: int) -> None:
@@ -67,10 +67,14 @@ def observable_error(
     frames: np.ndarray,
     clean: np.ndarray,
     times: np.ndarray,
+    hand_zero_free: bool = True,
 ) -> np.ndarray:
-    """The error (P,) [m] of theta against the truth aligned with pset on the clean markers
-    of ``frames``, in idf's observable directions."""
-    aligned = align_truth(pset, theta, np.asarray(clean[frames]), times[frames])
+    """The error (P,) [m] of theta against the truth aligned on the clean markers of
+    ``frames``, in idf's observable directions: the hand's zero free
+    (:func:`mocap_mj.score.align_gauge_free`) or, without ``hand_zero_free``, within pset's
+    limits."""
+    align = align_gauge_free if hand_zero_free else align_truth
+    aligned = align(pset, theta, np.asarray(clean[frames]), times[frames])
     return idf.project(theta - aligned)[0]
 
 
@@ -155,18 +159,16 @@ def main() -> None:
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20  # GiB (Linux: KiB)
 
     lm = res.lm
-    apset = gauge_free(pset)  # the hand zero left free: see gauge_free
-    idf_sub, ek, eo = subset_errors(apset, lm, res.selection.frames, clean, times)
+    idf_sub, ek, eo = subset_errors(pset, lm, res.selection.frames, clean, times)
     t = time.perf_counter()
     idf_all = all_frames_bound(pset, lm, markers, qpos, args.info_stride)
     info_seconds = time.perf_counter() - t
-    e1 = observable_error(apset, res.theta, idf_all, res.selection.frames, clean, times)
+    e1 = observable_error(pset, res.theta, idf_all, res.selection.frames, clean, times)
     ek1, eo1 = rms(pset, e1)
     worst = worst_markers(pset, idf_all, e1)
     # The same aligned within the model's own ranges (why not: gauge_free).
-    ek1_h, eo1_h = rms(
-        pset, observable_error(pset, res.theta, idf_all, res.selection.frames, clean, times)
-    )
+    e1_h = observable_error(pset, res.theta, idf_all, res.selection.frames, clean, times, False)
+    ek1_h, eo1_h = rms(pset, e1_h)
     np.save(cache / "theta_refined.npy", res.theta)
     bk_s, bo_s = idf_sub.bound_rms()
     bk_a, bo_a = idf_all.bound_rms()
@@ -215,7 +217,7 @@ def main() -> None:
                             [sub])  # fmt: skip
         lm_e = identify_lm([TrialData("even", sub, times[frames])], pset=pset, theta0=th0,
                            settings=LMSettings())  # fmt: skip
-        idf_e, ek_e, eo_e = subset_errors(apset, lm_e, frames, clean, times)
+        idf_e, ek_e, eo_e = subset_errors(pset, lm_e, frames, clean, times)
         out.update(
             even_seconds=time.perf_counter() - t,
             even_kappa_error_mm=ek_e * 1e3,

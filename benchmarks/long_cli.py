@@ -17,9 +17,9 @@ priors and ranges, the refinement on every frame, the IK of every frame written 
 chunk): wall time, the child's peak RSS (``/usr/bin/time``), and its stages from
 summary.json. Untimed, the accuracy: the identified theta (theta.json) against the cached
 truth, aligned and restricted to the observable directions as ``benchmarks/long.py`` does
-(the hand's zero free, :func:`mocap_mj.score.gauge_free`), beside the Cramer-Rao bound of all
-frames (the information of every ``--info-stride``-th frame at the written motion's poses, x
-the stride). Prints the figures and a JSON line.
+(the hand's zero free, :func:`mocap_mj.score.align_gauge_free`), beside the Cramer-Rao
+bound of all frames (the information of every ``--info-stride``-th frame at the written
+motion's poses, x the stride). Prints the figures and a JSON line.
 """
 
 from __future__ import annotations
@@ -38,7 +38,6 @@ import numpy as np
 from mocap_mj import ParameterSet
 from mocap_mj.io import MarkerTrajectory, save_trc
 from mocap_mj.io.formats.c3d_write import write_markers_c3d
-from mocap_mj.score import gauge_free
 
 sys.path.insert(0, str(Path(__file__).parent))
 from long import all_frames_bound, observable_error, rms, worst_markers
@@ -109,7 +108,7 @@ def main() -> None:
     fit = SimpleNamespace(theta=theta, free=~pset.frozen, sigma=summary["sigma_mm"] * 1e-3)
     idf_all = all_frames_bound(pset, fit, markers, qpos, args.info_stride)  # type: ignore[arg-type]
     frames = np.array(summary["frames_selected"][0])
-    e = observable_error(gauge_free(pset), theta, idf_all, frames, clean, times)
+    e = observable_error(pset, theta, idf_all, frames, clean, times)
     ek, eo = rms(pset, e)
     bk, bo = idf_all.bound_rms()
     ref = summary.get("refinement", {})

@@ -6,6 +6,7 @@ import json
 import subprocess
 import sys
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pytest
@@ -18,8 +19,8 @@ from mocap_mj.identify.long import identify_long, refine
 from mocap_mj.identify.priors import LinearGaussianPrior
 from mocap_mj.identify.problem import IdentificationProblem
 from mocap_mj.identify.selection import select_frames
-from mocap_mj.score import align_truth, gauge_free
-from mocap_synth import SynthConfig, synthesize
+from mocap_mj.score import align_gauge_free, align_truth, gauge_free
+from mocap_synth import Experiment, SynthConfig, synthesize
 
 
 @pytest.fixture(scope="module")
@@ -132,30 +133,70 @@ def test_refinement_on_every_frame_reaches_the_all_frames_bound(pset: ParameterS
     assert errors["subset"][0] > 2.0 * errors["refined"][0]
 
 
-def test_an_equivalent_hand_zero_scores_no_error(pset: ParameterSet) -> None:
-    """The cause of the hour's offsets reading 3x their bound (docs/long-recordings.md): a
-    model equivalent to the truth, its right hand's zero turned 8 degrees about the wrist's
-    deviation axis and FIN's offset turned back, has no error; aligned within the wrist's
-    limits (which the truth's ROM poses, in the turned zero, cross) it seemed to have one."""
+class HandZero(NamedTuple):
+    """300 ROM frames (seed 0), their information at the truth (sigma 1 mm) and RFIN's first
+    offset's index."""
+
+    exp: Experiment
+    idf: Identifiability
+    fin: int
+
+    def turned(self, pset: ParameterSet, degrees: float) -> np.ndarray:
+        """The truth (P,) [m] with its right hand's zero turned about the wrist's deviation
+        axis and FIN's offset turned back: an equivalent model."""
+        axis = pset.model.jnt_axis[pset.model.joint("wrist_dev_r").id]
+        theta = self.exp.theta_true.copy()
+        f = slice(self.fin, self.fin + 3)
+        theta[f] = Rotation.from_rotvec(np.radians(degrees) * axis).apply(theta[f])
+        return theta
+
+    def fin_error(self, theta: np.ndarray, aligned: np.ndarray) -> float:
+        """RFIN's observable error [m] of theta against the aligned truth."""
+        return float(np.linalg.norm(self.idf.project(theta - aligned)[0][self.fin : self.fin + 3]))
+
+
+@pytest.fixture(scope="module")
+def hand_zero(pset: ParameterSet) -> HandZero:
     exp = synthesize(SynthConfig(frames=300, motion="rom", seed=0), pset)
     kin = Kinematics(pset)
     kin.set_theta(exp.theta_true)
     free = np.flatnonzero(~pset.frozen)
     prob = IdentificationProblem(kin, exp.markers_clean, np.array(exp.qpos), free)
     idf = Identifiability(pset, prob.information(prob.present.astype(float)), 1e-3)
-    fin = pset.n_kappa + 3 * pset.marker_names.index("RFIN")
-    axis = pset.model.jnt_axis[pset.model.joint("wrist_dev_r").id]
-    theta = exp.theta_true.copy()
-    theta[fin : fin + 3] = Rotation.from_rotvec(np.radians(8.0) * axis).apply(theta[fin : fin + 3])
-    err = {}
-    for name, p in (("limits", pset), ("free", gauge_free(pset))):
-        e, _ = idf.project(theta - align_truth(p, theta, exp.markers_clean, exp.times))
-        err[name] = np.linalg.norm(e[fin : fin + 3])
+    return HandZero(exp, idf, pset.n_kappa + 3 * pset.marker_names.index("RFIN"))
+
+
+def test_an_equivalent_hand_zero_scores_no_error(pset: ParameterSet, hand_zero: HandZero) -> None:
+    """The cause of the hour's offsets reading 3x their bound (docs/long-recordings.md): a
+    model equivalent to the truth, its right hand's zero turned 8 degrees about the wrist's
+    deviation axis and FIN's offset turned back, has no error; aligned within the wrist's
+    limits (which the truth's ROM poses, in the turned zero, cross) it seemed to have one."""
+    theta, exp = hand_zero.turned(pset, 8.0), hand_zero.exp
+    err = {
+        name: hand_zero.fin_error(theta, align_truth(p, theta, exp.markers_clean, exp.times))
+        for name, p in (("limits", pset), ("free", gauge_free(pset)))
+    }
     # Equivalent: the alignment fits the noise-free markers exactly (a micrometre).
     assert err["free"] < 1e-6
     # Within the limits, the turn's curved part (8 cm x (1 - cos 8 deg) ~ 0.8 mm along FIN's
     # lever, in part) is read as an error: the scenario does exercise the cause.
     assert err["limits"] > 0.1e-3
+
+
+def test_a_hand_zero_beyond_the_margin_scores_no_error(
+    pset: ParameterSet, hand_zero: HandZero
+) -> None:
+    """One widening of the wrist's hinges does not align every estimate: the hour through
+    ``mocap-mj identify`` read 3.90x its offsets' bound because the 10-degree alignment
+    stopped short of the truth's model (docs/long-recordings.md), and an exact fit can
+    still have turned the zero. Turned 18 degrees, a model equivalent to the truth reads a
+    millimetre of RFIN error aligned with the 10-degree margin, none with
+    ``align_gauge_free`` (the nearest exact alignment over wider margins)."""
+    theta, exp = hand_zero.turned(pset, 18.0), hand_zero.exp
+    narrow = align_truth(gauge_free(pset), theta, exp.markers_clean, exp.times)
+    nearest = align_gauge_free(pset, theta, exp.markers_clean, exp.times)
+    assert hand_zero.fin_error(theta, narrow) > 0.1e-3
+    assert hand_zero.fin_error(theta, nearest) < 1e-6
 
 
 def test_refinement_holds_its_box_and_weighs_its_priors(pset: ParameterSet) -> None:
