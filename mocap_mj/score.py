@@ -264,7 +264,8 @@ def _align(
     """The LM of :func:`align_truth`: its theta (P,) [m] and its fit (``marker_rmse`` [m])."""
     from .identify.lm import LMSettings, TrialData, identify_lm
 
-    settings = LMSettings(max_iterations=40, tol_noise=1e-3)
+    # From the estimate, near the truth's class: no coarse approach (LMSettings.coarse_frames).
+    settings = LMSettings(max_iterations=40, tol_noise=1e-3, coarse_frames=0)
     return identify_lm(
         [TrialData("truth", clean, times)], pset=pset, theta0=theta_hat, settings=settings
     )
