@@ -308,9 +308,11 @@ def align_gauge_free(
 ) -> np.ndarray:
     """The model equivalent to the truth nearest the estimate theta_hat (P,) [m], the hand's
     zero free: :func:`align_truth` with :func:`gauge_free` widened by each of
-    ``GAUGE_MARGINS``; of the alignments that fit the noise-free markers clean (T, M, 3) [m]
-    exactly (RMSE below ``EXACT_FIT``) the one nearest theta_hat (Euclidean), else the best
-    fit.
+    ``GAUGE_MARGINS`` in turn; of the alignments that fit the noise-free markers clean
+    (T, M, 3) [m] exactly (RMSE below ``EXACT_FIT``) the one nearest theta_hat (Euclidean),
+    else the best fit. The widening stops at the first exact alignment whose poses keep
+    ``LIMIT_CLEARANCE`` from the widened limits: there the limits do not act, and the
+    solution is one for every wider margin (the common case: one alignment, not three).
 
     One margin is not enough for every estimate: where the estimate's hand zero lies
     further from the truth's than the margin allows, the alignment has to turn the zero
@@ -319,11 +321,39 @@ def align_gauge_free(
     is no cure either: the LM may then walk further along that path before it settles. The
     nearest exact alignment is the definition of :func:`align_truth`'s
     (docs/long-recordings.md)."""
-    fits = [_align(gauge_free(pset, m), theta_hat, clean, times) for m in GAUGE_MARGINS]
+    fits = []
+    for margin in GAUGE_MARGINS:
+        wide = gauge_free(pset, margin)
+        fits.append(_align(wide, theta_hat, clean, times))
+        if fits[-1].marker_rmse < EXACT_FIT and not _gauge_limit_reached(wide, fits[-1].qpos):
+            break  # no pose reached the widened limits: a wider margin aligns the same
     exact = [r for r in fits if r.marker_rmse < EXACT_FIT]
     if not exact:
         return min(fits, key=lambda r: r.marker_rmse).theta
     return min(exact, key=lambda r: float(np.linalg.norm(r.theta - theta_hat))).theta
+
+
+#: How near [rad] a pose may come to a widened ``GAUGE_HINGES`` limit for the alignment to
+#: count as free of it (:func:`align_gauge_free`).
+LIMIT_CLEARANCE = np.radians(1.0)
+
+
+def _gauge_limit_reached(pset: ParameterSet, qpos: list[np.ndarray]) -> bool:
+    """Whether any pose in qpos (list of (T_i, nq) [m, rad]) has a ``GAUGE_HINGES`` angle
+    within ``LIMIT_CLEARANCE`` of pset's range."""
+    model = pset.model
+    names = {model.joint(j).name for j in range(model.njnt)}
+    for name in GAUGE_HINGES:
+        if name not in names:
+            continue
+        joint = model.joint(name)
+        lo, hi = model.jnt_range[joint.id]
+        for q in qpos:
+            angle = q[:, model.jnt_qposadr[joint.id]]
+            angle = angle[np.isfinite(angle)]
+            if np.any(angle < lo + LIMIT_CLEARANCE) or np.any(angle > hi - LIMIT_CLEARANCE):
+                return True
+    return False
 
 
 def _measured(truth_dir: Path, pset: ParameterSet) -> np.ndarray:

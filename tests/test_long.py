@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from mocap_mj import Kinematics, ParameterSet
+from mocap_mj import Kinematics, ParameterSet, score
 from mocap_mj.errors import MocapError
 from mocap_mj.identify.identifiability import Identifiability
 from mocap_mj.identify.long import identify_long, refine
@@ -197,6 +197,34 @@ def test_a_hand_zero_beyond_the_margin_scores_no_error(
     nearest = align_gauge_free(pset, theta, exp.markers_clean, exp.times)
     assert hand_zero.fin_error(theta, narrow) > 0.1e-3
     assert hand_zero.fin_error(theta, nearest) < 1e-6
+
+
+def test_the_widening_stops_where_the_limits_do_not_act(
+    pset: ParameterSet, hand_zero: HandZero, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``align_gauge_free`` tries a wider margin only while the alignment is not exact or a
+    pose sits at a widened limit: a model equivalent to the truth, its hand zero turned 8
+    degrees, aligns to no error in one alignment."""
+    calls: list[float] = []
+    align = score._align
+
+    def counted(p: ParameterSet, *args: np.ndarray):  # type: ignore[no-untyped-def]
+        result = align(p, *args)
+        calls.append(result.marker_rmse)
+        return result
+
+    monkeypatch.setattr(score, "_align", counted)
+    theta, exp = hand_zero.turned(pset, 8.0), hand_zero.exp
+    aligned = align_gauge_free(pset, theta, exp.markers_clean, exp.times)
+    assert hand_zero.fin_error(theta, aligned) < 1e-6
+    first = align(gauge_free(pset), theta, exp.markers_clean, exp.times)
+    done = first.marker_rmse < score.EXACT_FIT and not score._gauge_limit_reached(
+        gauge_free(pset), first.qpos
+    )
+    # The 8-degree turn stays inside the 10-degree margin: exact and clear of the limits,
+    # so one alignment; the 18-degree turn above takes the wider margins.
+    assert done
+    assert len(calls) == 1
 
 
 def test_refinement_holds_its_box_and_weighs_its_priors(pset: ParameterSet) -> None:
