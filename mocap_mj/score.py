@@ -19,6 +19,7 @@ import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import mujoco
 import numpy as np
 
 from ._threads import single_blas_thread
@@ -289,12 +290,15 @@ def gauge_free(pset: ParameterSet, margin: float = GAUGE_MARGIN) -> ParameterSet
     as an error in the observable directions that the estimate does not have
     (docs/long-recordings.md)."""
     out = ParameterSet(pset.path)
-    model = out.model
-    names = {model.joint(j).name for j in range(model.njnt)}
-    for name in GAUGE_HINGES:
-        if name in names:
-            model.jnt_range[model.joint(name).id] += (-margin, margin)
+    for j in _gauge_joints(out.model):
+        out.model.jnt_range[j] += (-margin, margin)
     return out
+
+
+def _gauge_joints(model: mujoco.MjModel) -> list[int]:
+    """The ids of the model's ``GAUGE_HINGES`` (those it has)."""
+    names = {model.joint(j).name for j in range(model.njnt)}
+    return [model.joint(n).id for n in GAUGE_HINGES if n in names]
 
 
 #: The widenings [rad] :func:`align_gauge_free` tries.
@@ -342,14 +346,10 @@ def _gauge_limit_reached(pset: ParameterSet, qpos: list[np.ndarray]) -> bool:
     """Whether any pose in qpos (list of (T_i, nq) [m, rad]) has a ``GAUGE_HINGES`` angle
     within ``LIMIT_CLEARANCE`` of pset's range."""
     model = pset.model
-    names = {model.joint(j).name for j in range(model.njnt)}
-    for name in GAUGE_HINGES:
-        if name not in names:
-            continue
-        joint = model.joint(name)
-        lo, hi = model.jnt_range[joint.id]
+    for j in _gauge_joints(model):
+        lo, hi = model.jnt_range[j]
         for q in qpos:
-            angle = q[:, model.jnt_qposadr[joint.id]]
+            angle = q[:, model.jnt_qposadr[j]]
             angle = angle[np.isfinite(angle)]
             if np.any(angle < lo + LIMIT_CLEARANCE) or np.any(angle > hi - LIMIT_CLEARANCE):
                 return True
