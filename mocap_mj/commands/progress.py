@@ -10,7 +10,8 @@ from ..identify.result import ProgressCallback, TraceEntry
 
 @contextlib.contextmanager
 def progress_bar(desc: str, enabled: bool = True) -> Iterator[ProgressCallback | None]:
-    """A callback that shows each iteration's cost and marker RMSE (None when disabled).
+    """A callback that shows each iteration's cost (and the frames it sums over, where the
+    entry says) and marker RMSE (None when disabled).
 
     The bar has no total: the solvers stop on convergence tests, not at a known iteration.
     It appears only after 2 s, so that short runs print nothing.
@@ -23,8 +24,12 @@ def progress_bar(desc: str, enabled: bool = True) -> Iterator[ProgressCallback |
     bar = tqdm(desc=desc, unit="it", leave=False, delay=2)
 
     def update(entry: TraceEntry) -> None:
+        # F sums over the frames solved: it jumps when the coarse phase hands over to every
+        # frame, so the bar says over how many.
+        frames = getattr(entry, "frames", 0)
+        on = f" on {frames} frames" if frames else ""
         bar.set_postfix_str(
-            f"F {entry.cost:.4e} m^2, RMSE {entry.rmse * 1e3:.3f} mm", refresh=False
+            f"F {entry.cost:.4e} m^2{on}, RMSE {entry.rmse * 1e3:.3f} mm", refresh=False
         )
         bar.update(1)
 
