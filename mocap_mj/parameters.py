@@ -1,7 +1,7 @@
 """The model-parameter vector theta = (kappa, marker offsets) and its maps onto an ``MjModel``.
 
-theta has P = K + 3 M entries: K = 30 kinematic parameters kappa [m] (segment lengths, widths
-and depths), then the M = 39 marker offsets, each the site's ``pos`` (x, y, z) [m] in the frame
+theta has P = K + 3 M entries: K = 34 kinematic parameters kappa [m] (segment lengths, widths
+and depths, and the frontal-plane alignment of the knee and ankle centres), then the M = 39 marker offsets, each the site's ``pos`` (x, y, z) [m] in the frame
 of the body that carries it, in model site order.
 
 Every kinematic parameter is a documented linear map onto ``body_pos`` entries:
@@ -53,7 +53,7 @@ def _p(name: str, description: str, *targets: tuple[str, str]) -> KinematicParam
     return KinematicParameter(name, description, tuple(targets))
 
 
-#: The 30 kinematic parameters of the bundled humanoid.
+#: The 34 kinematic parameters of the bundled humanoid.
 KINEMATIC_PARAMETERS: tuple[KinematicParameter, ...] = (
     # pelvis (root): hip joint centres and the lumbosacral joint relative to mid-ASIS
     _p("hip_depth_l", "left hip joint centre, posterior of mid-ASIS", ("thigh_l", "-x")),
@@ -87,6 +87,18 @@ KINEMATIC_PARAMETERS: tuple[KinematicParameter, ...] = (
     _p("thigh_length_r", "right hip to knee joint", ("shank_r", "-z")),
     _p("shank_length_l", "left knee to ankle joint", ("foot_l", "-z")),
     _p("shank_length_r", "right knee to ankle joint", ("foot_r", "-z")),
+    # frontal-plane alignment: a joint centre lateral (+) or medial (-) of its parent's origin
+    # along the flexion axis, so that hip, knee and ankle centres need not lie in one plane
+    # normal to the knee axis (the femur's and tibia's mechanical axes against the
+    # transepicondylar axis: the subject's static valgus/varus, docs/model.md)
+    _p("knee_lateral_l", "left knee centre, lateral of the hip centre along the knee axis",
+       ("shank_l", "y")),
+    _p("knee_lateral_r", "right knee centre, lateral of the hip centre along the knee axis",
+       ("shank_r", "-y")),
+    _p("ankle_lateral_l", "left ankle centre, lateral of the knee centre along the knee axis",
+       ("foot_l", "y")),
+    _p("ankle_lateral_r", "right ankle centre, lateral of the knee centre along the knee axis",
+       ("foot_r", "-y")),
     _p("foot_length_l", "left ankle to MTP joint, forward", ("toes_l", "x")),
     _p("foot_length_r", "right ankle to MTP joint, forward", ("toes_r", "x")),
     _p("foot_height_l", "left ankle to MTP joint, downward", ("toes_l", "-z")),
