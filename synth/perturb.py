@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from mocap_mj.errors import MocapError
-from mocap_mj.identify.anatomy import landmark_prior
+from mocap_mj.identify.anatomy import ALIGNMENT, ALIGNMENT_SIGMA_DEG, landmark_prior
 from mocap_mj.parameters import ParameterSet
 
 from .config import MARKER_PLACEMENTS
@@ -52,20 +52,23 @@ def perturb_theta(
 
     Each kinematic parameter is multiplied by a factor uniform in ``[1 - kappa_scale,
     1 + kappa_scale]``; each marker-offset component moves by a shift uniform in
-    ``[-offset_mm, +offset_mm]`` [mm]. With ``symmetric``, every right-side parameter takes the
+    ``[-offset_mm, +offset_mm]`` [mm]; each frontal-plane alignment parameter (nominal 0) is
+    then drawn from its prior (:func:`_draw_alignment`). With ``symmetric``, every right-side parameter takes the
     factor of its left partner and every right marker the mirror image ``(dx, -dy, dz)`` of
     its left partner's shift (midline markers and unpaired parameters are drawn on their
     own); otherwise all are independent. With ``placement="anatomical"`` the landmark
     markers are then moved onto the perturbed skeleton (:func:`place_landmarks`, further
     draws from ``rng``); the default ``"uniform"`` leaves every marker at its nominal offset
     plus its shift, so a landmark does not follow the joint it marks. The result is clipped
-    to ``[pset.lower, pset.upper]`` (which the defaults never reach).
+    to ``[pset.lower, pset.upper]`` (which the defaults reach only with an alignment draw
+    beyond 40 mm, 1.8 of its standard deviations).
 
     Parameters
     ----------
     pset : ParameterSet
     rng : numpy.random.Generator
-        The draws: K factors, then M x 3 shifts (the same number whatever ``symmetric``).
+        The draws: K factors, M x 3 shifts, then one normal per alignment parameter (the same
+        number whatever ``symmetric``).
     kappa_scale : float
         Relative half-width of the kappa factors, in [0, 1).
     offset_mm : float
@@ -94,10 +97,33 @@ def perturb_theta(
             factor[right] = factor[left]
         for left, right in mirror_pairs(pset.marker_names):
             shift[right] = shift[left] * np.array([1.0, -1.0, 1.0])
-    theta = pset.join(kappa0 * factor, offsets0 + shift)
+    kappa = kappa0 * factor
+    _draw_alignment(pset, rng, kappa, symmetric)
+    theta = pset.join(kappa, offsets0 + shift)
     if placement == "anatomical":
         theta = place_landmarks(pset, theta, rng)
     return np.clip(theta, pset.lower, pset.upper)
+
+
+def _draw_alignment(
+    pset: ParameterSet, rng: np.random.Generator, kappa: np.ndarray, symmetric: bool
+) -> None:
+    """Draw the frontal-plane alignment parameters into ``kappa`` (K,) [m] in place: nominal 0,
+    which a factor cannot move, so each is drawn from its prior, normal with standard
+    deviation ``tan(ALIGNMENT_SIGMA_DEG)`` x its segment's nominal length
+    (:data:`mocap_mj.identify.anatomy.ALIGNMENT`): the spread of healthy adults that the
+    prior rows describe, so a demo tests the rows as well as the data."""
+    index = {n: i for i, n in enumerate(pset.kappa_names)}
+    tan = np.tan(np.radians(ALIGNMENT_SIGMA_DEG))
+    for name, length in ALIGNMENT.items():
+        for side in ("l", "r"):
+            k, seg = index.get(f"{name}_{side}"), index.get(f"{length}_{side}")
+            if k is None or seg is None:
+                continue
+            kappa[k] = pset.nominal[k] + tan * pset.nominal[seg] * rng.normal()
+        left, right = index.get(f"{name}_l"), index.get(f"{name}_r")
+        if symmetric and left is not None and right is not None:
+            kappa[right] = kappa[left]
 
 
 def place_landmarks(pset: ParameterSet, theta: np.ndarray, rng: np.random.Generator) -> np.ndarray:
