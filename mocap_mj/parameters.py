@@ -1,8 +1,9 @@
 """The model-parameter vector theta = (kappa, marker offsets) and its maps onto an ``MjModel``.
 
 theta has P = K + 3 M entries: K = 34 kinematic parameters kappa [m] (segment lengths, widths
-and depths, and the frontal-plane alignment of the knee and ankle centres), then the M = 39 marker offsets, each the site's ``pos`` (x, y, z) [m] in the frame
-of the body that carries it, in model site order.
+and depths, and the frontal-plane alignment of the knee and ankle centres), then the M = 39
+marker offsets, each the site's ``pos`` (x, y, z) [m] in the frame of the body that carries
+it, in model site order.
 
 Every kinematic parameter is a documented linear map onto ``body_pos`` entries:
 ``body_pos[b] = body_pos_nominal[b] + sum_k D[k, b] (kappa_k - kappa_nominal_k)`` with one
@@ -104,6 +105,12 @@ KINEMATIC_PARAMETERS: tuple[KinematicParameter, ...] = (
     _p("foot_height_l", "left ankle to MTP joint, downward", ("toes_l", "-z")),
     _p("foot_height_r", "right ankle to MTP joint, downward", ("toes_r", "-z")),
 )  # fmt: skip
+
+#: The frontal-plane alignment parameters (nominal 0): a parameters file without them (written
+#: before they existed) reads with them at 0.
+ALIGNMENT_NAMES = frozenset(
+    f"{a}_{s}" for a in ("knee_lateral", "ankle_lateral") for s in ("l", "r")
+)
 
 #: Bounds of kappa: nominal -/+ max(KAPPA_REL_BOUND * |nominal|, KAPPA_ABS_BOUND) [m].
 KAPPA_REL_BOUND = 0.35
@@ -281,7 +288,8 @@ class ParameterSet:
         }
 
     def from_dict(self, data: Mapping[str, Any], *, source: str = "theta") -> np.ndarray:
-        """Inverse of :meth:`to_dict`; every name must be present and known."""
+        """Inverse of :meth:`to_dict`; every name must be known and present (the alignment
+        parameters may be absent: :data:`ALIGNMENT_NAMES`)."""
         try:
             kappa_d, off_d = data["kappa"], data["offsets"]
         except (KeyError, TypeError):
@@ -290,6 +298,9 @@ class ParameterSet:
         unknown += [n for n in off_d if n not in self.marker_names]
         if unknown:
             raise MocapError(f"{source}: unknown names {unknown}")
+        # A file written before the alignment parameters existed held them at 0 by
+        # construction (the knee centre below the hip centre, the ankle below the knee).
+        kappa_d = {**{n: 0.0 for n in ALIGNMENT_NAMES if n in self._index}, **kappa_d}
         missing = [n for n in self.kappa_names if n not in kappa_d]
         missing += [n for n in self.marker_names if n not in off_d]
         if missing:

@@ -12,6 +12,9 @@ from .config import MARKER_PLACEMENTS
 
 __all__ = ["mirror_pairs", "perturb_theta", "place_landmarks"]
 
+#: The ``kappa_scale`` at which the alignment parameters are drawn with their prior's spread.
+DEFAULT_KAPPA_SCALE = 0.10
+
 
 def _partner(name: str, names: set[str]) -> str | None:
     """The other side of a sided name (``*_l``/``*_r``, ``L*``/``R*``) if it exists."""
@@ -53,7 +56,8 @@ def perturb_theta(
     Each kinematic parameter is multiplied by a factor uniform in ``[1 - kappa_scale,
     1 + kappa_scale]``; each marker-offset component moves by a shift uniform in
     ``[-offset_mm, +offset_mm]`` [mm]; each frontal-plane alignment parameter (nominal 0) is
-    then drawn from its prior (:func:`_draw_alignment`). With ``symmetric``, every right-side parameter takes the
+    then drawn from its prior, its spread scaled by ``kappa_scale`` / 0.10
+    (:func:`_draw_alignment`). With ``symmetric``, every right-side parameter takes the
     factor of its left partner and every right marker the mirror image ``(dx, -dy, dz)`` of
     its left partner's shift (midline markers and unpaired parameters are drawn on their
     own); otherwise all are independent. With ``placement="anatomical"`` the landmark
@@ -98,7 +102,7 @@ def perturb_theta(
         for left, right in mirror_pairs(pset.marker_names):
             shift[right] = shift[left] * np.array([1.0, -1.0, 1.0])
     kappa = kappa0 * factor
-    _draw_alignment(pset, rng, kappa, symmetric)
+    _draw_alignment(pset, rng, kappa, symmetric, kappa_scale / DEFAULT_KAPPA_SCALE)
     theta = pset.join(kappa, offsets0 + shift)
     if placement == "anatomical":
         theta = place_landmarks(pset, theta, rng)
@@ -106,13 +110,14 @@ def perturb_theta(
 
 
 def _draw_alignment(
-    pset: ParameterSet, rng: np.random.Generator, kappa: np.ndarray, symmetric: bool
+    pset: ParameterSet, rng: np.random.Generator, kappa: np.ndarray, symmetric: bool, scale: float
 ) -> None:
     """Draw the frontal-plane alignment parameters into ``kappa`` (K,) [m] in place: nominal 0,
     which a factor cannot move, so each is drawn from its prior, normal with standard
-    deviation ``tan(ALIGNMENT_SIGMA_DEG)`` x its segment's nominal length
-    (:data:`mocap_mj.identify.anatomy.ALIGNMENT`): the spread of healthy adults that the
-    prior rows describe, so a demo tests the rows as well as the data."""
+    deviation ``scale x tan(ALIGNMENT_SIGMA_DEG)`` x its segment's nominal length
+    (:data:`mocap_mj.identify.anatomy.ALIGNMENT`): at ``scale`` 1 (the default
+    ``kappa_scale``) the spread of healthy adults that the prior rows describe, so a demo
+    tests the rows as well as the data; at 0 none, as for the lengths."""
     index = {n: i for i, n in enumerate(pset.kappa_names)}
     tan = np.tan(np.radians(ALIGNMENT_SIGMA_DEG))
     for name, length in ALIGNMENT.items():
@@ -120,7 +125,7 @@ def _draw_alignment(
             k, seg = index.get(f"{name}_{side}"), index.get(f"{length}_{side}")
             if k is None or seg is None:
                 continue
-            kappa[k] = pset.nominal[k] + tan * pset.nominal[seg] * rng.normal()
+            kappa[k] = pset.nominal[k] + scale * tan * pset.nominal[seg] * rng.normal()
         left, right = index.get(f"{name}_l"), index.get(f"{name}_r")
         if symmetric and left is not None and right is not None:
             kappa[right] = kappa[left]

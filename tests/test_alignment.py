@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from _motion import smooth_motion
 
-from mocap_mj import Kinematics, ParameterSet
+from mocap_mj import Kinematics, MocapError, ParameterSet
 from mocap_mj.identify import LMSettings, TrialData
 from mocap_mj.identify.anatomy import (
     ALIGNMENT_SIGMA_DEG,
@@ -94,3 +94,15 @@ def test_valgus_subject_is_recovered_within_its_bound(pset: ParameterSet) -> Non
         assert abs(err) < 4 * std[i], (name, err, std[i])
         if name.startswith("knee"):
             assert abs(truth[i]) > 4 * std[i], (name, truth[i], std[i])
+
+
+def test_parameters_file_without_alignment_reads_neutral(pset: ParameterSet, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """A theta.json written before the alignment parameters existed reads with them at 0;
+    any other missing name is still an error."""
+    data = pset.to_dict(pset.nominal)
+    for name in ALIGNED:
+        del data["kappa"][name]
+    np.testing.assert_array_equal(pset.from_dict(data), pset.nominal)
+    del data["kappa"]["thigh_length_l"]
+    with pytest.raises(MocapError, match=r"missing names.*thigh_length_l"):
+        pset.from_dict(data)
