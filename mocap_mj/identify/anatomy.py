@@ -403,10 +403,10 @@ def _leg_length_row(rows: _Rows, subject: Subject, side: str, p: str, leg: float
     below the hip centre in the pelvis frame. So the tape is the length of
     ``v = (ASIS.x + hip_depth - r, ASIS.y - hip_width - knee_lateral - ankle_lateral +
     ankle_width/2, hip_height + thigh + shank - MEDIAL_MALLEOLUS_ABOVE)`` (left side; the
-    right mirrors y), not ``hip_height + thigh + shank``: the ASIS lies 40-60 mm ahead of and lateral of the
-    hip centre, the malleolus above the ankle centre. ``|v|`` is linearised at the nominal
-    ``v0``: ``|v| ~ |v0| + (v0 / |v0|) . (v - v0)``, within 1.5 mm for skeletons within 15 %
-    of the nominal one.
+    right mirrors y), not ``hip_height + thigh + shank``: the ASIS lies 40-60 mm ahead of and
+    lateral of the hip centre, the malleolus above the ankle centre. ``|v|`` is linearised at
+    the nominal ``v0``: ``|v| ~ |v0| + (v0 / |v0|) . (v - v0)``, within 1.5 mm for skeletons
+    within 15 % of the nominal one.
     """
     sign = 1.0 if side == "l" else -1.0
     kappa0 = {n: float(v) for n, v in zip(rows.pset.names, rows.pset.nominal, strict=True)}
