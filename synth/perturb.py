@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from mocap_mj.errors import MocapError
-from mocap_mj.identify.anatomy import ALIGNMENT, ALIGNMENT_SIGMA_DEG, landmark_prior
+from mocap_mj.identify.anatomy import ALIGNMENT, landmark_prior
 from mocap_mj.parameters import ParameterSet
 
 from .config import MARKER_PLACEMENTS
@@ -113,19 +113,19 @@ def _draw_alignment(
     pset: ParameterSet, rng: np.random.Generator, kappa: np.ndarray, symmetric: bool, scale: float
 ) -> None:
     """Draw the frontal-plane alignment parameters into ``kappa`` (K,) [m] in place: nominal 0,
-    which a factor cannot move, so each is drawn from its prior, normal with standard
-    deviation ``scale x tan(ALIGNMENT_SIGMA_DEG)`` x its segment's nominal length
-    (:data:`mocap_mj.identify.anatomy.ALIGNMENT`): at ``scale`` 1 (the default
-    ``kappa_scale``) the spread of healthy adults that the prior rows describe, so a demo
-    tests the rows as well as the data; at 0 none, as for the lengths."""
+    which a factor cannot move, so each is drawn from its prior
+    (:data:`mocap_mj.identify.anatomy.ALIGNMENT`), normal with mean ``tan(mean)`` and
+    standard deviation ``scale x tan(sd)`` x its segment's nominal length: at ``scale`` 1 (the
+    default ``kappa_scale``) the spread of healthy adults that the prior rows describe, so a
+    demo tests the rows as well as the data; at 0 none, as for the lengths."""
     index = {n: i for i, n in enumerate(pset.kappa_names)}
-    tan = np.tan(np.radians(ALIGNMENT_SIGMA_DEG))
-    for name, length in ALIGNMENT.items():
+    for name, (length, mean, sd) in ALIGNMENT.items():
         for side in ("l", "r"):
             k, seg = index.get(f"{name}_{side}"), index.get(f"{length}_{side}")
             if k is None or seg is None:
                 continue
-            kappa[k] = pset.nominal[k] + scale * tan * pset.nominal[seg] * rng.normal()
+            draw = np.tan(np.radians(mean)) + scale * np.tan(np.radians(sd)) * rng.normal()
+            kappa[k] = pset.nominal[k] + draw * pset.nominal[seg]
         left, right = index.get(f"{name}_l"), index.get(f"{name}_r")
         if symmetric and left is not None and right is not None:
             kappa[right] = kappa[left]

@@ -15,7 +15,7 @@ from _motion import smooth_motion
 from mocap_mj import Kinematics, MocapError, ParameterSet
 from mocap_mj.identify import LMSettings, TrialData
 from mocap_mj.identify.anatomy import (
-    ALIGNMENT_SIGMA_DEG,
+    ALIGNMENT,
     SIGMA_REGRESSED,
     landmark_prior,
     marker_prior_table,
@@ -42,7 +42,8 @@ def test_alignment_rows_and_the_landmarks_that_follow(pset: ParameterSet) -> Non
         assert len(rows) == 1
         r = rows[0]
         assert prior.b[r] == 0.0 and prior.a[r, pset.index(name)] == 1.0
-        expected = np.tan(np.radians(ALIGNMENT_SIGMA_DEG)) * pset.nominal[pset.index(seg)]
+        sd = ALIGNMENT[name[:-2]][2]
+        expected = np.tan(np.radians(sd)) * pset.nominal[pset.index(seg)]
         assert prior.sigma[r] == pytest.approx(expected)
     theta = pset.nominal.copy()
     theta[pset.index("knee_lateral_l")] = -0.02

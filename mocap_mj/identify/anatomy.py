@@ -119,15 +119,18 @@ WIDTH_RATIO: dict[str, tuple[str, float]] = {
 }
 
 
-#: Frontal-plane alignment parameter -> the segment whose mechanical axis it tilts against
-#: the knee's flexion axis: the knee centre's lateral offset from the hip centre (femur), the
-#: ankle centre's from the knee centre (tibia).
-ALIGNMENT: dict[str, str] = {"knee_lateral": "thigh_length", "ankle_lateral": "shank_length"}
-#: Standard deviation [deg] of the alignment angles about the perpendicular: healthy adults'
-#: mechanical lateral distal femoral and medial proximal tibial angles, 87-88 +- 2-3 degrees
-#: (Paley 2002, normal range 85-90; Bellemans et al. 2012: constitutional varus in a quarter
-#: of healthy adults).
-ALIGNMENT_SIGMA_DEG = 3.0
+#: Frontal-plane alignment parameter -> (the segment whose mechanical axis it tilts against
+#: the joint's flexion axis, mean and standard deviation of that angle [deg]): the knee
+#: centre's lateral offset from the hip centre (femur), the ankle centre's from the knee
+#: centre (tibia): healthy adults' mechanical lateral distal femoral and medial proximal
+#: tibial angles are 87-88 +- 2-3 degrees (Paley 2002, normal range 85-90; Bellemans et al.
+#: 2012: constitutional varus in a quarter of healthy adults), here 0 +- 3 about the
+#: perpendicular (docs/model.md; the elbow's carrying angle was tried the same way and not
+#: kept, docs/real-data.md).
+ALIGNMENT: dict[str, tuple[str, float, float]] = {
+    "knee_lateral": ("thigh_length", 0.0, 3.0),
+    "ankle_lateral": ("shank_length", 0.0, 3.0),
+}
 #: Joint width (measurement, side removed) -> the alignment parameter giving that joint
 #: centre's lateral position in its lateral marker's frame (absent: on the frame's origin).
 CENTRE_LATERAL: dict[str, str] = {"knee_width": "knee_lateral", "ankle_width": "ankle_lateral"}
@@ -181,7 +184,7 @@ def _scaled(terms: dict[str, float], factor: float) -> dict[str, float]:
 def _width_rows(rows: _Rows, subject: Subject, side: str, marker: str, width: str) -> None:
     """``marker.y = +-(centre.y + width / 2 + marker radius)``: the width measured, else
     regressed on a length; ``centre.y`` the joint centre's lateral position in the marker's
-    frame (:data:`ALIGNMENT`'s parameter for the knee and ankle, 0 for the elbow)."""
+    frame (:data:`CENTRE_LATERAL`'s parameter for the knee and ankle, 0 for the elbow)."""
     sign = 1.0 if side == "l" else -1.0
     r = subject.marker_radius
     measured = subject.get(f"{width}_{side}")
@@ -202,18 +205,17 @@ def _width_rows(rows: _Rows, subject: Subject, side: str, marker: str, width: st
 
 
 def _alignment_rows(rows: _Rows, side: str, s: float) -> None:
-    """The frontal-plane alignment of the leg (:data:`ALIGNMENT`): each lateral offset of a
-    joint centre ``0 +- tan(ALIGNMENT_SIGMA_DEG) x`` its segment's nominal length scaled by
-    ``s``, the spread of the healthy adult's femoral and tibial joint angles about the
-    perpendicular (docs/model.md)."""
+    """The frontal-plane alignment (:data:`ALIGNMENT`): each lateral offset of a joint centre
+    ``tan(mean) x`` its segment's nominal length scaled by ``s``, standard deviation
+    ``tan(sd) x`` that length: the spread of healthy adults' joint angles (docs/model.md)."""
     kappa0 = dict(zip(rows.pset.names, rows.pset.nominal, strict=False))
-    for name, length in ALIGNMENT.items():
+    for name, (length, mean, sd) in ALIGNMENT.items():
         base = kappa0.get(f"{length}_{side}")
         if base is None:
             continue
-        sigma = np.tan(np.radians(ALIGNMENT_SIGMA_DEG)) * base * s
-        rows.add({f"{name}_{side}": 1.0}, 0.0, sigma,
-                 f"{name}_{side} = 0 (+-{ALIGNMENT_SIGMA_DEG:.0f} deg of {length})")  # fmt: skip
+        b, sigma = (np.tan(np.radians(a)) * base * s for a in (mean, sd))
+        rows.add({f"{name}_{side}": 1.0}, b, sigma,
+                 f"{name}_{side} = {mean:.0f} +- {sd:.0f} deg of {length}")  # fmt: skip
 
 
 def landmark_prior(
@@ -418,7 +420,8 @@ def _leg_length_row(rows: _Rows, subject: Subject, side: str, p: str, leg: float
     comps = (  # (terms linear in theta, constant) per axis of v
         ({f"{asis}.x": 1.0, f"hip_depth_{side}": 1.0}, -subject.marker_radius),
         ({f"{asis}.y": sign, f"hip_width_{side}": -1.0,
-          **{f"{a}_{side}": -1.0 for a in ALIGNMENT if f"{a}_{side}" in kappa0}}, aw / 2),
+          **{f"{a}_{side}": -1.0 for a in CENTRE_LATERAL.values() if f"{a}_{side}" in kappa0}},
+         aw / 2),
         ({f"hip_height_{side}": 1.0, f"thigh_length_{side}": 1.0, f"shank_length_{side}": 1.0},
          -MEDIAL_MALLEOLUS_ABOVE * s),
     )  # fmt: skip
