@@ -20,7 +20,9 @@ from mocap_mj.identify.anatomy import (
     landmark_prior,
     marker_prior_table,
 )
+from mocap_mj.identify.identifiability import Identifiability
 from mocap_mj.identify.pipeline import anatomical_priors, prior_information, solve_anatomical
+from mocap_mj.identify.problem import reduced_information
 from mocap_mj.subject import Subject
 from mocap_synth.perturb import perturb_theta, place_landmarks
 
@@ -107,3 +109,29 @@ def test_parameters_file_without_alignment_reads_neutral(pset: ParameterSet, tmp
     del data["kappa"]["thigh_length_l"]
     with pytest.raises(MocapError, match=r"missing names.*thigh_length_l"):
         pset.from_dict(data)
+
+
+def test_alignment_seen_only_through_tibial_and_subtalar_rotation(pset: ParameterSet) -> None:
+    """The gauge: with the tibia and the subtalar joint still, sliding the knee (ankle) centre
+    along the knee axis with the markers below it moved back changes no marker, so each
+    alignment parameter leads an unobservable direction, named as such; with those joints
+    moving, none of them is unobservable (each is determined to better than 50 mm)."""
+    kin = Kinematics(pset)
+    qpos = smooth_motion(kin, 100, seed=2)
+    rng = np.random.default_rng(0)
+    for still in (True, False):
+        q = qpos.copy()
+        if still:
+            for joint in ("knee_rot_l", "knee_rot_r", "subtalar_l", "subtalar_r"):
+                q[:, pset.model.jnt_qposadr[pset.model.joint(joint).id]] = 0.0
+        kin.set_theta(pset.nominal)
+        markers = kin.marker_positions(q) + rng.normal(0.0, 1e-3, (100, pset.n_markers, 3))
+        trial = TrialData("t", markers, np.arange(100) / 100.0)
+        info, *_ = reduced_information(pset, pset.nominal, [trial], [q])
+        idf = Identifiability(pset, info, 1e-3)
+        led = {
+            d.description.split(":")[0]
+            for d in idf.directions()
+            if d.kind == "unobservable" and "sliding along the knee" in d.description
+        }
+        assert led == (set(ALIGNED) if still else set()), led
