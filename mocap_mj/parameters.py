@@ -115,6 +115,9 @@ ALIGNMENT_NAMES = frozenset(
 #: Bounds of kappa: nominal -/+ max(KAPPA_REL_BOUND * |nominal|, KAPPA_ABS_BOUND) [m].
 KAPPA_REL_BOUND = 0.35
 KAPPA_ABS_BOUND = 0.04
+#: Bounds of the alignment parameters (nominal 0): -/+ ALIGNMENT_BOUND [m], wider than their
+#: anatomical range (:mod:`mocap_mj.identify.ranges`, 110 mm for the tallest adults).
+ALIGNMENT_BOUND = 0.12
 #: Bounds of each marker-offset component: nominal -/+ OFFSET_BOUND [m].
 OFFSET_BOUND = 0.08
 
@@ -184,12 +187,10 @@ class ParameterSet:
         )
         self._index = {n: i for i, n in enumerate(self.names)}
         self.nominal = np.concatenate([kappa0, self.site_pos_nominal.ravel()])
-        half = np.concatenate(
-            [
-                np.maximum(KAPPA_REL_BOUND * np.abs(kappa0), KAPPA_ABS_BOUND),
-                np.full(3 * self.n_markers, OFFSET_BOUND),
-            ]
-        )
+        half_kappa = np.maximum(KAPPA_REL_BOUND * np.abs(kappa0), KAPPA_ABS_BOUND)
+        aligned = [k for k, p in enumerate(self.kinematic) if p.name in ALIGNMENT_NAMES]
+        half_kappa[aligned] = ALIGNMENT_BOUND
+        half = np.concatenate([half_kappa, np.full(3 * self.n_markers, OFFSET_BOUND)])
         self.lower = self.nominal - half
         self.upper = self.nominal + half
         self.frozen = np.zeros(self.size, dtype=bool)

@@ -149,7 +149,7 @@ def test_perturbation_within_bounds_and_size(pset: ParameterSet, seed: int) -> N
     rel = np.abs(kappa[scaled] / kappa0[scaled] - 1.0)
     shift = np.abs(offsets - offsets0)
     assert rel.max() <= 0.10 + 1e-12 and rel.max() > 0.07  # 30 draws in +-10 %
-    assert np.all(kappa[~scaled] != 0.0) and np.abs(kappa[~scaled]).max() < 0.04
+    assert np.all(kappa[~scaled] != 0.0) and np.abs(kappa[~scaled]).max() < 0.1  # 22.5 mm sd
     assert shift.max() <= 0.020 + 1e-12 and shift.max() > 0.017  # 117 draws in +-20 mm
     # The amount is configurable, and large amounts are clipped to the bounds.
     small = perturb_theta(pset, np.random.default_rng(seed), kappa_scale=0.01, offset_mm=1.0)
