@@ -1,8 +1,9 @@
 """The model-parameter vector theta = (kappa, marker offsets) and its maps onto an ``MjModel``.
 
-theta has P = K + 3 M entries: K = 30 kinematic parameters kappa [m] (segment lengths, widths
-and depths), then the M = 39 marker offsets, each the site's ``pos`` (x, y, z) [m] in the frame
-of the body that carries it, in model site order.
+theta has P = K + 3 M entries: K = 34 kinematic parameters kappa [m] (segment lengths, widths
+and depths, and the frontal-plane alignment of the knee and ankle centres), then the M = 39
+marker offsets, each the site's ``pos`` (x, y, z) [m] in the frame of the body that carries
+it, in model site order.
 
 Every kinematic parameter is a documented linear map onto ``body_pos`` entries:
 ``body_pos[b] = body_pos_nominal[b] + sum_k D[k, b] (kappa_k - kappa_nominal_k)`` with one
@@ -53,7 +54,7 @@ def _p(name: str, description: str, *targets: tuple[str, str]) -> KinematicParam
     return KinematicParameter(name, description, tuple(targets))
 
 
-#: The 30 kinematic parameters of the bundled humanoid.
+#: The 34 kinematic parameters of the bundled humanoid.
 KINEMATIC_PARAMETERS: tuple[KinematicParameter, ...] = (
     # pelvis (root): hip joint centres and the lumbosacral joint relative to mid-ASIS
     _p("hip_depth_l", "left hip joint centre, posterior of mid-ASIS", ("thigh_l", "-x")),
@@ -87,15 +88,36 @@ KINEMATIC_PARAMETERS: tuple[KinematicParameter, ...] = (
     _p("thigh_length_r", "right hip to knee joint", ("shank_r", "-z")),
     _p("shank_length_l", "left knee to ankle joint", ("foot_l", "-z")),
     _p("shank_length_r", "right knee to ankle joint", ("foot_r", "-z")),
+    # frontal-plane alignment: a joint centre lateral (+) or medial (-) of its parent's origin
+    # along the flexion axis, so that hip, knee and ankle centres need not lie in one plane
+    # normal to the knee axis (the femur's and tibia's mechanical axes against the
+    # transepicondylar axis: the subject's static valgus/varus, docs/model.md)
+    _p("knee_lateral_l", "left knee centre, lateral of the hip centre along the knee axis",
+       ("shank_l", "y")),
+    _p("knee_lateral_r", "right knee centre, lateral of the hip centre along the knee axis",
+       ("shank_r", "-y")),
+    _p("ankle_lateral_l", "left ankle centre, lateral of the knee centre along the knee axis",
+       ("foot_l", "y")),
+    _p("ankle_lateral_r", "right ankle centre, lateral of the knee centre along the knee axis",
+       ("foot_r", "-y")),
     _p("foot_length_l", "left ankle to MTP joint, forward", ("toes_l", "x")),
     _p("foot_length_r", "right ankle to MTP joint, forward", ("toes_r", "x")),
     _p("foot_height_l", "left ankle to MTP joint, downward", ("toes_l", "-z")),
     _p("foot_height_r", "right ankle to MTP joint, downward", ("toes_r", "-z")),
 )  # fmt: skip
 
+#: The frontal-plane alignment parameters (nominal 0): a parameters file without them (written
+#: before they existed) reads with them at 0.
+ALIGNMENT_NAMES = frozenset(
+    f"{a}_{s}" for a in ("knee_lateral", "ankle_lateral") for s in ("l", "r")
+)
+
 #: Bounds of kappa: nominal -/+ max(KAPPA_REL_BOUND * |nominal|, KAPPA_ABS_BOUND) [m].
 KAPPA_REL_BOUND = 0.35
 KAPPA_ABS_BOUND = 0.04
+#: Bounds of the alignment parameters (nominal 0): -/+ ALIGNMENT_BOUND [m], wider than their
+#: anatomical range (:mod:`mocap_mj.identify.ranges`, 110 mm for the tallest adults).
+ALIGNMENT_BOUND = 0.12
 #: Bounds of each marker-offset component: nominal -/+ OFFSET_BOUND [m].
 OFFSET_BOUND = 0.08
 
@@ -165,12 +187,10 @@ class ParameterSet:
         )
         self._index = {n: i for i, n in enumerate(self.names)}
         self.nominal = np.concatenate([kappa0, self.site_pos_nominal.ravel()])
-        half = np.concatenate(
-            [
-                np.maximum(KAPPA_REL_BOUND * np.abs(kappa0), KAPPA_ABS_BOUND),
-                np.full(3 * self.n_markers, OFFSET_BOUND),
-            ]
-        )
+        half_kappa = np.maximum(KAPPA_REL_BOUND * np.abs(kappa0), KAPPA_ABS_BOUND)
+        aligned = [k for k, p in enumerate(self.kinematic) if p.name in ALIGNMENT_NAMES]
+        half_kappa[aligned] = ALIGNMENT_BOUND
+        half = np.concatenate([half_kappa, np.full(3 * self.n_markers, OFFSET_BOUND)])
         self.lower = self.nominal - half
         self.upper = self.nominal + half
         self.frozen = np.zeros(self.size, dtype=bool)
@@ -269,7 +289,8 @@ class ParameterSet:
         }
 
     def from_dict(self, data: Mapping[str, Any], *, source: str = "theta") -> np.ndarray:
-        """Inverse of :meth:`to_dict`; every name must be present and known."""
+        """Inverse of :meth:`to_dict`; every name must be known and present (the alignment
+        parameters may be absent: :data:`ALIGNMENT_NAMES`)."""
         try:
             kappa_d, off_d = data["kappa"], data["offsets"]
         except (KeyError, TypeError):
@@ -278,6 +299,9 @@ class ParameterSet:
         unknown += [n for n in off_d if n not in self.marker_names]
         if unknown:
             raise MocapError(f"{source}: unknown names {unknown}")
+        # A file written before the alignment parameters existed held them at 0 by
+        # construction (the knee centre below the hip centre, the ankle below the knee).
+        kappa_d = {**{n: 0.0 for n in ALIGNMENT_NAMES if n in self._index}, **kappa_d}
         missing = [n for n in self.kappa_names if n not in kappa_d]
         missing += [n for n in self.marker_names if n not in off_d]
         if missing:

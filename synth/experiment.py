@@ -1,6 +1,6 @@
 """A synthetic experiment: truth model, truth motion, measured markers; and writing it to disk.
 
-Symbols: T frames, M markers (39), nq = 55, P = 147 model parameters.
+Symbols: T frames, M markers (39), nq = 55, P = 151 model parameters.
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ Files written to ``--out``: ``report.md`` (Table 1 and notes), ``table1.csv``/``
 ``frame_error.csv`` (marker RMSE per frame and model, mm), ``traces.json`` (per-iteration E,
 RMSE, time of every run), ``fig3.png``, ``fig4.png``, ``convergence.png``, ``summary.json``.
 
-The batch sampling solves 147 x 500 IK problems per iteration; it is run for fewer iterations
+The batch sampling solves 151 x 500 IK problems per iteration; it is run for fewer iterations
 (``--batch-iterations``) and its time extrapolated per iteration to the others' iteration
 count. The stochastic rows for 100 and 300 iterations are the states of the 500-iteration run
 after 100 and 300 iterations (the run is deterministic given the seed, so a shorter run is
@@ -427,7 +427,7 @@ def report_lines(summary: Mapping[str, Any]) -> list[str]:
         "Time: the iterations, wall clock on a shared 2-core machine; the initial IK of all "
         f"frames ({summary['initial_ik_seconds']:.1f} s) is common to every Algorithm-1 run and "
         "not included. The joint LM's time includes its own initial IK. Marker RMSE: IK of "
-        "every frame with the identified model. Parameter errors: RMS over the 30 kinematic "
+        "every frame with the identified model. Parameter errors: RMS over the 34 kinematic "
         "parameters / 117 offset components against the truth, all directions and (columns "
         f"'observable') projected on the {summary['observable_directions']} observable "
         "directions of the reduced information (the others cannot be determined from markers).",

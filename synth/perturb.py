@@ -5,12 +5,15 @@ from __future__ import annotations
 import numpy as np
 
 from mocap_mj.errors import MocapError
-from mocap_mj.identify.anatomy import landmark_prior
+from mocap_mj.identify.anatomy import ALIGNMENT, landmark_prior
 from mocap_mj.parameters import ParameterSet
 
 from .config import MARKER_PLACEMENTS
 
 __all__ = ["mirror_pairs", "perturb_theta", "place_landmarks"]
+
+#: The ``kappa_scale`` at which the alignment parameters are drawn with their prior's spread.
+DEFAULT_KAPPA_SCALE = 0.10
 
 
 def _partner(name: str, names: set[str]) -> str | None:
@@ -50,22 +53,29 @@ def perturb_theta(
 ) -> np.ndarray:
     """A random subject: theta (P,) [m] around ``pset.nominal``, clipped to the bounds.
 
-    Each kinematic parameter is multiplied by a factor uniform in ``[1 - kappa_scale,
-    1 + kappa_scale]``; each marker-offset component moves by a shift uniform in
-    ``[-offset_mm, +offset_mm]`` [mm]. With ``symmetric``, every right-side parameter takes the
-    factor of its left partner and every right marker the mirror image ``(dx, -dy, dz)`` of
-    its left partner's shift (midline markers and unpaired parameters are drawn on their
-    own); otherwise all are independent. With ``placement="anatomical"`` the landmark
-    markers are then moved onto the perturbed skeleton (:func:`place_landmarks`, further
-    draws from ``rng``); the default ``"uniform"`` leaves every marker at its nominal offset
-    plus its shift, so a landmark does not follow the joint it marks. The result is clipped
-    to ``[pset.lower, pset.upper]`` (which the defaults never reach).
+    Each kinematic parameter of non-zero nominal value is multiplied by a factor uniform in
+    ``[1 - kappa_scale, 1 + kappa_scale]``; each marker-offset component moves by a shift
+    uniform in ``[-offset_mm, +offset_mm]`` [mm]. With ``symmetric``, every right-side
+    parameter takes the factor of its left partner and every right marker the mirror image
+    ``(dx, -dy, dz)`` of its left partner's shift (midline markers and unpaired parameters
+    are drawn on their own); otherwise all are independent. With ``placement="anatomical"``
+    the landmark markers are then moved onto the perturbed skeleton
+    (:func:`place_landmarks`, further draws from ``rng``); the default ``"uniform"`` leaves
+    every marker at its nominal offset plus its shift, so a landmark does not follow the
+    joint it marks. Each frontal-plane alignment parameter (nominal 0, which a factor cannot
+    move) is drawn from its prior, its spread scaled by ``kappa_scale`` / 0.10
+    (:func:`_draw_alignment`), before the placement (KNE and ANK follow it), from a child
+    stream (``rng.spawn``): every draw of ``rng`` is the one the same seed gave before these
+    parameters existed, and the skeleton is the same whatever the placement. The result is
+    clipped to ``[pset.lower, pset.upper]`` (which the defaults never reach).
 
     Parameters
     ----------
     pset : ParameterSet
     rng : numpy.random.Generator
-        The draws: K factors, then M x 3 shifts (the same number whatever ``symmetric``).
+        The draws: one factor per non-zero kinematic parameter, M x 3 shifts, then the
+        landmark placement's (``"anatomical"``), the same number whatever ``symmetric``; the
+        alignment parameters' from ``rng.spawn(1)[0]``.
     kappa_scale : float
         Relative half-width of the kappa factors, in [0, 1).
     offset_mm : float
@@ -87,7 +97,9 @@ def perturb_theta(
             f"placement: expected one of {', '.join(MARKER_PLACEMENTS)}, got {placement!r}"
         )
     kappa0, offsets0 = pset.split(pset.nominal)
-    factor = rng.uniform(1.0 - kappa_scale, 1.0 + kappa_scale, pset.n_kappa)
+    scaled = kappa0 != 0.0
+    factor = np.ones(pset.n_kappa)
+    factor[scaled] = rng.uniform(1.0 - kappa_scale, 1.0 + kappa_scale, int(scaled.sum()))
     shift = rng.uniform(-offset_mm, offset_mm, (pset.n_markers, 3)) / 1000.0
     if symmetric:
         for left, right in mirror_pairs(pset.kappa_names):
@@ -95,9 +107,35 @@ def perturb_theta(
         for left, right in mirror_pairs(pset.marker_names):
             shift[right] = shift[left] * np.array([1.0, -1.0, 1.0])
     theta = pset.join(kappa0 * factor, offsets0 + shift)
+    # From a child stream: the parent's draws stay those the seed gave before the alignment
+    # parameters existed, and the skeleton is the same whatever the placement.
+    _draw_alignment(pset, rng.spawn(1)[0], theta, symmetric, kappa_scale / DEFAULT_KAPPA_SCALE)
     if placement == "anatomical":
         theta = place_landmarks(pset, theta, rng)
     return np.clip(theta, pset.lower, pset.upper)
+
+
+def _draw_alignment(
+    pset: ParameterSet, rng: np.random.Generator, theta: np.ndarray, symmetric: bool, scale: float
+) -> None:
+    """Draw the frontal-plane alignment parameters into ``theta`` (P,) [m] in place, each from
+    its prior (:data:`mocap_mj.identify.anatomy.ALIGNMENT`): normal with mean ``tan(mean)``
+    and standard deviation ``scale x tan(sd)`` x its segment's nominal length; at ``scale``
+    1 (the default ``kappa_scale``) the spread of healthy adults that the prior rows
+    describe, so a demo tests the rows as well as the data; at 0 none, as for the lengths."""
+    index = {n: i for i, n in enumerate(pset.kappa_names)}
+    for name, (length, mean, sd) in ALIGNMENT.items():
+        drawn: dict[str, float] = {}
+        for side in ("l", "r"):
+            k, seg = index.get(f"{name}_{side}"), index.get(f"{length}_{side}")
+            if k is None or seg is None:
+                continue
+            draw = np.tan(np.radians(mean)) + scale * np.tan(np.radians(sd)) * rng.normal()
+            drawn[side] = draw * pset.nominal[seg]
+        if symmetric and "l" in drawn and "r" in drawn:
+            drawn["r"] = drawn["l"]
+        for side, value in drawn.items():
+            theta[index[f"{name}_{side}"]] = pset.nominal[index[f"{name}_{side}"]] + value
 
 
 def place_landmarks(pset: ParameterSet, theta: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -107,8 +107,8 @@ def test_cli_info_json() -> None:
     assert info["dof"] == 48
     assert info["markers"] == list(MARKER_NAMES)
     assert info["kinematic_parameters"] == list(ParameterSet().kappa_names)
-    assert len(info["kinematic_parameters"]) == 30
-    assert info["parameter_count"] == 147
+    assert len(info["kinematic_parameters"]) == 34
+    assert info["parameter_count"] == 151
 
 
 def test_cli_bad_model_is_one_line(tmp_path) -> None:  # type: ignore[no-untyped-def]

@@ -25,9 +25,9 @@ def random_theta(pset: ParameterSet, seed: int = 0) -> np.ndarray:
 
 
 def test_layout(pset: ParameterSet) -> None:
-    assert pset.n_kappa == 30 and pset.size == 147
-    assert len(set(pset.names)) == 147
-    assert pset.names[30:33] == ("LASI.x", "LASI.y", "LASI.z")
+    assert pset.n_kappa == 34 and pset.size == 151
+    assert len(set(pset.names)) == 151
+    assert pset.names[34:37] == ("LASI.x", "LASI.y", "LASI.z")
     assert np.all(pset.lower < pset.nominal) and np.all(pset.nominal < pset.upper)
     assert pset.within_bounds(random_theta(pset))
     # Every kappa moves at least one body, each direction is a unit vector.
@@ -45,7 +45,10 @@ def test_kappa_is_a_length(pset: ParameterSet) -> None:
     assert 0.40 < named["shank_length_r"] < 0.46
     assert 0.27 < named["upperarm_length_l"] < 0.34
     assert 0.15 < named["hip_width_l"] + named["hip_width_r"] < 0.22
-    assert np.all(kappa > 0)
+    # The alignment parameters are signed offsets, nominally 0 (neutral alignment).
+    aligned = {n for n in named if n.startswith(("knee_lateral", "ankle_lateral"))}
+    assert len(aligned) == 4 and all(named[n] == 0.0 for n in aligned)
+    assert all(v > 0 for n, v in named.items() if n not in aligned)
 
 
 def test_apply_moves_only_what_the_map_says(pset: ParameterSet) -> None:
@@ -98,10 +101,10 @@ def test_bad_input(pset: ParameterSet, tmp_path) -> None:  # type: ignore[no-unt
         pset.marker_index("LKNEE")
     with pytest.raises(UnknownNameError, match="thigh_length_l"):
         pset.index("femur")
-    with pytest.raises(ShapeError, match=r"theta: expected shape \(147\), got \(146,\)"):
-        pset.check(np.zeros(146))
+    with pytest.raises(ShapeError, match=r"theta: expected shape \(151\), got \(150,\)"):
+        pset.check(np.zeros(150))
     with pytest.raises(ShapeError, match="offsets"):
-        pset.join(np.zeros(30), np.zeros((38, 3)))
+        pset.join(np.zeros(pset.n_kappa), np.zeros((38, 3)))
     bad = tmp_path / "theta.json"
     bad.write_text('{"kappa": {}, "offsets": {}}')
     with pytest.raises(MocapError, match="missing names"):

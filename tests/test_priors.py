@@ -23,7 +23,13 @@ from mocap_mj.identify.anatomy import (
 from mocap_mj.identify.lm import LMSettings, TrialData, identify_lm
 from mocap_mj.identify.pipeline import SOFT_TISSUE_SIGMA, artefact_noise
 from mocap_mj.identify.priors import LinearGaussianPrior
-from mocap_mj.identify.ranges import kappa_ranges, theta_bounds
+from mocap_mj.identify.ranges import (
+    ALIGNMENT_RANGES,
+    SIGNED,
+    base_name,
+    kappa_ranges,
+    theta_bounds,
+)
 from mocap_mj.marker_set import marker_class
 from mocap_mj.subject import Subject, from_c3d, from_values, from_yaml
 
@@ -283,8 +289,13 @@ def test_yaml_and_flags_override_and_reject_bad_values(tmp_path: Path) -> None:
 def test_ranges_have_positive_lengths(pset: ParameterSet) -> None:
     lo, hi = kappa_ranges(pset)
     assert np.all(lo < pset.nominal[: pset.n_kappa]) and np.all(hi > pset.nominal[: pset.n_kappa])
-    lengths = [i for i, n in enumerate(pset.kappa_names) if n != "neck_depth"]
+    signed = SIGNED | ALIGNMENT_RANGES.keys()
+    lengths = [i for i, n in enumerate(pset.kappa_names) if base_name(n) not in signed]
     assert np.all(lo[lengths] > 0)
+    # The alignment offsets: -/+ tan(12 deg) x the segment, at the tallest adult height.
+    i, seg = pset.index("knee_lateral_r"), pset.index("thigh_length_r")
+    half = np.tan(np.radians(12.0)) * pset.nominal[seg] * 2.10 / 1.75
+    assert (lo[i], hi[i]) == pytest.approx((-half, half))
 
 
 def test_bounds_are_never_crossed(pset: ParameterSet) -> None:

@@ -13,6 +13,7 @@ import pytest
 
 from mocap_mj import ParameterSet
 from mocap_mj.cli import main
+from mocap_mj.identify.anatomy import landmark_prior
 from mocap_mj.identify.consistency import joint_centre_lengths
 from mocap_mj.identify.plausibility import (
     kappa_outside_bounds,
@@ -67,6 +68,14 @@ def test_real_skeleton_targets(tmp_path: Path, capsys: pytest.CaptureFixture[str
     )
     assert all(abs(v) <= 0.005 for v in widths.values()), widths
     assert np.isfinite(summary["prior_weighting"]["noise_mm"])
+    # The hip centres where Harrington's rows put them, within 1 sd (8 mm): a knee without
+    # frontal-plane alignment pulled them 18-22 mm medially on Static_trial (2.3 / 2.7 sd;
+    # docs/real-data.md, fifth round).
+    prior = landmark_prior(pset, subject)
+    hjc = [i for i, lab in enumerate(prior.labels) if lab.endswith("(Harrington 2007)")]
+    assert len(hjc) == 6
+    z = prior.residuals(theta)[hjc]
+    assert np.all(np.abs(z) < 1.0), dict(zip(np.array(prior.labels)[hjc], z, strict=True))
 
 
 def _identify(tmp_path: Path, name: str, *paths: Path) -> Path:

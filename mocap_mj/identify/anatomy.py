@@ -119,6 +119,23 @@ WIDTH_RATIO: dict[str, tuple[str, float]] = {
 }
 
 
+#: Frontal-plane alignment parameter -> (the segment whose mechanical axis it tilts against
+#: the joint's flexion axis, mean and standard deviation of that angle [deg]): the knee
+#: centre's lateral offset from the hip centre (femur), the ankle centre's from the knee
+#: centre (tibia): healthy adults' mechanical lateral distal femoral and medial proximal
+#: tibial angles are 87-88 +- 2-3 degrees (Paley 2002, normal range 85-90; Bellemans et al.
+#: 2012: constitutional varus in a quarter of healthy adults), here 0 +- 3 about the
+#: perpendicular (docs/model.md; the elbow's carrying angle was tried the same way and not
+#: kept, docs/real-data.md).
+ALIGNMENT: dict[str, tuple[str, float, float]] = {
+    "knee_lateral": ("thigh_length", 0.0, 3.0),
+    "ankle_lateral": ("shank_length", 0.0, 3.0),
+}
+#: Joint width (measurement, side removed) -> the alignment parameter giving that joint
+#: centre's lateral position in its lateral marker's frame (absent: on the frame's origin).
+CENTRE_LATERAL: dict[str, str] = {"knee_width": "knee_lateral", "ankle_width": "ankle_lateral"}
+
+
 class _Rows:
     """Accumulates prior rows over theta's names, skipping those naming absent parameters."""
 
@@ -165,21 +182,40 @@ def _scaled(terms: dict[str, float], factor: float) -> dict[str, float]:
 
 
 def _width_rows(rows: _Rows, subject: Subject, side: str, marker: str, width: str) -> None:
-    """``marker.y = +-(width / 2 + marker radius)``: measured, else regressed on a length."""
+    """``marker.y = +-(centre.y + width / 2 + marker radius)``: the width measured, else
+    regressed on a length; ``centre.y`` the joint centre's lateral position in the marker's
+    frame (:data:`CENTRE_LATERAL`'s parameter for the knee and ankle, 0 for the elbow)."""
     sign = 1.0 if side == "l" else -1.0
     r = subject.marker_radius
     measured = subject.get(f"{width}_{side}")
     name = f"{marker}.y"
+    centre = {f"{CENTRE_LATERAL[width]}_{side}": -1.0} if width in CENTRE_LATERAL else {}
+    at = "centre + " if centre else ""
     if measured is not None:
-        rows.add({name: sign}, measured / 2 + r, SIGMA_MEASURED, f"{name} = {width}/2 + r")
+        rows.add({name: sign, **centre}, measured / 2 + r, SIGMA_MEASURED,
+                 f"{name} = {at}{width}/2 + r")  # fmt: skip
         return
     kappa, ratio = WIDTH_RATIO[width]
     rows.add(
-        {name: sign, f"{kappa}_{side}": -ratio / 2},
+        {name: sign, f"{kappa}_{side}": -ratio / 2, **centre},
         r,
         SIGMA_REGRESSED,
-        f"{name} = {ratio:.3f} {kappa}/2 + r (regressed {width})",
+        f"{name} = {at}{ratio:.3f} {kappa}/2 + r (regressed {width})",
     )
+
+
+def _alignment_rows(rows: _Rows, side: str, s: float) -> None:
+    """The frontal-plane alignment (:data:`ALIGNMENT`): each lateral offset of a joint centre
+    ``tan(mean) x`` its segment's nominal length scaled by ``s``, standard deviation
+    ``tan(sd) x`` that length: the spread of healthy adults' joint angles (docs/model.md)."""
+    kappa0 = dict(zip(rows.pset.names, rows.pset.nominal, strict=False))
+    for name, (length, mean, sd) in ALIGNMENT.items():
+        base = kappa0.get(f"{length}_{side}")
+        if base is None:
+            continue
+        b, sigma = (np.tan(np.radians(a)) * base * s for a in (mean, sd))
+        rows.add({f"{name}_{side}": 1.0}, b, sigma,
+                 f"{name}_{side} = {mean:.0f} +- {sd:.0f} deg of {length}")  # fmt: skip
 
 
 def landmark_prior(
@@ -200,6 +236,7 @@ def landmark_prior(
     for side, p in (("l", "L"), ("r", "R")):
         _shoulder_rows(rows, pset, subject, side, p, s)
         _limb_rows(rows, subject, side, p, s)
+        _alignment_rows(rows, side, s)
         _hand_rows(rows, subject, side, p, s)
         _foot_rows(rows, side, p, s)
     return rows.prior(noise)
@@ -366,12 +403,12 @@ def _leg_length_row(rows: _Rows, subject: Subject, side: str, p: str, leg: float
     malleolus (:data:`MEDIAL_MALLEOLUS_ABOVE` above the ankle centre, which Plug-in Gait puts
     at the lateral malleolus's level, and half the ankle width medial of it); the leg straight
     below the hip centre in the pelvis frame. So the tape is the length of
-    ``v = (ASIS.x + hip_depth - r, ASIS.y - hip_width + ankle_width/2,
-    hip_height + thigh + shank - MEDIAL_MALLEOLUS_ABOVE)`` (left side; the right mirrors y),
-    not ``hip_height + thigh + shank``: the ASIS lies 40-60 mm ahead of and lateral of the
-    hip centre, the malleolus above the ankle centre. ``|v|`` is linearised at the nominal
-    ``v0``: ``|v| ~ |v0| + (v0 / |v0|) . (v - v0)``, within 1.5 mm for skeletons within 15 %
-    of the nominal one.
+    ``v = (ASIS.x + hip_depth - r, ASIS.y - hip_width - knee_lateral - ankle_lateral +
+    ankle_width/2, hip_height + thigh + shank - MEDIAL_MALLEOLUS_ABOVE)`` (left side; the
+    right mirrors y), not ``hip_height + thigh + shank``: the ASIS lies 40-60 mm ahead of and
+    lateral of the hip centre, the malleolus above the ankle centre. ``|v|`` is linearised at
+    the nominal ``v0``: ``|v| ~ |v0| + (v0 / |v0|) . (v - v0)``, within 1.5 mm for skeletons
+    within 15 % of the nominal one.
     """
     sign = 1.0 if side == "l" else -1.0
     kappa0 = {n: float(v) for n, v in zip(rows.pset.names, rows.pset.nominal, strict=True)}
@@ -382,7 +419,9 @@ def _leg_length_row(rows: _Rows, subject: Subject, side: str, p: str, leg: float
         aw = ratio * kappa0.get(f"{kappa}_{side}", 0.0) * s
     comps = (  # (terms linear in theta, constant) per axis of v
         ({f"{asis}.x": 1.0, f"hip_depth_{side}": 1.0}, -subject.marker_radius),
-        ({f"{asis}.y": sign, f"hip_width_{side}": -1.0}, aw / 2),
+        ({f"{asis}.y": sign, f"hip_width_{side}": -1.0,
+          **{f"{a}_{side}": -1.0 for a in CENTRE_LATERAL.values() if f"{a}_{side}" in kappa0}},
+         aw / 2),
         ({f"hip_height_{side}": 1.0, f"thigh_length_{side}": 1.0, f"shank_length_{side}": 1.0},
          -MEDIAL_MALLEOLUS_ABOVE * s),
     )  # fmt: skip

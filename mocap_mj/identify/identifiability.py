@@ -321,6 +321,9 @@ def _describe(
             if fit < 0.1:
                 return f"{bname} markers ({members}): rotation about the {names} joint"
             return f"{bname} markers ({members}) together"
+    slide = _along_knee_axis(comps)
+    if slide:
+        return slide
     pelvis = {"LASI", "RASI", "LPSI", "RPSI"}
     pel_w = sum(w for n, w in comps if n.split()[0] in pelvis)
     if pel_w > 0.3:
@@ -328,3 +331,31 @@ def _describe(
             f"{n} {w:.0%}" for n, w in comps[:5]
         )
     return "combination: " + ", ".join(f"{n} {w:.0%}" for n, w in comps[:5])
+
+
+#: Alignment parameter (side removed) -> what sliding it along the knee axis is, in words.
+_ALONG_AXIS = {
+    "knee_lateral": "the knee centre and the shank below it sliding along the knee axis",
+    "ankle_lateral": "the ankle centre and the foot sliding along the knee and ankle axes",
+}
+
+
+def _along_knee_axis(comps: list[tuple[str, float]]) -> str:
+    """Words for a direction led by a frontal-plane alignment parameter, else "".
+
+    A body origin sliding along its hinge axis, with its markers sliding back, leaves the
+    markers unchanged while the axial rotation below it (tibial rotation, subtalar) is
+    still: the data see the alignment only through those rotations, and the KNE or ANK
+    width row (the joint centre half a width medial of its marker) decides the rest.
+    """
+    for name, w in comps:
+        base = name[:-2] if name.endswith(("_l", "_r")) else name
+        if base in _ALONG_AXIS and w >= 0.2:
+            parts = ", ".join(f"{n} {x:.0%}" for n, x in comps[:4])
+            return (
+                f"{name}: {_ALONG_AXIS[base]} (seen through tibial/subtalar rotation only; "
+                f"its marker's width row decides it): {parts}"
+            )
+        if not name.endswith(" offset"):  # a larger kinematic part leads: not this case
+            break
+    return ""

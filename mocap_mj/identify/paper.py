@@ -1,6 +1,6 @@
 """Algorithm 1 of Zou & Sugihara: theta by finite-difference gradient descent through IK.
 
-The paper identifies theta (P = 147: 30 kinematic parameters and 39 x 3 marker offsets [m]) by
+The paper identifies theta (P = 151: 34 kinematic parameters and 39 x 3 marker offsets [m]) by
 minimising the marker error of the motion that inverse kinematics reconstructs::
 
     E(theta) = sum_{j in S} sum_m |p~_jm - x_m(q_j(theta); theta)|^2,

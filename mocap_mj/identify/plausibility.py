@@ -1,6 +1,6 @@
 """Checks of an identified model that real data need: residual per marker, implausible values.
 
-On real recordings the marker RMSE alone says little: 147 parameters and a pose per frame can
+On real recordings the marker RMSE alone says little: 151 parameters and a pose per frame can
 absorb soft-tissue artefact into parameters the motion hardly excites (a foot length of a few
 millimetres, a forearm of 40 cm). These checks name the markers that fit worst, the
 kinematic parameters outside a range (the anatomical ranges of

@@ -27,6 +27,10 @@ sc width                                  0.40       2.00    a short distance (2
 neck depth (C7/T1 ahead of T12/L1)        -0.5       3.0     thoracic kyphosis varies
 ========================================  =========  ======  ==============================
 
+The frontal-plane alignment parameters (knee centre lateral of the hip centre, ankle centre
+lateral of the knee centre, along the knee axis; nominal 0) are signed: their range is -/+
+tan(12 deg) x the segment's height-scaled nominal length (:data:`ALIGNMENT_RANGES`).
+
 Every lower bound of a length is positive (``lo > 0``): no zero or negative length can leave
 the solver. Marker offsets are not bounded here (wand markers can sit anywhere; the priors
 place the landmark ones).
@@ -69,6 +73,14 @@ RANGE_FACTORS: dict[str, tuple[float, float]] = {
 
 #: Parameters that are not lengths (may be zero or negative within their range).
 SIGNED = frozenset({"neck_depth"})
+#: Alignment parameter (nominal 0, side removed) -> (segment length parameter, largest angle
+#: [deg]): its range is -/+ tan(angle) x the height-scaled nominal length, a frontal-plane
+#: angle of the femur or tibia against the knee axis beyond the healthy adult's 85-90 degree
+#: joint angles (Paley 2002) by more than 3 standard deviations.
+ALIGNMENT_RANGES: dict[str, tuple[str, float]] = {
+    "knee_lateral": ("thigh_length", 12.0),
+    "ankle_lateral": ("shank_length", 12.0),
+}
 
 
 def base_name(name: str) -> str:
@@ -90,7 +102,14 @@ def kappa_ranges(
     nominal = pset.nominal[:k]
     lower = pset.lower[:k].copy()
     upper = pset.upper[:k].copy()
+    index = {n: i for i, n in enumerate(pset.kappa_names)}
     for i, name in enumerate(pset.kappa_names):
+        aligned = ALIGNMENT_RANGES.get(base_name(name))
+        if aligned is not None and f"{aligned[0]}{name[-2:]}" in index:
+            length = nominal[index[f"{aligned[0]}{name[-2:]}"]]
+            half = np.tan(np.radians(aligned[1])) * length / NOMINAL_HEIGHT * h_hi
+            lower[i], upper[i] = nominal[i] - half, nominal[i] + half
+            continue
         factors = RANGE_FACTORS.get(base_name(name))
         if factors is None:
             continue
