@@ -26,8 +26,9 @@ Rates (:data:`SLIDES`), per-axis standard deviation per radian from the defining
   and > 75 degrees (docs/real-data.md).
 
 The ankle (ANK) and elbow (ELB) markers sit on bone under thin skin; their sliding with the
-joint's angle is not modelled (measured on the shared trials: weighting them changed no
-target, docs/real-data.md).
+joint's angle is not modelled (on the shared trials weighting them alike at 10 mm/rad improved
+no figure and moved Movement+Static's ankle_l centre 3 mm further off its width,
+docs/real-data.md "Soft-tissue sliding").
 """
 
 from __future__ import annotations
