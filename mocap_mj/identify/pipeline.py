@@ -33,7 +33,7 @@ from .problem import TrialData
 from .ranges import kappa_ranges, theta_bounds
 from .result import IdentificationResult, ProgressCallback
 from .segments import SegmentRow, uncertainty_summary, write_segments_csv
-from .tissue import Slide, with_sliding_weights
+from .tissue import Slide, sliding_weights
 
 logger = logging.getLogger(__name__)
 
@@ -568,8 +568,8 @@ def solve_anatomical(
     residuals show soft tissue, never on white noise. Off by default: on the shared trials it
     brings the knee-flexion trial's thigh toward the other trials' but moves Movement_trial's
     hip centres apart (docs/real-data.md "Soft-tissue sliding"). Returns the
-    result and the weighting used (``noise_mm``, ``sigma_mm``, ``tau_frames``; with the
-    second solve ``slide_weight_min``, the smallest sliding weight).
+    result and the weighting used (``noise_mm``, ``sigma_mm``, ``tau_frames``; when the
+    sliding weights were applied, ``slide_weight_min``, the smallest of them).
     """
     lower, upper = theta_bounds(pset, subject)
     priors = anatomical_priors(
@@ -597,8 +597,9 @@ def solve_anatomical(
     weighted = list(trials)
     if slides:
         base = max(first.sigma, SOFT_TISSUE_SIGMA)
-        weighted = with_sliding_weights(trials, pset, first.qpos, base, slides)
-        weighting["slide_weight_min"] = min(float(np.min(t.weights)) for t in weighted)  # type: ignore[arg-type]
+        weights = [sliding_weights(pset, q, base, slides) for q in first.qpos]
+        weighted = [t._replace(weights=w) for t, w in zip(trials, weights, strict=True)]
+        weighting["slide_weight_min"] = float(min(w.min() for w in weights))
     result = identify_lm(
         weighted,
         pset=pset,

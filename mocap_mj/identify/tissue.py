@@ -33,14 +33,12 @@ docs/real-data.md "Soft-tissue sliding").
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
 from ..parameters import ParameterSet
-from .problem import TrialData
 
 
 @dataclass(frozen=True)
@@ -94,19 +92,4 @@ def sliding_weights(
     return w
 
 
-def with_sliding_weights(
-    trials: Sequence[TrialData],
-    pset: ParameterSet,
-    qpos: Sequence[np.ndarray],
-    base: float,
-    slides: dict[str, Slide] | None = None,
-) -> list[TrialData]:
-    """The trials with the :func:`sliding_weights` of their poses qpos (T_i, nq) per trial
-    (e.g. a first solve's) as sample weights."""
-    return [
-        t._replace(weights=sliding_weights(pset, q, base, slides))
-        for t, q in zip(trials, qpos, strict=True)
-    ]
-
-
-__all__ = ["SLIDES", "Slide", "sliding_weights", "with_sliding_weights"]
+__all__ = ["SLIDES", "Slide", "sliding_weights"]
