@@ -4,10 +4,9 @@ A landmark marker on a joint's axis (KNE on the lateral femoral epicondyle, on t
 axis) is placed, and its prior rows (:mod:`mocap_mj.identify.anatomy`) are written, in the pose
 that defines it: the static standing pose, the model's zero angles. As the joint turns away
 from that pose, the skin under the marker slides over the bone: the marker moves against its
-segment by an amount that grows with the angle and that no rigid offset can follow. The fit
-then bends the skeleton to follow it (on a knee-flexion trial a 15 mm slide of KNE put the
-knee hinge ~20 mm distal of KNE and the thigh 17 mm longer than on the other trials of the
-same subject, docs/real-data.md "Soft-tissue sliding").
+segment by an amount that grows with the angle and that no rigid offset can follow, and the
+fit bends the skeleton (joint centres, segment lengths) to follow it (measured:
+docs/real-data.md "Soft-tissue sliding").
 
 The model here is heteroscedastic noise: a landmark's sample at joint angle q has, beyond the
 artefact every marker carries (per-axis standard deviation ``base``), a slide of per-axis
@@ -22,13 +21,10 @@ Rates (:data:`SLIDES`), per-axis standard deviation per radian from the defining
 
 * KNE, knee flexion, 10 mm/rad (15 mm at 90 degrees): skin markers over the distal thigh
   move 10-30 mm against the femur, most in deep flexion (Leardini et al. 2005, a review of
-  bone-pin and fluoroscopy studies); the shared knee-flexion trial shows 15 mm between 0-15
-  and > 75 degrees (docs/real-data.md).
+  bone-pin and fluoroscopy studies).
 
-The ankle (ANK) and elbow (ELB) markers sit on bone under thin skin; their sliding with the
-joint's angle is not modelled (on the shared trials weighting them alike at 10 mm/rad improved
-no figure and moved Movement+Static's ankle_l centre 3 mm further off its width,
-docs/real-data.md "Soft-tissue sliding").
+The ankle (ANK) and elbow (ELB) markers sit on bone under thin skin: their sliding is not
+modelled (weighting them alike helped no real-data figure, docs/real-data.md).
 """
 
 from __future__ import annotations
