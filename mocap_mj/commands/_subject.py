@@ -78,11 +78,11 @@ def add_subject_options(p: Any) -> None:
         "with a known asymmetry, e.g. a limb-length discrepancy; default: the prior is on)",
     )
     g.add_argument(
-        "--no-sliding-landmarks",
+        "--sliding-landmarks",
         action="store_true",
-        help="do not weigh the knee epicondyle markers (KNE) down as the knee flexes (default: "
-        "on where the residuals show soft tissue: the skin slides on the femur, 10 mm per rad "
-        "per axis; docs/model.md)",
+        help="weigh each knee epicondyle marker (KNE) down as the knee flexes: its skin slides "
+        "on the femur (10 mm per rad per axis; applied where the residuals show soft tissue; "
+        "docs/model.md; default: off)",
     )
     g.add_argument(
         "--no-anatomy",

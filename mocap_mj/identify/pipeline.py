@@ -566,9 +566,9 @@ def solve_anatomical(
     (:mod:`mocap_mj.identify.tissue`) by the first solve's poses, against a per-axis artefact
     of ``max(sigma, SOFT_TISSUE_SIGMA)``: the soft-tissue model applies only where the
     residuals show soft tissue, never on white noise. ``mocap-mj identify`` passes
-    :data:`~mocap_mj.identify.tissue.SLIDES` unless ``--no-sliding-landmarks``: with the knee's
-    frontal-plane alignment in the model it brings the knee-flexion trial's thigh toward the
-    other trials' and breaks no target (docs/real-data.md "Soft-tissue sliding"). Returns the
+    :data:`~mocap_mj.identify.tissue.SLIDES` with ``--sliding-landmarks`` (default off: the
+    fit it reports is then a weighted one, which ``ik --model``, weighing every marker alike,
+    beats by 3-5 %; docs/real-data.md "Soft-tissue sliding"). Returns the
     result and the weighting used (``noise_mm``, ``sigma_mm``, ``tau_frames``; when the
     sliding weights were applied, ``slide_weight_min``, the smallest of them).
     """
