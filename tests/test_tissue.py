@@ -71,17 +71,24 @@ def test_weighted_loss_normalises_each_residual(loss) -> None:  # type: ignore[n
     assert grad == pytest.approx(expected, rel=1e-5, abs=1e-12)
 
 
-def _knee_centre_rms(pset: ParameterSet, result, kin_true: Kinematics, qpos: np.ndarray):  # type: ignore[no-untyped-def]
-    """RMS over frames [m] of each knee centre (the shank origin) against the truth."""
+def _knee_centre_error_along_femur(
+    pset: ParameterSet, result, kin_true: Kinematics, qpos: np.ndarray
+):  # type: ignore[no-untyped-def]
+    """RMS over frames [m] of each knee centre's (the shank origin's) error along the true
+    femur (the thigh's z axis), the direction in which the slide moves KNE. The knee centre's
+    position along the knee axis is the width rows' (and any alignment prior's), which the
+    slide does not touch."""
     kin = Kinematics(pset)
     kin.set_theta(result.theta)
     used = result.used[0]
-    est = kin.forward(result.qpos[0][used]).xpos
-    true = kin_true.forward(qpos[used]).xpos
+    est = kin.forward(result.qpos[0][used])
+    true = kin_true.forward(qpos[used])
     out = []
     for side in "lr":
-        b = pset.model.body(f"shank_{side}").id
-        out.append(float(np.sqrt(np.mean(np.sum((est[:, b] - true[:, b]) ** 2, axis=1)))))
+        shank, thigh = pset.model.body(f"shank_{side}").id, pset.model.body(f"thigh_{side}").id
+        along = true.xmat[:, thigh].reshape(-1, 3, 3)[:, :, 2]
+        err = np.sum((est.xpos[:, shank] - true.xpos[:, shank]) * along, axis=1)
+        out.append(float(np.sqrt(np.mean(err**2))))
     return np.array(out)
 
 
@@ -119,11 +126,12 @@ def test_knee_centre_recovered_better_when_kne_slides(pset: ParameterSet, experi
     # The slide's residuals are correlated over frames: the reweighted solve runs, and with
     # the model it weighs KNE down in deep flexion.
     assert "slide_weight_min" not in wt0 and wt1["slide_weight_min"] < 0.1
-    e0 = _knee_centre_rms(pset, without, kin, qpos)
-    e1 = _knee_centre_rms(pset, with_model, kin, qpos)
-    # Measured: 4.5 / 4.1 mm without the model, 2.5 / 2.7 mm with it (left / right).
-    assert np.all(e1 <= 0.8 * e0), (e0, e1)
-    assert np.all(e1 <= 0.0035), e1
+    e0 = _knee_centre_error_along_femur(pset, without, kin, qpos)
+    e1 = _knee_centre_error_along_femur(pset, with_model, kin, qpos)
+    # Measured (left / right): 3.1 / 2.9 mm without the model, 0.8 / 0.9 mm with it; with the
+    # knee alignment parameters (issue 14f) 4.3 / 2.9 and 2.3 / 0.8 mm.
+    assert np.all(e1 <= 0.65 * e0), (e0, e1)
+    assert np.all(e1 <= 0.003), e1
 
 
 def test_without_slide_the_model_changes_nothing(pset: ParameterSet, experiment) -> None:  # type: ignore[no-untyped-def]
