@@ -128,10 +128,12 @@ def test_knee_centre_recovered_better_when_kne_slides(pset: ParameterSet, experi
     assert "slide_weight_min" not in wt0 and wt1["slide_weight_min"] < 0.1
     e0 = _knee_centre_error_along_femur(pset, without, kin, qpos)
     e1 = _knee_centre_error_along_femur(pset, with_model, kin, qpos)
-    # Measured (left / right): 3.1 / 2.9 mm without the model, 0.8 / 0.9 mm with it; with the
-    # knee alignment parameters (issue 14f) 4.3 / 2.9 and 2.3 / 0.8 mm.
-    assert np.all(e1 <= 0.65 * e0), (e0, e1)
-    assert np.all(e1 <= 0.003), e1
+    # RMS over both knees. Measured on this seed: 3.0 mm without the model, 0.9 mm with it;
+    # with the knee alignment parameters of issue 14f (their truth drawn from their prior)
+    # 2.9 and 1.7 mm. Over seeds 0-3 the gain varies (docs/real-data.md "Soft-tissue sliding").
+    both0, both1 = float(np.sqrt(np.mean(e0**2))), float(np.sqrt(np.mean(e1**2)))
+    assert both1 <= 0.75 * both0, (e0, e1)
+    assert both1 <= 0.0025 and np.all(e1 <= e0), (e0, e1)
 
 
 def test_without_slide_the_model_changes_nothing(pset: ParameterSet, experiment) -> None:  # type: ignore[no-untyped-def]
