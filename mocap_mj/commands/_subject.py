@@ -78,6 +78,13 @@ def add_subject_options(p: Any) -> None:
         "with a known asymmetry, e.g. a limb-length discrepancy; default: the prior is on)",
     )
     g.add_argument(
+        "--sliding-landmarks",
+        action="store_true",
+        help="weigh each knee epicondyle marker (KNE) down as the knee flexes: its skin slides "
+        "on the femur (10 mm per rad per axis; applied where the residuals show soft tissue; "
+        "docs/model.md; default: off)",
+    )
+    g.add_argument(
         "--no-anatomy",
         action="store_true",
         help="no anatomical priors and ranges: the plain joint LM (default: priors and ranges on)",

@@ -31,6 +31,7 @@ from ..identify.pipeline import INITS, identify_to_folder, result_text
 from ..identify.plausibility import plausibility_text
 from ..identify.problem import TrialData
 from ..identify.selection import select_in_trials
+from ..identify.tissue import SLIDES
 from ..ik import IKSettings
 from ..parameters import ParameterSet
 from ..subject import Subject
@@ -284,6 +285,7 @@ def _identify(
             anatomical=not args.no_anatomy,
             symmetric=None if args.symmetric is None else args.symmetric * 1e-3,
             asymmetry_prior=not args.no_asymmetry_prior,
+            slides=SLIDES if args.sliding_landmarks else None,
             progress=progress,
             extra=extra,
             motion_trials=motion_trials,

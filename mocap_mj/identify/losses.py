@@ -78,6 +78,31 @@ class Cauchy:
         return np.where(present, w, 0.0)
 
 
+@dataclass(frozen=True)
+class Weighted:
+    """``base`` applied to each sample's distance scaled by sqrt(w): sum rho(sqrt(w) d).
+
+    ``w`` (n, M) [1] holds per-sample weights, the ratio of the nominal noise variance to the
+    sample's own (a heteroscedastic noise model: a sample with standard deviation s0 / sqrt(w)
+    is weighed as its residual normalised by it). For the l2 loss this is sum w d^2 / 2; for
+    the robust losses the threshold applies to the normalised residual. The IRLS weights are
+    ``w * base.weights(sqrt(w) d)``.
+    """
+
+    base: Loss
+    w: np.ndarray
+
+    @property
+    def name(self) -> str:
+        return self.base.name
+
+    def value(self, dist: np.ndarray, present: np.ndarray, c: float) -> float:
+        return self.base.value(np.sqrt(self.w) * dist, present, c)
+
+    def weights(self, dist: np.ndarray, present: np.ndarray, c: float) -> np.ndarray:
+        return self.w * self.base.weights(np.sqrt(self.w) * dist, present, c)
+
+
 def loss_named(name: str) -> Loss:
     """The loss called ``name`` (one of :data:`LOSS_NAMES`); else a MocapError listing them."""
     losses: dict[str, Loss] = {"l2": L2(), "huber": Huber(), "cauchy": Cauchy()}
@@ -86,4 +111,4 @@ def loss_named(name: str) -> Loss:
     return losses[name]
 
 
-__all__ = ["L2", "LOSS_NAMES", "Cauchy", "Huber", "Loss", "LossName", "loss_named"]
+__all__ = ["L2", "LOSS_NAMES", "Cauchy", "Huber", "Loss", "LossName", "Weighted", "loss_named"]

@@ -33,6 +33,7 @@ from .problem import TrialData
 from .ranges import kappa_ranges, theta_bounds
 from .result import IdentificationResult, ProgressCallback
 from .segments import SegmentRow, uncertainty_summary, write_segments_csv
+from .tissue import Slide, sliding_weights
 
 logger = logging.getLogger(__name__)
 
@@ -57,6 +58,7 @@ def identify_to_folder(
     motion_trials: Sequence[TrialData] | None = None,
     motion_progress: Callable[[int], None] | None = None,
     refine: bool = False,
+    slides: dict[str, Slide] | None = None,
 ) -> tuple[dict[str, Any], IdentificationResult, Identifiability]:
     """Run the joint LM on the trials and write model.xml, theta.json, motion.npz,
     identifiability.json and report.md into ``out``; return (summary, result, identifiability).
@@ -88,7 +90,8 @@ def identify_to_folder(
     ``subject`` has it) and adds the landmark priors (:mod:`mocap_mj.identify.anatomy`,
     sharpened by ``subject``'s measurements); ``symmetric`` [m] adds a prior tying every
     left length to the right one with that standard deviation, in place of the population
-    asymmetry prior (``ASYMMETRY_SIGMA``, on unless ``asymmetry_prior`` is False). See
+    asymmetry prior (``ASYMMETRY_SIGMA``, on unless ``asymmetry_prior`` is False);
+    ``slides``: the landmarks' soft-tissue sliding model (default None: off). See
     :func:`solve_anatomical`.
     """
     t0 = time.perf_counter()
@@ -104,7 +107,13 @@ def identify_to_folder(
     }
     with captured_log() as log:
         result, weighting = _solve(
-            trials, pset=pset, theta0=theta0, settings=settings, progress=progress, **prior_options
+            trials,
+            pset=pset,
+            theta0=theta0,
+            settings=settings,
+            progress=progress,
+            slides=slides,
+            **prior_options,
         )
     refined: dict[str, Any] = {}
     if refine and motion_trials is not None and settings.loss == "l2":
@@ -280,11 +289,13 @@ def _solve(
     anatomical: bool,
     symmetric: float | None,
     progress: ProgressCallback | None,
+    slides: dict[str, Slide] | None = None,
 ) -> tuple[IdentificationResult, dict[str, float]]:
     """The joint LM of :func:`identify_to_folder`: with ``anatomical`` through
     :func:`solve_anatomical` (ranges and landmark priors; ``symmetric`` [m] the left/right
-    prior's standard deviation or None), else the plain :func:`identify_lm`; return the
-    result and the prior weighting (empty without ``anatomical``)."""
+    prior's standard deviation or None; ``slides`` the sliding landmarks or None), else the
+    plain :func:`identify_lm`; return the result and the prior weighting (empty without
+    ``anatomical``)."""
     if anatomical:
         return solve_anatomical(
             trials,
@@ -295,6 +306,7 @@ def _solve(
             size=size,
             symmetric=symmetric,
             progress=progress,
+            slides=slides,
         )
     result = identify_lm(trials, pset=pset, theta0=theta0, settings=settings, progress=progress)
     return result, {}
@@ -534,6 +546,7 @@ def solve_anatomical(
     size: float = 1.0,
     symmetric: float | None = None,
     progress: ProgressCallback | None = None,
+    slides: dict[str, Slide] | None = None,
 ) -> tuple[IdentificationResult, dict[str, float]]:
     """The joint LM with anatomical ranges as bounds and the anatomical priors.
 
@@ -546,8 +559,18 @@ def solve_anatomical(
     residuals correlated over tau frames hold about 1 / tau of the information white noise
     would, and the prior keeps its weight against them. On synthetic white noise (tau about
     1, sigma the simulated noise) one solve is kept. The weak prior toward the initial model
-    is unchanged (its mean becomes the first solve's model in the second solve). Returns
-    the result and the weighting used (``noise_mm``, ``sigma_mm``, ``tau_frames``).
+    is unchanged (its mean becomes the first solve's model in the second solve).
+
+    With ``slides`` (e.g. :data:`~mocap_mj.identify.tissue.SLIDES`; default None: off) the
+    second solve also weighs the landmark markers that slide with their joint's angle
+    (:mod:`mocap_mj.identify.tissue`) by the first solve's poses, against a per-axis artefact
+    of ``max(sigma, SOFT_TISSUE_SIGMA)``: the soft-tissue model applies only where the
+    residuals show soft tissue, never on white noise. ``mocap-mj identify`` passes
+    :data:`~mocap_mj.identify.tissue.SLIDES` with ``--sliding-landmarks`` (default off: the
+    fit it reports is then a weighted one, which ``ik --model``, weighing every marker alike,
+    beats by 3-5 %; docs/real-data.md "Soft-tissue sliding"). Returns the
+    result and the weighting used (``noise_mm``, ``sigma_mm``, ``tau_frames``; when the
+    sliding weights were applied, ``slide_weight_min``, the smallest of them).
     """
     lower, upper = theta_bounds(pset, subject)
     priors = anatomical_priors(
@@ -572,8 +595,14 @@ def solve_anatomical(
         return result, weighting
     logger.info("priors reweighted: noise %.2f mm (sigma x sqrt(tau %.1f))", noise * 1e3, tau)
     first = result
+    weighted = list(trials)
+    if slides:
+        base = max(first.sigma, SOFT_TISSUE_SIGMA)
+        weights = [sliding_weights(pset, q, base, slides) for q in first.qpos]
+        weighted = [t._replace(weights=w) for t, w in zip(trials, weights, strict=True)]
+        weighting["slide_weight_min"] = float(min(w.min() for w in weights))
     result = identify_lm(
-        trials,
+        weighted,
         pset=pset,
         theta0=first.theta,
         settings=settings,

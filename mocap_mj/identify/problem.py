@@ -25,7 +25,7 @@ from ..errors import MocapError, SolverError, check_shape
 from ..ik import IKSolver
 from ..kinematics import Kinematics
 from ..parameters import ParameterSet
-from .losses import L2, Loss
+from .losses import L2, Loss, Weighted
 from .priors import LinearGaussianPrior, Prior, total_prior, weak_prior
 
 #: Median of the chi distribution with 3 degrees of freedom: median |e| / sigma for 3D noise.
@@ -33,11 +33,16 @@ CHI3_MEDIAN = 1.5381722
 
 
 class TrialData(NamedTuple):
-    """One trial's measured markers: markers (T, M, 3) [m] NaN where missing; times (T,) [s]."""
+    """One trial's measured markers: markers (T, M, 3) [m] NaN where missing; times (T,) [s];
+    weights (T, M) [1] or None: each sample's weight in the loss (its noise variance relative
+    to the nominal one, inverted: :class:`~mocap_mj.identify.losses.Weighted`; default None,
+    every sample 1, the white-noise model; the soft-tissue sliding of landmark markers sets
+    them, :mod:`mocap_mj.identify.tissue`)."""
 
     name: str
     markers: np.ndarray
     times: np.ndarray
+    weights: np.ndarray | None = None
 
 
 def pool(
@@ -118,6 +123,8 @@ class IdentificationProblem:
     loss : Loss (default L2)
     used : list of (T_i,) bool, the frames of each trial pooled here, in order (default: one
         trial, every frame)
+    weights : (n, M) [1] or None, per-sample weights of the loss (default None: all 1), see
+        :class:`~mocap_mj.identify.losses.Weighted`
     """
 
     def __init__(
@@ -133,6 +140,7 @@ class IdentificationProblem:
         upper: np.ndarray | None = None,
         loss: Loss | None = None,
         used: Sequence[np.ndarray] | None = None,
+        weights: np.ndarray | None = None,
     ) -> None:
         self.kin = kin
         self.limits = IKSolver(kin)
@@ -146,6 +154,9 @@ class IdentificationProblem:
         self.priors = tuple(priors)
         self.lower, self.upper = check_bounds(kin.pset.size, lower, upper)
         self.loss: Loss = L2() if loss is None else loss
+        if weights is not None:
+            check_shape("weights", weights, self.present.shape)
+            self.loss = Weighted(self.loss, np.asarray(weights, dtype=float))
         self.used = [np.ones(self.n, dtype=bool)] if used is None else [np.asarray(u) for u in used]
         self.segments = self.segments_of(self.used)
         if self.segments[-1].stop != self.n:
@@ -284,11 +295,19 @@ def build_problem(
     **options: Unpack[ProblemOptions],
 ) -> IdentificationProblem:
     """The problem over the used frames (``used[i]`` (T_i,) bool) of the trials, from poses
-    qpos (T_i, nq) per trial."""
+    qpos (T_i, nq) per trial; the trials' sample weights pooled alike (1 for a trial without)."""
     if sum(int(u.sum()) for u in used) == 0:
         raise SolverError("no frame has enough markers to be solved")
     markers, q = pool(trials, qpos, used)
-    return IdentificationProblem(kin, markers, q, free, used=used, **options)
+    weights = None
+    if any(t.weights is not None for t in trials):
+        weights = np.concatenate(
+            [
+                np.ones(t.markers.shape[:2])[u] if t.weights is None else np.asarray(t.weights)[u]
+                for t, u in zip(trials, used, strict=True)
+            ]
+        )
+    return IdentificationProblem(kin, markers, q, free, used=used, weights=weights, **options)
 
 
 def reduced_information(

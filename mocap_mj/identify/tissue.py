@@ -1,0 +1,91 @@
+"""Soft-tissue sliding of landmark markers with their joint's angle: per-sample weights.
+
+A landmark marker on a joint's axis (KNE on the lateral femoral epicondyle, on the knee flexion
+axis) is placed, and its prior rows (:mod:`mocap_mj.identify.anatomy`) are written, in the pose
+that defines it: the static standing pose, the model's zero angles. As the joint turns away
+from that pose, the skin under the marker slides over the bone: the marker moves against its
+segment by an amount that grows with the angle and that no rigid offset can follow, and the
+fit bends the skeleton (joint centres, segment lengths) to follow it (measured:
+docs/real-data.md "Soft-tissue sliding").
+
+The model here is heteroscedastic noise: a landmark's sample at joint angle q has, beyond the
+artefact every marker carries (per-axis standard deviation ``base``), a slide of per-axis
+standard deviation ``rate * |q - q_def|`` (``q_def`` = 0, the defining pose). Its weight in
+the loss is the ratio of variances ``base^2 / (base^2 + (rate |q - q_def|)^2)``: 1 in the
+defining pose, where the landmark rows hold, falling with the angle, so the frames far from
+that pose no longer pull the segment's offsets and lengths, and the other markers decide
+there. The slide's direction and size vary between subjects and tasks, so it is taken as
+noise, not as a correction of known sign.
+
+Rates (:data:`SLIDES`), per-axis standard deviation per radian from the defining pose:
+
+* KNE, knee flexion, 10 mm/rad (15 mm at 90 degrees): skin markers over the distal thigh
+  move 10-30 mm against the femur, most in deep flexion (Leardini et al. 2005, a review of
+  bone-pin and fluoroscopy studies).
+
+The ankle (ANK) and elbow (ELB) markers sit on bone under thin skin: their sliding is not
+modelled (weighting them alike helped no real-data figure, docs/real-data.md).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from ..parameters import ParameterSet
+
+
+@dataclass(frozen=True)
+class Slide:
+    """A landmark's slide: the hinge ``joint`` (name without the side suffix) whose angle
+    [rad] from ``angle0`` [rad] (the defining pose) moves the skin, at ``rate`` [m/rad]
+    (per-axis standard deviation per radian)."""
+
+    joint: str
+    rate: float
+    angle0: float = 0.0
+
+
+#: Landmark marker (name without the side prefix) -> its slide. See the module docstring.
+SLIDES: dict[str, Slide] = {"KNE": Slide("knee_flex", 0.010)}
+
+
+def _sliding_markers(pset: ParameterSet, slides: dict[str, Slide]) -> list[tuple[int, int, Slide]]:
+    """(marker index, qpos address of its joint, slide) of every marker of ``pset`` named
+    L/R + a key of ``slides`` whose side's joint (``joint_l`` / ``joint_r``) is a hinge."""
+    out = []
+    model = pset.model
+    for i, name in enumerate(pset.marker_names):
+        slide = slides.get(name[1:])
+        if slide is None or name[:1] not in ("L", "R"):
+            continue
+        jid = mujoco.mj_name2id(
+            model, mujoco.mjtObj.mjOBJ_JOINT, f"{slide.joint}_{name[0].lower()}"
+        )
+        if jid >= 0 and model.jnt_type[jid] == mujoco.mjtJoint.mjJNT_HINGE:
+            out.append((i, int(model.jnt_qposadr[jid]), slide))
+    return out
+
+
+def sliding_weights(
+    pset: ParameterSet,
+    qpos: np.ndarray,
+    base: float,
+    slides: dict[str, Slide] | None = None,
+) -> np.ndarray:
+    """Per-sample weights (T, M) [1] of the poses qpos (T, nq): ``base^2 / (base^2 +
+    (rate |q - angle0|)^2)`` for the sliding landmarks of ``slides`` (default :data:`SLIDES`),
+    1 for every other marker and for frames without a pose (NaN rows). ``base`` [m] is the
+    per-axis artefact every marker carries (the pipeline's soft-tissue floor or the fit's
+    noise, whichever is larger)."""
+    q = np.asarray(qpos, dtype=float)
+    w = np.ones((len(q), pset.n_markers))
+    for i, adr, slide in _sliding_markers(pset, SLIDES if slides is None else slides):
+        sd = slide.rate * np.abs(q[:, adr] - slide.angle0)
+        w[:, i] = np.where(np.isfinite(sd), base**2 / (base**2 + np.nan_to_num(sd) ** 2), 1.0)
+    return w
+
+
+__all__ = ["SLIDES", "Slide", "sliding_weights"]

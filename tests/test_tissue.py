@@ -1,0 +1,156 @@
+"""Soft-tissue sliding of landmark markers (identify/tissue.py): the weights, the weighted
+loss, and the knee centre on a synthetic trial whose KNE slides with knee flexion."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from mocap_mj import Kinematics, ParameterSet
+from mocap_mj.identify import LMSettings, TrialData
+from mocap_mj.identify.losses import L2, Cauchy, Huber, Weighted
+from mocap_mj.identify.pipeline import solve_anatomical
+from mocap_mj.identify.tissue import SLIDES, sliding_weights
+from mocap_mj.subject import Subject
+from mocap_synth import SynthConfig, synthesize
+
+FRAMES = 300
+#: Injected slide of KNE [m per rad of knee flexion], proximal along the femur: 15 mm at 90
+#: degrees, the size Leardini et al. (2005) report and the shared knee trial shows.
+SLIDE_RATE = 0.010
+
+
+@pytest.fixture(scope="module")
+def pset() -> ParameterSet:
+    return ParameterSet()
+
+
+def _knee(pset: ParameterSet, side: str) -> int:
+    return int(pset.model.jnt_qposadr[pset.model.joint(f"knee_flex_{side}").id])
+
+
+def test_weights_are_one_in_the_defining_pose_and_fall_with_flexion(pset: ParameterSet) -> None:
+    base = 0.005
+    q = np.tile(pset.model.qpos0, (3, 1))
+    q[1, _knee(pset, "l")] = np.pi / 2
+    q[2, :] = np.nan  # a frame without a pose
+    w = sliding_weights(pset, q, base, SLIDES)
+    assert w.shape == (3, pset.n_markers)
+    assert np.all(w[0] == 1.0) and np.all(w[2] == 1.0)
+    lkne = pset.marker_names.index("LKNE")
+    expected = base**2 / (base**2 + (SLIDES["KNE"].rate * np.pi / 2) ** 2)
+    assert w[1, lkne] == pytest.approx(expected, rel=1e-12)
+    others = np.delete(w[1], lkne)
+    assert np.all(others == 1.0)  # RKNE's knee is straight; no other marker slides
+    assert np.all(sliding_weights(pset, q[:2], base, {}) == 1.0)
+
+
+@pytest.mark.parametrize("loss", [L2(), Huber(), Cauchy()])
+def test_weighted_loss_normalises_each_residual(loss) -> None:  # type: ignore[no-untyped-def]
+    rng = np.random.default_rng(0)
+    dist = rng.uniform(0.0, 0.02, (20, 5))
+    present = rng.uniform(size=(20, 5)) > 0.1
+    c = 0.006
+    ones = Weighted(loss, np.ones((20, 5)))
+    assert ones.value(dist, present, c) == pytest.approx(loss.value(dist, present, c), rel=1e-12)
+    assert np.array_equal(ones.weights(dist, present, c), loss.weights(dist, present, c))
+    # A weight w is a noise sd of s0 / sqrt(w): the loss of the normalised residual, and
+    # IRLS weights that are the derivative of that loss over d, divided by d.
+    w = rng.uniform(0.05, 1.0, (20, 5))
+    wl = Weighted(loss, w)
+    assert wl.value(dist, present, c) == pytest.approx(
+        loss.value(np.sqrt(w) * dist, present, c), rel=1e-12
+    )
+    h = 1e-7
+    up, down = dist.copy(), dist.copy()
+    up[3, 2] += h
+    down[3, 2] -= h
+    grad = (wl.value(up, present, c) - wl.value(down, present, c)) / (2 * h)
+    expected = wl.weights(dist, present, c)[3, 2] * dist[3, 2]
+    assert grad == pytest.approx(expected, rel=1e-5, abs=1e-12)
+
+
+def _knee_centre_error_along_femur(
+    pset: ParameterSet, result, kin_true: Kinematics, qpos: np.ndarray
+):  # type: ignore[no-untyped-def]
+    """RMS over frames [m] of each knee centre's (the shank origin's) error along the true
+    femur (the thigh's z axis), the direction in which the slide moves KNE. The knee centre's
+    position along the knee axis is the width rows' (and any alignment prior's), which the
+    slide does not touch."""
+    kin = Kinematics(pset)
+    kin.set_theta(result.theta)
+    used = result.used[0]
+    est = kin.forward(result.qpos[0][used])
+    true = kin_true.forward(qpos[used])
+    out = []
+    for side in "lr":
+        shank, thigh = pset.model.body(f"shank_{side}").id, pset.model.body(f"thigh_{side}").id
+        along = true.xmat[:, thigh].reshape(-1, 3, 3)[:, :, 2]
+        err = np.sum((est.xpos[:, shank] - true.xpos[:, shank]) * along, axis=1)
+        out.append(float(np.sqrt(np.mean(err**2))))
+    return np.array(out)
+
+
+@pytest.fixture(scope="module")
+def experiment(pset: ParameterSet):  # type: ignore[no-untyped-def]
+    exp = synthesize(SynthConfig(frames=FRAMES, seed=0), pset)
+    kin = Kinematics(pset)
+    kin.set_theta(exp.theta_true)
+    return exp, kin
+
+
+def _solve(pset: ParameterSet, trial: TrialData, slides):  # type: ignore[no-untyped-def]
+    return solve_anatomical(
+        [trial], pset=pset, theta0=None, settings=LMSettings(), subject=Subject(), slides=slides
+    )
+
+
+def test_knee_centre_recovered_better_when_kne_slides(pset: ParameterSet, experiment) -> None:  # type: ignore[no-untyped-def]
+    exp, kin = experiment
+    qpos = np.asarray(exp.qpos)
+    markers = np.array(exp.markers)
+    frames = kin.forward(qpos)
+    flexion = []
+    for side in "lr":
+        m = pset.marker_names.index(f"{side.upper()}KNE")
+        thigh = pset.model.body(f"thigh_{side}").id
+        along = frames.xmat[:, thigh].reshape(-1, 3, 3)[:, :, 2]  # the thigh's z axis (proximal)
+        angle = np.abs(qpos[:, _knee(pset, side)])
+        markers[:, m] += along * (SLIDE_RATE * angle)[:, None]
+        flexion.append(np.degrees(angle.max()))
+    assert min(flexion) > 90.0  # the motion reaches the deep flexion where the slide matters
+    trial = TrialData("slide", markers, np.asarray(exp.times))
+    without, wt0 = _solve(pset, trial, None)
+    with_model, wt1 = _solve(pset, trial, SLIDES)
+    # The slide's residuals are correlated over frames: the reweighted solve runs, and with
+    # the model it weighs KNE down in deep flexion.
+    assert "slide_weight_min" not in wt0 and wt1["slide_weight_min"] < 0.1
+    e0 = _knee_centre_error_along_femur(pset, without, kin, qpos)
+    e1 = _knee_centre_error_along_femur(pset, with_model, kin, qpos)
+    # RMS over both knees. Measured on this seed: 3.0 mm without the model, 0.9 mm with it;
+    # with the knee alignment parameters of issue 14f (their truth drawn from their prior)
+    # 2.9 and 1.7 mm. Over seeds 0-3 the gain varies (docs/real-data.md "Soft-tissue sliding").
+    both0, both1 = float(np.sqrt(np.mean(e0**2))), float(np.sqrt(np.mean(e1**2)))
+    assert both1 <= 0.75 * both0, (e0, e1)
+    assert both1 <= 0.0025 and np.all(e1 <= e0), (e0, e1)
+
+
+def test_without_slide_the_model_changes_nothing(pset: ParameterSet, experiment) -> None:  # type: ignore[no-untyped-def]
+    exp, _ = experiment
+    trial = TrialData("rom", np.asarray(exp.markers), np.asarray(exp.times))
+    plain, wt0 = _solve(pset, trial, None)
+    model, wt1 = _solve(pset, trial, SLIDES)
+    # White noise (residual correlation time ~1): the one solve is kept, no weight applies.
+    assert "slide_weight_min" not in wt1
+    assert np.array_equal(plain.theta, model.theta)
+    assert wt0 == wt1
+
+
+def test_unknown_joint_or_marker_is_ignored(pset: ParameterSet) -> None:
+    from mocap_mj.identify.tissue import Slide
+
+    q = np.tile(pset.model.qpos0, (2, 1)) + 0.5
+    assert mujoco.mj_name2id(pset.model, mujoco.mjtObj.mjOBJ_JOINT, "nope_l") < 0
+    w = sliding_weights(pset, q, 0.005, {"KNE": Slide("nope", 0.01), "XYZ": Slide("knee_flex", 1)})
+    assert np.all(w == 1.0)
