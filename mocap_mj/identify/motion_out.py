@@ -147,7 +147,7 @@ def write_every_frame_motion(
     for the other trials); returns the fit over every frame.
 
     ``start`` (per trial (T_i, nq)): poses the chunk's frames start from (finite rows, e.g.
-    the refinement's: warm, a couple of iterations each); default and NaN chunks: solved
+    the refinement's: warm, ``WARM_ITERATIONS`` LM iterations each); default and NaN chunks: solved
     afresh, chained through each chunk (:meth:`IKSolver.solve_trial`, as ``mocap-mj ik``
     solves a trial). ``first_frames``: each trial's first frame in its file (the CSV's frame
     column; default 0). ``progress`` is called with the frames done over all trials."""
