@@ -64,8 +64,7 @@ def joint_centre_text(
     frame ``first_frame``, and the centres (T, J, 3) [m]: one formatting for the whole table
     and for a table written chunk by chunk. The cells are ``%d``, ``%.6f`` and ``%.4f``'s
     text (empty for unsolved frames), formatted by a compiled kernel
-    (:func:`mocap_mj._fixed_text.csv_rows`: Python's formatting of an hour's rows took as
-    long as the motion's IK)."""
+    (:func:`mocap_mj._fixed_text.csv_rows`: an hour's rows are millions of cells)."""
     times = np.asarray(times, dtype=float)
     check_shape("times", times, (len(qpos),))
     centres = joint_centre_trajectories(model, qpos)

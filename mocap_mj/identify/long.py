@@ -355,8 +355,8 @@ def refine(
     tol_std : the sample's steps stop once one's largest component is below this fraction
         of its parameter's standard deviation (default 0.1): the step on every frame follows
         from the last accepted point, and a start 0.1 standard deviations closer to the
-        sample's optimum changes that step's outcome by the square of it (Gauss-Newton
-        converges quadratically there: on the hour the step after one of 0.098 was 0.0045)
+        sample's optimum changes that step's outcome by about the square of it (Gauss-Newton
+        converges quadratically there; docs/long-recordings.md)
     sample : every k-th frame of each trial, k = ceil(T / sample) with T the frames of all
         trials, is the sample (default 20,000 frames)
     info_frames : the information is summed over at most this many evenly spaced frames of

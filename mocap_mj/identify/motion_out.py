@@ -34,12 +34,10 @@ from .lm import LMSettings, solver_joint_range
 from .long import CHUNK, ChunkFit, solve_chunk
 from .problem import TrialData
 
-#: LM iterations of each frame started from the refinement's poses (``start``). Those are
-#: the IK solution under the sample's estimate, a fraction of a millimetre from the written
-#: model, so one Gauss-Newton step lands where the converged solve would stop: measured on
-#: 40,000 frames of the hour with every parameter moved by 0.03 mm (random), the frames'
-#: RMSE within 1.4e-5 mm of the converged solve (whose own tolerance, ``tol_rmse``, allows
-#: 2e-3 mm), at 60 % of its time (1.7 iterations a frame). docs/long-recordings.md.
+#: LM iterations of each frame started from the refinement's poses (``start``): those are
+#: the converged IK under a model a fraction of a millimetre from the written one, and one
+#: Gauss-Newton step from there lands where the converged solve would stop, within its own
+#: tolerance (docs/long-recordings.md, "Issue 18h"), at a fraction of its time.
 WARM_ITERATIONS = 1
 
 

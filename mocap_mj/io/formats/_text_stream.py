@@ -10,14 +10,15 @@ from __future__ import annotations
 
 import codecs
 import contextlib
+import itertools
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
-from mocap_mj.io.formats._common import RawMarkers
+from mocap_mj.io.formats._common import RawMarkers, parse_numbers, xyz_positions
 
 #: Lines read to find a header's end before the data.
 HEAD_LINES = 64
@@ -71,6 +72,34 @@ def positions_map(frames: int, markers: int) -> np.ndarray:
     return np.memmap(
         tempfile.TemporaryFile(prefix="mocap-mj-"), float, "w+", shape=(frames, markers, 3)
     )
+
+
+def parse_rows(
+    path: Path,
+    encoding: str,
+    start: int,
+    n_rows: int,
+    cells: Callable[[str], list[str]],
+    columns: Sequence[str],
+    chunk: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The data rows of a text marker file, ``chunk`` at a time: lines start .. start +
+    n_rows - 1 (0-based; 1-based line numbers in errors), each cut into ``cells(line)``
+    (``len(columns)`` of them: frame, time, then X, Y, Z per marker) and parsed by
+    :func:`parse_numbers`. Returns the positions (n_rows, M, 3) [file units] in a memory map
+    (:func:`positions_map`) and the first two columns (n_rows, 2) (frame and time)."""
+    n_markers = (len(columns) - 2) // 3
+    positions = positions_map(n_rows, n_markers)
+    first_two = np.empty((n_rows, 2))
+    with lines(path, encoding) as each:
+        body = itertools.islice(each, start, start + n_rows)
+        for s in range(0, n_rows, chunk):
+            rows = [cells(line) for line in itertools.islice(body, chunk)]
+            first = start + 1 + s
+            block = parse_numbers(path, rows, range(first, first + len(rows)), columns)
+            positions[s : s + len(rows)] = xyz_positions(block, 2, n_markers)
+            first_two[s : s + len(rows)] = block[:, :2]
+    return positions, first_two
 
 
 def chunks_of(raw: RawMarkers, positions: np.ndarray) -> TextChunks:

@@ -43,7 +43,7 @@ from mocap_mj.io.formats._text_stream import (
     ROWS,
     TextChunks,
     chunks_of,
-    positions_map,
+    parse_rows,
 )
 from mocap_mj.io.formats._text_stream import encoding as text_encoding
 from mocap_mj.io.formats._text_stream import lines as text_lines
@@ -212,17 +212,10 @@ def open_chunks(path: Path, chunk: int = ROWS) -> TextChunks | str:
         raise _no_rows(path, h)
     if first_bad is not None and first_bad[0] <= last:
         raise first_bad[1]
-    n_rows = last + 1
-    positions = positions_map(n_rows, len(h.names))
-    frames, times = np.empty(n_rows), np.empty(n_rows)
-    with text_lines(path, encoding) as lines:
-        body = itertools.islice(lines, h.start, h.start + n_rows)
-        for s in range(0, n_rows, chunk):
-            rows = [line.split(",")[: h.width] for line in itertools.islice(body, chunk)]
-            first = h.line + 1 + s
-            block = parse_numbers(path, rows, range(first, first + len(rows)), h.columns)
-            positions[s : s + len(rows)] = xyz_positions(block, 2, len(h.names))
-            frames[s : s + len(rows)], times[s : s + len(rows)] = block[:, 0], block[:, 1]
+    positions, first_two = parse_rows(
+        path, encoding, h.start, last + 1, lambda line: line.split(",")[: h.width], h.columns, chunk
+    )
+    frames, times = first_two[:, 0].copy(), first_two[:, 1].copy()
     return chunks_of(h.raw(path, positions, frames, times), positions)
 
 

@@ -63,7 +63,7 @@ from mocap_mj.io.formats._text_stream import (
     ROWS,
     TextChunks,
     chunks_of,
-    positions_map,
+    parse_rows,
 )
 from mocap_mj.io.formats._text_stream import encoding as text_encoding
 from mocap_mj.io.formats._text_stream import lines as text_lines
@@ -298,18 +298,13 @@ def open_chunks(path: Path, chunk: int = ROWS) -> TextChunks | str:
     if isinstance(layout, str):
         return layout
     tabbed, n = layout
-    positions = positions_map(n, h.n_markers)
-    times = np.empty(n)
-    with text_lines(path, encoding) as lines:
-        body = itertools.islice(lines, h.start, h.start + n)
-        for s in range(0, n, chunk):
-            text = list(itertools.islice(body, chunk))
-            raw = [line.split("\t") if tabbed else line.split() for line in text]
-            rows = [r[: h.width] + [""] * (h.width - len(r)) for r in raw]
-            first = h.start + 1 + s
-            block = parse_numbers(path, rows, range(first, first + len(rows)), h.columns)
-            positions[s : s + len(rows)] = xyz_positions(block, 2, h.n_markers)
-            times[s : s + len(rows)] = block[:, 1]
+
+    def cells(line: str) -> list[str]:
+        r = line.split("\t") if tabbed else line.split()
+        return r[: h.width] + [""] * (h.width - len(r))
+
+    positions, first_two = parse_rows(path, encoding, h.start, n, cells, h.columns, chunk)
+    times = first_two[:, 1].copy()
     check_times(path, times, range(h.start + 1, h.start + 1 + n), "Time")
     return chunks_of(h.raw(path, positions, times, 0), positions)
 
