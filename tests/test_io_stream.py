@@ -253,3 +253,35 @@ def test_chunked_mocap_csv_equals_load_markers(tmp_path: Path, variant: str) -> 
     errors = ("blank line inside", "narrow row", "non-empty extra cell", "bad cell")
     errors += ("bad cell, narrow row after", "missing frame number")
     assert how == ("error" if variant in errors else "in chunks")
+
+
+def _same_tree(a: object, b: object) -> bool:
+    """Nested dicts, lists and arrays equal (NaN equal to NaN)."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same_tree(a[k], b[k]) for k in a)
+    if isinstance(a, list | tuple) and isinstance(b, list | tuple):
+        return len(a) == len(b) and all(_same_tree(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        x, y = np.asarray(a), np.asarray(b)
+        if x.dtype.kind in "fc" and y.dtype.kind in "fc":
+            return x.shape == y.shape and bool(np.array_equal(x, y, equal_nan=True))
+        return x.shape == y.shape and bool(np.array_equal(x, y))
+    return a == b
+
+
+@pytest.mark.skipif(not FILES, reason=f"no shared C3D files in {SHARED}")
+def test_parameters_from_the_files_start_equal_the_whole_read() -> None:
+    """``read_parameters`` (the subject's measurements of ``identify``) reads a copy of the
+    file's start: the same parameter groups as ezc3d's whole read of every shared file, but
+    POINT:FRAMES (the frames ezc3d read: those of the copy)."""
+    import ezc3d
+
+    from mocap_mj.io.formats.c3d import PROBE_FRAMES, read_parameters
+
+    for path in FILES:
+        whole = dict(ezc3d.c3d(str(path), extract_forceplat_data=False)["parameters"])
+        head = read_parameters(path)
+        frames = [g["POINT"].pop("FRAMES")["value"] for g in (whole, head)]
+        assert _same_tree(head, whole), path.name
+        # read from the copy, or whole where the structural check refuses the file
+        assert frames[1][0] in (min(frames[0][0], PROBE_FRAMES), frames[0][0]), path.name

@@ -97,7 +97,8 @@ def _add_fit_options(p: argparse.ArgumentParser) -> None:
         "trials by their length), then solve every frame's IK with the identified model for "
         f"motion.npz and joint_centres.csv; auto: {AUTO_SELECT_COUNT} frames when the trials "
         f"hold more than {AUTO_SELECT_ABOVE} in all, else every frame; all: every frame "
-        "(default: auto)",
+        "(default: auto); a selection refines with the l2 loss only (--loss huber/cauchy "
+        "need --select all)",
     )
     p.add_argument(
         "--loss",
