@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import resource
 import subprocess
 import sys
@@ -86,7 +87,9 @@ def main() -> None:
     # The child's peak RSS from /usr/bin/time: getrusage(RUSAGE_CHILDREN) would also count
     # this process's own resident memory at the spawn (Linux keeps the pre-exec high-water
     # mark), e.g. the text of a TRC file just written.
-    timer = ["/usr/bin/time", "-f", "peak_kib %M"] if Path("/usr/bin/time").exists() else []
+    timer = (
+        ["/usr/bin/time", "-f", "peak_kib %M cpu %U %S"] if Path("/usr/bin/time").exists() else []
+    )
     t0 = time.perf_counter()
     proc = subprocess.run(
         [*timer, *cmd, "--select", args.select, *args.identify_args, "--force", "--json"],
@@ -96,8 +99,13 @@ def main() -> None:
     wall = time.perf_counter() - t0
     if proc.returncode != 0:
         sys.exit(f"identify failed ({proc.returncode}): {proc.stderr.strip()[-2000:]}")
-    kib = [ln.split()[1] for ln in proc.stderr.splitlines() if ln.startswith("peak_kib ")]
-    peak_kib = int(kib[-1]) if kib else resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    timed = [ln.split() for ln in proc.stderr.splitlines() if ln.startswith("peak_kib ")]
+    peak_kib = (
+        int(timed[-1][1]) if timed else resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    )
+    # CPU seconds (user + system) of the child: less dependent on the shared machine's load
+    # than the wall time (the other engineers' jobs take cores, not this job's work).
+    cpu = float(timed[-1][3]) + float(timed[-1][4]) if timed else float("nan")
     peak = peak_kib / 2**20  # GiB
     summary = json.loads(proc.stdout)
 
@@ -116,6 +124,8 @@ def main() -> None:
         "frames": len(markers),
         "select": args.select,
         "seconds_total": wall,
+        "cpu_seconds": cpu,
+        "load_average": os.getloadavg(),
         "peak_rss_gib": peak,
         "read_seconds": summary.get("read_seconds"),
         "select_seconds": summary.get("select_seconds"),
@@ -137,7 +147,8 @@ def main() -> None:
     rs, ms = result["refine_seconds"], result["motion_seconds"]
     print(
         f"{len(markers)} frames through `mocap-mj identify --markers {c3d.name}`: {wall:.1f} s "
-        f"end to end (reading {result['read_seconds'] or 0.0:.1f} s, selection "
+        f"end to end, {cpu:.1f} s CPU (load average {os.getloadavg()[0]:.1f} after), (reading "
+        f"{result['read_seconds'] or 0.0:.1f} s, selection "
         f"{result['select_seconds'] or 0.0:.1f} s, identification incl. the refinement "
         f"{summary['seconds']:.1f} s / {summary['iterations']} LM iterations: refinement "
         f"sample steps {rs.get('sample', 0.0):.1f} s, pass over every frame "

@@ -712,6 +712,7 @@ def solve_frame(tr, target, wts, q, w, max_it, damping, tol_step, tol_cost, tol_
     f = cost(tr, target, wts, w)
     mu, nu = mu0, 2.0
     need_jac = True
+    fresh = True  # the work arrays hold q's forward kinematics
     status = MAX_ITERATIONS
     iterations = 0
     q_new, dv, damp = w.q_new, w.dv, w.damp
@@ -735,6 +736,7 @@ def solve_frame(tr, target, wts, q, w, max_it, damping, tol_step, tol_cost, tol_
         integrate(tr, q_new, dv, 1.0)
         project(tr, q_new)
         fk(tr, q_new, w)
+        fresh = False
         f_new = cost(tr, target, wts, w)
         step = 0.0
         for i in range(nv):
@@ -762,10 +764,12 @@ def solve_frame(tr, target, wts, q, w, max_it, damping, tol_step, tol_cost, tol_
             _copy(q, q_new)
             f = f_new
             need_jac = True
+            fresh = True
         if done:
             status = CONVERGED
             break
-    fk(tr, q, w)
+    if not fresh:  # the last step was rejected: its kinematics are in the work arrays
+        fk(tr, q, w)
     sq = 0.0
     for s in range(wts.size):
         if wts[s] > 0:

@@ -397,6 +397,55 @@ class IKSolver:
         return IKResult(qpos, rmse, iters, status, npres)
 
     @single_blas_thread
+    def solve_from_heads(self, markers: np.ndarray, heads: np.ndarray) -> IKResult:
+        """Every frame of markers (T, M, 3) [m] solved as chains from known poses.
+
+        ``heads`` (T, nq): finite rows are poses to start chains at (e.g. every k-th frame
+        solved under the same model, as ``identify``'s refinement has them); each chain runs
+        from its head to the frame before the next one, every later frame starting from the
+        constant-velocity prediction (:func:`mocap_mj._tree.solve_chains`). The trial's first
+        frame always heads a chain; a head without a pose (NaN row) and a frame after an
+        unsolved one start from the pelvis's rigid fit (:meth:`root_from_pelvis`). Frames
+        that then fit clearly worse than the trial are re-solved as :meth:`solve_trial`
+        does. Compared with :meth:`solve_trial`, no chain start is solved cold from several
+        arm configurations (known heads need none), which is most of the cost of a cold
+        chained solve of a long trial.
+        """
+        kin, st = self.kin, self.settings
+        markers = np.asarray(markers, dtype=float)
+        check_shape("markers", markers, (None, kin.n_markers, 3))
+        n = len(markers)
+        check_shape("heads", heads, (n, kin.nq))
+        target, w = self._prepare(markers, None)
+        known = np.all(np.isfinite(heads), axis=1)
+        known[0] = True
+        starts = np.flatnonzero(known)
+        ends = np.append(starts[1:], n)
+        cold = np.array(heads, dtype=float)
+        # Frames the chains' kernel starts from ``cold``: heads without a pose, and frames
+        # after an unsolved one (too few markers).
+        few = np.count_nonzero(w > 0, axis=1) < st.min_markers
+        needs = np.zeros(n, dtype=bool)
+        needs[starts] = ~np.all(np.isfinite(cold[starts]), axis=1)
+        needs[1:] |= few[:-1]
+        if needs.any():
+            cold[needs] = self.root_from_pelvis(markers[needs])
+        q, rmse, iters, status = _tree.solve_chains(
+            kin.tree(),
+            target,
+            w,
+            np.nan_to_num(cold),
+            starts,
+            ends,
+            st.max_iterations,
+            *self._kernel_settings(),
+            st.min_markers,
+        )
+        npres = np.count_nonzero(w > 0, axis=1)
+        self._repair(markers, w, q, rmse, iters, status, npres)
+        return IKResult(q, rmse, iters, status, npres)
+
+    @single_blas_thread
     def repair(
         self,
         markers: np.ndarray,

@@ -55,10 +55,8 @@ def joint_centre_trajectories(model: mujoco.MjModel, qpos: np.ndarray) -> np.nda
     bodies = centre_bodies(model)
     data = mujoco.MjData(model)
     out = np.full((len(qpos), len(bodies), 3), np.nan)
-    for t, q in enumerate(qpos):
-        if not np.all(np.isfinite(q)):
-            continue
-        data.qpos[:] = q
+    for t in np.flatnonzero(np.all(np.isfinite(qpos), axis=1)).tolist():
+        data.qpos[:] = qpos[t]
         mujoco.mj_kinematics(model, data)
         out[t] = data.xpos[bodies]
     return out

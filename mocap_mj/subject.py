@@ -132,10 +132,10 @@ def from_c3d(path: str | Path) -> Subject:
     PROCESSING wins over SUBJECTS where both hold a value; zeros (Nexus' "not entered") and
     names that are not measurements (model outputs such as ``UpperLegLength``) are ignored.
     """
-    import ezc3d
+    from .io.formats.c3d import read_parameters
 
     try:
-        params = ezc3d.c3d(str(path), extract_forceplat_data=False)["parameters"]
+        params = read_parameters(Path(path))
     except Exception as exc:  # ezc3d raises plain RuntimeError/IOError
         raise InputFileError(f"{path}: cannot read the C3D parameters: {exc}") from None
     subject = Subject()

@@ -212,3 +212,23 @@ def test_static_poses_with_arms_raised(kin: Kinematics, monkeypatch: pytest.Monk
     monkeypatch.setattr(ik_module, "ARM_STARTS", ())
     stuck = [IKSolver(kin).solve_trial(markers).rmse() for markers in trials]
     assert max(stuck) > 5e-3
+
+
+def test_chains_from_known_heads(kin: Kinematics, truth) -> None:  # type: ignore[no-untyped-def]
+    """solve_from_heads: every frame solved from every 7th frame's pose (the cold chains'
+    arm starts not needed), one head unknown and a frame without markers in a chain: the
+    same solution as the cold chained solve."""
+    _, markers = truth
+    data = markers[:120].copy()
+    data[30] = np.nan  # unsolved: the next frame starts from the pelvis fit
+    solver = IKSolver(kin, TIGHT)
+    cold = solver.solve_trial(data)
+    heads = np.full_like(cold.qpos, np.nan)
+    heads[::7] = cold.qpos[::7]
+    heads[14] = np.nan  # a head without a pose: the pelvis fit
+    r = solver.solve_from_heads(data, heads)
+    assert r.status[30] == Status.TOO_FEW_MARKERS and np.all(np.isnan(r.qpos[30]))
+    ok = r.solved
+    assert np.array_equal(ok, cold.solved)
+    assert np.max(r.marker_rmse[ok]) < 1e-7
+    assert np.max(np.abs(kin.marker_positions(r.qpos[ok]) - data[ok])) < 1e-6

@@ -16,7 +16,7 @@ from mocap_mj.commands import _markers
 from mocap_mj.errors import InputFileError
 from mocap_mj.identify.motion_out import write_motion_chunks
 from mocap_mj.identify.problem import TrialData
-from mocap_mj.io import MarkerTrajectory, load_markers, save_trc
+from mocap_mj.io import MarkerTrajectory, load_markers, save_csv, save_trc
 from mocap_mj.io.formats.c3d_check import check_c3d
 from mocap_mj.io.formats.c3d_write import frame_records, write_markers_c3d
 from mocap_mj.io.stream import open_markers
@@ -212,3 +212,76 @@ def test_chunked_trc_equals_load_markers(tmp_path: Path, variant: str) -> None:
         assert how == "error"
     else:
         assert how == "in chunks"
+
+
+def _csv_text(tmp_path: Path) -> str:
+    """A synthetic ROM as save_csv writes it (a comment line, a few samples missing)."""
+    names = ParameterSet().marker_names
+    path = tmp_path / "base.csv"
+    save_csv(path, MarkerTrajectory(np.arange(120) / 100.0, _markers_of(120), names, 100.0, {}))
+    return path.read_text()
+
+
+def _row(k: int, cells: str) -> Callable[[str], str]:
+    """The text with data row k (0-based after the comment and the column header) replaced."""
+    return lambda t: _rows(t, _set(k + 2, cells))
+
+
+CSV_VARIANTS: dict[str, Callable[[str], str]] = {
+    "as written": lambda t: t,
+    "CRLF": lambda t: t.replace("\n", "\r\n"),
+    "trailing blank lines": lambda t: t + "\n\n  \n",
+    "no comment line": lambda t: t.split("\n", 1)[1],
+    "blank line inside": _row(40, ""),
+    "narrow row": _row(50, "50,0.5,1.0"),
+    "non-empty extra cell": _row(70, "70,0.7" + ",1" * 117 + ",9"),
+    "bad cell": _row(60, "60,0.6,x" + ",1" * 116),
+    # the second chunk's narrow row is reported before the first chunk's bad cell, as whole
+    "bad cell, narrow row after": lambda t: _row(100, "100")(_row(10, "10,0.1,x" + ",1" * 116)(t)),
+    "missing frame number": _row(90, ",0.9" + ",1" * 117),
+    "Latin-1 name": lambda t: t.replace("LASI", "L\xc4SI"),
+}
+
+
+@pytest.mark.parametrize("variant", list(CSV_VARIANTS))
+def test_chunked_mocap_csv_equals_load_markers(tmp_path: Path, variant: str) -> None:
+    """mocap-mj CSV rows parsed ``CHUNK`` at a time into a memory map: the same positions,
+    source and errors (the first in the file, as the whole read finds it) as the whole read."""
+    path = tmp_path / "v.csv"
+    path.write_bytes(CSV_VARIANTS[variant](_csv_text(tmp_path)).encode("latin-1"))
+    how = _same(path)
+    errors = ("blank line inside", "narrow row", "non-empty extra cell", "bad cell")
+    errors += ("bad cell, narrow row after", "missing frame number")
+    assert how == ("error" if variant in errors else "in chunks")
+
+
+def _same_tree(a: object, b: object) -> bool:
+    """Nested dicts, lists and arrays equal (NaN equal to NaN)."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same_tree(a[k], b[k]) for k in a)
+    if isinstance(a, list | tuple) and isinstance(b, list | tuple):
+        return len(a) == len(b) and all(_same_tree(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        x, y = np.asarray(a), np.asarray(b)
+        if x.dtype.kind in "fc" and y.dtype.kind in "fc":
+            return x.shape == y.shape and bool(np.array_equal(x, y, equal_nan=True))
+        return x.shape == y.shape and bool(np.array_equal(x, y))
+    return a == b
+
+
+@pytest.mark.skipif(not FILES, reason=f"no shared C3D files in {SHARED}")
+def test_parameters_from_the_files_start_equal_the_whole_read() -> None:
+    """``read_parameters`` (the subject's measurements of ``identify``) reads a copy of the
+    file's start: the same parameter groups as ezc3d's whole read of every shared file, but
+    POINT:FRAMES (the frames ezc3d read: those of the copy)."""
+    import ezc3d
+
+    from mocap_mj.io.formats.c3d import PROBE_FRAMES, read_parameters
+
+    for path in FILES:
+        whole = dict(ezc3d.c3d(str(path), extract_forceplat_data=False)["parameters"])
+        head = read_parameters(path)
+        frames = [g["POINT"].pop("FRAMES")["value"] for g in (whole, head)]
+        assert _same_tree(head, whole), path.name
+        # read from the copy, or whole where the structural check refuses the file
+        assert frames[1][0] in (min(frames[0][0], PROBE_FRAMES), frames[0][0]), path.name

@@ -254,3 +254,40 @@ def test_refinement_holds_its_box_and_weighs_its_priors(pset: ParameterSet) -> N
     # Held: on the bound exactly; the prior's value to 0.1 mm (its width is 0.01 mm).
     assert runs["held"][shank] == upper[shank]
     assert abs(runs["held"][thigh] - theta0[thigh]) < 0.1e-3
+
+
+class _RejectAll:
+    """A prior row that raises the cost of any model but the start's and tells the steps
+    nothing (no gradient, no information): every step ``refine`` takes is taken back."""
+
+    def __init__(self, theta0: np.ndarray) -> None:
+        self.theta0 = theta0
+
+    def hessian(self) -> np.ndarray:
+        return np.zeros((self.theta0.size,) * 2)
+
+    def gradient(self, theta: np.ndarray) -> np.ndarray:
+        return np.zeros_like(theta)
+
+    def cost(self, theta: np.ndarray) -> float:
+        return 1e6 * float(np.sum((theta - self.theta0) ** 2))
+
+
+def test_refinement_on_every_frame_keeps_the_poses_of_its_model(pset: ParameterSet) -> None:
+    """With every frame the sample, ``refine``'s poses are those of the model it returns,
+    also when its last step was taken back (the poses of the taken-back model were kept)."""
+    from mocap_mj.identify.lm import LMSettings, solver_joint_range
+    from mocap_mj.ik import IKSolver
+
+    exp = synthesize(SynthConfig(frames=120, motion="rom", seed=4), pset)
+    theta0 = exp.theta_true.copy()
+    theta0[0] += 2e-3  # the data pull it back: the step is not zero
+    qpos = np.full((len(exp.markers), pset.model.nq), np.nan)
+    prior = _RejectAll(theta0)
+    ref = refine(exp.markers, pset, theta0, qpos, 1e-3, priors=[prior], steps=3)  # type: ignore[list-item]
+    assert np.array_equal(ref.theta, theta0)  # every step taken back
+    assert len(ref.steps) == 3 and ref.steps[0] > 0.1
+    kin = Kinematics(pset)
+    kin.model.jnt_range[:] = solver_joint_range(kin.model, LMSettings())
+    kin.set_theta(theta0)
+    assert np.array_equal(qpos, IKSolver(kin).solve_trial(exp.markers).qpos, equal_nan=True)

@@ -98,7 +98,8 @@ def _add_fit_options(p: argparse.ArgumentParser) -> None:
         "trials by their length), then solve every frame's IK with the identified model for "
         f"motion.npz and joint_centres.csv; auto: {AUTO_SELECT_COUNT} frames when the trials "
         f"hold more than {AUTO_SELECT_ABOVE} in all, else every frame; all: every frame "
-        "(default: auto)",
+        "(default: auto); a selection refines with the l2 loss only (--loss huber/cauchy "
+        "need --select all)",
     )
     p.add_argument(
         "--loss",
@@ -197,6 +198,15 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
             return run_paper(args, pset, trials, ranges, out)
     subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
     count = _select_count(args.select, sum(len(t.markers) for t in trials), len(trials))
+    loss = "cauchy" if args.robust else args.loss
+    if count is not None and loss != "l2":
+        # The refinement on every frame has no robust weights: the model would be the
+        # subset's alone, many times the error of the whole recording (docs/long-recordings.md).
+        raise MocapError(
+            f"--loss {loss}: identifying on selected frames (--select {args.select}) refines "
+            "the model on every frame with the l2 loss only; use --loss l2, or --select all "
+            f"to fit every frame with {loss}"
+        )
     return into_out_folder(
         args,
         lambda out: _identify(

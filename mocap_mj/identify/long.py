@@ -26,7 +26,10 @@ that of a thousand frames, not of the hour. :func:`identify_long` therefore
    cost are scaled to every frame, so that priors (``identify``'s landmark rows, its box)
    weigh against the whole recording; a sample step that raises that cost is taken back and
    the next one damped (Levenberg-Marquardt): on a real trial with its priors the undamped
-   steps did not converge (docs/long-recordings.md),
+   steps did not converge (docs/long-recordings.md). The pass over every frame solves
+   each frame's IK as a chain from the nearest earlier frame of the sample, whose pose
+   under the same model the sample's last step has
+   (:meth:`~mocap_mj.ik.IKSolver.solve_from_heads`): no chain starts cold,
 4. solves the IK of every frame with the refined model, warm-started from the poses of
    the pass of step 3 (theta moved by a fraction of a millimetre: about two iterations per
    frame).
@@ -74,7 +77,7 @@ CHUNK = 20_000
 SAMPLE = 20_000
 INFO_FRAMES = 5_000
 STEPS = 8
-TOL_STD = 0.05
+TOL_STD = 0.1
 
 #: Markers (T, M, 3) or poses (T, nq) of one trial, or one array per trial.
 Parts: TypeAlias = NDArray[np.floating] | Sequence[NDArray[np.floating]]
@@ -145,18 +148,26 @@ class ChunkFit(NamedTuple):
         return float(np.sqrt(self.sq / self.present)) if self.present else float("nan")
 
 
-def solve_chunk(solver: IKSolver, m: np.ndarray, q: np.ndarray) -> ChunkFit:
+def solve_chunk(
+    solver: IKSolver, m: np.ndarray, q: np.ndarray, warm_iterations: int | None = None
+) -> ChunkFit:
     """IK of one chunk's markers m (n, M, 3) [m] in place in q (n, nq): frames with a pose
-    (finite rows) start there (warm; NaN rows had too few markers and stay NaN); a chunk of
-    NaN rows is solved afresh (chained, :meth:`IKSolver.solve_trial`)."""
+    (finite rows) start there (warm, at most ``warm_iterations`` iterations, default the
+    solver's limit; NaN rows had too few markers and stay NaN); a chunk of NaN rows is
+    solved afresh (chained, :meth:`IKSolver.solve_trial`)."""
     warm = np.isfinite(q[:, 0])
     r: IKResult
     if warm.any():
-        r = solver.solve_frames(m[warm], q[warm])
+        r = solver.solve_frames(m[warm], q[warm], max_iterations=warm_iterations)
         q[warm] = r.qpos
     else:
         r = solver.solve_trial(m)
         q[:] = r.qpos
+    return _fit(r)
+
+
+def _fit(r: IKResult) -> ChunkFit:
+    """The sums of :class:`ChunkFit` over r's solved frames."""
     ok = r.solved
     return ChunkFit(
         float(np.sum(r.marker_rmse[ok] ** 2 * r.n_markers[ok])),
@@ -171,18 +182,28 @@ def _ik_pass(
     qpos: Parts,
     chunk: int,
     gradient: bool,
+    heads: Heads | None = None,
 ) -> tuple[ChunkFit, np.ndarray]:
     """IK of every frame under kin's theta, chunk by chunk, in place in qpos (T, nq) (or one
-    such array per trial of ``markers``; :func:`solve_chunk`); with ``gradient``, the sum
-    (P,) [m] of each chunk's reduced gradient at its new poses
+    such array per trial of ``markers``; :func:`solve_chunk`); with ``heads``, chunks
+    without a pose are solved as chains from the heads' poses
+    (:meth:`~mocap_mj.ik.IKSolver.solve_from_heads`); with ``gradient``, the sum (P,) [m] of
+    each chunk's reduced gradient at its new poses
     (:func:`mocap_mj._schur.reduced_gradient`, joint limits not held, see :func:`refine`;
     zeros otherwise)."""
     solver = IKSolver(kin)
     tree, kt = kin.tree(), kin.kappa_tables()
     grad = np.zeros(kin.pset.size)
     fit = ChunkFit(0.0, 0, 0)
+    if heads is not None:
+        chunk = max(heads.stride, chunk - chunk % heads.stride)  # chunks start at a head
     for span, m, q in _chunks(markers, qpos, chunk):
-        f = solve_chunk(solver, m, q)
+        if heads is not None and not np.isfinite(q[:, 0]).any():
+            r = solver.solve_from_heads(m, heads.rows(span, len(m)))
+            q[:] = r.qpos
+            f = _fit(r)
+        else:
+            f = solve_chunk(solver, m, q)
         span.qpos[span.start : span.stop] = q
         fit = ChunkFit(fit.sq + f.sq, fit.present + f.present, fit.solved + f.solved)
         if gradient:
@@ -191,6 +212,25 @@ def _ik_pass(
             w = present.astype(float)
             grad += _schur.reduced_gradient(tree, kt, target, w, q, limits=False)
     return fit, grad
+
+
+class Heads(NamedTuple):
+    """Poses of every ``stride``-th frame of each trial: ``qpos`` (n, nq), the trials'
+    sampled frames one trial after the other (frames 0, stride, 2 stride, ... of each), as
+    :func:`refine`'s sample holds them; NaN rows: not solved."""
+
+    qpos: np.ndarray
+    stride: int
+    offsets: tuple[int, ...]  # each trial's first row in qpos
+
+    def rows(self, span: _Span, n: int) -> np.ndarray:
+        """Start poses (n, nq) of the span's frames [span.start, span.start + n): the head
+        poses at the sampled frames, NaN elsewhere (span.start a multiple of stride)."""
+        out = np.full((n, self.qpos.shape[1]), np.nan)
+        first = self.offsets[span.trial] + span.start // self.stride
+        k = len(range(0, n, self.stride))
+        out[:: self.stride] = self.qpos[first : first + k]
+        return out
 
 
 class _Span(NamedTuple):
@@ -300,7 +340,8 @@ def refine(
         ``chunk`` frames at a time
     theta0 : (P,) [m], a consistent start (the identification on a subset)
     qpos : (T, nq) float (one per trial of ``markers``), written: every frame's IK pose under
-        the sample's estimate (NaN rows: too few markers); finite rows are warm starts
+        the sample's estimate, with the joint LM's limits (:func:`solver_joint_range`; NaN
+        rows: too few markers); finite rows are warm starts
     sigma : [m], per-axis marker noise (the start's estimate), for ``tol_std``
     settings : LM settings for the weak prior and the informed directions (``prior_ratio``:
         directions with less information keep their value, as in every LM step)
@@ -312,8 +353,10 @@ def refine(
         bound that a step pushes outward is held there
     steps : Gauss-Newton steps on the sample at most (default 8)
     tol_std : the sample's steps stop once one's largest component is below this fraction
-        of its parameter's standard deviation (default 0.05: further steps cannot change the
-        estimate measurably)
+        of its parameter's standard deviation (default 0.1): the step on every frame follows
+        from the last accepted point, and a start 0.1 standard deviations closer to the
+        sample's optimum changes that step's outcome by about the square of it (Gauss-Newton
+        converges quadratically there; docs/long-recordings.md)
     sample : every k-th frame of each trial, k = ceil(T / sample) with T the frames of all
         trials, is the sample (default 20,000 frames)
     info_frames : the information is summed over at most this many evenly spaced frames of
@@ -324,6 +367,9 @@ def refine(
     parts = _parts(markers)
     n = sum(len(m) for m in parts)
     kin = Kinematics(pset)
+    # The IK with the joint LM's limits (ball cones widened), as the identification and the
+    # written model solve it: the motion then starts from poses under the same limits.
+    kin.model.jnt_range[:] = solver_joint_range(kin.model, st)
     kin.set_theta(theta0)
     free = np.flatnonzero(~pset.frozen)
     prior_list = list(priors) if priors is not None else [st.weak_prior(theta0)]
@@ -352,7 +398,8 @@ def refine(
         else:
             # The information at every accepted point: kept from the start, the steps diverged.
             info = scale * _information(kin, m_s[info_rows], q_s[info_rows])
-            best, mu = _Point(theta.copy(), cost, weight * grad, info), mu / 10.0
+            best = _Point(theta.copy(), cost, weight * grad, info, q_s.copy())
+            mu /= 10.0
         solver = _Solver(best.info, prior_list, box, free, sigma, st, mu)
         sizes.append(solver.step(theta, best.grad))
         if sizes[-1] < tol_std:
@@ -362,12 +409,16 @@ def refine(
         return Refinement(theta, np.zeros((pset.size,) * 2), np.zeros(pset.size), sizes, {})
     theta, grad = best.theta, best.grad
     if stride == 1:
-        # The sample is every frame: its last accepted point is the refined model.
-        _fill(qpos, q_s)
+        # The sample is every frame: its last accepted point is the refined model, with its
+        # poses (not those of a step taken back after it).
+        _fill(qpos, best.qpos)
     else:
-        # The one step on every frame, from the sample's estimate, its information scaled.
+        # The one step on every frame, from the sample's estimate, its information scaled;
+        # the frames' IK chained from the sample's poses at that estimate.
         kin.set_theta(theta)
-        _, grad = _ik_pass(parts, kin, qpos, chunk, gradient=True)
+        offsets = np.cumsum([0] + [len(range(0, len(m), stride)) for m in parts[:-1]])
+        heads = Heads(best.qpos, stride, tuple(int(o) for o in offsets))
+        _, grad = _ik_pass(parts, kin, qpos, chunk, gradient=True, heads=heads)
         sizes.append(_Solver(best.info, prior_list, box, free, sigma, st, mu).step(theta, grad))
     seconds = {"sample": t1 - t0, "pass": time.perf_counter() - t1}
     return Refinement(theta, best.info, grad, sizes, seconds)
@@ -375,12 +426,14 @@ def refine(
 
 class _Point(NamedTuple):
     """An accepted point of the sample's steps: theta (P,) [m], the cost [m^2] (data and
-    priors), the reduced gradient (P,) [m] and information (P, P) [1], all for every frame."""
+    priors), the reduced gradient (P,) [m] and information (P, P) [1], all for every frame,
+    and the sample's poses (n, nq) under theta."""
 
     theta: np.ndarray
     cost: float
     grad: np.ndarray
     info: np.ndarray
+    qpos: np.ndarray
 
 
 def _fill(qpos: Parts, rows: np.ndarray) -> None:

@@ -6,7 +6,7 @@ memory at once. Here the IK runs ``chunk`` frames at a time and each chunk goes 
 the files: motion.npz is a zip of ``.npy`` members (as :func:`mocap_mj.results.save_motion`
 writes it, byte for byte: uncompressed, fixed timestamps), each member's header written by
 numpy's ``.npy`` header writer and its rows appended as they come; joint_centres.csv is
-appended row by row (:func:`mocap_mj.tables.joint_centre_rows`, the whole table's
+appended chunk by chunk (:func:`mocap_mj.tables.joint_centre_text`, the whole table's
 formatting). Both are written under a temporary name and renamed when complete
 (:func:`mocap_mj.io.atomic.atomic_path`).
 """
@@ -29,10 +29,16 @@ from ..ik import IKSolver
 from ..io.atomic import atomic_path
 from ..kinematics import Kinematics
 from ..parameters import ParameterSet
-from ..tables import joint_centre_columns, joint_centre_rows
+from ..tables import joint_centre_columns, joint_centre_text
 from .lm import LMSettings, solver_joint_range
 from .long import CHUNK, ChunkFit, solve_chunk
 from .problem import TrialData
+
+#: LM iterations of each frame started from the refinement's poses (``start``): those are
+#: the converged IK under a model a fraction of a millimetre from the written one, and one
+#: Gauss-Newton step from there lands where the converged solve would stop, within its own
+#: tolerance (docs/long-recordings.md, "Issue 18h"), at a fraction of its time.
+WARM_ITERATIONS = 1
 
 
 class MotionFit(NamedTuple):
@@ -111,13 +117,13 @@ def write_motion_chunks(
 class _CentresTable:
     """joint_centres.csv appended chunk by chunk (header first)."""
 
-    def __init__(self, handle: IO[str], model: mujoco.MjModel, first_frame: int) -> None:
+    def __init__(self, handle: IO[bytes], model: mujoco.MjModel, first_frame: int) -> None:
         self.handle, self.model, self.next = handle, model, first_frame
-        handle.write(",".join(joint_centre_columns()) + "\n")
+        handle.write((",".join(joint_centre_columns()) + "\n").encode())
 
     def append(self, times: np.ndarray, qpos: np.ndarray) -> None:
-        rows, _ = joint_centre_rows(self.model, times, qpos, first_frame=self.next)
-        self.handle.write("".join(r + "\n" for r in rows))
+        text, _ = joint_centre_text(self.model, times, qpos, first_frame=self.next)
+        self.handle.write(text)
         self.next += len(qpos)
 
 
@@ -139,7 +145,7 @@ def write_every_frame_motion(
     for the other trials); returns the fit over every frame.
 
     ``start`` (per trial (T_i, nq)): poses the chunk's frames start from (finite rows, e.g.
-    the refinement's: warm, a couple of iterations each); default and NaN chunks: solved
+    the refinement's: warm, ``WARM_ITERATIONS`` LM iterations each); default and NaN chunks: solved
     afresh, chained through each chunk (:meth:`IKSolver.solve_trial`, as ``mocap-mj ik``
     solves a trial). ``first_frames``: each trial's first frame in its file (the CSV's frame
     column; default 0). ``progress`` is called with the frames done over all trials."""
@@ -157,7 +163,7 @@ def write_every_frame_motion(
         q0 = start[i] if start is not None else None
         with (
             atomic_path(out / f"joint_centres{suffix}.csv") as tmp_csv,
-            open(tmp_csv, "w", encoding="utf-8", newline="\n") as handle,
+            open(tmp_csv, "wb") as handle,
         ):
             table = _CentresTable(handle, model, first)
             poses = _solved(solver, trial, q0, table, tally, chunk)
@@ -206,7 +212,7 @@ def _solved(
         q = np.array(q0[s : s + chunk], dtype=float) if q0 is not None else None
         q = q if q is not None else np.full((len(m), nq), np.nan)
         t0 = time.perf_counter()
-        f = solve_chunk(solver, m, q)
+        f = solve_chunk(solver, m, q, WARM_ITERATIONS)
         tally.add(f, len(m), time.perf_counter() - t0)
         table.append(np.asarray(trial.times[s : s + chunk], dtype=float), q)
         yield q

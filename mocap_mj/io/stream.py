@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.lib.format import open_memmap
 
-from mocap_mj.io.formats import c3d, detect_format, trc
+from mocap_mj.io.formats import c3d, detect_format, mocap_csv, trc
 from mocap_mj.io.load import Reading, _arguments, _selection, load_markers
 from mocap_mj.io.trajectory import MarkerReport, marker_report
 from mocap_mj.markers import MARKER_NAMES
@@ -116,10 +116,13 @@ def open_markers(
     file, wanted_up, rename = _arguments(path, marker_map, up, units)
     fmt = detect_format(file)
     reason = f"{fmt} files are read whole"
-    if fmt in ("c3d", "trc"):
-        opened = (
-            c3d.open_chunks(file) if fmt == "c3d" else trc.open_chunks(file, min(chunk, trc.ROWS))
-        )
+    readers = {
+        "c3d": c3d.open_chunks,
+        "trc": lambda f: trc.open_chunks(f, min(chunk, trc.ROWS)),
+        "mocap-mj csv": lambda f: mocap_csv.open_chunks(f, min(chunk, mocap_csv.ROWS)),
+    }
+    if fmt in readers:
+        opened = readers[fmt](file)
         if not isinstance(opened, str):
             sel = _selection(file, opened.raw, subject, rename, model_names)
 

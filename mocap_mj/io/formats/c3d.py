@@ -304,6 +304,32 @@ def open_chunks(path: Path) -> C3DChunks | str:
     return C3DChunks(raw, frames, decoder)
 
 
+def read_parameters(path: Path) -> dict[str, Any]:
+    """The file's parameter groups as ezc3d reads them (``c3d["parameters"]``).
+
+    ezc3d reads a file whole, every point and analog sample, while the parameters of even an
+    hour's recording are a few kilobytes at its start: a file whose layout the structural
+    check understands (:func:`check_c3d`) is read from a copy of its header, parameters and
+    at most ``PROBE_FRAMES`` frames, as :func:`open_chunks` reads its names and units; any
+    other file is read whole. POINT:FRAMES, which ezc3d sets to the frames it read, then
+    counts those of the copy. Raises ezc3d's own exceptions, as a whole read does.
+    """
+    try:
+        layout = check_c3d(path)
+    except InputFileError:
+        layout = None
+    if layout is None or layout.n_frames == 0:
+        return dict(ezc3d.c3d(str(path), extract_forceplat_data=False)["parameters"])
+    frame_bytes = layout.data_bytes // layout.n_frames
+    with tempfile.TemporaryDirectory(prefix="mocap-mj-") as tmp:
+        head = Path(tmp) / "head.c3d"
+        with open(path, "rb") as src, open(head, "wb") as dst:
+            dst.write(
+                src.read(layout.data_offset + min(layout.n_frames, PROBE_FRAMES) * frame_bytes)
+            )
+        return dict(ezc3d.c3d(str(head), extract_forceplat_data=False)["parameters"])
+
+
 def _long_frames(path: Path, layout: C3DLayout, frame_bytes: int) -> int:
     """The frames of the data section: more than the header's 16-bit count (65,535) when
     TRIAL:ACTUAL_START_FIELD and ACTUAL_END_FIELD (Vicon: two 16-bit words each, low word

@@ -15,12 +15,15 @@ cell is a missing sample.
 
 from __future__ import annotations
 
+import itertools
 import os
+from collections.abc import Sequence
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
-from mocap_mj.errors import MocapError
+from mocap_mj.errors import InputFileError, MocapError
 from mocap_mj.io.atomic import atomic_write_text
 from mocap_mj.io.formats._common import (
     RawMarkers,
@@ -35,6 +38,15 @@ from mocap_mj.io.formats._common import (
     strip_trailing_empty,
     xyz_positions,
 )
+from mocap_mj.io.formats._text_stream import (
+    HEAD_LINES,
+    ROWS,
+    TextChunks,
+    chunks_of,
+    parse_rows,
+)
+from mocap_mj.io.formats._text_stream import encoding as text_encoding
+from mocap_mj.io.formats._text_stream import lines as text_lines
 from mocap_mj.io.orientation import UP_AXES
 from mocap_mj.io.trajectory import MarkerTrajectory
 
@@ -65,6 +77,78 @@ def _parse_comment(path: Path, line_no: int, line: str) -> dict[str, str]:
 def read(path: Path) -> RawMarkers:
     """Read a mocap-mj marker CSV (see the module docstring for the layout)."""
     lines = read_lines(path)
+    h = _header(path, lines)
+    body = lines[h.start :]
+    while body and not body[-1].strip():
+        body.pop()
+    if not body:
+        raise _no_rows(path, h)
+    rows = [
+        fit_row(path, h.line + 1 + n, line.split(","), h.width, "comma-separated cells")
+        for n, line in enumerate(body)
+    ]
+    row_lines = list(range(h.line + 1, h.line + 1 + len(rows)))
+    block = parse_numbers(path, rows, row_lines, h.columns)
+    return h.raw(path, xyz_positions(block, 2, len(h.names)), block[:, 0], block[:, 1].copy())
+
+
+class _Header(NamedTuple):
+    """What a mocap-mj CSV's lines before the data say: the comment's settings and its line
+    (0: none), the column header's cells and line (1-based), the marker names."""
+
+    meta: dict[str, str]
+    meta_line: int
+    columns: list[str]
+    line: int
+    names: list[str]
+
+    @property
+    def width(self) -> int:
+        return len(self.columns)
+
+    @property
+    def start(self) -> int:
+        """Index of the first data line."""
+        return self.line
+
+    def raw(
+        self, path: Path, positions: np.ndarray, frames: np.ndarray, times: np.ndarray
+    ) -> RawMarkers:
+        """The RawMarkers of the file's positions (T, M, 3), frame column (T,) and times
+        (T,) [s], after the checks of the whole file (frame numbers, times, rate, up)."""
+        row_lines = range(self.line + 1, self.line + 1 + len(times))
+        for i_missing in np.flatnonzero(np.isnan(frames)):
+            raise line_error(path, row_lines[int(i_missing)], "a frame number", "an empty cell")
+        check_times(path, times, row_lines, "time")
+        meta, meta_line = self.meta, self.meta_line
+        if "rate" in meta:
+            rate = check_rate(path, meta_line, meta["rate"], "rate= in the header comment")
+        else:
+            rate = rate_from_times(path, times, self.line, "a rate= setting in a '# mocap-mj' line")
+        up = meta.get("up")
+        if up is not None and up.lower().lstrip("+") not in UP_AXES:
+            raise line_error(path, meta_line, f"up= one of {', '.join(UP_AXES)}", show(up))
+        return RawMarkers(
+            format="mocap-mj csv",
+            labels=self.names,
+            positions=positions,
+            times=times,
+            rate=rate,
+            units=meta.get("units", "mm"),
+            units_where=f"line {meta_line}" if "units" in meta else "mocap-mj csv default (mm)",
+            labels_where=f"line {self.line}",
+            up_hint=up.lower() if up else None,
+            info={"up_stated": up is not None},
+        )
+
+
+def _no_rows(path: Path, h: _Header) -> Exception:
+    return line_error(path, h.line + 1, "at least one row of data", "end of file")
+
+
+def _header(path: Path, lines: Sequence[str]) -> _Header:
+    """The header of a mocap-mj CSV whose first lines are ``lines`` (its column header
+    included)."""
     meta: dict[str, str] = {}
     meta_line = 0
     i = 0
@@ -95,43 +179,44 @@ def read(path: Path) -> RawMarkers:
                 path, header_no, f"columns NAME_X,NAME_Y,NAME_Z at column {k + 1}", show(triple)
             )
         names.append(base)
-    width = len(header)
+    return _Header(meta, meta_line, header, header_no, names)
 
-    body = lines[i + 1 :]
-    while body and not body[-1].strip():
-        body.pop()
-    if not body:
-        raise line_error(path, header_no + 1, "at least one row of data", "end of file")
-    rows = [
-        fit_row(path, header_no + 1 + n, line.split(","), width, "comma-separated cells")
-        for n, line in enumerate(body)
-    ]
-    row_lines = list(range(header_no + 1, header_no + 1 + len(rows)))
-    block = parse_numbers(path, rows, row_lines, header)
-    for i_missing in np.flatnonzero(np.isnan(block[:, 0])):
-        raise line_error(path, row_lines[int(i_missing)], "a frame number", "an empty cell")
-    times = block[:, 1]
-    check_times(path, times, row_lines, "time")
 
-    if "rate" in meta:
-        rate = check_rate(path, meta_line, meta["rate"], "rate= in the header comment")
-    else:
-        rate = rate_from_times(path, times, header_no, "a rate= setting in a '# mocap-mj' line")
-    up = meta.get("up")
-    if up is not None and up.lower().lstrip("+") not in UP_AXES:
-        raise line_error(path, meta_line, f"up= one of {', '.join(UP_AXES)}", show(up))
-    return RawMarkers(
-        format="mocap-mj csv",
-        labels=names,
-        positions=xyz_positions(block, 2, len(names)),
-        times=times.copy(),
-        rate=rate,
-        units=meta.get("units", "mm"),
-        units_where=f"line {meta_line}" if "units" in meta else "mocap-mj csv default (mm)",
-        labels_where=f"line {header_no}",
-        up_hint=up.lower() if up else None,
-        info={"up_stated": up is not None},
+def open_chunks(path: Path, chunk: int = ROWS) -> TextChunks | str:
+    """Read a mocap-mj CSV ``chunk`` rows at a time into a memory map of its positions, with
+    :func:`read`'s rules and errors, or say why it is read whole (the reason, a str).
+
+    Three passes over the file, none holding it: the encoding (as :func:`read_lines`
+    decides it for the whole file), the rows' widths (:func:`fit_row`'s rule on every row
+    before the last non-blank one, the first error in the file raised, as :func:`read`
+    checks every row before it parses one), then the numbers, ``chunk`` rows at a time
+    (:func:`parse_numbers`, whose first bad cell is the whole file's first)."""
+    encoding = text_encoding(path)
+    with text_lines(path, encoding) as lines:
+        head = list(itertools.islice(lines, HEAD_LINES))
+    h = _header(path, head)
+    if h.start >= HEAD_LINES:
+        return f"more than {HEAD_LINES} lines before the data"
+    first_bad: tuple[int, Exception] | None = None
+    last = -1
+    with text_lines(path, encoding) as lines:
+        for n, line in enumerate(itertools.islice(lines, h.start, None)):
+            if line.strip():
+                last = n
+            if first_bad is None:
+                try:
+                    fit_row(path, h.line + 1 + n, line.split(","), h.width, "comma-separated cells")
+                except InputFileError as exc:
+                    first_bad = (n, exc)
+    if last < 0:
+        raise _no_rows(path, h)
+    if first_bad is not None and first_bad[0] <= last:
+        raise first_bad[1]
+    positions, first_two = parse_rows(
+        path, encoding, h.start, last + 1, lambda line: line.split(",")[: h.width], h.columns, chunk
     )
+    frames, times = first_two[:, 0].copy(), first_two[:, 1].copy()
+    return chunks_of(h.raw(path, positions, frames, times), positions)
 
 
 def _check_writable_names(path: Path, names: tuple[str, ...], forbidden: str) -> None:

@@ -36,13 +36,10 @@ model's Z-up world); OpenSim's own convention is Y up, so rotate on import there
 
 from __future__ import annotations
 
-import codecs
-import contextlib
 import itertools
 import os
 import re
-import tempfile
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
@@ -61,6 +58,15 @@ from mocap_mj.io.formats._common import (
     strip_trailing_empty,
     xyz_positions,
 )
+from mocap_mj.io.formats._text_stream import (
+    HEAD_LINES,
+    ROWS,
+    TextChunks,
+    chunks_of,
+    parse_rows,
+)
+from mocap_mj.io.formats._text_stream import encoding as text_encoding
+from mocap_mj.io.formats._text_stream import lines as text_lines
 from mocap_mj.io.formats.mocap_csv import _check_writable_names, _format_rows
 from mocap_mj.io.trajectory import MarkerTrajectory
 
@@ -268,24 +274,10 @@ def save_trc(path: str | os.PathLike[str], traj: MarkerTrajectory) -> None:
     atomic_write_text(target, "\n".join(lines) + "\n")
 
 
-#: Lines read to find the header's end (its axes line and blank lines) before the data.
-HEAD_LINES = 64
-#: Rows parsed at a time by :func:`open_chunks`: their cells as Python strings take about
-#: 20 kB per row of 39 markers, 100 MB for 5,000 rows.
-ROWS = 5_000
+TRCChunks = TextChunks  # the name this module used first
 
 
-class TRCChunks(NamedTuple):
-    """A TRC file read chunk by chunk (:func:`open_chunks`): ``raw`` as :func:`read` gives it,
-    its positions (T, M, 3) [file units] a memory map on an anonymous temporary file;
-    ``frames``; ``read(start, stop)``: those frames' positions."""
-
-    raw: RawMarkers
-    frames: int
-    read: Callable[[int, int], np.ndarray]
-
-
-def open_chunks(path: Path, chunk: int = ROWS) -> TRCChunks | str:
+def open_chunks(path: Path, chunk: int = ROWS) -> TextChunks | str:
     """Read a TRC file ``chunk`` rows at a time into a memory map of its positions, with
     :func:`read`'s rules and errors, or say why it is read whole (the reason, a str).
 
@@ -296,8 +288,8 @@ def open_chunks(path: Path, chunk: int = ROWS) -> TRCChunks | str:
     Rows wider than the header (unnamed or empty extra columns, whose handling depends on
     every row at once) are left to :func:`read`.
     """
-    encoding = _encoding(path)
-    with _lines(path, encoding) as lines:
+    encoding = text_encoding(path)
+    with text_lines(path, encoding) as lines:
         head = list(itertools.islice(lines, HEAD_LINES))
     h = _header(path, head)
     if h.start >= HEAD_LINES:
@@ -306,54 +298,15 @@ def open_chunks(path: Path, chunk: int = ROWS) -> TRCChunks | str:
     if isinstance(layout, str):
         return layout
     tabbed, n = layout
-    positions = np.memmap(tempfile.TemporaryFile(prefix="mocap-mj-"), float, "w+",
-                          shape=(n, h.n_markers, 3))  # fmt: skip
-    times = np.empty(n)
-    with _lines(path, encoding) as lines:
-        body = itertools.islice(lines, h.start, h.start + n)
-        for s in range(0, n, chunk):
-            text = list(itertools.islice(body, chunk))
-            raw = [line.split("\t") if tabbed else line.split() for line in text]
-            rows = [r[: h.width] + [""] * (h.width - len(r)) for r in raw]
-            first = h.start + 1 + s
-            block = parse_numbers(path, rows, range(first, first + len(rows)), h.columns)
-            positions[s : s + len(rows)] = xyz_positions(block, 2, h.n_markers)
-            times[s : s + len(rows)] = block[:, 1]
+
+    def cells(line: str) -> list[str]:
+        r = line.split("\t") if tabbed else line.split()
+        return r[: h.width] + [""] * (h.width - len(r))
+
+    positions, first_two = parse_rows(path, encoding, h.start, n, cells, h.columns, chunk)
+    times = first_two[:, 1].copy()
     check_times(path, times, range(h.start + 1, h.start + 1 + n), "Time")
-    positions.flush()
-
-    def frames(start: int, stop: int) -> np.ndarray:
-        return np.asarray(positions[start:stop])
-
-    return TRCChunks(h.raw(path, positions, times, 0), n, frames)
-
-
-def _encoding(path: Path) -> str:
-    """ "utf-8-sig" if the whole file decodes as UTF-8, else "latin-1" (:func:`read_lines`)."""
-    decoder = codecs.getincrementaldecoder("utf-8")()
-    with open(path, "rb") as handle:
-        try:
-            while block := handle.read(1 << 20):
-                decoder.decode(block)
-            decoder.decode(b"", final=True)
-        except UnicodeDecodeError:
-            return "latin-1"
-    return "utf-8-sig"
-
-
-@contextlib.contextmanager
-def _lines(path: Path, encoding: str) -> Iterator[Iterator[str]]:
-    """The file's lines as :func:`read_lines` splits them (on "\\n", a trailing "\\r" cut),
-    decoded one at a time."""
-    with open(path, "rb") as handle:
-
-        def lines() -> Iterator[str]:
-            for k, raw in enumerate(handle):
-                text = raw.decode(encoding if k == 0 else encoding.replace("-sig", ""))
-                text = text[:-1] if text.endswith("\n") else text
-                yield text[:-1] if text.endswith("\r") else text
-
-        yield lines()
+    return chunks_of(h.raw(path, positions, times, 0), positions)
 
 
 def _layout(path: Path, encoding: str, h: _Header) -> tuple[bool, int] | str:
@@ -365,7 +318,7 @@ def _layout(path: Path, encoding: str, h: _Header) -> tuple[bool, int] | str:
     inside: int | None = None  # the first blank line followed by a row
     tab_used: list[int] = []
     space_used: list[int] = []
-    with _lines(path, encoding) as lines:
+    with text_lines(path, encoding) as lines:
         for n, line in enumerate(itertools.islice(lines, h.start, None)):
             if not line.strip():
                 blank = n if blank is None else blank
