@@ -204,7 +204,9 @@ def main() -> None:
         "refined_worst_offsets_std_mm": worst,
         "refined_over_all_bound_aligned_within_limits": [ek1_h / bk_a, eo1_h / bo_a],
         "all_frames_information_seconds": info_seconds,
-        "kappa_error_before_mm": float(np.sqrt(np.mean((pset.nominal - theta_true)[:30] ** 2)))
+        "kappa_error_before_mm": float(
+            np.sqrt(np.mean((pset.nominal - theta_true)[: pset.n_kappa] ** 2))
+        )
         * 1e3,
     }
     if args.even:
