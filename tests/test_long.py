@@ -291,3 +291,26 @@ def test_refinement_on_every_frame_keeps_the_poses_of_its_model(pset: ParameterS
     kin.model.jnt_range[:] = solver_joint_range(kin.model, LMSettings())
     kin.set_theta(theta0)
     assert np.array_equal(qpos, IKSolver(kin).solve_trial(exp.markers).qpos, equal_nan=True)
+
+
+def test_auto_selection_with_a_robust_loss_fits_every_frame(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--select auto`` (the default) on a long trial with ``--robust`` fits every frame with
+    the robust loss instead of refusing: the refusal is for an explicit number of frames."""
+    from mocap_mj import cli
+    from mocap_mj.commands import identify as identify_command
+
+    truth, out = tmp_path / "truth", tmp_path / "robust"
+    proc = _cli("synth", "--out", str(truth), "--frames", "120", "--motion", "rom", "--seed", "6")
+    assert proc.returncode == 0, proc.stderr
+    monkeypatch.setattr(identify_command, "AUTO_SELECT_ABOVE", 100)  # 120 frames count as long
+    markers = str(truth / "markers.trc")
+    assert cli.main(["identify", "--markers", markers, "--robust", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert "frames_selected" not in summary and summary["loss"] == "cauchy"
+    with np.load(out / "motion.npz") as motion:
+        assert motion["qpos"].shape[0] == 120
+    refused = cli.main(["identify", "--markers", markers, "--robust", "--select", "60",
+                        "--out", str(tmp_path / "refused")])  # fmt: skip
+    assert refused != 0 and not (tmp_path / "refused").exists()
