@@ -25,6 +25,11 @@ Rates (:data:`SLIDES`), per-axis standard deviation per radian from the defining
 
 The ankle (ANK) and elbow (ELB) markers sit on bone under thin skin: their sliding is not
 modelled (weighting them alike helped no real-data figure, docs/real-data.md).
+
+``mocap-mj identify`` weighs with :data:`SLIDES` by default (``--no-sliding-landmarks``: off)
+and records the model it weighed with in model.xml (:func:`with_sliding_model`); ``mocap-mj
+ik`` reads it back (:func:`recorded_sliding_model`) and weighs its own poses alike, so that
+the exported model reproduces the fit (docs/ik.md).
 """
 
 from __future__ import annotations
