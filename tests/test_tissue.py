@@ -11,7 +11,14 @@ from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.identify import LMSettings, TrialData
 from mocap_mj.identify.losses import L2, Cauchy, Huber, Weighted
 from mocap_mj.identify.pipeline import solve_anatomical
-from mocap_mj.identify.tissue import SLIDES, sliding_weights
+from mocap_mj.identify.tissue import (
+    SLIDES,
+    Slide,
+    SlidingModel,
+    recorded_sliding_model,
+    sliding_weights,
+    with_sliding_model,
+)
 from mocap_mj.subject import Subject
 from mocap_synth import SynthConfig, synthesize
 
@@ -148,9 +155,21 @@ def test_without_slide_the_model_changes_nothing(pset: ParameterSet, experiment)
 
 
 def test_unknown_joint_or_marker_is_ignored(pset: ParameterSet) -> None:
-    from mocap_mj.identify.tissue import Slide
-
     q = np.tile(pset.model.qpos0, (2, 1)) + 0.5
     assert mujoco.mj_name2id(pset.model, mujoco.mjtObj.mjOBJ_JOINT, "nope_l") < 0
     w = sliding_weights(pset, q, 0.005, {"KNE": Slide("nope", 0.01), "XYZ": Slide("knee_flex", 1)})
     assert np.all(w == 1.0)
+
+
+def test_sliding_model_recorded_in_model_xml_reads_back(pset: ParameterSet, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    sliding = SlidingModel({"KNE": Slide("knee_flex", 0.01, 0.1)}, 0.0043)
+    path = tmp_path / "model.xml"
+    path.write_text(with_sliding_model(pset.to_xml(pset.nominal), sliding))
+    written = ParameterSet(path)
+    assert recorded_sliding_model(written.model) == sliding
+    assert recorded_sliding_model(pset.model) is None  # the bundled humanoid records none
+    # The record is inert: the same kinematics as the file without it.
+    q = np.tile(pset.model.qpos0, (2, 1)) + 0.3
+    np.testing.assert_array_equal(
+        Kinematics(written).marker_positions(q), Kinematics(pset).marker_positions(q)
+    )

@@ -78,11 +78,12 @@ def add_subject_options(p: Any) -> None:
         "with a known asymmetry, e.g. a limb-length discrepancy; default: the prior is on)",
     )
     g.add_argument(
-        "--sliding-landmarks",
+        "--no-sliding-landmarks",
         action="store_true",
-        help="weigh each knee epicondyle marker (KNE) down as the knee flexes: its skin slides "
-        "on the femur (10 mm per rad per axis; applied where the residuals show soft tissue; "
-        "docs/model.md; default: off)",
+        help="weigh the knee epicondyle markers (KNE) alike at every knee angle (default: "
+        "weigh them down as the knee flexes, their skin sliding on the femur, 10 mm per rad "
+        "per axis, where the residuals show soft tissue; recorded in model.xml for ik; "
+        "docs/real-data.md)",
     )
     g.add_argument(
         "--no-anatomy",

@@ -297,7 +297,7 @@ def _identify(
             anatomical=not args.no_anatomy,
             symmetric=None if args.symmetric is None else args.symmetric * 1e-3,
             asymmetry_prior=not args.no_asymmetry_prior,
-            slides=SLIDES if args.sliding_landmarks else None,
+            slides=None if args.no_sliding_landmarks else SLIDES,
             progress=progress,
             extra=extra,
             motion_trials=motion_trials,

@@ -5,7 +5,10 @@ Inverse kinematics of one marker file with a given model (the bundled humanoid u
 the measured markers (Levenberg-Marquardt, frames solved in chains warm-started from their
 neighbours). Writes OUT/motion.csv (joint angles, mm and degrees), motion.npz (qpos, times,
 markers; opened by `mocap-mj view`), model.xml and summary.json. Frames with fewer than
---min-markers present markers are left unsolved (empty in motion.csv).
+--min-markers present markers are left unsolved (empty in motion.csv). A model written by
+identify with the knee markers' soft-tissue sliding model (recorded in its model.xml) weighs
+them as identify did, so that its RMSE reproduces the fit (--no-sliding-landmarks: every
+marker alike).
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from ..cli import add_force_flag, add_json_flag, into_out_folder
 from ..errors import MocapError
 from ..identify.output import frame_range
 from ..identify.robust_ik import solve_trial_loss
+from ..identify.tissue import recorded_sliding_model
 from ..ik import IKSettings, IKSolver, Status
 from ..io.atomic import atomic_write_text
 from ..kinematics import Kinematics
@@ -64,6 +68,12 @@ def register(sub: Any) -> None:
         "the fit to reproduce it (default: l2)",
     )
     p.add_argument("--robust", action="store_true", help="same as --loss cauchy (default: off)")
+    p.add_argument(
+        "--no-sliding-landmarks",
+        action="store_true",
+        help="weigh every marker alike even when the model records identify's sliding model "
+        "of the knee markers (default: weigh them as identify did, to reproduce its fit)",
+    )
     p.add_argument(
         "--max-iterations",
         type=int,
@@ -122,8 +132,9 @@ def _solve_and_write(
     from .progress import frames_bar
 
     loss = "cauchy" if args.robust else args.loss
+    sliding = None if args.no_sliding_landmarks else recorded_sliding_model(pset.model)
     with frames_bar("IK", len(markers), enabled=not args.json) as progress:
-        result = solve_trial_loss(solver, markers, loss, progress=progress)
+        result = solve_trial_loss(solver, markers, loss, progress=progress, sliding=sliding)
     seconds = time.perf_counter() - t0
     pset.export_mjcf(out / "model.xml", pset.nominal)
     save_motion(out / "motion.npz", Motion(result.qpos, times, markers, pset.marker_names))
@@ -150,6 +161,7 @@ def _solve_and_write(
         "frames_per_second": n / seconds,
         "damping": args.damping,
         "loss": loss,
+        "sliding_landmarks": None if sliding is None else sorted(sliding.slides),
         "markers_missing": list(trial.report.missing),
         "markers_without_data": never,
     }
@@ -159,6 +171,12 @@ def _solve_and_write(
         f"marker RMSE {summary['marker_rmse_mm']:.3f} mm, "
         f"{summary['converged_fraction']:.0%} converged"
         + (f", {skipped.size} frames skipped (too few markers)" if skipped.size else "")
+        + (
+            f"\n{', '.join(sorted(sliding.slides))} weighed down with their joint's angle, "
+            "as the model's identification did (--no-sliding-landmarks: off)"
+            if sliding is not None
+            else ""
+        )
         + (f"\nmarkers in the file without a valid sample: {', '.join(never)}" if never else "")
         + f"\nwrote {args.out}/motion.csv, joint_centres.csv, motion.npz, model.xml, summary.json"
     )

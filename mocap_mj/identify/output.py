@@ -17,6 +17,7 @@ from .identifiability import Identifiability
 from .problem import TrialData
 from .result import IdentificationResult, IterationLog
 from .segments import uncertainty_lines
+from .tissue import SlidingModel, with_sliding_model
 
 
 def write_result(
@@ -30,13 +31,19 @@ def write_result(
     *,
     joint_range: np.ndarray | None = None,
     motion: tuple[Sequence[TrialData], Sequence[np.ndarray]] | None = None,
+    sliding: SlidingModel | None = None,
 ) -> None:
     """model.xml, theta.json, motion.npz (first trial; ``motion_<i>.npz`` for the others),
     identifiability.json and report.md (its iterations section: ``iterations``, default
     :func:`iteration_lines`). ``joint_range`` (njnt, 2): the limits the solver used, written
     into model.xml (see :meth:`ParameterSet.to_spec`). ``motion`` (trials, poses (T_i, nq)):
-    what motion.npz holds (default: ``trials`` and the fit's poses)."""
-    pset.export_mjcf(out / "model.xml", result.theta, joint_range=joint_range)
+    what motion.npz holds (default: ``trials`` and the fit's poses). ``sliding``: the
+    landmarks' sliding model the fit was weighed with, recorded in model.xml for ``ik``
+    (:func:`~mocap_mj.identify.tissue.with_sliding_model`; default None: not recorded)."""
+    xml = pset.to_xml(result.theta, joint_range=joint_range)
+    atomic_write_text(
+        out / "model.xml", xml if sliding is None else with_sliding_model(xml, sliding)
+    )
     pset.save_json(
         out / "theta.json",
         result.theta,

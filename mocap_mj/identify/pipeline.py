@@ -33,7 +33,7 @@ from .problem import TrialData
 from .ranges import kappa_ranges, theta_bounds
 from .result import IdentificationResult, ProgressCallback
 from .segments import SegmentRow, uncertainty_summary, write_segments_csv
-from .tissue import Slide, sliding_weights
+from .tissue import Slide, SlidingModel, sliding_weights
 
 logger = logging.getLogger(__name__)
 
@@ -91,8 +91,12 @@ def identify_to_folder(
     sharpened by ``subject``'s measurements); ``symmetric`` [m] adds a prior tying every
     left length to the right one with that standard deviation, in place of the population
     asymmetry prior (``ASYMMETRY_SIGMA``, on unless ``asymmetry_prior`` is False);
-    ``slides``: the landmarks' soft-tissue sliding model (default None: off). See
-    :func:`solve_anatomical`.
+    ``slides``: the landmarks' soft-tissue sliding model (default None: off; ``mocap-mj
+    identify`` turns it on). See :func:`solve_anatomical`. When the fit was weighed with it
+    (the reweighted solve ran, and no refinement on every frame replaced its model), model.xml
+    records it (:func:`mocap_mj.identify.tissue.with_sliding_model`) so that ``mocap-mj ik
+    --model`` weighs its poses alike and reproduces the fit; the summary's
+    ``sliding_landmarks`` says whether it did.
     """
     t0 = time.perf_counter()
     _check_inputs(trials, pset, init)
@@ -126,6 +130,9 @@ def identify_to_folder(
             weighting=weighting,
             **prior_options,
         )
+    sliding = None
+    if slides and "slide_base_mm" in weighting and not refined:
+        sliding = SlidingModel(dict(slides), weighting["slide_base_mm"] * 1e-3)
     seconds = time.perf_counter() - t0
     idf = Identifiability(
         pset,
@@ -139,6 +146,7 @@ def identify_to_folder(
         _summary_fields(trials, pset, settings, result, idf, init_used, scales, seconds, log)
     )
     summary.update(_prior_fields(anatomical, weighting, symmetric, asymmetry_prior, subject))
+    summary["sliding_landmarks"] = None if sliding is None else sorted(sliding.slides)
     summary["kappa_at_bound"] = _kappa_at_bound(pset, result)
     ranges = kappa_ranges(pset, subject) if anatomical else None
     rows = _add_checks(summary, pset, result, trials, settings, ranges)
@@ -166,7 +174,9 @@ def identify_to_folder(
             }
 
     summary = jsonable(summary)
-    _write_folder(out, pset, result, idf, trials, settings, rows, summary, stream=stream)
+    _write_folder(
+        out, pset, result, idf, trials, settings, rows, summary, stream=stream, sliding=sliding
+    )
     return summary, result, idf
 
 
@@ -377,11 +387,13 @@ def _write_folder(
     rows: list[SegmentRow],
     summary: dict[str, Any],
     stream: Callable[[Path], dict[str, Any]] | None = None,
+    sliding: SlidingModel | None = None,
 ) -> None:
     """Write the result files, the tables and summary.json into ``out``, replaced whole;
     ``stream``: writes motion.npz and joint_centres.csv into the folder given to it itself
     (every frame of long trials, chunk by chunk) and returns what it adds to the summary
-    (default: the fitted trials and their poses)."""
+    (default: the fitted trials and their poses); ``sliding``: the sliding model the fit was
+    weighed with, recorded in model.xml (default None: none)."""
     motion = ([], []) if stream is not None else (list(trials), list(result.qpos))
     with atomic_folder(out, force=True) as staging:
         if stream is not None:
@@ -395,6 +407,7 @@ def _write_folder(
             summary,
             joint_range=solver_joint_range(pset.model, settings),
             motion=motion,
+            sliding=sliding,
         )
         _write_tables(staging, pset, result.theta, motion, rows, summary.get("frames_fitted_range"))
         atomic_write_text(staging / "summary.json", dumps(summary, indent=2) + "\n")
@@ -566,11 +579,11 @@ def solve_anatomical(
     (:mod:`mocap_mj.identify.tissue`) by the first solve's poses, against a per-axis artefact
     of ``max(sigma, SOFT_TISSUE_SIGMA)``: the soft-tissue model applies only where the
     residuals show soft tissue, never on white noise. ``mocap-mj identify`` passes
-    :data:`~mocap_mj.identify.tissue.SLIDES` with ``--sliding-landmarks`` (default off: the
-    fit it reports is then a weighted one, which ``ik --model``, weighing every marker alike,
-    beats by 3-5 %; docs/real-data.md "Soft-tissue sliding"). Returns the
-    result and the weighting used (``noise_mm``, ``sigma_mm``, ``tau_frames``; when the
-    sliding weights were applied, ``slide_weight_min``, the smallest of them).
+    :data:`~mocap_mj.identify.tissue.SLIDES` unless ``--no-sliding-landmarks`` (the knee
+    trials' thighs come 5 mm toward the other trials'; docs/real-data.md "Soft-tissue
+    sliding"). Returns the result and the weighting used (``noise_mm``, ``sigma_mm``,
+    ``tau_frames``; when the sliding weights were applied, ``slide_weight_min``, the smallest
+    of them, and ``slide_base_mm``, the per-axis artefact ``base``).
     """
     lower, upper = theta_bounds(pset, subject)
     priors = anatomical_priors(
@@ -601,6 +614,7 @@ def solve_anatomical(
         weights = [sliding_weights(pset, q, base, slides) for q in first.qpos]
         weighted = [t._replace(weights=w) for t, w in zip(trials, weights, strict=True)]
         weighting["slide_weight_min"] = float(min(w.min() for w in weights))
+        weighting["slide_base_mm"] = base * 1e3
     result = identify_lm(
         weighted,
         pset=pset,

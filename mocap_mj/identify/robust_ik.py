@@ -8,6 +8,12 @@ in), so its RMSE cannot be compared with the fit's. :func:`solve_trial_loss` sol
 per-frame problem by iteratively reweighted least squares: the least-squares IK, then rounds
 of weights from the current distances and a weighted per-frame IK from the current poses,
 until the robust cost changes by less than ``tol`` (relative).
+
+A model identified with the landmarks' sliding model (:mod:`mocap_mj.identify.tissue`,
+recorded in its model.xml) was fitted with per-sample weights from the knee flexion of an
+unweighted fit; ``sliding`` solves the same problem: the sliding weights from the
+least-squares IK's poses, then the weighted IK (with a robust loss, the loss of the normalised
+distances, as :class:`~mocap_mj.identify.losses.Weighted`).
 """
 
 from __future__ import annotations
@@ -18,7 +24,8 @@ import numpy as np
 
 from ..ik import IKResult, IKSolver
 from .lm import CHI3_MEDIAN, LMSettings
-from .losses import loss_named
+from .losses import Weighted, loss_named
+from .tissue import SlidingModel
 
 
 def solve_trial_loss(
@@ -30,20 +37,24 @@ def solve_trial_loss(
     max_rounds: int = 30,
     tol_noise: float = LMSettings.tol_noise,
     progress: Callable[[int], None] | None = None,
+    sliding: SlidingModel | None = None,
 ) -> IKResult:
     """IK of every frame of markers (T, M, 3) [m] (NaN where missing) under ``loss`` ("l2",
-    "huber" or "cauchy", as ``LMSettings.loss``, threshold ``loss_scale`` sigma).
+    "huber" or "cauchy", as ``LMSettings.loss``, threshold ``loss_scale`` sigma), with the
+    samples weighed by ``sliding`` (default None: every sample alike; see the module).
 
     The result's ``marker_rmse`` (T,) [m] is the unweighted RMS distance of each frame, as the
     identification reports it.
     """
     rho = loss_named(loss)  # validates the name
     first = solver.solve_trial(markers, progress=progress)
-    if loss == "l2":
+    if loss == "l2" and sliding is None:
         return first
     kin = solver.kin
     markers = np.asarray(markers, dtype=float)
     ok = np.all(np.isfinite(first.qpos), axis=1)
+    if sliding is not None:
+        rho = Weighted(rho, sliding.weights(kin.pset, first.qpos[ok]))
     target = markers[ok]
     present = np.all(np.isfinite(target), axis=2)
     q = first.qpos[ok].copy()

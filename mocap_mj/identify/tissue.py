@@ -25,11 +25,17 @@ Rates (:data:`SLIDES`), per-axis standard deviation per radian from the defining
 
 The ankle (ANK) and elbow (ELB) markers sit on bone under thin skin: their sliding is not
 modelled (weighting them alike helped no real-data figure, docs/real-data.md).
+
+``mocap-mj identify`` weighs with :data:`SLIDES` by default (``--no-sliding-landmarks``: off)
+and records the model it weighed with in model.xml (:func:`with_sliding_model`); ``mocap-mj
+ik`` reads it back (:func:`recorded_sliding_model`) and weighs its own poses alike, so that
+the exported model reproduces the fit (docs/ik.md).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from xml.etree import ElementTree
 
 import mujoco
 import numpy as np
@@ -88,4 +94,68 @@ def sliding_weights(
     return w
 
 
-__all__ = ["SLIDES", "Slide", "sliding_weights"]
+#: Prefix of the MJCF ``<custom><numeric>`` entries that record the sliding model in model.xml.
+RECORD_PREFIX = "mocap_mj_slide"
+
+
+@dataclass(frozen=True)
+class SlidingModel:
+    """The sliding model an identification weighed its fit with: ``slides`` (landmark ->
+    :class:`Slide`) against a per-axis artefact ``base`` [m]. ``identify`` records it in
+    model.xml (:func:`with_sliding_model`) and ``ik --model`` reads it back
+    (:func:`recorded_sliding_model`) to weigh its poses alike: the exported model then
+    reproduces the fit (docs/ik.md)."""
+
+    slides: dict[str, Slide]
+    base: float
+
+    def weights(self, pset: ParameterSet, qpos: np.ndarray) -> np.ndarray:
+        """Per-sample weights (T, M) [1] of the poses qpos (T, nq): :func:`sliding_weights`."""
+        return sliding_weights(pset, qpos, self.base, self.slides)
+
+
+def with_sliding_model(xml: str, sliding: SlidingModel) -> str:
+    """MJCF text ``xml`` with ``sliding`` recorded as ``<custom><numeric>`` entries (which
+    MuJoCo keeps and ignores in the kinematics): ``mocap_mj_slide_base`` = base [m], and per
+    landmark ``mocap_mj_slide:MARKER:JOINT`` = (rate [m/rad], angle0 [rad])."""
+    root = ElementTree.fromstring(xml)
+    custom = root.find("custom")
+    if custom is None:
+        custom = ElementTree.SubElement(root, "custom")
+    entries = {f"{RECORD_PREFIX}_base": [sliding.base]}
+    for marker, s in sliding.slides.items():
+        entries[f"{RECORD_PREFIX}:{marker}:{s.joint}"] = [s.rate, s.angle0]
+    for name, data in entries.items():
+        ElementTree.SubElement(
+            custom, "numeric", name=name, data=" ".join(repr(float(v)) for v in data)
+        )
+    ElementTree.indent(root, space="  ")
+    return ElementTree.tostring(root, encoding="unicode") + "\n"
+
+
+def recorded_sliding_model(model: mujoco.MjModel) -> SlidingModel | None:
+    """The sliding model recorded in ``model`` by :func:`with_sliding_model`, or None (a model
+    not identified with it, e.g. the bundled humanoid)."""
+    base = None
+    slides: dict[str, Slide] = {}
+    for i in range(model.nnumeric):
+        name, data = model.numeric(i).name, np.asarray(model.numeric(i).data, dtype=float)
+        if name == f"{RECORD_PREFIX}_base" and data.size == 1:
+            base = float(data[0])
+        elif name.startswith(f"{RECORD_PREFIX}:") and name.count(":") == 2 and data.size == 2:
+            _, marker, joint = name.split(":")
+            slides[marker] = Slide(joint, float(data[0]), float(data[1]))
+    if base is None or not slides:
+        return None
+    return SlidingModel(slides, base)
+
+
+__all__ = [
+    "RECORD_PREFIX",
+    "SLIDES",
+    "Slide",
+    "SlidingModel",
+    "recorded_sliding_model",
+    "sliding_weights",
+    "with_sliding_model",
+]
