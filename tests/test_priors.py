@@ -52,8 +52,8 @@ def test_marker_classes() -> None:
 
 def test_prior_mean_and_width_per_class(pset: ParameterSet) -> None:
     """A landmark's mean follows the skeleton (KNE at the knee's level, on its axis); its
-    lateral width is the regression's without a measurement, the caliper's with one; a free
-    marker has no anatomical row."""
+    lateral width is the regression's without a measurement, the caliper's with one; ANK's
+    level and depth are a convention joint's; a free marker has no anatomical row."""
     theta = pset.nominal.copy()
     theta[pset.index("thigh_length_l")] = 0.40
     table = marker_prior_table(pset, landmark_prior(pset), theta)
@@ -62,6 +62,11 @@ def test_prior_mean_and_width_per_class(pset: ParameterSet) -> None:
     ratio = 2 * (0.050 - 0.007) / 0.43
     np.testing.assert_allclose(mean, [0.0, ratio * 0.40 / 2 + r, -0.40], atol=1e-12)
     np.testing.assert_allclose(width, [SIGMA_LANDMARK, SIGMA_REGRESSED, SIGMA_LANDMARK])
+    # ANK defines the ankle centre (a convention joint): its level and depth at 3 mm.
+    theta_shank = theta[pset.index("shank_length_l")]
+    mean, width = table["LANK"]
+    np.testing.assert_allclose(mean[[0, 2]], [0.0, -theta_shank], atol=1e-12)
+    np.testing.assert_allclose(width, [SIGMA_CONVENTION, SIGMA_REGRESSED, SIGMA_CONVENTION])
     mean_r, _ = table["RKNE"]
     assert mean_r[1] == pytest.approx(-(ratio * pset.nominal[pset.index("thigh_length_r")] / 2 + r))
     assert np.all(np.isinf(table["LTHI"][1])) and np.all(np.isnan(table["LTHI"][0]))

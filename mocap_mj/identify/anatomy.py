@@ -51,7 +51,12 @@ Widths (standard deviations, per row) and their sources:
   moves L5/S1 with the PSIS markers' placement (the most variable of the pelvis's,
   docs/real-data.md); the nominal model's L5/S1 is Reed's, so these rows are centred on the
   synthetic truth; the SC joints
-  beside and level with CLAV. At 10 mm the data moved them 30-60 mm between trials of one
+  beside and level with CLAV; the ankle centre on the transmalleolar axis at ANK's level
+  and depth (ANK's x and z rows; its lateral row stays the width's): the model's ankle is
+  one point where its ankle and subtalar hinges cross, the talocrural and subtalar axes are
+  skew and a centimetre or more apart (Isman & Inman 1969), so the point about which a
+  jump turns the foot is not the subject's either (it sat 16-20 mm below ANK at 10 mm).
+  At 10 mm the data moved these joints 30-60 mm between trials of one
   subject, at 3 mm they hold within a few mm (docs/real-data.md);
 * :data:`SIGMA_LEG` = 15 mm: the ASIS-to-medial-malleolus distance of the straight leg against
   the measured leg length (:func:`_leg_length_row`): the tape's precision (about 10 mm), the
@@ -373,8 +378,10 @@ def _limb_rows(rows: _Rows, subject: Subject, side: str, p: str, s: float) -> No
         ("ELB", "upperarm_length", "elbow_width"),
     ):
         m = p + marker
-        rows.add({f"{m}.x": 1}, 0.0, lm, f"{m}.x = 0 (on the joint axis)")
-        rows.add({f"{m}.z": 1, f"{length}_{side}": 1}, 0.0, lm, f"{m}.z = -{length}")
+        # The ankle is a convention joint (module docstring): ANK's level and depth define it.
+        sig = SIGMA_CONVENTION if marker == "ANK" else lm
+        rows.add({f"{m}.x": 1}, 0.0, sig, f"{m}.x = 0 (on the joint axis)")
+        rows.add({f"{m}.z": 1, f"{length}_{side}": 1}, 0.0, sig, f"{m}.z = -{length}")
         _width_rows(rows, subject, side, m, width)
     # Wrist bar on the dorsum: Plug-in Gait puts the wrist centre wrist_width/2 + r
     # anterior (palm side) of the WRA-WRB midpoint, perpendicular to the bar.
