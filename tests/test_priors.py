@@ -13,6 +13,8 @@ from mocap_mj.errors import MocapError
 from mocap_mj.identify.anatomy import (
     MEDIAL_MALLEOLUS_ABOVE,
     SIGMA_CONVENTION,
+    SIGMA_FOOT_HEIGHT,
+    SIGMA_FOOT_LENGTH,
     SIGMA_LANDMARK,
     SIGMA_MEASURED,
     SIGMA_REGRESSED,
@@ -143,6 +145,19 @@ def test_toe_marker_places_the_mtp_joint(pset: ParameterSet) -> None:
     mean, width = marker_prior_table(pset, landmark_prior(pset), theta)["LTOE"]
     np.testing.assert_allclose(mean, [0.16, 0.0, -0.04], atol=1e-12)
     np.testing.assert_allclose(width, [SIGMA_LANDMARK] * 3)
+
+
+def test_mtp_joint_has_a_stature_row(pset: ParameterSet) -> None:
+    """No marker sees the MTP joint: foot length and height also get the nominal proportions
+    at the subject's stature, their widths scaled with it."""
+    prior = landmark_prior(pset, from_values([("height", 1.40)], "test"))
+    s = 1.40 / 1.75
+    for name, nominal, sigma in (("foot_length_r", 0.14, SIGMA_FOOT_LENGTH),
+                                 ("foot_height_r", 0.045, SIGMA_FOOT_HEIGHT)):  # fmt: skip
+        col = pset.index(name)
+        (r,) = [r for r in range(len(prior.b)) if np.flatnonzero(prior.a[r]).tolist() == [col]]
+        assert prior.b[r] == pytest.approx(nominal * s)
+        assert prior.sigma[r] == pytest.approx(sigma * s)
 
 
 def _turned(pset: ParameterSet, theta: np.ndarray, markers: list[str], joints: list[tuple[str,

@@ -114,6 +114,14 @@ MEDIAL_MALLEOLUS_ABOVE = 0.010
 #: the dorsal skin and the marker radius.
 TOE_ABOVE_MTP = 0.02
 
+#: Standard deviations [m] of the MTP joint centre's position from the ankle centre between
+#: adults of one stature, on a 1.75 m adult: ``foot_length`` (the ankle centre to the
+#: second metatarsal head, half the foot's length: foot length 0.152 H, Winter 2009, with a
+#: 4 % coefficient of variation at a given stature; the ball of the foot at 73 % of it from
+#: the heel, ANSUR II) and ``foot_height`` (the ankle centre 0.039 H above the sole, the
+#: metatarsal head's centre 20-25 mm above it: the head's radius and the plantar pad).
+SIGMA_FOOT_LENGTH, SIGMA_FOOT_HEIGHT = 0.007, 0.008
+
 #: Joint width (measurement, side removed) -> (kinematic parameter, width / parameter): the
 #: regression used when the width is not measured, from the nominal model (Plug-in Gait
 #: placement of a 14 mm marker on a 1.75 m adult: knee 86 mm, ankle 66, elbow 66).
@@ -459,10 +467,20 @@ def _foot_rows(rows: _Rows, side: str, p: str, s: float) -> None:
 
     Plug-in Gait's foot runs rigidly from the ankle centre to TOE, on the second metatarsal
     head: TOE is on the foot body, over the MTP joint, which no marker sees (the toes carry
-    none). So the MTP joint (``foot_length``, ``foot_height``) is placed from TOE alone:
-    below it by the dorsal thickness of the forefoot (bone, skin, marker radius).
+    none). So the MTP joint (``foot_length``, ``foot_height``) is placed from TOE, below it
+    by the dorsal thickness of the forefoot (bone, skin, marker radius), and from the
+    stature (the nominal proportions scaled by ``s``, :data:`SIGMA_FOOT_LENGTH`,
+    :data:`SIGMA_FOOT_HEIGHT`): TOE's placement varies (over the metatarsal head, on the
+    shoe's toe) and the foot frame's pitch is left to the heel rows, so that a joint seen by
+    no marker is not placed by one marker's placement alone.
     """
     lm, soft = SIGMA_LANDMARK, SIGMA_SOFT
+    kappa0 = dict(zip(rows.pset.names, rows.pset.nominal, strict=False))
+    for name, sigma in (("foot_length", SIGMA_FOOT_LENGTH), ("foot_height", SIGMA_FOOT_HEIGHT)):
+        base = kappa0.get(f"{name}_{side}")
+        if base is not None:
+            rows.add({f"{name}_{side}": 1.0}, base * s, sigma * s,
+                     f"{name}_{side} = {base * 1e3:.0f} mm x stature / 1.75 m")  # fmt: skip
     rows.add({f"{p}HEE.x": 1}, -0.07 * s, soft, f"{p}HEE.x = 70 mm behind the ankle")
     rows.add({f"{p}HEE.y": 1}, 0.0, lm, f"{p}HEE.y = 0")
     rows.add({f"{p}HEE.z": 1}, -0.035 * s, soft, f"{p}HEE.z = 35 mm below the ankle")
