@@ -58,6 +58,8 @@ Widths (standard deviations, per row) and their sources:
   jump turns the foot is not the subject's either (it sat 16-20 mm below ANK at 10 mm).
   At 10 mm the data moved these joints 30-60 mm between trials of one
   subject, at 3 mm they hold within a few mm (docs/real-data.md);
+* :data:`SIGMA_FOOT_LENGTH`, :data:`SIGMA_FOOT_HEIGHT` = 7, 8 mm (x stature / 1.75 m): the MTP
+  joint from the stature, beside TOE's rows (:func:`_foot_rows`);
 * :data:`SIGMA_LEG` = 15 mm: the ASIS-to-medial-malleolus distance of the straight leg against
   the measured leg length (:func:`_leg_length_row`): the tape's precision (about 10 mm), the
   hip's angle in the pelvis frame while it was measured (5 degrees of pelvic tilt: 4 mm),
