@@ -13,6 +13,8 @@ from mocap_mj.errors import MocapError
 from mocap_mj.identify.anatomy import (
     MEDIAL_MALLEOLUS_ABOVE,
     SIGMA_CONVENTION,
+    SIGMA_FOOT_HEIGHT,
+    SIGMA_FOOT_LENGTH,
     SIGMA_LANDMARK,
     SIGMA_MEASURED,
     SIGMA_REGRESSED,
@@ -52,8 +54,8 @@ def test_marker_classes() -> None:
 
 def test_prior_mean_and_width_per_class(pset: ParameterSet) -> None:
     """A landmark's mean follows the skeleton (KNE at the knee's level, on its axis); its
-    lateral width is the regression's without a measurement, the caliper's with one; a free
-    marker has no anatomical row."""
+    lateral width is the regression's without a measurement, the caliper's with one; ANK's
+    level and depth are a convention joint's; a free marker has no anatomical row."""
     theta = pset.nominal.copy()
     theta[pset.index("thigh_length_l")] = 0.40
     table = marker_prior_table(pset, landmark_prior(pset), theta)
@@ -62,6 +64,11 @@ def test_prior_mean_and_width_per_class(pset: ParameterSet) -> None:
     ratio = 2 * (0.050 - 0.007) / 0.43
     np.testing.assert_allclose(mean, [0.0, ratio * 0.40 / 2 + r, -0.40], atol=1e-12)
     np.testing.assert_allclose(width, [SIGMA_LANDMARK, SIGMA_REGRESSED, SIGMA_LANDMARK])
+    # ANK defines the ankle centre (a convention joint): its level and depth at 3 mm.
+    theta_shank = theta[pset.index("shank_length_l")]
+    mean, width = table["LANK"]
+    np.testing.assert_allclose(mean[[0, 2]], [0.0, -theta_shank], atol=1e-12)
+    np.testing.assert_allclose(width, [SIGMA_CONVENTION, SIGMA_REGRESSED, SIGMA_CONVENTION])
     mean_r, _ = table["RKNE"]
     assert mean_r[1] == pytest.approx(-(ratio * pset.nominal[pset.index("thigh_length_r")] / 2 + r))
     assert np.all(np.isinf(table["LTHI"][1])) and np.all(np.isnan(table["LTHI"][0]))
@@ -138,6 +145,19 @@ def test_toe_marker_places_the_mtp_joint(pset: ParameterSet) -> None:
     mean, width = marker_prior_table(pset, landmark_prior(pset), theta)["LTOE"]
     np.testing.assert_allclose(mean, [0.16, 0.0, -0.04], atol=1e-12)
     np.testing.assert_allclose(width, [SIGMA_LANDMARK] * 3)
+
+
+def test_mtp_joint_has_a_stature_row(pset: ParameterSet) -> None:
+    """No marker sees the MTP joint: foot length and height also get the nominal proportions
+    at the subject's stature, their widths scaled with it."""
+    prior = landmark_prior(pset, from_values([("height", 1.40)], "test"))
+    s = 1.40 / 1.75
+    for name, nominal, sigma in (("foot_length_r", 0.14, SIGMA_FOOT_LENGTH),
+                                 ("foot_height_r", 0.045, SIGMA_FOOT_HEIGHT)):  # fmt: skip
+        col = pset.index(name)
+        (r,) = [r for r in range(len(prior.b)) if np.flatnonzero(prior.a[r]).tolist() == [col]]
+        assert prior.b[r] == pytest.approx(nominal * s)
+        assert prior.sigma[r] == pytest.approx(sigma * s)
 
 
 def _turned(pset: ParameterSet, theta: np.ndarray, markers: list[str], joints: list[tuple[str,

@@ -51,8 +51,15 @@ Widths (standard deviations, per row) and their sources:
   moves L5/S1 with the PSIS markers' placement (the most variable of the pelvis's,
   docs/real-data.md); the nominal model's L5/S1 is Reed's, so these rows are centred on the
   synthetic truth; the SC joints
-  beside and level with CLAV. At 10 mm the data moved them 30-60 mm between trials of one
+  beside and level with CLAV; the ankle centre on the transmalleolar axis at ANK's level
+  and depth (ANK's x and z rows; its lateral row stays the width's): the model's ankle is
+  one point where its ankle and subtalar hinges cross, the talocrural and subtalar axes are
+  skew and a centimetre or more apart (Isman & Inman 1969), so the point about which a
+  jump turns the foot is not the subject's either (it sat 16-20 mm below ANK at 10 mm).
+  At 10 mm the data moved these joints 30-60 mm between trials of one
   subject, at 3 mm they hold within a few mm (docs/real-data.md);
+* :data:`SIGMA_FOOT_LENGTH`, :data:`SIGMA_FOOT_HEIGHT` = 7, 8 mm (x stature / 1.75 m): the MTP
+  joint from the stature, beside TOE's rows (:func:`_foot_rows`);
 * :data:`SIGMA_LEG` = 15 mm: the ASIS-to-medial-malleolus distance of the straight leg against
   the measured leg length (:func:`_leg_length_row`): the tape's precision (about 10 mm), the
   hip's angle in the pelvis frame while it was measured (5 degrees of pelvic tilt: 4 mm),
@@ -108,6 +115,14 @@ MEDIAL_MALLEOLUS_ABOVE = 0.010
 #: TOE above the MTP joint centre [m] on a 1.75 m adult: half the metatarsal head's height,
 #: the dorsal skin and the marker radius.
 TOE_ABOVE_MTP = 0.02
+
+#: Standard deviations [m] of the MTP joint centre's position from the ankle centre between
+#: adults of one stature, on a 1.75 m adult: ``foot_length`` (the ankle centre to the
+#: second metatarsal head, half the foot's length: foot length 0.152 H, Winter 2009, with a
+#: 4 % coefficient of variation at a given stature; the ball of the foot at 73 % of it from
+#: the heel, ANSUR II) and ``foot_height`` (the ankle centre 0.039 H above the sole, the
+#: metatarsal head's centre 20-25 mm above it: the head's radius and the plantar pad).
+SIGMA_FOOT_LENGTH, SIGMA_FOOT_HEIGHT = 0.007, 0.008
 
 #: Joint width (measurement, side removed) -> (kinematic parameter, width / parameter): the
 #: regression used when the width is not measured, from the nominal model (Plug-in Gait
@@ -373,8 +388,10 @@ def _limb_rows(rows: _Rows, subject: Subject, side: str, p: str, s: float) -> No
         ("ELB", "upperarm_length", "elbow_width"),
     ):
         m = p + marker
-        rows.add({f"{m}.x": 1}, 0.0, lm, f"{m}.x = 0 (on the joint axis)")
-        rows.add({f"{m}.z": 1, f"{length}_{side}": 1}, 0.0, lm, f"{m}.z = -{length}")
+        # The ankle is a convention joint (module docstring): ANK's level and depth define it.
+        sig = SIGMA_CONVENTION if marker == "ANK" else lm
+        rows.add({f"{m}.x": 1}, 0.0, sig, f"{m}.x = 0 (on the joint axis)")
+        rows.add({f"{m}.z": 1, f"{length}_{side}": 1}, 0.0, sig, f"{m}.z = -{length}")
         _width_rows(rows, subject, side, m, width)
     # Wrist bar on the dorsum: Plug-in Gait puts the wrist centre wrist_width/2 + r
     # anterior (palm side) of the WRA-WRB midpoint, perpendicular to the bar.
@@ -452,10 +469,20 @@ def _foot_rows(rows: _Rows, side: str, p: str, s: float) -> None:
 
     Plug-in Gait's foot runs rigidly from the ankle centre to TOE, on the second metatarsal
     head: TOE is on the foot body, over the MTP joint, which no marker sees (the toes carry
-    none). So the MTP joint (``foot_length``, ``foot_height``) is placed from TOE alone:
-    below it by the dorsal thickness of the forefoot (bone, skin, marker radius).
+    none). So the MTP joint (``foot_length``, ``foot_height``) is placed from TOE, below it
+    by the dorsal thickness of the forefoot (bone, skin, marker radius), and from the
+    stature (the nominal proportions scaled by ``s``, :data:`SIGMA_FOOT_LENGTH`,
+    :data:`SIGMA_FOOT_HEIGHT`): TOE's placement varies (over the metatarsal head, on the
+    shoe's toe) and the foot frame's pitch is left to the heel rows, so that a joint seen by
+    no marker is not placed by one marker's placement alone.
     """
     lm, soft = SIGMA_LANDMARK, SIGMA_SOFT
+    kappa0 = dict(zip(rows.pset.names, rows.pset.nominal, strict=False))
+    for name, sigma in (("foot_length", SIGMA_FOOT_LENGTH), ("foot_height", SIGMA_FOOT_HEIGHT)):
+        base = kappa0.get(f"{name}_{side}")
+        if base is not None:
+            rows.add({f"{name}_{side}": 1.0}, base * s, sigma * s,
+                     f"{name}_{side} = {base * 1e3:.0f} mm x stature / 1.75 m")  # fmt: skip
     rows.add({f"{p}HEE.x": 1}, -0.07 * s, soft, f"{p}HEE.x = 70 mm behind the ankle")
     rows.add({f"{p}HEE.y": 1}, 0.0, lm, f"{p}HEE.y = 0")
     rows.add({f"{p}HEE.z": 1}, -0.035 * s, soft, f"{p}HEE.z = 35 mm below the ankle")
