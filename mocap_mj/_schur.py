@@ -161,6 +161,64 @@ def _schur_range(
             yg_out[t, i] = yb[i, free.size] * sd
 
 
+def gram_groups(tr: Tree, kt: KappaTables, free: np.ndarray) -> list[tuple[slice, np.ndarray]]:
+    """The structural sparsity of Y (nv x Pf per frame): groups of consecutive dofs whose
+    rows of Y can be non-zero in the same free columns, as (dofs, columns (k,) int).
+
+    ``Y[i, p]`` can be non-zero only when dof i moves a site that parameter p moves (B is
+    ``J_q^T W J_th``, and ``L^-T`` carries a row only to the dof's ancestors, which move the
+    same sites). A hinge's row covers its limb below it, the root's every column: about a
+    sixth of the dense product's work on the bundled model. Dofs without a column are left
+    out.
+    """
+    ns, nv = tr.site_body.size, tr.dof_jnt.size
+    moves = np.zeros((ns, nv), dtype=bool)  # moves[s, v]: dof v moves site s
+    moves[np.repeat(np.arange(ns), np.diff(tr.site_dofptr)), tr.site_dofs] = True
+    touches = np.zeros((kt.n_kappa + 3 * ns, ns), dtype=bool)  # parameter moves site
+    for site in range(ns):
+        pairs = kt.site_pairs[kt.site_pairptr[site] : kt.site_pairptr[site + 1]]
+        touches[kt.pair_k[pairs], site] = True
+        touches[kt.n_kappa + 3 * site : kt.n_kappa + 3 * site + 3, site] = True
+    pattern = (moves.T.astype(np.int64) @ touches[free].T.astype(np.int64)) > 0  # (nv, Pf)
+    groups: list[tuple[slice, np.ndarray]] = []
+    start = 0
+    for v in range(1, nv + 1):
+        if v == nv or not np.array_equal(pattern[v], pattern[start]):
+            cols = np.flatnonzero(pattern[start])
+            if cols.size:
+                groups.append((slice(start, v), cols))
+            start = v
+    return groups
+
+
+_GROUPS: dict[bytes, list[tuple[slice, np.ndarray]]] = {}
+
+
+def cached_gram_groups(
+    tr: Tree, kt: KappaTables, free: np.ndarray
+) -> list[tuple[slice, np.ndarray]]:
+    """:func:`gram_groups`, kept per structure (the tree's tables change with theta, their
+    structure does not: an identification asks for the same groups at every iteration)."""
+    sizes = np.array([tr.dof_jnt.size, kt.n_kappa, free.size], dtype=np.int64)
+    parts = (sizes, tr.site_dofptr, tr.site_dofs, kt.site_pairptr, kt.site_pairs, kt.pair_k, free)
+    key = b"".join(np.ascontiguousarray(a, dtype=np.int64).tobytes() for a in parts)
+    if key not in _GROUPS:
+        if len(_GROUPS) > 64:
+            _GROUPS.clear()
+        _GROUPS[key] = gram_groups(tr, kt, free)
+    return _GROUPS[key]
+
+
+def gram(y: np.ndarray, groups: list[tuple[slice, np.ndarray]]) -> np.ndarray:
+    """``sum_t Y_t^T Y_t`` (Pf, Pf) of y (n, nv, Pf), one product per group of
+    :func:`gram_groups` over its non-zero columns only (BLAS)."""
+    out = np.zeros((y.shape[2], y.shape[2]))
+    for dofs, cols in groups:
+        g = np.take(y[:, dofs], cols, axis=2).reshape(-1, cols.size)
+        out[np.ix_(cols, cols)] += g.T @ g
+    return out
+
+
 class FrameBlocks(NamedTuple):
     """Eliminated per-frame blocks of n frames (Pf free parameters).
 
@@ -203,8 +261,9 @@ def frame_blocks(
 
     ``A`` is damped as ``A + mu diag(A) + 1e-12 I``. With ``limits``, hinges at a joint limit
     that the gradient pushes outward are held (their rows leave A, B and g_q). Each thread
-    forms its frames' Y^T Y and Y^T y_g (BLAS, the only dense step) right after its kernel,
-    so that both cores share the products too.
+    forms its frames' Y^T Y (:func:`gram`, over Y's structural non-zeros) and Y^T y_g
+    (BLAS, the only dense step) right after its kernel, so that both cores share the
+    products too.
     """
     _numba_prewarm.wait()
     n = len(qpos)
@@ -225,12 +284,13 @@ def frame_blocks(
     ytg = np.zeros((k, pf))
     args = (tr, kt, *_floats(target, wts, qpos), free)
     outs = (bool(limits), float(mu), y, y_g, ld, g_q, diag_a)
+    groups = cached_gram_groups(tr, kt, free)
 
     def block(b: int) -> None:
         lo, hi = bounds[b], bounds[b + 1]
         _schur_range(*args, lo, hi, *outs, c[b], g_theta[b])
         yb = y[lo:hi].reshape(-1, pf)
-        yty[b] = yb.T @ yb
+        yty[b] = gram(y[lo:hi], groups)
         ytg[b] = yb.T @ y_g[lo:hi].reshape(-1)
 
     run_blocks(block, bounds, lambda b: (b,))

@@ -1135,15 +1135,14 @@ def build_tree(model: mujoco.MjModel) -> Tree:
     parent = np.array(m.body_parentid, dtype=np.int64)
     site_body = np.array(m.site_bodyid, dtype=np.int64)
     dof_body = np.array(m.dof_bodyid, dtype=np.int64)
-    dofs: list[np.ndarray] = []
-    for b in site_body:
-        chain = set()
-        a = int(b)
-        while a > 0:
-            chain.add(a)
-            a = int(parent[a])
-        dofs.append(np.flatnonzero(np.isin(dof_body, list(chain))))
-    ptr = np.concatenate([[0], np.cumsum([d.size for d in dofs])]).astype(np.int64)
+    # moves[s, v]: dof v's body is the site's body or one of its ancestors (the world,
+    # body 0, carries no dof). Bodies are numbered after their parents (MuJoCo's order).
+    chain = np.eye(parent.size, dtype=bool)
+    for b in range(1, parent.size):
+        chain[b] |= chain[parent[b]]
+    chain[:, 0] = False
+    moves = chain[site_body][:, dof_body]
+    ptr = np.concatenate([[0], np.cumsum(moves.sum(axis=1))]).astype(np.int64)
     return Tree(
         body_parent=parent,
         body_jntadr=np.array(m.body_jntadr, dtype=np.int64),
@@ -1161,7 +1160,7 @@ def build_tree(model: mujoco.MjModel) -> Tree:
         site_body=site_body,
         site_pos=np.array(m.site_pos, dtype=float),
         site_dofptr=ptr,
-        site_dofs=np.concatenate(dofs).astype(np.int64),
+        site_dofs=np.nonzero(moves)[1].astype(np.int64),
         dof_jnt=dof_jnt,
         dof_body=dof_body,
         dof_kind=dof_kind,

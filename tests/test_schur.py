@@ -84,3 +84,19 @@ def test_information_matches_pseudo_inverse(problem) -> None:  # type: ignore[no
     fast = prob.information(w)
     slow = information(prob, w)
     np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-4 * np.abs(slow).max())
+
+
+def test_gram_groups_cover_y_and_skip_its_zeros(problem) -> None:  # type: ignore[no-untyped-def]
+    """Y's non-zeros lie inside the structural groups (the product above matches the oracle
+    only then), and the groups leave out most of the dense product's work."""
+    kin, prob, w = problem
+    free, pf = prob.free, prob.free.size
+    tree, kt = kin.tree(), kin.kappa_tables()
+    fb = _schur.frame_blocks(tree, kt, prob.target, w, prob.qpos, free, 1e-3)
+    groups = _schur.gram_groups(tree, kt, free)
+    covered = np.zeros(fb.y.shape[1:], dtype=bool)
+    for dofs, cols in groups:
+        covered[dofs][:, cols] = True
+    assert not np.any((fb.y != 0).any(axis=0) & ~covered)
+    work = sum((d.stop - d.start) * c.size**2 for d, c in groups)
+    assert work < 0.3 * fb.y.shape[1] * pf**2

@@ -10,7 +10,8 @@ determines the same directions of theta, at a fraction of the cost per iteration
 1. solves the IK of the subset's frames under the initial model and runs the joint LM on
    them to convergence (its own stopping rules, with the subset's noise estimate),
 2. solves the IK of every frame afresh under the subset's model (which stands in for the
-   refits the LM on every frame would make along its approach),
+   refits the LM on every frame would make along its approach), in chains headed by the
+   subset's poses (:func:`subset_heads`),
 3. continues the joint LM on every frame from there, with the damping the subset's LM ended
    with (the approach is done: the first steps need not be damped again).
 
@@ -75,6 +76,24 @@ def subset_trials(trials: Sequence[TrialData], rows: Sequence[np.ndarray]) -> li
     ]
 
 
+def subset_heads(
+    trials: Sequence[TrialData], rows: Sequence[np.ndarray], qpos: Sequence[np.ndarray]
+) -> list[np.ndarray]:
+    """Every trial's poses (T_i, nq) [m, quaternion, rad]: the subset's solved poses qpos[i]
+    (K_i, nq) at its frames ``rows[i]``, NaN elsewhere (NaN rows of qpos stay NaN).
+
+    The heads from which the IK of every frame runs under the subset's model
+    (:meth:`mocap_mj.ik.IKSolver.solve_from_heads`): the subset's poses already fit that
+    model, so no frame is solved cold from the arm configurations again.
+    """
+    out = []
+    for t, r, q in zip(trials, rows, qpos, strict=True):
+        heads = np.full((len(t.markers), q.shape[1]), np.nan)
+        heads[r] = q
+        out.append(heads)
+    return out
+
+
 def shifted(log: TraceEntry, k: int) -> TraceEntry:
     """A joint-LM trace entry numbered k iterations on (after the coarse phase's k)."""
     return log._replace(iteration=log.iteration + k) if isinstance(log, IterationLog) else log
@@ -92,5 +111,6 @@ __all__ = [
     "coarse_rows",
     "joined_trace",
     "shifted",
+    "subset_heads",
     "subset_trials",
 ]

@@ -62,7 +62,14 @@ from ..ik import IKResult, IKSettings, IKSolver
 from ..ik import Status as IKStatus
 from ..kinematics import Kinematics
 from ..parameters import ParameterSet
-from .coarse import COARSE_REFITS, coarse_rows, joined_trace, shifted, subset_trials
+from .coarse import (
+    COARSE_REFITS,
+    coarse_rows,
+    joined_trace,
+    shifted,
+    subset_heads,
+    subset_trials,
+)
 from .heuristics import RefitSchedule, StallMonitor, frame_rmse, refit_frames
 from .losses import LossName, loss_named
 from .priors import LinearGaussianPrior, Prior, weak_prior
@@ -711,7 +718,14 @@ def _solve_levels(
         kin.set_theta(start if coarse is None else coarse.theta)
     t_ik = time.perf_counter()
     if initial_qpos is None:
-        iks = initial_ik(kin, trials, ik_settings)
+        if coarse is not None and rows is not None:
+            solver = IKSolver(kin, ik_settings)
+            heads = subset_heads(trials, rows, coarse.qpos)
+            iks = [
+                solver.solve_from_heads(t.markers, h) for t, h in zip(trials, heads, strict=True)
+            ]
+        else:
+            iks = initial_ik(kin, trials, ik_settings)
         init_q = [r.qpos for r in iks]
         used = [r.status != IKStatus.TOO_FEW_MARKERS for r in iks]
     else:

@@ -188,7 +188,7 @@ class IdentificationProblem:
 
     def cost(self, dist: np.ndarray, theta: np.ndarray, c: float) -> float:
         """F [m^2] for distances dist (n, M) [m], theta (P,) [m] and loss threshold c [m]."""
-        return self.loss.value(dist, self.present, c) + self.prior(theta)[0]
+        return self.loss.value(dist, self.present, c) + sum(p.cost(theta) for p in self.priors)
 
     def statistics(self, dist: np.ndarray) -> FitStatistics:
         """RMSE and noise estimate of distances dist (n, M) [m]."""

@@ -1,0 +1,104 @@
+"""Where a 500-frame identification goes: CPU and wall time per part of `identify_lm`.
+
+Timers are wrapped around the solver's parts (the joint LM, the Schur blocks, the pose
+finish, the step, the back substitution, the IK entry points, the refits, the final reduced
+information, residuals and prior) and the synthetic ROM trials of seeds --seeds are solved
+once each after the kernels loaded. CPU is `time.process_time` (both cores' threads), so it
+is the figure to compare on a shared machine; parts nest (the Schur blocks are inside
+`build_system`, which is inside the joint LM). Used for docs/identification.md ("Issue 18i").
+
+Run: python benchmarks/identify_parts.py [--seeds 0 6]
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import functools
+import time
+from typing import Any
+
+import numpy as np
+
+from mocap_mj import ParameterSet, _schur
+from mocap_mj import ik as ik_module
+from mocap_mj.identify import LMSettings, TrialData, identify_lm
+from mocap_mj.identify import lm as lm_module
+from mocap_mj.identify import problem as problem_module
+from mocap_synth import SynthConfig, synthesize
+
+CPU: dict[str, float] = collections.defaultdict(float)
+WALL: dict[str, float] = collections.defaultdict(float)
+CALLS: collections.Counter[str] = collections.Counter()
+
+
+def timed(owner: Any, name: str, label: str) -> None:
+    """Replace ``owner.name`` by a wrapper adding its CPU and wall time under ``label``."""
+    fn = getattr(owner, name)
+
+    @functools.wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        c0, w0 = time.process_time(), time.perf_counter()
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            CPU[label] += time.process_time() - c0
+            WALL[label] += time.perf_counter() - w0
+            CALLS[label] += 1
+
+    setattr(owner, name, wrapper)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, nargs=2, default=(0, 6), help="first, last + 1")
+    args = parser.parse_args()
+    problem = problem_module.IdentificationProblem
+    for owner, name, label in (
+        (lm_module, "solve_lm", "joint LM (both phases)"),
+        (lm_module, "build_system", "reduced system (Schur blocks + sums)"),
+        (_schur, "frame_blocks", "Schur blocks (kernel + Gram product)"),
+        (lm_module, "finish_poses", "pose finish after each step"),
+        (lm_module, "bounded_step", "step (eigen-decomposition, active set)"),
+        (_schur, "back_substitute", "back substitution"),
+        (lm_module, "initial_ik", "cold IK (chains, arm starts)"),
+        (ik_module.IKSolver, "solve_from_heads", "IK of every frame from the subset's poses"),
+        (lm_module, "refit_frames", "refits"),
+        (problem, "information", "final reduced information"),
+        (problem, "residuals", "residuals"),
+        (problem, "prior", "prior gradient and Hessian"),
+    ):
+        if hasattr(owner, name):
+            timed(owner, name, label)
+    pset = ParameterSet()
+
+    def trial(seed: int) -> TrialData:
+        exp = synthesize(SynthConfig(frames=500, seed=seed), pset)
+        return TrialData("rom", np.asarray(exp.markers), np.asarray(exp.times))
+
+    first = trial(0)
+    warm = TrialData("warm-up", first.markers[:100], first.times[:100])
+    identify_lm([warm], pset=pset, settings=LMSettings(max_iterations=1))
+    identify_lm([first], pset=pset)
+    CPU.clear()
+    WALL.clear()
+    CALLS.clear()
+    trials = [trial(s) for s in range(*args.seeds)]
+    c0, w0, iterations = time.process_time(), time.perf_counter(), 0
+    for d in trials:
+        iterations += identify_lm([d], pset=pset).iterations
+    n = len(trials)
+    print(
+        f"seeds {args.seeds[0]}-{args.seeds[1] - 1}, per run: CPU "
+        f"{(time.process_time() - c0) / n * 1e3:.0f} ms, wall "
+        f"{(time.perf_counter() - w0) / n * 1e3:.0f} ms, {iterations / n:.1f} iterations"
+    )
+    for label in sorted(CPU, key=lambda k: -CPU[k]):
+        print(
+            f"  {label:44s} CPU {CPU[label] / n * 1e3:6.1f} ms  wall "
+            f"{WALL[label] / n * 1e3:6.1f} ms  calls {CALLS[label] / n:.1f}"
+        )
+
+
+if __name__ == "__main__":
+    main()
