@@ -424,7 +424,8 @@ class IKSolver:
         cold = np.array(heads, dtype=float)
         # Frames the chains' kernel starts from ``cold``: heads without a pose, and frames
         # after an unsolved one (too few markers).
-        few = np.count_nonzero(w > 0, axis=1) < st.min_markers
+        npres = np.count_nonzero(w > 0, axis=1)
+        few = npres < st.min_markers
         needs = np.zeros(n, dtype=bool)
         needs[starts] = ~np.all(np.isfinite(cold[starts]), axis=1)
         needs[1:] |= few[:-1]
@@ -441,7 +442,6 @@ class IKSolver:
             *self._kernel_settings(),
             st.min_markers,
         )
-        npres = np.count_nonzero(w > 0, axis=1)
         self._repair(markers, w, q, rmse, iters, status, npres)
         return IKResult(q, rmse, iters, status, npres)
 

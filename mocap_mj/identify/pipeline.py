@@ -579,11 +579,11 @@ def solve_anatomical(
     (:mod:`mocap_mj.identify.tissue`) by the first solve's poses, against a per-axis artefact
     of ``max(sigma, SOFT_TISSUE_SIGMA)``: the soft-tissue model applies only where the
     residuals show soft tissue, never on white noise. ``mocap-mj identify`` passes
-    :data:`~mocap_mj.identify.tissue.SLIDES` unless ``--no-sliding-landmarks`` (the knee
-    trials' thighs come 5 mm toward the other trials'; docs/real-data.md "Soft-tissue
-    sliding"). Returns the result and the weighting used (``noise_mm``, ``sigma_mm``,
-    ``tau_frames``; when the sliding weights were applied, ``slide_weight_min``, the smallest
-    of them, and ``slide_base_mm``, the per-axis artefact ``base``).
+    :data:`~mocap_mj.identify.tissue.SLIDES` unless ``--no-sliding-landmarks``
+    (docs/real-data.md "Soft-tissue sliding"). Returns the result and the weighting used
+    (``noise_mm``, ``sigma_mm``, ``tau_frames``; when the sliding weights were applied,
+    ``slide_weight_min``, the smallest of them, and ``slide_base_mm``, the per-axis artefact
+    ``base``).
     """
     lower, upper = theta_bounds(pset, subject)
     priors = anatomical_priors(

@@ -274,9 +274,6 @@ def save_trc(path: str | os.PathLike[str], traj: MarkerTrajectory) -> None:
     atomic_write_text(target, "\n".join(lines) + "\n")
 
 
-TRCChunks = TextChunks  # the name this module used first
-
-
 def open_chunks(path: Path, chunk: int = ROWS) -> TextChunks | str:
     """Read a TRC file ``chunk`` rows at a time into a memory map of its positions, with
     :func:`read`'s rules and errors, or say why it is read whole (the reason, a str).
