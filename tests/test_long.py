@@ -227,6 +227,60 @@ def test_the_widening_stops_where_the_limits_do_not_act(
     assert len(calls) == 1
 
 
+def _forearms_turned(pset: ParameterSet, theta: np.ndarray, degrees: float) -> np.ndarray:
+    """theta (P,) [m] with each radius's zero turned about its pronation axis (its markers
+    turned back; the left forearm by ``degrees``, the right by minus that) and each FIN's
+    offset turned 10 degrees about the wrist's flexion axis: an equivalent model."""
+    m, out = pset.model, theta.copy()
+    offsets = out[pset.n_kappa :].reshape(-1, 3)
+    for side, sign in (("l", 1.0), ("r", -1.0)):
+        j = m.joint(f"pronation_{side}").id
+        on_radius = pset.site_body == m.jnt_bodyid[j]
+        turn = Rotation.from_rotvec(np.radians(sign * degrees) * m.jnt_axis[j])
+        offsets[on_radius] = turn.apply(offsets[on_radius])  # the axis through the origin
+        fin = pset.marker_names.index(f"{side.upper()}FIN")
+        flex = m.jnt_axis[m.joint(f"wrist_flex_{side}").id]
+        offsets[fin] = Rotation.from_rotvec(np.radians(10.0) * flex).apply(offsets[fin])
+    return out
+
+
+def test_an_equivalent_forearm_zero_scores_no_error(
+    pset: ParameterSet, hand_zero: HandZero, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The hour's offsets read 1.30x their bound (LWRA, RWRA, LFIN, LFRM 9-11 sd): the
+    estimate's radius markers were turned 10.8 and -8.4 degrees about the pronation axis
+    against the truth's, and with one marker on the hand that turn is a gauge
+    (docs/long-recordings.md). A model equivalent to the truth, its forearms' zeros turned
+    12 degrees (beyond the 5.5 degrees the truth's poses keep from the pronation limits)
+    and its FINs turned, aligns exactly but with the turns cut short at the limit, which
+    reads as error; ``align_gauge_free`` turns the rest in closed form and reads none."""
+    fits: list[float] = []
+    lm_thetas: list[np.ndarray] = []
+    align = score._align
+
+    def recorded(p: ParameterSet, *args: np.ndarray):  # type: ignore[no-untyped-def]
+        result = align(p, *args)
+        fits.append(result.marker_rmse)
+        lm_thetas.append(result.theta)
+        return result
+
+    monkeypatch.setattr(score, "_align", recorded)
+    exp, k = hand_zero.exp, pset.n_kappa
+    arm = np.isin(pset.site_body, [pset.model.body(b).id for b in ("radius_l", "radius_r")])
+    arm |= np.isin(pset.marker_names, ["LFIN", "RFIN"])
+    arm_rows = k + np.flatnonzero(np.repeat(arm, 3))
+    theta = _forearms_turned(pset, exp.theta_true, 12.0)
+    aligned = align_gauge_free(pset, theta, exp.markers_clean, exp.times)
+
+    def arm_error(other: np.ndarray) -> float:
+        """The forearm and hand markers' observable error [m] (RMS) of theta against other."""
+        return float(np.sqrt(np.mean(hand_zero.idf.project(theta - other)[0][arm_rows] ** 2)))
+
+    assert min(fits) < score.EXACT_FIT  # the LM found a model of the truth's class ...
+    assert min(arm_error(t) for t in lm_thetas) > 0.05e-3  # ... short of the turns
+    assert arm_error(aligned) < 1e-6
+
+
 def test_refinement_holds_its_box_and_weighs_its_priors(pset: ParameterSet) -> None:
     """``refine`` with the identification's box and prior rows (``identify --select``): a
     parameter the data pull past its bound stays on it, a sharp prior row holds its value,
