@@ -103,8 +103,9 @@ def score(
     ranges = summary.get("frames_fitted_range") or [[0, len(motion.qpos)]]
     a, b = ranges[0]
     check_same_trial(truth_dir, result_dir, truth_motion, motion, a, b)
-    # The hand's zero is free (align_gauge_free): an estimate whose hand zero differs from the
-    # truth's is the same model, and the alignment must not be stopped by the wrist limits.
+    # The hand's and the forearms' zeros are free (align_gauge_free): an estimate whose zeros
+    # differ from the truth's is the same model, and the alignment must not be stopped by the
+    # wrist or pronation limits.
     aligned = align_gauge_free(pset, theta_hat, truth_motion.markers[a:b], truth_motion.times[a:b])
     err = theta_hat - aligned
     e_obs, _ = idf.project(err)
@@ -325,7 +326,8 @@ def align_gauge_free(
     zero's path is curved: its direction at the estimate is not the truth's). A wider margin
     is no cure either: the LM may then walk further along that path before it settles. The
     nearest exact alignment is the definition of :func:`align_truth`'s
-    (docs/long-recordings.md)."""
+    (docs/long-recordings.md). The forearms' zeros and FIN's direction are then moved to the
+    members nearest theta_hat in closed form (:func:`nearest_forearm_gauge`)."""
     fits = []
     for margin in GAUGE_MARGINS:
         wide = gauge_free(pset, margin)
