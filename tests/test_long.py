@@ -15,6 +15,7 @@ from scipy.spatial.transform import Rotation
 from mocap_mj import Kinematics, ParameterSet, score
 from mocap_mj.errors import MocapError
 from mocap_mj.identify.identifiability import Identifiability
+from mocap_mj.identify.lm import TrialData
 from mocap_mj.identify.long import identify_long, refine
 from mocap_mj.identify.priors import LinearGaussianPrior
 from mocap_mj.identify.problem import IdentificationProblem
@@ -347,6 +348,55 @@ def test_refinement_minimises_the_weighted_cost_of_the_sliding_landmarks(
     # the weighted IK moves a little: the fixed point is the LM's to a few percent).
     assert apart(runs["plain"].theta) > 10e-3  # the weights matter here
     assert apart(runs["weighted"].theta) < 0.05 * apart(runs["plain"].theta)
+
+
+def test_select_refines_with_the_sliding_weights_its_solve_used(
+    pset: ParameterSet, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``identify --select``'s refinement on every frame (``refine_on_every_frame``) weighs
+    the sliding landmarks by pose exactly when the subset's solve did (``weighting`` holds
+    its ``slide_base_mm``), with that base: the same weighted problem as the plain solve."""
+    from types import SimpleNamespace
+
+    from mocap_mj.identify import pipeline
+    from mocap_mj.identify.lm import LMSettings
+    from mocap_mj.identify.long import Refinement
+    from mocap_mj.identify.tissue import SLIDES
+    from mocap_mj.subject import Subject
+
+    seen: list[object] = []
+
+    def stub(markers, p, theta0, qpos, sigma, **kw):  # type: ignore[no-untyped-def]
+        seen.append(kw["weigh"])
+        return Refinement(theta0, np.zeros((p.size,) * 2), np.zeros(p.size), [0.0], {})
+
+    monkeypatch.setattr(pipeline, "refine", stub)
+    monkeypatch.setattr(pipeline, "result_at", lambda result, *a: result)
+    result = SimpleNamespace(theta=pset.nominal.copy(), sigma=1e-3)
+    trial = TrialData("t", np.zeros((4, pset.n_markers, 3)), np.arange(4.0))
+    for weighting in ({"noise_mm": 7.0, "slide_base_mm": 5.0}, {"noise_mm": 1.0}):
+        pipeline.refine_on_every_frame(
+            result,  # type: ignore[arg-type]
+            [trial],
+            [trial],
+            pset=pset,
+            settings=LMSettings(),
+            weighting=weighting,
+            subject=Subject(),
+            size=1.0,
+            anatomical=False,
+            symmetric=None,
+            slides=SLIDES,
+        )
+    weighted, plain = seen
+    assert plain is None
+    q = np.zeros((1, pset.model.nq))
+    q[0, pset.model.jnt_qposadr[pset.model.joint("knee_flex_r").id]] = 1.0  # 1 rad
+    w = weighted(q)  # type: ignore[operator]
+    rkne = pset.marker_names.index("RKNE")
+    # base 5 mm against a slide of 10 mm per radian: 25 / (25 + 100)
+    assert w[0, rkne] == pytest.approx(0.2)
+    assert np.count_nonzero(w != 1.0) == 1
 
 
 class _RejectAll:
