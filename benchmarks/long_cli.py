@@ -17,9 +17,9 @@ priors and ranges, the refinement on every frame, the IK of every frame written 
 chunk): wall time, the child's peak RSS (``/usr/bin/time``), and its stages from
 summary.json. Untimed, the accuracy: the identified theta (theta.json) against the cached
 truth, aligned and restricted to the observable directions as ``benchmarks/long.py`` does
-(the hand's zero free, :func:`mocap_mj.score.align_gauge_free`), beside the Cramer-Rao
-bound of all frames (the information of every ``--info-stride``-th frame at the written
-motion's poses, x the stride). Prints the figures and a JSON line.
+(the hand's and the forearms' zeros free, :func:`mocap_mj.score.align_gauge_free`), beside
+the Cramer-Rao bound of all frames (the information of every ``--info-stride``-th frame at
+the written motion's poses, x the stride). Prints the figures and a JSON line.
 """
 
 from __future__ import annotations

@@ -17,10 +17,11 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ._threads import single_blas_thread
 from .errors import InputFileError
@@ -102,8 +103,9 @@ def score(
     ranges = summary.get("frames_fitted_range") or [[0, len(motion.qpos)]]
     a, b = ranges[0]
     check_same_trial(truth_dir, result_dir, truth_motion, motion, a, b)
-    # The hand's zero is free (align_gauge_free): an estimate whose hand zero differs from the
-    # truth's is the same model, and the alignment must not be stopped by the wrist limits.
+    # The hand's and the forearms' zeros are free (align_gauge_free): an estimate whose zeros
+    # differ from the truth's is the same model, and the alignment must not be stopped by the
+    # wrist or pronation limits.
     aligned = align_gauge_free(pset, theta_hat, truth_motion.markers[a:b], truth_motion.times[a:b])
     err = theta_hat - aligned
     e_obs, _ = idf.project(err)
@@ -324,17 +326,116 @@ def align_gauge_free(
     zero's path is curved: its direction at the estimate is not the truth's). A wider margin
     is no cure either: the LM may then walk further along that path before it settles. The
     nearest exact alignment is the definition of :func:`align_truth`'s
-    (docs/long-recordings.md)."""
+    (docs/long-recordings.md). The forearms' zeros and FIN's direction are then moved to the
+    members nearest theta_hat in closed form (:func:`nearest_forearm_gauge`)."""
     fits = []
     for margin in GAUGE_MARGINS:
         wide = gauge_free(pset, margin)
         fits.append(_align(wide, theta_hat, clean, times))
         if fits[-1].marker_rmse < EXACT_FIT and not _gauge_limit_reached(wide, fits[-1].qpos):
             break  # no pose reached the widened limits: a wider margin aligns the same
-    exact = [r for r in fits if r.marker_rmse < EXACT_FIT]
-    if not exact:
-        return min(fits, key=lambda r: r.marker_rmse).theta
-    return min(exact, key=lambda r: float(np.linalg.norm(r.theta - theta_hat))).theta
+    exact = [r for r in fits if r.marker_rmse < EXACT_FIT] or [
+        min(fits, key=lambda r: r.marker_rmse)
+    ]
+    turned = [nearest_forearm_gauge(pset, r.theta, theta_hat) for r in exact]
+    return min(turned, key=lambda t: float(np.linalg.norm(t - theta_hat)))
+
+
+#: The forearms' exact gauges, as (pronation hinge, hand body). The hand carries one marker
+#: (FIN) and its hinges meet on the pronation axis, so two turns fit every frame alike: the
+#: radius's zero about the pronation axis (its markers turned back, every pronation angle
+#: shifted; the wrist's angles re-solved for FIN) and FIN's offset about the wrist (the hand's
+#: zero). Only the radius markers' places relative to the axis and FIN's distance from the
+#: wrist are determined by the markers (docs/long-recordings.md).
+FOREARM_GAUGES = (("pronation_l", "hand_l"), ("pronation_r", "hand_r"))
+
+
+def nearest_forearm_gauge(
+    pset: ParameterSet, theta: np.ndarray, theta_hat: np.ndarray
+) -> np.ndarray:
+    """theta (P,) [m] moved along the :data:`FOREARM_GAUGES` to the equivalent model nearest
+    theta_hat (P,) [m]: each radius's markers turned about the pronation axis by the angle
+    that brings them nearest theta_hat's (least squares, closed form), FIN's offset turned
+    about the wrist onto theta_hat's direction, its distance kept.
+
+    The turns ignore the joint limits: nothing in the markers fixes either zero, and an
+    alignment by the LM (:func:`align_truth`) stops where the truth's poses, in the turned
+    zero, reach a limit, and reads the curved rest of the turn as an error of the estimate.
+    A side whose model lacks the geometry (the joints absent, the hand with other than one
+    marker or with a child body, its hinges not meeting on the pronation axis) is left as
+    it is."""
+    out = np.array(theta, dtype=float)
+    k = pset.n_kappa
+    offsets, target = out[k:].reshape(-1, 3), np.asarray(theta_hat, dtype=float)[k:].reshape(-1, 3)
+    body_pos = pset.body_pos(out)
+    for hinge, hand in FOREARM_GAUGES:
+        g = _forearm_geometry(pset.model, body_pos, hinge, hand)
+        if g is None:
+            continue
+        u = _across(offsets[g.radius_markers] - g.pivot, g.axis)
+        v = _across(target[g.radius_markers] - g.pivot, g.axis)
+        angle = np.arctan2(np.sum(np.cross(u, v) @ g.axis), np.sum(u * v))
+        turn = Rotation.from_rotvec(angle * g.axis)
+        offsets[g.radius_markers] = g.pivot + turn.apply(offsets[g.radius_markers] - g.pivot)
+        lever = offsets[g.fin] - g.wrist
+        aim = target[g.fin] - g.wrist
+        if np.linalg.norm(aim) > 0:
+            offsets[g.fin] = g.wrist + np.linalg.norm(lever) * aim / np.linalg.norm(aim)
+    return out
+
+
+class _Forearm(NamedTuple):
+    """A forearm gauge's geometry: the radius's markers (indices), the pronation axis (3,)
+    [1] through pivot (3,) [m] in the radius's frame, the hand's marker FIN (index) and the
+    wrist's centre (3,) [m] in the hand's frame."""
+
+    radius_markers: np.ndarray
+    axis: np.ndarray
+    pivot: np.ndarray
+    fin: int
+    wrist: np.ndarray
+
+
+def _forearm_geometry(
+    model: mujoco.MjModel, body_pos: np.ndarray, hinge: str, hand: str
+) -> _Forearm | None:
+    """The geometry of one of :data:`FOREARM_GAUGES` in model with body_pos (nbody, 3) [m],
+    or None where the gauge does not hold (:func:`nearest_forearm_gauge`)."""
+    j = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, hinge)
+    h = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, hand)
+    if j < 0 or h < 0 or model.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE:
+        return None
+    radius = int(model.jnt_bodyid[j])
+    wrist = [i for i in range(model.njnt) if model.jnt_bodyid[i] == h]
+    sites = np.asarray(model.site_bodyid)
+    children = [b for b in range(1, model.nbody) if model.body_parentid[b] in (radius, h)]
+    if (
+        model.body_parentid[h] != radius
+        or children != [h]
+        or np.count_nonzero(sites == h) != 1
+        or len(wrist) < 2
+        or any(model.jnt_type[i] != mujoco.mjtJoint.mjJNT_HINGE for i in wrist)
+        or np.ptp(model.jnt_pos[wrist], axis=0).max() > 1e-12
+    ):
+        return None
+    axis = np.array(model.jnt_axis[j]) / np.linalg.norm(model.jnt_axis[j])
+    pivot = np.array(model.jnt_pos[j], dtype=float)
+    quat_xyzw = np.roll(model.body_quat[h], -1)
+    centre = body_pos[h] + Rotation.from_quat(quat_xyzw).apply(model.jnt_pos[wrist[0]])
+    if np.linalg.norm(_across(centre - pivot, axis)) > 1e-9:
+        return None  # the wrist is off the pronation axis: turning its zero moves the hand
+    return _Forearm(
+        np.flatnonzero(sites == radius),
+        axis,
+        pivot,
+        int(np.flatnonzero(sites == h)[0]),
+        np.array(model.jnt_pos[wrist[0]], dtype=float),
+    )
+
+
+def _across(x: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """The parts (..., 3) of x (..., 3) across the unit axis (3,)."""
+    return x - np.multiply.outer(x @ axis, axis)
 
 
 #: How near [rad] a pose may come to a widened ``GAUGE_HINGES`` limit for the alignment to

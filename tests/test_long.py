@@ -15,6 +15,7 @@ from scipy.spatial.transform import Rotation
 from mocap_mj import Kinematics, ParameterSet, score
 from mocap_mj.errors import MocapError
 from mocap_mj.identify.identifiability import Identifiability
+from mocap_mj.identify.lm import TrialData
 from mocap_mj.identify.long import identify_long, refine
 from mocap_mj.identify.priors import LinearGaussianPrior
 from mocap_mj.identify.problem import IdentificationProblem
@@ -227,6 +228,60 @@ def test_the_widening_stops_where_the_limits_do_not_act(
     assert len(calls) == 1
 
 
+def _forearms_turned(pset: ParameterSet, theta: np.ndarray, degrees: float) -> np.ndarray:
+    """theta (P,) [m] with each radius's zero turned about its pronation axis (its markers
+    turned back; the left forearm by ``degrees``, the right by minus that) and each FIN's
+    offset turned 10 degrees about the wrist's flexion axis: an equivalent model."""
+    m, out = pset.model, theta.copy()
+    offsets = out[pset.n_kappa :].reshape(-1, 3)
+    for side, sign in (("l", 1.0), ("r", -1.0)):
+        j = m.joint(f"pronation_{side}").id
+        on_radius = pset.site_body == m.jnt_bodyid[j]
+        turn = Rotation.from_rotvec(np.radians(sign * degrees) * m.jnt_axis[j])
+        offsets[on_radius] = turn.apply(offsets[on_radius])  # the axis through the origin
+        fin = pset.marker_names.index(f"{side.upper()}FIN")
+        flex = m.jnt_axis[m.joint(f"wrist_flex_{side}").id]
+        offsets[fin] = Rotation.from_rotvec(np.radians(10.0) * flex).apply(offsets[fin])
+    return out
+
+
+def test_an_equivalent_forearm_zero_scores_no_error(
+    pset: ParameterSet, hand_zero: HandZero, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The hour's offsets read 1.30x their bound (LWRA, RWRA, LFIN, LFRM 9-11 sd): the
+    estimate's radius markers were turned 10.8 and -8.4 degrees about the pronation axis
+    against the truth's, and with one marker on the hand that turn is a gauge
+    (docs/long-recordings.md). A model equivalent to the truth, its forearms' zeros turned
+    12 degrees (beyond the 5.5 degrees the truth's poses keep from the pronation limits)
+    and its FINs turned, aligns exactly but with the turns cut short at the limit, which
+    reads as error; ``align_gauge_free`` turns the rest in closed form and reads none."""
+    fits: list[float] = []
+    lm_thetas: list[np.ndarray] = []
+    align = score._align
+
+    def recorded(p: ParameterSet, *args: np.ndarray):  # type: ignore[no-untyped-def]
+        result = align(p, *args)
+        fits.append(result.marker_rmse)
+        lm_thetas.append(result.theta)
+        return result
+
+    monkeypatch.setattr(score, "_align", recorded)
+    exp, k = hand_zero.exp, pset.n_kappa
+    arm = np.isin(pset.site_body, [pset.model.body(b).id for b in ("radius_l", "radius_r")])
+    arm |= np.isin(pset.marker_names, ["LFIN", "RFIN"])
+    arm_rows = k + np.flatnonzero(np.repeat(arm, 3))
+    theta = _forearms_turned(pset, exp.theta_true, 12.0)
+    aligned = align_gauge_free(pset, theta, exp.markers_clean, exp.times)
+
+    def arm_error(other: np.ndarray) -> float:
+        """The forearm and hand markers' observable error [m] (RMS) of theta against other."""
+        return float(np.sqrt(np.mean(hand_zero.idf.project(theta - other)[0][arm_rows] ** 2)))
+
+    assert min(fits) < score.EXACT_FIT  # the LM found a model of the truth's class ...
+    assert min(arm_error(t) for t in lm_thetas) > 0.05e-3  # ... short of the turns
+    assert arm_error(aligned) < 1e-6
+
+
 def test_refinement_holds_its_box_and_weighs_its_priors(pset: ParameterSet) -> None:
     """``refine`` with the identification's box and prior rows (``identify --select``): a
     parameter the data pull past its bound stays on it, a sharp prior row holds its value,
@@ -254,6 +309,94 @@ def test_refinement_holds_its_box_and_weighs_its_priors(pset: ParameterSet) -> N
     # Held: on the bound exactly; the prior's value to 0.1 mm (its width is 0.01 mm).
     assert runs["held"][shank] == upper[shank]
     assert abs(runs["held"][thigh] - theta0[thigh]) < 0.1e-3
+
+
+def test_refinement_minimises_the_weighted_cost_of_the_sliding_landmarks(
+    pset: ParameterSet, hand_zero: HandZero
+) -> None:
+    """With ``weigh`` (the knee markers' soft-tissue sliding, by pose), ``refine`` on every
+    frame ends where the joint LM with those weights ends: the same weighted problem, as
+    ``identify --select`` now solves the plain identification's (docs/long-recordings.md).
+    The knee markers here slide 8 mm per radian of knee flexion (20 mm at the ROM's 145
+    degrees), so the unweighted and the weighted optimum lie centimetres apart."""
+    from functools import partial
+
+    from mocap_mj.identify.lm import LMSettings, TrialData, identify_lm
+    from mocap_mj.identify.tissue import SLIDES, SlidingModel
+
+    exp, m = hand_zero.exp, pset.model  # 300 ROM frames; their information at the truth
+    markers = exp.markers.copy()
+    for side in "LR":
+        knee = exp.qpos[:, m.jnt_qposadr[m.joint(f"knee_flex_{side.lower()}").id]]
+        markers[:, pset.marker_names.index(f"{side}KNE"), 2] += 0.008 * np.abs(knee)
+    weigh = partial(SlidingModel(SLIDES, 1e-3).weights, pset)
+    theta0 = exp.theta_true
+    runs = {}
+    for name, w in (("plain", None), ("weighted", weigh)):
+        qpos = np.full((len(markers), m.nq), np.nan)
+        runs[name] = refine(markers, pset, theta0, qpos, 1e-3, weigh=w, steps=12, tol_std=0.01)
+    # The joint LM on every frame, weighted by the weighted refinement's last poses, from the
+    # same start and with the same weak prior toward it.
+    trial = TrialData("rom", markers, exp.times, weights=weigh(qpos))
+    lm = identify_lm([trial], pset=pset, theta0=theta0, settings=LMSettings(coarse_frames=0))
+
+    def apart(theta: np.ndarray) -> float:
+        """Distance [m] of theta from the LM's in the directions the frames determine."""
+        return float(np.linalg.norm(hand_zero.idf.project(theta - lm.theta)[0]))
+
+    # Measured: 55.5 mm unweighted, 0.92 mm weighted (the weights follow the poses, which
+    # the weighted IK moves a little: the fixed point is the LM's to a few percent).
+    assert apart(runs["plain"].theta) > 10e-3  # the weights matter here
+    assert apart(runs["weighted"].theta) < 0.05 * apart(runs["plain"].theta)
+
+
+def test_select_refines_with_the_sliding_weights_its_solve_used(
+    pset: ParameterSet, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``identify --select``'s refinement on every frame (``refine_on_every_frame``) weighs
+    the sliding landmarks by pose exactly when the subset's solve did (``weighting`` holds
+    its ``slide_base_mm``), with that base: the same weighted problem as the plain solve."""
+    from types import SimpleNamespace
+
+    from mocap_mj.identify import pipeline
+    from mocap_mj.identify.lm import LMSettings
+    from mocap_mj.identify.long import Refinement
+    from mocap_mj.identify.tissue import SLIDES
+    from mocap_mj.subject import Subject
+
+    seen: list[object] = []
+
+    def stub(markers, p, theta0, qpos, sigma, **kw):  # type: ignore[no-untyped-def]
+        seen.append(kw["weigh"])
+        return Refinement(theta0, np.zeros((p.size,) * 2), np.zeros(p.size), [0.0], {})
+
+    monkeypatch.setattr(pipeline, "refine", stub)
+    monkeypatch.setattr(pipeline, "result_at", lambda result, *a: result)
+    result = SimpleNamespace(theta=pset.nominal.copy(), sigma=1e-3)
+    trial = TrialData("t", np.zeros((4, pset.n_markers, 3)), np.arange(4.0))
+    for weighting in ({"noise_mm": 7.0, "slide_base_mm": 5.0}, {"noise_mm": 1.0}):
+        pipeline.refine_on_every_frame(
+            result,  # type: ignore[arg-type]
+            [trial],
+            [trial],
+            pset=pset,
+            settings=LMSettings(),
+            weighting=weighting,
+            subject=Subject(),
+            size=1.0,
+            anatomical=False,
+            symmetric=None,
+            slides=SLIDES,
+        )
+    weighted, plain = seen
+    assert plain is None
+    q = np.zeros((1, pset.model.nq))
+    q[0, pset.model.jnt_qposadr[pset.model.joint("knee_flex_r").id]] = 1.0  # 1 rad
+    w = weighted(q)  # type: ignore[operator]
+    rkne = pset.marker_names.index("RKNE")
+    # base 5 mm against a slide of 10 mm per radian: 25 / (25 + 100)
+    assert w[0, rkne] == pytest.approx(0.2)
+    assert np.count_nonzero(w != 1.0) == 1
 
 
 class _RejectAll:

@@ -44,7 +44,7 @@ from __future__ import annotations
 import dataclasses
 import tempfile
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import NamedTuple, TypeAlias
 
 import numpy as np
@@ -81,6 +81,9 @@ TOL_STD = 0.1
 
 #: Markers (T, M, 3) or poses (T, nq) of one trial, or one array per trial.
 Parts: TypeAlias = NDArray[np.floating] | Sequence[NDArray[np.floating]]
+#: Per-sample weights (n, M) [1] of the poses (n, nq) they are given (1 for NaN rows), e.g.
+#: the landmarks' soft-tissue sliding (:meth:`mocap_mj.identify.tissue.SlidingModel.weights`).
+Weigh: TypeAlias = Callable[[np.ndarray], np.ndarray]
 
 
 class LongResult(NamedTuple):
@@ -149,16 +152,22 @@ class ChunkFit(NamedTuple):
 
 
 def solve_chunk(
-    solver: IKSolver, m: np.ndarray, q: np.ndarray, warm_iterations: int | None = None
+    solver: IKSolver,
+    m: np.ndarray,
+    q: np.ndarray,
+    warm_iterations: int | None = None,
+    weigh: Weigh | None = None,
 ) -> ChunkFit:
     """IK of one chunk's markers m (n, M, 3) [m] in place in q (n, nq): frames with a pose
     (finite rows) start there (warm, at most ``warm_iterations`` iterations, default the
-    solver's limit; NaN rows had too few markers and stay NaN); a chunk of NaN rows is
-    solved afresh (chained, :meth:`IKSolver.solve_trial`)."""
+    solver's limit; with ``weigh``, weighted by the weights of their start poses; NaN rows
+    had too few markers and stay NaN); a chunk of NaN rows is solved afresh (chained,
+    unweighted, :meth:`IKSolver.solve_trial`)."""
     warm = np.isfinite(q[:, 0])
     r: IKResult
     if warm.any():
-        r = solver.solve_frames(m[warm], q[warm], max_iterations=warm_iterations)
+        w = None if weigh is None else weigh(q[warm])
+        r = solver.solve_frames(m[warm], q[warm], w, max_iterations=warm_iterations)
         q[warm] = r.qpos
     else:
         r = solver.solve_trial(m)
@@ -183,6 +192,7 @@ def _ik_pass(
     chunk: int,
     gradient: bool,
     heads: Heads | None = None,
+    weigh: Weigh | None = None,
 ) -> tuple[ChunkFit, np.ndarray]:
     """IK of every frame under kin's theta, chunk by chunk, in place in qpos (T, nq) (or one
     such array per trial of ``markers``; :func:`solve_chunk`); with ``heads``, chunks
@@ -190,7 +200,10 @@ def _ik_pass(
     (:meth:`~mocap_mj.ik.IKSolver.solve_from_heads`); with ``gradient``, the sum (P,) [m] of
     each chunk's reduced gradient at its new poses
     (:func:`mocap_mj._schur.reduced_gradient`, joint limits not held, see :func:`refine`;
-    zeros otherwise)."""
+    zeros otherwise). With ``weigh`` (and ``gradient``) the gradient and the fit's squared
+    distances are weighted by the samples' weights at the new poses: the reduced gradient's
+    own pose step (``- J_q A^-1 g_q``) is then the weighted problem's, so the gradient is
+    that problem's to first order even where the IK (heads, cold chunks) ran unweighted."""
     solver = IKSolver(kin)
     tree, kt = kin.tree(), kin.kappa_tables()
     grad = np.zeros(kin.pset.size)
@@ -203,15 +216,26 @@ def _ik_pass(
             q[:] = r.qpos
             f = _fit(r)
         else:
-            f = solve_chunk(solver, m, q)
+            f = solve_chunk(solver, m, q, weigh=weigh)
         span.qpos[span.start : span.stop] = q
-        fit = ChunkFit(fit.sq + f.sq, fit.present + f.present, fit.solved + f.solved)
         if gradient:
             present = np.all(np.isfinite(m), axis=2)
             target = np.where(present[..., None], m, 0.0)
             w = present.astype(float)
+            if weigh is not None:
+                w *= weigh(q)
+                f = f._replace(sq=_weighted_sq(kin, target, w, q))
             grad += _schur.reduced_gradient(tree, kt, target, w, q, limits=False)
+        fit = ChunkFit(fit.sq + f.sq, fit.present + f.present, fit.solved + f.solved)
     return fit, grad
+
+
+def _weighted_sq(kin: Kinematics, target: np.ndarray, w: np.ndarray, q: np.ndarray) -> float:
+    """Sum [m^2] of the weights w (n, M) times the squared distances of the markers target
+    (n, M, 3) [m] from the model's at the poses q (n, nq) (NaN rows skipped)."""
+    ok = np.isfinite(q[:, 0])
+    d = kin.site_positions(q[ok]) - target[ok]
+    return float(np.sum(w[ok] * np.sum(d * d, axis=2)))
 
 
 class Heads(NamedTuple):
@@ -263,15 +287,19 @@ def _parts(x: Parts) -> list[NDArray[np.floating]]:
     return [x] if isinstance(x, np.ndarray) else list(x)
 
 
-def _information(kin: Kinematics, markers: np.ndarray, qpos: np.ndarray) -> np.ndarray:
+def _information(
+    kin: Kinematics, markers: np.ndarray, qpos: np.ndarray, weigh: Weigh | None = None
+) -> np.ndarray:
     """Reduced information (P, P) [1] of frames markers (n, M, 3) [m] at poses qpos (n, nq)
-    (NaN rows skipped), joint limits not held."""
+    (NaN rows skipped), joint limits not held, each sample weighted by ``weigh`` (default
+    1)."""
     ok = np.isfinite(qpos[:, 0])
     if not ok.any():
         return np.zeros((kin.pset.size,) * 2)
     free = np.flatnonzero(~kin.pset.frozen)
     prob = IdentificationProblem(kin, markers[ok], qpos[ok], free, theta0=kin.theta.copy())
-    return prob.information(prob.present.astype(float))
+    w = prob.present.astype(float)
+    return prob.information(w if weigh is None else w * weigh(qpos[ok]))
 
 
 class _Solver:
@@ -331,6 +359,7 @@ def refine(
     chunk: int = CHUNK,
     sample: int = SAMPLE,
     info_frames: int = INFO_FRAMES,
+    weigh: Weigh | None = None,
 ) -> Refinement:
     """The model refined on every frame (module docstring, step 3).
 
@@ -361,6 +390,12 @@ def refine(
         trials, is the sample (default 20,000 frames)
     info_frames : the information is summed over at most this many evenly spaced frames of
         the sample and scaled to all (default 5,000)
+    weigh : per-sample weights of a frame's markers at its pose (default None: all 1), e.g.
+        the soft-tissue sliding of the landmarks that the identification weighed with
+        (:mod:`mocap_mj.identify.tissue`): the cost, gradient and information are then the
+        weighted ones, so that the refinement minimises the same weighted cost as the
+        identification, over every frame. The weights follow each frame's pose under the
+        model of the step (the identification's come from its first solve's poses)
     """
     st = settings or LMSettings()
     t0 = time.perf_counter()
@@ -389,7 +424,7 @@ def refine(
     mu = 0.0
     for _ in range(steps):
         kin.set_theta(theta)
-        fit, grad = _ik_pass(m_s, kin, q_s, chunk, gradient=True)
+        fit, grad = _ik_pass(m_s, kin, q_s, chunk, gradient=True, weigh=weigh)
         cost = weight * 0.5 * fit.sq + sum(p.cost(theta) for p in prior_list)
         if best is not None and cost > best.cost:
             # The step raised the cost (real data: frames at joint limits, soft tissue): back
@@ -397,7 +432,7 @@ def refine(
             theta, mu = best.theta.copy(), max(10.0 * mu, 1e-3)
         else:
             # The information at every accepted point: kept from the start, the steps diverged.
-            info = scale * _information(kin, m_s[info_rows], q_s[info_rows])
+            info = scale * _information(kin, m_s[info_rows], q_s[info_rows], weigh)
             best = _Point(theta.copy(), cost, weight * grad, info, q_s.copy())
             mu /= 10.0
         solver = _Solver(best.info, prior_list, box, free, sigma, st, mu)
@@ -418,7 +453,7 @@ def refine(
         kin.set_theta(theta)
         offsets = np.cumsum([0] + [len(range(0, len(m), stride)) for m in parts[:-1]])
         heads = Heads(best.qpos, stride, tuple(int(o) for o in offsets))
-        _, grad = _ik_pass(parts, kin, qpos, chunk, gradient=True, heads=heads)
+        _, grad = _ik_pass(parts, kin, qpos, chunk, gradient=True, heads=heads, weigh=weigh)
         sizes.append(_Solver(best.info, prior_list, box, free, sigma, st, mu).step(theta, grad))
     seconds = {"sample": t1 - t0, "pass": time.perf_counter() - t1}
     return Refinement(theta, best.info, grad, sizes, seconds)

@@ -31,7 +31,7 @@ from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..tables import joint_centre_columns, joint_centre_text
 from .lm import LMSettings, solver_joint_range
-from .long import CHUNK, ChunkFit, solve_chunk
+from .long import CHUNK, ChunkFit, Weigh, solve_chunk
 from .problem import TrialData
 
 #: LM iterations of each frame started from the refinement's poses (``start``): those are
@@ -138,6 +138,7 @@ def write_every_frame_motion(
     start: Sequence[NDArray[np.floating]] | None = None,
     progress: Callable[[int], None] | None = None,
     chunk: int = CHUNK,
+    weigh: Weigh | None = None,
 ) -> MotionFit:
     """IK of every frame of ``trials`` with the model as ``identify`` writes it (parameters
     theta (P,) [m], the joint limits the solver used), written chunk by chunk into
@@ -148,7 +149,10 @@ def write_every_frame_motion(
     the refinement's: warm, ``WARM_ITERATIONS`` LM iterations each); default and NaN chunks: solved
     afresh, chained through each chunk (:meth:`IKSolver.solve_trial`, as ``mocap-mj ik``
     solves a trial). ``first_frames``: each trial's first frame in its file (the CSV's frame
-    column; default 0). ``progress`` is called with the frames done over all trials."""
+    column; default 0). ``progress`` is called with the frames done over all trials.
+    ``weigh``: per-sample weights by pose (default None: all 1), for the warm frames from
+    their start poses' (:func:`mocap_mj.identify.long.solve_chunk`), as the identification
+    weighed its fit (its soft-tissue sliding model)."""
     with tempfile.TemporaryDirectory(prefix="mocap-mj-") as tmp:
         path = Path(tmp) / "model.xml"
         pset.export_mjcf(path, theta, joint_range=solver_joint_range(pset.model, settings))
@@ -166,7 +170,7 @@ def write_every_frame_motion(
             open(tmp_csv, "wb") as handle,
         ):
             table = _CentresTable(handle, model, first)
-            poses = _solved(solver, trial, q0, table, tally, chunk)
+            poses = _solved(solver, trial, q0, table, tally, chunk, weigh)
             write_motion_chunks(
                 out / f"motion{suffix}.npz",
                 trial,
@@ -203,6 +207,7 @@ def _solved(
     table: _CentresTable,
     tally: _Tally,
     chunk: int,
+    weigh: Weigh | None = None,
 ) -> Iterator[np.ndarray]:
     """The trial's poses (n, nq) chunk by chunk (:func:`mocap_mj.identify.long.solve_chunk`:
     warm from q0's finite rows, else chained), each also appended to the centres table."""
@@ -212,7 +217,7 @@ def _solved(
         q = np.array(q0[s : s + chunk], dtype=float) if q0 is not None else None
         q = q if q is not None else np.full((len(m), nq), np.nan)
         t0 = time.perf_counter()
-        f = solve_chunk(solver, m, q, WARM_ITERATIONS)
+        f = solve_chunk(solver, m, q, WARM_ITERATIONS, weigh)
         tally.add(f, len(m), time.perf_counter() - t0)
         table.append(np.asarray(trial.times[s : s + chunk], dtype=float), q)
         yield q

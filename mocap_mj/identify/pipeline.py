@@ -6,6 +6,7 @@ import contextlib
 import logging
 import time
 from collections.abc import Callable, Iterator, Sequence
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +25,7 @@ from .consistency import correlation_time
 from .identifiability import Identifiability
 from .initial import place_markers, scaled_theta, segment_scales
 from .lm import LMSettings, identify_lm, solver_joint_range
-from .long import refine, result_at, scratch_array
+from .long import Weigh, refine, result_at, scratch_array
 from .motion_out import write_every_frame_motion
 from .output import write_result
 from .plausibility import kappa_outside_bounds, marker_rmse_by_marker
@@ -93,9 +94,9 @@ def identify_to_folder(
     asymmetry prior (``ASYMMETRY_SIGMA``, on unless ``asymmetry_prior`` is False);
     ``slides``: the landmarks' soft-tissue sliding model (default None: off; ``mocap-mj
     identify`` turns it on). See :func:`solve_anatomical`. When the fit was weighed with it
-    (the reweighted solve ran, and no refinement on every frame replaced its model), model.xml
-    records it (:func:`mocap_mj.identify.tissue.with_sliding_model`) so that ``mocap-mj ik
-    --model`` weighs its poses alike and reproduces the fit; the summary's
+    (the reweighted solve ran; a refinement on every frame and the motion's IK then weigh
+    alike), model.xml records it (:func:`mocap_mj.identify.tissue.with_sliding_model`) so
+    that ``mocap-mj ik --model`` weighs its poses alike and reproduces the fit; the summary's
     ``sliding_landmarks`` says whether it did.
     """
     t0 = time.perf_counter()
@@ -128,10 +129,12 @@ def identify_to_folder(
             pset=pset,
             settings=settings,
             weighting=weighting,
+            slides=slides,
             **prior_options,
         )
     sliding = None
-    if slides and "slide_base_mm" in weighting and not refined:
+    if slides and "slide_base_mm" in weighting:
+        # The fit (and the refinement on every frame, and the motion's IK) weighed with it.
         sliding = SlidingModel(dict(slides), weighting["slide_base_mm"] * 1e-3)
     seconds = time.perf_counter() - t0
     idf = Identifiability(
@@ -167,6 +170,7 @@ def identify_to_folder(
                 first_frames=[int(r[0]) for r in starts] if starts else None,
                 start=refined.get("qpos"),
                 progress=motion_progress,
+                weigh=_sliding_weigh(pset, weighting, slides),
             )
             return {
                 "motion_marker_rmse_mm": fit.rmse * 1e3,
@@ -192,6 +196,7 @@ def refine_on_every_frame(
     size: float,
     anatomical: bool,
     symmetric: float | None,
+    slides: dict[str, Slide] | None = None,
 ) -> tuple[IdentificationResult, dict[str, Any]]:
     """The identification on ``trials`` (frames selected from ``motion_trials``) refined on
     every frame of ``motion_trials`` (:func:`mocap_mj.identify.long.refine`) with the priors
@@ -202,7 +207,10 @@ def refine_on_every_frame(
     them). The result is described at the refined model (:func:`~mocap_mj.identify.long.result_at`);
     the dict holds the refinement's ``steps_std``, ``seconds``, the subset's own estimate
     (``subset_kappa_mm``) and ``qpos``: every frame's pose under the sample's estimate per
-    motion trial (T_i, nq), the start of the motion's IK."""
+    motion trial (T_i, nq), the start of the motion's IK. When the solve weighed the sliding
+    landmarks (``slides``, and ``weighting`` has their ``slide_base_mm``), the refinement
+    weighs them alike, by each frame's pose (:func:`~mocap_mj.identify.long.refine`'s
+    ``weigh``): it minimises the cost the subset's solve minimised, over every frame."""
     noise = weighting.get("noise_mm", settings.prior_noise * 1e3) * 1e-3
     priors: list[Prior] = [settings.weak_prior(result.theta)]
     box = None
@@ -220,6 +228,7 @@ def refine_on_every_frame(
         priors=priors,
         lower=None if box is None else box[0],
         upper=None if box is None else box[1],
+        weigh=_sliding_weigh(pset, weighting, slides),
     )
     refined = result_at(result, trials, pset, ref.theta, settings, box)
     info = {
@@ -231,6 +240,16 @@ def refine_on_every_frame(
         "qpos": qpos,
     }
     return refined, info
+
+
+def _sliding_weigh(
+    pset: ParameterSet, weighting: dict[str, float], slides: dict[str, Slide] | None
+) -> Weigh | None:
+    """The sliding landmarks' weights by pose (:meth:`SlidingModel.weights`) that the solve
+    weighed with (``weighting`` has ``slide_base_mm``), else None."""
+    if not slides or "slide_base_mm" not in weighting:
+        return None
+    return partial(SlidingModel(dict(slides), weighting["slide_base_mm"] * 1e-3).weights, pset)
 
 
 def _check_inputs(trials: Sequence[TrialData], pset: ParameterSet, init: str) -> None:
