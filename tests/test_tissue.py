@@ -12,6 +12,7 @@ from mocap_mj.identify import LMSettings, TrialData
 from mocap_mj.identify.losses import L2, Cauchy, Huber, Weighted
 from mocap_mj.identify.pipeline import solve_anatomical
 from mocap_mj.identify.tissue import (
+    SHOULDER_SLIDE,
     SLIDES,
     Slide,
     SlidingModel,
@@ -74,11 +75,12 @@ def test_sho_weight_follows_humerothoracic_elevation(pset: ParameterSet) -> None
     q[2, adr["shoulder_l"] : adr["shoulder_l"] + 4] = _turn("z", 1.0)  # axial rotation only
     q[3, adr["thorax"] : adr["thorax"] + 4] = _turn("y", 0.4)  # the trunk bends, arm with it
     lsho, rsho = pset.marker_names.index("LSHO"), pset.marker_names.index("RSHO")
-    angles = slide_angles(pset, q, SLIDES)
+    slides = {"SHO": SHOULDER_SLIDE}
+    angles = slide_angles(pset, q, slides)
     np.testing.assert_allclose(angles[:, lsho], [0.0, 1.2, 0.0, 0.0], atol=1e-9)
     np.testing.assert_allclose(angles[:, rsho], 0.0, atol=1e-9)
-    w = sliding_weights(pset, q, base, SLIDES)
-    expected = base**2 / (base**2 + (SLIDES["SHO"].rate * 1.2) ** 2)
+    w = sliding_weights(pset, q, base, slides)
+    expected = base**2 / (base**2 + (SHOULDER_SLIDE.rate * 1.2) ** 2)
     assert w[1, lsho] == pytest.approx(expected, rel=1e-9)
     assert np.all(np.delete(w, [1], axis=0) == 1.0) and np.all(np.delete(w[1], lsho) == 1.0)
     # A model without the reference body: the slide does not apply.
