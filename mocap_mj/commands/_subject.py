@@ -80,10 +80,10 @@ def add_subject_options(p: Any) -> None:
     g.add_argument(
         "--no-sliding-landmarks",
         action="store_true",
-        help="weigh the knee epicondyle (KNE) and acromion (SHO) markers alike in every pose "
-        "(default: weigh them down as the knee flexes and the arm rises, their skin sliding on "
-        "the bone, 10 mm per rad per axis, where the residuals show soft tissue; recorded in "
-        "model.xml for ik; docs/real-data.md)",
+        help="weigh the knee epicondyle markers (KNE) alike at every knee angle (default: "
+        "weigh them down as the knee flexes, their skin sliding on the femur, 10 mm per rad "
+        "per axis, where the residuals show soft tissue; recorded in model.xml for ik; "
+        "docs/real-data.md)",
     )
     g.add_argument(
         "--no-anatomy",

@@ -236,10 +236,12 @@ def recorded_sliding_model(model: mujoco.MjModel) -> SlidingModel | None:
 
 __all__ = [
     "RECORD_PREFIX",
+    "SHOULDER_SLIDE",
     "SLIDES",
     "Slide",
     "SlidingModel",
     "recorded_sliding_model",
+    "slide_angles",
     "sliding_weights",
     "with_sliding_model",
 ]
