@@ -55,7 +55,8 @@ def test_marker_classes() -> None:
 def test_prior_mean_and_width_per_class(pset: ParameterSet) -> None:
     """A landmark's mean follows the skeleton (KNE at the knee's level, on its axis); its
     lateral width is the regression's without a measurement, the caliper's with one; ANK's
-    level and depth are a convention joint's; a free marker has no anatomical row."""
+    and ELB's level and depth are a convention joint's; a free marker has no anatomical
+    row."""
     theta = pset.nominal.copy()
     theta[pset.index("thigh_length_l")] = 0.40
     table = marker_prior_table(pset, landmark_prior(pset), theta)
@@ -68,6 +69,12 @@ def test_prior_mean_and_width_per_class(pset: ParameterSet) -> None:
     theta_shank = theta[pset.index("shank_length_l")]
     mean, width = table["LANK"]
     np.testing.assert_allclose(mean[[0, 2]], [0.0, -theta_shank], atol=1e-12)
+    np.testing.assert_allclose(width, [SIGMA_CONVENTION, SIGMA_REGRESSED, SIGMA_CONVENTION])
+    # ELB defines the elbow centre likewise (a convention joint), KNE does not (10 mm above).
+    mean, width = table["LELB"]
+    np.testing.assert_allclose(
+        mean[[0, 2]], [0.0, -theta[pset.index("upperarm_length_l")]], atol=1e-12
+    )
     np.testing.assert_allclose(width, [SIGMA_CONVENTION, SIGMA_REGRESSED, SIGMA_CONVENTION])
     mean_r, _ = table["RKNE"]
     assert mean_r[1] == pytest.approx(-(ratio * pset.nominal[pset.index("thigh_length_r")] / 2 + r))

@@ -12,10 +12,12 @@ from mocap_mj.identify import LMSettings, TrialData
 from mocap_mj.identify.losses import L2, Cauchy, Huber, Weighted
 from mocap_mj.identify.pipeline import solve_anatomical
 from mocap_mj.identify.tissue import (
+    SHOULDER_SLIDE,
     SLIDES,
     Slide,
     SlidingModel,
     recorded_sliding_model,
+    slide_angles,
     sliding_weights,
     with_sliding_model,
 )
@@ -51,6 +53,40 @@ def test_weights_are_one_in_the_defining_pose_and_fall_with_flexion(pset: Parame
     others = np.delete(w[1], lkne)
     assert np.all(others == 1.0)  # RKNE's knee is straight; no other marker slides
     assert np.all(sliding_weights(pset, q[:2], base, {}) == 1.0)
+
+
+def _turn(axis: str, angle: float) -> np.ndarray:
+    """Unit quaternion (w, x, y, z) of a turn by ``angle`` [rad] about a body axis."""
+    q = np.zeros(4)
+    q[0] = np.cos(angle / 2)
+    q["xyz".index(axis) + 1] = np.sin(angle / 2)
+    return q
+
+
+def test_sho_weight_follows_humerothoracic_elevation(pset: ParameterSet) -> None:
+    """SHO's angle is the upper arm's tilt from the thorax however the clavicle and the
+    glenohumeral ball share it; the humerus turning about its own axis, or the thorax
+    turning with the arm, is no elevation."""
+    m, base = pset.model, 0.005
+    adr = {n: int(m.jnt_qposadr[m.joint(n).id]) for n in ("shoulder_l", "clav_elev_l", "thorax")}
+    q = np.tile(m.qpos0, (4, 1))
+    q[1, adr["shoulder_l"] : adr["shoulder_l"] + 4] = _turn("x", 0.9)  # abduction
+    q[1, adr["clav_elev_l"]] = 0.3  # the girdle's share: elevation adds up to 1.2 rad
+    q[2, adr["shoulder_l"] : adr["shoulder_l"] + 4] = _turn("z", 1.0)  # axial rotation only
+    q[3, adr["thorax"] : adr["thorax"] + 4] = _turn("y", 0.4)  # the trunk bends, arm with it
+    lsho, rsho = pset.marker_names.index("LSHO"), pset.marker_names.index("RSHO")
+    slides = {"SHO": SHOULDER_SLIDE}
+    angles = slide_angles(pset, q, slides)
+    np.testing.assert_allclose(angles[:, lsho], [0.0, 1.2, 0.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(angles[:, rsho], 0.0, atol=1e-9)
+    w = sliding_weights(pset, q, base, slides)
+    expected = base**2 / (base**2 + (SHOULDER_SLIDE.rate * 1.2) ** 2)
+    assert w[1, lsho] == pytest.approx(expected, rel=1e-9)
+    assert np.all(np.delete(w, [1], axis=0) == 1.0) and np.all(np.delete(w[1], lsho) == 1.0)
+    # A model without the reference body: the slide does not apply.
+    assert np.all(
+        sliding_weights(pset, q, base, {"SHO": Slide("shoulder", 0.01, 0.0, "nope")}) == 1.0
+    )
 
 
 @pytest.mark.parametrize("loss", [L2(), Huber(), Cauchy()])
@@ -162,7 +198,10 @@ def test_unknown_joint_or_marker_is_ignored(pset: ParameterSet) -> None:
 
 
 def test_sliding_model_recorded_in_model_xml_reads_back(pset: ParameterSet, tmp_path) -> None:  # type: ignore[no-untyped-def]
-    sliding = SlidingModel({"KNE": Slide("knee_flex", 0.01, 0.1)}, 0.0043)
+    sliding = SlidingModel(
+        {"KNE": Slide("knee_flex", 0.01, 0.1), "SHO": Slide("shoulder", 0.02, 0.0, "thorax")},
+        0.0043,
+    )
     path = tmp_path / "model.xml"
     path.write_text(with_sliding_model(pset.to_xml(pset.nominal), sliding))
     written = ParameterSet(path)

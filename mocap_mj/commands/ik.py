@@ -6,7 +6,7 @@ the measured markers (Levenberg-Marquardt, frames solved in chains warm-started 
 neighbours). Writes OUT/motion.csv (joint angles, mm and degrees), motion.npz (qpos, times,
 markers; opened by `mocap-mj view`), model.xml and summary.json. Frames with fewer than
 --min-markers present markers are left unsolved (empty in motion.csv). A model written by
-identify with the knee markers' soft-tissue sliding model (recorded in its model.xml) weighs
+identify with the landmarks' soft-tissue sliding model (recorded in its model.xml) weighs
 them as identify did, so that its RMSE reproduces the fit (--no-sliding-landmarks: every
 marker alike).
 """

@@ -55,7 +55,14 @@ Widths (standard deviations, per row) and their sources:
   and depth (ANK's x and z rows; its lateral row stays the width's): the model's ankle is
   one point where its ankle and subtalar hinges cross, the talocrural and subtalar axes are
   skew and a centimetre or more apart (Isman & Inman 1969), so the point about which a
-  jump turns the foot is not the subject's either (it sat 16-20 mm below ANK at 10 mm).
+  jump turns the foot is not the subject's either (it sat 16-20 mm below ANK at 10 mm);
+  the elbow centre likewise on the transepicondylar axis at ELB's level and depth (ELB's x
+  and z rows; its lateral row stays the width's): the model's elbow is one point where a
+  flexion hinge perpendicular to the forearm and the pronation hinge cross, while the
+  humeroulnar axis is tilted against the forearm (the carrying angle, 10-15 degrees) and
+  the pronation axis runs from the radial head to the ulnar head, so the point about which
+  trials at different elbow angles turn the forearm moves with them (one model for a jump
+  at 15-25 degrees and a pose at 90 put it 25-30 mm ahead of ELB at 10 mm).
   At 10 mm the data moved these joints 30-60 mm between trials of one
   subject, at 3 mm they hold within a few mm (docs/real-data.md);
 * :data:`SIGMA_FOOT_LENGTH`, :data:`SIGMA_FOOT_HEIGHT` = 7, 8 mm (x stature / 1.75 m): the MTP
@@ -388,8 +395,9 @@ def _limb_rows(rows: _Rows, subject: Subject, side: str, p: str, s: float) -> No
         ("ELB", "upperarm_length", "elbow_width"),
     ):
         m = p + marker
-        # The ankle is a convention joint (module docstring): ANK's level and depth define it.
-        sig = SIGMA_CONVENTION if marker == "ANK" else lm
+        # The ankle and the elbow are convention joints (module docstring): the lateral
+        # marker's level and depth define them.
+        sig = SIGMA_CONVENTION if marker in ("ANK", "ELB") else lm
         rows.add({f"{m}.x": 1}, 0.0, sig, f"{m}.x = 0 (on the joint axis)")
         rows.add({f"{m}.z": 1, f"{length}_{side}": 1}, 0.0, sig, f"{m}.z = -{length}")
         _width_rows(rows, subject, side, m, width)

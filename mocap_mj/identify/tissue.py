@@ -23,8 +23,23 @@ Rates (:data:`SLIDES`), per-axis standard deviation per radian from the defining
   move 10-30 mm against the femur, most in deep flexion (Leardini et al. 2005, a review of
   bone-pin and fluoroscopy studies).
 
+The acromion marker (SHO) slides too: its skin moves against the scapula as the arm rises,
+and the scapula turns under it about the acromioclavicular joint, which the model's rigid
+shoulder girdle (sternoclavicular joint to glenohumeral centre) lacks; acromion-based
+scapular tracking errors grow with humeral elevation (Karduna et al. 2001; van Andel et al.
+2009; review: Cereatti et al. 2017), and Plug-in Gait defines SHO and the shoulder offset
+with the arm at the side. :data:`SHOULDER_SLIDE` models it against humerothoracic elevation
+(the upper arm's tilt from the thorax, however the clavicle and the glenohumeral ball share
+it; :class:`Slide`'s ``reference``), 10 mm/rad. It is not in :data:`SLIDES`: SHO is the
+only marker on the clavicle, so weighing it down in the raised-arm frames leaves the
+girdle's pose there to the arm markers: on synthetic range-of-motion trials with SHO slid
+that way it brings the glenohumeral centres closer but not the clavicle lengths, and on the
+shared trials it moved no target (docs/real-data.md "Seventh round",
+``benchmarks/sho_slide.py``). The library's ``slides=`` takes it.
+
 The ankle (ANK) and elbow (ELB) markers sit on bone under thin skin: their sliding is not
-modelled (weighting them alike helped no real-data figure, docs/real-data.md).
+modelled (weighting them alike helped no real-data figure, docs/real-data.md; the ankle and
+the elbow are convention joints instead, :mod:`mocap_mj.identify.anatomy`).
 
 ``mocap-mj identify`` weighs with :data:`SLIDES` by default (``--no-sliding-landmarks``: off)
 and records the model it weighed with in model.xml (:func:`with_sliding_model`); ``mocap-mj
@@ -45,34 +60,100 @@ from ..parameters import ParameterSet
 
 @dataclass(frozen=True)
 class Slide:
-    """A landmark's slide: the hinge ``joint`` (name without the side suffix) whose angle
-    [rad] from ``angle0`` [rad] (the defining pose) moves the skin, at ``rate`` [m/rad]
-    (per-axis standard deviation per radian)."""
+    """A landmark's slide: the ``joint`` (name without the side suffix) whose angle [rad]
+    from ``angle0`` [rad] (the defining pose) moves the skin, at ``rate`` [m/rad] (per-axis
+    standard deviation per radian).
+
+    The angle of a hinge is its coordinate. With ``reference`` (a body name without the side
+    suffix, e.g. "thorax") the angle is instead the tilt of the joint's child body's long
+    axis (its z) from that body's z: for the shoulder ball and the thorax, humerothoracic
+    elevation, whatever shoulder-girdle and glenohumeral angles make it up."""
 
     joint: str
     rate: float
     angle0: float = 0.0
+    reference: str = ""
 
 
 #: Landmark marker (name without the side prefix) -> its slide. See the module docstring.
 SLIDES: dict[str, Slide] = {"KNE": Slide("knee_flex", 0.010)}
 
+#: SHO's slide with humerothoracic elevation (module docstring): not in :data:`SLIDES`.
+SHOULDER_SLIDE = Slide("shoulder", 0.010, reference="thorax")
 
-def _sliding_markers(pset: ParameterSet, slides: dict[str, Slide]) -> list[tuple[int, int, Slide]]:
-    """(marker index, qpos address of its joint, slide) of every marker of ``pset`` named
-    L/R + a key of ``slides`` whose side's joint (``joint_l`` / ``joint_r``) is a hinge."""
+
+def _body(model: mujoco.MjModel, name: str, side: str) -> int:
+    """Id of the body ``name`` or ``name_side`` (-1 when the model has neither)."""
+    for n in (name, f"{name}_{side}"):
+        bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, n)
+        if bid >= 0:
+            return bid
+    return -1
+
+
+def _sliding_markers(
+    pset: ParameterSet, slides: dict[str, Slide]
+) -> list[tuple[int, int, int, Slide]]:
+    """(marker index, joint id, reference body id or -1, slide) of every marker of ``pset``
+    named L/R + a key of ``slides`` whose side's joint (``joint_l`` / ``joint_r``) is a hinge,
+    or any joint when the slide names a ``reference`` body the model has (``reference`` or
+    ``reference_l`` / ``_r``)."""
     out = []
     model = pset.model
     for i, name in enumerate(pset.marker_names):
         slide = slides.get(name[1:])
         if slide is None or name[:1] not in ("L", "R"):
             continue
-        jid = mujoco.mj_name2id(
-            model, mujoco.mjtObj.mjOBJ_JOINT, f"{slide.joint}_{name[0].lower()}"
-        )
-        if jid >= 0 and model.jnt_type[jid] == mujoco.mjtJoint.mjJNT_HINGE:
-            out.append((i, int(model.jnt_qposadr[jid]), slide))
+        side = name[0].lower()
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"{slide.joint}_{side}")
+        if jid < 0:
+            continue
+        if slide.reference:
+            ref = _body(model, slide.reference, side)
+            if ref >= 0:
+                out.append((i, jid, ref, slide))
+        elif model.jnt_type[jid] == mujoco.mjtJoint.mjJNT_HINGE:
+            out.append((i, jid, -1, slide))
     return out
+
+
+def _tilts(
+    model: mujoco.MjModel, q: np.ndarray, pairs: set[tuple[int, int]]
+) -> dict[tuple[int, int], np.ndarray]:
+    """Per (body, reference body) pair: the angle (T,) [rad] between the two bodies' z axes
+    in the poses q (T, nq) (NaN for frames without a pose). Orientations do not depend on
+    the lengths in theta, so any model of the parameter set gives the same angles."""
+    out = {p: np.full(len(q), np.nan) for p in pairs}
+    data = mujoco.MjData(model)
+    for t, row in enumerate(q):
+        if not np.all(np.isfinite(row)):
+            continue
+        data.qpos[:] = row
+        mujoco.mj_kinematics(model, data)
+        for b, r in pairs:
+            cos = data.xmat[b].reshape(3, 3)[:, 2] @ data.xmat[r].reshape(3, 3)[:, 2]
+            out[(b, r)][t] = np.arccos(np.clip(cos, -1.0, 1.0))
+    return out
+
+
+def slide_angles(pset: ParameterSet, qpos: np.ndarray, slides: dict[str, Slide]) -> np.ndarray:
+    """Each sliding landmark's angle from its slide's defining pose, ``|q - angle0|`` (T, M)
+    [rad], in the poses qpos (T, nq): a hinge's coordinate, or the tilt of the joint's child
+    body from the slide's ``reference`` body (:class:`Slide`). NaN for the other markers
+    and for frames without a pose."""
+    model = pset.model
+    q = np.asarray(qpos, dtype=float)
+    angles = np.full((len(q), pset.n_markers), np.nan)
+    found = _sliding_markers(pset, slides)
+    pairs = {(int(model.jnt_bodyid[j]), ref) for _, j, ref, _ in found if ref >= 0}
+    tilts = _tilts(model, q, pairs) if pairs else {}
+    for i, jid, ref, slide in found:
+        if ref >= 0:
+            a = tilts[(int(model.jnt_bodyid[jid]), ref)]
+        else:
+            a = q[:, int(model.jnt_qposadr[jid])]
+        angles[:, i] = np.abs(a - slide.angle0)
+    return angles
 
 
 def sliding_weights(
@@ -82,14 +163,15 @@ def sliding_weights(
     slides: dict[str, Slide] | None = None,
 ) -> np.ndarray:
     """Per-sample weights (T, M) [1] of the poses qpos (T, nq): ``base^2 / (base^2 +
-    (rate |q - angle0|)^2)`` for the sliding landmarks of ``slides`` (default :data:`SLIDES`),
-    1 for every other marker and for frames without a pose (NaN rows). ``base`` [m] is the
-    per-axis artefact every marker carries (the pipeline's soft-tissue floor or the fit's
-    noise, whichever is larger)."""
-    q = np.asarray(qpos, dtype=float)
-    w = np.ones((len(q), pset.n_markers))
-    for i, adr, slide in _sliding_markers(pset, SLIDES if slides is None else slides):
-        sd = slide.rate * np.abs(q[:, adr] - slide.angle0)
+    (rate |q - angle0|)^2)`` for the sliding landmarks of ``slides`` (default :data:`SLIDES`;
+    the angle as :func:`slide_angles`), 1 for every other marker and for frames without a
+    pose (NaN rows). ``base`` [m] is the per-axis artefact every marker carries (the
+    pipeline's soft-tissue floor or the fit's noise, whichever is larger)."""
+    slides = SLIDES if slides is None else slides
+    angles = slide_angles(pset, qpos, slides)
+    w = np.ones(angles.shape)
+    for i, _, _, slide in _sliding_markers(pset, slides):
+        sd = slide.rate * angles[:, i]
         w[:, i] = np.where(np.isfinite(sd), base**2 / (base**2 + np.nan_to_num(sd) ** 2), 1.0)
     return w
 
@@ -117,14 +199,16 @@ class SlidingModel:
 def with_sliding_model(xml: str, sliding: SlidingModel) -> str:
     """MJCF text ``xml`` with ``sliding`` recorded as ``<custom><numeric>`` entries (which
     MuJoCo keeps and ignores in the kinematics): ``mocap_mj_slide_base`` = base [m], and per
-    landmark ``mocap_mj_slide:MARKER:JOINT`` = (rate [m/rad], angle0 [rad])."""
+    landmark ``mocap_mj_slide:MARKER:JOINT`` (``...:JOINT:REFERENCE`` for a tilt from a
+    reference body, :class:`Slide`) = (rate [m/rad], angle0 [rad])."""
     root = ElementTree.fromstring(xml)
     custom = root.find("custom")
     if custom is None:
         custom = ElementTree.SubElement(root, "custom")
     entries = {f"{RECORD_PREFIX}_base": [sliding.base]}
     for marker, s in sliding.slides.items():
-        entries[f"{RECORD_PREFIX}:{marker}:{s.joint}"] = [s.rate, s.angle0]
+        ref = f":{s.reference}" if s.reference else ""
+        entries[f"{RECORD_PREFIX}:{marker}:{s.joint}{ref}"] = [s.rate, s.angle0]
     for name, data in entries.items():
         ElementTree.SubElement(
             custom, "numeric", name=name, data=" ".join(repr(float(v)) for v in data)
@@ -142,9 +226,9 @@ def recorded_sliding_model(model: mujoco.MjModel) -> SlidingModel | None:
         name, data = model.numeric(i).name, np.asarray(model.numeric(i).data, dtype=float)
         if name == f"{RECORD_PREFIX}_base" and data.size == 1:
             base = float(data[0])
-        elif name.startswith(f"{RECORD_PREFIX}:") and name.count(":") == 2 and data.size == 2:
-            _, marker, joint = name.split(":")
-            slides[marker] = Slide(joint, float(data[0]), float(data[1]))
+        elif name.startswith(f"{RECORD_PREFIX}:") and name.count(":") in (2, 3) and data.size == 2:
+            _, marker, joint, *ref = name.split(":")
+            slides[marker] = Slide(joint, float(data[0]), float(data[1]), *ref)
     if base is None or not slides:
         return None
     return SlidingModel(slides, base)
@@ -152,10 +236,12 @@ def recorded_sliding_model(model: mujoco.MjModel) -> SlidingModel | None:
 
 __all__ = [
     "RECORD_PREFIX",
+    "SHOULDER_SLIDE",
     "SLIDES",
     "Slide",
     "SlidingModel",
     "recorded_sliding_model",
+    "slide_angles",
     "sliding_weights",
     "with_sliding_model",
 ]
