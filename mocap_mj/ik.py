@@ -41,6 +41,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal, NamedTuple
 
+import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -54,6 +55,12 @@ PELVIS_MARKERS = ("LASI", "RASI", "LPSI", "RPSI")
 Damping = Literal["adaptive", "sugihara"]
 COMPILED_CHAIN = 32  # longest chain of the compiled solver (chain_length=0)
 PROGRESS_FRAMES = 20_000  # frames per kernel call when progress is reported
+#: A joint turning by more than this [rad] between consecutive frames of a chain is taken for
+#: a change of local minimum, and the frames on either side are re-solved from the other
+#: side (:meth:`IKSolver._seams`). 0.3 rad a frame is 1700 deg/s at 100 Hz, beyond most
+#: human joint speeds; a real movement that fast (a pitcher's shoulder) costs a few
+#: warm-started frames, since a re-solve is kept only where it fits better.
+JUMP = 0.3
 #: Alternative arm configurations a chain's first frame is also solved from (ball joint ->
 #: rotation vector [rad] in its parent's frame): arms abducted and arms forward, besides the
 #: reference pose (arms at the sides). A static trial in a T-pose or with the arms abducted
@@ -392,6 +399,13 @@ class IKSolver:
             if progress is not None:
                 progress(int(s1))
         self._seams(target, w, qpos, rmse, iters, status, starts, ends)
+        # A chain can also change basin inside itself (its head in a wrong local minimum,
+        # a later frame's warm start falling into the right one): its pose jumps there, and
+        # the frames before the jump are re-solved from the frame after it, and vice versa.
+        cuts = np.flatnonzero(pose_jumps(self.kin.model, qpos) > JUMP) + 1
+        if cuts.size:
+            bounds = np.concatenate([[0], cuts])
+            self._seams(target, w, qpos, rmse, iters, status, bounds, np.append(cuts, n))
         npres = np.count_nonzero(w > 0, axis=1)
         self._repair(markers, w, qpos, rmse, iters, status, npres)
         return IKResult(qpos, rmse, iters, status, npres)
@@ -586,6 +600,28 @@ class IKSolver:
         ref = float(np.nanmedian(rmse[solvable]))
         limit = factor * ref + margin
         self._walk_runs(markers, w, qpos, rmse, iters, status, solvable, limit)
+
+
+def pose_jumps(model: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
+    """The largest rotation [rad] of any joint between consecutive poses of qpos (T, nq):
+    (T - 1,), NaN where either pose is unsolved. A hinge's change of angle, a ball's or a
+    free joint's rotation angle (a free joint's translation is not counted)."""
+    q = np.asarray(qpos, dtype=float)
+    out = np.zeros(max(len(q) - 1, 0))
+    for j in range(model.njnt):
+        adr, typ = int(model.jnt_qposadr[j]), int(model.jnt_type[j])
+        if typ == mujoco.mjtJoint.mjJNT_HINGE:
+            step = np.abs(np.diff(q[:, adr]))
+        elif typ in (mujoco.mjtJoint.mjJNT_BALL, mujoco.mjtJoint.mjJNT_FREE):
+            a = adr + (3 if typ == mujoco.mjtJoint.mjJNT_FREE else 0)
+            quat = q[:, a : a + 4] / np.linalg.norm(q[:, a : a + 4], axis=1, keepdims=True)
+            dot = np.abs(np.sum(quat[1:] * quat[:-1], axis=1))
+            step = 2.0 * np.arccos(np.clip(dot, 0.0, 1.0))
+        else:
+            continue
+        out = np.fmax(out, step)
+    out[~(np.all(np.isfinite(q[1:]), axis=1) & np.all(np.isfinite(q[:-1]), axis=1))] = np.nan
+    return out
 
 
 def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
