@@ -154,6 +154,8 @@ def test_segments_csv_and_summary(identified: tuple[Path, dict]) -> None:
         assert r["kind"] == "length"
         assert float(r["value_mm"]) == pytest.approx(value * 1e3, abs=1e-3)
         assert 0.0 < float(r["std_white_mm"]) <= float(r["std_mm"]) + 1e-9
+        # The anatomical priors only add information (the weak prior is in both).
+        assert 0.0 < float(r["std_priors_mm"]) <= 1.001 * float(r["std_mm"])
         assert r["lower_mm"] == r["upper_mm"] == ""
     lower, upper = kappa_ranges(pset)  # the anatomical ranges the fit was bounded by
     for i, name in enumerate(pset.kappa_names):
@@ -170,6 +172,8 @@ def test_segments_csv_and_summary(identified: tuple[Path, dict]) -> None:
     assert thigh["std_mm"] == pytest.approx(
         thigh["std_white_mm"] * math.sqrt(summary["correlation_time_frames"]), rel=0.05
     )
+    # The motion determines the thigh: its priors (10 mm rows and wider) change little.
+    assert thigh["std_priors_mm"] == pytest.approx(thigh["std_mm"], rel=0.2)
     assert len(summary["worst_markers_mm"]) == 5
     report = (out / "report.md").read_text()
     assert "## Segment lengths and their uncertainty" in report
@@ -236,3 +240,25 @@ def test_ik_under_a_robust_loss_resists_outliers() -> None:
     assert error(robust.qpos) < 0.7 * error(l2.qpos)
     d = np.linalg.norm(kin.marker_positions(robust.qpos) - markers, axis=2)
     np.testing.assert_allclose(robust.marker_rmse, np.sqrt(np.nanmean(d**2, axis=1)), rtol=1e-9)
+
+
+def test_parameter_covariance_with_priors_is_the_posterior() -> None:
+    """``std_priors``' covariance: (S / (tau sigma^2) + prior information)^-1 over the free
+    parameters, the priors' information not divided by tau; a frozen parameter keeps zero."""
+    from types import SimpleNamespace
+
+    from mocap_mj.identify.consistency import parameter_covariance
+
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=(6, 3))
+    s_info = a.T @ a  # unit-weight information of 3 parameters [1/m^2 x m^2 noise]
+    info = np.zeros((4, 4))
+    info[:3, :3] = s_info
+    free = np.array([True, True, True, False])
+    result = SimpleNamespace(free=free, reduced_information=info, sigma=0.002)
+    prior = np.diag([1e4, 0.0, 4e4, 1e6])  # rows of 10 mm, none, 5 mm, frozen [1/m^2]
+    tau = 3.0
+    cov = parameter_covariance(result, tau=tau, prior_information=prior)  # type: ignore[arg-type]
+    expected = np.linalg.inv(s_info / (tau * 0.002**2) + prior[:3, :3])
+    np.testing.assert_allclose(cov[:3, :3], expected, rtol=1e-12)
+    assert np.all(cov[3] == 0.0) and np.all(cov[:, 3] == 0.0)

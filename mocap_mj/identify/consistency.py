@@ -106,7 +106,11 @@ def correlation_time(pset: ParameterSet, result: LMResult, trials: Sequence[Tria
 
 
 def parameter_covariance(
-    result: LMResult, *, tau: float = 1.0, settings: LMSettings | None = None
+    result: LMResult,
+    *,
+    tau: float = 1.0,
+    settings: LMSettings | None = None,
+    prior_information: np.ndarray | None = None,
 ) -> np.ndarray:
     """Covariance (P, P) [m^2] of theta given a fit's data and its prior (zero where frozen).
 
@@ -116,13 +120,22 @@ def parameter_covariance(
     lambda_p the prior weight of ``settings`` (as in the LM's cost), so a direction the data
     do not determine keeps the prior's width sigma / sqrt(lambda_p) instead of an infinite
     one.
+
+    With ``prior_information`` (P, P) [1/m^2] (every prior of the fit, the weak one included:
+    :func:`mocap_mj.identify.pipeline.prior_information`) the covariance is instead
+    ``(S / (tau sigma^2) + prior_information)^-1``: the data's information inflated by tau,
+    the priors' not (a prior row is one belief, not repeated over frames).
     """
     st = settings or LMSettings()
     free = np.asarray(result.free, dtype=bool)
-    info = result.reduced_information[np.ix_(free, free)] / tau
-    info += st.prior_weight * np.eye(int(free.sum()))
+    data = result.reduced_information[np.ix_(free, free)] / tau
     cov = np.zeros(result.reduced_information.shape)
-    cov[np.ix_(free, free)] = result.sigma**2 * np.linalg.inv(info)
+    if prior_information is None:
+        info = data + st.prior_weight * np.eye(int(free.sum()))
+        cov[np.ix_(free, free)] = result.sigma**2 * np.linalg.inv(info)
+    else:
+        info = data / result.sigma**2 + np.asarray(prior_information)[np.ix_(free, free)]
+        cov[np.ix_(free, free)] = np.linalg.inv(info)
     return cov
 
 
@@ -132,14 +145,17 @@ def length_std(
     *,
     tau: float = 1.0,
     settings: LMSettings | None = None,
+    prior_information: np.ndarray | None = None,
 ) -> dict[str, float]:
     """Standard deviation [m] of every joint-centre length given a fit's data.
 
     sqrt(g^T C g), C the parameter covariance of :func:`parameter_covariance` (the white-noise
     bound inflated by the correlation time ``tau``, with the fit's prior) and g the length's
-    gradient.
+    gradient; ``prior_information`` as there.
     """
-    cov = parameter_covariance(result, tau=tau, settings=settings)
+    cov = parameter_covariance(
+        result, tau=tau, settings=settings, prior_information=prior_information
+    )
     g = length_gradient(pset, result.theta)
     var = np.einsum("lp,pq,lq->l", g, cov, g)
     names = [n for n, _, _ in _length_pairs(pset)]

@@ -152,7 +152,14 @@ def identify_to_folder(
     summary["sliding_landmarks"] = None if sliding is None else sorted(sliding.slides)
     summary["kappa_at_bound"] = _kappa_at_bound(pset, result)
     ranges = kappa_ranges(pset, subject) if anatomical else None
-    rows = _add_checks(summary, pset, result, trials, settings, ranges)
+    priors = (
+        anatomical_priors(pset, subject, size=prior_options["size"],
+                          symmetric=prior_options["symmetric"])
+        if anatomical
+        else []
+    )  # fmt: skip
+    info = prior_information(priors, settings, pset.size)
+    rows = _add_checks(summary, pset, result, trials, settings, ranges, info)
     stream = None
     if motion_trials is not None:
         summary["motion_frames"] = [len(t.markers) for t in motion_trials]
@@ -439,10 +446,12 @@ def _add_checks(
     trials: Sequence[TrialData],
     settings: LMSettings,
     ranges: tuple[np.ndarray, np.ndarray] | None,
+    prior_info: np.ndarray | None = None,
 ) -> list[SegmentRow]:
     """Add the real-data checks to ``summary`` (worst markers, parameters outside their range
     ``ranges`` (K,) [m], default ``pset``'s, the segment table with inflated standard
-    deviations); return the segment rows."""
+    deviations, with the priors of ``prior_info`` (P, P) [1/m^2] in ``std_priors``); return
+    the segment rows."""
     per_marker = marker_rmse_by_marker(pset, result, trials)
     lower, upper = ranges if ranges is not None else (None, None)
     outside = kappa_outside_bounds(pset, result.theta, lower, upper)
@@ -450,7 +459,9 @@ def _add_checks(
         n: float(v) * 1e3 for n, v in zip(pset.marker_names, per_marker, strict=True)
     }
     summary["kappa_outside_bounds_mm"] = {n: [v * 1e3 for v in b] for n, b in outside.items()}
-    entries, rows = uncertainty_summary(pset, result, trials, per_marker, settings, ranges=ranges)
+    entries, rows = uncertainty_summary(
+        pset, result, trials, per_marker, settings, ranges=ranges, prior_information=prior_info
+    )
     summary.update(entries)
     return rows
 

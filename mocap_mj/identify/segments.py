@@ -21,7 +21,14 @@ Columns:
     The same with the information divided by the residuals' correlation time tau
     (:func:`mocap_mj.identify.consistency.correlation_time`): on real recordings soft-tissue
     artefact and model error repeat over neighbouring frames, so a trial of T frames holds
-    about T / tau independent observations. This is the figure to quote for real data.
+    about T / tau independent observations. This is the data's figure to quote for real data.
+``std_priors_mm``
+    The same (information divided by tau) with the anatomical priors the fit used added
+    (every prior row's ``a a^T / sigma_r^2``, :func:`mocap_mj.identify.pipeline.prior_information`):
+    the uncertainty of the estimate itself. Where it is much smaller than ``std_mm`` the
+    priors, not the motion, place the length (e.g. a joint centre set by its landmark's
+    convention rows); where the two agree, the data do. Equal to ``std_mm`` without priors
+    (``--no-anatomy``).
 ``nominal_mm``
     The value on the nominal (unscaled) model.
 ``lower_mm``, ``upper_mm``
@@ -64,6 +71,7 @@ COLUMNS = (
     "value_mm",
     "std_white_mm",
     "std_mm",
+    "std_priors_mm",
     "nominal_mm",
     "lower_mm",
     "upper_mm",
@@ -79,6 +87,7 @@ class SegmentRow(NamedTuple):
     value: float
     std_white: float
     std: float
+    std_priors: float
     nominal: float
     lower: float
     upper: float
@@ -95,6 +104,7 @@ class SegmentRow(NamedTuple):
             "value_mm": mm(self.value),
             "std_white_mm": mm(self.std_white),
             "std_mm": mm(self.std),
+            "std_priors_mm": mm(self.std_priors),
             "nominal_mm": mm(self.nominal),
             "lower_mm": mm(self.lower),
             "upper_mm": mm(self.upper),
@@ -122,21 +132,34 @@ def segment_table(
     tau: float,
     settings: LMSettings | None = None,
     ranges: tuple[np.ndarray, np.ndarray] | None = None,
+    prior_information: np.ndarray | None = None,
 ) -> list[SegmentRow]:
     """The rows (lengths, then kinematic parameters) for a fit whose residuals have
     correlation time ``tau`` [frames]; ``settings`` gives the fit's prior weight, ``ranges``
-    the kinematic parameters' lower and upper bounds (K,) [m] (default: ``pset``'s)."""
+    the kinematic parameters' lower and upper bounds (K,) [m] (default: ``pset``'s),
+    ``prior_information`` (P, P) [1/m^2] every prior the fit used, for ``std_priors`` (default
+    None: the weak prior only, ``std_priors`` equal to ``std``)."""
     kappa, _ = pset.split(result.theta)
     k = pset.n_kappa
     lower, upper = ranges if ranges is not None else (pset.lower[:k], pset.upper[:k])
     flags = [parameter_flag(float(kappa[i]), float(lower[i]), float(upper[i])) for i in range(k)]
     white_cov = parameter_covariance(result, settings=settings)
     slow_cov = parameter_covariance(result, tau=tau, settings=settings)
+    post_cov = (
+        slow_cov
+        if prior_information is None
+        else parameter_covariance(result, tau=tau, prior_information=prior_information)
+    )
     rows = []
     values = joint_centre_lengths(pset, result.theta)
     nominal = joint_centre_lengths(pset, pset.nominal)
     std_white = length_std(pset, result, settings=settings)
     std_slow = length_std(pset, result, tau=tau, settings=settings)
+    std_post = (
+        std_slow
+        if prior_information is None
+        else length_std(pset, result, tau=tau, prior_information=prior_information)
+    )
     grad = length_gradient(pset, result.theta)[:, :k]
     for (name, value), g in zip(values.items(), grad, strict=True):
         deps = [
@@ -145,13 +168,14 @@ def segment_table(
             if flags[i]
         ]
         rows.append(
-            SegmentRow(name, "length", value, std_white[name], std_slow[name], nominal[name],
-                       math.nan, math.nan, ";".join(deps))
+            SegmentRow(name, "length", value, std_white[name], std_slow[name], std_post[name],
+                       nominal[name], math.nan, math.nan, ";".join(deps))
         )  # fmt: skip
     for i, name in enumerate(pset.kappa_names):
         rows.append(
             SegmentRow(name, "kappa", float(kappa[i]), math.sqrt(max(white_cov[i, i], 0.0)),
-                       math.sqrt(max(slow_cov[i, i], 0.0)), float(pset.nominal[i]),
+                       math.sqrt(max(slow_cov[i, i], 0.0)), math.sqrt(max(post_cov[i, i], 0.0)),
+                       float(pset.nominal[i]),
                        float(lower[i]), float(upper[i]), flags[i])
         )  # fmt: skip
     return rows
@@ -161,7 +185,7 @@ def write_segments_csv(path: str | Path, rows: Sequence[SegmentRow]) -> None:
     """``segments.csv`` (columns :data:`COLUMNS`, millimetres, empty where not applicable)."""
     lines = [",".join(COLUMNS)]
     for r in rows:
-        nums = (r.value, r.std_white, r.std, r.nominal, r.lower, r.upper)
+        nums = (r.value, r.std_white, r.std, r.std_priors, r.nominal, r.lower, r.upper)
         cells = ["" if not math.isfinite(v) else f"{v * 1e3:.3f}" for v in nums]
         lines.append(",".join([r.name, r.kind, *cells, r.flag]))
     atomic_write_text(path, "\n".join(lines) + "\n")
@@ -175,13 +199,15 @@ def uncertainty_summary(
     settings: LMSettings | None = None,
     *,
     ranges: tuple[np.ndarray, np.ndarray] | None = None,
+    prior_information: np.ndarray | None = None,
     worst: int = 5,
 ) -> tuple[dict[str, Any], list[SegmentRow]]:
     """The summary.json entries of the segment table and the rows: ``correlation_time_frames``,
     ``segments`` ({name: row}), ``parameters_flagged`` ({name: flag}), ``worst_markers_mm``
-    (the ``worst`` markers by RMS distance, per_marker (M,) [m], NaN for unseen markers)."""
+    (the ``worst`` markers by RMS distance, per_marker (M,) [m], NaN for unseen markers);
+    ``prior_information`` as :func:`segment_table`'s."""
     tau = correlation_time(pset, result, trials)
-    rows = segment_table(pset, result, tau, settings, ranges)
+    rows = segment_table(pset, result, tau, settings, ranges, prior_information)
     order = [int(i) for i in np.argsort(-np.nan_to_num(per_marker, nan=-1.0))[:worst]]
     entries = {
         "correlation_time_frames": tau,
@@ -212,20 +238,23 @@ def uncertainty_lines(summary: Mapping[str, Any]) -> list[str]:
         "",
         f"Residual correlation time: {tau:.1f} frames (white noise gives about 1). Standard "
         "deviations: `white` assumes independent frames (the Cramer-Rao figure); `inflated` "
-        "divides the information by the correlation time, the honest figure on real data "
-        "(soft-tissue artefact repeats over neighbouring frames). Both include the prior, so "
-        "a length the motion does not determine shows the prior's width. All values also in "
-        "segments.csv.",
+        "divides the information by the correlation time, the honest figure of what the data "
+        "tell on real recordings (soft-tissue artefact repeats over neighbouring frames); both "
+        "include only the weak prior toward the initial model, so a length the motion does "
+        "not determine shows that prior's width. `with priors` adds the anatomical priors the "
+        "fit used: the uncertainty of the estimate; where it is much smaller than `inflated`, "
+        "the priors, not the motion, place the length. All values also in segments.csv.",
         "",
-        "| length (joint centre to joint centre) | value (mm) | std inflated (mm) | "
-        "std white (mm) | nominal (mm) | flagged parameters |",
-        "|---|---:|---:|---:|---:|---|",
+        "| length (joint centre to joint centre) | value (mm) | std with priors (mm) | "
+        "std inflated (mm) | std white (mm) | nominal (mm) | flagged parameters |",
+        "|---|---:|---:|---:|---:|---:|---|",
     ]
     for name, r in segments.items():
         if r["kind"] == "length":
             lines.append(
-                f"| {name} | {cell(r['value_mm'])} | {cell(r['std_mm'])} | "
-                f"{cell(r['std_white_mm'])} | {cell(r['nominal_mm'])} | {r['flag']} |"
+                f"| {name} | {cell(r['value_mm'])} | {cell(r.get('std_priors_mm'))} | "
+                f"{cell(r['std_mm'])} | {cell(r['std_white_mm'])} | {cell(r['nominal_mm'])} | "
+                f"{r['flag']} |"
             )
     flagged = summary.get("parameters_flagged", {})
     lines += ["", "### Parameters at a bound or outside the plausible range", ""]
