@@ -5,6 +5,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
+from _motion import random_poses
 
 from mocap_mj import Kinematics, rolling
 from mocap_mj import _tree as tree_kernels
@@ -27,20 +28,17 @@ GAIT2392_TY = (
 
 @pytest.fixture(scope="module")
 def kin() -> Kinematics:
+    """A subject away from the nominal model (kappa and offsets +-1 cm)."""
     k = Kinematics()
-    rng = np.random.default_rng(21)
-    k.set_theta(k.pset.nominal + rng.uniform(-0.01, 0.01, k.pset.size))
+    k.set_theta(k.pset.nominal + np.random.default_rng(21).uniform(-0.01, 0.01, k.pset.size))
     return k
 
 
 def flexed_poses(kin: Kinematics, n: int, seed: int) -> np.ndarray:
     """Random poses with both knees flexed over -5..145 degrees (beyond q_max too)."""
-    rng = np.random.default_rng(seed)
-    q0 = np.tile(kin.model.qpos0, (n, 1))
-    q0[:, :3] += rng.normal(0, 1.0, (n, 3))
-    q = kin.integrate(q0, rng.normal(0, 0.4, (n, kin.nv)))
-    for adr in kin.rolling.qposadr:
-        q[:, adr] = np.radians(rng.uniform(-5, 145, n))
+    q = random_poses(kin, n, seed, scale=0.4)
+    knees = np.random.default_rng(seed + 1).uniform(-5, 145, (n, kin.rolling.qposadr.size))
+    q[:, kin.rolling.qposadr] = np.radians(knees)
     return q
 
 
@@ -143,7 +141,8 @@ def test_kappa_jacobian_stays_parent_direction(kin: Kinematics) -> None:
 
 def test_model_without_the_entries_is_a_fixed_hinge(tmp_path) -> None:  # type: ignore[no-untyped-def]
     text = model_path().read_text()
-    start, end = text.index("<custom>"), text.index("</custom>") + len("</custom>")
+    start = text.index("\n  <custom>")
+    end = text.index("</custom>") + len("</custom>")
     plain = tmp_path / "plain.xml"
     plain.write_text(text[:start] + text[end:])
     model = mujoco.MjModel.from_xml_path(str(plain))

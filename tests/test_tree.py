@@ -6,7 +6,7 @@ import mujoco
 import numba
 import numpy as np
 import pytest
-from _motion import smooth_motion
+from _motion import random_poses, smooth_motion
 from _oracles import mj_site_jacobian, numpy_solve_frames
 
 from mocap_mj import Kinematics, rolling
@@ -36,10 +36,7 @@ def kin() -> Kinematics:
 
 
 def poses(kin: Kinematics, n: int, seed: int) -> np.ndarray:
-    rng = np.random.default_rng(seed)
-    q0 = np.tile(kin.model.qpos0, (n, 1))
-    q0[:, :3] += rng.normal(0, 1.0, (n, 3))
-    return kin.integrate(q0, rng.normal(0, 0.5, (n, kin.nv)))
+    return random_poses(kin, n, seed)
 
 
 def test_fk_matches_mj_kinematics(kin: Kinematics) -> None:

@@ -23,7 +23,7 @@ Masses and inertias are the MJCF's (from its display geoms at 1000 kg/m^3), mult
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
@@ -164,7 +164,9 @@ def _custom_joint(
         _transform_axis(st, f"translation{i + 1}", by_axis.get(tuple(unit.tolist())), unit, spline)
 
 
-def _rolling_splines(model: mujoco.MjModel, coords: list[Coordinate]) -> dict[int, list[Spline]]:
+def _rolling_splines(
+    model: mujoco.MjModel, coords: Sequence[Coordinate]
+) -> dict[int, list[Spline]]:
     """Per rolling body: its parent-frame x, y, z translations as splines of the flexion
     coordinate (:mod:`mocap_mj.rolling`), sampled over the coordinate's range and a margin."""
     roll = rolling.read(model)
