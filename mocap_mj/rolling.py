@@ -171,6 +171,17 @@ def record(xml: str, model: mujoco.MjModel) -> str:
     return ElementTree.tostring(root, encoding="unicode") + "\n"
 
 
+def without(xml: str) -> str:
+    """MJCF text ``xml`` without its couplings' entries: the same model with fixed hinges
+    (e.g. for a solver that knows only MuJoCo's joints, as ``benchmarks/ik.py``'s mink)."""
+    root = ElementTree.fromstring(xml)
+    for custom in root.iter("custom"):
+        for elem in list(custom):
+            if elem.tag == "numeric" and elem.get("name", "").startswith(f"{RECORD_PREFIX}:"):
+                custom.remove(elem)
+    return ElementTree.tostring(root, encoding="unicode") + "\n"
+
+
 _READ = object()
 
 
@@ -208,4 +219,5 @@ __all__ = [
     "read",
     "record",
     "set_lengths",
+    "without",
 ]
