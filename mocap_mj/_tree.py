@@ -60,6 +60,9 @@ class Tree(NamedTuple):
     site_body : (ns,) int; site_pos : (ns, 3) float [m]
     site_dofptr : (ns + 1,) int; site_dofs : (sum,) int, ascending dofs that move each site
     dof_jnt, dof_body, dof_kind, dof_col, dof_parent : (nv,) int
+    body_rolladr : (nb,) int, qpos address of the hinge a body's origin rolls with (-1: none)
+    body_roll : (nb, 3, 3) float [m/rad^k], row k-1: the coefficient of q^k of that rolling
+        translation, parent frame (:mod:`mocap_mj.rolling`); body_rollmax : (nb,) float [rad]
     """
 
     body_parent: np.ndarray
@@ -84,6 +87,9 @@ class Tree(NamedTuple):
     dof_kind: np.ndarray
     dof_col: np.ndarray
     dof_parent: np.ndarray
+    body_rolladr: np.ndarray
+    body_roll: np.ndarray
+    body_rollmax: np.ndarray
 
 
 class Work(NamedTuple):
@@ -105,6 +111,7 @@ class Work(NamedTuple):
     q_new: np.ndarray
     damp: np.ndarray
     blocked: np.ndarray
+    xroll: np.ndarray
 
 
 #: Options of every kernel: cached on disk (:mod:`mocap_mj._kernel_cache`), releasing the GIL
@@ -280,9 +287,30 @@ def _count_present(wts):
 
 
 # ------------------------------------------------------------------ forward kinematics
+@_inline
+def _rolling(tr, b, q):
+    """Body b's rolling translation t(q) and dt/dq (parent frame) [m, m/rad] at angle q
+    [rad]: the cubic up to body_rollmax, continued at its slope beyond
+    (:mod:`mocap_mj.rolling`)."""
+    c = tr.body_roll[b]
+    u = min(q, tr.body_rollmax[b])
+    u2, u3, e = u * u, u * u * u, q - u
+    d0 = c[0, 0] + 2 * u * c[1, 0] + 3 * u2 * c[2, 0]
+    d1 = c[0, 1] + 2 * u * c[1, 1] + 3 * u2 * c[2, 1]
+    d2 = c[0, 2] + 2 * u * c[1, 2] + 3 * u2 * c[2, 2]
+    t0 = u * c[0, 0] + u2 * c[1, 0] + u3 * c[2, 0] + e * d0
+    t1 = u * c[0, 1] + u2 * c[1, 1] + u3 * c[2, 1] + e * d1
+    t2 = u * c[0, 2] + u2 * c[1, 2] + u3 * c[2, 2] + e * d2
+    return t0, t1, t2, d0, d1, d2
+
+
 @_jit
 def fk(tr, qpos, w):
-    """Forward kinematics of one frame qpos (nq,) into the work arrays of ``w``."""
+    """Forward kinematics of one frame qpos (nq,) into the work arrays of ``w``.
+
+    A rolling body's origin is its ``body_pos`` plus t(q) of its flexion angle (parent frame);
+    ``w.xroll[b]`` receives R_parent dt/dq, the origin's velocity per rad of flexion.
+    """
     xpos, xquat, xmat = w.xpos, w.xquat, w.xmat
     xpos[0, :] = 0.0
     xquat[0, 0], xquat[0, 1], xquat[0, 2], xquat[0, 3] = 1.0, 0.0, 0.0, 0.0
@@ -290,11 +318,17 @@ def fk(tr, qpos, w):
     for b in range(1, tr.body_parent.size):
         p = tr.body_parent[b]
         bp = tr.body_pos[b]
+        b0, b1, b2 = bp[0], bp[1], bp[2]
         px, py, pz = xpos[p, 0], xpos[p, 1], xpos[p, 2]
         m = xmat[p]
-        x0 = px + m[0, 0] * bp[0] + m[0, 1] * bp[1] + m[0, 2] * bp[2]
-        x1 = py + m[1, 0] * bp[0] + m[1, 1] * bp[1] + m[1, 2] * bp[2]
-        x2 = pz + m[2, 0] * bp[0] + m[2, 1] * bp[1] + m[2, 2] * bp[2]
+        if tr.body_rolladr[b] >= 0:
+            t0, t1, t2, d0, d1, d2 = _rolling(tr, b, qpos[tr.body_rolladr[b]])
+            b0, b1, b2 = b0 + t0, b1 + t1, b2 + t2
+            for i in range(3):
+                w.xroll[b, i] = m[i, 0] * d0 + m[i, 1] * d1 + m[i, 2] * d2
+        x0 = px + m[0, 0] * b0 + m[0, 1] * b1 + m[0, 2] * b2
+        x1 = py + m[1, 0] * b0 + m[1, 1] * b1 + m[1, 2] * b2
+        x2 = pz + m[2, 0] * b0 + m[2, 1] * b1 + m[2, 2] * b2
         bq = tr.body_quat[b]
         q0, q1, q2, q3 = _qmul(
             xquat[p, 0], xquat[p, 1], xquat[p, 2], xquat[p, 3], bq[0], bq[1], bq[2], bq[3]
@@ -351,7 +385,13 @@ def cost(tr, target, wts, w):
 
 @_jit
 def dof_axes(tr, w):
-    """World axis and anchor of every dof (``w.axis``, ``w.anchor``: (nv, 3)), after :func:`fk`."""
+    """World axis and anchor of every dof (``w.axis``, ``w.anchor``: (nv, 3)), after :func:`fk`.
+
+    A rolling hinge (:mod:`mocap_mj.rolling`) turns its subtree about its axis a through the
+    body origin p and moves the origin by e = ``w.xroll`` per rad, e normal to a: together a
+    rotation about the instantaneous centre p + a x e (a x (x - p - a x e) = a x (x - p) + e),
+    which is the anchor given here, so every column stays ``a x (x - anchor)``.
+    """
     for v in range(tr.dof_jnt.size):
         j = tr.dof_jnt[v]
         kind = tr.dof_kind[v]
@@ -373,6 +413,12 @@ def dof_axes(tr, w):
             w.xanchor[j, 1],
             w.xanchor[j, 2],
         )
+        b = tr.dof_body[v]
+        if kind == HINGE_AXIS and tr.body_rolladr[b] == tr.jnt_qposadr[j]:
+            a, e = w.axis[v], w.xroll[b]
+            w.anchor[v, 0] += a[1] * e[2] - a[2] * e[1]
+            w.anchor[v, 1] += a[2] * e[0] - a[0] * e[2]
+            w.anchor[v, 2] += a[0] * e[1] - a[1] * e[0]
 
 
 @_inline
@@ -589,6 +635,7 @@ def work_arrays(nbody, njnt, ns, nv, nq):
         np.zeros(nq),
         np.zeros(nv),
         np.zeros(nv, dtype=np.bool_),
+        np.zeros((nbody, 3)),
     )
 
 
@@ -1166,4 +1213,20 @@ def build_tree(model: mujoco.MjModel) -> Tree:
         dof_kind=dof_kind,
         dof_col=dof_col,
         dof_parent=np.array(m.dof_parentid, dtype=np.int64),
+        **_rolling_tables(m),
     )
+
+
+def _rolling_tables(m: mujoco.MjModel) -> dict[str, np.ndarray]:
+    """:class:`Tree`'s rolling fields of the couplings recorded in m (:mod:`mocap_mj.rolling`)."""
+    from . import rolling
+
+    adr = np.full(m.nbody, -1, dtype=np.int64)
+    coef = np.zeros((m.nbody, 3, 3))
+    qmax = np.full(m.nbody, np.inf)
+    roll = rolling.read(m)
+    if roll is not None:
+        adr[roll.bodies] = roll.qposadr
+        coef[roll.bodies] = roll.coef * roll.length[:, None, None]
+        qmax[roll.bodies] = roll.qmax
+    return {"body_rolladr": adr, "body_roll": coef, "body_rollmax": qmax}

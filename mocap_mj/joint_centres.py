@@ -10,6 +10,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from . import rolling
 from .errors import check_shape
 
 #: (joint-centre name, child body whose origin it is), in output order.
@@ -57,6 +58,6 @@ def joint_centre_trajectories(model: mujoco.MjModel, qpos: np.ndarray) -> np.nda
     out = np.full((len(qpos), len(bodies), 3), np.nan)
     for t in np.flatnonzero(np.all(np.isfinite(qpos), axis=1)).tolist():
         data.qpos[:] = qpos[t]
-        mujoco.mj_kinematics(model, data)
+        rolling.kinematics(model, data)
         out[t] = data.xpos[bodies]
     return out

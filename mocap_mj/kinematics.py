@@ -15,7 +15,7 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
-from . import _tree
+from . import _tree, rolling
 from ._tree import KappaTables, kappa_tables
 from .errors import MocapError, check_shape
 from .parameters import ParameterSet
@@ -31,6 +31,8 @@ class Frames(NamedTuple):
     xmat : (T, nbody, 3, 3) float     body orientations (columns: body axes in world)
     xanchor : (T, njnt, 3) float [m]  joint anchors
     xaxis : (T, njnt, 3) float        hinge/slide joint axes, world frame
+    xroll : (T, nbody, 3) float [m/rad] a rolling body's origin velocity per rad of its
+                                      flexion (:mod:`mocap_mj.rolling`; zeros elsewhere)
     """
 
     site_xpos: np.ndarray
@@ -38,6 +40,7 @@ class Frames(NamedTuple):
     xmat: np.ndarray
     xanchor: np.ndarray
     xaxis: np.ndarray
+    xroll: np.ndarray | None = None
 
 
 class Kinematics:
@@ -59,6 +62,7 @@ class Kinematics:
         m = self.model
         self.nq, self.nv, self.n_markers = m.nq, m.nv, m.nsite
         self.theta = self.pset.nominal.copy()
+        self.rolling = rolling.read(self.model)
         self._tree: _tree.Tree | None = None
         self._kappa_tables: KappaTables | None = None
         self._build_tables()
@@ -162,7 +166,7 @@ class Kinematics:
         out = np.empty((len(qpos), m.nsite, 3))
         for t, q in enumerate(qpos):
             d.qpos[:] = q
-            mujoco.mj_kinematics(m, d)
+            rolling.kinematics(m, d, roll=self.rolling)
             out[t] = d.site_xpos
         return out
 
@@ -185,13 +189,20 @@ class Kinematics:
         xaxis = np.empty((n, m.njnt, 3))
         for t, q in enumerate(qpos):
             d.qpos[:] = q
-            mujoco.mj_kinematics(m, d)
+            rolling.kinematics(m, d, roll=self.rolling)
             site_xpos[t] = d.site_xpos
             xpos[t] = d.xpos
             xmat[t] = d.xmat
             xanchor[t] = d.xanchor
             xaxis[t] = d.xaxis
-        return Frames(site_xpos, xpos, xmat.reshape(n, m.nbody, 3, 3), xanchor, xaxis)
+        xmat = xmat.reshape(n, m.nbody, 3, 3)
+        xroll = np.zeros((n, m.nbody, 3))
+        roll = self.rolling
+        if roll is not None:
+            _, dt = roll.translation(qpos[:, roll.qposadr])  # (n, k, 3), parent frame
+            parents = m.body_parentid[roll.bodies]
+            xroll[:, roll.bodies] = np.einsum("tkij,tkj->tki", xmat[:, parents], dt)
+        return Frames(site_xpos, xpos, xmat, xanchor, xaxis, xroll)
 
     # ------------------------------------------------------------- Jacobians
     def dof_axes(self, frames: Frames) -> tuple[np.ndarray, np.ndarray]:
@@ -203,6 +214,11 @@ class Kinematics:
         trans = self.dof_translation
         axis[:, trans] = np.eye(3)[self.dof_col[trans]]
         anchor = frames.xanchor[:, self.dof_jnt]
+        roll = self.rolling
+        if roll is not None and frames.xroll is not None:
+            # a rolling hinge turns about its instantaneous centre (_tree.dof_axes)
+            dofs = self.model.jnt_dofadr[roll.joints]
+            anchor[:, dofs] += np.cross(axis[:, dofs], frames.xroll[:, roll.bodies])
         return axis, anchor
 
     def jac_q(self, frames: Frames) -> np.ndarray:

@@ -24,6 +24,7 @@ from xml.etree import ElementTree
 import mujoco
 import numpy as np
 
+from . import rolling
 from .errors import MocapError, ShapeError, UnknownNameError, check_shape
 from .io.atomic import atomic_write_text
 from .model import load_model, model_path
@@ -272,6 +273,31 @@ class ParameterSet:
         self.apply(model, theta)
         return model
 
+    def with_rolling_scaled(self, theta: np.ndarray) -> ParameterSet:
+        """This parameter set with its model's knee rolling (:mod:`mocap_mj.rolling`) scaled to
+        theta's segments: each coupling's reference length L becomes the distance of its body
+        from the parent's origin (hip to knee centre) at theta, as OpenSim's scaling scales
+        the femur's translation functions with the femur. A copy (its own model); ``self``
+        when the model has no coupling.
+
+        The identification calls it once with its initial model and keeps the result for the
+        whole solve: L is then a constant, so a kinematic parameter's Jacobian stays
+        ``R_parent d`` (scaling with the moving thigh length would add a term through t(q)).
+        """
+        import copy
+
+        roll = rolling.read(self.model)
+        if roll is None:
+            return self
+        new = copy.copy(self)
+        new.model = copy.copy(self.model)
+        lengths = np.linalg.norm(self.body_pos(theta)[roll.bodies], axis=1)
+        rolling.set_lengths(
+            new.model,
+            {new.model.body(b).name: float(v) for b, v in zip(roll.bodies, lengths, strict=True)},
+        )
+        return new
+
     def within_bounds(self, theta: np.ndarray) -> bool:
         theta = self.check(theta)
         return bool(np.all(theta >= self.lower) and np.all(theta <= self.upper))
@@ -367,7 +393,9 @@ class ParameterSet:
         ``MjSpec.to_xml`` prints about 6 significant digits; the body and site positions and
         the joint ranges (the file's, or ``joint_range``, see :meth:`to_spec`) are rewritten
         with ``repr`` so that the file reloads to the same forward kinematics and limits (a
-        cone rounded to 6 digits is narrower than the solver's by up to 5e-6 rad).
+        cone rounded to 6 digits is narrower than the solver's by up to 5e-6 rad). The knee
+        rolling is written as this set's model holds it (scaled by
+        :meth:`with_rolling_scaled`), so the file reproduces the solve's kinematics.
         """
         spec = self.to_spec(theta, joint_range=joint_range)
         spec.compile()
@@ -386,7 +414,7 @@ class ParameterSet:
             if elem.tag == "joint" and elem.get("name", "") in ranges and elem.get("range"):
                 elem.set("range", " ".join(repr(float(v)) for v in ranges[elem.get("name", "")]))
         ElementTree.indent(root, space="  ")
-        return ElementTree.tostring(root, encoding="unicode") + "\n"
+        return rolling.record(ElementTree.tostring(root, encoding="unicode") + "\n", self.model)
 
     def export_mjcf(
         self, path: str | Path, theta: np.ndarray, *, joint_range: np.ndarray | None = None

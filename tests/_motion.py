@@ -34,3 +34,11 @@ def smooth_motion(kin: Kinematics, frames: int, *, seed: int = 0, amp: float = 0
     qpos[:, 1] += 0.2 * np.sin(0.25 * t)
     qpos = kin.integrate(qpos, dv)
     return IKSolver(kin).project(qpos)
+
+
+def random_poses(kin: Kinematics, n: int, seed: int, scale: float = 0.5) -> np.ndarray:
+    """n random poses (n, nq): the root moved by ~1 m, every dof turned by N(0, scale) rad."""
+    rng = np.random.default_rng(seed)
+    q0 = np.tile(kin.model.qpos0, (n, 1))
+    q0[:, :3] += rng.normal(0, 1.0, (n, 3))
+    return kin.integrate(q0, rng.normal(0, scale, (n, kin.nv)))

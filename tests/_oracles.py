@@ -168,3 +168,39 @@ def numpy_solve_frames(
     qpos[active] = q
     rmse[active] = np.sqrt(np.einsum("bm,bmi,bmi->b", (wa > 0), res, res) / n_present[active])
     return IKResult(qpos, rmse, iterations, status, n_present)
+
+
+def mj_site_jacobian(kin: Kinematics, q: np.ndarray) -> np.ndarray:
+    """MuJoCo's site Jacobians (M, 3, nv) at pose q (nq,), with the knee rolling placed
+    (:func:`mj_jacobians`)."""
+    return mj_jacobians(kin, q, "site")
+
+
+def mj_jacobians(kin: Kinematics, q: np.ndarray, kind: str) -> np.ndarray:
+    """MuJoCo's Jacobians of every site (``kind="site"``, (M, 3, nv)) or body origin
+    (``"body"``, (nbody, 3, nv)) at pose q (nq,), with the knee rolling (mocap_mj.rolling)
+    placed and its term added: ``mj_jacSite``/``mj_jacBody`` of the placed bodies plus, for a
+    point below a rolling body, the origin's velocity R_parent dt/dq in the flexion column
+    (MuJoCo knows the hinge, not the coupling)."""
+    from mocap_mj import rolling
+
+    m = kin.model
+    data = mujoco.MjData(m)
+    data.qpos[:] = q
+    rolling.kinematics(m, data)
+    mujoco.mj_comPos(m, data)
+    if kind == "site":
+        n, point_body, jac = m.nsite, np.array(m.site_bodyid), mujoco.mj_jacSite
+    else:
+        n, point_body, jac = m.nbody, np.arange(m.nbody), mujoco.mj_jacBody
+    out = np.zeros((n, 3, m.nv))
+    for s in range(n):
+        jac(m, data, out[s], None, s)
+    roll = kin.rolling
+    if roll is not None:
+        _, dt = roll.translation(q[roll.qposadr][None])
+        for i, b in enumerate(roll.bodies):
+            vel = data.xmat[m.body_parentid[b]].reshape(3, 3) @ dt[0, i]
+            below = kin.ancestor[point_body, b]
+            out[below, :, m.jnt_dofadr[roll.joints[i]]] += vel
+    return out

@@ -12,6 +12,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from mocap_mj import rolling
 from mocap_mj.cli import main
 from mocap_mj.export.c3d import c3d_points, write_c3d
 from mocap_mj.export.clinical import CLINICAL_JOINTS, clinical_angles
@@ -123,9 +124,12 @@ def test_osim_loads_without_warnings_and_markers_match_mjcf(
     assert omodel.getTotalMass(state) == pytest.approx(70.0)
     data = mujoco.MjData(model)
     coords = model_coordinates(model)
-    for q in [model.qpos0, *_random_qpos(model, 2, seed=4)]:
+    flexed = _random_qpos(model, 3, seed=6)
+    for adr in rolling.read(model).qposadr:  # the knees' rolling, between the spline's knots
+        flexed[:, adr] = np.radians([47.3, 118.9, 137.4])
+    for q in [model.qpos0, *_random_qpos(model, 2, seed=4), *flexed]:
         data.qpos[:] = q
-        mujoco.mj_kinematics(model, data)
+        rolling.kinematics(model, data)
         for c, v in zip(coords, coordinate_values(model, q[None])[0], strict=True):
             omodel.getCoordinateSet().get(c.name).setValue(state, float(v), False)
         omodel.realizePosition(state)

@@ -1,7 +1,7 @@
 import mujoco
 import numpy as np
 
-from mocap_mj import ParameterSet
+from mocap_mj import ParameterSet, rolling
 from mocap_mj.joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
 
 
@@ -19,13 +19,15 @@ def test_joint_centres_are_the_child_body_origins() -> None:
     assert np.all(np.isnan(c[1]))
     data = mujoco.MjData(model)
     data.qpos[:] = qpos[2]
-    mujoco.mj_kinematics(model, data)
+    rolling.kinematics(model, data)  # the knee rolling placed (mocap_mj.rolling)
     knee = JOINT_CENTRE_NAMES.index("knee_l")
     np.testing.assert_allclose(c[2, knee], data.xpos[model.body("shank_l").id], atol=1e-12)
     hip = JOINT_CENTRE_NAMES.index("hip_l")
-    # Thigh length is the hip-knee distance in every pose.
+    # The hip-knee distance is the thigh length moved by the knee's rolling t(q).
+    roll = rolling.read(model)
+    t, _ = roll.translation(qpos[[0, 2, 3]][:, roll.qposadr])
     np.testing.assert_allclose(
         np.linalg.norm(c[[0, 2, 3], knee] - c[[0, 2, 3], hip], axis=1),
-        0.43 + 0.03,
+        np.linalg.norm(t[:, 0] + [0.0, 0.0, -(0.43 + 0.03)], axis=1),
         atol=1e-12,
     )

@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from mocap_mj import MocapError, ParameterSet
+from mocap_mj import MocapError, ParameterSet, rolling
 from mocap_mj.identify.anatomy import landmark_prior
 from mocap_mj.io import MarkerTrajectory, load_markers
 from mocap_mj.marker_set import marker_class
@@ -101,7 +101,7 @@ def test_clean_markers_are_truth_forward_kinematics(corrupt: Experiment) -> None
     data = mujoco.MjData(model)
     for t in (0, 123, CORRUPT.frames - 1):
         data.qpos[:] = corrupt.qpos[t]
-        mujoco.mj_kinematics(model, data)
+        rolling.kinematics(model, data)  # the knee rolling placed (mocap_mj.rolling)
         np.testing.assert_allclose(corrupt.markers_clean[t], data.site_xpos, atol=1e-12)
 
 
@@ -303,7 +303,7 @@ def test_truth_model_reloads_to_same_markers(tmp_path: Path, corrupt: Experiment
     assert tuple(names) == corrupt.marker_names
     for t in range(0, CORRUPT.frames, 37):
         data.qpos[:] = corrupt.qpos[t]
-        mujoco.mj_kinematics(model, data)
+        rolling.kinematics(model, data)  # the knee rolling placed (mocap_mj.rolling)
         np.testing.assert_allclose(data.site_xpos, corrupt.markers_clean[t], rtol=0, atol=1e-12)
     np.testing.assert_allclose(
         ParameterSet(tmp_path / "truth_model.xml").nominal, corrupt.theta_true, atol=1e-12

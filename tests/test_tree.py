@@ -6,10 +6,10 @@ import mujoco
 import numba
 import numpy as np
 import pytest
-from _motion import smooth_motion
-from _oracles import numpy_solve_frames
+from _motion import random_poses, smooth_motion
+from _oracles import mj_site_jacobian, numpy_solve_frames
 
-from mocap_mj import Kinematics
+from mocap_mj import Kinematics, rolling
 from mocap_mj import _tree as tree_kernels
 from mocap_mj.ik import IKSettings, IKSolver
 
@@ -36,10 +36,7 @@ def kin() -> Kinematics:
 
 
 def poses(kin: Kinematics, n: int, seed: int) -> np.ndarray:
-    rng = np.random.default_rng(seed)
-    q0 = np.tile(kin.model.qpos0, (n, 1))
-    q0[:, :3] += rng.normal(0, 1.0, (n, 3))
-    return kin.integrate(q0, rng.normal(0, 0.5, (n, kin.nv)))
+    return random_poses(kin, n, seed)
 
 
 def test_fk_matches_mj_kinematics(kin: Kinematics) -> None:
@@ -48,7 +45,7 @@ def test_fk_matches_mj_kinematics(kin: Kinematics) -> None:
     data = mujoco.MjData(kin.model)
     for q in poses(kin, 20, 1):
         data.qpos[:] = q
-        mujoco.mj_kinematics(kin.model, data)
+        rolling.kinematics(kin.model, data)  # the knee rolling placed, mocap_mj.rolling
         fk(tr, q, w)
         np.testing.assert_allclose(w.site_xpos, data.site_xpos, rtol=0, atol=1e-12)
         np.testing.assert_allclose(w.xpos, data.xpos, rtol=0, atol=1e-12)
@@ -70,18 +67,11 @@ def test_tree_follows_theta(kin: Kinematics) -> None:
 def test_jacobian_matches_mj_jac_site(kin: Kinematics) -> None:
     tr = kin.tree()
     w = tree_kernels.work(tr, kin.nq)
-    data = mujoco.MjData(kin.model)
     jac = np.zeros((kin.n_markers, 3, kin.nv))
-    jac_p = np.zeros((3, kin.nv))
     for q in poses(kin, 5, 3):
-        data.qpos[:] = q
-        mujoco.mj_kinematics(kin.model, data)
-        mujoco.mj_comPos(kin.model, data)
         fk(tr, q, w)
         tree_kernels.jacobian(tr, w, jac)
-        for s in range(kin.n_markers):
-            mujoco.mj_jacSite(kin.model, data, jac_p, None, s)
-            np.testing.assert_allclose(jac[s], jac_p, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(jac, mj_site_jacobian(kin, q), rtol=0, atol=1e-12)
 
 
 def test_normal_equations_and_sparse_solve(kin: Kinematics) -> None:

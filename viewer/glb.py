@@ -18,6 +18,7 @@ import mujoco
 import numpy as np
 import trimesh
 
+from mocap_mj import rolling
 from mocap_mj.errors import MocapError
 from mocap_mj.io.atomic import atomic_write_bytes
 
@@ -83,7 +84,7 @@ def export_glb(
     n_nodes = 0
     if floor:
         data = mujoco.MjData(model)
-        mujoco.mj_kinematics(model, data)
+        rolling.kinematics(model, data)
         statics = [g for g in geom_meshes(model) if g.static]
         for g, pose in zip(statics, geom_poses(data, [g.geom_id for g in statics]), strict=True):
             scene.geometry[f"world/{g.name}"] = with_colour(g.mesh, g.rgba, g.texture)
@@ -98,7 +99,7 @@ def export_glb(
         parent = frame_node(k)
         scene.graph.update(frame_to=parent, frame_from=base, matrix=np.eye(4))
         data.qpos[:] = playback.qpos[k]
-        mujoco.mj_kinematics(model, data)
+        rolling.kinematics(model, data)
         for g, pose in zip(bodies, geom_poses(data, [g.geom_id for g in bodies]), strict=True):
             scene.graph.update(
                 frame_to=f"{parent}/{g.name}", frame_from=parent, matrix=pose, geometry=g.name

@@ -22,6 +22,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from mocap_mj import rolling
 from mocap_mj.errors import MocapError
 
 from .playback import Ghost, Playback
@@ -303,7 +304,7 @@ def run_viewer(
                 guard.update(handle)
                 data.qpos[:] = playback.qpos[frame]
                 data.time = float(playback.times[frame])
-                mujoco.mj_forward(model, data)
+                rolling.kinematics(model, data, mujoco.mj_forward)
                 scn = handle.user_scn
                 scn.ngeom = 0
                 decorate(scn, playback, frame, layers, style, ghost if layers.ghost else None)

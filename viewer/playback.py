@@ -14,6 +14,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from mocap_mj import rolling
 from mocap_mj.errors import InputFileError, MocapError, ShapeError
 from mocap_mj.model import load_model, model_path
 from mocap_mj.results import Motion, ResultDir, load_motion
@@ -36,7 +37,7 @@ def marker_positions(model: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
     out = np.empty((len(qpos), model.nsite, 3))
     for t, q in enumerate(qpos):
         data.qpos[:] = q
-        mujoco.mj_kinematics(model, data)
+        rolling.kinematics(model, data)
         out[t] = data.site_xpos
     return out
 
@@ -263,7 +264,7 @@ class Ghost:
     def pose(self, qpos: np.ndarray) -> None:
         """Put the ghost in pose ``qpos`` (nq,) and compute its geom placements."""
         self.data.qpos[:] = qpos
-        mujoco.mj_kinematics(self.model, self.data)
+        rolling.kinematics(self.model, self.data)
 
 
 def load_ghost(spec: str, main: mujoco.MjModel, result_dir: str | Path | None = None) -> Ghost:

@@ -27,6 +27,7 @@ import numpy as np
 import trimesh
 from numpy.typing import ArrayLike
 
+from mocap_mj import rolling
 from mocap_mj.errors import MocapError, UnknownNameError
 
 from .meshes import geom_meshes, geom_poses, primitives_mesh
@@ -162,7 +163,7 @@ class MujocoFrameRenderer:
         pb, d = self.playback, self.data
         d.qpos[:] = pb.qpos[frame]
         d.time = float(pb.times[frame])
-        mujoco.mj_forward(self.model, d)
+        rolling.kinematics(self.model, d, mujoco.mj_forward)
         self._renderer.update_scene(d, camera=self.camera)
         scn = self._renderer.scene
         if self.fast:
@@ -323,7 +324,7 @@ class PyrenderFrameRenderer:
     def render(self, frame: int) -> np.ndarray:
         pb, d, scene = self.playback, self.data, self._scene
         d.qpos[:] = pb.qpos[frame]
-        mujoco.mj_forward(pb.model, d)
+        rolling.kinematics(pb.model, d, mujoco.mj_forward)
         poses = geom_poses(d, [g.geom_id for g in self._geoms])
         for node, pose in zip(self._geom_nodes, poses, strict=True):
             scene.set_pose(node, pose)

@@ -12,13 +12,18 @@ y -> -z, z -> y); ``up="z"`` keeps the MJCF world. Marker files for this model m
 same up axis (:func:`mocap_mj.export.trc.write_trc`). The MJCF capsules and spheres are drawn
 as OpenSim cylinders and spheres.
 
+A knee that rolls (:mod:`mocap_mj.rolling`) gets its translation functions of the flexion
+coordinate, as gait2392's knee: the joint's ``translation1..3`` (parent-frame x, y, z) are
+``SimmSpline`` functions sampled from the model's t(q) every :data:`ROLLING_STEP` over the
+coordinate's range and :data:`ROLLING_MARGIN` beyond each end (within 2 micrometres of it).
+
 Masses and inertias are the MJCF's (from its display geoms at 1000 kg/m^3), multiplied by
 ``mass / total`` when the subject's ``mass`` [kg] is given, so that the bodies sum to it.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
@@ -26,6 +31,7 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from .. import rolling
 from ..errors import MocapError
 from ..io.atomic import atomic_write_text
 from .coordinates import Coordinate, model_coordinates
@@ -35,6 +41,9 @@ OSIM_VERSION = "40600"
 #: Ground-frame orientations (body-fixed X-Y-Z angles [rad]) per up axis.
 UP_ORIENTATION = {"y": (-np.pi / 2, 0.0, 0.0), "z": (0.0, 0.0, 0.0)}
 _GRAVITY = 9.80665
+#: Knot spacing and the extent past the coordinate's range of the rolling splines [rad].
+ROLLING_STEP = np.radians(2.5)
+ROLLING_MARGIN = np.radians(30.0)
 
 
 def up_rotation(up: str) -> np.ndarray:
@@ -86,13 +95,26 @@ def _orthogonal_axes(used: list[tuple[float, float, float]]) -> list[np.ndarray]
     return axes[len(used) :]
 
 
+#: A translation as a function of a coordinate: (coordinate name, knots (n,) [rad],
+#: values (n,) [m]).
+Spline = tuple[str, np.ndarray, np.ndarray]
+
+
 def _transform_axis(
-    parent: ET.Element, name: str, coordinate: str | None, axis: Iterable[float]
+    parent: ET.Element,
+    name: str,
+    coordinate: str | None,
+    axis: Iterable[float],
+    spline: Spline | None = None,
 ) -> None:
     ta = _sub(parent, "TransformAxis", name=name)
-    _sub(ta, "coordinates", coordinate or "")
+    _sub(ta, "coordinates", spline[0] if spline else coordinate or "")
     _sub(ta, "axis", _vec(axis))
-    if coordinate:
+    if spline:
+        fn = _sub(ta, "SimmSpline", name="function")
+        _sub(fn, "x", _vec(spline[1]))
+        _sub(fn, "y", _vec(spline[2]))
+    elif coordinate:
         fn = _sub(ta, "LinearFunction", name="function")
         _sub(fn, "coefficients", "1 0")
     else:
@@ -109,6 +131,7 @@ def _custom_joint(
     translation: np.ndarray,
     orientation: Iterable[float],
     coords: list[Coordinate],
+    rolling_splines: list[Spline] | None = None,
 ) -> None:
     joint = _sub(parent, "CustomJoint", name=name)
     _sub(joint, "socket_parent_frame", f"{parent_name}_offset")
@@ -134,8 +157,31 @@ def _custom_joint(
     for i, (cname, axis) in enumerate(rot_axes):
         _transform_axis(st, f"rotation{i + 1}", cname, axis)
     by_axis = {tuple(float(v) for v in c.axis): c.name for c in trans}
+    if rolling_splines and trans:
+        raise MocapError(f"body {child!r}: a rolling joint with translational coordinates")
     for i, unit in enumerate(np.eye(3)):
-        _transform_axis(st, f"translation{i + 1}", by_axis.get(tuple(unit.tolist())), unit)
+        spline = rolling_splines[i] if rolling_splines else None
+        _transform_axis(st, f"translation{i + 1}", by_axis.get(tuple(unit.tolist())), unit, spline)
+
+
+def _rolling_splines(
+    model: mujoco.MjModel, coords: Sequence[Coordinate]
+) -> dict[int, list[Spline]]:
+    """Per rolling body: its parent-frame x, y, z translations as splines of the flexion
+    coordinate (:mod:`mocap_mj.rolling`), sampled over the coordinate's range and a margin."""
+    roll = rolling.read(model)
+    if roll is None:
+        return {}
+    out = {}
+    for i, (b, j) in enumerate(zip(roll.bodies, roll.joints, strict=True)):
+        c = next(c for c in coords if c.joint == j)
+        lo, hi = c.range[0] - ROLLING_MARGIN, c.range[1] + ROLLING_MARGIN
+        x = np.linspace(lo, hi, int(np.ceil((hi - lo) / ROLLING_STEP)) + 1)
+        q = np.zeros((x.size, roll.bodies.size))
+        q[:, i] = x
+        t, _ = roll.translation(q)
+        out[int(b)] = [(c.name, x, t[:, i, k]) for k in range(3)]
+    return out
 
 
 def _inertia(model: mujoco.MjModel, b: int, scale: float) -> tuple[float, np.ndarray, np.ndarray]:
@@ -221,6 +267,7 @@ def osim_xml(
         raise MocapError(f"subject mass {mass}: expected a positive number of kilograms")
     scale = 1.0 if mass is None or total <= 0 else mass / total
     coords = model_coordinates(model)
+    splines = _rolling_splines(model, coords)
     by_joint: dict[int, list[Coordinate]] = {}
     for c in coords:
         by_joint.setdefault(c.joint, []).append(c)
@@ -255,7 +302,7 @@ def osim_xml(
         free = any(not c.rotational for c in jcoords)
         pos = np.zeros(3) if free else model.body_pos[b]
         if jcoords:
-            _custom_joint(joints, bname, psock, pname, bname, pos, orient, jcoords)
+            _custom_joint(joints, bname, psock, pname, bname, pos, orient, jcoords, splines.get(b))
         else:
             joint = _sub(joints, "WeldJoint", name=bname)
             _sub(joint, "socket_parent_frame", f"{pname}_offset")

@@ -17,6 +17,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from .. import rolling
 from ..errors import InputFileError
 from ..model import load_model
 from ..results import Motion, ResultDir, load_motion
@@ -60,7 +61,7 @@ def posed_frames(model: mujoco.MjModel, qpos: np.ndarray) -> Iterator[tuple[int,
     for t, q in enumerate(np.asarray(qpos, dtype=float)):
         if np.all(np.isfinite(q)):
             data.qpos[:] = q
-            mujoco.mj_kinematics(model, data)
+            rolling.kinematics(model, data)
             yield t, data
 
 

@@ -12,6 +12,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from .. import rolling
 from ..errors import check_shape
 from ..io.atomic import atomic_write_text
 from ..joint_centres import JOINT_CENTRES
@@ -85,7 +86,7 @@ def write_residuals_csv(
 def segment_lengths(model: mujoco.MjModel) -> np.ndarray:
     """Lengths (S,) [m] of :data:`SEGMENTS` in the reference pose (``qpos0``)."""
     data = mujoco.MjData(model)
-    mujoco.mj_kinematics(model, data)
+    rolling.kinematics(model, data)
     body = {name: model.body(b).id for name, b in JOINT_CENTRES}
     return np.array(
         [np.linalg.norm(data.xpos[body[a]] - data.xpos[body[b]]) for _, a, b in SEGMENTS]

@@ -102,7 +102,7 @@ def identify_to_folder(
     t0 = time.perf_counter()
     _check_inputs(trials, pset, init)
     init_used = "given" if theta0 is not None else init
-    theta0, scales = _initial_theta(trials, pset, theta0, init)
+    theta0, scales, pset = _initial_theta(trials, pset, theta0, init)
     subject = subject or Subject()
     prior_options: dict[str, Any] = {
         "subject": subject,
@@ -296,22 +296,27 @@ def _initial_theta(
     pset: ParameterSet,
     theta0: np.ndarray | None,
     init: str,
-) -> tuple[np.ndarray | None, dict[str, float]]:
-    """The initial model (P,) of :func:`identify_to_folder` and the segment scale estimates
-    behind it (name -> factor; empty unless ``init`` scaled the nominal model).
+) -> tuple[np.ndarray | None, dict[str, float], ParameterSet]:
+    """The initial model (P,) of :func:`identify_to_folder`, the segment scale estimates
+    behind it (name -> factor; empty unless ``init`` scaled the nominal model) and the
+    parameter set to solve with: ``pset`` with its knee rolling scaled to the initial model
+    (:meth:`ParameterSet.with_rolling_scaled`, fixed for the solve).
 
-    A given ``theta0`` is kept; otherwise ``init="nominal"`` leaves it None (the solver starts
-    from the nominal model), ``"scaled"`` scales the nominal model to the trials' marker
-    distances and ``"placed"`` also places the marker offsets by IK."""
+    A given ``theta0`` is kept with the model file's rolling (an exported model.xml holds its
+    subject's), as is the nominal model; otherwise ``init="nominal"`` leaves it None (the
+    solver starts from the nominal model), ``"scaled"`` scales the
+    nominal model to the trials' marker distances and ``"placed"`` also places the marker
+    offsets by IK (with the scaled rolling)."""
     scales: dict[str, float] = {}
     if theta0 is None and init != "nominal":
         markers = [t.markers for t in trials]
         estimates = segment_scales(pset, markers)
         theta0 = scaled_theta(pset, markers, scales=estimates)
         scales = {n: e.value for n, e in estimates.items()}
+        pset = pset.with_rolling_scaled(theta0)
         if init == "placed":
             theta0 = place_markers(pset, theta0, markers)
-    return theta0, scales
+    return theta0, scales, pset
 
 
 def _solve(
