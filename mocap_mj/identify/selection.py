@@ -102,8 +102,8 @@ def select_frames(
         raise MocapError("no frame has all four pelvis markers: cannot select frames")
     if count >= len(cand) and stride == 1:
         return Selection(cand, len(cand), 0.0, 0.0)
-    mean = np.nanmean(feats, axis=0)
-    mean = np.where(np.isfinite(mean), mean, 0.0)
+    seen = np.isfinite(feats).sum(axis=0)  # a marker missing throughout gives a column of NaN
+    mean = np.where(seen > 0, np.nansum(feats, axis=0) / np.maximum(seen, 1), 0.0)
     feats = np.where(np.isfinite(feats), feats, mean)
     centred = feats - mean
     _, vec = np.linalg.eigh(centred.T @ centred)  # principal axes, ascending variance
