@@ -25,6 +25,7 @@ figures and a JSON line.
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import resource
 import subprocess
@@ -40,7 +41,20 @@ from mocap_mj.identify.identifiability import Identifiability
 from mocap_mj.identify.lm import LMResult, LMSettings, TrialData, identify_lm
 from mocap_mj.identify.long import identify_long
 from mocap_mj.identify.problem import IdentificationProblem
+from mocap_mj.model import model_path
 from mocap_mj.score import align_gauge_free, align_truth
+
+
+def model_digest() -> str:
+    """A fingerprint of the bundled model the cache's truth was synthesized with."""
+    return hashlib.sha256(model_path().read_bytes()).hexdigest()[:16]
+
+
+def cache_is_current(cache: Path) -> bool:
+    """The cache is complete and made with today's bundled model (a truth from another model,
+    e.g. before the knee's rolling, would score the estimator against a different skeleton)."""
+    done = cache / "done"
+    return done.exists() and json.loads(done.read_text()).get("model") == model_digest()
 
 
 def synthesize_cache(cache: Path, frames: int, seed: int) -> None:
@@ -57,7 +71,8 @@ def synthesize_cache(cache: Path, frames: int, seed: int) -> None:
     np.save(cache / "clean.npy", np.concatenate([p.markers_clean for p in parts]))
     np.save(cache / "times.npy", np.arange(frames) / rate)
     np.save(cache / "theta_true.npy", parts[0].theta_true)
-    (cache / "done").write_text(json.dumps({"frames": frames, "seed": seed, "sigma": 1e-3}))
+    done = {"frames": frames, "seed": seed, "sigma": 1e-3, "model": model_digest()}
+    (cache / "done").write_text(json.dumps(done))
 
 
 def observable_error(
@@ -138,7 +153,7 @@ def main() -> None:
     if args.synth_only:
         synthesize_cache(cache, args.frames, args.seed)
         return
-    if not (cache / "done").exists():
+    if not cache_is_current(cache):
         t = time.perf_counter()
         cmd = [sys.executable, __file__, "--synth-only", "--frames", str(args.frames)]
         subprocess.run([*cmd, "--seed", str(args.seed), "--cache", args.cache], check=True)

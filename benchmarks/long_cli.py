@@ -61,7 +61,10 @@ def main() -> None:
     ap.add_argument("identify_args", nargs="*", help="more identify options (after --)")
     args = ap.parse_args()
     cache = Path(args.cache) / f"{args.frames}-{args.seed}"
-    if not (cache / "done").exists():
+    sys.path.insert(0, str(Path(__file__).parent))
+    from long import cache_is_current
+
+    if not cache_is_current(cache):
         here = Path(__file__).parent / "long.py"
         cmd = [sys.executable, str(here), "--synth-only", "--frames", str(args.frames)]
         subprocess.run([*cmd, "--seed", str(args.seed), "--cache", args.cache], check=True)
