@@ -223,7 +223,7 @@ def _segment_findings(
                 if step is not None:
                     size, at, before, after = step
                     steps[(i, j)] = (size, int(idx[np.flatnonzero(ok)[at]]), before, after)
-        for i, j, others, v in _attribute(spread):
+        for i, others, v in _attribute(spread):
             out.append(
                 _line(
                     path,
@@ -236,8 +236,9 @@ def _segment_findings(
                     f"varies by {v * 1e3:.0f} mm (p5-p95) over the trial",
                 )
             )
-        for i, j, others, v in _attribute({k: s[0] for k, s in steps.items()}):
-            size, at, before, after = steps[(i, j) if (i, j) in steps else (j, i)]
+        for i, others, v in _attribute({k: s[0] for k, s in steps.items()}):
+            j = others[0]
+            _, at, before, after = steps[(i, j) if (i, j) in steps else (j, i)]
             frames = (first + at, first + len(x))
             out.append(
                 _line(
@@ -285,8 +286,8 @@ def _step(d: np.ndarray) -> tuple[float, int, float, float] | None:
 
 def _attribute(
     flagged: dict[tuple[int, int], float],
-) -> list[tuple[int, int, list[int], float]]:
-    """Flagged pairs -> (suspect, any partner, its flagged partners, largest value): a marker
+) -> list[tuple[int, list[int], float]]:
+    """Flagged pairs -> (suspect, its flagged partners, largest value): a marker
     in two or more flagged pairs is the suspect of them all; the other pairs stay pairs."""
     count: dict[int, int] = {}
     for i, j in flagged:
@@ -302,10 +303,10 @@ def _attribute(
             continue
         done.update(pairs)
         others = [p[0] if p[1] == m else p[1] for p in pairs]
-        out.append((m, others[0], others, max(flagged[p] for p in pairs)))
+        out.append((m, others, max(flagged[p] for p in pairs)))
     for p, v in flagged.items():
         if p not in done:
-            out.append((p[0], p[1], [p[1]], v))
+            out.append((p[0], [p[1]], v))
     return out
 
 

@@ -8,9 +8,6 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
-from mocap_synth.config import SynthConfig
-from mocap_synth.experiment import Experiment, synthesize
-from mocap_synth.noise import apply_swaps
 
 from mocap_mj.errors import UnknownNameError
 from mocap_mj.io import load_markers
@@ -22,6 +19,9 @@ from mocap_mj.marker_quality import (
     suspects,
 )
 from mocap_mj.parameters import ParameterSet
+from mocap_synth.config import SynthConfig
+from mocap_synth.experiment import Experiment, synthesize
+from mocap_synth.noise import apply_swaps
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 RATE = 100.0
@@ -115,7 +115,7 @@ def test_marker_restuck_30mm_away_halfway(pset: ParameterSet) -> None:
 def test_exclude_markers(pset: ParameterSet) -> None:
     names = pset.marker_names
     assert parse_marker_list("RELB, RWRA", names) == ("RELB", "RWRA")
-    with pytest.raises(UnknownNameError, match="unknown marker .*'RELBOW'"):
+    with pytest.raises(UnknownNameError, match=r"unknown marker .*'RELBOW'"):
         parse_marker_list("RELBOW", names)
     x = np.ones((4, len(names), 3))
     out = exclude_markers(x, names, ("RELB",))
