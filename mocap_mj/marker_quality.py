@@ -33,7 +33,7 @@ frames (no solve): it runs on hour-long recordings too.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -92,12 +92,14 @@ _STEP_BLOCKS = 400
 class Finding:
     """One piece of evidence that marker data cannot be trusted.
 
-    kind: ``spread``, ``step``, ``jump``, ``swap``, ``distance`` or ``asymmetry``;
+    file: the marker file; kind: ``spread``, ``step``, ``jump``, ``swap``, ``distance`` or
+    ``asymmetry``;
     markers: the marker(s) it names, suspect first; frames: [first, last) of the file's
     frames it concerns (None: the whole trial); value_mm: the measured figure [mm];
     expected: what a trustworthy marker would give; message: the one-line text.
     """
 
+    file: str
     kind: str
     markers: tuple[str, ...]
     frames: tuple[int, int] | None
@@ -107,6 +109,7 @@ class Finding:
 
     def to_json(self) -> dict[str, Any]:
         return {
+            "file": self.file,
             "kind": self.kind,
             "markers": list(self.markers),
             "frames": None if self.frames is None else list(self.frames),
@@ -149,21 +152,20 @@ def suspects(findings: Sequence[Finding]) -> dict[str, int]:
     return dict(sorted(count.items(), key=lambda kv: (-kv[1], kv[0])))
 
 
-def quality_lines(findings: Sequence[Finding], excluded: Sequence[str] = ()) -> list[str]:
-    """The report.md section on marker data quality."""
+def quality_lines(entry: Mapping[str, Any]) -> list[str]:
+    """The report.md section on marker data quality from summary.json's ``marker_quality``
+    entry (``findings`` as :meth:`Finding.to_json`, ``suspects``, ``excluded``)."""
     lines = ["## Marker data quality", ""]
-    if excluded:
+    if entry.get("excluded"):
         lines.append(
-            f"- excluded by --exclude-markers: {', '.join(excluded)} (their data dropped: "
-            "their offsets are not identified, they stay at their prior)"
+            f"- excluded by --exclude-markers: {', '.join(entry['excluded'])} (their data "
+            "dropped: their offsets are not identified, they stay at their prior)"
         )
-    if not findings:
-        lines.append('- no finding (docs/real-data.md, "Marker data quality")')
-        return [*lines, ""]
-    lines += [f"- {f.message}" for f in findings]
-    named = ", ".join(f"{n} ({c})" for n, c in suspects(findings).items())
-    lines += [f"- markers named: {named}; drop them with --exclude-markers NAME[,NAME]", ""]
-    return lines
+    if not entry.get("findings"):
+        return [*lines, '- no finding (docs/real-data.md, "Marker data quality")', ""]
+    lines += [f"- {f['message']}" for f in entry["findings"]]
+    named = ", ".join(f"{n} ({c})" for n, c in entry["suspects"].items())
+    return [*lines, f"- markers named: {named}; drop them with --exclude-markers NAME[,NAME]", ""]
 
 
 def parse_marker_list(text: str | None, names: Sequence[str]) -> tuple[str, ...]:
@@ -317,11 +319,9 @@ def _jump_findings(
     if len(x) < 3:
         return []
     limit = max(JUMP_MIN, ACCEL_MAX / rate**2)
-    x = np.asarray(x, dtype=float)
-    pred = 2 * x[1:-1] - x[:-2]  # (T-2, M, 3): the prediction of frames 2..T-1
-    err = np.linalg.norm(x[2:] - pred, axis=2)
+    err = _prediction_error(x)  # (T-2, M): of frames 2..T-1
     with np.errstate(invalid="ignore"):
-        jump = err > limit  # (T-2, M)
+        jump = err > limit
     onset = jump.copy()
     onset[1:] &= ~jump[:-1]  # a jump at t also spoils the prediction of t+1
     out: list[Finding] = []
@@ -329,10 +329,12 @@ def _jump_findings(
     lone: dict[int, list[tuple[int, float]]] = {}
     for r, i in zip(*np.nonzero(onset), strict=True):
         t = int(r) + 2
-        near = np.linalg.norm(x[t] - pred[r, i], axis=1)  # who landed on i's prediction
+        xt = np.asarray(x[t], dtype=float)
+        pred = 2 * np.asarray(x[t - 1], dtype=float) - x[t - 2]  # (M, 3)
+        near = np.linalg.norm(xt - pred[i], axis=1)  # who landed on i's prediction
         near[i] = np.inf
-        k = int(np.nanargmin(np.where(np.isfinite(near), near, np.inf)))
-        back = float(np.linalg.norm(x[t, i] - pred[r, k]))
+        k = int(np.argmin(np.where(np.isfinite(near), near, np.inf)))
+        back = float(np.linalg.norm(xt[i] - pred[k]))
         if near[k] < limit / 2 and back < limit / 2 and jump[r, k]:
             if i < k:
                 swaps.setdefault((i, k), []).append(t)
@@ -371,6 +373,17 @@ def _jump_findings(
                 f"{biggest * 1e3:.0f} mm (a ghost, a label change or a re-stick?)",
             )
         )
+    return out
+
+
+def _prediction_error(x: np.ndarray) -> np.ndarray:
+    """(T-2, M) [m]: |x(t) - (2 x(t-1) - x(t-2))| for t = 2..T-1, chunk by chunk (x may be
+    a memory map of an hour-long recording)."""
+    out = np.empty((len(x) - 2, x.shape[1]))
+    for a in range(0, len(x) - 2, _MAX_SAMPLES):
+        b = min(a + _MAX_SAMPLES, len(x) - 2)
+        c = np.asarray(x[a : b + 2], dtype=float)
+        out[a:b] = np.linalg.norm(c[2:] - 2 * c[1:-1] + c[:-2], axis=2)
     return out
 
 
@@ -437,4 +450,4 @@ def _line(
 ) -> Finding:
     where = "all frames" if frames is None else f"frames {frames[0]}-{frames[1] - 1}"
     message = f"{path}: {text} [{kind}, {where}; expected {expected}]"
-    return Finding(kind, markers, frames, float(value_mm), expected, message)
+    return Finding(path, kind, markers, frames, float(value_mm), expected, message)
