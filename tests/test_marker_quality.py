@@ -3,19 +3,22 @@ clean synthetic trials with soft tissue and the shared real trials give no findi
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
 
+from mocap_mj.cli import main
 from mocap_mj.errors import UnknownNameError
-from mocap_mj.io import load_markers
+from mocap_mj.io import MarkerTrajectory, load_markers, save_csv
 from mocap_mj.kinematics import Kinematics
 from mocap_mj.marker_quality import (
     check_marker_quality,
     exclude_markers,
     parse_marker_list,
+    quality_lines,
     suspects,
 )
 from mocap_mj.parameters import ParameterSet
@@ -149,3 +152,69 @@ def test_read_notworking2_names_the_right_elbow(pset: ParameterSet) -> None:
     assert next(iter(suspects(found))) == "RELB", [f.message for f in found]
     distance = [f for f in found if f.kind == "distance"]
     assert {f.markers for f in distance} == {("RELB", "RWRA"), ("RELB", "RWRB")}
+
+
+@pytest.fixture(scope="module")
+def swapped_csv(pset: ParameterSet, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A 120-frame ROM with LWRA and LWRB swapped in frames 40-79, as a mocap-mj CSV."""
+    exp = synthesize(SynthConfig(frames=120, rate=RATE, sta_mm=10.0, seed=3), pset)
+    markers = apply_swaps(np.asarray(exp.markers), pset.marker_names, [("LWRA", "LWRB", 40, 79)])
+    path = tmp_path_factory.mktemp("quality") / "swapped.csv"
+    save_csv(path, MarkerTrajectory(exp.times, markers, pset.marker_names, RATE))
+    return path
+
+
+def _ik(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, list[str]]:
+    code = main(["ik", *argv])
+    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("mocap-mj ik")]
+    return code, err
+
+
+def test_ik_warns_records_and_strict_refuses(
+    swapped_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, err = _ik(capsys, "--markers", str(swapped_csv), "--out", str(tmp_path / "a"))
+    assert code == 0
+    assert any(
+        "warning: " in e and "LWRA and LWRB: labels swapped in frames 40-79" in e for e in err
+    )
+    quality = json.loads((tmp_path / "a" / "summary.json").read_text())["marker_quality"]
+    assert [(f["kind"], f["frames"]) for f in quality["findings"]] == [("swap", [40, 80])]
+    assert quality["findings"][0]["file"] == str(swapped_csv)
+
+    code, err = _ik(capsys, "--markers", str(swapped_csv), "--out", str(tmp_path / "b"), "--strict")
+    assert code == 2 and len(err) == 1 and "--strict" in err[0] and "LWRA and LWRB" in err[0]
+    assert not (tmp_path / "b").exists()
+
+    code, err = _ik(capsys, "--markers", str(swapped_csv), "--out", str(tmp_path / "c"),
+                    "--exclude-markers", "LWRA,LWRX")  # fmt: skip
+    assert code == 2 and len(err) == 1 and "unknown marker (--exclude-markers) 'LWRX'" in err[0]
+
+    # Without LWRA, LWRB's track still jumps; without both, nothing is left to find.
+    code, err = _ik(capsys, "--markers", str(swapped_csv), "--out", str(tmp_path / "d"),
+                    "--exclude-markers", "LWRA")  # fmt: skip
+    assert code == 0 and any("LWRB: 2 jump(s)" in e for e in err), err
+    code, err = _ik(capsys, "--markers", str(swapped_csv), "--out", str(tmp_path / "e"),
+                    "--exclude-markers", "LWRA,LWRB", "--strict")  # fmt: skip
+    assert code == 0 and err == []
+    summary = json.loads((tmp_path / "e" / "summary.json").read_text())
+    assert summary["marker_quality"] == {
+        "findings": [],
+        "suspects": {},
+        "excluded": ["LWRA", "LWRB"],
+    }
+    assert set(summary["markers_without_data"]) == {"LWRA", "LWRB"}
+
+
+def test_report_section() -> None:
+    entry = {
+        "findings": [{"message": "t.c3d: RELB-RWRA: median distance 118 mm ..."}],
+        "suspects": {"RELB": 2, "RWRA": 1},
+        "excluded": ["RFIN"],
+    }
+    text = "\n".join(quality_lines(entry))
+    assert text.startswith("## Marker data quality")
+    assert "excluded by --exclude-markers: RFIN" in text
+    assert "- t.c3d: RELB-RWRA: median distance 118 mm" in text
+    assert "RELB (2), RWRA (1)" in text
+    assert "no finding" in "\n".join(quality_lines({"findings": [], "suspects": {}}))

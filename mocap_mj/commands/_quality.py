@@ -71,11 +71,13 @@ def check_trials(
         )
     for f in found:
         print(f"mocap-mj {args.command}: warning: {f.message}", file=sys.stderr)
-    if found:
+    if named:
+        top = [n for n, c in named.items() if c == max(named.values())]
         print(
-            f"mocap-mj {args.command}: warning: markers named by the data-quality check: "
-            f"{', '.join(f'{n} ({c})' for n, c in named.items())}; --exclude-markers "
-            f'{",".join(named)} drops them (docs/real-data.md, "Marker data quality")',
+            f"mocap-mj {args.command}: warning: markers named by the data-quality check "
+            f"(times named): {', '.join(f'{n} ({c})' for n, c in named.items())}; the most "
+            f"named first: --exclude-markers {','.join(top)} drops its data (docs/real-data.md,"
+            ' "Marker data quality")',
             file=sys.stderr,
         )
     entry = {
