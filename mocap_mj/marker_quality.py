@@ -234,8 +234,7 @@ def _segment_findings(
                     None,
                     v * 1e3,
                     f"<= {SPREAD_MAX * 1e3:.0f} mm on one segment",
-                    f"{names[i]}: its distance to {_and(names, others)} (same segment) "
-                    f"varies by {v * 1e3:.0f} mm (p5-p95) over the trial",
+                    f"{_who(names, i, others)} varies by {v * 1e3:.0f} mm (p5-p95) over the trial",
                 )
             )
         for i, others, v in _attribute({k: s[0] for k, s in steps.items()}):
@@ -250,9 +249,8 @@ def _segment_findings(
                     frames,
                     v * 1e3,
                     f"< {STEP_MIN * 1e3:.0f} mm (fixed on its segment)",
-                    f"{names[i]}: its distance to {_and(names, others)} (same segment) changes "
-                    f"for good at frame {frames[0]}, {before * 1e3:.0f} -> {after * 1e3:.0f} mm "
-                    "(re-stuck or slipped?)",
+                    f"{_who(names, i, others)} changes for good at frame {frames[0]}, "
+                    f"{before * 1e3:.0f} -> {after * 1e3:.0f} mm (re-stuck or slipped?)",
                 )
             )
     return out
@@ -435,8 +433,11 @@ def _bone_findings(path: str, names: Sequence[str], x: np.ndarray) -> list[Findi
     return out
 
 
-def _and(names: Sequence[str], idx: Sequence[int]) -> str:
-    return ", ".join(names[k] for k in idx)
+def _who(names: Sequence[str], i: int, others: Sequence[int]) -> str:
+    """The subject of a same-segment finding: a suspect and its partners, or a pair."""
+    if len(others) == 1:
+        return f"{names[i]}-{names[others[0]]}: the distance of these two markers of one segment"
+    return f"{names[i]}: its distance to {', '.join(names[k] for k in others)} (same segment)"
 
 
 def _line(

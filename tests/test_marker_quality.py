@@ -58,6 +58,16 @@ def test_clean_trial_with_soft_tissue_has_no_finding(pset: ParameterSet, motion:
     assert _check(pset, np.asarray(exp.markers)) == []
 
 
+def test_demo_data_have_no_finding(pset: ParameterSet) -> None:
+    # mocap-mj demo's trials: the ROM it fits and the walk it holds out (its defaults).
+    for motion, frames in (("rom", 500), ("walk", 200)):
+        exp = synthesize(SynthConfig(frames=frames, noise_mm=1.0, seed=0, motion=motion), pset)
+        found = check_marker_quality(
+            "demo", pset.marker_names, np.asarray(exp.markers), exp.config.rate, _segments(pset)
+        )
+        assert found == [], [f.message for f in found]
+
+
 def test_left_right_swaps_found_with_their_frames(pset: ParameterSet) -> None:
     exp = _trial(pset, "walk", swaps=2)
     found = [f for f in _check(pset, np.asarray(exp.markers)) if f.kind == "swap"]
