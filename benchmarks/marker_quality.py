@@ -14,11 +14,10 @@ import argparse
 import time
 
 import numpy as np
-from mocap_synth import SynthConfig, synthesize
 
-from mocap_mj.commands._quality import segments_of
-from mocap_mj.marker_quality import check_marker_quality
+from mocap_mj.marker_quality import check_marker_quality, marker_segments
 from mocap_mj.parameters import ParameterSet
+from mocap_synth import SynthConfig, synthesize
 
 
 def main() -> None:
@@ -29,7 +28,7 @@ def main() -> None:
     pset = ParameterSet()
     exp = synthesize(SynthConfig(frames=1000, motion="rom", sta_mm=10.0, seed=0), pset)
     base = np.concatenate([exp.markers, exp.markers[::-1]])
-    segments = segments_of(pset)
+    segments = marker_segments(pset.model)
     for n in args.frames:
         x = np.concatenate([base] * (-(-n // len(base))))[:n]
         best = np.inf

@@ -37,6 +37,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import mujoco
 import numpy as np
 
 from .errors import UnknownNameError
@@ -51,6 +52,7 @@ __all__ = [
     "Finding",
     "check_marker_quality",
     "exclude_markers",
+    "marker_segments",
     "parse_marker_list",
     "quality_lines",
     "suspects",
@@ -140,6 +142,14 @@ def check_marker_quality(
     found += _jump_findings(path, names, x, rate, first_frame)
     found += _bone_findings(path, names, x)
     return found
+
+
+def marker_segments(model: mujoco.MjModel) -> list[str]:
+    """The name of the body carrying each marker (site) of ``model`` (M,): the segments
+    :func:`check_marker_quality` wants."""
+    return [
+        str(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(b))) for b in model.site_bodyid
+    ]
 
 
 def suspects(findings: Sequence[Finding]) -> dict[str, int]:

@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import mujoco
 import numpy as np
 import pytest
 
@@ -17,6 +16,7 @@ from mocap_mj.kinematics import Kinematics
 from mocap_mj.marker_quality import (
     check_marker_quality,
     exclude_markers,
+    marker_segments,
     parse_marker_list,
     quality_lines,
     suspects,
@@ -36,9 +36,7 @@ def pset() -> ParameterSet:
 
 
 def _segments(pset: ParameterSet) -> list[str]:
-    return [
-        str(mujoco.mj_id2name(pset.model, mujoco.mjtObj.mjOBJ_BODY, int(b))) for b in pset.site_body
-    ]
+    return marker_segments(pset.model)
 
 
 def _trial(pset: ParameterSet, motion: str = "rom", sta_mm: float = 10.0, **kw: int) -> Experiment:

@@ -15,11 +15,16 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-import mujoco
 import numpy as np
 
 from ..errors import MocapError
-from ..marker_quality import Finding, check_marker_quality, exclude_markers, suspects
+from ..marker_quality import (
+    Finding,
+    check_marker_quality,
+    exclude_markers,
+    marker_segments,
+    suspects,
+)
 from ..marker_quality import parse_marker_list as parse_marker_list
 from ..parameters import ParameterSet
 
@@ -40,13 +45,6 @@ def add_quality_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def segments_of(pset: ParameterSet) -> list[str]:
-    """The body name carrying each marker (M,)."""
-    return [
-        str(mujoco.mj_id2name(pset.model, mujoco.mjtObj.mjOBJ_BODY, int(b))) for b in pset.site_body
-    ]
-
-
 def check_trials(
     args: argparse.Namespace,
     pset: ParameterSet,
@@ -56,7 +54,7 @@ def check_trials(
     """Check each (path, markers (T, M, 3) [m], rate [Hz], file's frame of row 0), the
     ``excluded`` markers already dropped; raise under ``--strict``, else print the findings
     on stderr; return them and the summary's ``marker_quality`` entry."""
-    segments = segments_of(pset)
+    segments = marker_segments(pset.model)
     found: list[Finding] = []
     for path, markers, rate, first in trials:
         found += check_marker_quality(
