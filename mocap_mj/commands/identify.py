@@ -7,6 +7,10 @@ alternative is Zou & Sugihara's Algorithm 1). Writes OUT/model.xml (the identifi
 theta.json, motion.npz (first trial; motion_<i>.npz for the others), identifiability.json,
 report.md, plots and summary.json; docs/reading-results.md explains them. The folder appears
 only when the fit is complete; a fit that cannot be determined by the data is refused.
+Before the fit the marker data are checked for markers that do not move with their segment
+(mislabels, label swaps, re-stuck markers, impossible distances): each finding is a warning
+on stderr and in summary.json and report.md (--strict: refused); --exclude-markers drops
+markers' data.
 """
 
 from __future__ import annotations

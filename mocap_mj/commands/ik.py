@@ -8,7 +8,8 @@ markers; opened by `mocap-mj view`), model.xml and summary.json. Frames with few
 --min-markers present markers are left unsolved (empty in motion.csv). A model written by
 identify with the landmarks' soft-tissue sliding model (recorded in its model.xml) weighs
 them as identify did, so that its RMSE reproduces the fit (--no-sliding-landmarks: every
-marker alike).
+marker alike). The marker data are checked first, as by identify (warnings; --strict,
+--exclude-markers).
 """
 
 from __future__ import annotations
