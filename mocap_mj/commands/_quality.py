@@ -33,8 +33,8 @@ def add_quality_options(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("marker data quality (docs/real-data.md)")
     g.add_argument(
         "--exclude-markers",
-        metavar="NAME[,NAME]",
-        help="drop these markers' data (treated as missing in every frame; their offsets are "
+        metavar="NAMES",
+        help="comma-separated model marker names, e.g. RELB,RUPA: drop these markers' data (treated as missing in every frame; their offsets are "
         "then not identified) (default: none)",
     )
     g.add_argument(
