@@ -226,3 +226,20 @@ def test_report_section() -> None:
     assert "- t.c3d: RELB-RWRA: median distance 118 mm" in text
     assert "RELB (2), RWRA (1)" in text
     assert "no finding" in "\n".join(quality_lines({"findings": [], "suspects": {}}))
+
+
+def test_batch_column() -> None:
+    from mocap_mj.batch.report import COLUMNS
+    from mocap_mj.commands.batch import _quality_cell
+
+    assert "marker_quality" in COLUMNS
+    quality = {
+        "findings": [
+            {"file": "a.c3d", "kind": "distance", "markers": ["RELB", "RWRA"]},
+            {"file": "a.c3d", "kind": "asymmetry", "markers": ["LELB", "LWRA", "RELB", "RWRA"]},
+            {"file": "b.c3d", "kind": "swap", "markers": ["LASI", "RASI"]},
+        ]
+    }
+    assert _quality_cell(quality, "a.c3d") == "2 finding(s): RELB RWRA"
+    assert _quality_cell(quality, "b.c3d") == "1 finding(s): LASI RASI"
+    assert _quality_cell(quality, "c.c3d") == "none"
