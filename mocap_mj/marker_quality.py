@@ -24,7 +24,7 @@ positions (T, M, 3) [m] and the model's segment (body) of each marker:
     The median distance between two Plug-in Gait landmarks of one bone (elbow-wrist,
     shoulder-elbow, knee-ankle, heel-toe) outside the range of any person 1.2-2.1 m tall
     (:data:`BONE_FRACTIONS`), or left and right differing by more than
-    :data:`ASYMMETRY_MAX` (25 %).
+    :data:`ASYMMETRY_MAX` (30 %).
 
 Each :class:`Finding` is one line naming the file, the marker (and partner), the frames,
 the measured figure and what was expected. The check is a few vectorised passes over the
@@ -69,8 +69,10 @@ STEP_MIN = 0.020
 ACCEL_MAX = 300.0
 #: Smallest jump [m] reported whatever the rate (noise and marker reconstruction flicker).
 JUMP_MIN = 0.025
-#: Largest left/right difference of a bone's landmark distance, as a fraction of the larger.
-ASYMMETRY_MAX = 0.25
+#: Largest left/right difference of a bone's landmark distance, as a fraction of the larger:
+#: 10 % at most on the shared real trials; the synthetic truths of mocap_synth, whose left
+#: and right lengths are perturbed independently (up to 20 % apart), reach 22 %.
+ASYMMETRY_MAX = 0.30
 #: Landmark pairs of one bone (Plug-in Gait names without the side letter) and their distance
 #: as a fraction of body height (Winter, Biomechanics and Motor Control of Human Movement,
 #: 4th ed., 2009, fig. 4.1: upper arm 0.186, forearm 0.146, shank 0.246, foot 0.152).
@@ -84,6 +86,9 @@ BONE_FRACTIONS: dict[tuple[str, str], float] = {
     ("HEE", "TOE"): 0.152,
 }
 _HEIGHTS = (1.2 * 0.8, 2.1 * 1.25)
+#: Pairs of :data:`BONE_FRACTIONS` not compared left to right: where TOE sits (second
+#: metatarsal head or further) varies between placements more than the foot does.
+_NO_ASYMMETRY = {("HEE", "TOE")}
 #: Same-segment distances are evaluated on at most this many frames (evenly spaced).
 _MAX_SAMPLES = 20_000
 #: A same-segment distance is searched for a step on at most this many block medians.
@@ -425,7 +430,7 @@ def _bone_findings(path: str, names: Sequence[str], x: np.ndarray) -> list[Findi
                         f"{lo * 1e3:.0f}-{hi * 1e3:.0f} mm of any person 1.2-2.1 m tall",
                     )
                 )
-        if len(side) == 2:
+        if len(side) == 2 and (a, b) not in _NO_ASYMMETRY:
             rel = abs(side["L"] - side["R"]) / max(side.values())
             if rel > ASYMMETRY_MAX:
                 out.append(

@@ -34,8 +34,9 @@ def add_quality_options(parser: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--exclude-markers",
         metavar="NAMES",
-        help="comma-separated model marker names, e.g. RELB,RUPA: drop these markers' data (treated as missing in every frame; their offsets are "
-        "then not identified) (default: none)",
+        help="comma-separated model marker names, e.g. RELB,RUPA: drop these markers' data "
+        "(treated as missing in every frame; their offsets are then not identified) "
+        "(default: none)",
     )
     g.add_argument(
         "--strict",

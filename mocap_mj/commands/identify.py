@@ -203,17 +203,15 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
         markers = drop_excluded(t.markers[sl], pset, excluded)
         trials.append(TrialData(t.path, markers, t.times[sl]))
         check_markers(t.path, pset.marker_names, trials[-1].markers, IKSettings().min_markers)
-    _, quality = check_trials(
-        args,
-        pset,
-        [(t.path, d.markers, t.rate, r[0]) for t, d, r in zip(loaded, trials, ranges, strict=True)],
-        excluded,
-    )
+    to_check = [
+        (t.path, d.markers, t.rate, r[0]) for t, d, r in zip(loaded, trials, ranges, strict=True)
+    ]
     if args.solver == "paper":
         if args.select not in ("auto", "all"):
             raise MocapError("--select: the paper's solver samples its own frames (--sampling)")
         from .paper import run_paper
 
+        check_trials(args, pset, to_check, excluded)
         with output_folder(args.out, force=args.force) as out:
             return run_paper(args, pset, trials, ranges, out)
     subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
@@ -229,6 +227,7 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
             "the model on every frame with the l2 loss only; use --loss l2, or --select all "
             f"to fit every frame with {loss}"
         )
+    _, quality = check_trials(args, pset, to_check, excluded)  # after every bad-input error
     return into_out_folder(
         args,
         lambda out: _identify(
