@@ -17,7 +17,8 @@ all its rows. Manifest YAML::
         options: {loss: cauchy}          # optional, overrides the defaults
 
 Relative paths are relative to the manifest's folder. The options are those of ``identify``
-that make sense per subject; ``up``, ``marker_map`` and ``file_subject`` also apply to the IK.
+that make sense per subject; ``up``, ``marker_map``, ``file_subject`` and ``exclude_markers``
+(``RELB,RUPA``: markers whose data are dropped) also apply to the IK.
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ OPTION_KEYS: dict[str, type] = {
     "marker_map": str,
     "file_subject": str,
     "model": str,
+    "exclude_markers": str,
 }
 #: Command-line flag of each option (``file_subject``: which subject of a multi-subject file,
 #: ``--subject`` of identify and ik; named apart from the dataset's subject).

@@ -17,7 +17,9 @@ from ..plots import _figure, _save
 from .run import Outcome
 
 #: Columns of summary.csv. RMSE in mm, times in s; ``parameters_at_bounds`` names the
-#: kinematic parameters at or outside their range (';'-separated); ``resumed`` is true for a
+#: kinematic parameters at or outside their range (';'-separated); ``marker_quality`` the
+#: trial's marker-data findings (``none``, or their count and the markers they name:
+#: :mod:`mocap_mj.marker_quality`); ``resumed`` is true for a
 #: subject whose complete result was kept from an earlier run.
 COLUMNS = (
     "subject",
@@ -30,6 +32,7 @@ COLUMNS = (
     "identify_seconds",
     "ik_seconds",
     "parameters_at_bounds",
+    "marker_quality",
     "error",
 )
 #: Segment lengths drawn across subjects in report.md.

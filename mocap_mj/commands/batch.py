@@ -28,7 +28,7 @@ from ..parameters import ParameterSet
 from ._markers import load_trial
 
 #: Options that also apply to the IK of each trial (how the marker files are read).
-MARKER_OPTIONS = ("up", "marker_map", "file_subject")
+MARKER_OPTIONS = ("up", "marker_map", "file_subject", "exclude_markers")
 
 
 def register(sub: Any) -> None:
@@ -168,6 +168,7 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
     ident = _command("identify", folder / "identify", "--markers", *readable, *marker_args,
                      *_flags(ident_opts))  # fmt: skip
     at_bounds = sorted(ident.get("kappa_outside_bounds_mm", {}))
+    quality = ident.get("marker_quality") or {"findings": []}
     model = folder / "identify" / "model.xml"
     for path in readable:
         row = rows[path]
@@ -175,6 +176,7 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
             identify_rmse_mm=ident.get("marker_rmse_mm"),
             identify_seconds=ident.get("seconds"),
             parameters_at_bounds=at_bounds,
+            marker_quality=_quality_cell(quality, path),
         )
         try:
             ik = _command("ik", folder / "ik" / names[path], "--markers", path,
@@ -194,6 +196,15 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
         },
         "rows": [{"subject": subject.name, **rows[p]} for p in subject.trials],
     }
+
+
+def _quality_cell(quality: dict[str, Any], path: str) -> str:
+    """summary.csv's ``marker_quality`` of one trial: ``none`` or ``N finding(s): NAMES``."""
+    found = [f for f in quality["findings"] if f["file"] == path]
+    if not found:
+        return "none"
+    names = dict.fromkeys(n for f in found if f["kind"] != "asymmetry" for n in f["markers"])
+    return f"{len(found)} finding(s): {' '.join(names) or 'left/right asymmetry'}"
 
 
 def _command(command: str, out: Path, *options: str) -> dict[str, Any]:

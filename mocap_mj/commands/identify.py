@@ -7,6 +7,10 @@ alternative is Zou & Sugihara's Algorithm 1). Writes OUT/model.xml (the identifi
 theta.json, motion.npz (first trial; motion_<i>.npz for the others), identifiability.json,
 report.md, plots and summary.json; docs/reading-results.md explains them. The folder appears
 only when the fit is complete; a fit that cannot be determined by the data is refused.
+Before the fit the marker data are checked for markers that do not move with their segment
+(mislabels, label swaps, re-stuck markers, impossible distances): each finding is a warning
+on stderr and in summary.json and report.md (--strict: refused); --exclude-markers drops
+markers' data.
 """
 
 from __future__ import annotations
@@ -36,6 +40,13 @@ from ..ik import IKSettings
 from ..parameters import ParameterSet
 from ..subject import Subject
 from ._markers import add_marker_options, load_trial, model_for
+from ._quality import (
+    add_quality_options,
+    check_trials,
+    drop_excluded,
+    parse_marker_list,
+    quality_text,
+)
 from ._subject import add_subject_options, subject_from_args
 
 #: ``--select auto``: above this many frames in all the trials, identify on a pose-diverse
@@ -60,6 +71,7 @@ def register(sub: Any) -> None:
         "--model", metavar="MJCF", help="initial MJCF model (default: the bundled humanoid)"
     )
     _add_fit_options(p)
+    add_quality_options(p)
     add_subject_options(p)
     _add_paper_options(p)
     add_force_flag(p)
@@ -180,6 +192,7 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
     t0 = time.perf_counter()
     loaded = [load_trial(path, pset.marker_names, args, scratch) for path in args.markers]
     read_seconds = time.perf_counter() - t0
+    excluded = parse_marker_list(args.exclude_markers, pset.marker_names)
     trials = []
     ranges = []
     for t in loaded:
@@ -187,13 +200,18 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
         if sl.stop - sl.start < 1:
             raise MocapError(f"{t.path}: --frames {args.frames} selects no frame")
         ranges.append([sl.start, sl.stop])
-        trials.append(TrialData(t.path, t.markers[sl], t.times[sl]))
+        markers = drop_excluded(t.markers[sl], pset, excluded)
+        trials.append(TrialData(t.path, markers, t.times[sl]))
         check_markers(t.path, pset.marker_names, trials[-1].markers, IKSettings().min_markers)
+    to_check = [
+        (t.path, d.markers, t.rate, r[0]) for t, d, r in zip(loaded, trials, ranges, strict=True)
+    ]
     if args.solver == "paper":
         if args.select not in ("auto", "all"):
             raise MocapError("--select: the paper's solver samples its own frames (--sampling)")
         from .paper import run_paper
 
+        check_trials(args, pset, to_check, excluded)
         with output_folder(args.out, force=args.force) as out:
             return run_paper(args, pset, trials, ranges, out)
     subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
@@ -209,10 +227,11 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
             "the model on every frame with the l2 loss only; use --loss l2, or --select all "
             f"to fit every frame with {loss}"
         )
+    _, quality = check_trials(args, pset, to_check, excluded)  # after every bad-input error
     return into_out_folder(
         args,
         lambda out: _identify(
-            args, pset, loaded, trials, ranges, subject, out, count, read_seconds
+            args, pset, loaded, trials, ranges, subject, out, count, read_seconds, quality
         ),
     )
 
@@ -257,12 +276,14 @@ def _identify(
     out: Path,
     count: int | None = None,
     read_seconds: float | None = None,
+    quality: dict[str, Any] | None = None,
 ) -> tuple[dict[str, Any], str]:
     _numba_prewarm.start()  # the identification kernels compile on the other core meanwhile
     extra: dict[str, Any] = {
         "markers_files": [t.path for t in loaded],
         "frames_fitted_range": ranges,
         "read_seconds": read_seconds,
+        "marker_quality": quality,
     }
     fitted, motion_trials = trials, None
     if count is not None:
@@ -323,5 +344,7 @@ def _identify(
         for n, m in summary["measurements"].items()
     )
     text += f"measurements: {measured or 'none (regressions from the markers)'}\n"
+    if quality is not None:
+        text += quality_text(quality) + "\n"
     plaus = plausibility_text(pset, per_marker, outside, at_bound=summary["kappa_at_bound"])
     return summary, text + plaus

@@ -8,7 +8,8 @@ markers; opened by `mocap-mj view`), model.xml and summary.json. Frames with few
 --min-markers present markers are left unsolved (empty in motion.csv). A model written by
 identify with the landmarks' soft-tissue sliding model (recorded in its model.xml) weighs
 them as identify did, so that its RMSE reproduces the fit (--no-sliding-landmarks: every
-marker alike).
+marker alike). The marker data are checked first, as by identify (warnings; --strict,
+--exclude-markers).
 """
 
 from __future__ import annotations
@@ -34,6 +35,13 @@ from ..parameters import ParameterSet
 from ..results import Motion, save_motion
 from ..tables import write_joint_centres_csv
 from ._markers import add_marker_options, load_trial, model_for
+from ._quality import (
+    add_quality_options,
+    check_trials,
+    drop_excluded,
+    parse_marker_list,
+    quality_text,
+)
 
 
 def register(sub: Any) -> None:
@@ -88,6 +96,7 @@ def register(sub: Any) -> None:
         metavar="N",
         help="present markers a frame needs to be solved (default: 16)",
     )
+    add_quality_options(p)
     add_force_flag(p)
     add_json_flag(p)
     p.set_defaults(func=run)
@@ -113,12 +122,22 @@ def run(args: argparse.Namespace) -> int:
     sl = frame_range(args.frames, len(trial.markers))
     if sl.stop - sl.start < 1:
         raise MocapError(f"{trial.path}: --frames {args.frames} selects no frame")
+    excluded = parse_marker_list(args.exclude_markers, pset.marker_names)
+    trial = trial._replace(markers=drop_excluded(trial.markers, pset, excluded))
     check_markers(trial.path, pset.marker_names, trial.markers[sl], args.min_markers)
-    return into_out_folder(args, lambda out: _solve_and_write(args, pset, trial, sl, out))
+    _, quality = check_trials(
+        args, pset, [(trial.path, trial.markers[sl], trial.rate, sl.start)], excluded
+    )
+    return into_out_folder(args, lambda out: _solve_and_write(args, pset, trial, sl, out, quality))
 
 
 def _solve_and_write(
-    args: argparse.Namespace, pset: ParameterSet, trial: Any, sl: slice, out: Path
+    args: argparse.Namespace,
+    pset: ParameterSet,
+    trial: Any,
+    sl: slice,
+    out: Path,
+    quality: dict[str, Any] | None = None,
 ) -> tuple[dict[str, Any], str]:
     markers, times = trial.markers[sl], trial.times[sl]
     kin = Kinematics(pset)
@@ -164,6 +183,7 @@ def _solve_and_write(
         "sliding_landmarks": None if sliding is None else sorted(sliding.slides),
         "markers_missing": list(trial.report.missing),
         "markers_without_data": never,
+        "marker_quality": quality,
     }
     text = (
         f"{trial.report}\n"
@@ -178,6 +198,7 @@ def _solve_and_write(
             else ""
         )
         + (f"\nmarkers in the file without a valid sample: {', '.join(never)}" if never else "")
+        + ("" if quality is None else f"\n{quality_text(quality)}")
         + f"\nwrote {args.out}/motion.csv, joint_centres.csv, motion.npz, model.xml, summary.json"
     )
     return summary, text

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..io.atomic import atomic_write_text
 from ..kinematics import Kinematics
+from ..marker_quality import quality_lines
 from ..parameters import ParameterSet
 from ..results import Motion, save_motion
 from .identifiability import Identifiability
@@ -112,6 +113,7 @@ def report_lines(
         f"unknowns, n = {result.n_residuals} residuals)",
         *_anatomy_lines(summary),
         "",
+        *(quality_lines(summary["marker_quality"]) if summary.get("marker_quality") else []),
         "## Kinematic parameters",
         "",
         "| parameter | initial (mm) | identified (mm) | change (mm) | CRLB std, white (mm) |",

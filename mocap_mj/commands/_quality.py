@@ -1,0 +1,106 @@
+"""``--exclude-markers`` and ``--strict`` of identify and ik: the marker-data quality check
+(:mod:`mocap_mj.marker_quality`) run on the loaded trials before any solve.
+
+Findings are warnings by default (one line each on stderr, recorded in summary.json's
+``marker_quality`` and in report.md), and the exit status stays 0: the check is evidence,
+not proof (a child's forearm, an unusual marker set), and a fit of the remaining markers is
+still useful. ``--strict`` refuses the data instead (exit 2, nothing written), for pipelines
+that must not publish a model built on suspect markers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ..errors import MocapError
+from ..marker_quality import (
+    Finding,
+    check_marker_quality,
+    exclude_markers,
+    marker_segments,
+    suspects,
+)
+from ..marker_quality import parse_marker_list as parse_marker_list
+from ..parameters import ParameterSet
+
+
+def add_quality_options(parser: argparse.ArgumentParser) -> None:
+    g = parser.add_argument_group("marker data quality (docs/real-data.md)")
+    g.add_argument(
+        "--exclude-markers",
+        metavar="NAMES",
+        help="comma-separated model marker names, e.g. RELB,RUPA: drop these markers' data "
+        "(treated as missing in every frame; their offsets are then not identified) "
+        "(default: none)",
+    )
+    g.add_argument(
+        "--strict",
+        action="store_true",
+        help="refuse the data (exit 2, no output) when the marker-data quality check finds "
+        "anything (default: warn on stderr and carry on)",
+    )
+
+
+def check_trials(
+    args: argparse.Namespace,
+    pset: ParameterSet,
+    trials: Sequence[tuple[str, np.ndarray, float, int]],
+    excluded: Sequence[str],
+) -> tuple[list[Finding], dict[str, Any]]:
+    """Check each (path, markers (T, M, 3) [m], rate [Hz], file's frame of row 0), the
+    ``excluded`` markers already dropped; raise under ``--strict``, else print the findings
+    on stderr; return them and the summary's ``marker_quality`` entry."""
+    segments = marker_segments(pset.model)
+    found: list[Finding] = []
+    for path, markers, rate, first in trials:
+        found += check_marker_quality(
+            path, pset.marker_names, markers, rate, segments, first_frame=first
+        )
+    named = suspects(found)
+    if found and args.strict:
+        raise MocapError(
+            f"{found[0].message} ({len(found)} finding(s) in all; markers named: "
+            f"{', '.join(named)}; --strict refuses them: drop markers with --exclude-markers "
+            "or run without --strict)"
+        )
+    for f in found:
+        print(f"mocap-mj {args.command}: warning: {f.message}", file=sys.stderr)
+    if named:
+        top = [n for n, c in named.items() if c == max(named.values())]
+        print(
+            f"mocap-mj {args.command}: warning: markers named by the data-quality check "
+            f"(times named): {', '.join(f'{n} ({c})' for n, c in named.items())}; the most "
+            f"named first: --exclude-markers {','.join(top)} drops its data (docs/real-data.md,"
+            ' "Marker data quality")',
+            file=sys.stderr,
+        )
+    entry = {
+        "findings": [f.to_json() for f in found],
+        "suspects": named,
+        "excluded": list(excluded),
+    }
+    return found, entry
+
+
+def drop_excluded(markers: np.ndarray, pset: ParameterSet, excluded: Sequence[str]) -> np.ndarray:
+    """markers (T, M, 3) [m] with the ``excluded`` markers' columns NaN (see
+    :func:`~mocap_mj.marker_quality.exclude_markers`)."""
+    return exclude_markers(markers, pset.marker_names, excluded)
+
+
+def quality_text(entry: dict[str, Any]) -> str:
+    """The stdout line of a command on its marker-data quality."""
+    excluded = entry["excluded"]
+    head = f"excluded markers: {', '.join(excluded)}; " if excluded else ""
+    n = len(entry["findings"])
+    if not n:
+        return f"{head}marker data quality: no finding"
+    return (
+        f"{head}marker data quality: {n} finding(s) (warnings above), markers named: "
+        f"{', '.join(entry['suspects'])}"
+    )

@@ -1,0 +1,469 @@
+"""Marker data that cannot be trusted, found from the data alone before any solve.
+
+A marker that does not move with its segment (mislabelled for the whole trial, swapped with
+another label for a range of frames, fallen off and re-stuck elsewhere, a ghost) is fitted
+by the identification like any other: the skeleton absorbs it and the RMSE stays small.
+:func:`check_marker_quality` looks for four kinds of evidence, each from the markers'
+positions (T, M, 3) [m] and the model's segment (body) of each marker:
+
+``spread``
+    The distance between two markers of one rigid segment varies over the trial by more
+    than soft tissue allows: its p5-p95 range exceeds :data:`SPREAD_MAX` (50 mm). Skin
+    sliding over a flexing knee moves THI-KNE by up to 31 mm on the shared Plug-in Gait
+    trials; the synthetic soft-tissue model by less (docs/real-data.md, "Marker data
+    quality").
+``step``
+    That distance changes for good at one frame by more than :data:`STEP_MIN` (20 mm)
+    between the medians of the frames before and after it: a marker re-stuck elsewhere.
+``jump`` / ``swap``
+    A marker's position leaves its constant-velocity prediction ``2 x(t-1) - x(t-2)`` by
+    more than a body segment can accelerate in a frame, :data:`ACCEL_MAX` dt^2 and at least
+    :data:`JUMP_MIN`; when another marker jumps at the same frame onto this one's
+    prediction and back later, the two labels are swapped over that frame range.
+``distance`` / ``asymmetry``
+    The median distance between two Plug-in Gait landmarks of one bone (elbow-wrist,
+    shoulder-elbow, knee-ankle, heel-toe) outside the range of any person 1.2-2.1 m tall
+    (:data:`BONE_FRACTIONS`), or left and right differing by more than
+    :data:`ASYMMETRY_MAX` (30 %).
+
+Each :class:`Finding` is one line naming the file, the marker (and partner), the frames,
+the measured figure and what was expected. The check is a few vectorised passes over the
+frames (no solve): it runs on hour-long recordings too.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from .errors import UnknownNameError
+
+__all__ = [
+    "ACCEL_MAX",
+    "ASYMMETRY_MAX",
+    "BONE_FRACTIONS",
+    "JUMP_MIN",
+    "SPREAD_MAX",
+    "STEP_MIN",
+    "Finding",
+    "check_marker_quality",
+    "exclude_markers",
+    "marker_segments",
+    "parse_marker_list",
+    "quality_lines",
+    "suspects",
+]
+
+#: p5-p95 range [m] of a same-segment marker distance above which the pair is reported.
+#: The largest range on the shared real trials is 31 mm (RTHI-RKNE, functional knee trial:
+#: thigh skin sliding with flexion); 50 mm leaves margin for faster motion.
+SPREAD_MAX = 0.050
+#: Persistent change [m] of a same-segment distance's median at one frame (a re-stuck marker).
+STEP_MIN = 0.020
+#: Largest acceleration [m/s^2] of a skin marker (about 30 g: above heel strike and hand
+#: impacts measured on the skin, 5-20 g); a larger constant-velocity prediction error is a jump.
+ACCEL_MAX = 300.0
+#: Smallest jump [m] reported whatever the rate (noise and marker reconstruction flicker).
+JUMP_MIN = 0.025
+#: Largest left/right difference of a bone's landmark distance, as a fraction of the larger:
+#: 10 % at most on the shared real trials; the synthetic truths of mocap_synth, whose left
+#: and right lengths are perturbed independently (up to 20 % apart), reach 22 %.
+ASYMMETRY_MAX = 0.30
+#: Landmark pairs of one bone (Plug-in Gait names without the side letter) and their distance
+#: as a fraction of body height (Winter, Biomechanics and Motor Control of Human Movement,
+#: 4th ed., 2009, fig. 4.1: upper arm 0.186, forearm 0.146, shank 0.246, foot 0.152).
+#: The allowed range is the fraction times 1.2-2.1 m, widened by 0.8-1.25 for marker
+#: placement: a child under about 7 years may fall below it.
+BONE_FRACTIONS: dict[tuple[str, str], float] = {
+    ("SHO", "ELB"): 0.186,
+    ("ELB", "WRA"): 0.146,
+    ("ELB", "WRB"): 0.146,
+    ("KNE", "ANK"): 0.246,
+    ("HEE", "TOE"): 0.152,
+}
+_HEIGHTS = (1.2 * 0.8, 2.1 * 1.25)
+#: Pairs of :data:`BONE_FRACTIONS` not compared left to right: where TOE sits (second
+#: metatarsal head or further) varies between placements more than the foot does.
+_NO_ASYMMETRY = {("HEE", "TOE")}
+#: Same-segment distances are evaluated on at most this many frames (evenly spaced).
+_MAX_SAMPLES = 20_000
+#: A same-segment distance is searched for a step on at most this many block medians.
+_STEP_BLOCKS = 400
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One piece of evidence that marker data cannot be trusted.
+
+    file: the marker file; kind: ``spread``, ``step``, ``jump``, ``swap``, ``distance`` or
+    ``asymmetry``;
+    markers: the marker(s) it names, suspect first; frames: [first, last) of the file's
+    frames it concerns (None: the whole trial); value_mm: the measured figure [mm];
+    expected: what a trustworthy marker would give; message: the one-line text.
+    """
+
+    file: str
+    kind: str
+    markers: tuple[str, ...]
+    frames: tuple[int, int] | None
+    value_mm: float
+    expected: str
+    message: str
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "file": self.file,
+            "kind": self.kind,
+            "markers": list(self.markers),
+            "frames": None if self.frames is None else list(self.frames),
+            "value_mm": round(self.value_mm, 1),
+            "expected": self.expected,
+            "message": self.message,
+        }
+
+
+def check_marker_quality(
+    path: str,
+    names: Sequence[str],
+    markers: np.ndarray,
+    rate: float,
+    segments: Sequence[str],
+    *,
+    first_frame: int = 0,
+) -> list[Finding]:
+    """Findings on the markers (T, M, 3) [m] of file ``path`` (NaN where missing).
+
+    names (M,) and segments (M,): each marker's name and the model body carrying it; rate
+    [Hz]; ``first_frame``: the file's frame number of row 0 (messages count the file's
+    frames). The rules and thresholds are the module's (see its docstring).
+    """
+    x = np.asarray(markers, dtype=float)
+    found: list[Finding] = []
+    found += _segment_findings(path, names, x, segments, first_frame)
+    found += _jump_findings(path, names, x, rate, first_frame)
+    found += _bone_findings(path, names, x)
+    return found
+
+
+def marker_segments(model: mujoco.MjModel) -> list[str]:
+    """The name of the body carrying each marker (site) of ``model`` (M,): the segments
+    :func:`check_marker_quality` wants."""
+    return [
+        str(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(b))) for b in model.site_bodyid
+    ]
+
+
+def suspects(findings: Sequence[Finding]) -> dict[str, int]:
+    """Markers the findings name, with how many name them, most named first; an
+    ``asymmetry`` finding names no one (either side may be the wrong one)."""
+    count: dict[str, int] = {}
+    for f in findings:
+        for n in () if f.kind == "asymmetry" else f.markers:
+            count[n] = count.get(n, 0) + 1
+    return dict(sorted(count.items(), key=lambda kv: (-kv[1], kv[0])))
+
+
+def quality_lines(entry: Mapping[str, Any]) -> list[str]:
+    """The report.md section on marker data quality from summary.json's ``marker_quality``
+    entry (``findings`` as :meth:`Finding.to_json`, ``suspects``, ``excluded``)."""
+    lines = ["## Marker data quality", ""]
+    if entry.get("excluded"):
+        lines.append(
+            f"- excluded by --exclude-markers: {', '.join(entry['excluded'])} (their data "
+            "dropped: their offsets are not identified, they stay at their prior)"
+        )
+    if not entry.get("findings"):
+        return [*lines, '- no finding (docs/real-data.md, "Marker data quality")', ""]
+    lines += [f"- {f['message']}" for f in entry["findings"]]
+    named = ", ".join(f"{n} ({c})" for n, c in entry["suspects"].items())
+    return [*lines, f"- markers named: {named}; drop them with --exclude-markers NAME[,NAME]", ""]
+
+
+def parse_marker_list(text: str | None, names: Sequence[str]) -> tuple[str, ...]:
+    """``--exclude-markers`` text ("RELB,RWRA") -> names; an unknown one raises
+    :class:`~mocap_mj.errors.UnknownNameError` listing the model's markers."""
+    if not text:
+        return ()
+    out = tuple(n.strip() for n in text.split(",") if n.strip())
+    for n in out:
+        if n not in names:
+            raise UnknownNameError("marker (--exclude-markers)", n, names)
+    return out
+
+
+def exclude_markers(markers: np.ndarray, names: Sequence[str], drop: Sequence[str]) -> np.ndarray:
+    """markers (T, M, 3) [m] with the columns of ``drop`` set to NaN (missing), in place
+    when the array is writable, else on a copy; returns the array."""
+    if not drop:
+        return markers
+    out = markers if getattr(markers, "flags", None) and markers.flags.writeable else None
+    if out is None:
+        out = np.array(markers)
+    out[:, [list(names).index(n) for n in drop], :] = np.nan
+    return out
+
+
+# ------------------------------------------------------------------ same-segment distances
+def _sampled(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """At most ``_MAX_SAMPLES`` evenly spaced frames of x and their indices."""
+    idx = np.arange(len(x))
+    if len(x) > _MAX_SAMPLES:
+        idx = np.linspace(0, len(x) - 1, _MAX_SAMPLES).astype(int)
+    return np.asarray(x[idx], dtype=float), idx
+
+
+def _segment_findings(
+    path: str, names: Sequence[str], x: np.ndarray, segments: Sequence[str], first: int
+) -> list[Finding]:
+    xs, idx = _sampled(x)
+    by_segment: dict[str, list[int]] = {}
+    for i, s in enumerate(segments):
+        by_segment.setdefault(s, []).append(i)
+    out: list[Finding] = []
+    for members in by_segment.values():
+        spread: dict[tuple[int, int], float] = {}
+        steps: dict[tuple[int, int], tuple[float, int, float, float]] = {}
+        for a_pos, i in enumerate(members):
+            for j in members[a_pos + 1 :]:
+                d = np.linalg.norm(xs[:, i] - xs[:, j], axis=1)
+                ok = np.isfinite(d)
+                if ok.sum() < 10:
+                    continue
+                p5, p95 = np.percentile(d[ok], [5, 95])
+                if p95 - p5 > SPREAD_MAX:
+                    spread[(i, j)] = float(p95 - p5)
+                step = _step(d[ok])
+                if step is not None:
+                    size, at, before, after = step
+                    steps[(i, j)] = (size, int(idx[np.flatnonzero(ok)[at]]), before, after)
+        for i, others, v in _attribute(spread):
+            out.append(
+                _line(
+                    path,
+                    "spread",
+                    (names[i], *[names[k] for k in others]),
+                    None,
+                    v * 1e3,
+                    f"<= {SPREAD_MAX * 1e3:.0f} mm on one segment",
+                    f"{_who(names, i, others)} varies by {v * 1e3:.0f} mm (p5-p95) over the trial",
+                )
+            )
+        for i, others, v in _attribute({k: s[0] for k, s in steps.items()}):
+            j = others[0]
+            _, at, before, after = steps[(i, j) if (i, j) in steps else (j, i)]
+            frames = (first + at, first + len(x))
+            out.append(
+                _line(
+                    path,
+                    "step",
+                    (names[i], *[names[k] for k in others]),
+                    frames,
+                    v * 1e3,
+                    f"< {STEP_MIN * 1e3:.0f} mm (fixed on its segment)",
+                    f"{_who(names, i, others)} changes for good at frame {frames[0]}, "
+                    f"{before * 1e3:.0f} -> {after * 1e3:.0f} mm (re-stuck or slipped?)",
+                )
+            )
+    return out
+
+
+def _step(d: np.ndarray) -> tuple[float, int, float, float] | None:
+    """The largest persistent change of d (n,) [m]: (size, first index after, level before,
+    level after), or None when below STEP_MIN.
+
+    d is summarised by the medians of ``_STEP_BLOCKS`` blocks at most (robust to single
+    frames); a step must keep a tenth of the blocks each side, and both the means of the
+    whole parts before and after it and those of the adjacent windows (a twentieth of the
+    blocks) must differ by more than STEP_MIN, so that a cyclic motion is not a step.
+    """
+    b = -(-len(d) // _STEP_BLOCKS)
+    m = len(d) // b
+    lo = max(5, m // 10)
+    if m < 2 * lo:
+        return None
+    blocks = np.median(d[: m * b].reshape(m, b), axis=1)
+    c = np.concatenate([[0.0], np.cumsum(blocks)])
+    s = np.arange(lo, m - lo + 1)
+    before, after = c[s] / s, (c[m] - c[s]) / (m - s)
+    w = max(3, lo // 2)
+    sw = np.clip(s, w, m - w)
+    local = np.abs((c[sw + w] - c[sw]) - (c[sw] - c[sw - w])) / w
+    ok = (np.abs(after - before) > STEP_MIN) & (local > STEP_MIN)
+    if not ok.any():
+        return None
+    k = int(np.argmax(np.where(ok, local, 0.0)))
+    return float(abs(after[k] - before[k])), int(s[k]) * b, float(before[k]), float(after[k])
+
+
+def _attribute(
+    flagged: dict[tuple[int, int], float],
+) -> list[tuple[int, list[int], float]]:
+    """Flagged pairs -> (suspect, its flagged partners, largest value): a marker
+    in two or more flagged pairs is the suspect of them all; the other pairs stay pairs."""
+    count: dict[int, int] = {}
+    for i, j in flagged:
+        count[i] = count.get(i, 0) + 1
+        count[j] = count.get(j, 0) + 1
+    out = []
+    done: set[tuple[int, int]] = set()
+    for m in sorted(count, key=lambda k: -count[k]):
+        if count[m] < 2:
+            continue
+        pairs = [p for p in flagged if m in p and p not in done]
+        if len(pairs) < 2:
+            continue
+        done.update(pairs)
+        others = [p[0] if p[1] == m else p[1] for p in pairs]
+        out.append((m, others, max(flagged[p] for p in pairs)))
+    for p, v in flagged.items():
+        if p not in done:
+            out.append((p[0], [p[1]], v))
+    return out
+
+
+# ------------------------------------------------------------------------- jumps and swaps
+def _jump_findings(
+    path: str, names: Sequence[str], x: np.ndarray, rate: float, first: int
+) -> list[Finding]:
+    if len(x) < 3:
+        return []
+    limit = max(JUMP_MIN, ACCEL_MAX / rate**2)
+    err = _prediction_error(x)  # (T-2, M): of frames 2..T-1
+    with np.errstate(invalid="ignore"):
+        jump = err > limit
+    onset = jump.copy()
+    onset[1:] &= ~jump[:-1]  # a jump at t also spoils the prediction of t+1
+    out: list[Finding] = []
+    swaps: dict[tuple[int, int], list[int]] = {}
+    lone: dict[int, list[tuple[int, float]]] = {}
+    for r, i in zip(*np.nonzero(onset), strict=True):
+        t = int(r) + 2
+        xt = np.asarray(x[t], dtype=float)
+        pred = 2 * np.asarray(x[t - 1], dtype=float) - x[t - 2]  # (M, 3)
+        near = np.linalg.norm(xt - pred[i], axis=1)  # who landed on i's prediction
+        near[i] = np.inf
+        k = int(np.argmin(np.where(np.isfinite(near), near, np.inf)))
+        back = float(np.linalg.norm(xt[i] - pred[k]))
+        if near[k] < limit / 2 and back < limit / 2 and jump[r, k]:
+            if i < k:
+                swaps.setdefault((i, k), []).append(t)
+        else:
+            lone.setdefault(int(i), []).append((t, float(err[r, i])))
+    for (i, k), ts in swaps.items():
+        for a in range(0, len(ts), 2):
+            start = ts[a]
+            stop = ts[a + 1] if a + 1 < len(ts) else len(x)
+            frames = (first + start, first + stop)
+            out.append(
+                _line(
+                    path,
+                    "swap",
+                    (names[i], names[k]),
+                    frames,
+                    0.0,
+                    "labels that stay on their markers",
+                    f"{names[i]} and {names[k]}: labels swapped in frames "
+                    f"{frames[0]}-{frames[1] - 1} (each jumps onto the other's track)",
+                )
+            )
+    for i, events in lone.items():
+        ts = [t for t, _ in events]
+        biggest = max(e for _, e in events)
+        shown = ", ".join(str(first + t) for t in ts[:5]) + (", ..." if len(ts) > 5 else "")
+        out.append(
+            _line(
+                path,
+                "jump",
+                (names[i],),
+                (first + ts[0], first + ts[-1] + 1),
+                biggest * 1e3,
+                f"<= {limit * 1e3:.0f} mm per frame at {rate:g} Hz",
+                f"{names[i]}: {len(ts)} jump(s) off its track, at frame(s) {shown}, up to "
+                f"{biggest * 1e3:.0f} mm (a ghost, a label change or a re-stick?)",
+            )
+        )
+    return out
+
+
+def _prediction_error(x: np.ndarray) -> np.ndarray:
+    """(T-2, M) [m]: |x(t) - (2 x(t-1) - x(t-2))| for t = 2..T-1, chunk by chunk (x may be
+    a memory map of an hour-long recording)."""
+    out = np.empty((len(x) - 2, x.shape[1]))
+    for a in range(0, len(x) - 2, _MAX_SAMPLES):
+        b = min(a + _MAX_SAMPLES, len(x) - 2)
+        c = np.asarray(x[a : b + 2], dtype=float)
+        out[a:b] = np.linalg.norm(c[2:] - 2 * c[1:-1] + c[:-2], axis=2)
+    return out
+
+
+# ------------------------------------------------------------------- bones of Plug-in Gait
+def _bone_findings(path: str, names: Sequence[str], x: np.ndarray) -> list[Finding]:
+    xs, _ = _sampled(x)
+    col = {n: i for i, n in enumerate(names)}
+    out: list[Finding] = []
+    for (a, b), fraction in BONE_FRACTIONS.items():
+        lo, hi = fraction * _HEIGHTS[0], fraction * _HEIGHTS[1]
+        side: dict[str, float] = {}
+        for s in "LR":
+            i, j = col.get(s + a), col.get(s + b)
+            if i is None or j is None:
+                continue
+            d = np.linalg.norm(xs[:, i] - xs[:, j], axis=1)
+            d = d[np.isfinite(d)]
+            if d.size == 0:
+                continue
+            med = side[s] = float(np.median(d))
+            if not lo <= med <= hi:
+                out.append(
+                    _line(
+                        path,
+                        "distance",
+                        (s + a, s + b),
+                        None,
+                        med * 1e3,
+                        f"{lo * 1e3:.0f}-{hi * 1e3:.0f} mm",
+                        f"{s}{a}-{s}{b}: median distance {med * 1e3:.0f} mm, outside the "
+                        f"{lo * 1e3:.0f}-{hi * 1e3:.0f} mm of any person 1.2-2.1 m tall",
+                    )
+                )
+        if len(side) == 2 and (a, b) not in _NO_ASYMMETRY:
+            rel = abs(side["L"] - side["R"]) / max(side.values())
+            if rel > ASYMMETRY_MAX:
+                out.append(
+                    _line(
+                        path,
+                        "asymmetry",
+                        (f"L{a}", f"L{b}", f"R{a}", f"R{b}"),
+                        None,
+                        abs(side["L"] - side["R"]) * 1e3,
+                        f"left and right within {ASYMMETRY_MAX:.0%}",
+                        f"L{a}-L{b} {side['L'] * 1e3:.0f} mm but R{a}-R{b} "
+                        f"{side['R'] * 1e3:.0f} mm: left and right differ by {rel:.0%}",
+                    )
+                )
+    return out
+
+
+def _who(names: Sequence[str], i: int, others: Sequence[int]) -> str:
+    """The subject of a same-segment finding: a suspect and its partners, or a pair."""
+    if len(others) == 1:
+        return f"{names[i]}-{names[others[0]]}: the distance of these two markers of one segment"
+    return f"{names[i]}: its distance to {', '.join(names[k] for k in others)} (same segment)"
+
+
+def _line(
+    path: str,
+    kind: str,
+    markers: tuple[str, ...],
+    frames: tuple[int, int] | None,
+    value_mm: float,
+    expected: str,
+    text: str,
+) -> Finding:
+    where = "all frames" if frames is None else f"frames {frames[0]}-{frames[1] - 1}"
+    message = f"{path}: {text} [{kind}, {where}; expected {expected}]"
+    return Finding(path, kind, markers, frames, float(value_mm), expected, message)

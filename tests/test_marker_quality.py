@@ -1,0 +1,245 @@
+"""Marker data quality: injected mislabels, swaps and re-sticks found, named, with their frames;
+clean synthetic trials with soft tissue and the shared real trials give no finding."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mocap_mj.cli import main
+from mocap_mj.errors import UnknownNameError
+from mocap_mj.io import MarkerTrajectory, load_markers, save_csv
+from mocap_mj.kinematics import Kinematics
+from mocap_mj.marker_quality import (
+    check_marker_quality,
+    exclude_markers,
+    marker_segments,
+    parse_marker_list,
+    quality_lines,
+    suspects,
+)
+from mocap_mj.parameters import ParameterSet
+from mocap_synth.config import SynthConfig
+from mocap_synth.experiment import Experiment, synthesize
+from mocap_synth.noise import apply_swaps
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+RATE = 100.0
+
+
+@pytest.fixture(scope="module")
+def pset() -> ParameterSet:
+    return ParameterSet()
+
+
+def _segments(pset: ParameterSet) -> list[str]:
+    return marker_segments(pset.model)
+
+
+def _trial(pset: ParameterSet, motion: str = "rom", sta_mm: float = 10.0, **kw: int) -> Experiment:
+    cfg = SynthConfig(frames=600, rate=RATE, motion=motion, sta_mm=sta_mm, seed=3, **kw)
+    return synthesize(cfg, pset)
+
+
+def _check(pset: ParameterSet, markers: np.ndarray) -> list:
+    return check_marker_quality("trial.c3d", pset.marker_names, markers, RATE, _segments(pset))
+
+
+@pytest.mark.parametrize("motion", ["rom", "walk"])
+def test_clean_trial_with_soft_tissue_has_no_finding(pset: ParameterSet, motion: str) -> None:
+    # sta_mm 10: about 6 mm RMS of soft-tissue displacement over the ROM (docs/synth.md: 5
+    # gives about 3 mm), with 1 mm white noise.
+    exp = _trial(pset, motion)
+    assert _check(pset, np.asarray(exp.markers)) == []
+
+
+def test_demo_data_have_no_finding(pset: ParameterSet) -> None:
+    # mocap-mj demo's trials: the ROM it fits and the walk it holds out (its defaults).
+    for motion, frames in (("rom", 500), ("walk", 200)):
+        exp = synthesize(SynthConfig(frames=frames, noise_mm=1.0, seed=0, motion=motion), pset)
+        found = check_marker_quality(
+            "demo", pset.marker_names, np.asarray(exp.markers), exp.config.rate, _segments(pset)
+        )
+        assert found == [], [f.message for f in found]
+
+
+def test_left_right_swaps_found_with_their_frames(pset: ParameterSet) -> None:
+    exp = _trial(pset, "walk", swaps=2)
+    found = [f for f in _check(pset, np.asarray(exp.markers)) if f.kind == "swap"]
+    want = {(a, b, first, last + 1) for a, b, first, last in exp.swapped}
+    got = {(*sorted(f.markers), *f.frames) for f in found}
+    assert got == {(*sorted((a, b)), s, e) for a, b, s, e in want}
+    assert all(f.message.startswith("trial.c3d: ") for f in found)
+
+
+def test_neighbour_swap_found(pset: ParameterSet) -> None:
+    # The two wrist markers, about 50 mm apart, swapped for frames 200-319.
+    exp = _trial(pset, "rom")
+    names = pset.marker_names
+    markers = apply_swaps(np.asarray(exp.markers), names, [("LWRA", "LWRB", 200, 319)])
+    found = _check(pset, markers)
+    swaps = [f for f in found if f.kind == "swap"]
+    assert len(swaps) == 1, [f.message for f in found]
+    assert set(swaps[0].markers) == {"LWRA", "LWRB"}
+    assert swaps[0].frames == (200, 320)
+
+
+def test_mislabel_for_the_whole_trial_names_the_marker(pset: ParameterSet) -> None:
+    # RELB carries the forearm marker's track (RFRM) all along: an elbow that moves with the
+    # forearm, on the upper arm segment.
+    exp = _trial(pset, "rom")
+    names = pset.marker_names
+    markers = np.array(exp.markers)
+    markers[:, names.index("RELB")] = markers[:, names.index("RFRM")]
+    found = _check(pset, markers)
+    assert found, "a mislabelled RELB went unnoticed"
+    assert next(iter(suspects(found))) == "RELB", [f.message for f in found]
+    assert all(f.frames is None for f in found if f.kind in ("spread", "distance"))
+
+
+def test_marker_restuck_30mm_away_halfway(pset: ParameterSet) -> None:
+    # LFRM re-stuck 30 mm further from the wrist markers from frame 300 on, fixed on the
+    # forearm afterwards. (Distances alone cannot see a move around the line through the two
+    # wrist markers: docs/real-data.md.)
+    exp = _trial(pset, "rom")
+    names = pset.marker_names
+    i, j, k = (names.index(n) for n in ("LFRM", "LWRA", "LWRB"))
+    _, offsets = pset.split(exp.theta_true)
+    away = offsets.reshape(-1, 3)[i] - (offsets.reshape(-1, 3)[j] + offsets.reshape(-1, 3)[k]) / 2
+    kin = Kinematics(pset)
+    kin.set_theta(exp.theta_true)
+    xmat = kin.forward(np.asarray(exp.qpos)).xmat[:, int(pset.site_body[i])]  # (T, 3, 3)
+    markers = np.array(exp.markers)
+    markers[300:, i] += xmat[300:] @ (0.03 * away / np.linalg.norm(away))
+    found = _check(pset, markers)
+    steps = [f for f in found if f.kind == "step"]
+    assert len(steps) == 1, [f.message for f in found]
+    assert steps[0].markers[0] == "LFRM"
+    assert abs(steps[0].frames[0] - 300) <= 3  # within a block of the step search
+    assert 20.0 < steps[0].value_mm < 40.0
+    assert next(iter(suspects(found))) == "LFRM"
+
+
+def test_exclude_markers(pset: ParameterSet) -> None:
+    names = pset.marker_names
+    assert parse_marker_list("RELB, RWRA", names) == ("RELB", "RWRA")
+    with pytest.raises(UnknownNameError, match=r"unknown marker .*'RELBOW'"):
+        parse_marker_list("RELBOW", names)
+    x = np.ones((4, len(names), 3))
+    out = exclude_markers(x, names, ("RELB",))
+    assert np.isnan(out[:, names.index("RELB")]).all()
+    assert np.isfinite(np.delete(out, names.index("RELB"), axis=1)).all()
+
+
+REAL = ["Movement_trial", "Static_trial", "Test_func_rhip", "Test_func_rknee", "anatomical_posture"]
+
+
+@pytest.mark.parametrize("path", [f"real/{n}.c3d" for n in REAL] + ["vendors/Qualisys.c3d"])
+def test_shared_trials_have_no_finding(pset: ParameterSet, path: str) -> None:
+    file = SHARED / path
+    if not file.is_file():
+        pytest.skip(f"{file} absent (the shared data are not in this checkout)")
+    t = load_markers(file, model_names=pset.marker_names)
+    found = check_marker_quality(
+        str(file), pset.marker_names, t.select(pset.marker_names), t.rate, _segments(pset)
+    )
+    assert found == [], [f.message for f in found]
+
+
+def test_read_notworking2_names_the_right_elbow(pset: ParameterSet) -> None:
+    file = SHARED / "vendors" / "read_NOTworking2.c3d"
+    if not file.is_file():
+        pytest.skip(f"{file} absent (the shared data are not in this checkout)")
+    t = load_markers(file, model_names=pset.marker_names)
+    found = check_marker_quality(
+        str(file), pset.marker_names, t.select(pset.marker_names), t.rate, _segments(pset)
+    )
+    assert next(iter(suspects(found))) == "RELB", [f.message for f in found]
+    distance = [f for f in found if f.kind == "distance"]
+    assert {f.markers for f in distance} == {("RELB", "RWRA"), ("RELB", "RWRB")}
+
+
+@pytest.fixture(scope="module")
+def swapped_csv(pset: ParameterSet, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A 120-frame ROM with LWRA and LWRB swapped in frames 40-79, as a mocap-mj CSV."""
+    exp = synthesize(SynthConfig(frames=120, rate=RATE, sta_mm=10.0, seed=3), pset)
+    markers = apply_swaps(np.asarray(exp.markers), pset.marker_names, [("LWRA", "LWRB", 40, 79)])
+    path = tmp_path_factory.mktemp("quality") / "swapped.csv"
+    save_csv(path, MarkerTrajectory(exp.times, markers, pset.marker_names, RATE))
+    return path
+
+
+def _ik(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, list[str]]:
+    code = main(["ik", *argv])
+    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("mocap-mj ik")]
+    return code, err
+
+
+def test_ik_warns_records_and_strict_refuses(
+    swapped_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, err = _ik(capsys, "--markers", str(swapped_csv), "--out", str(tmp_path / "a"))
+    assert code == 0
+    assert any(
+        "warning: " in e and "LWRA and LWRB: labels swapped in frames 40-79" in e for e in err
+    )
+    quality = json.loads((tmp_path / "a" / "summary.json").read_text())["marker_quality"]
+    assert [(f["kind"], f["frames"]) for f in quality["findings"]] == [("swap", [40, 80])]
+    assert quality["findings"][0]["file"] == str(swapped_csv)
+
+    code, err = _ik(capsys, "--markers", str(swapped_csv), "--out", str(tmp_path / "b"), "--strict")
+    assert code == 2 and len(err) == 1 and "--strict" in err[0] and "LWRA and LWRB" in err[0]
+    assert not (tmp_path / "b").exists()
+
+    code, err = _ik(capsys, "--markers", str(swapped_csv), "--out", str(tmp_path / "c"),
+                    "--exclude-markers", "LWRA,LWRX")  # fmt: skip
+    assert code == 2 and len(err) == 1 and "unknown marker (--exclude-markers) 'LWRX'" in err[0]
+
+    # Without LWRA, LWRB's track still jumps; without both, nothing is left to find.
+    code, err = _ik(capsys, "--markers", str(swapped_csv), "--out", str(tmp_path / "d"),
+                    "--exclude-markers", "LWRA")  # fmt: skip
+    assert code == 0 and any("LWRB: 2 jump(s)" in e for e in err), err
+    code, err = _ik(capsys, "--markers", str(swapped_csv), "--out", str(tmp_path / "e"),
+                    "--exclude-markers", "LWRA,LWRB", "--strict")  # fmt: skip
+    assert code == 0 and err == []
+    summary = json.loads((tmp_path / "e" / "summary.json").read_text())
+    assert summary["marker_quality"] == {
+        "findings": [],
+        "suspects": {},
+        "excluded": ["LWRA", "LWRB"],
+    }
+    assert set(summary["markers_without_data"]) == {"LWRA", "LWRB"}
+
+
+def test_report_section() -> None:
+    entry = {
+        "findings": [{"message": "t.c3d: RELB-RWRA: median distance 118 mm ..."}],
+        "suspects": {"RELB": 2, "RWRA": 1},
+        "excluded": ["RFIN"],
+    }
+    text = "\n".join(quality_lines(entry))
+    assert text.startswith("## Marker data quality")
+    assert "excluded by --exclude-markers: RFIN" in text
+    assert "- t.c3d: RELB-RWRA: median distance 118 mm" in text
+    assert "RELB (2), RWRA (1)" in text
+    assert "no finding" in "\n".join(quality_lines({"findings": [], "suspects": {}}))
+
+
+def test_batch_column() -> None:
+    from mocap_mj.batch.report import COLUMNS
+    from mocap_mj.commands.batch import _quality_cell
+
+    assert "marker_quality" in COLUMNS
+    quality = {
+        "findings": [
+            {"file": "a.c3d", "kind": "distance", "markers": ["RELB", "RWRA"]},
+            {"file": "a.c3d", "kind": "asymmetry", "markers": ["LELB", "LWRA", "RELB", "RWRA"]},
+            {"file": "b.c3d", "kind": "swap", "markers": ["LASI", "RASI"]},
+        ]
+    }
+    assert _quality_cell(quality, "a.c3d") == "2 finding(s): RELB RWRA"
+    assert _quality_cell(quality, "b.c3d") == "1 finding(s): LASI RASI"
+    assert _quality_cell(quality, "c.c3d") == "none"
