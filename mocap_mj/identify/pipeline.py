@@ -262,6 +262,8 @@ def _robust(
     """The robust loss of ``settings`` with the threshold of the fit's last iterations (the
     median distance of ``trials`` at ``result``'s poses and model,
     :func:`~mocap_mj.identify.long.robust_loss`), None for the l2 loss."""
+    if settings.loss == "l2":
+        return None
     kin = Kinematics(pset)
     kin.set_theta(result.theta)
     markers = [t.markers for t in trials]
