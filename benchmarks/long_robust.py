@@ -60,6 +60,9 @@ def main() -> None:
     ap.add_argument("--info-stride", type=int, default=10)
     ap.add_argument("--work", default="/tmp/mocap-mj-long-robust")
     ap.add_argument("--runs", nargs="+", default=["all-cauchy", "select-cauchy", "select-l2"])
+    ap.add_argument(
+        "--reuse", action="store_true", help="score existing result folders, not run again"
+    )
     ap.add_argument("identify_args", nargs="*", help="more identify options (after --)")
     args = ap.parse_args()
     work = Path(args.work)
@@ -91,9 +94,13 @@ def main() -> None:
         select, loss = run.split("-")
         select = args.select if select == "select" else "all"
         out = work / f"{truth.name}-{run}-{select}{''.join(args.identify_args)}"
-        wall, cpu, summary = cli("identify", "--markers", str(truth / "markers.trc"),
-                                 "--select", select, "--loss", loss, "--out", str(out),
-                                 *args.identify_args, "--force")  # fmt: skip
+        if args.reuse and (out / "summary.json").exists():
+            wall, cpu = float("nan"), float("nan")
+            summary = json.loads((out / "summary.json").read_text())
+        else:
+            wall, cpu, summary = cli("identify", "--markers", str(truth / "markers.trc"),
+                                     "--select", select, "--loss", loss, "--out", str(out),
+                                     *args.identify_args, "--force")  # fmt: skip
         theta = pset.load_json(out / "theta.json")
         if run == "all-cauchy":
             reference = theta

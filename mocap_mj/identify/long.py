@@ -89,8 +89,8 @@ Weigh: TypeAlias = Callable[[np.ndarray], np.ndarray]
 
 
 class Robust(NamedTuple):
-    """A robust loss (:mod:`mocap_mj.identify.losses`) and its threshold c [m], held fixed
-    over a refinement and the motion's IK (:func:`robust_loss`), so that their costs and
+    """A robust loss (:mod:`mocap_mj.identify.losses`) and its threshold c [m]
+    (:func:`robust_loss`), held fixed over an IK pass and its cost, so that the cost and the
     IRLS weights are those of one problem."""
 
     loss: Loss
@@ -190,6 +190,8 @@ class Refinement(NamedTuple):
         standard deviation (the sample's steps, then the step on every frame)
     seconds : dict, wall time [s] of the ``sample`` steps and of the ``pass`` over every
         frame (its IK and reduced gradient)
+    robust : the robust loss and the threshold of the last accepted sample point (the pass
+        over every frame's), None for least squares
     """
 
     theta: np.ndarray
@@ -197,6 +199,7 @@ class Refinement(NamedTuple):
     gradient: np.ndarray
     steps: list[float]
     seconds: dict[str, float]
+    robust: Robust | None = None
 
 
 class ChunkFit(NamedTuple):
@@ -270,7 +273,8 @@ def _ik_pass(
     own pose step (``- J_q A^-1 g_q``) is then the weighted problem's, so the gradient is
     that problem's to first order even where the IK (heads, cold chunks) ran unweighted.
     With ``robust``, the weights are its IRLS weights and the fit's squared distances twice
-    its cost (:func:`sample_weights`), alike."""
+    its cost (:func:`sample_weights`), alike, and the heads' chains are solved again,
+    weighted, from their poses."""
     solver = IKSolver(kin)
     tree, kt = kin.tree(), kin.kappa_tables()
     grad = np.zeros(kin.pset.size)
@@ -282,6 +286,11 @@ def _ik_pass(
             r = solver.solve_from_heads(m, heads.rows(span, len(m)))
             q[:] = r.qpos
             f = _fit(r)
+            if robust is not None:
+                # The chains ran unweighted: an outlier pulls its frame's pose by millimetres,
+                # too far for the gradient's first-order pose step, and the motion's IK
+                # starts here. Solved again from there under the loss's weights.
+                f = solve_chunk(solver, m, q, weigh=weigh, robust=robust)
         else:
             f = solve_chunk(solver, m, q, weigh=weigh, robust=robust)
         span.qpos[span.start : span.stop] = q
@@ -499,6 +508,13 @@ def refine(
         else:
             # The information at every accepted point: kept from the start, the steps diverged.
             info = scale * _information(kin, m_s[info_rows], q_s[info_rows], weigh, robust)
+            if robust is not None:
+                # The threshold from the sample's distances at every accepted point, as the
+                # LM's from its frames' at every iterate; the next step's cost is compared
+                # with this point's under it.
+                robust = robust_loss(robust.loss.name, kin, m_s, q_s, st.loss_scale)
+                data = sample_weights(kin, m_s, q_s, weigh, robust)[1]
+                cost = weight * data + sum(p.cost(theta) for p in prior_list)
             best = _Point(theta.copy(), cost, weight * grad, info, q_s.copy())
             mu /= 10.0
         solver = _Solver(best.info, prior_list, box, free, sigma, st, mu)
@@ -507,7 +523,7 @@ def refine(
             break
     t1 = time.perf_counter()
     if best is None:  # no step asked for
-        return Refinement(theta, np.zeros((pset.size,) * 2), np.zeros(pset.size), sizes, {})
+        return Refinement(theta, np.zeros((pset.size,) * 2), np.zeros(pset.size), sizes, {}, robust)
     theta, grad = best.theta, best.grad
     if stride == 1:
         # The sample is every frame: its last accepted point is the refined model, with its
@@ -524,7 +540,7 @@ def refine(
         )
         sizes.append(_Solver(best.info, prior_list, box, free, sigma, st, mu).step(theta, grad))
     seconds = {"sample": t1 - t0, "pass": time.perf_counter() - t1}
-    return Refinement(theta, best.info, grad, sizes, seconds)
+    return Refinement(theta, best.info, grad, sizes, seconds, robust)
 
 
 class _Point(NamedTuple):

@@ -217,8 +217,9 @@ def refine_on_every_frame(
     landmarks (``slides``, and ``weighting`` has their ``slide_base_mm``), the refinement
     weighs them alike, by each frame's pose (:func:`~mocap_mj.identify.long.refine`'s
     ``weigh``): it minimises the cost the subset's solve minimised, over every frame. With a
-    robust ``settings.loss`` it minimises that loss, its threshold the subset's solve's last
-    (:func:`_robust`; in the dict as ``robust``, for the motion's IK)."""
+    robust ``settings.loss`` it minimises that loss, its threshold first the subset's solve's
+    last (:func:`_robust`), then the sample's (in the dict as ``robust``, for the motion's
+    IK)."""
     noise = weighting.get("noise_mm", settings.prior_noise * 1e3) * 1e-3
     priors: list[Prior] = [settings.weak_prior(result.theta)]
     box = None
@@ -248,7 +249,7 @@ def refine_on_every_frame(
             n: float(v) * 1e3 for n, v in zip(pset.kappa_names, result.theta, strict=False)
         },
         "qpos": qpos,
-        "robust": robust,
+        "robust": ref.robust,
     }
     return refined, info
 
