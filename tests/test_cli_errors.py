@@ -107,17 +107,6 @@ def test_identify_refuses_one_frame(data: dict[str, Path], tmp_path: Path) -> No
     assert_refused(proc, out, str(data["markers"]), "117 marker coordinates", "199 unknowns")
 
 
-def test_identify_refuses_a_robust_loss_on_selected_frames(
-    data: dict[str, Path], tmp_path: Path
-) -> None:
-    """The refinement on every frame (--select) weighs residuals by l2 only: a robust loss
-    there is refused with the way out, not silently dropped."""
-    out = tmp_path / "out"
-    proc = run("identify", "--markers", str(data["markers"]), "--select", "20", "--robust",
-               "--out", str(out))  # fmt: skip
-    assert_refused(proc, out, "--loss cauchy", "--select 20", "l2 loss only", "--select all")
-
-
 def test_malformed_mjcf_keeps_mujocos_line_and_element(
     data: dict[str, Path], tmp_path: Path
 ) -> None:

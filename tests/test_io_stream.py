@@ -285,3 +285,101 @@ def test_parameters_from_the_files_start_equal_the_whole_read() -> None:
         assert _same_tree(head, whole), path.name
         # read from the copy, or whole where the structural check refuses the file
         assert frames[1][0] in (min(frames[0][0], PROBE_FRAMES), frames[0][0]), path.name
+
+
+def _nexus_text() -> str:
+    """A synthetic ROM as a Vicon Nexus export (a Devices block before the Trajectories, a
+    Model Outputs block after; frames numbered from 101; a few samples missing)."""
+    from test_io_readers import nexus_text
+
+    return nexus_text(ParameterSet().marker_names, _markers_of(120) * 1000.0, 100.0)
+
+
+#: The Trajectories block's first data line (0-based) in ``_nexus_text``.
+NEXUS_DATA = 13
+
+
+def _nexus_row(k: int, cells: str) -> Callable[[str], str]:
+    """The Nexus text with data row k replaced."""
+    return lambda t: _rows(t, _set(NEXUS_DATA + k, cells))
+
+
+NEXUS_VARIANTS: dict[str, Callable[[str], str]] = {
+    "as written": lambda t: t,
+    "CRLF": lambda t: t.replace("\n", "\r\n"),
+    "no units row": lambda t: _rows(t, lambda lines: lines.pop(NEXUS_DATA - 1)),
+    "units m, the values mm": lambda t: t.replace(",mm,mm,mm", ",m,m,m"),
+    "Trajectories first, nothing after": lambda t: "\n".join(
+        t.split("\n")[8 : t.split("\n").index("Model Outputs") - 1]
+    ),
+    "trailing empty cells": lambda t: "\n".join(
+        line + ",," if line[:1].isdigit() else line for line in t.split("\n")
+    ),
+    "non-empty extra cell": _nexus_row(70, "171,0" + ",1" * 117 + ",9"),
+    "short row": _nexus_row(50, "151,0,1.0"),
+    "bad cell": _nexus_row(60, "161,0,x" + ",1" * 116),
+    "bad cell, second chunk": _nexus_row(100, "201,0" + ",1" * 116 + ",x"),
+    "bad cell, short row after": lambda t: _nexus_row(100, "201")(
+        _nexus_row(10, "111,0,x" + ",1" * 116)(t)
+    ),
+    "missing frame number": _nexus_row(90, ",0" + ",1" * 117),
+    "frame numbers going back": _nexus_row(90, "150,0" + ",1" * 117),
+    "bad rate": lambda t: t.replace("Trajectories\n100\n", "Trajectories\nfast\n"),
+    "Latin-1 name": lambda t: t.replace("LASI", "L\xc4SI"),
+}
+
+
+@pytest.mark.parametrize("variant", list(NEXUS_VARIANTS))
+def test_chunked_nexus_csv_equals_load_markers(tmp_path: Path, variant: str) -> None:
+    """Vicon Nexus rows parsed ``CHUNK`` at a time into a memory map: the same positions,
+    times, source and errors (the first in the block) as the whole read."""
+    path = tmp_path / "v.csv"
+    path.write_bytes(NEXUS_VARIANTS[variant](_nexus_text()).encode("latin-1"))
+    how = _same(path)
+    errors = ("non-empty extra cell", "short row", "bad cell", "bad cell, second chunk")
+    errors += ("bad cell, short row after", "missing frame number", "frame numbers going back")
+    errors += ("bad rate", "units m, the values mm")  # the header's, the units check's
+    assert how == ("error" if variant in errors else "in chunks")
+
+
+def _motive_text() -> str:
+    """A synthetic ROM as an OptiTrack Motive export (a rigid body's 7 columns before the
+    markers, an unlabelled marker after; Y up; a few samples missing)."""
+    from test_io_readers import motive_text
+
+    return motive_text(ParameterSet().marker_names, _markers_of(120) * 1000.0, 100.0)
+
+
+def _motive_row(k: int, cells: str) -> Callable[[str], str]:
+    """The Motive text with data row k replaced (rigid body 7 cells, markers, 3 more)."""
+    return lambda t: _rows(t, _set(7 + k, cells))
+
+
+MOTIVE_VARIANTS: dict[str, Callable[[str], str]] = {
+    "as written": lambda t: t,
+    "CRLF": lambda t: t.replace("\n", "\r\n"),
+    "trailing blank lines": lambda t: t + "\n\n  \n",
+    "no frame rate (from the times)": lambda t: t.replace("Frame Rate,100.000000,", "Rate,x,"),
+    "bad cell in the rigid body": _motive_row(30, "30,0.3,x" + ",1" * 126),
+    "blank line inside": _motive_row(40, ""),
+    "narrow row": _motive_row(50, "50,0.5,1.0"),
+    "non-empty extra cell": _motive_row(70, "70,0.7" + ",1" * 127 + ",9"),
+    "bad cell": _motive_row(60, "60,0.6" + ",1" * 7 + ",x" + ",1" * 119),
+    "bad cell, narrow row after": lambda t: _motive_row(100, "100")(
+        _motive_row(10, "10,0.1" + ",1" * 7 + ",x" + ",1" * 119)(t)
+    ),
+    "times going back": _motive_row(90, "90,0.5" + ",1" * 127),
+    "Latin-1 name": lambda t: t.replace("LASI", "L\xc4SI"),
+}
+
+
+@pytest.mark.parametrize("variant", list(MOTIVE_VARIANTS))
+def test_chunked_motive_csv_equals_load_markers(tmp_path: Path, variant: str) -> None:
+    """OptiTrack Motive rows parsed ``CHUNK`` at a time into a memory map (the marker columns
+    only): the same positions, times, source and errors as the whole read."""
+    path = tmp_path / "v.csv"
+    path.write_bytes(MOTIVE_VARIANTS[variant](_motive_text()).encode("latin-1"))
+    how = _same(path)
+    errors = ("blank line inside", "narrow row", "non-empty extra cell", "bad cell")
+    errors += ("bad cell, narrow row after", "times going back")
+    assert how == ("error" if variant in errors else "in chunks")

@@ -436,11 +436,12 @@ def test_refinement_on_every_frame_keeps_the_poses_of_its_model(pset: ParameterS
     assert np.array_equal(qpos, IKSolver(kin).solve_trial(exp.markers).qpos, equal_nan=True)
 
 
-def test_auto_selection_with_a_robust_loss_fits_every_frame(
+def test_auto_selection_with_a_robust_loss_refines_with_it(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """``--select auto`` (the default) on a long trial with ``--robust`` fits every frame with
-    the robust loss instead of refusing: the refusal is for an explicit number of frames."""
+    """``--select auto`` (the default) on a long trial with ``--robust`` identifies on the
+    selected frames and refines on every frame with the robust loss (once refused with an
+    explicit number of frames, and auto fitted every frame instead)."""
     from mocap_mj import cli
     from mocap_mj.commands import identify as identify_command
 
@@ -448,12 +449,48 @@ def test_auto_selection_with_a_robust_loss_fits_every_frame(
     proc = _cli("synth", "--out", str(truth), "--frames", "120", "--motion", "rom", "--seed", "6")
     assert proc.returncode == 0, proc.stderr
     monkeypatch.setattr(identify_command, "AUTO_SELECT_ABOVE", 100)  # 120 frames count as long
+    monkeypatch.setattr(identify_command, "AUTO_SELECT_COUNT", 60)
     markers = str(truth / "markers.trc")
     assert cli.main(["identify", "--markers", markers, "--robust", "--out", str(out)]) == 0
     summary = json.loads((out / "summary.json").read_text())
-    assert "frames_selected" not in summary and summary["loss"] == "cauchy"
+    assert summary["loss"] == "cauchy" and len(summary["frames_selected"][0]) == 60
+    assert len(summary["refinement"]["steps_std"]) >= 1
     with np.load(out / "motion.npz") as motion:
-        assert motion["qpos"].shape[0] == 120
-    refused = cli.main(["identify", "--markers", markers, "--robust", "--select", "60",
-                        "--out", str(tmp_path / "refused")])  # fmt: skip
-    assert refused != 0 and not (tmp_path / "refused").exists()
+        assert motion["qpos"].shape[0] == 120 and np.all(np.isfinite(motion["qpos"]))
+
+
+def test_refinement_minimises_the_robust_cost(pset: ParameterSet, hand_zero: HandZero) -> None:
+    """With ``robust`` (the Cauchy loss and the threshold of the fit), ``refine`` on every
+    frame ends where the joint LM with that loss ends, and outliers (3 % of the samples
+    displaced 50 mm) do not move it as they move the least-squares refinement."""
+    from mocap_mj.identify.lm import LMSettings, identify_lm
+    from mocap_mj.identify.long import robust_loss
+
+    exp = hand_zero.exp  # 300 ROM frames; their information at the truth
+    rng = np.random.default_rng(1)
+    markers = exp.markers.copy()
+    outlier = rng.random(markers.shape[:2]) < 0.03
+    step = rng.normal(size=(int(outlier.sum()), 3))
+    markers[outlier] += 0.05 * step / np.linalg.norm(step, axis=1, keepdims=True)
+    kin = Kinematics(pset)
+    kin.set_theta(exp.theta_true)
+    robust = robust_loss("cauchy", kin, markers, exp.qpos, LMSettings.loss_scale)
+    assert robust is not None and 2.5e-3 < robust.c < 4e-3  # 3 sigma, sigma 1 mm
+    runs = {}
+    for name, r in (("plain", None), ("robust", robust)):
+        qpos = np.full((len(markers), pset.model.nq), np.nan)
+        runs[name] = refine(markers, pset, exp.theta_true, qpos, 1e-3, robust=r, steps=12,
+                            tol_std=0.01).theta  # fmt: skip
+    settings = LMSettings(loss="cauchy", coarse_frames=0)
+    lm = identify_lm([TrialData("rom", markers, exp.times)], pset=pset, theta0=exp.theta_true,
+                     settings=settings)  # fmt: skip
+
+    def apart(theta: np.ndarray, other: np.ndarray) -> float:
+        """Distance [m] of two models in the directions the frames determine."""
+        return float(np.linalg.norm(hand_zero.idf.project(theta - other)[0]))
+
+    # Measured: the least-squares refinement 18.7 mm from the LM (20.0 mm from the truth),
+    # the robust one 1.9 mm (8.9 mm from the truth, about the bound's norm over the ~120
+    # observable directions): the threshold is held fixed here, the LM re-estimates it.
+    assert apart(runs["plain"], lm.theta) > 5 * apart(runs["robust"], lm.theta)
+    assert apart(runs["robust"], lm.theta) < 0.3 * apart(runs["robust"], exp.theta_true)

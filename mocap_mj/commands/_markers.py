@@ -55,7 +55,7 @@ def add_marker_options(parser: argparse.ArgumentParser, *, several: bool = False
     )
 
 
-#: Frames above which ``load_trial`` with a scratch folder reads a C3D or TRC file in chunks
+#: Frames above which ``load_trial`` with a scratch folder reads a marker file in chunks
 #: into a memory map (one chunk of the reader's).
 STREAM_ABOVE = CHUNK
 
@@ -78,8 +78,8 @@ class Trial(NamedTuple):
 def load_trial(
     path: str, names: tuple[str, ...], args: argparse.Namespace, scratch: Path | None = None
 ) -> Trial:
-    """The file's markers in the model's order ``names``. With a ``scratch`` folder, a C3D
-    or TRC file of more than ``STREAM_ABOVE`` frames is read chunk by chunk
+    """The file's markers in the model's order ``names``. With a ``scratch`` folder, a marker
+    file of more than ``STREAM_ABOVE`` frames that the chunked readers read is read chunk by chunk
     (:func:`mocap_mj.io.stream.open_markers`, the same positions bit for bit) into a
     memory-mapped ``.npy`` there: ``markers`` is then that memory map, and no more than a
     chunk of the file is held at once."""

@@ -107,11 +107,10 @@ def _add_fit_options(p: argparse.ArgumentParser) -> None:
         default="auto",
         metavar="N",
         help="N, auto or all: identify on N frames chosen for pose diversity (shared among the "
-        "trials by their length), then solve every frame's IK with the identified model for "
-        f"motion.npz and joint_centres.csv; auto: {AUTO_SELECT_COUNT} frames when the trials "
-        f"hold more than {AUTO_SELECT_ABOVE} in all and the loss is l2, else every frame; "
-        "all: every frame (default: auto); a selection refines with the l2 loss only "
-        "(--loss huber/cauchy with a number of frames is refused)",
+        "trials by their length), refine the model on every frame with the same loss and "
+        "priors, then solve every frame's IK with it for motion.npz and joint_centres.csv; "
+        f"auto: {AUTO_SELECT_COUNT} frames when the trials hold more than {AUTO_SELECT_ABOVE} "
+        "in all, else every frame; all: every frame (default: auto)",
     )
     p.add_argument(
         "--loss",
@@ -215,18 +214,7 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
         with output_folder(args.out, force=args.force) as out:
             return run_paper(args, pset, trials, ranges, out)
     subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
-    loss = "cauchy" if args.robust else args.loss
     count = _select_count(args.select, sum(len(t.markers) for t in trials), len(trials))
-    if args.select == "auto" and loss != "l2":
-        count = None  # a robust loss weighs every frame; auto must not turn it into a refusal
-    if count is not None and loss != "l2":
-        # The refinement on every frame has no robust weights: the model would be the
-        # subset's alone, many times the error of the whole recording (docs/long-recordings.md).
-        raise MocapError(
-            f"--loss {loss}: identifying on selected frames (--select {args.select}) refines "
-            "the model on every frame with the l2 loss only; use --loss l2, or --select all "
-            f"to fit every frame with {loss}"
-        )
     _, quality = check_trials(args, pset, to_check, excluded)  # after every bad-input error
     return into_out_folder(
         args,

@@ -58,6 +58,7 @@ from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from .initial import place_markers, scaled_theta, segment_scales
 from .lm import (
+    CHI3_MEDIAN,
     LMResult,
     LMSettings,
     TrialData,
@@ -65,6 +66,7 @@ from .lm import (
     identify_lm,
     solver_joint_range,
 )
+from .losses import L2, Loss, Weighted, loss_named
 from .priors import Prior
 from .problem import IdentificationProblem, reduced_information
 from .result import IdentificationResult
@@ -84,6 +86,65 @@ Parts: TypeAlias = NDArray[np.floating] | Sequence[NDArray[np.floating]]
 #: Per-sample weights (n, M) [1] of the poses (n, nq) they are given (1 for NaN rows), e.g.
 #: the landmarks' soft-tissue sliding (:meth:`mocap_mj.identify.tissue.SlidingModel.weights`).
 Weigh: TypeAlias = Callable[[np.ndarray], np.ndarray]
+
+
+class Robust(NamedTuple):
+    """A robust loss (:mod:`mocap_mj.identify.losses`) and its threshold c [m]
+    (:func:`robust_loss`), held fixed over an IK pass and its cost, so that the cost and the
+    IRLS weights are those of one problem."""
+
+    loss: Loss
+    c: float
+
+
+def robust_loss(
+    name: str, kin: Kinematics, markers: Parts, qpos: Parts, scale: float
+) -> Robust | None:
+    """The loss called ``name`` with the threshold the LM's last iterations used: ``scale``
+    times the per-axis noise from the median marker distance of markers (T, M, 3) [m] at
+    poses qpos (T, nq) (one of each per trial; NaN rows skipped) under kin's model
+    (:meth:`~mocap_mj.identify.problem.IdentificationProblem.loss_scale`); None for "l2"."""
+    if name == "l2":
+        return None
+    dist = [
+        _distances(kin, np.asarray(m, dtype=float), np.asarray(q, dtype=float))
+        for m, q in zip(_parts(markers), _parts(qpos), strict=True)
+    ]
+    d = np.concatenate([x[p] for x, p in dist])
+    sigma = float(np.median(d)) / CHI3_MEDIAN if d.size else 1e-3
+    return Robust(loss_named(name), scale * sigma)
+
+
+def _distances(kin: Kinematics, m: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distances (n, M) [m] of the markers m (n, M, 3) [m] from the model's at the poses
+    q (n, nq) under kin's model, 0 where a sample is missing or its frame has no pose (NaN
+    row), and where they are present (n, M) bool."""
+    ok = np.isfinite(q[:, 0])
+    present = np.all(np.isfinite(m), axis=2) & ok[:, None]
+    d = np.zeros(present.shape)
+    d[ok] = np.linalg.norm(
+        kin.site_positions(q[ok]) - np.where(present[ok, :, None], m[ok], 0), axis=2
+    )
+    return np.where(present, d, 0.0), present
+
+
+def sample_weights(
+    kin: Kinematics,
+    m: np.ndarray,
+    q: np.ndarray,
+    weigh: Weigh | None = None,
+    robust: Robust | None = None,
+) -> tuple[np.ndarray, float]:
+    """The IRLS weights (n, M) [1] of the samples m (n, M, 3) [m] at poses q (n, nq) under
+    kin's model (0 where missing or without a pose) and their cost [m^2]: the loss of
+    ``robust`` (default least squares) of each distance scaled by the square root of the
+    ``weigh`` weight (:class:`~mocap_mj.identify.losses.Weighted`, as the identification
+    weighs a robust loss with the sliding landmarks)."""
+    d, present = _distances(kin, m, q)
+    base = np.ones(present.shape) if weigh is None else weigh(q)
+    loss = Weighted(L2() if robust is None else robust.loss, base)
+    c = np.inf if robust is None else robust.c
+    return loss.weights(d, present, c), loss.value(d, present, c)
 
 
 class LongResult(NamedTuple):
@@ -129,6 +190,8 @@ class Refinement(NamedTuple):
         standard deviation (the sample's steps, then the step on every frame)
     seconds : dict, wall time [s] of the ``sample`` steps and of the ``pass`` over every
         frame (its IK and reduced gradient)
+    robust : the robust loss and the threshold of the last accepted sample point (the pass
+        over every frame's), None for least squares
     """
 
     theta: np.ndarray
@@ -136,11 +199,12 @@ class Refinement(NamedTuple):
     gradient: np.ndarray
     steps: list[float]
     seconds: dict[str, float]
+    robust: Robust | None = None
 
 
 class ChunkFit(NamedTuple):
-    """Sums over the solved frames of an IK pass: squared marker distances [m^2], present
-    samples, frames."""
+    """Sums over the solved frames of an IK pass: squared marker distances [m^2] (weighted:
+    twice the cost, :func:`sample_weights`), present samples, frames."""
 
     sq: float
     present: int
@@ -157,16 +221,19 @@ def solve_chunk(
     q: np.ndarray,
     warm_iterations: int | None = None,
     weigh: Weigh | None = None,
+    robust: Robust | None = None,
 ) -> ChunkFit:
     """IK of one chunk's markers m (n, M, 3) [m] in place in q (n, nq): frames with a pose
     (finite rows) start there (warm, at most ``warm_iterations`` iterations, default the
-    solver's limit; with ``weigh``, weighted by the weights of their start poses; NaN rows
-    had too few markers and stay NaN); a chunk of NaN rows is solved afresh (chained,
-    unweighted, :meth:`IKSolver.solve_trial`)."""
+    solver's limit; with ``weigh`` or ``robust``, weighted by the IRLS weights of their
+    start poses, :func:`sample_weights`; NaN rows had too few markers and stay NaN); a chunk
+    of NaN rows is solved afresh (chained, unweighted, :meth:`IKSolver.solve_trial`)."""
     warm = np.isfinite(q[:, 0])
     r: IKResult
     if warm.any():
-        w = None if weigh is None else weigh(q[warm])
+        w = None
+        if weigh is not None or robust is not None:
+            w = sample_weights(solver.kin, m[warm], q[warm], weigh, robust)[0]
         r = solver.solve_frames(m[warm], q[warm], w, max_iterations=warm_iterations)
         q[warm] = r.qpos
     else:
@@ -193,6 +260,7 @@ def _ik_pass(
     gradient: bool,
     heads: Heads | None = None,
     weigh: Weigh | None = None,
+    robust: Robust | None = None,
 ) -> tuple[ChunkFit, np.ndarray]:
     """IK of every frame under kin's theta, chunk by chunk, in place in qpos (T, nq) (or one
     such array per trial of ``markers``; :func:`solve_chunk`); with ``heads``, chunks
@@ -203,7 +271,10 @@ def _ik_pass(
     zeros otherwise). With ``weigh`` (and ``gradient``) the gradient and the fit's squared
     distances are weighted by the samples' weights at the new poses: the reduced gradient's
     own pose step (``- J_q A^-1 g_q``) is then the weighted problem's, so the gradient is
-    that problem's to first order even where the IK (heads, cold chunks) ran unweighted."""
+    that problem's to first order even where the IK (heads, cold chunks) ran unweighted.
+    With ``robust``, the weights are its IRLS weights and the fit's squared distances twice
+    its cost (:func:`sample_weights`), alike, and the heads' chains are solved again,
+    weighted, from their poses."""
     solver = IKSolver(kin)
     tree, kt = kin.tree(), kin.kappa_tables()
     grad = np.zeros(kin.pset.size)
@@ -215,27 +286,24 @@ def _ik_pass(
             r = solver.solve_from_heads(m, heads.rows(span, len(m)))
             q[:] = r.qpos
             f = _fit(r)
+            if robust is not None:
+                # The chains ran unweighted: an outlier pulls its frame's pose by millimetres,
+                # too far for the gradient's first-order pose step, and the motion's IK
+                # starts here. Solved again from there under the loss's weights.
+                f = solve_chunk(solver, m, q, weigh=weigh, robust=robust)
         else:
-            f = solve_chunk(solver, m, q, weigh=weigh)
+            f = solve_chunk(solver, m, q, weigh=weigh, robust=robust)
         span.qpos[span.start : span.stop] = q
         if gradient:
             present = np.all(np.isfinite(m), axis=2)
             target = np.where(present[..., None], m, 0.0)
             w = present.astype(float)
-            if weigh is not None:
-                w *= weigh(q)
-                f = f._replace(sq=_weighted_sq(kin, target, w, q))
+            if weigh is not None or robust is not None:
+                w, cost = sample_weights(kin, m, q, weigh, robust)
+                f = f._replace(sq=2.0 * cost)
             grad += _schur.reduced_gradient(tree, kt, target, w, q, limits=False)
         fit = ChunkFit(fit.sq + f.sq, fit.present + f.present, fit.solved + f.solved)
     return fit, grad
-
-
-def _weighted_sq(kin: Kinematics, target: np.ndarray, w: np.ndarray, q: np.ndarray) -> float:
-    """Sum [m^2] of the weights w (n, M) times the squared distances of the markers target
-    (n, M, 3) [m] from the model's at the poses q (n, nq) (NaN rows skipped)."""
-    ok = np.isfinite(q[:, 0])
-    d = kin.site_positions(q[ok]) - target[ok]
-    return float(np.sum(w[ok] * np.sum(d * d, axis=2)))
 
 
 class Heads(NamedTuple):
@@ -288,18 +356,24 @@ def _parts(x: Parts) -> list[NDArray[np.floating]]:
 
 
 def _information(
-    kin: Kinematics, markers: np.ndarray, qpos: np.ndarray, weigh: Weigh | None = None
+    kin: Kinematics,
+    markers: np.ndarray,
+    qpos: np.ndarray,
+    weigh: Weigh | None = None,
+    robust: Robust | None = None,
 ) -> np.ndarray:
     """Reduced information (P, P) [1] of frames markers (n, M, 3) [m] at poses qpos (n, nq)
-    (NaN rows skipped), joint limits not held, each sample weighted by ``weigh`` (default
-    1)."""
+    (NaN rows skipped), joint limits not held, each sample weighted by its IRLS weight
+    (:func:`sample_weights`: ``weigh`` and ``robust``; default 1)."""
     ok = np.isfinite(qpos[:, 0])
     if not ok.any():
         return np.zeros((kin.pset.size,) * 2)
     free = np.flatnonzero(~kin.pset.frozen)
     prob = IdentificationProblem(kin, markers[ok], qpos[ok], free, theta0=kin.theta.copy())
     w = prob.present.astype(float)
-    return prob.information(w if weigh is None else w * weigh(qpos[ok]))
+    if weigh is not None or robust is not None:
+        w = sample_weights(kin, markers[ok], qpos[ok], weigh, robust)[0]
+    return prob.information(w)
 
 
 class _Solver:
@@ -360,6 +434,7 @@ def refine(
     sample: int = SAMPLE,
     info_frames: int = INFO_FRAMES,
     weigh: Weigh | None = None,
+    robust: Robust | None = None,
 ) -> Refinement:
     """The model refined on every frame (module docstring, step 3).
 
@@ -424,7 +499,7 @@ def refine(
     mu = 0.0
     for _ in range(steps):
         kin.set_theta(theta)
-        fit, grad = _ik_pass(m_s, kin, q_s, chunk, gradient=True, weigh=weigh)
+        fit, grad = _ik_pass(m_s, kin, q_s, chunk, gradient=True, weigh=weigh, robust=robust)
         cost = weight * 0.5 * fit.sq + sum(p.cost(theta) for p in prior_list)
         if best is not None and cost > best.cost:
             # The step raised the cost (real data: frames at joint limits, soft tissue): back
@@ -432,7 +507,14 @@ def refine(
             theta, mu = best.theta.copy(), max(10.0 * mu, 1e-3)
         else:
             # The information at every accepted point: kept from the start, the steps diverged.
-            info = scale * _information(kin, m_s[info_rows], q_s[info_rows], weigh)
+            info = scale * _information(kin, m_s[info_rows], q_s[info_rows], weigh, robust)
+            if robust is not None:
+                # The threshold from the sample's distances at every accepted point, as the
+                # LM's from its frames' at every iterate; the next step's cost is compared
+                # with this point's under it.
+                robust = robust_loss(robust.loss.name, kin, m_s, q_s, st.loss_scale)
+                data = sample_weights(kin, m_s, q_s, weigh, robust)[1]
+                cost = weight * data + sum(p.cost(theta) for p in prior_list)
             best = _Point(theta.copy(), cost, weight * grad, info, q_s.copy())
             mu /= 10.0
         solver = _Solver(best.info, prior_list, box, free, sigma, st, mu)
@@ -441,7 +523,7 @@ def refine(
             break
     t1 = time.perf_counter()
     if best is None:  # no step asked for
-        return Refinement(theta, np.zeros((pset.size,) * 2), np.zeros(pset.size), sizes, {})
+        return Refinement(theta, np.zeros((pset.size,) * 2), np.zeros(pset.size), sizes, {}, robust)
     theta, grad = best.theta, best.grad
     if stride == 1:
         # The sample is every frame: its last accepted point is the refined model, with its
@@ -453,10 +535,12 @@ def refine(
         kin.set_theta(theta)
         offsets = np.cumsum([0] + [len(range(0, len(m), stride)) for m in parts[:-1]])
         heads = Heads(best.qpos, stride, tuple(int(o) for o in offsets))
-        _, grad = _ik_pass(parts, kin, qpos, chunk, gradient=True, heads=heads, weigh=weigh)
+        _, grad = _ik_pass(
+            parts, kin, qpos, chunk, gradient=True, heads=heads, weigh=weigh, robust=robust
+        )
         sizes.append(_Solver(best.info, prior_list, box, free, sigma, st, mu).step(theta, grad))
     seconds = {"sample": t1 - t0, "pass": time.perf_counter() - t1}
-    return Refinement(theta, best.info, grad, sizes, seconds)
+    return Refinement(theta, best.info, grad, sizes, seconds, robust)
 
 
 class _Point(NamedTuple):
@@ -566,10 +650,12 @@ def result_at(
     theta: np.ndarray,
     settings: LMSettings,
     box: tuple[np.ndarray, np.ndarray] | None = None,
+    robust: Robust | None = None,
 ) -> IdentificationResult:
     """The identification's ``result`` on ``trials`` described at another model theta (P,)
     [m] (the refined one): the trials' poses solved again under theta (warm from the
-    result's, with the solver's joint limits), their fit (RMSE, sigma), the reduced
+    result's, with the solver's joint limits; with ``robust``, weighted by the result's
+    final IRLS weights, as the robust fit's poses were), their fit (RMSE, sigma), the reduced
     information at them and the parameters on a bound of ``box`` (lower, upper) (P,) [m];
     the initial model, iterations and trace stay the identification's."""
     kin = Kinematics(pset)
@@ -577,11 +663,12 @@ def result_at(
     kin.set_theta(theta)
     solver = IKSolver(kin)
     qpos, frame_rmse = [], []
-    for t, q0 in zip(trials, result.qpos, strict=True):
+    for i, (t, q0) in enumerate(zip(trials, result.qpos, strict=True)):
         q, f = np.array(q0, dtype=float), np.full(len(q0), np.nan)
         ok = np.isfinite(q[:, 0])
         if ok.any():
-            r = solver.solve_frames(np.asarray(t.markers, dtype=float)[ok], q[ok])
+            w = None if robust is None else np.asarray(result.weights[i])[ok]
+            r = solver.solve_frames(np.asarray(t.markers, dtype=float)[ok], q[ok], w)
             q[ok], f[ok] = r.qpos, r.marker_rmse
         qpos.append(q)
         frame_rmse.append(f)

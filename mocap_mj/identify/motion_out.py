@@ -31,7 +31,7 @@ from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..tables import joint_centre_columns, joint_centre_text
 from .lm import LMSettings, solver_joint_range
-from .long import CHUNK, ChunkFit, Weigh, solve_chunk
+from .long import CHUNK, ChunkFit, Robust, Weigh, solve_chunk
 from .problem import TrialData
 
 #: LM iterations of each frame started from the refinement's poses (``start``): those are
@@ -139,6 +139,7 @@ def write_every_frame_motion(
     progress: Callable[[int], None] | None = None,
     chunk: int = CHUNK,
     weigh: Weigh | None = None,
+    robust: Robust | None = None,
 ) -> MotionFit:
     """IK of every frame of ``trials`` with the model as ``identify`` writes it (parameters
     theta (P,) [m], the joint limits the solver used), written chunk by chunk into
@@ -152,7 +153,9 @@ def write_every_frame_motion(
     column; default 0). ``progress`` is called with the frames done over all trials.
     ``weigh``: per-sample weights by pose (default None: all 1), for the warm frames from
     their start poses' (:func:`mocap_mj.identify.long.solve_chunk`), as the identification
-    weighed its fit (its soft-tissue sliding model)."""
+    weighed its fit (its soft-tissue sliding model); ``robust``: a robust loss and its
+    threshold (default None: least squares), the warm frames weighed by its IRLS weights at
+    their start poses, as the identification's robust fit weighed its samples."""
     with tempfile.TemporaryDirectory(prefix="mocap-mj-") as tmp:
         path = Path(tmp) / "model.xml"
         pset.export_mjcf(path, theta, joint_range=solver_joint_range(pset.model, settings))
@@ -170,7 +173,7 @@ def write_every_frame_motion(
             open(tmp_csv, "wb") as handle,
         ):
             table = _CentresTable(handle, model, first)
-            poses = _solved(solver, trial, q0, table, tally, chunk, weigh)
+            poses = _solved(solver, trial, q0, table, tally, chunk, weigh, robust)
             write_motion_chunks(
                 out / f"motion{suffix}.npz",
                 trial,
@@ -208,6 +211,7 @@ def _solved(
     tally: _Tally,
     chunk: int,
     weigh: Weigh | None = None,
+    robust: Robust | None = None,
 ) -> Iterator[np.ndarray]:
     """The trial's poses (n, nq) chunk by chunk (:func:`mocap_mj.identify.long.solve_chunk`:
     warm from q0's finite rows, else chained), each also appended to the centres table."""
@@ -217,7 +221,7 @@ def _solved(
         q = np.array(q0[s : s + chunk], dtype=float) if q0 is not None else None
         q = q if q is not None else np.full((len(m), nq), np.nan)
         t0 = time.perf_counter()
-        f = solve_chunk(solver, m, q, WARM_ITERATIONS, weigh)
+        f = solve_chunk(solver, m, q, WARM_ITERATIONS, weigh, robust)
         tally.add(f, len(m), time.perf_counter() - t0)
         table.append(np.asarray(trial.times[s : s + chunk], dtype=float), q)
         yield q

@@ -16,6 +16,7 @@ from ..checks import check_determined
 from ..errors import MocapError
 from ..ik import IKSettings
 from ..io.atomic import atomic_folder, atomic_write_text
+from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..strict_json import dumps, jsonable
 from ..subject import Subject
@@ -25,7 +26,7 @@ from .consistency import correlation_time
 from .identifiability import Identifiability
 from .initial import place_markers, scaled_theta, segment_scales
 from .lm import LMSettings, identify_lm, solver_joint_range
-from .long import Weigh, refine, result_at, scratch_array
+from .long import Robust, Weigh, refine, result_at, robust_loss, scratch_array
 from .motion_out import write_every_frame_motion
 from .output import write_result
 from .plausibility import kappa_outside_bounds, marker_rmse_by_marker
@@ -69,9 +70,11 @@ def identify_to_folder(
     by IK with the identified model as written to model.xml, written chunk by chunk
     (:func:`mocap_mj.identify.motion_out.write_every_frame_motion`, ``motion_progress``
     called with the frames done); default: the fitted
-    frames' poses. With ``refine`` (and the l2 loss) the model identified on ``trials`` is
-    then refined on every frame of ``motion_trials`` with the same priors and bounds
-    (:func:`refine_on_every_frame`) and everything written describes the refined model.
+    frames' poses. With ``refine`` the model identified on ``trials`` is then refined on
+    every frame of ``motion_trials`` with the same priors, bounds and loss
+    (:func:`refine_on_every_frame`) and everything written describes the refined model; with
+    a robust loss the motion's IK weighs each sample by that loss's IRLS weight at its start
+    pose, the threshold the refinement's.
 
     ``out`` is replaced whole at the end (:func:`mocap_mj.io.atomic.atomic_folder`): it holds
     the complete result or what it held before. Trials with fewer marker coordinates than
@@ -121,7 +124,7 @@ def identify_to_folder(
             **prior_options,
         )
     refined: dict[str, Any] = {}
-    if refine and motion_trials is not None and settings.loss == "l2":
+    if refine and motion_trials is not None:
         result, refined = refine_on_every_frame(
             result,
             trials,
@@ -164,7 +167,9 @@ def identify_to_folder(
     if motion_trials is not None:
         summary["motion_frames"] = [len(t.markers) for t in motion_trials]
         if refined:
-            summary["refinement"] = {k: v for k, v in refined.items() if k != "qpos"}
+            summary["refinement"] = {
+                k: v for k, v in refined.items() if k not in ("qpos", "robust")
+            }
         starts = summary.get("frames_fitted_range")
 
         def stream(staging: Path) -> dict[str, Any]:
@@ -178,6 +183,7 @@ def identify_to_folder(
                 start=refined.get("qpos"),
                 progress=motion_progress,
                 weigh=_sliding_weigh(pset, weighting, slides),
+                robust=refined.get("robust") or _robust(pset, result, trials, settings),
             )
             return {
                 "motion_marker_rmse_mm": fit.rmse * 1e3,
@@ -217,7 +223,10 @@ def refine_on_every_frame(
     motion trial (T_i, nq), the start of the motion's IK. When the solve weighed the sliding
     landmarks (``slides``, and ``weighting`` has their ``slide_base_mm``), the refinement
     weighs them alike, by each frame's pose (:func:`~mocap_mj.identify.long.refine`'s
-    ``weigh``): it minimises the cost the subset's solve minimised, over every frame."""
+    ``weigh``): it minimises the cost the subset's solve minimised, over every frame. With a
+    robust ``settings.loss`` it minimises that loss, its threshold first the subset's solve's
+    last (:func:`_robust`), then the sample's (in the dict as ``robust``, for the motion's
+    IK)."""
     noise = weighting.get("noise_mm", settings.prior_noise * 1e3) * 1e-3
     priors: list[Prior] = [settings.weak_prior(result.theta)]
     box = None
@@ -225,6 +234,7 @@ def refine_on_every_frame(
         priors += anatomical_priors(pset, subject, size=size, symmetric=symmetric, noise=noise)
         box = theta_bounds(pset, subject)
     qpos = [scratch_array((len(t.markers), pset.model.nq)) for t in motion_trials]
+    robust = _robust(pset, result, trials, settings)
     ref = refine(
         [t.markers for t in motion_trials],
         pset,
@@ -236,8 +246,9 @@ def refine_on_every_frame(
         lower=None if box is None else box[0],
         upper=None if box is None else box[1],
         weigh=_sliding_weigh(pset, weighting, slides),
+        robust=robust,
     )
-    refined = result_at(result, trials, pset, ref.theta, settings, box)
+    refined = result_at(result, trials, pset, ref.theta, settings, box, robust)
     info = {
         "steps_std": ref.steps,
         "seconds": ref.seconds,
@@ -245,8 +256,26 @@ def refine_on_every_frame(
             n: float(v) * 1e3 for n, v in zip(pset.kappa_names, result.theta, strict=False)
         },
         "qpos": qpos,
+        "robust": ref.robust,
     }
     return refined, info
+
+
+def _robust(
+    pset: ParameterSet,
+    result: IdentificationResult,
+    trials: Sequence[TrialData],
+    settings: LMSettings,
+) -> Robust | None:
+    """The robust loss of ``settings`` with the threshold of the fit's last iterations (the
+    median distance of ``trials`` at ``result``'s poses and model,
+    :func:`~mocap_mj.identify.long.robust_loss`), None for the l2 loss."""
+    if settings.loss == "l2":
+        return None
+    kin = Kinematics(pset)
+    kin.set_theta(result.theta)
+    markers = [t.markers for t in trials]
+    return robust_loss(settings.loss, kin, markers, result.qpos, settings.loss_scale)
 
 
 def _sliding_weigh(

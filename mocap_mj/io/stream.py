@@ -7,9 +7,9 @@ C3D file's point block is read from a memory map of its fixed-size frame records
 rows are parsed a few thousand at a time into a memory map
 (:func:`mocap_mj.io.formats.trc.open_chunks`); the names, units, vertical axis and
 missing-sample rules are :func:`load_markers`' own (:class:`mocap_mj.io.load.Reading`), so
-that both give the same positions bit for bit. Other files (the CSV formats, DEC/MIPS C3D,
-TRC rows wider than the header) are read whole and served from memory: ``how`` says which
-and why.
+that both give the same positions bit for bit. Other files (DEC/MIPS C3D, TRC rows wider
+than the header, text files with more than 64 lines before the data) are read whole and
+served from memory: ``how`` says which and why.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.lib.format import open_memmap
 
-from mocap_mj.io.formats import c3d, detect_format, mocap_csv, trc
+from mocap_mj.io.formats import c3d, detect_format, mocap_csv, motive_csv, nexus_csv, trc
 from mocap_mj.io.load import Reading, _arguments, _selection, load_markers
 from mocap_mj.io.trajectory import MarkerReport, marker_report
 from mocap_mj.markers import MARKER_NAMES
@@ -108,10 +108,11 @@ def open_markers(
     units, vertical axis, missing samples and errors), its positions read on demand.
 
     C3D files with Intel float or 16-bit integer points are read in chunks from a memory
-    map (:func:`mocap_mj.io.formats.c3d.open_chunks`), TRC files parsed in chunks into one
-    (:func:`mocap_mj.io.formats.trc.open_chunks`): the positions are read for the units
-    check, the missing-sample counts and the vertical axis, then as the caller asks, never
-    held, ``chunk`` frames at a time. Any other file is read whole by :func:`load_markers`.
+    map (:func:`mocap_mj.io.formats.c3d.open_chunks`), text files (TRC, mocap-mj, Nexus
+    and Motive CSV) parsed in chunks into one (``open_chunks`` of the format's module):
+    the positions are read for the units check, the missing-sample counts and the vertical
+    axis, then as the caller asks, never held, ``chunk`` frames at a time. Any other file
+    is read whole by :func:`load_markers`.
     """
     file, wanted_up, rename = _arguments(path, marker_map, up, units)
     fmt = detect_format(file)
@@ -120,6 +121,8 @@ def open_markers(
         "c3d": c3d.open_chunks,
         "trc": lambda f: trc.open_chunks(f, min(chunk, trc.ROWS)),
         "mocap-mj csv": lambda f: mocap_csv.open_chunks(f, min(chunk, mocap_csv.ROWS)),
+        "vicon nexus csv": lambda f: nexus_csv.open_chunks(f, min(chunk, nexus_csv.ROWS)),
+        "optitrack motive csv": lambda f: motive_csv.open_chunks(f, min(chunk, motive_csv.ROWS)),
     }
     if fmt in readers:
         opened = readers[fmt](file)

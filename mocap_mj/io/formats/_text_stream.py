@@ -1,8 +1,9 @@
 """Text marker files read chunk by chunk: the file's lines one at a time, a memory map of
 the positions, and what :mod:`mocap_mj.io.stream` reads from it.
 
-The text readers (:func:`mocap_mj.io.formats.trc.open_chunks`,
-:func:`mocap_mj.io.formats.mocap_csv.open_chunks`) check the whole file's layout in one
+The text readers (``open_chunks`` of :mod:`~mocap_mj.io.formats.trc`,
+:mod:`~mocap_mj.io.formats.mocap_csv`, :mod:`~mocap_mj.io.formats.nexus_csv` and
+:mod:`~mocap_mj.io.formats.motive_csv`) check the whole file's layout in one
 pass and parse its numbers in another, never holding the file: these are their shared parts.
 """
 
@@ -18,7 +19,14 @@ from typing import NamedTuple
 
 import numpy as np
 
-from mocap_mj.io.formats._common import RawMarkers, parse_numbers, xyz_positions
+from mocap_mj.errors import InputFileError
+from mocap_mj.io.formats._common import (
+    RawMarkers,
+    fit_row,
+    line_error,
+    parse_numbers,
+    xyz_positions,
+)
 
 #: Lines read to find a header's end before the data.
 HEAD_LINES = 64
@@ -64,6 +72,30 @@ def lines(path: Path, encoding: str) -> Iterator[Iterator[str]]:
                 yield text[:-1] if text.endswith("\r") else text
 
         yield each()
+
+
+def count_rows(path: Path, encoding: str, start: int, width: int) -> int:
+    """The data rows of a comma-separated file whose data start at line ``start`` (0-based)
+    and end at its last non-blank line: their number, every one checked by :func:`fit_row`
+    (``width`` cells, no non-empty extra cell) as the whole reads check them before they
+    parse a number, so that the first error in the file is the one raised; no row at all is
+    an error at line ``start + 1``."""
+    first_bad: tuple[int, InputFileError] | None = None
+    last = -1
+    with lines(path, encoding) as each:
+        for n, line in enumerate(itertools.islice(each, start, None)):
+            if line.strip():
+                last = n
+            if first_bad is None:
+                try:
+                    fit_row(path, start + 1 + n, line.split(","), width, "comma-separated cells")
+                except InputFileError as exc:
+                    first_bad = (n, exc)
+    if last < 0:
+        raise line_error(path, start + 1, "at least one row of data", "end of file")
+    if first_bad is not None and first_bad[0] <= last:
+        raise first_bad[1]
+    return last + 1
 
 
 def positions_map(frames: int, markers: int) -> np.ndarray:

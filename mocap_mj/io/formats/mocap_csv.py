@@ -23,7 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from mocap_mj.errors import InputFileError, MocapError
+from mocap_mj.errors import MocapError
 from mocap_mj.io.atomic import atomic_write_text
 from mocap_mj.io.formats._common import (
     RawMarkers,
@@ -43,6 +43,7 @@ from mocap_mj.io.formats._text_stream import (
     ROWS,
     TextChunks,
     chunks_of,
+    count_rows,
     parse_rows,
 )
 from mocap_mj.io.formats._text_stream import encoding as text_encoding
@@ -197,23 +198,9 @@ def open_chunks(path: Path, chunk: int = ROWS) -> TextChunks | str:
     h = _header(path, head)
     if h.start >= HEAD_LINES:
         return f"more than {HEAD_LINES} lines before the data"
-    first_bad: tuple[int, Exception] | None = None
-    last = -1
-    with text_lines(path, encoding) as lines:
-        for n, line in enumerate(itertools.islice(lines, h.start, None)):
-            if line.strip():
-                last = n
-            if first_bad is None:
-                try:
-                    fit_row(path, h.line + 1 + n, line.split(","), h.width, "comma-separated cells")
-                except InputFileError as exc:
-                    first_bad = (n, exc)
-    if last < 0:
-        raise _no_rows(path, h)
-    if first_bad is not None and first_bad[0] <= last:
-        raise first_bad[1]
+    n_rows = count_rows(path, encoding, h.start, h.width)
     positions, first_two = parse_rows(
-        path, encoding, h.start, last + 1, lambda line: line.split(",")[: h.width], h.columns, chunk
+        path, encoding, h.start, n_rows, lambda line: line.split(",")[: h.width], h.columns, chunk
     )
     frames, times = first_two[:, 0].copy(), first_two[:, 1].copy()
     return chunks_of(h.raw(path, positions, frames, times), positions)
