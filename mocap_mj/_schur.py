@@ -147,9 +147,15 @@ def _schur_range(
                 a[i, k] = h[i, k]
             a[i, i] += mu * h[i, i] + 1e-12
         factor(tr, a)
+        pos = 0
         for i in range(nv):
-            for k in range(nv):
-                ld_out[t, i, k] = a[i, k]
+            ld_out[t, pos] = a[i, i]
+            pos += 1
+            j = tr.dof_parent[i]
+            while j >= 0:
+                ld_out[t, pos] = a[i, j]
+                pos += 1
+                j = tr.dof_parent[j]
             for c in range(free.size):
                 yb[i, c] = bmat[i, free[c]]
             yb[i, free.size] = g[i]
@@ -275,6 +281,20 @@ class PackedY:
         return y
 
 
+def factor_size(tr: Tree) -> int:
+    """Entries of one frame's factor as :class:`FrameBlocks` keeps them: per dof in order, its
+    diagonal, then its row's entries at its ancestors, nearest first (MuJoCo's factorisation
+    has no fill-in, so these are all of L and D)."""
+    parent = tr.dof_parent
+    size = parent.size
+    for k in range(parent.size):
+        i = parent[k]
+        while i >= 0:
+            size += 1
+            i = parent[i]
+    return int(size)
+
+
 class FrameBlocks(NamedTuple):
     """Eliminated per-frame blocks of n frames (Pf free parameters).
 
@@ -282,7 +302,7 @@ class FrameBlocks(NamedTuple):
     ------
     y : PackedY, D^-1/2 L^-T B (n, nv, Pf) over the free parameters (its non-zeros)
     y_g : (n, nv) float, D^-1/2 L^-T g_q
-    ld : (n, nv, nv) float, the factors of the damped A
+    ld : (n, :func:`factor_size`) float, the factors of the damped A (their non-zeros)
     g_q : (n, nv) float, J_q^T W r [m^2 per rad or m]
     diag_a : (n, nv) float, diag(A) (undamped)
     c : (P, P) float, sum over the frames of J_th^T W J_th
@@ -330,7 +350,7 @@ def frame_blocks(
     groups = cached_gram_groups(tr, kt, free)
     y = PackedY(n, nv, pf, groups)
     y_g = np.empty((n, nv))
-    ld = np.empty((n, nv, nv))
+    ld = np.empty((n, factor_size(tr)))
     g_q = np.empty((n, nv))
     diag_a = np.empty((n, nv))
     bounds = blocks(n, n)
@@ -438,16 +458,17 @@ def reduced_gradient(
 @_kernel
 def _back_range(tr, ld, u, out):
     parent = tr.dof_parent
-    nv = ld.shape[1]
     for t in range(ld.shape[0]):
         a = ld[t]
         x = out[t]
-        for i in range(nv):
-            x[i] = u[t, i] / np.sqrt(a[i, i])
-        for k in range(nv):
+        pos = 0
+        for k in range(u.shape[1]):
+            x[k] = u[t, k] / np.sqrt(a[pos])
+            pos += 1
             i = parent[k]
             while i >= 0:
-                x[k] -= a[k, i] * x[i]
+                x[k] -= a[pos] * x[i]
+                pos += 1
                 i = parent[i]
 
 
