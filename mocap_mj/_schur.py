@@ -46,16 +46,22 @@ from ._tree import (
 
 
 @_jit
-def _rows_lt_solve(tr, a, y):
-    """y (nv, c) <- L^-T y, rows at once, for a factored by ``factor``."""
+def _rows_lt_solve(tr, a, y, runs, runptr):
+    """y (nv, c) <- L^-T y, rows at once, for a factored by ``factor``, over each row's
+    structural non-zeros only: row k's runs of columns ``runs[runptr[k]:runptr[k + 1]]``
+    ([first, last + 1) each; within every ancestor's, :func:`gram_groups`) and the last
+    column (the gradient's). Entries outside a row's runs are neither read nor written."""
     parent = tr.dof_parent
+    last = y.shape[1] - 1
     for k in range(a.shape[0] - 1, -1, -1):
         i = parent[k]
         while i >= 0:
             f = a[k, i]
             if f != 0.0:
-                for c in range(y.shape[1]):
-                    y[i, c] -= f * y[k, c]
+                for r in range(runptr[k], runptr[k + 1]):
+                    for c in range(runs[r, 0], runs[r, 1]):
+                        y[i, c] -= f * y[k, c]
+                y[i, last] -= f * y[k, last]
             i = parent[i]
 
 
@@ -85,7 +91,7 @@ def _hold_limits(tr, q, w, bmat):
 @_kernel
 def _schur_range(
     tr, kt, target, wts, qpos, free, lo, hi, use_limits, mu, y_out, y_base, y_row, y_cols,
-    y_colptr, yg_out, ld_out, gq_out, diag_out, c_acc, gt_acc,
+    y_colptr, y_runs, y_runptr, yg_out, ld_out, gq_out, diag_out, c_acc, gt_acc,
 ):  # fmt: skip
     nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
     w = work_arrays(nbody, njnt, ns, nv, qpos.shape[1])
@@ -156,10 +162,11 @@ def _schur_range(
                 ld_out[t, pos] = a[i, j]
                 pos += 1
                 j = tr.dof_parent[j]
-            for c in range(free.size):
-                yb[i, c] = bmat[i, free[c]]
+            for r in range(y_runptr[i], y_runptr[i + 1]):
+                for c in range(y_runs[r, 0], y_runs[r, 1]):
+                    yb[i, c] = bmat[i, free[c]]
             yb[i, free.size] = g[i]
-        _rows_lt_solve(tr, a, yb)
+        _rows_lt_solve(tr, a, yb, y_runs, y_runptr)
         for i in range(nv):
             sd = 1.0 / np.sqrt(a[i, i])
             c_lo, c_hi = y_colptr[i], y_colptr[i + 1]
@@ -217,6 +224,16 @@ def cached_gram_groups(
     return _GROUPS[key]
 
 
+def _runs(cols: np.ndarray) -> np.ndarray:
+    """Sorted column indices cols (k,) int as runs of consecutive ones, (r, 2) [first, last + 1)."""
+    if cols.size == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    breaks = np.flatnonzero(np.diff(cols) != 1) + 1
+    first = cols[np.concatenate([[0], breaks])]
+    last = cols[np.concatenate([breaks - 1, [cols.size - 1]])] + 1
+    return np.stack([first, last], axis=1).astype(np.int64)
+
+
 class PackedY:
     """Y (n, nv, Pf) of n frames stored as its structural non-zeros only: group g of
     :func:`gram_groups` (dofs d, columns c) is a C-contiguous (n, |d|, |c|) block of one flat
@@ -246,10 +263,14 @@ class PackedY:
                 counts[i], cols[i] = c.size, c.astype(np.int64)
         self.colptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
         self.cols = np.concatenate(cols).astype(np.int64)
+        # The same columns as runs of consecutive ones, [first, last + 1) (a limb's: 7-8).
+        runs = [_runs(c) for c in cols]
+        self.runptr = np.concatenate([[0], np.cumsum([len(r) for r in runs])]).astype(np.int64)
+        self.runs = np.concatenate([r for r in runs] + [np.zeros((0, 2))]).astype(np.int64)
 
     def kernel_args(self) -> tuple[np.ndarray, ...]:
         """The buffer and its tables, as :func:`_schur_range` takes them."""
-        return self.buffer, self.base, self.row, self.cols, self.colptr
+        return self.buffer, self.base, self.row, self.cols, self.colptr, self.runs, self.runptr
 
     def matvec(self, x: np.ndarray) -> np.ndarray:
         """Y x (n, nv) for x (Pf,)."""
