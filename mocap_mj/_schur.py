@@ -234,6 +234,58 @@ def _runs(cols: np.ndarray) -> np.ndarray:
     return np.stack([first, last], axis=1).astype(np.int64)
 
 
+class _Layout(NamedTuple):
+    """Where :class:`PackedY` keeps each dof's row, per frame of the call (times n frames):
+    offsets (groups + 1,) of the group blocks and base (nv,) of each dof's block; row (nv, 2)
+    the dof's row in its group and the group's rows; the dof's columns ``cols[colptr[i]:
+    colptr[i + 1]]`` and the same as runs of consecutive columns ``runs[runptr[i]:
+    runptr[i + 1]]`` ([first, last + 1) each; a limb's dof has 7-8)."""
+
+    offsets: np.ndarray
+    base: np.ndarray
+    row: np.ndarray
+    cols: np.ndarray
+    colptr: np.ndarray
+    runs: np.ndarray
+    runptr: np.ndarray
+
+
+_LAYOUTS: dict[int, tuple[list[tuple[slice, np.ndarray]], _Layout]] = {}
+
+
+def _layout(groups: list[tuple[slice, np.ndarray]], nv: int) -> _Layout:
+    """The :class:`_Layout` of ``groups`` (kept per groups object: :func:`cached_gram_groups`
+    returns the same list for the same structure)."""
+    hit = _LAYOUTS.get(id(groups))
+    if hit is not None and hit[0] is groups:
+        return hit[1]
+    sizes = [(d.stop - d.start) * c.size for d, c in groups]
+    offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+    base = np.zeros(nv, dtype=np.int64)
+    row = np.zeros((nv, 2), dtype=np.int64)
+    counts = np.zeros(nv, dtype=np.int64)
+    cols: list[np.ndarray] = [np.zeros(0, dtype=np.int64)] * nv
+    for g, (d, c) in enumerate(groups):
+        for i in range(d.start, d.stop):
+            base[i] = offsets[g]
+            row[i] = (i - d.start, d.stop - d.start)
+            counts[i], cols[i] = c.size, c.astype(np.int64)
+    runs = [_runs(c) for c in cols]
+    lay = _Layout(
+        offsets,
+        base,
+        row,
+        np.concatenate(cols).astype(np.int64),
+        np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+        np.concatenate([*runs, np.zeros((0, 2))]).astype(np.int64),
+        np.concatenate([[0], np.cumsum([len(r) for r in runs])]).astype(np.int64),
+    )
+    if len(_LAYOUTS) > 64:
+        _LAYOUTS.clear()
+    _LAYOUTS[id(groups)] = (groups, lay)
+    return lay
+
+
 class PackedY:
     """Y (n, nv, Pf) of n frames stored as its structural non-zeros only: group g of
     :func:`gram_groups` (dofs d, columns c) is a C-contiguous (n, |d|, |c|) block of one flat
@@ -244,33 +296,20 @@ class PackedY:
 
     def __init__(self, n: int, nv: int, pf: int, groups: list[tuple[slice, np.ndarray]]) -> None:
         self.n, self.nv, self.pf, self.groups = n, nv, pf, groups
-        sizes = [(d.stop - d.start) * c.size for d, c in groups]
-        offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64) * n
+        lay = _layout(groups, nv)
+        offsets = lay.offsets * n
         self.buffer = np.empty(int(offsets[-1]))
         self.blocks = [
             self.buffer[offsets[g] : offsets[g + 1]].reshape(n, d.stop - d.start, c.size)
             for g, (d, c) in enumerate(groups)
         ]
-        # Per dof: the group block's offset, (row in the group, the group's rows), columns.
-        self.base = np.zeros(nv, dtype=np.int64)
-        self.row = np.zeros((nv, 2), dtype=np.int64)
-        counts = np.zeros(nv, dtype=np.int64)
-        cols: list[np.ndarray] = [np.zeros(0, dtype=np.int64)] * nv
-        for g, (d, c) in enumerate(groups):
-            for i in range(d.start, d.stop):
-                self.base[i] = offsets[g]
-                self.row[i] = (i - d.start, d.stop - d.start)
-                counts[i], cols[i] = c.size, c.astype(np.int64)
-        self.colptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-        self.cols = np.concatenate(cols).astype(np.int64)
-        # The same columns as runs of consecutive ones, [first, last + 1) (a limb's: 7-8).
-        runs = [_runs(c) for c in cols]
-        self.runptr = np.concatenate([[0], np.cumsum([len(r) for r in runs])]).astype(np.int64)
-        self.runs = np.concatenate([r for r in runs] + [np.zeros((0, 2))]).astype(np.int64)
+        self.base = lay.base * n
+        self.layout = lay
 
     def kernel_args(self) -> tuple[np.ndarray, ...]:
         """The buffer and its tables, as :func:`_schur_range` takes them."""
-        return self.buffer, self.base, self.row, self.cols, self.colptr, self.runs, self.runptr
+        lay = self.layout
+        return self.buffer, self.base, lay.row, lay.cols, lay.colptr, lay.runs, lay.runptr
 
     def matvec(self, x: np.ndarray) -> np.ndarray:
         """Y x (n, nv) for x (Pf,)."""
