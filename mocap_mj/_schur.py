@@ -315,7 +315,7 @@ class PackedY:
         """Y x (n, nv) for x (Pf,)."""
         out = np.zeros((self.n, self.nv))
         for (d, c), blk in zip(self.groups, self.blocks, strict=True):
-            out[:, d] = blk @ x[c]
+            out[:, d] = (blk.reshape(-1, c.size) @ x[c]).reshape(self.n, -1)
         return out
 
     def gram(self, lo: int, hi: int) -> np.ndarray:
