@@ -54,10 +54,7 @@ def joint_centre_trajectories(model: mujoco.MjModel, qpos: np.ndarray) -> np.nda
     qpos = np.asarray(qpos, dtype=float)
     check_shape("qpos", qpos, (None, model.nq))
     bodies = centre_bodies(model)
-    data = mujoco.MjData(model)
     out = np.full((len(qpos), len(bodies), 3), np.nan)
-    for t in np.flatnonzero(np.all(np.isfinite(qpos), axis=1)).tolist():
-        data.qpos[:] = qpos[t]
-        rolling.kinematics(model, data)
+    for t, data in rolling.posed(model, qpos):
         out[t] = data.xpos[bodies]
     return out

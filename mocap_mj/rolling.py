@@ -26,7 +26,7 @@ coefficient vector, so that the coupling is a planar motion about an instantaneo
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from xml.etree import ElementTree
 
@@ -211,11 +211,40 @@ def kinematics(
         model.body_pos[roll.bodies] = base
 
 
+def posed(model: mujoco.MjModel, qpos: np.ndarray) -> Iterator[tuple[int, mujoco.MjData]]:
+    """(frame index, data after ``mj_kinematics``) for each frame of qpos (T, nq) without NaN,
+    the coupled bodies placed as :func:`kinematics` places them, with the couplings read once
+    and every frame's translation computed at once (a long trial's hundreds of thousands of
+    frames cost MuJoCo's pass each, little more). The same ``MjData`` is reused: read what you
+    need before the next frame; ``model.body_pos`` is restored when the iteration ends."""
+    q = np.asarray(qpos, dtype=float)
+    data = mujoco.MjData(model)
+    frames = np.flatnonzero(np.all(np.isfinite(q), axis=1)).tolist()
+    roll = read(model)
+    if roll is None:
+        for t in frames:
+            data.qpos[:] = q[t]
+            mujoco.mj_kinematics(model, data)
+            yield t, data
+        return
+    base = np.array(model.body_pos[roll.bodies])
+    shift, _ = roll.translation(q[:, roll.qposadr])
+    try:
+        for t in frames:
+            data.qpos[:] = q[t]
+            model.body_pos[roll.bodies] = base + shift[t]
+            mujoco.mj_kinematics(model, data)
+            yield t, data
+    finally:
+        model.body_pos[roll.bodies] = base
+
+
 __all__ = [
     "GAIT2392_FEMUR_LENGTH",
     "RECORD_PREFIX",
     "Rolling",
     "kinematics",
+    "posed",
     "read",
     "record",
     "set_lengths",

@@ -202,3 +202,20 @@ def test_viewer_and_joint_centres_show_the_rolling(kin: Kinematics) -> None:
     knee = [i for i, c in enumerate(JOINT_CENTRES) if c[1] == "shank_r"]
     got = joint_centre_trajectories(kin.model, q)[:, knee[0]]
     np.testing.assert_allclose(got, kin.forward(q).xpos[:, kin.model.body("shank_r").id])
+
+
+def test_posed_frames_match_the_per_frame_pass(kin: Kinematics) -> None:
+    """rolling.posed (translations computed once for the whole trial) places every body as
+    rolling.kinematics does frame by frame, skips unsolved frames and restores body_pos."""
+    m = kin.model
+    qpos = flexed_poses(kin, 12, 3)
+    qpos[4] = np.nan
+    before = np.array(m.body_pos)
+    posed = {t: np.array(d.xpos) for t, d in rolling.posed(m, qpos)}
+    np.testing.assert_array_equal(m.body_pos, before)
+    assert sorted(posed) == [t for t in range(12) if t != 4]
+    data = mujoco.MjData(m)
+    for t, xpos in posed.items():
+        data.qpos[:] = qpos[t]
+        rolling.kinematics(m, data)
+        np.testing.assert_allclose(xpos, data.xpos, rtol=0, atol=1e-12)

@@ -94,12 +94,13 @@ def export_glb(
             n_nodes += 1
 
     data = mujoco.MjData(model)
+    roll = rolling.read(model)
     layers = Layers(markers=True, residuals=True, ghost=False)
     for k in frames:
         parent = frame_node(k)
         scene.graph.update(frame_to=parent, frame_from=base, matrix=np.eye(4))
         data.qpos[:] = playback.qpos[k]
-        rolling.kinematics(model, data)
+        rolling.kinematics(model, data, roll=roll)
         for g, pose in zip(bodies, geom_poses(data, [g.geom_id for g in bodies]), strict=True):
             scene.graph.update(
                 frame_to=f"{parent}/{g.name}", frame_from=parent, matrix=pose, geometry=g.name

@@ -57,12 +57,7 @@ def posed_frames(model: mujoco.MjModel, qpos: np.ndarray) -> Iterator[tuple[int,
 
     The same ``MjData`` is reused: read what you need before the next frame.
     """
-    data = mujoco.MjData(model)
-    for t, q in enumerate(np.asarray(qpos, dtype=float)):
-        if np.all(np.isfinite(q)):
-            data.qpos[:] = q
-            rolling.kinematics(model, data)
-            yield t, data
+    yield from rolling.posed(model, qpos)
 
 
 def frame_rate(times: np.ndarray) -> float:
