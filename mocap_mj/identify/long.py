@@ -58,7 +58,6 @@ from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from .initial import place_markers, scaled_theta, segment_scales
 from .lm import (
-    CHI3_MEDIAN,
     LMResult,
     LMSettings,
     TrialData,
@@ -68,7 +67,7 @@ from .lm import (
 )
 from .losses import L2, Loss, Weighted, loss_named
 from .priors import Prior
-from .problem import IdentificationProblem, reduced_information
+from .problem import IdentificationProblem, loss_threshold, reduced_information
 from .result import IdentificationResult
 from .selection import Selection, select_frames
 
@@ -110,9 +109,7 @@ def robust_loss(
         _distances(kin, np.asarray(m, dtype=float), np.asarray(q, dtype=float))
         for m, q in zip(_parts(markers), _parts(qpos), strict=True)
     ]
-    d = np.concatenate([x[p] for x, p in dist])
-    sigma = float(np.median(d)) / CHI3_MEDIAN if d.size else 1e-3
-    return Robust(loss_named(name), scale * sigma)
+    return Robust(loss_named(name), loss_threshold(np.concatenate([x[p] for x, p in dist]), scale))
 
 
 def _distances(kin: Kinematics, m: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -108,6 +108,14 @@ class FitStatistics(NamedTuple):
     n_unknowns: int
 
 
+def loss_threshold(distances: np.ndarray, factor: float) -> float:
+    """Robust threshold c [m]: ``factor`` times the per-axis noise estimated from the median
+    of the present marker distances (K,) [m] (median |e| / sigma = 1.538 for 3D Gaussian
+    noise); ``factor`` x 1 mm without any distance."""
+    d = np.asarray(distances, dtype=float)
+    return factor * (float(np.median(d)) / CHI3_MEDIAN if d.size else 1e-3)
+
+
 class IdentificationProblem:
     """Pooled frames, loss, priors and box of one identification (see the module docstring).
 
@@ -177,10 +185,8 @@ class IdentificationProblem:
         return np.where(self.present, out, 0.0)
 
     def loss_scale(self, dist: np.ndarray, factor: float) -> float:
-        """Robust threshold c [m]: ``factor`` times the per-axis noise estimated from the
-        median distance (median |e| / sigma = 1.538 for 3D Gaussian noise)."""
-        d = dist[self.present]
-        return factor * (float(np.median(d) / CHI3_MEDIAN) if d.size else 1e-3)
+        """Robust threshold c [m] of the present distances (:func:`loss_threshold`)."""
+        return loss_threshold(dist[self.present], factor)
 
     def prior(self, theta: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         """Summed prior cost [m^2], gradient (Pf,) and Hessian (Pf, Pf) over the free set."""
@@ -342,6 +348,7 @@ __all__ = [
     "TrialData",
     "build_problem",
     "check_bounds",
+    "loss_threshold",
     "pool",
     "reduced_information",
     "unpool",

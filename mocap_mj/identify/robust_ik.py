@@ -23,8 +23,9 @@ from collections.abc import Callable
 import numpy as np
 
 from ..ik import IKResult, IKSolver
-from .lm import CHI3_MEDIAN, LMSettings
+from .lm import LMSettings
 from .losses import Weighted, loss_named
+from .problem import loss_threshold
 from .tissue import SlidingModel
 
 
@@ -67,7 +68,7 @@ def solve_trial_loss(
 
     dist = distances(q)
     for _ in range(max_rounds):
-        c = loss_scale * float(np.median(dist[present])) / CHI3_MEDIAN
+        c = loss_threshold(dist[present], loss_scale)
         before = rho.value(dist, present, c)
         r = solver.solve_frames(target, q, rho.weights(dist, present, c))
         q = r.qpos
