@@ -9,6 +9,11 @@ freezes (``ParameterSet.frozen``) every parameter such a trial set cannot move:
   e.g. ``lumbar_length`` without trunk markers;
 * the three offsets of a marker without a single present sample in any trial.
 
+A prior row that ties a measured parameter to a frozen one (the L5/S1 joint from the ASIS
+markers, when the trunk has no marker) is dropped (:func:`on_measured`): the frozen value is
+the prior's guess, not a measurement, and the row would pin the measured parameter to it
+with the row's landmark precision (3 mm) instead of the guess's (the weak prior's 50 mm).
+
 They keep their value of the initial model (the prior mean: the scaled nominal model), are
 not unknowns (:func:`mocap_mj.checks.check_determined`, the noise estimate's degrees of
 freedom) and are reported ``not_measured`` without a standard deviation
@@ -28,9 +33,10 @@ import numpy as np
 
 from ..marker_set import unmeasured_bodies
 from ..parameters import ParameterSet
+from .priors import LinearGaussianPrior
 from .problem import TrialData
 
-__all__ = ["Unmeasured", "freeze_unmeasured", "unmeasured"]
+__all__ = ["Unmeasured", "freeze_unmeasured", "on_measured", "unmeasured"]
 
 #: Flag of an unmeasured parameter or length in segments.csv, summary.json and report.md.
 NOT_MEASURED = "not_measured"
@@ -79,3 +85,17 @@ def freeze_unmeasured(
     new = copy.copy(pset)
     new.frozen = pset.frozen | found.frozen
     return new, found
+
+
+def on_measured(prior: LinearGaussianPrior, frozen: np.ndarray) -> LinearGaussianPrior:
+    """``prior`` without its rows on a ``frozen`` (P,) parameter (``prior`` itself when it
+    has none): such a row relates a measured quantity to a value nobody measured; dropping
+    it is its marginal over the frozen parameter's wide prior, to a fraction of a percent."""
+    a = np.atleast_2d(np.asarray(prior.a, dtype=float))
+    keep = ~np.any(a[:, frozen] != 0.0, axis=1)
+    if keep.all():
+        return prior
+    labels = tuple(label for label, k in zip(prior.labels, keep, strict=False) if k)
+    return LinearGaussianPrior(
+        a[keep], np.asarray(prior.b)[keep], np.asarray(prior.sigma)[keep], prior.noise, labels
+    )

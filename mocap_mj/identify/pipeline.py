@@ -29,7 +29,7 @@ from .lm import LMSettings, identify_lm, solver_joint_range
 from .long import Robust, Weigh, refine, result_at, robust_loss, scratch_array
 from .motion_out import write_every_frame_motion
 from .output import write_result
-from .partial import Unmeasured, freeze_unmeasured
+from .partial import Unmeasured, freeze_unmeasured, on_measured
 from .plausibility import kappa_outside_bounds, marker_rmse_by_marker
 from .priors import LinearGaussianPrior, Prior
 from .problem import TrialData
@@ -618,11 +618,12 @@ def anatomical_priors(
     symmetric: float | None = None,
     noise: float = 0.001,
 ) -> list[LinearGaussianPrior]:
-    """Landmark priors and, with ``symmetric`` [m], the left/right length prior."""
+    """Landmark priors and, with ``symmetric`` [m], the left/right length prior; without the
+    rows on ``pset``'s frozen parameters (:func:`~mocap_mj.identify.partial.on_measured`)."""
     priors = [landmark_prior(pset, subject, size=size, noise=noise)]
     if symmetric is not None:
         priors.append(symmetric_prior(pset, symmetric, noise=noise))
-    return priors
+    return [on_measured(p, pset.frozen) for p in priors]
 
 
 def prior_information(
