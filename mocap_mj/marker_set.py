@@ -254,19 +254,20 @@ def unmeasured_bodies(model: mujoco.MjModel, present: Collection[str]) -> np.nda
 
 def measured_dofs(model: mujoco.MjModel, present: np.ndarray) -> np.ndarray:
     """(n,) int: per frame, the joint dofs the present markers determine, for present (n, M)
-    bool over the model's marker sites in site order: nv minus the dofs of the frame's
-    :func:`unmeasured_bodies`. A dof of an unmeasured body moves no present marker: its
-    Jacobian is zero, a solver holds it where it starts, and it is not an unknown of that
-    frame (nor counted in the noise estimate's degrees of freedom). Frames are grouped by
-    their pattern of present markers (a handful in a real trial), so this is cheap."""
-    present = np.asarray(present, dtype=bool)
-    out = np.full(len(present), model.nv, dtype=int)
-    if present.size == 0 or present.all():
-        return out
+    bool over the model's marker sites in site order: the dofs of the bodies that carry a
+    present marker or have a descendant that does (:func:`marked_bodies`). Any other dof
+    moves no present marker (the arms' of a lower-body set, a hand's whose markers dropped
+    out in that frame, the toes' that Plug-in Gait never marks): its Jacobian is zero, a
+    solver holds it where it starts, and it is not an unknown of that frame (nor counted in
+    the noise estimate's degrees of freedom). Frames are grouped by their pattern of present
+    markers (a handful in a real trial), so this is cheap."""
+    present = np.atleast_2d(np.asarray(present, dtype=bool))
+    if present.size == 0:
+        return np.zeros(len(present), dtype=int)
     names = [model.site(i).name for i in range(model.nsite)]
     patterns, inverse = np.unique(present, axis=0, return_inverse=True)
     counts = np.empty(len(patterns), dtype=int)
     for k, row in enumerate(patterns):
-        gone = unmeasured_bodies(model, [n for n, p in zip(names, row, strict=True) if p])
-        counts[k] = model.nv - int(gone[model.dof_bodyid].sum())
+        seen = marked_bodies(model, [n for n, p in zip(names, row, strict=True) if p])
+        counts[k] = int(seen[model.dof_bodyid].sum())
     return counts[np.ravel(inverse)]
