@@ -265,9 +265,12 @@ def measured_dofs(model: mujoco.MjModel, present: np.ndarray) -> np.ndarray:
     if present.size == 0:
         return np.zeros(len(present), dtype=int)
     names = [model.site(i).name for i in range(model.nsite)]
-    patterns, inverse = np.unique(present, axis=0, return_inverse=True)
-    counts = np.empty(len(patterns), dtype=int)
-    for k, row in enumerate(patterns):
+    # One key per frame (its row of bits), so that the patterns are found by a 1-D unique.
+    packed = np.ascontiguousarray(np.packbits(present, axis=1))
+    keys = packed.view(np.dtype((np.void, packed.shape[1]))).ravel()
+    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+    counts = np.empty(len(first), dtype=int)
+    for k, row in enumerate(present[first]):
         seen = marked_bodies(model, [n for n, p in zip(names, row, strict=True) if p])
         counts[k] = int(seen[model.dof_bodyid].sum())
     return counts[np.ravel(inverse)]
