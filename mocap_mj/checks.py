@@ -3,17 +3,22 @@
 A frame is usable when at least ``min_markers`` of the model's markers are present (finite)
 in it (the IK rule, :class:`mocap_mj.ik.IKSettings`). Without a usable frame ``ik`` would
 write a motion of NaN; with fewer residuals (3 per present marker of the usable frames) than
-unknowns (nv joint dofs per usable frame plus the free model parameters) ``identify`` would
-report bounds of a problem the data cannot determine. Both are refused here.
+unknowns (the joint dofs each usable frame's present markers determine,
+:func:`mocap_mj.marker_set.measured_dofs`, plus the free model parameters) ``identify`` would
+report bounds of a problem the data cannot determine. Both are refused here. The dofs of a
+body no present marker determines (the arms of a lower-body marker set) are not counted: the
+solver holds them, so they are not unknowns.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
+import mujoco
 import numpy as np
 
 from .errors import SolverError
+from .marker_set import measured_dofs
 
 __all__ = ["check_determined", "check_markers", "usable_frames"]
 
@@ -53,22 +58,33 @@ def check_markers(
 
 
 def check_determined(
-    paths: Sequence[str], markers: Sequence[np.ndarray], min_markers: int, nv: int, n_free: int
+    paths: Sequence[str],
+    markers: Sequence[np.ndarray],
+    min_markers: int,
+    model: mujoco.MjModel,
+    n_free: int,
 ) -> None:
     """Raise :class:`SolverError` if the trials hold fewer residuals than unknowns.
 
-    markers: per trial (T, M, 3) [m]; nv joint dofs per frame; n_free model parameters.
+    markers: per trial (T, M, 3) [m] in the order of ``model``'s marker sites; the unknowns
+    are each usable frame's determined joint dofs (:func:`measured_dofs`) plus ``n_free``
+    model parameters.
     """
     frames = 0
     residuals = 0
+    dofs = 0
     for m in markers:
         ok = usable_frames(m, min_markers)
+        present = np.all(np.isfinite(m[ok]), axis=2)
         frames += int(ok.sum())
-        residuals += 3 * int(np.all(np.isfinite(m[ok]), axis=2).sum())
-    unknowns = frames * nv + n_free
+        residuals += 3 * int(present.sum())
+        dofs += int(measured_dofs(model, present).sum())
+    unknowns = dofs + n_free
     if residuals <= unknowns:
+        per_frame = f"{dofs / frames:.0f}" if frames else "0"
         raise SolverError(
             f"{', '.join(paths)}: {frames} usable frame(s) give {residuals} marker coordinates "
-            f"for {unknowns} unknowns ({nv} joint dofs per frame + {n_free} model "
-            "parameters): the model cannot be identified from so little data; fit more frames"
+            f"for {unknowns} unknowns ({per_frame} determined joint dofs per frame + {n_free} "
+            "model parameters): the model cannot be identified from so little data; fit more "
+            "frames or record more markers"
         )

@@ -40,10 +40,12 @@ __all__ = [
     "load_marker_set",
     "marked_bodies",
     "marker_class",
+    "measured_dofs",
     "model_with_marker_set",
     "plug_in_gait",
     "save_marker_set",
     "undetermined_segments",
+    "unmeasured_bodies",
 ]
 
 #: The prior classes, from most to least constrained.
@@ -231,3 +233,44 @@ def undetermined_segments(model: mujoco.MjModel, present: Collection[str]) -> tu
         for b in range(1, model.nbody)
         if model.body_jntnum[b] > 0 and markable[b] and not seen[b]
     )
+
+
+def unmeasured_bodies(model: mujoco.MjModel, present: Collection[str]) -> np.ndarray:
+    """(nbody,) bool: the bodies whose pose and position the markers ``present`` leave to the
+    prior: a body some marker site of ``model`` could determine (:func:`marked_bodies`) that
+    no present marker does (:func:`undetermined_segments`), and a body no site could
+    determine (the toes) whose parent is unmeasured. The toes of a foot with markers are
+    measured as far as the model ever measures them (their dof and lengths stay with the
+    weak prior, as on the full set), so that the full marker set has no unmeasured body."""
+    seen = marked_bodies(model, present)
+    markable = marked_bodies(model)
+    out = np.zeros(model.nbody, dtype=bool)
+    for b in range(1, model.nbody):  # parents come before their children
+        out[b] = (markable[b] and not seen[b]) or (
+            not markable[b] and bool(out[model.body_parentid[b]])
+        )
+    return out
+
+
+def measured_dofs(model: mujoco.MjModel, present: np.ndarray) -> np.ndarray:
+    """(n,) int: per frame, the joint dofs the present markers determine, for present (n, M)
+    bool over the model's marker sites in site order: the dofs of the bodies that carry a
+    present marker or have a descendant that does (:func:`marked_bodies`). Any other dof
+    moves no present marker (the arms' of a lower-body set, a hand's whose markers dropped
+    out in that frame, the toes' that Plug-in Gait never marks): its Jacobian is zero, a
+    solver holds it where it starts, and it is not an unknown of that frame (nor counted in
+    the noise estimate's degrees of freedom). Frames are grouped by their pattern of present
+    markers (a handful in a real trial), so this is cheap."""
+    present = np.atleast_2d(np.asarray(present, dtype=bool))
+    if present.size == 0:
+        return np.zeros(len(present), dtype=int)
+    names = [model.site(i).name for i in range(model.nsite)]
+    # One key per frame (its row of bits), so that the patterns are found by a 1-D unique.
+    packed = np.ascontiguousarray(np.packbits(present, axis=1))
+    keys = packed.view(np.dtype((np.void, packed.shape[1]))).ravel()
+    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+    counts = np.empty(len(first), dtype=int)
+    for k, row in enumerate(present[first]):
+        seen = marked_bodies(model, [n for n, p in zip(names, row, strict=True) if p])
+        counts[k] = int(seen[model.dof_bodyid].sum())
+    return counts[np.ravel(inverse)]

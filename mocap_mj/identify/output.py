@@ -111,6 +111,7 @@ def report_lines(
         f"- marker RMSE: {result.marker_rmse * 1e3:.3f} mm: a per-axis noise sigma of "
         f"{result.sigma * 1e3:.3f} mm (RMSE / sqrt(3 (1 - p/n)), p = {result.n_unknowns} "
         f"unknowns, n = {result.n_residuals} residuals)",
+        *_measured_lines(pset, summary),
         *_anatomy_lines(summary),
         "",
         *(quality_lines(summary["marker_quality"]) if summary.get("marker_quality") else []),
@@ -120,13 +121,29 @@ def report_lines(
         "|---|---|---|---|---|",
     ]
     for i, name in enumerate(pset.kappa_names):
+        std = "not measured" if pset.frozen[i] else f"{idf.param_std[i] * 1e3:.2f}"
         lines.append(
             f"| {name} | {kappa0[i] * 1e3:.1f} | {kappa[i] * 1e3:.2f} | "
-            f"{(kappa[i] - kappa0[i]) * 1e3:+.2f} | {idf.param_std[i] * 1e3:.2f} |"
+            f"{(kappa[i] - kappa0[i]) * 1e3:+.2f} | {std} |"
         )
     lines += ["", *uncertainty_lines(summary), *idf.report_lines()]
     lines += iteration_lines(result) if iterations is None else list(iterations)
     return lines
+
+
+def _measured_lines(pset: ParameterSet, summary: Mapping[str, Any]) -> list[str]:
+    """The report's line on a partial marker set (none when every parameter was measured):
+    how many parameters the data measured and why the others are held at the prior."""
+    held = summary.get("parameters_not_measured") or []
+    if not held:
+        return []
+    bodies = ", ".join(summary.get("unmeasured_bodies") or []) or "none"
+    markers = ", ".join(summary.get("markers_without_data") or []) or "none"
+    return [
+        f"- parameters measured: {pset.size - len(held)} of {pset.size}; {len(held)} held at "
+        f"the prior mean (the scaled model, flagged `not_measured`, no standard deviation): "
+        f"bodies without a marker: {bodies}; markers without data: {markers}"
+    ]
 
 
 def iteration_lines(result: IdentificationResult) -> list[str]:

@@ -29,6 +29,7 @@ from .lm import LMSettings, identify_lm, solver_joint_range
 from .long import Robust, Weigh, refine, result_at, robust_loss, scratch_array
 from .motion_out import write_every_frame_motion
 from .output import write_result
+from .partial import Unmeasured, freeze_unmeasured, on_measured
 from .plausibility import kappa_outside_bounds, marker_rmse_by_marker
 from .priors import LinearGaussianPrior, Prior
 from .problem import TrialData
@@ -103,6 +104,7 @@ def identify_to_folder(
     ``sliding_landmarks`` says whether it did.
     """
     t0 = time.perf_counter()
+    pset, missing = freeze_unmeasured(pset, trials)
     _check_inputs(trials, pset, init)
     init_used = "given" if theta0 is not None else init
     theta0, scales, pset = _initial_theta(trials, pset, theta0, init)
@@ -152,6 +154,7 @@ def identify_to_folder(
         _summary_fields(trials, pset, settings, result, idf, init_used, scales, seconds, log)
     )
     summary.update(_prior_fields(anatomical, weighting, symmetric, asymmetry_prior, subject))
+    summary.update(_measured_fields(pset, missing))
     summary["sliding_landmarks"] = None if sliding is None else sorted(sliding.slides)
     summary["kappa_at_bound"] = _kappa_at_bound(pset, result)
     ranges = kappa_ranges(pset, subject) if anatomical else None
@@ -296,9 +299,21 @@ def _check_inputs(trials: Sequence[TrialData], pset: ParameterSet, init: str) ->
         [t.name for t in trials],
         [t.markers for t in trials],
         IKSettings().min_markers,
-        pset.model.nv,
+        pset.model,
         int(np.sum(~pset.frozen)),
     )
+
+
+def _measured_fields(pset: ParameterSet, missing: Unmeasured) -> dict[str, Any]:
+    """The partial-marker-set part of the summary: how many parameters the data measured,
+    the names of those held at the prior (:mod:`mocap_mj.identify.partial`), the bodies no
+    present marker determines and the markers without data."""
+    return {
+        "parameters_measured": int(np.sum(~pset.frozen)),
+        "parameters_not_measured": [n for n, f in zip(pset.names, pset.frozen, strict=True) if f],
+        "unmeasured_bodies": list(missing.bodies),
+        "markers_without_data": list(missing.markers),
+    }
 
 
 def _prior_fields(
@@ -546,10 +561,21 @@ def captured_log() -> Iterator[list[str]]:
 
 
 def result_text(summary: dict[str, Any], pset: ParameterSet, out: Path) -> str:
+    held = summary.get("parameters_not_measured") or []
+    measured = (
+        f"{pset.size - len(held)} of {pset.size} parameters" if held else f"{pset.size} parameters"
+    )
+    why = []
+    if summary.get("unmeasured_bodies"):
+        why.append(f"no marker on {' '.join(summary['unmeasured_bodies'])}")
+    if summary.get("markers_without_data"):
+        why.append(f"no data for {' '.join(summary['markers_without_data'])}")
+    note = f"{len(held)} held at the prior ({'; '.join(why)})\n" if held else ""
     return (
-        f"identified {pset.size} parameters from {summary['frames_used']} frames in "
+        f"identified {measured} from {summary['frames_used']} frames in "
         f"{summary['seconds']:.2f} s ({summary['iterations']} LM iterations, "
         f"{summary['termination']})\n"
+        f"{note}"
         f"marker RMSE {summary['marker_rmse_mm']:.3f} mm, i.e. a per-axis noise sigma of "
         f"{summary['sigma_mm']:.3f} mm given {summary['n_unknowns']} unknowns and "
         f"{summary['n_residuals']} residuals; {summary['observable_directions']} of {pset.size} "
@@ -592,11 +618,12 @@ def anatomical_priors(
     symmetric: float | None = None,
     noise: float = 0.001,
 ) -> list[LinearGaussianPrior]:
-    """Landmark priors and, with ``symmetric`` [m], the left/right length prior."""
+    """Landmark priors and, with ``symmetric`` [m], the left/right length prior; without the
+    rows on ``pset``'s frozen parameters (:func:`~mocap_mj.identify.partial.on_measured`)."""
     priors = [landmark_prior(pset, subject, size=size, noise=noise)]
     if symmetric is not None:
         priors.append(symmetric_prior(pset, symmetric, noise=noise))
-    return priors
+    return [on_measured(p, pset.frozen) for p in priors]
 
 
 def prior_information(

@@ -24,6 +24,7 @@ from .. import _schur
 from ..errors import MocapError, SolverError, check_shape
 from ..ik import IKSolver
 from ..kinematics import Kinematics
+from ..marker_set import measured_dofs
 from ..parameters import ParameterSet
 from .losses import L2, Loss, Weighted
 from .priors import LinearGaussianPrior, Prior, total_prior, weak_prior
@@ -100,7 +101,8 @@ class ReducedChunk(NamedTuple):
 
 class FitStatistics(NamedTuple):
     """rmse [m] over present samples, sigma [m] per-axis noise RMSE / sqrt(3 (1 - p / n)),
-    n_residuals (3 x present samples) and n_unknowns (nv per frame + free parameters)."""
+    n_residuals (3 x present samples) and n_unknowns (per frame the joint dofs its present
+    markers determine, :func:`mocap_mj.marker_set.measured_dofs`, + free parameters)."""
 
     rmse: float
     sigma: float
@@ -154,6 +156,9 @@ class IdentificationProblem:
         self.limits = IKSolver(kin)
         self.markers = markers
         self.present = np.all(np.isfinite(markers), axis=2)
+        # The joint dofs the data determine (those of bodies without a present marker have a
+        # zero Jacobian and stay where they start): the unknowns of the noise estimate.
+        self.n_dofs = int(measured_dofs(kin.pset.model, self.present).sum())
         self.target = np.where(self.present[..., None], markers, 0.0)
         self.qpos = qpos
         self.free = np.asarray(free, dtype=int)
@@ -199,7 +204,7 @@ class IdentificationProblem:
     def statistics(self, dist: np.ndarray) -> FitStatistics:
         """RMSE and noise estimate of distances dist (n, M) [m]."""
         n_res = int(3 * self.present.sum())
-        n_unk = int(self.kin.nv * self.n + self.free.size)
+        n_unk = self.n_dofs + int(self.free.size)
         rmse = float(np.sqrt(np.sum(dist**2) / max(self.present.sum(), 1)))
         sigma = rmse / np.sqrt(3 * max(1.0 - n_unk / max(n_res, 1), 1e-6))
         return FitStatistics(rmse, float(sigma), n_res, n_unk)

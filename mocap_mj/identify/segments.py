@@ -38,6 +38,10 @@ Columns:
     For a parameter: ``at_lower`` / ``at_upper`` (within :data:`AT_BOUND` of the bound),
     ``below_range`` / ``above_range`` (outside it), empty otherwise. For a length: the flagged
     parameters it depends on, as ``name=flag`` joined by ``;``.
+    ``not_measured`` (a parameter frozen at the prior mean because no present marker moves
+    it, :mod:`mocap_mj.identify.partial`; a length that depends on one): the value is the
+    scaled prior's and the three standard deviations are empty, since the data say nothing
+    about it (the prior's width is no measurement either).
 """
 
 from __future__ import annotations
@@ -59,6 +63,7 @@ from .consistency import (
     parameter_covariance,
 )
 from .lm import LMResult, LMSettings, TrialData
+from .partial import NOT_MEASURED
 
 #: A parameter within this distance [m] of a bound is reported at it: a solver that enforces
 #: its bounds by a barrier stops a fraction of a millimetre inside.
@@ -142,7 +147,13 @@ def segment_table(
     kappa, _ = pset.split(result.theta)
     k = pset.n_kappa
     lower, upper = ranges if ranges is not None else (pset.lower[:k], pset.upper[:k])
-    flags = [parameter_flag(float(kappa[i]), float(lower[i]), float(upper[i])) for i in range(k)]
+    frozen = pset.frozen[:k]
+    flags = [
+        parameter_flag(float(kappa[i]), float(lower[i]), float(upper[i]))
+        if not frozen[i]
+        else NOT_MEASURED
+        for i in range(k)
+    ]
     white_cov = parameter_covariance(result, settings=settings)
     slow_cov = parameter_covariance(result, tau=tau, settings=settings)
     post_cov = (
@@ -161,21 +172,24 @@ def segment_table(
         else length_std(pset, result, tau=tau, prior_information=prior_information)
     )
     grad = length_gradient(pset, result.theta)[:, :k]
+    nan = (math.nan, math.nan, math.nan)
     for (name, value), g in zip(values.items(), grad, strict=True):
-        deps = [
-            f"{pset.kappa_names[i]}={flags[i]}"
-            for i in np.flatnonzero(np.abs(g) > 1e-9)
-            if flags[i]
-        ]
+        moved = np.flatnonzero(np.abs(g) > 1e-9)
+        if np.any(frozen[moved]):
+            rows.append(SegmentRow(name, "length", value, *nan, nominal[name], math.nan,
+                                   math.nan, NOT_MEASURED))  # fmt: skip
+            continue
+        deps = [f"{pset.kappa_names[i]}={flags[i]}" for i in moved if flags[i]]
         rows.append(
             SegmentRow(name, "length", value, std_white[name], std_slow[name], std_post[name],
                        nominal[name], math.nan, math.nan, ";".join(deps))
         )  # fmt: skip
     for i, name in enumerate(pset.kappa_names):
+        stds = nan if frozen[i] else (
+            math.sqrt(max(white_cov[i, i], 0.0)), math.sqrt(max(slow_cov[i, i], 0.0)),
+            math.sqrt(max(post_cov[i, i], 0.0)))  # fmt: skip
         rows.append(
-            SegmentRow(name, "kappa", float(kappa[i]), math.sqrt(max(white_cov[i, i], 0.0)),
-                       math.sqrt(max(slow_cov[i, i], 0.0)), math.sqrt(max(post_cov[i, i], 0.0)),
-                       float(pset.nominal[i]),
+            SegmentRow(name, "kappa", float(kappa[i]), *stds, float(pset.nominal[i]),
                        float(lower[i]), float(upper[i]), flags[i])
         )  # fmt: skip
     return rows
@@ -212,7 +226,9 @@ def uncertainty_summary(
     entries = {
         "correlation_time_frames": tau,
         "segments": {r.name: r.to_json() for r in rows},
-        "parameters_flagged": {r.name: r.flag for r in rows if r.kind == "kappa" and r.flag},
+        "parameters_flagged": {
+            r.name: r.flag for r in rows if r.kind == "kappa" and r.flag and r.flag != NOT_MEASURED
+        },
         "worst_markers_mm": {
             pset.marker_names[i]: float(per_marker[i]) * 1e3
             for i in order
