@@ -76,8 +76,13 @@ ASYMMETRY_MAX = 0.30
 #: Landmark pairs of one bone (Plug-in Gait names without the side letter) and their distance
 #: as a fraction of body height (Winter, Biomechanics and Motor Control of Human Movement,
 #: 4th ed., 2009, fig. 4.1: upper arm 0.186, forearm 0.146, shank 0.246, foot 0.152).
-#: The allowed range is the fraction times 1.2-2.1 m, widened by 0.8-1.25 for marker
-#: placement: a child under about 7 years may fall below it.
+#: The allowed range is the fraction times :data:`_HEIGHTS`: statures of 0.85-2.10 m (a
+#: clinical gait lab's youngest walkers, about 2 years old, to a tall adult), the lower end
+#: times 0.85 because a small child's limbs are shorter for its stature than Winter's adult
+#: fractions (legs about 0.40 of stature at 2 years against 0.47 in adults), and the whole
+#: range widened by 0.8-1.25 for marker placement: from the fractions of a 0.58 m stature
+#: (KNE-ANK 142 mm) to those of 2.6 m. A healthy child of 0.95 m stays inside (KNE-ANK about
+#: 0.21 m); a marker swapped onto another segment mostly does not.
 BONE_FRACTIONS: dict[tuple[str, str], float] = {
     ("SHO", "ELB"): 0.186,
     ("ELB", "WRA"): 0.146,
@@ -85,7 +90,7 @@ BONE_FRACTIONS: dict[tuple[str, str], float] = {
     ("KNE", "ANK"): 0.246,
     ("HEE", "TOE"): 0.152,
 }
-_HEIGHTS = (1.2 * 0.8, 2.1 * 1.25)
+_HEIGHTS = (0.85 * 0.85 * 0.8, 2.1 * 1.25)
 #: Pairs of :data:`BONE_FRACTIONS` not compared left to right: where TOE sits (second
 #: metatarsal head or further) varies between placements more than the foot does.
 _NO_ASYMMETRY = {("HEE", "TOE")}

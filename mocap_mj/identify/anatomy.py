@@ -65,15 +65,16 @@ Widths (standard deviations, per row) and their sources:
   at 15-25 degrees and a pose at 90 put it 25-30 mm ahead of ELB at 10 mm).
   At 10 mm the data moved these joints 30-60 mm between trials of one
   subject, at 3 mm they hold within a few mm (docs/real-data.md);
-* :data:`SIGMA_T10_LEVEL` = 25 mm (x stature / 1.75 m): T12/L1's height above or below the
+* :data:`SIGMA_T10_LEVEL` = 15 mm (x stature / 1.75 m): T12/L1's height above or below the
   T10 marker (the thorax frame's z row of :func:`_spine_joint_rows`; its antero-posterior
   row stays a convention row). T10's spinous process is found by counting ten spinous
-  processes down from C7, and is often missed by a level or more (a thoracic vertebra and
-  its disc: about 25 mm). At 3 mm the row made the marker's placement the skeleton's: on
-  the shared Vicon trials, whose C7-T10 distance is 267-287 mm (0.16-0.17 of the 1.68 m
-  height, the nominal model's 0.12), it held ``lumbar_length`` at its lower bound (the
-  markers wanted 84-97 mm, about 0.05 of stature; docs/real-data.md "Subjects of every
-  size");
+  processes down from C7 and can be missed by a level (a thoracic vertebra and its disc:
+  about 25 mm). At 3 mm the row made the marker's placement the skeleton's: on the shared
+  Vicon trials, whose C7-T10 distance is 267-287 mm (0.16-0.17 of the 1.68 m height, the
+  nominal model's 0.12), it held ``lumbar_length`` at its lower bound (the markers wanted
+  84-97 mm, about 0.05 of stature); at 25 mm one subject's lumbar:thorax distance moved
+  7 mm between its trials, at 15 mm 6 mm (3.5 at 3 mm; docs/real-data.md "Subjects of
+  every size");
 * :data:`LUMBAR_SPREAD` = 8 % of the stature-scaled nominal: ``lumbar_length`` (T12/L1 to
   L5/S1: the five lumbar vertebrae and their discs, about a tenth of stature; the nominal
   180 mm of 1.75 m) between adults of one stature, :func:`_trunk_rows`: with the loose
@@ -116,7 +117,7 @@ SIGMA_SOFT = 0.015
 SIGMA_LEG = 0.015
 ASYMMETRY_SIGMA = 0.005
 SIGMA_CONVENTION = 0.003
-SIGMA_T10_LEVEL = 0.025
+SIGMA_T10_LEVEL = 0.015
 LUMBAR_SPREAD = 0.08
 
 #: C7/T1 from the C7 marker: fraction of the C7-CLAV distance and angle [deg] above that line
