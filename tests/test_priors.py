@@ -13,12 +13,12 @@ from mocap_mj.errors import MocapError
 from mocap_mj.identify.anatomy import (
     MEDIAL_MALLEOLUS_ABOVE,
     SIGMA_CONVENTION,
-    SIGMA_T10_LEVEL,
     SIGMA_FOOT_HEIGHT,
     SIGMA_FOOT_LENGTH,
     SIGMA_LANDMARK,
     SIGMA_MEASURED,
     SIGMA_REGRESSED,
+    SIGMA_T10_LEVEL,
     landmark_prior,
     marker_prior_table,
     symmetric_prior,

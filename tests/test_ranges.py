@@ -16,7 +16,7 @@ from mocap_mj.identify.ranges import (
     base_name,
     kappa_ranges,
 )
-from mocap_mj.marker_quality import BONE_FRACTIONS, _HEIGHTS
+from mocap_mj.marker_quality import _HEIGHTS, BONE_FRACTIONS
 from mocap_mj.subject import StatureEstimate, Subject, from_values
 from mocap_synth.motion import generate
 from mocap_synth.perturb import perturb_theta

@@ -24,8 +24,10 @@ REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 SKIP = "../shared/data/real not present: the child-scaled copy needs the shared folder"
 
 #: Long-bone joint-centre distances compared with the truth (markers on both their ends).
-LONG_BONES = ("thigh_l:shank_l", "thigh_r:shank_r", "shank_l:foot_l", "shank_r:foot_r",
-              "upperarm_l:ulna_l", "upperarm_r:ulna_r", "radius_l:hand_l", "radius_r:hand_r")  # fmt: skip
+LONG_BONES = (
+    "thigh_l:shank_l", "thigh_r:shank_r", "shank_l:foot_l", "shank_r:foot_r",
+    "upperarm_l:ulna_l", "upperarm_r:ulna_r", "radius_l:hand_l", "radius_r:hand_r",
+)  # fmt: skip
 #: Their largest error [m] on the synthetic child (1 mm noise, 150 frames): measured 1.1 mm;
 #: an adult's ranges (1.40-2.10 m) held the thighs and shanks 28-30 mm long (their lower
 #: bound, 0.8 x 1.40 / 1.75 of the nominal, is above a 1.0 m child's).
