@@ -22,7 +22,7 @@ positions (T, M, 3) [m] and the model's segment (body) of each marker:
     prediction and back later, the two labels are swapped over that frame range.
 ``distance`` / ``asymmetry``
     The median distance between two Plug-in Gait landmarks of one bone (elbow-wrist,
-    shoulder-elbow, knee-ankle, heel-toe) outside the range of any person 1.2-2.1 m tall
+    shoulder-elbow, knee-ankle, heel-toe) outside the range of any person 0.85-2.1 m tall
     (:data:`BONE_FRACTIONS`), or left and right differing by more than
     :data:`ASYMMETRY_MAX` (30 %).
 
@@ -79,7 +79,8 @@ ASYMMETRY_MAX = 0.30
 #: The allowed range is the fraction times :data:`_HEIGHTS`: statures of 0.85-2.10 m (a
 #: clinical gait lab's youngest walkers, about 2 years old, to a tall adult), the lower end
 #: times 0.85 because a small child's limbs are shorter for its stature than Winter's adult
-#: fractions (legs about 0.40 of stature at 2 years against 0.47 in adults), and the whole
+#: fractions (sitting height about 0.58 of stature at 2 years against 0.52 in adults: the
+#: legs 0.42 of stature against 0.48), and the whole
 #: range widened by 0.8-1.25 for marker placement: from the fractions of a 0.58 m stature
 #: (KNE-ANK 142 mm) to those of 2.6 m. A healthy child of 0.95 m stays inside (KNE-ANK about
 #: 0.21 m); a marker swapped onto another segment mostly does not.
@@ -432,7 +433,7 @@ def _bone_findings(path: str, names: Sequence[str], x: np.ndarray) -> list[Findi
                         med * 1e3,
                         f"{lo * 1e3:.0f}-{hi * 1e3:.0f} mm",
                         f"{s}{a}-{s}{b}: median distance {med * 1e3:.0f} mm, outside the "
-                        f"{lo * 1e3:.0f}-{hi * 1e3:.0f} mm of any person 1.2-2.1 m tall",
+                        f"{lo * 1e3:.0f}-{hi * 1e3:.0f} mm of any person 0.85-2.1 m tall",
                     )
                 )
         if len(side) == 2 and (a, b) not in _NO_ASYMMETRY:
