@@ -43,7 +43,8 @@ Widths (standard deviations, per row) and their sources:
   turn it moves with the motion (model error, not information about the subject), so these
   rows define it from the markers of its segment, as Plug-in Gait defines its segments, and
   must outweigh the data: Dumas et al. (2007) C7/T1 from C7 and CLAV and T12/L1 from T10
-  and C7 with the nominal model's proportions, written so that they do not depend on how
+  and C7 with the nominal model's proportions (T12/L1's height along the spine at T10's
+  placement width instead, :data:`SIGMA_T10_LEVEL`), written so that they do not depend on how
   the frame is tilted against its markers; L5/S1 as Reed et al. (1999) define it, behind
   and above mid-ASIS in proportion to the ASIS width, in the pelvis frame (whose tilt the
   pelvis-tilt row fixes, as for Harrington's hip centres; Reed's frame is the anterior pelvic

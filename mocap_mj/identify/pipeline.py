@@ -91,9 +91,11 @@ def identify_to_folder(
 
     With ``anatomical`` (the default) the solve keeps the kinematic parameters in their
     anatomical ranges (:mod:`mocap_mj.identify.ranges`, scaled by the subject's height when
-    ``subject`` has it) and adds the landmark priors (:mod:`mocap_mj.identify.anatomy`,
-    sharpened by ``subject``'s measurements); ``symmetric`` [m] adds a prior tying every
-    left length to the right one with that standard deviation, in place of the population
+    ``subject`` has it, else by the stature estimated from the trials' markers, which the
+    summary's ``stature_estimate`` records) and adds the landmark priors
+    (:mod:`mocap_mj.identify.anatomy`, sharpened by ``subject``'s measurements);
+    ``symmetric`` [m] adds a prior tying every left length to the right one with that
+    standard deviation, in place of the population
     asymmetry prior (``ASYMMETRY_SIGMA``, on unless ``asymmetry_prior`` is False);
     ``slides``: the landmarks' soft-tissue sliding model (default None: off; ``mocap-mj
     identify`` turns it on). See :func:`solve_anatomical`. When the fit was weighed with it
