@@ -28,7 +28,7 @@ from mocap_mj.identify.plausibility import (
 from mocap_mj.identify.ranges import kappa_ranges
 from mocap_mj.parameters import ParameterSet
 from mocap_mj.results import load_motion
-from mocap_mj.subject import Measurement, Subject
+from mocap_mj.subject import Measurement, StatureEstimate, Subject
 
 
 def report(folder: Path, pset: ParameterSet) -> str:
@@ -40,6 +40,11 @@ def report(folder: Path, pset: ParameterSet) -> str:
             for n, v in summary.get("measurements", {}).items()
         }
     )
+    est = summary.get("stature_estimate")
+    if est:
+        subject = subject.with_stature_estimate(
+            StatureEstimate(est["value"], est["sd"], est["source"])
+        )
     outside = kappa_outside_bounds(pset, theta, *kappa_ranges(pset, subject))
     lr = {k: v * 1e3 for k, v in left_right_differences(pset, theta).items()}
     motion = load_motion(folder / "motion.npz")

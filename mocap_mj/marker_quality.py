@@ -22,7 +22,7 @@ positions (T, M, 3) [m] and the model's segment (body) of each marker:
     prediction and back later, the two labels are swapped over that frame range.
 ``distance`` / ``asymmetry``
     The median distance between two Plug-in Gait landmarks of one bone (elbow-wrist,
-    shoulder-elbow, knee-ankle, heel-toe) outside the range of any person 1.2-2.1 m tall
+    shoulder-elbow, knee-ankle, heel-toe) outside the range of any person 0.85-2.1 m tall
     (:data:`BONE_FRACTIONS`), or left and right differing by more than
     :data:`ASYMMETRY_MAX` (30 %).
 
@@ -76,8 +76,14 @@ ASYMMETRY_MAX = 0.30
 #: Landmark pairs of one bone (Plug-in Gait names without the side letter) and their distance
 #: as a fraction of body height (Winter, Biomechanics and Motor Control of Human Movement,
 #: 4th ed., 2009, fig. 4.1: upper arm 0.186, forearm 0.146, shank 0.246, foot 0.152).
-#: The allowed range is the fraction times 1.2-2.1 m, widened by 0.8-1.25 for marker
-#: placement: a child under about 7 years may fall below it.
+#: The allowed range is the fraction times :data:`_HEIGHTS`: statures of 0.85-2.10 m (a
+#: clinical gait lab's youngest walkers, about 2 years old, to a tall adult), the lower end
+#: times 0.85 because a small child's limbs are shorter for its stature than Winter's adult
+#: fractions (sitting height about 0.58 of stature at 2 years against 0.52 in adults: the
+#: legs 0.42 of stature against 0.48), and the whole
+#: range widened by 0.8-1.25 for marker placement: from the fractions of a 0.58 m stature
+#: (KNE-ANK 142 mm) to those of 2.6 m. A healthy child of 0.95 m stays inside (KNE-ANK about
+#: 0.21 m); a marker swapped onto another segment mostly does not.
 BONE_FRACTIONS: dict[tuple[str, str], float] = {
     ("SHO", "ELB"): 0.186,
     ("ELB", "WRA"): 0.146,
@@ -85,7 +91,7 @@ BONE_FRACTIONS: dict[tuple[str, str], float] = {
     ("KNE", "ANK"): 0.246,
     ("HEE", "TOE"): 0.152,
 }
-_HEIGHTS = (1.2 * 0.8, 2.1 * 1.25)
+_HEIGHTS = (0.85 * 0.85 * 0.8, 2.1 * 1.25)
 #: Pairs of :data:`BONE_FRACTIONS` not compared left to right: where TOE sits (second
 #: metatarsal head or further) varies between placements more than the foot does.
 _NO_ASYMMETRY = {("HEE", "TOE")}
@@ -427,7 +433,7 @@ def _bone_findings(path: str, names: Sequence[str], x: np.ndarray) -> list[Findi
                         med * 1e3,
                         f"{lo * 1e3:.0f}-{hi * 1e3:.0f} mm",
                         f"{s}{a}-{s}{b}: median distance {med * 1e3:.0f} mm, outside the "
-                        f"{lo * 1e3:.0f}-{hi * 1e3:.0f} mm of any person 1.2-2.1 m tall",
+                        f"{lo * 1e3:.0f}-{hi * 1e3:.0f} mm of any person 0.85-2.1 m tall",
                     )
                 )
         if len(side) == 2 and (a, b) not in _NO_ASYMMETRY:

@@ -12,6 +12,10 @@ centre half a knee width plus a marker radius medial to KNE, ...) and scales the
    a number in SI units (m, kg) or a string with a unit (``"144 mm"``, ``"1.68 m"``);
 3. command-line flags (mm and kg, as Nexus shows them).
 
+When the height is not measured, the identification estimates the stature from the markers
+(:func:`mocap_mj.identify.initial.estimate_stature`) and records it as
+:attr:`Subject.stature_estimate`, apart from the measurements: a measured height always wins.
+
 Inside, every length is in metres and the mass in kilograms.
 """
 
@@ -82,11 +86,28 @@ class Measurement:
     source: str
 
 
+@dataclass(frozen=True)
+class StatureEstimate:
+    """A stature estimated from the markers: value and standard deviation [m], and how."""
+
+    value: float
+    sd: float
+    source: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"value": self.value, "sd": self.sd, "unit": "m", "source": self.source}
+
+
 @dataclass
 class Subject:
-    """The subject's measurements by name (:data:`MEASUREMENTS`); absent ones are unknown."""
+    """The subject's measurements by name (:data:`MEASUREMENTS`); absent ones are unknown.
+
+    ``stature_estimate``: the stature estimated from the markers when the height is not
+    measured (None: not estimated); :meth:`stature` prefers the measured height.
+    """
 
     values: dict[str, Measurement] = field(default_factory=dict)
+    stature_estimate: StatureEstimate | None = None
 
     def get(self, name: str) -> float | None:
         """The value [m or kg] of ``name``, or None when not measured."""
@@ -103,7 +124,22 @@ class Subject:
 
     def update(self, other: Subject) -> Subject:
         """A copy with ``other``'s measurements overriding these."""
-        return Subject({**self.values, **other.values})
+        return Subject(
+            {**self.values, **other.values}, other.stature_estimate or self.stature_estimate
+        )
+
+    def with_stature_estimate(self, estimate: StatureEstimate | None) -> Subject:
+        """A copy carrying ``estimate`` (kept beside, never over, a measured height)."""
+        return Subject(dict(self.values), estimate)
+
+    def stature(self) -> tuple[float, float] | None:
+        """(stature, its standard deviation) [m]: the measured height with 0, else the
+        estimate from the markers, else None."""
+        h = self.get("height")
+        if h is not None:
+            return h, 0.0
+        e = self.stature_estimate
+        return None if e is None else (e.value, e.sd)
 
     @property
     def marker_radius(self) -> float:

@@ -24,6 +24,7 @@ from mocap_mj.ik import IKSolver
 from mocap_mj.io import MarkerTrajectory, save_csv
 from mocap_mj.joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
 from mocap_mj.kinematics import Kinematics
+from mocap_mj.subject import StatureEstimate, Subject
 from mocap_mj.tables import joint_centre_columns
 from mocap_synth import SynthConfig, synthesize
 
@@ -157,7 +158,12 @@ def test_segments_csv_and_summary(identified: tuple[Path, dict]) -> None:
         # The anatomical priors only add information (the weak prior is in both).
         assert 0.0 < float(r["std_priors_mm"]) <= 1.001 * float(r["std_mm"])
         assert r["lower_mm"] == r["upper_mm"] == ""
-    lower, upper = kappa_ranges(pset)  # the anatomical ranges the fit was bounded by
+    # The anatomical ranges the fit was bounded by: about the stature it estimated.
+    est = summary["stature_estimate"]
+    subject = Subject().with_stature_estimate(
+        StatureEstimate(est["value"], est["sd"], est["source"])
+    )
+    lower, upper = kappa_ranges(pset, subject)
     for i, name in enumerate(pset.kappa_names):
         r = by_name[name]
         assert r["kind"] == "kappa"

@@ -332,6 +332,12 @@ def _identify(
         for n, m in summary["measurements"].items()
     )
     text += f"measurements: {measured or 'none (regressions from the markers)'}\n"
+    est = summary.get("stature_estimate")
+    if est:
+        text += (
+            f"stature {est['value']:.2f} +- {est['sd']:.2f} m estimated from {est['source']} "
+            "(no measured height)\n"
+        )
     if quality is not None:
         text += quality_text(quality) + "\n"
     plaus = plausibility_text(pset, per_marker, outside, at_bound=summary["kappa_at_bound"])

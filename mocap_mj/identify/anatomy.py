@@ -43,7 +43,8 @@ Widths (standard deviations, per row) and their sources:
   turn it moves with the motion (model error, not information about the subject), so these
   rows define it from the markers of its segment, as Plug-in Gait defines its segments, and
   must outweigh the data: Dumas et al. (2007) C7/T1 from C7 and CLAV and T12/L1 from T10
-  and C7 with the nominal model's proportions, written so that they do not depend on how
+  and C7 with the nominal model's proportions (T12/L1's height along the spine at T10's
+  placement width instead, :data:`SIGMA_T10_LEVEL`), written so that they do not depend on how
   the frame is tilted against its markers; L5/S1 as Reed et al. (1999) define it, behind
   and above mid-ASIS in proportion to the ASIS width, in the pelvis frame (whose tilt the
   pelvis-tilt row fixes, as for Harrington's hip centres; Reed's frame is the anterior pelvic
@@ -65,6 +66,20 @@ Widths (standard deviations, per row) and their sources:
   at 15-25 degrees and a pose at 90 put it 25-30 mm ahead of ELB at 10 mm).
   At 10 mm the data moved these joints 30-60 mm between trials of one
   subject, at 3 mm they hold within a few mm (docs/real-data.md);
+* :data:`SIGMA_T10_LEVEL` = 15 mm (x stature / 1.75 m): T12/L1's height above or below the
+  T10 marker (the thorax frame's z row of :func:`_spine_joint_rows`; its antero-posterior
+  row stays a convention row). T10's spinous process is found by counting ten spinous
+  processes down from C7 and can be missed by a level (a thoracic vertebra and its disc:
+  about 25 mm). At 3 mm the row made the marker's placement the skeleton's: on the shared
+  Vicon trials, whose C7-T10 distance is 267-287 mm (0.16-0.17 of the 1.68 m height, the
+  nominal model's 0.12), it held ``lumbar_length`` at its lower bound (the markers wanted
+  84-97 mm, about 0.05 of stature); at 25 mm one subject's lumbar:thorax distance moved
+  7 mm between its trials, at 15 mm 6 mm (3.5 at 3 mm; docs/real-data.md "Subjects of
+  every size");
+* :data:`LUMBAR_SPREAD` = 8 % of the stature-scaled nominal: ``lumbar_length`` (T12/L1 to
+  L5/S1: the five lumbar vertebrae and their discs, about a tenth of stature; the nominal
+  180 mm of 1.75 m) between adults of one stature, :func:`_trunk_rows`: with the loose
+  T10 row, it keeps the lumbar spine human where the marker does not place it;
 * :data:`SIGMA_FOOT_LENGTH`, :data:`SIGMA_FOOT_HEIGHT` = 7, 8 mm (x stature / 1.75 m): the MTP
   joint from the stature, beside TOE's rows (:func:`_foot_rows`);
 * :data:`SIGMA_LEG` = 15 mm: the ASIS-to-medial-malleolus distance of the straight leg against
@@ -103,6 +118,8 @@ SIGMA_SOFT = 0.015
 SIGMA_LEG = 0.015
 ASYMMETRY_SIGMA = 0.005
 SIGMA_CONVENTION = 0.003
+SIGMA_T10_LEVEL = 0.015
+LUMBAR_SPREAD = 0.08
 
 #: C7/T1 from the C7 marker: fraction of the C7-CLAV distance and angle [deg] above that line
 #: (Dumas, Cheze, Verriest 2007, Table 2, men; after Reed, Manary, Schneider 1999).
@@ -245,13 +262,14 @@ def landmark_prior(
 ) -> LinearGaussianPrior:
     """The landmark rows of every Plug-in Gait marker the model has (module docstring).
 
-    ``size``: the subject's stature over the nominal 1.75 m (from ``subject``'s height when
-    given, else the caller's estimate), scaling the few constants that no parameter carries
-    (a heel's distance behind the ankle, the C7 spinous process depth).
+    ``size``: the subject's stature over the nominal 1.75 m, scaling the few constants that
+    no parameter carries (a heel's distance behind the ankle, the C7 spinous process depth):
+    from ``subject``'s measured height, else its stature estimate
+    (:meth:`~mocap_mj.subject.Subject.stature`), else this argument (default 1).
     """
     subject = subject or Subject()
-    h = subject.get("height")
-    s = h / NOMINAL_HEIGHT if h is not None else size
+    stature = subject.stature()
+    s = stature[0] / NOMINAL_HEIGHT if stature is not None else size
     rows = _Rows(pset)
     _pelvis_rows(rows, subject, s)
     _trunk_rows(rows, s)
@@ -329,7 +347,11 @@ def _trunk_rows(rows: _Rows, s: float) -> None:
     rows.add({"CLAV.x": 1, "sc_depth": -1}, 0.02 * s, conv, "CLAV.x = sc_depth + 20 mm")
     for side in ("l", "r"):
         rows.add({f"sc_width_{side}": 1}, 0.025 * s, conv, f"sc_width_{side} = 25 mm")
-    _spine_joint_rows(rows)
+    _spine_joint_rows(rows, s)
+    lumbar = dict(zip(rows.pset.names, rows.pset.nominal, strict=False)).get("lumbar_length")
+    if lumbar is not None:
+        rows.add({"lumbar_length": 1.0}, lumbar * s, LUMBAR_SPREAD * lumbar * s,
+                 f"lumbar_length = {lumbar * 1e3:.0f} mm x stature / 1.75 m")  # fmt: skip
 
 
 def _rotated(v_from: str, v_to: str, along: float, up: float, c: str) -> dict[str, float]:
@@ -340,14 +362,16 @@ def _rotated(v_from: str, v_to: str, along: float, up: float, c: str) -> dict[st
     return {f"{v_to}.z": along, f"{v_from}.z": -along, f"{v_to}.x": up, f"{v_from}.x": -up}
 
 
-def _spine_joint_rows(rows: _Rows) -> None:
+def _spine_joint_rows(rows: _Rows, s: float) -> None:
     """C7/T1 and T12/L1 relative to the trunk markers, invariant to the thorax frame's tilt.
 
     C7/T1 (the head's origin, ``(neck_depth, thorax_length)`` in the thorax frame): on the
     line from C7 to CLAV (the jugular notch) turned 8 degrees upward, at 55 % of the C7-CLAV
     distance (Dumas et al. 2007 after Reed et al. 1999, men). T12/L1 (the thorax origin): from
     T10 along the C7-to-T10 line and anterior of it by the fractions of the C7-T10 distance
-    the nominal model has (two vertebral levels down, the vertebral body's depth forward).
+    the nominal model has (two vertebral levels down, the vertebral body's depth forward);
+    its z row (the height along the thoracic spine) with the width of T10's placement,
+    :data:`SIGMA_T10_LEVEL` x ``s`` (``s`` the stature ratio), its x row a convention row.
     """
     along, up = CJC_RATIO * np.cos(np.radians(CJC_ANGLE)), CJC_RATIO * np.sin(np.radians(CJC_ANGLE))
     for c, joint in (("x", "neck_depth"), ("z", "thorax_length")):
@@ -358,7 +382,8 @@ def _spine_joint_rows(rows: _Rows) -> None:
                  f"turned {CJC_ANGLE:.0f} deg up (Dumas 2007)")  # fmt: skip
         # The thorax origin (0) = T10 + a (T10 - C7) + b R90 (T10 - C7).
         terms = _add({"T10." + c: 1.0}, _rotated("C7", "T10", T12_ALONG, T12_FORWARD, c))
-        rows.add(terms, 0.0, SIGMA_CONVENTION, f"T12/L1.{c} from T10 along and anterior of C7-T10")
+        sigma = SIGMA_T10_LEVEL * s if c == "z" else SIGMA_CONVENTION
+        rows.add(terms, 0.0, sigma, f"T12/L1.{c} from T10 along and anterior of C7-T10")
 
 
 def _shoulder_rows(

@@ -60,6 +60,19 @@ distances are measured, not modelled). A scale is clipped to [``MIN_SCALE``, ``M
 so that a mislabelled marker cannot make a degenerate model; :class:`ScaleEstimate` reports
 it.
 
+Stature. Without a measured height, :func:`estimate_stature` estimates the subject's
+stature from the same distances: the nominal model's long bones are Winter's (2009, fig.
+4.1) fractions of a 1.75 m stature (thigh 0.245 H, shank 0.246 H, upper arm 0.186 H,
+forearm 0.146 H), so each measured long-bone ratio (``thigh``, ``shank``, ``upperarm``,
+``forearm``, left and right: hip joint centre to KNE, KNE-ANK, glenohumeral centre to ELB,
+ELB to the wrist bar) times 1.75 m is a stature; the estimate is their median (one
+mislabelled or misplaced marker moves it little). Its standard deviation combines the
+spread of a long bone's fraction of stature between subjects (:data:`STATURE_SPREAD`) with
+the markers' placement error on the median. The ranges
+(:mod:`mocap_mj.identify.ranges`) and the stature-scaled priors
+(:mod:`mocap_mj.identify.anatomy`) are centred on it, so that a child is not held to an
+adult's skeleton.
+
 Scaling fixes the skeleton, not where an operator put the markers (the thigh and tibia wands
 can sit anywhere along their segment): :func:`place_markers` then places every marker offset
 where the trials' IK with the scaled skeleton puts it. ``mocap-mj identify`` starts from both
@@ -77,6 +90,8 @@ from ..errors import MocapError, check_shape
 from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..rigid import rigid_fit
+from ..subject import StatureEstimate
+from .ranges import NOMINAL_HEIGHT
 
 #: Bounds of every segment scale (dimensionless).
 MIN_SCALE = 0.5
@@ -85,6 +100,15 @@ MAX_SCALE = 2.0
 SEGMENT_SPREAD = 0.05
 #: Error of a distance between two skin markers from their placement [m] (:func:`shrink`).
 PLACEMENT_ERROR = 0.015
+
+#: Scales whose measured ratio (x NOMINAL_HEIGHT) estimates the stature (:func:`estimate_stature`).
+STATURE_SCALES = tuple(f"{b}_{side}" for b in ("thigh", "shank", "upperarm", "forearm")
+                       for side in ("l", "r"))  # fmt: skip
+#: Relative standard deviation of a long bone's fraction of stature between subjects: 4 %
+#: between adults (Winter 2009's fractions are means; the leg's share of stature varies by
+#: 3-5 % between adults), widened to 6 % because a young child's legs are relatively shorter
+#: (sitting height is 0.55-0.57 of stature at 3-6 years against 0.52 in adults).
+STATURE_SPREAD = 0.06
 
 #: Scale names and the distance each comes from (see the module docstring).
 SCALES: dict[str, str] = {
@@ -417,6 +441,30 @@ def _estimates(raw: dict[str, tuple[float, float]]) -> dict[str, ScaleEstimate]:
         "overall", overall, overall, float("nan"), float("nan"), "median of the segment ratios"
     )
     return out
+
+
+def estimate_stature(scales: dict[str, ScaleEstimate]) -> StatureEstimate | None:
+    """The subject's stature [m] from the long-bone scales (module docstring), or None when
+    no long bone is measured.
+
+    Value: ``NOMINAL_HEIGHT`` x the median of the measured (unshrunk) ratios of
+    :data:`STATURE_SCALES`. Standard deviation: ``value x sqrt(STATURE_SPREAD^2 +
+    (PLACEMENT_ERROR / d)^2 / n)`` with d the mean nominal distance and n the number of
+    bones measured (the population spread does not average out over one subject's bones;
+    the placement errors do).
+    """
+    used = [scales[n] for n in STATURE_SCALES if n in scales and np.isfinite(scales[n].ratio)]
+    if not used:
+        return None
+    value = NOMINAL_HEIGHT * float(np.median([e.ratio for e in used]))
+    d = float(np.mean([e.nominal for e in used])) * value / NOMINAL_HEIGHT
+    rel = float(np.sqrt(STATURE_SPREAD**2 + (PLACEMENT_ERROR / d) ** 2 / len(used)))
+    names = ", ".join(e.name for e in used)
+    source = (
+        f"median of {len(used)} long-bone distances ({names}) over Winter's (2009) fractions "
+        "of stature"
+    )
+    return StatureEstimate(value, rel * value, source)
 
 
 def scaled_theta(

@@ -177,6 +177,12 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
         lines.append(f"- {n}: {value:g} {'kg' if m['unit'] == 'kg' else 'mm'} ({m['source']})")
     if not meas:
         lines.append("- no measurements: widths and the hip centres regressed from the markers")
+    est = summary.get("stature_estimate")
+    if est:
+        lines.append(
+            f"- stature {est['value']:.2f} +- {est['sd']:.2f} m estimated from {est['source']} "
+            "(no measured height): the anatomical ranges and stature-scaled priors use it"
+        )
     w = summary.get("prior_weighting", {})
     if w:
         lines.append(

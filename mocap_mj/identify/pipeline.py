@@ -24,7 +24,7 @@ from ..tables import write_joint_centres_csv
 from .anatomy import ASYMMETRY_SIGMA, landmark_prior, symmetric_prior
 from .consistency import correlation_time
 from .identifiability import Identifiability
-from .initial import place_markers, scaled_theta, segment_scales
+from .initial import estimate_stature, place_markers, scaled_theta, segment_scales
 from .lm import LMSettings, identify_lm, solver_joint_range
 from .long import Robust, Weigh, refine, result_at, robust_loss, scratch_array
 from .motion_out import write_every_frame_motion
@@ -33,7 +33,7 @@ from .partial import Unmeasured, freeze_unmeasured, on_measured
 from .plausibility import kappa_outside_bounds, marker_rmse_by_marker
 from .priors import LinearGaussianPrior, Prior
 from .problem import TrialData
-from .ranges import kappa_ranges, theta_bounds
+from .ranges import NOMINAL_HEIGHT, kappa_ranges, theta_bounds
 from .result import IdentificationResult, ProgressCallback
 from .segments import SegmentRow, uncertainty_summary, write_segments_csv
 from .tissue import Slide, SlidingModel, sliding_weights
@@ -92,9 +92,11 @@ def identify_to_folder(
 
     With ``anatomical`` (the default) the solve keeps the kinematic parameters in their
     anatomical ranges (:mod:`mocap_mj.identify.ranges`, scaled by the subject's height when
-    ``subject`` has it) and adds the landmark priors (:mod:`mocap_mj.identify.anatomy`,
-    sharpened by ``subject``'s measurements); ``symmetric`` [m] adds a prior tying every
-    left length to the right one with that standard deviation, in place of the population
+    ``subject`` has it, else by the stature estimated from the trials' markers, which the
+    summary's ``stature_estimate`` records) and adds the landmark priors
+    (:mod:`mocap_mj.identify.anatomy`, sharpened by ``subject``'s measurements);
+    ``symmetric`` [m] adds a prior tying every left length to the right one with that
+    standard deviation, in place of the population
     asymmetry prior (``ASYMMETRY_SIGMA``, on unless ``asymmetry_prior`` is False);
     ``slides``: the landmarks' soft-tissue sliding model (default None: off; ``mocap-mj
     identify`` turns it on). See :func:`solve_anatomical`. When the fit was weighed with it
@@ -108,10 +110,11 @@ def identify_to_folder(
     _check_inputs(trials, pset, init)
     init_used = "given" if theta0 is not None else init
     theta0, scales, pset = _initial_theta(trials, pset, theta0, init)
-    subject = subject or Subject()
+    subject = _with_stature(subject or Subject(), trials, pset)
+    stature = subject.stature()
     prior_options: dict[str, Any] = {
         "subject": subject,
-        "size": scales.get("overall", 1.0),
+        "size": stature[0] / NOMINAL_HEIGHT if stature else scales.get("overall", 1.0),
         "anatomical": anatomical,
         "symmetric": ASYMMETRY_SIGMA if symmetric is None and asymmetry_prior else symmetric,
     }
@@ -332,7 +335,20 @@ def _prior_fields(
             ASYMMETRY_SIGMA * 1e3 if anatomical and asymmetry_prior and symmetric is None else None
         ),
         "measurements": subject.to_dict(),
+        "stature_estimate": (
+            None if subject.stature_estimate is None else subject.stature_estimate.to_dict()
+        ),
     }
+
+
+def _with_stature(subject: Subject, trials: Sequence[TrialData], pset: ParameterSet) -> Subject:
+    """``subject`` with the stature estimated from the trials' markers
+    (:func:`~mocap_mj.identify.initial.estimate_stature`) when its height is not measured:
+    the anatomical ranges and the stature-scaled priors are centred on it."""
+    if subject.get("height") is not None:
+        return subject
+    scales = segment_scales(pset, [t.markers for t in trials])
+    return subject.with_stature_estimate(estimate_stature(scales))
 
 
 def _initial_theta(

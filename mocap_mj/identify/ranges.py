@@ -4,7 +4,11 @@ Every kinematic parameter kappa_k of the bundled humanoid is a proportion of sta
 nominal value is that of a 1.75 m adult (:data:`NOMINAL_HEIGHT`, Winter 2009 segment
 fractions, see ``models/humanoid.xml``). Its range is ``[lo_k, hi_k] x nominal_k x H / 1.75``
 with H the subject's height when measured, and ``[lo_k x H_min, hi_k x H_max] x nominal_k /
-1.75`` over the adult heights :data:`ADULT_HEIGHTS` when it is not. The factors are wide
+1.75`` when it is not: ``H_min, H_max = H_e -/+ STATURE_K x sd_e`` about the stature H_e
+estimated from the markers' long-bone distances (standard deviation sd_e, about 6 %:
+:func:`mocap_mj.identify.initial.estimate_stature`), so that a 1.0 m child and a 2.0 m adult
+both get ranges about their own size; without any estimate (no limb markers), the adult
+heights :data:`ADULT_HEIGHTS`. The factors are wide
 (about 3-4 standard deviations of the proportion between adults): a bound is a guard
 against a non-human skeleton (a negative foot, a 320 mm clavicle, an 11 mm thorax), not a
 prior; the priors of :mod:`mocap_mj.identify.anatomy` say where a parameter probably is.
@@ -46,8 +50,23 @@ from ..subject import Subject
 
 #: Height [m] of the adult whose proportions the nominal model has.
 NOMINAL_HEIGHT = 1.75
-#: Heights [m] the ranges span when the subject's height is unknown (adults).
+#: Heights [m] the ranges span when the subject's height is neither measured nor estimated.
 ADULT_HEIGHTS = (1.40, 2.10)
+#: Standard deviations of the stature estimate the ranges span on either side of it: with
+#: the factors' own 3-4 standard deviations of proportion, a 2-sigma stature error still
+#: leaves every healthy subject's segment inside.
+STATURE_K = 2.0
+
+
+def height_span(subject: Subject | None) -> tuple[float, float]:
+    """The heights [m] the ranges span (module docstring): the measured height twice, the
+    estimate -/+ ``STATURE_K`` standard deviations, else :data:`ADULT_HEIGHTS`."""
+    stature = subject.stature() if subject is not None else None
+    if stature is None:
+        return ADULT_HEIGHTS
+    h, sd = stature
+    return h - STATURE_K * sd, h + STATURE_K * sd
+
 
 #: Kinematic parameter (side suffix removed) -> (lo, hi) factors of the height-scaled nominal.
 RANGE_FACTORS: dict[str, tuple[float, float]] = {
@@ -96,8 +115,7 @@ def kappa_ranges(
     A parameter this table does not know (a custom model's) gets the nominal -/+ 35 % range
     of :class:`~mocap_mj.parameters.ParameterSet`.
     """
-    height = subject.get("height") if subject is not None else None
-    h_lo, h_hi = (height, height) if height is not None else ADULT_HEIGHTS
+    h_lo, h_hi = height_span(subject)
     k = pset.n_kappa
     nominal = pset.nominal[:k]
     lower = pset.lower[:k].copy()
