@@ -265,3 +265,18 @@ def test_source_is_json_serialisable(tmp_path: Path) -> None:
 def test_every_error_is_a_mocap_error(tmp_path: Path) -> None:
     with pytest.raises(MocapError):
         load_markers(tmp_path / "absent.trc")
+
+
+def test_cmu_and_vicon_template_names_get_plug_in_gait_names(tmp_path: Path) -> None:
+    """The CMU 41-marker set's waist, shin and back markers (Vicon's labelling-template names)
+    load as Plug-in Gait's; its fifth-metatarsal marker, which Plug-in Gait lacks, stays extra."""
+    cmu = ["LFWT", "RFWT", "LBWT", "RBWT", "LSHN", "RSHN", "RBAC", "LMT5", "C7", "LKNE"]
+    pos = np.arange(4 * len(cmu) * 3, dtype=float).reshape(4, len(cmu), 3) * 10.0 + 100.0
+    traj = load_markers(write(tmp_path, "cmu.csv", csv_text(cmu, pos)))
+    assert traj.source["aliased"] == {
+        "LFWT": "LASI", "RFWT": "RASI", "LBWT": "LPSI", "RBWT": "RPSI",
+        "LSHN": "LTIB", "RSHN": "RTIB", "RBAC": "RBAK",
+    }  # fmt: skip
+    pig = ("LASI", "RASI", "LPSI", "RPSI", "LTIB", "RTIB", "RBAK")
+    assert traj.names == (*pig, "LMT5", "C7", "LKNE")
+    np.testing.assert_allclose(traj.select(["LPSI"])[:, 0], pos[:, 2] / 1000.0)

@@ -85,15 +85,20 @@ def load_marker_map(marker_map: Mapping[str, str] | str | os.PathLike[str]) -> d
 #: anatomical names of the ISB / Qualisys convention for the same landmark (L_IAS is the
 #: anterior superior iliac spine, L_FLE the lateral femoral epicondyle...), Plug-in Gait's
 #: older LFRA/RFRA, the spelt-out names of other labs (r asis, r heel, r should, ASISl), and
-#: numbered single markers (LUPA1). A file column keeps its own name when the alias target is
-#: already in the file, or when two columns would take the same name.
+#: numbered single markers (LUPA1). Vicon's older labelling templates (the CMU 41-marker set
+#: and the Plug-in Gait labelling skeleton, whose parameters in Nexus files are still named
+#: ``LFWT_Root_Z``, ``RBWT_Root_X``, ``LSHN_L_Tibia_X``) call the pelvis markers front and back
+#: waist (LFWT = LASI, LBWT = LPSI), the tibia wand the shin (LSHN = LTIB) and the offset back
+#: marker RBAC. A file column keeps its own name when the alias target is already in the file,
+#: or when two columns would take the same name.
 PIG_ALIASES: dict[str, str] = {
     # pelvis
     "LIAS": "LASI", "RIAS": "RASI", "LIPS": "LPSI", "RIPS": "RPSI",
+    "LFWT": "LASI", "RFWT": "RASI", "LBWT": "LPSI", "RBWT": "RPSI",
     "LASIS": "LASI", "RASIS": "RASI", "LPSIS": "LPSI", "RPSIS": "RPSI",
     "ASISL": "LASI", "ASISR": "RASI", "PSISL": "LPSI", "PSISR": "RPSI",
     # thorax and head
-    "CV7": "C7", "TV10": "T10", "SJN": "CLAV", "SNJ": "CLAV", "SXS": "STRN",
+    "CV7": "C7", "TV10": "T10", "SJN": "CLAV", "SNJ": "CLAV", "SXS": "STRN", "RBAC": "RBAK",
     "LHDF": "LFHD", "RHDF": "RFHD", "LHDB": "LBHD", "RHDB": "RBHD",
     # arms
     "LFRA": "LFRM", "RFRA": "RFRM", "LUPA1": "LUPA", "RUPA1": "RUPA",
@@ -104,6 +109,7 @@ PIG_ALIASES: dict[str, str] = {
     "LHM2": "LFIN", "RHM2": "RFIN",
     # legs
     "LFLE": "LKNE", "RFLE": "RKNE", "LFAL": "LANK", "RFAL": "RANK",
+    "LSHN": "LTIB", "RSHN": "RTIB",
     "LMALL": "LANK", "RMALL": "RANK", "LFCC": "LHEE", "RFCC": "RHEE",
     "LHEEL": "LHEE", "RHEEL": "RHEE", "LFM2": "LTOE", "RFM2": "RTOE",
 }  # fmt: skip
