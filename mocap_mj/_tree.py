@@ -832,11 +832,12 @@ def solve_frame(tr, target, wts, q, w, max_it, damping, tol_step, tol_cost, tol_
 PARALLEL_MIN = 32
 
 
-def blocks(items: int, frames: int) -> np.ndarray:
+def blocks(items: int, frames: int, min_block: int = PARALLEL_MIN) -> np.ndarray:
     """Bounds (k + 1,) of k contiguous blocks of range(items), one per thread (numba's thread
-    count: ``NUMBA_NUM_THREADS``, ``numba.set_num_threads``), with at least PARALLEL_MIN of the
-    work's ``frames`` per block (k = 1: run in the caller, see :func:`run_blocks`)."""
-    k = max(1, min(nb.get_num_threads(), items, frames // PARALLEL_MIN))
+    count: ``NUMBA_NUM_THREADS``, ``numba.set_num_threads``), with at least ``min_block``
+    (default PARALLEL_MIN) of the work's ``frames`` per block (k = 1: run in the caller, see
+    :func:`run_blocks`)."""
+    k = max(1, min(nb.get_num_threads(), items, frames // max(min_block, 1)))
     return np.linspace(0, items, k + 1).round().astype(np.int64)
 
 
@@ -932,13 +933,15 @@ def solve_batch(
     wts: np.ndarray,
     qpos: np.ndarray,
     *settings: float,
+    min_block: int = PARALLEL_MIN,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Independent frames, solved in place from their starts qpos (B, nq) [m, rad].
 
     target (B, M, 3) [m], wts (B, M); settings: max_it, damping (ADAPTIVE or SUGIHARA),
     tol_step, tol_cost, tol_rmse, mu0, wbar, min_markers (see ``IKSettings``). Returns
     (rmse (B,) [m], iterations (B,), status (B,)); frames with fewer than min_markers sites of
-    positive weight get status TOO_FEW_MARKERS and NaN qpos.
+    positive weight get status TOO_FEW_MARKERS and NaN qpos. ``min_block``: fewest frames
+    per thread (:func:`blocks`; cold starts, at tens of iterations a frame, pay with fewer).
     """
     n = len(qpos)
     rmse = np.full(n, np.nan)
@@ -946,7 +949,7 @@ def solve_batch(
     status = np.zeros(n, dtype=np.int64)
     args = _settings(settings)
     target, wts = _floats(target, wts)
-    bounds = blocks(n, n)
+    bounds = blocks(n, n, min_block)
     none = _unused(qpos.shape[1])
     run_blocks(
         _ik_range,
