@@ -107,13 +107,6 @@ class LMSettings:
         by delta moves theta by sqrt(2 delta) / sigma standard deviations (Mahalanobis, in
         the reduced information): with 1.0, at most 1.4 standard deviations along a single
         direction.
-    tol_predicted : float
-        The solve also ends at the current iterate when the Gauss-Newton step from it is
-        predicted (damped quadratic model) to lower F by less than ``tol_predicted *
-        sigma^2``: the iterate is then within sqrt(2 tol_predicted) standard deviations
-        (Mahalanobis, reduced information) of the model's minimum, 0.7 with 0.25, so the step
-        is not taken and evaluated (a pose finish and the residuals), and F stays within that
-        of the minimum. 0 disables (every solve then ends by ``tol_noise``).
     tol_cost : float
         Relative decrease of F below which an accepted step ends the solve.
     tol_theta : float [m]
@@ -182,7 +175,6 @@ class LMSettings:
 
     max_iterations: int = 100
     tol_noise: float = 1.0
-    tol_predicted: float = 0.25
     tol_cost: float = 1e-10
     tol_theta: float = 1e-9
     tol_q: float = 1e-8
@@ -318,28 +310,17 @@ class Trial(NamedTuple):
     step_q: float
 
 
-class Plan(NamedTuple):
-    """A damped Gauss-Newton step not yet evaluated: dtheta (Pf,) [m] over the free
-    parameters, every frame's joint step dq (n, nv), the decrease of F the damped quadratic
-    model predicts [m^2], and the reduced system it was solved from (at the current iterate,
-    with the weights w of the step)."""
-
-    dth: np.ndarray
-    dq: np.ndarray
-    predicted: float
-    system: ReducedChunk
-
-
-def plan_step(
+def propose(
     problem: IdentificationProblem,
     st: LMSettings,
     theta: np.ndarray,
     w: np.ndarray,
     mu: float,
+    c_loss: float,
     chunks: list[slice],
-) -> Plan:
-    """The damped Gauss-Newton step from theta and the problem's poses, with its predicted
-    decrease (nothing evaluated: the kinematics stays at theta)."""
+) -> Trial:
+    """One damped Gauss-Newton step from theta and the problem's poses (not yet accepted:
+    the kinematics is left at the candidate theta)."""
     f, cache = problem.free, problem.n <= st.cache_frames
     system = build_system(problem, w, mu, chunks, cache)
     _, g_prior, h_prior = problem.prior(theta)
@@ -358,53 +339,24 @@ def plan_step(
         st.prior_ratio * st.prior_weight,
     )
     dq = system.step(dth)
+    theta_new = theta.copy()
+    theta_new[f] = np.clip(theta[f] + dth, problem.lower[f], problem.upper[f])  # exactly inside
+    q_new = finish_poses(problem, theta_new, dq, w, st.refine_iterations)
+    dist_new = problem.residuals(q_new)
     # Decrease predicted by the damped quadratic model: 1/2 h^T (mu D h + g) (Nielsen).
     h_g = float(np.einsum("ni,ni->", dq, system.g_q) + dth @ (system.g_theta - g_prior))
     h_dh = float(
         np.einsum("ni,ni,ni->", dq, system.diag_a, dq) + dth @ ((system.diag_c + d_prior) * dth)
     )
-    return Plan(dth, dq, max(0.5 * (h_g + mu * h_dh), 1e-300), system)
-
-
-def evaluate(
-    problem: IdentificationProblem,
-    st: LMSettings,
-    theta: np.ndarray,
-    w: np.ndarray,
-    c_loss: float,
-    plan: Plan,
-) -> Trial:
-    """The candidate iterate of ``plan`` from theta: the parameters stepped within the box,
-    every frame's pose finished under them (:func:`finish_poses`), and F there (not yet
-    accepted: the kinematics is left at the candidate theta)."""
-    f = problem.free
-    theta_new = theta.copy()
-    theta_new[f] = np.clip(theta[f] + plan.dth, problem.lower[f], problem.upper[f])
-    q_new = finish_poses(problem, theta_new, plan.dq, w, st.refine_iterations)
-    dist_new = problem.residuals(q_new)
     return Trial(
         theta_new,
         q_new,
         dist_new,
         problem.cost(dist_new, theta_new, c_loss),
-        plan.predicted,
-        float(np.abs(plan.dth).max(initial=0.0)),
-        float(np.abs(plan.dq).max(initial=0.0)),
+        max(0.5 * (h_g + mu * h_dh), 1e-300),
+        float(np.abs(dth).max(initial=0.0)),
+        float(np.abs(dq).max(initial=0.0)),
     )
-
-
-def propose(
-    problem: IdentificationProblem,
-    st: LMSettings,
-    theta: np.ndarray,
-    w: np.ndarray,
-    mu: float,
-    c_loss: float,
-    chunks: list[slice],
-) -> Trial:
-    """One damped Gauss-Newton step from theta and the problem's poses, evaluated
-    (:func:`plan_step`, then :func:`evaluate`; not yet accepted)."""
-    return evaluate(problem, st, theta, w, c_loss, plan_step(problem, st, theta, w, mu, chunks))
 
 
 def finish_poses(
@@ -465,14 +417,9 @@ class _State:
         self.theta = theta
         self.dist = problem.residuals(problem.qpos)
         self.mu, self.nu = mu, 2.0
-        # The reduced system and weights of a step declined at this iterate (``_confirmed``).
-        self.confirmed: tuple[ReducedChunk, np.ndarray] | None = None
 
     def rmse(self, problem: IdentificationProblem) -> float:
         return problem.statistics(self.dist).rmse
-
-    def sigma(self, problem: IdentificationProblem) -> float:
-        return problem.statistics(self.dist).sigma
 
 
 def solve_lm(
@@ -537,10 +484,7 @@ def _iterate(
     c_loss = problem.loss_scale(state.dist, st.loss_scale)
     w = problem.loss.weights(state.dist, problem.present, c_loss)
     cost = problem.cost(state.dist, state.theta, c_loss)
-    plan = plan_step(problem, st, state.theta, w, state.mu, chunks)
-    if it > 1 and plan.predicted <= st.tol_predicted * state.sigma(problem) ** 2:
-        return _confirmed(problem, state, it, cost, plan, w, trace)
-    step = evaluate(problem, st, state.theta, w, c_loss, plan)
+    step = propose(problem, st, state.theta, w, state.mu, c_loss, chunks)
     accepted = step.cost < cost
     if accepted:
         state.theta, problem.qpos, state.dist = step.theta, step.qpos, step.dist
@@ -590,42 +534,6 @@ def _iterate(
     return stop
 
 
-def _confirmed(
-    problem: IdentificationProblem,
-    state: _State,
-    it: int,
-    cost: float,
-    plan: Plan,
-    w: np.ndarray,
-    trace: list[IterationLog],
-) -> Status:
-    """Iteration ``it`` ends the solve at the current iterate: its Gauss-Newton step is
-    predicted to lower F by less than ``tol_predicted * sigma^2`` and is not taken. The
-    reduced system of that step (at this iterate, with the weights w (n, M)) is kept for the
-    result's information."""
-    state.confirmed = (plan.system, w)
-    trace.append(
-        IterationLog(
-            it,
-            cost,
-            state.rmse(problem),
-            state.mu,
-            False,
-            float(np.abs(plan.dth).max(initial=0.0)),
-            0.0,
-            state.theta.copy(),
-            problem.n,
-        )
-    )
-    logger.info(
-        "iter %3d  F %.6e  predicted decrease %.2e below tol_predicted * sigma^2: converged",
-        it,
-        cost,
-        plan.predicted,
-    )
-    return Status.PREDICTED
-
-
 def _repair(
     problem: IdentificationProblem,
     state: _State,
@@ -643,7 +551,6 @@ def _repair(
         return False
     state.dist = problem.residuals(problem.qpos)
     state.mu, state.nu = st.mu0, 2.0
-    state.confirmed = None
     schedule.settled = False
     logger.info("repaired %d frames caught in local minima; continuing", len(fixed))
     return True
