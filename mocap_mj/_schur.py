@@ -98,13 +98,15 @@ def _schur_range(
     kn = kt.n_kappa
     n_par = kn + 3 * ns
     vp = np.zeros((kt.pair_k.size, 3))
+    # B (nv, P): written only at its structural non-zeros (a dof's runs of free columns, and
+    # the frozen columns, which are never read), and those runs are zeroed again once copied
+    # into yb, so that no frame clears the whole array (58 KB a frame on the bundled model).
     bmat = np.zeros((nv, n_par))
     yb = np.zeros((nv, free.size + 1))
     for t in range(lo, hi):
         fk(tr, qpos[t], w)
         normal_equations(tr, target[t], wts[t], w)
         _pair_directions(kt, w, vp)
-        bmat[:, :] = 0.0
         for s in range(ns):
             ws = wts[t, s]
             if ws <= 0:
@@ -131,9 +133,9 @@ def _schur_range(
                     q = kt.site_pairs[pj]
                     c_acc[kk, kt.pair_k[q]] += v0 * vp[q, 0] + v1 * vp[q, 1] + v2 * vp[q, 2]
                 for j in range(3):
-                    x = v0 * rot[0, j] + v1 * rot[1, j] + v2 * rot[2, j]
-                    c_acc[kk, off + j] += x
-                    c_acc[off + j, kk] += x
+                    # C's (offset, kappa) block is the transpose of this one, mirrored by
+                    # the caller (the same sums in the same order)
+                    c_acc[kk, off + j] += v0 * rot[0, j] + v1 * rot[1, j] + v2 * rot[2, j]
             for j in range(3):
                 e0, e1, e2 = ws * rot[0, j], ws * rot[1, j], ws * rot[2, j]
                 for k in range(d_hi - d_lo):
@@ -165,6 +167,7 @@ def _schur_range(
             for r in range(y_runptr[i], y_runptr[i + 1]):
                 for c in range(y_runs[r, 0], y_runs[r, 1]):
                     yb[i, c] = bmat[i, free[c]]
+                    bmat[i, free[c]] = 0.0
             yb[i, free.size] = g[i]
         _rows_lt_solve(tr, a, yb, y_runs, y_runptr)
         for i in range(nv):
@@ -429,10 +432,12 @@ def frame_blocks(
         ytg[b] = y.rmatvec(lo, hi, y_g)
 
     run_blocks(block, bounds, lambda b: (b,))
+    c_sum = c.sum(axis=0)
+    kn = kt.n_kappa
+    c_sum[kn:, :kn] = c_sum[:kn, kn:].T  # the kernel forms the (kappa, offset) block only
     return FrameBlocks(
-        y, y_g, ld, g_q, diag_a, c.sum(axis=0), g_theta.sum(axis=0), yty.sum(axis=0),
-        ytg.sum(axis=0),
-    )  # fmt: skip
+        y, y_g, ld, g_q, diag_a, c_sum, g_theta.sum(axis=0), yty.sum(axis=0), ytg.sum(axis=0)
+    )
 
 
 @_kernel
