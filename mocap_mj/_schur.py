@@ -78,7 +78,7 @@ def _pair_directions(kt, w, vp):
 @_jit
 def _hold_limits(tr, q, w, bmat):
     """Hinges at a joint limit that the gradient ``w.g`` pushes outward are held: their rows
-    leave A (``w.h``), B (bmat) and g."""
+    leave A (``w.h``), B (bmat: a row per dof) and g."""
     h, g = w.h, w.g
     if blocked_dofs(tr, q, g, w.blocked, g):
         hold_blocked(tr, q, w.blocked, h)
@@ -98,10 +98,13 @@ def _schur_range(
     kn = kt.n_kappa
     n_par = kn + 3 * ns
     vp = np.zeros((kt.pair_k.size, 3))
-    # B (nv, P): written only at its structural non-zeros (a dof's runs of free columns, and
-    # the frozen columns, which are never read), and those runs are zeroed again once copied
-    # into yb, so that no frame clears the whole array (58 KB a frame on the bundled model).
-    bmat = np.zeros((nv, n_par))
+    # B's free columns and g_q, [B_free, g] (nv, Pf + 1), are formed in place in yb (col:
+    # each parameter's column there, -1 when frozen), written only at their structural
+    # non-zeros (each dof's runs) and cleared there once read, so that no frame clears or
+    # copies the whole array (58 KB a frame on the bundled model).
+    col = np.full(n_par, -1, dtype=np.int64)
+    for c in range(free.size):
+        col[free[c]] = c
     yb = np.zeros((nv, free.size + 1))
     for t in range(lo, hi):
         fk(tr, qpos[t], w)
@@ -124,10 +127,12 @@ def _schur_range(
                 p = kt.site_pairs[pi]
                 kk = kt.pair_k[p]
                 v0, v1, v2 = ws * vp[p, 0], ws * vp[p, 1], ws * vp[p, 2]
-                for k in range(d_hi - d_lo):
-                    bmat[tr.site_dofs[d_lo + k], kk] += (
-                        w.jcol[k, 0] * v0 + w.jcol[k, 1] * v1 + w.jcol[k, 2] * v2
-                    )
+                ck = col[kk]
+                if ck >= 0:
+                    for k in range(d_hi - d_lo):
+                        yb[tr.site_dofs[d_lo + k], ck] += (
+                            w.jcol[k, 0] * v0 + w.jcol[k, 1] * v1 + w.jcol[k, 2] * v2
+                        )
                 gt_acc[kk] += v0 * r0 + v1 * r1 + v2 * r2
                 for pj in range(kt.site_pairptr[s], kt.site_pairptr[s + 1]):
                     q = kt.site_pairs[pj]
@@ -138,15 +143,17 @@ def _schur_range(
                     c_acc[kk, off + j] += v0 * rot[0, j] + v1 * rot[1, j] + v2 * rot[2, j]
             for j in range(3):
                 e0, e1, e2 = ws * rot[0, j], ws * rot[1, j], ws * rot[2, j]
-                for k in range(d_hi - d_lo):
-                    bmat[tr.site_dofs[d_lo + k], off + j] += (
-                        w.jcol[k, 0] * e0 + w.jcol[k, 1] * e1 + w.jcol[k, 2] * e2
-                    )
+                ck = col[off + j]
+                if ck >= 0:
+                    for k in range(d_hi - d_lo):
+                        yb[tr.site_dofs[d_lo + k], ck] += (
+                            w.jcol[k, 0] * e0 + w.jcol[k, 1] * e1 + w.jcol[k, 2] * e2
+                        )
                 gt_acc[off + j] += e0 * r0 + e1 * r1 + e2 * r2
                 c_acc[off + j, off + j] += ws
         h, g = w.h, w.g
         if use_limits:
-            _hold_limits(tr, qpos[t], w, bmat)
+            _hold_limits(tr, qpos[t], w, yb)
         a = w.a
         for i in range(nv):
             gq_out[t, i] = g[i]
@@ -164,10 +171,6 @@ def _schur_range(
                 ld_out[t, pos] = a[i, j]
                 pos += 1
                 j = tr.dof_parent[j]
-            for r in range(y_runptr[i], y_runptr[i + 1]):
-                for c in range(y_runs[r, 0], y_runs[r, 1]):
-                    yb[i, c] = bmat[i, free[c]]
-                    bmat[i, free[c]] = 0.0
             yb[i, free.size] = g[i]
         _rows_lt_solve(tr, a, yb, y_runs, y_runptr)
         for i in range(nv):
@@ -176,6 +179,7 @@ def _schur_range(
             at = y_base[i] + (t * y_row[i, 1] + y_row[i, 0]) * (c_hi - c_lo)
             for c in range(c_hi - c_lo):
                 y_out[at + c] = yb[i, y_cols[c_lo + c]] * sd
+                yb[i, y_cols[c_lo + c]] = 0.0
             yg_out[t, i] = yb[i, free.size] * sd
 
 
