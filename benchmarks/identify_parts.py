@@ -4,8 +4,11 @@ Timers are wrapped around the solver's parts (the joint LM, the Schur blocks, th
 finish, the step, the back substitution, the IK entry points, the refits, the final reduced
 information, residuals and prior) and the synthetic ROM trials of seeds --seeds are solved
 once each after the kernels loaded. CPU is `time.process_time` (both cores' threads), so it
-is the figure to compare on a shared machine; parts nest (the Schur blocks are inside
-`build_system`, which is inside the joint LM). Used for docs/identification.md ("Issue 18i").
+is the figure to compare on a shared machine; "main" is the calling thread's CPU
+(`time.thread_time`): its own share of the parallel kernels plus everything serial, the floor
+of the wall time when the other core is free. Parts nest (the Schur blocks are inside
+`build_system`, which is inside the joint LM). Used for docs/identification.md ("Issue 18i",
+"Issue 18m").
 
 Run: python benchmarks/identify_parts.py [--seeds 0 6]
 """
@@ -28,6 +31,7 @@ from mocap_mj.identify import problem as problem_module
 from mocap_synth import SynthConfig, synthesize
 
 CPU: dict[str, float] = collections.defaultdict(float)
+MAIN: dict[str, float] = collections.defaultdict(float)
 WALL: dict[str, float] = collections.defaultdict(float)
 CALLS: collections.Counter[str] = collections.Counter()
 
@@ -38,11 +42,12 @@ def timed(owner: Any, name: str, label: str) -> None:
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
-        c0, w0 = time.process_time(), time.perf_counter()
+        c0, m0, w0 = time.process_time(), time.thread_time(), time.perf_counter()
         try:
             return fn(*args, **kwargs)
         finally:
             CPU[label] += time.process_time() - c0
+            MAIN[label] += time.thread_time() - m0
             WALL[label] += time.perf_counter() - w0
             CALLS[label] += 1
 
@@ -81,21 +86,24 @@ def main() -> None:
     identify_lm([warm], pset=pset, settings=LMSettings(max_iterations=1))
     identify_lm([first], pset=pset)
     CPU.clear()
+    MAIN.clear()
     WALL.clear()
     CALLS.clear()
     trials = [trial(s) for s in range(*args.seeds)]
-    c0, w0, iterations = time.process_time(), time.perf_counter(), 0
+    c0, m0, w0, iterations = time.process_time(), time.thread_time(), time.perf_counter(), 0
     for d in trials:
         iterations += identify_lm([d], pset=pset).iterations
     n = len(trials)
     print(
         f"seeds {args.seeds[0]}-{args.seeds[1] - 1}, per run: CPU "
-        f"{(time.process_time() - c0) / n * 1e3:.0f} ms, wall "
+        f"{(time.process_time() - c0) / n * 1e3:.0f} ms, main thread "
+        f"{(time.thread_time() - m0) / n * 1e3:.0f} ms, wall "
         f"{(time.perf_counter() - w0) / n * 1e3:.0f} ms, {iterations / n:.1f} iterations"
     )
     for label in sorted(CPU, key=lambda k: -CPU[k]):
         print(
-            f"  {label:44s} CPU {CPU[label] / n * 1e3:6.1f} ms  wall "
+            f"  {label:44s} CPU {CPU[label] / n * 1e3:6.1f} ms  main "
+            f"{MAIN[label] / n * 1e3:6.1f} ms  wall "
             f"{WALL[label] / n * 1e3:6.1f} ms  calls {CALLS[label] / n:.1f}"
         )
 
