@@ -1076,10 +1076,16 @@ def _forward_range(tr, qpos, site_xpos):
 
 
 def forward(tr: Tree, qpos: np.ndarray) -> np.ndarray:
-    """Site positions (T, ns, 3) [m] of qpos (T, nq)."""
+    """Site positions (T, ns, 3) [m] of qpos (T, nq), the frames spread over threads."""
     _numba_prewarm.wait()
     out = np.empty((len(qpos), tr.site_body.size, 3))
-    _forward_range(tr, *_floats(qpos), out)
+    (q,) = _floats(qpos)
+    bounds = blocks(len(q), len(q))
+    run_blocks(
+        _forward_range,
+        bounds,
+        lambda b: (tr, q[bounds[b] : bounds[b + 1]], out[bounds[b] : bounds[b + 1]]),
+    )
     return out
 
 
