@@ -10,7 +10,7 @@ of the wall time when the other core is free. Parts nest (the Schur blocks are i
 `build_system`, which is inside the joint LM). Used for docs/identification.md ("Issue 18i",
 "Issue 18m").
 
-Run: python benchmarks/identify_parts.py [--seeds 0 6]
+Run: python benchmarks/identify_parts.py [--seeds 0 6] [--kernels 30]
 """
 
 from __future__ import annotations
@@ -21,13 +21,18 @@ import functools
 import time
 from typing import Any
 
+import numba
 import numpy as np
 
 from mocap_mj import ParameterSet, _schur
 from mocap_mj import ik as ik_module
+from mocap_mj._threads import one_blas_thread
 from mocap_mj.identify import LMSettings, TrialData, identify_lm
 from mocap_mj.identify import lm as lm_module
 from mocap_mj.identify import problem as problem_module
+from mocap_mj.identify.coarse import coarse_rows
+from mocap_mj.ik import IKSolver
+from mocap_mj.kinematics import Kinematics
 from mocap_synth import SynthConfig, synthesize
 
 CPU: dict[str, float] = collections.defaultdict(float)
@@ -54,10 +59,61 @@ def timed(owner: Any, name: str, label: str) -> None:
     setattr(owner, name, wrapper)
 
 
+def _best(fn: Any, repeats: int) -> tuple[float, float, float]:
+    """Minimum wall, process CPU and calling-thread CPU [s] of ``repeats`` calls of fn()."""
+    wall, cpu, main = [], [], []
+    for _ in range(repeats):
+        w0, c0, m0 = time.perf_counter(), time.process_time(), time.thread_time()
+        fn()
+        wall.append(time.perf_counter() - w0)
+        cpu.append(time.process_time() - c0)
+        main.append(time.thread_time() - m0)
+    return min(wall), min(cpu), min(main)
+
+
+def kernels(repeats: int) -> None:
+    """Two parts alone, minimum of ``repeats`` calls (robust to a shared machine's load): one
+    Schur pass over 500 frames on one thread (seed 0, poses of a cold IK under the nominal
+    model) and the cold IK of the coarse phase's 100-frame subset (both threads)."""
+    pset = ParameterSet()
+    exp = synthesize(SynthConfig(frames=500, seed=0), pset)
+    markers = np.asarray(exp.markers)
+    kin = Kinematics(pset)
+    solver = IKSolver(kin)
+    qpos = solver.solve_trial(markers).qpos
+    tr, kt = kin.tree(), kin.kappa_tables()
+    present = np.all(np.isfinite(markers), axis=2)
+    target, w = np.nan_to_num(markers), present.astype(float)
+    free = np.flatnonzero(~pset.frozen)
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    with one_blas_thread():
+        wall, _, _ = _best(
+            lambda: _schur.frame_blocks(tr, kt, target, w, qpos, free, 1e-6), repeats
+        )
+    numba.set_num_threads(threads)
+    print(f"Schur pass, 500 frames, one thread: {wall * 1e3:.2f} ms (minimum of {repeats})")
+    trials = [TrialData("rom", markers, np.asarray(exp.times))]
+    rows = coarse_rows(trials, pset, LMSettings().coarse_frames)
+    assert rows is not None
+    subset = markers[rows[0]]
+    wall, cpu, main = _best(lambda: solver.solve_trial(subset), repeats)
+    print(
+        f"cold IK of the {len(subset)}-frame subset, {threads} threads: wall {wall * 1e3:.1f} ms, "
+        f"CPU {cpu * 1e3:.1f} ms, calling thread {main * 1e3:.1f} ms (minima of {repeats})"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs=2, default=(0, 6), help="first, last + 1")
+    parser.add_argument(
+        "--kernels", type=int, metavar="N", help="only time two parts alone (minimum of N calls)"
+    )
     args = parser.parse_args()
+    if args.kernels:
+        kernels(args.kernels)
+        return
     problem = problem_module.IdentificationProblem
     for owner, name, label in (
         (lm_module, "solve_lm", "joint LM (both phases)"),
