@@ -37,6 +37,7 @@ from ._tree import (
     factor,
     fk,
     hold_blocked,
+    lower_copy,
     normal_equations,
     run_blocks,
     site_column,
@@ -155,11 +156,10 @@ def _schur_range(
         if use_limits:
             _hold_limits(tr, qpos[t], w, yb)
         a = w.a
+        lower_copy(tr, h, a)
         for i in range(nv):
             gq_out[t, i] = g[i]
             diag_out[t, i] = h[i, i]
-            for k in range(i + 1):
-                a[i, k] = h[i, k]
             a[i, i] += mu * h[i, i] + 1e-12
         factor(tr, a)
         pos = 0
@@ -460,10 +460,9 @@ def _gradient_range(tr, kt, target, wts, qpos, lo, hi, use_limits, gt_acc):
         if use_limits:
             _hold_limits(tr, qpos[t], w, no_b)
         h, g, a = w.h, w.g, w.a
+        lower_copy(tr, h, a)
         for i in range(nv):
             x[i] = g[i]
-            for k in range(i + 1):
-                a[i, k] = h[i, k]
             a[i, i] += 1e-12
         factor(tr, a)
         solve(tr, a, x)
