@@ -37,6 +37,7 @@ from ._tree import (
     factor,
     fk,
     hold_blocked,
+    lower_copy,
     normal_equations,
     run_blocks,
     site_column,
@@ -78,7 +79,7 @@ def _pair_directions(kt, w, vp):
 @_jit
 def _hold_limits(tr, q, w, bmat):
     """Hinges at a joint limit that the gradient ``w.g`` pushes outward are held: their rows
-    leave A (``w.h``), B (bmat) and g."""
+    leave A (``w.h``), B (bmat: a row per dof) and g."""
     h, g = w.h, w.g
     if blocked_dofs(tr, q, g, w.blocked, g):
         hold_blocked(tr, q, w.blocked, h)
@@ -98,13 +99,18 @@ def _schur_range(
     kn = kt.n_kappa
     n_par = kn + 3 * ns
     vp = np.zeros((kt.pair_k.size, 3))
-    bmat = np.zeros((nv, n_par))
+    # B's free columns and g_q, [B_free, g] (nv, Pf + 1), are formed in place in yb (col:
+    # each parameter's column there, -1 when frozen), written only at their structural
+    # non-zeros (each dof's runs) and cleared there once read, so that no frame clears or
+    # copies the whole array (58 KB a frame on the bundled model).
+    col = np.full(n_par, -1, dtype=np.int64)
+    for c in range(free.size):
+        col[free[c]] = c
     yb = np.zeros((nv, free.size + 1))
     for t in range(lo, hi):
         fk(tr, qpos[t], w)
         normal_equations(tr, target[t], wts[t], w)
         _pair_directions(kt, w, vp)
-        bmat[:, :] = 0.0
         for s in range(ns):
             ws = wts[t, s]
             if ws <= 0:
@@ -122,35 +128,38 @@ def _schur_range(
                 p = kt.site_pairs[pi]
                 kk = kt.pair_k[p]
                 v0, v1, v2 = ws * vp[p, 0], ws * vp[p, 1], ws * vp[p, 2]
-                for k in range(d_hi - d_lo):
-                    bmat[tr.site_dofs[d_lo + k], kk] += (
-                        w.jcol[k, 0] * v0 + w.jcol[k, 1] * v1 + w.jcol[k, 2] * v2
-                    )
+                ck = col[kk]
+                if ck >= 0:
+                    for k in range(d_hi - d_lo):
+                        yb[tr.site_dofs[d_lo + k], ck] += (
+                            w.jcol[k, 0] * v0 + w.jcol[k, 1] * v1 + w.jcol[k, 2] * v2
+                        )
                 gt_acc[kk] += v0 * r0 + v1 * r1 + v2 * r2
                 for pj in range(kt.site_pairptr[s], kt.site_pairptr[s + 1]):
                     q = kt.site_pairs[pj]
                     c_acc[kk, kt.pair_k[q]] += v0 * vp[q, 0] + v1 * vp[q, 1] + v2 * vp[q, 2]
                 for j in range(3):
-                    x = v0 * rot[0, j] + v1 * rot[1, j] + v2 * rot[2, j]
-                    c_acc[kk, off + j] += x
-                    c_acc[off + j, kk] += x
+                    # C's (offset, kappa) block is the transpose of this one, mirrored by
+                    # the caller (the same sums in the same order)
+                    c_acc[kk, off + j] += v0 * rot[0, j] + v1 * rot[1, j] + v2 * rot[2, j]
             for j in range(3):
                 e0, e1, e2 = ws * rot[0, j], ws * rot[1, j], ws * rot[2, j]
-                for k in range(d_hi - d_lo):
-                    bmat[tr.site_dofs[d_lo + k], off + j] += (
-                        w.jcol[k, 0] * e0 + w.jcol[k, 1] * e1 + w.jcol[k, 2] * e2
-                    )
+                ck = col[off + j]
+                if ck >= 0:
+                    for k in range(d_hi - d_lo):
+                        yb[tr.site_dofs[d_lo + k], ck] += (
+                            w.jcol[k, 0] * e0 + w.jcol[k, 1] * e1 + w.jcol[k, 2] * e2
+                        )
                 gt_acc[off + j] += e0 * r0 + e1 * r1 + e2 * r2
                 c_acc[off + j, off + j] += ws
         h, g = w.h, w.g
         if use_limits:
-            _hold_limits(tr, qpos[t], w, bmat)
+            _hold_limits(tr, qpos[t], w, yb)
         a = w.a
+        lower_copy(tr, h, a)
         for i in range(nv):
             gq_out[t, i] = g[i]
             diag_out[t, i] = h[i, i]
-            for k in range(i + 1):
-                a[i, k] = h[i, k]
             a[i, i] += mu * h[i, i] + 1e-12
         factor(tr, a)
         pos = 0
@@ -162,9 +171,6 @@ def _schur_range(
                 ld_out[t, pos] = a[i, j]
                 pos += 1
                 j = tr.dof_parent[j]
-            for r in range(y_runptr[i], y_runptr[i + 1]):
-                for c in range(y_runs[r, 0], y_runs[r, 1]):
-                    yb[i, c] = bmat[i, free[c]]
             yb[i, free.size] = g[i]
         _rows_lt_solve(tr, a, yb, y_runs, y_runptr)
         for i in range(nv):
@@ -173,6 +179,7 @@ def _schur_range(
             at = y_base[i] + (t * y_row[i, 1] + y_row[i, 0]) * (c_hi - c_lo)
             for c in range(c_hi - c_lo):
                 y_out[at + c] = yb[i, y_cols[c_lo + c]] * sd
+                yb[i, y_cols[c_lo + c]] = 0.0
             yg_out[t, i] = yb[i, free.size] * sd
 
 
@@ -239,7 +246,8 @@ class _Layout(NamedTuple):
     offsets (groups + 1,) of the group blocks and base (nv,) of each dof's block; row (nv, 2)
     the dof's row in its group and the group's rows; the dof's columns ``cols[colptr[i]:
     colptr[i + 1]]`` and the same as runs of consecutive columns ``runs[runptr[i]:
-    runptr[i + 1]]`` ([first, last + 1) each; a limb's dof has 7-8)."""
+    runptr[i + 1]]`` ([first, last + 1) each; a limb's dof has 7-8); square: each group's
+    ``np.ix_(c, c)``, made once (an ``np.ix_`` costs about 10 us, 17 groups a thread a pass)."""
 
     offsets: np.ndarray
     base: np.ndarray
@@ -248,6 +256,7 @@ class _Layout(NamedTuple):
     colptr: np.ndarray
     runs: np.ndarray
     runptr: np.ndarray
+    square: tuple[tuple[np.ndarray, ...], ...]
 
 
 _LAYOUTS: dict[int, tuple[list[tuple[slice, np.ndarray]], _Layout]] = {}
@@ -279,6 +288,7 @@ def _layout(groups: list[tuple[slice, np.ndarray]], nv: int) -> _Layout:
         np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
         np.concatenate([*runs, np.zeros((0, 2))]).astype(np.int64),
         np.concatenate([[0], np.cumsum([len(r) for r in runs])]).astype(np.int64),
+        tuple(np.ix_(c, c) for _, c in groups),
     )
     if len(_LAYOUTS) > 64:
         _LAYOUTS.clear()
@@ -321,9 +331,9 @@ class PackedY:
     def gram(self, lo: int, hi: int) -> np.ndarray:
         """``sum_t Y_t^T Y_t`` (Pf, Pf) over frames lo..hi, one BLAS product per group."""
         out = np.zeros((self.pf, self.pf))
-        for (_, c), blk in zip(self.groups, self.blocks, strict=True):
+        for (_, c), blk, square in zip(self.groups, self.blocks, self.layout.square, strict=True):
             g = blk[lo:hi].reshape(-1, c.size)
-            out[np.ix_(c, c)] += g.T @ g
+            out[square] += g.T @ g
         return out
 
     def rmatvec(self, lo: int, hi: int, u: np.ndarray) -> np.ndarray:
@@ -429,10 +439,12 @@ def frame_blocks(
         ytg[b] = y.rmatvec(lo, hi, y_g)
 
     run_blocks(block, bounds, lambda b: (b,))
+    c_sum = c.sum(axis=0)
+    kn = kt.n_kappa
+    c_sum[kn:, :kn] = c_sum[:kn, kn:].T  # the kernel forms the (kappa, offset) block only
     return FrameBlocks(
-        y, y_g, ld, g_q, diag_a, c.sum(axis=0), g_theta.sum(axis=0), yty.sum(axis=0),
-        ytg.sum(axis=0),
-    )  # fmt: skip
+        y, y_g, ld, g_q, diag_a, c_sum, g_theta.sum(axis=0), yty.sum(axis=0), ytg.sum(axis=0)
+    )
 
 
 @_kernel
@@ -451,10 +463,9 @@ def _gradient_range(tr, kt, target, wts, qpos, lo, hi, use_limits, gt_acc):
         if use_limits:
             _hold_limits(tr, qpos[t], w, no_b)
         h, g, a = w.h, w.g, w.a
+        lower_copy(tr, h, a)
         for i in range(nv):
             x[i] = g[i]
-            for k in range(i + 1):
-                a[i, k] = h[i, k]
             a[i, i] += 1e-12
         factor(tr, a)
         solve(tr, a, x)

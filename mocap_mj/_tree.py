@@ -439,7 +439,14 @@ def normal_equations(tr, target, wts, w):
     """H = J^T W J (lower triangle of ``w.h``, (nv, nv)) and g = J^T W r (``w.g``, (nv,))."""
     dof_axes(tr, w)
     h, g, jc = w.h, w.g, w.jcol
-    h[:, :] = 0.0
+    # Only (dof, ancestor or itself) entries are ever written (the dofs that move a site are
+    # one chain to the root), so only those are cleared: 561 of 2,304 on the bundled model.
+    parent = tr.dof_parent
+    for v in range(h.shape[0]):
+        u = v
+        while u >= 0:
+            h[v, u] = 0.0
+            u = parent[u]
     g[:] = 0.0
     for s in range(tr.site_body.size):
         ws = wts[s]
@@ -491,6 +498,18 @@ def factor(tr, a):
                 j = parent[j]
             a[k, i] = tmp
             i = parent[i]
+
+
+@_inline
+def lower_copy(tr, h, a):
+    """a <- h at the entries :func:`factor` reads (each dof's row at itself and its
+    ancestors); the rest of a is left as it was."""
+    parent = tr.dof_parent
+    for i in range(h.shape[0]):
+        k = i
+        while k >= 0:
+            a[i, k] = h[i, k]
+            k = parent[k]
 
 
 @_jit
@@ -731,9 +750,8 @@ def _damped_solve(tr, w, q, damp, blocked, use_blocked):
     use_blocked."""
     n = w.g.size
     a, dv = w.a, w.dv
+    lower_copy(tr, w.h, a)
     for i in range(n):
-        for k in range(i + 1):
-            a[i, k] = w.h[i, k]
         a[i, i] += damp[i]
         dv[i] = w.g[i]
     if use_blocked:
@@ -832,11 +850,12 @@ def solve_frame(tr, target, wts, q, w, max_it, damping, tol_step, tol_cost, tol_
 PARALLEL_MIN = 32
 
 
-def blocks(items: int, frames: int) -> np.ndarray:
+def blocks(items: int, frames: int, min_block: int = PARALLEL_MIN) -> np.ndarray:
     """Bounds (k + 1,) of k contiguous blocks of range(items), one per thread (numba's thread
-    count: ``NUMBA_NUM_THREADS``, ``numba.set_num_threads``), with at least PARALLEL_MIN of the
-    work's ``frames`` per block (k = 1: run in the caller, see :func:`run_blocks`)."""
-    k = max(1, min(nb.get_num_threads(), items, frames // PARALLEL_MIN))
+    count: ``NUMBA_NUM_THREADS``, ``numba.set_num_threads``), with at least ``min_block``
+    (default PARALLEL_MIN) of the work's ``frames`` per block (k = 1: run in the caller, see
+    :func:`run_blocks`)."""
+    k = max(1, min(nb.get_num_threads(), items, frames // max(min_block, 1)))
     return np.linspace(0, items, k + 1).round().astype(np.int64)
 
 
@@ -932,13 +951,15 @@ def solve_batch(
     wts: np.ndarray,
     qpos: np.ndarray,
     *settings: float,
+    min_block: int = PARALLEL_MIN,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Independent frames, solved in place from their starts qpos (B, nq) [m, rad].
 
     target (B, M, 3) [m], wts (B, M); settings: max_it, damping (ADAPTIVE or SUGIHARA),
     tol_step, tol_cost, tol_rmse, mu0, wbar, min_markers (see ``IKSettings``). Returns
     (rmse (B,) [m], iterations (B,), status (B,)); frames with fewer than min_markers sites of
-    positive weight get status TOO_FEW_MARKERS and NaN qpos.
+    positive weight get status TOO_FEW_MARKERS and NaN qpos. ``min_block``: fewest frames
+    per thread (:func:`blocks`; cold starts, at tens of iterations a frame, pay with fewer).
     """
     n = len(qpos)
     rmse = np.full(n, np.nan)
@@ -946,7 +967,7 @@ def solve_batch(
     status = np.zeros(n, dtype=np.int64)
     args = _settings(settings)
     target, wts = _floats(target, wts)
-    bounds = blocks(n, n)
+    bounds = blocks(n, n, min_block)
     none = _unused(qpos.shape[1])
     run_blocks(
         _ik_range,
@@ -1073,10 +1094,16 @@ def _forward_range(tr, qpos, site_xpos):
 
 
 def forward(tr: Tree, qpos: np.ndarray) -> np.ndarray:
-    """Site positions (T, ns, 3) [m] of qpos (T, nq)."""
+    """Site positions (T, ns, 3) [m] of qpos (T, nq), the frames spread over threads."""
     _numba_prewarm.wait()
     out = np.empty((len(qpos), tr.site_body.size, 3))
-    _forward_range(tr, *_floats(qpos), out)
+    (q,) = _floats(qpos)
+    bounds = blocks(len(q), len(q))
+    run_blocks(
+        _forward_range,
+        bounds,
+        lambda b: (tr, q[bounds[b] : bounds[b + 1]], out[bounds[b] : bounds[b + 1]]),
+    )
     return out
 
 

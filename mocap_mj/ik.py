@@ -72,6 +72,12 @@ ARM_STARTS: tuple[dict[str, tuple[float, float, float]], ...] = (
 )
 
 
+#: Fewest frames a thread takes in a batch of cold starts (:meth:`IKSolver._best_start`): from
+#: a rigid fit of the root a frame takes tens of iterations (a few hundred microseconds), so a
+#: handful outweighs the hand-off to a worker thread.
+COLD_BLOCK = 4
+
+
 class Status(enum.IntEnum):
     """Outcome of a frame's solve."""
 
@@ -222,6 +228,7 @@ class IKSolver:
         *,
         max_iterations: int | None = None,
         tree: _tree.Tree | None = None,
+        min_block: int = _tree.PARALLEL_MIN,
     ) -> IKResult:
         """Solve B independent frames from the given starting poses.
 
@@ -232,6 +239,9 @@ class IKSolver:
         weights : (M,) or (B, M) float, optional, per-marker weights (default 1)
         tree : compiled model to solve with, optional (default: the kinematics' at its
             theta; Algorithm 1 passes models with one parameter perturbed)
+        min_block : int
+            Fewest frames a thread takes (:func:`mocap_mj._tree.blocks`; default
+            ``PARALLEL_MIN``, sized for warm starts of a few iterations each).
         """
         kin, st = self.kin, self.settings
         target, w = self._prepare(markers, weights)
@@ -248,6 +258,7 @@ class IKSolver:
             limit,
             *self._kernel_settings(),
             st.min_markers,
+            min_block=min_block,
         )
         return IKResult(qpos, rmse, iterations, status, n_present)
 
@@ -306,16 +317,24 @@ class IKSolver:
         alternatives = self._arm_starts(cold)
         if not alternatives:
             return cold.copy()
-        # The solution from ``cold`` is a start too: the chain then only confirms it.
-        first = self.solve_frames(markers, cold, w)
-        fit = np.nan_to_num(first.marker_rmse, nan=np.inf)
-        best = np.where(np.isfinite(fit)[:, None], first.qpos, cold)
-        for q0 in alternatives:
-            r = self.solve_frames(markers, q0, w)
-            rmse = np.nan_to_num(r.marker_rmse, nan=np.inf)
-            better = rmse < 0.9 * fit
-            best[better] = r.qpos[better]
-            fit = np.where(better, rmse, fit)
+        # The solution from ``cold`` is a start too: the chain then only confirms it. Every
+        # start of every head is one batch (the frames are independent): cold solves take
+        # tens of iterations each, so a few frames are worth a thread (COLD_BLOCK).
+        k, starts = len(cold), len(alternatives) + 1
+        solved = self.solve_frames(
+            np.concatenate([markers] * starts),
+            np.concatenate([cold, *alternatives]),
+            np.concatenate([w] * starts),
+            min_block=COLD_BLOCK,
+        )
+        rmse = np.nan_to_num(solved.marker_rmse, nan=np.inf).reshape(starts, k)
+        qpos = solved.qpos.reshape(starts, k, -1)
+        fit = rmse[0]
+        best = np.where(np.isfinite(fit)[:, None], qpos[0], cold)
+        for i in range(1, starts):
+            better = rmse[i] < 0.9 * fit
+            best[better] = qpos[i][better]
+            fit = np.where(better, rmse[i], fit)
         return best
 
     def _chain_length(self, n: int) -> int:
