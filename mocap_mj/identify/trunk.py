@@ -99,7 +99,8 @@ def t10_placement(
             f"C7-T10 {expected * 1e3:.0f} +- {spread * 1e3:.0f} mm at {height:.2f} m",
             f"T10 is {abs(shift) * 1e3:.0f} mm {where} C7 than a {height:.2f} m subject's T10 "
             f"(C7-T10 median {measured * 1e3:.0f} mm, expected {expected * 1e3:.0f} +- "
-            f"{spread * 1e3:.0f}): placed {abs(levels):.0f} vertebra(e) "
+            f"{spread * 1e3:.0f}): placed {abs(levels):.0f} "
+            f"{'vertebra' if round(abs(levels)) == 1 else 'vertebrae'} "
             f"{'low' if shift > 0 else 'high'}? T12/L1's rows on T10 widened by it",
         )
     return T10Placement(measured, expected, shift, spread, finding)
