@@ -120,24 +120,19 @@ def test_normal_t10_is_not_found() -> None:
     assert abs(t10.shift) < 2.0 * t10.spread
 
 
-def test_misplaced_t10_widens_the_height_row_and_moves_the_depth_row() -> None:
+def test_misplaced_t10_widens_the_rows_on_it() -> None:
     pset = ParameterSet()
     plain = landmark_prior(pset)
     low = landmark_prior(pset, t10=T10Placement(0.28, 0.21, 0.07, 0.03, None))
     rows = {lab: i for i, lab in enumerate(plain.labels)}
     z = rows["T12/L1.z from T10 along and anterior of C7-T10"]
     x = rows["T12/L1.x from T10 along and anterior of C7-T10"]
-    # Height: the row's own width and the displacement the 70 mm carries along the nominal
-    # C7-T10 line (1.206 of it along, 0.386 forward: 1.238 in the frame's z) in quadrature;
-    # its mean unchanged.
+    # Height: the row's own width and the displacement the 70 mm shift carries along the
+    # nominal C7-T10 line (1.206 of it along, 0.386 forward: 1.238 in the frame's z) in
+    # quadrature; depth: the 30 mm spread's (0.267 of it in x). Means kept.
     assert low.sigma[z] == pytest.approx(np.hypot(plain.sigma[z], 1.238 * 0.07), rel=0.01)
-    assert low.b[z] == plain.b[z] == 0.0
-    # Depth: the proportional forward offset's growth removed from the mean (about 0.27 of
-    # the shift), its width from the shift's spread.
-    assert low.b[x] == pytest.approx(0.267 * 0.07, rel=0.02)
-    assert plain.sigma[x] < low.sigma[x] < 0.011
-    # The same rows hold the truth of the moved marker: T12/L1 where it was.
-    exp = _low_t10(0)
-    before = synthesize(SynthConfig(frames=2, seed=0), pset).theta_true
-    for prior, theta in ((plain, before), (low, exp.theta_true)):
-        assert abs(prior.a[x] @ theta - prior.b[x]) < 0.012  # the truth's own placement
+    assert low.sigma[x] == pytest.approx(np.hypot(plain.sigma[x], 0.267 * 0.03), rel=0.01)
+    assert low.b[z] == plain.b[z] == 0.0 and low.b[x] == plain.b[x] == 0.0
+    # No other row changes.
+    others = [i for i in range(len(plain.b)) if i not in (x, z)]
+    np.testing.assert_array_equal(low.sigma[others], plain.sigma[others])

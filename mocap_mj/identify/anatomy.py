@@ -397,19 +397,19 @@ def _spine_joint_rows(rows: _Rows, s: float, t10: T10Placement | None = None) ->
 
     A T10 found ``t10.shift`` [m] further from C7 than the stature puts it
     (:mod:`mocap_mj.identify.trunk`; along the nominal C7-to-T10 direction ``u``) carries
-    T12/L1 by ``shift ((1 + T12_ALONG) u + T12_FORWARD R90 u)``: the marker moves and
-    both offsets scale with the C7-T10 distance. Its height (the z row) gets the root sum
-    of squares of its own width and that displacement's z, so that the row sits about one
-    standard deviation from where a correctly placed T10 would put T12/L1: the size of the
-    misplacement is an estimate against the population (a subject may have a long thorax),
-    so the fit neither trusts the marker nor moves the joint by the guess; the stature rows
-    (``thorax_length``, ``lumbar_length``) and, with the pelvis marked, L5/S1 place the
-    height instead. Its depth (the x row) is a convention (the vertebral body's depth in
-    proportion to the subject's size, not to the marker's placement) and nothing else places
-    it: the x row's mean is moved by the displacement's x, and its width is the root sum of
-    squares of its own and that displacement's x for a shift of ``t10.spread`` (the shift's
-    uncertainty; a row widened by the whole displacement let the thorax slide backwards,
-    sc_depth to its lower bound, on the shared Static trial).
+    T12/L1 by ``shift ((1 + T12_ALONG) u + T12_FORWARD R90 u)``: the marker moves and both
+    offsets scale with the C7-T10 distance. Each row keeps its mean and its width becomes
+    the root sum of squares of its own and a displacement: for the height (z row) the one
+    the shift carries, so that the row sits about one standard deviation from where a
+    correctly placed T10 would put T12/L1 (the shift is an estimate against the population:
+    a subject may have a long thorax, so the fit neither trusts the marker nor moves the
+    joint by the guess; the stature rows ``thorax_length`` and ``lumbar_length`` and, with
+    the pelvis marked, L5/S1 place the height instead); for the depth (x row), whose only
+    other hold is the thorax's own markers, the one the shift's uncertainty ``t10.spread``
+    carries. Measured on the shared trials (docs/real-data.md, "The trunk's landmarks"):
+    the depth widened by the whole shift let the thorax slide backwards (sc_depth at its
+    lower bound, Static), its mean moved by the shift's forward growth put neck_depth at its
+    upper bound in the upper-body fits and was 3.5-4.3 of its widths from the full fits.
     """
     along, up = CJC_RATIO * np.cos(np.radians(CJC_ANGLE)), CJC_RATIO * np.sin(np.radians(CJC_ANGLE))
     for c, joint in (("x", "neck_depth"), ("z", "thorax_length")):
@@ -421,14 +421,10 @@ def _spine_joint_rows(rows: _Rows, s: float, t10: T10Placement | None = None) ->
         # The thorax origin (0) = T10 + a (T10 - C7) + b R90 (T10 - C7).
         terms = _add({"T10." + c: 1.0}, _rotated("C7", "T10", T12_ALONG, T12_FORWARD, c))
         sigma = SIGMA_T10_LEVEL * s if c == "z" else SIGMA_CONVENTION
-        if t10 is None:
-            b = 0.0
-        elif c == "z":
-            b, sigma = 0.0, float(np.hypot(sigma, _t10_carried(rows.pset, t10.shift)[c]))
-        else:
-            b = _t10_carried(rows.pset, t10.shift)[c]
-            sigma = float(np.hypot(sigma, _t10_carried(rows.pset, t10.spread)[c]))
-        rows.add(terms, b, sigma, f"T12/L1.{c} from T10 along and anterior of C7-T10")
+        if t10 is not None:
+            carried = _t10_carried(rows.pset, t10.shift if c == "z" else t10.spread)[c]
+            sigma = float(np.hypot(sigma, carried))
+        rows.add(terms, 0.0, sigma, f"T12/L1.{c} from T10 along and anterior of C7-T10")
 
 
 def _t10_carried(pset: ParameterSet, shift: float) -> dict[str, float]:
