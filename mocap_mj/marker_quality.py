@@ -25,6 +25,10 @@ positions (T, M, 3) [m] and the model's segment (body) of each marker:
     shoulder-elbow, knee-ankle, heel-toe) outside the range of any person 0.85-2.1 m tall
     (:data:`BONE_FRACTIONS`), or left and right differing by more than
     :data:`ASYMMETRY_MAX` (30 %).
+``placement``
+    A landmark further from its reference landmark than the subject's stature allows (T10
+    against C7: :mod:`mocap_mj.identify.trunk`, which needs the stature and so runs in the
+    identification, after this check); made by :func:`placement_finding`.
 
 Each :class:`Finding` is one line naming the file, the marker (and partner), the frames,
 the measured figure and what was expected. The check is a few vectorised passes over the
@@ -54,6 +58,7 @@ __all__ = [
     "exclude_markers",
     "marker_segments",
     "parse_marker_list",
+    "placement_finding",
     "quality_lines",
     "suspects",
 ]
@@ -105,8 +110,8 @@ _STEP_BLOCKS = 400
 class Finding:
     """One piece of evidence that marker data cannot be trusted.
 
-    file: the marker file; kind: ``spread``, ``step``, ``jump``, ``swap``, ``distance`` or
-    ``asymmetry``;
+    file: the marker file; kind: ``spread``, ``step``, ``jump``, ``swap``, ``distance``,
+    ``asymmetry`` or ``placement``;
     markers: the marker(s) it names, suspect first; frames: [first, last) of the file's
     frames it concerns (None: the whole trial); value_mm: the measured figure [mm];
     expected: what a trustworthy marker would give; message: the one-line text.
@@ -452,6 +457,14 @@ def _bone_findings(path: str, names: Sequence[str], x: np.ndarray) -> list[Findi
                     )
                 )
     return out
+
+
+def placement_finding(
+    path: str, markers: tuple[str, ...], value_mm: float, expected: str, text: str
+) -> Finding:
+    """A ``placement`` finding over the whole trial (module docstring): ``markers`` the
+    misplaced landmark first, ``value_mm`` [mm] how far it is from where it belongs."""
+    return _line(path, "placement", markers, None, value_mm, expected, text)
 
 
 def _who(names: Sequence[str], i: int, others: Sequence[int]) -> str:

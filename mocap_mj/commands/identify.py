@@ -16,6 +16,7 @@ markers' data.
 from __future__ import annotations
 
 import argparse
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -313,6 +314,9 @@ def _identify(
             motion_progress=motion_progress,
             refine=True,
         )
+    for f in (summary.get("marker_quality") or {}).get("findings", []):
+        if f["kind"] == "placement":  # found in the identification, after the stature
+            print(f"mocap-mj {args.command}: warning: {f['message']}", file=sys.stderr)
     per_marker = np.array(
         [np.nan if v is None else v * 1e-3 for v in summary["marker_rmse_by_marker_mm"].values()]
     )

@@ -80,6 +80,13 @@ Widths (standard deviations, per row) and their sources:
   L5/S1: the five lumbar vertebrae and their discs, about a tenth of stature; the nominal
   180 mm of 1.75 m) between adults of one stature, :func:`_trunk_rows`: with the loose
   T10 row, it keeps the lumbar spine human where the marker does not place it;
+* :data:`THORAX_SPREAD` = 8 % of the stature-scaled nominal: ``thorax_length`` (T12/L1 to
+  C7/T1: the twelve thoracic vertebrae and their discs; the nominal 260 mm of 1.75 m, 0.149
+  of stature) between adults of one stature, as for the lumbar spine (trunk segment
+  lengths as fractions of stature: standard deviations 5-8 % of the mean, de Leva 1996,
+  Dumas et al. 2007 Table 2): where no marker places T12/L1 well (a misplaced T10,
+  :mod:`mocap_mj.identify.trunk`; the pelvis unmarked, so that no L5/S1 row and no
+  ``lumbar_length`` row hold it either) it keeps the thorax human;
 * :data:`SIGMA_FOOT_LENGTH`, :data:`SIGMA_FOOT_HEIGHT` = 7, 8 mm (x stature / 1.75 m): the MTP
   joint from the stature, beside TOE's rows (:func:`_foot_rows`);
 * :data:`SIGMA_LEG` = 15 mm: the ASIS-to-medial-malleolus distance of the straight leg against
@@ -108,6 +115,7 @@ from ..parameters import ParameterSet
 from ..subject import Subject
 from .priors import LinearGaussianPrior
 from .ranges import NOMINAL_HEIGHT
+from .trunk import T10Placement
 
 SIGMA_LANDMARK = 0.010
 SIGMA_MIDLINE = 0.005
@@ -120,6 +128,7 @@ ASYMMETRY_SIGMA = 0.005
 SIGMA_CONVENTION = 0.003
 SIGMA_T10_LEVEL = 0.015
 LUMBAR_SPREAD = 0.08
+THORAX_SPREAD = 0.08
 
 #: C7/T1 from the C7 marker: fraction of the C7-CLAV distance and angle [deg] above that line
 #: (Dumas, Cheze, Verriest 2007, Table 2, men; after Reed, Manary, Schneider 1999).
@@ -258,7 +267,12 @@ def _alignment_rows(rows: _Rows, side: str, s: float) -> None:
 
 
 def landmark_prior(
-    pset: ParameterSet, subject: Subject | None = None, *, size: float = 1.0, noise: float = 0.001
+    pset: ParameterSet,
+    subject: Subject | None = None,
+    *,
+    size: float = 1.0,
+    noise: float = 0.001,
+    t10: T10Placement | None = None,
 ) -> LinearGaussianPrior:
     """The landmark rows of every Plug-in Gait marker the model has (module docstring).
 
@@ -266,13 +280,16 @@ def landmark_prior(
     no parameter carries (a heel's distance behind the ankle, the C7 spinous process depth):
     from ``subject``'s measured height, else its stature estimate
     (:meth:`~mocap_mj.subject.Subject.stature`), else this argument (default 1).
+    ``t10``: the T10 marker found misplaced by :mod:`mocap_mj.identify.trunk` (its
+    ``shift`` and ``spread`` [m]; default None: T10 trusted): the T12/L1 rows on T10 are
+    widened by the displacement it carries into them (:func:`_spine_joint_rows`).
     """
     subject = subject or Subject()
     stature = subject.stature()
     s = stature[0] / NOMINAL_HEIGHT if stature is not None else size
     rows = _Rows(pset)
     _pelvis_rows(rows, subject, s)
-    _trunk_rows(rows, s)
+    _trunk_rows(rows, s, t10)
     for side, p in (("l", "L"), ("r", "R")):
         _shoulder_rows(rows, pset, subject, side, p, s)
         _limb_rows(rows, subject, side, p, s)
@@ -330,9 +347,12 @@ def _pelvis_rows(rows: _Rows, subject: Subject, s: float) -> None:
              SIGMA_CONVENTION, f"L5/S1.z = mid-ASIS.z + {L5S1_ABOVE} PW (Reed 1999)")  # fmt: skip
 
 
-def _trunk_rows(rows: _Rows, s: float) -> None:
+def _trunk_rows(rows: _Rows, s: float, t10: T10Placement | None = None) -> None:
     """The trunk rows (``s`` the stature ratio): midline markers, the thorax frame's tilt,
-    and the joints around the thorax placed from its markers (C7/T1, T12/L1, SC joints)."""
+    the joints around the thorax placed from its markers (C7/T1, T12/L1, SC joints; T10
+    misplaced (``t10``), :func:`_spine_joint_rows`) and the lengths of the
+    lumbar and thoracic spines from the stature (:data:`LUMBAR_SPREAD`,
+    :data:`THORAX_SPREAD`)."""
     mid, conv = SIGMA_MIDLINE, SIGMA_CONVENTION
     for m in ("C7", "T10", "CLAV", "STRN"):
         rows.add({f"{m}.y": 1}, 0.0, mid, f"{m}.y = 0 (midline)")
@@ -347,11 +367,13 @@ def _trunk_rows(rows: _Rows, s: float) -> None:
     rows.add({"CLAV.x": 1, "sc_depth": -1}, 0.02 * s, conv, "CLAV.x = sc_depth + 20 mm")
     for side in ("l", "r"):
         rows.add({f"sc_width_{side}": 1}, 0.025 * s, conv, f"sc_width_{side} = 25 mm")
-    _spine_joint_rows(rows, s)
-    lumbar = dict(zip(rows.pset.names, rows.pset.nominal, strict=False)).get("lumbar_length")
-    if lumbar is not None:
-        rows.add({"lumbar_length": 1.0}, lumbar * s, LUMBAR_SPREAD * lumbar * s,
-                 f"lumbar_length = {lumbar * 1e3:.0f} mm x stature / 1.75 m")  # fmt: skip
+    _spine_joint_rows(rows, s, t10)
+    kappa0 = dict(zip(rows.pset.names, rows.pset.nominal, strict=False))
+    for name, spread in (("lumbar_length", LUMBAR_SPREAD), ("thorax_length", THORAX_SPREAD)):
+        base = kappa0.get(name)
+        if base is not None:
+            rows.add({name: 1.0}, base * s, spread * base * s,
+                     f"{name} = {base * 1e3:.0f} mm x stature / 1.75 m")  # fmt: skip
 
 
 def _rotated(v_from: str, v_to: str, along: float, up: float, c: str) -> dict[str, float]:
@@ -362,7 +384,7 @@ def _rotated(v_from: str, v_to: str, along: float, up: float, c: str) -> dict[st
     return {f"{v_to}.z": along, f"{v_from}.z": -along, f"{v_to}.x": up, f"{v_from}.x": -up}
 
 
-def _spine_joint_rows(rows: _Rows, s: float) -> None:
+def _spine_joint_rows(rows: _Rows, s: float, t10: T10Placement | None = None) -> None:
     """C7/T1 and T12/L1 relative to the trunk markers, invariant to the thorax frame's tilt.
 
     C7/T1 (the head's origin, ``(neck_depth, thorax_length)`` in the thorax frame): on the
@@ -372,6 +394,22 @@ def _spine_joint_rows(rows: _Rows, s: float) -> None:
     the nominal model has (two vertebral levels down, the vertebral body's depth forward);
     its z row (the height along the thoracic spine) with the width of T10's placement,
     :data:`SIGMA_T10_LEVEL` x ``s`` (``s`` the stature ratio), its x row a convention row.
+
+    A T10 found ``t10.shift`` [m] further from C7 than the stature puts it
+    (:mod:`mocap_mj.identify.trunk`; along the nominal C7-to-T10 direction ``u``) carries
+    T12/L1 by ``shift ((1 + T12_ALONG) u + T12_FORWARD R90 u)``: the marker moves and both
+    offsets scale with the C7-T10 distance. Each row keeps its mean and its width becomes
+    the root sum of squares of its own and a displacement: for the height (z row) the one
+    the shift carries, so that the row sits about one standard deviation from where a
+    correctly placed T10 would put T12/L1 (the shift is an estimate against the population:
+    a subject may have a long thorax, so the fit neither trusts the marker nor moves the
+    joint by the guess; the stature rows ``thorax_length`` and ``lumbar_length`` and, with
+    the pelvis marked, L5/S1 place the height instead); for the depth (x row), whose only
+    other hold is the thorax's own markers, the one the shift's uncertainty ``t10.spread``
+    carries. Measured on the shared trials (docs/real-data.md, "The trunk's landmarks"):
+    the depth widened by the whole shift let the thorax slide backwards (sc_depth at its
+    lower bound, Static), its mean moved by the shift's forward growth put neck_depth at its
+    upper bound in the upper-body fits and was 3.5-4.3 of its widths from the full fits.
     """
     along, up = CJC_RATIO * np.cos(np.radians(CJC_ANGLE)), CJC_RATIO * np.sin(np.radians(CJC_ANGLE))
     for c, joint in (("x", "neck_depth"), ("z", "thorax_length")):
@@ -383,7 +421,27 @@ def _spine_joint_rows(rows: _Rows, s: float) -> None:
         # The thorax origin (0) = T10 + a (T10 - C7) + b R90 (T10 - C7).
         terms = _add({"T10." + c: 1.0}, _rotated("C7", "T10", T12_ALONG, T12_FORWARD, c))
         sigma = SIGMA_T10_LEVEL * s if c == "z" else SIGMA_CONVENTION
+        if t10 is not None:
+            carried = _t10_carried(rows.pset, t10.shift if c == "z" else t10.spread)[c]
+            sigma = float(np.hypot(sigma, carried))
         rows.add(terms, 0.0, sigma, f"T12/L1.{c} from T10 along and anterior of C7-T10")
+
+
+def _t10_carried(pset: ParameterSet, shift: float) -> dict[str, float]:
+    """The displacement [m] per thorax-frame axis ("x", "z") that a T10 ``shift`` [m] further
+    along the nominal C7-to-T10 direction carries into the T12/L1 rows
+    (:func:`_spine_joint_rows`): zero without both markers or without a shift."""
+    names = pset.marker_names
+    if not shift or "C7" not in names or "T10" not in names:
+        return {"x": 0.0, "z": 0.0}
+    k = pset.n_kappa
+    c7, t10 = (pset.nominal[k + 3 * names.index(m) :][:3] for m in ("C7", "T10"))
+    u = (t10 - c7) / np.linalg.norm(t10 - c7)
+    # _rotated(C7, T10, along, up): x = along dx - up dz, z = along dz + up dx; plus T10 itself.
+    return {
+        "x": shift * ((1.0 + T12_ALONG) * u[0] - T12_FORWARD * u[2]),
+        "z": shift * ((1.0 + T12_ALONG) * u[2] + T12_FORWARD * u[0]),
+    }
 
 
 def _shoulder_rows(

@@ -17,6 +17,7 @@ from ..errors import MocapError
 from ..ik import IKSettings
 from ..io.atomic import atomic_folder, atomic_write_text
 from ..kinematics import Kinematics
+from ..marker_quality import Finding
 from ..parameters import ParameterSet
 from ..strict_json import dumps, jsonable
 from ..subject import Subject
@@ -37,6 +38,7 @@ from .ranges import NOMINAL_HEIGHT, kappa_ranges, theta_bounds
 from .result import IdentificationResult, ProgressCallback
 from .segments import SegmentRow, uncertainty_summary, write_segments_csv
 from .tissue import Slide, SlidingModel, sliding_weights
+from .trunk import T10Placement, t10_placement
 
 logger = logging.getLogger(__name__)
 
@@ -112,11 +114,13 @@ def identify_to_folder(
     theta0, scales, pset = _initial_theta(trials, pset, theta0, init)
     subject = _with_stature(subject or Subject(), trials, pset)
     stature = subject.stature()
+    t10 = t10_placement(pset, trials, subject) if anatomical else None
     prior_options: dict[str, Any] = {
         "subject": subject,
         "size": stature[0] / NOMINAL_HEIGHT if stature else scales.get("overall", 1.0),
         "anatomical": anatomical,
         "symmetric": ASYMMETRY_SIGMA if symmetric is None and asymmetry_prior else symmetric,
+        "t10": t10 if t10 is not None and t10.finding is not None else None,
     }
     with captured_log() as log:
         result, weighting = _solve(
@@ -160,10 +164,14 @@ def identify_to_folder(
     summary.update(_measured_fields(pset, missing))
     summary["sliding_landmarks"] = None if sliding is None else sorted(sliding.slides)
     summary["kappa_at_bound"] = _kappa_at_bound(pset, result)
+    summary["t10_placement"] = None if t10 is None else _t10_fields(t10)
+    if t10 is not None and t10.finding is not None:
+        _add_finding(summary, t10.finding)
     ranges = kappa_ranges(pset, subject) if anatomical else None
     priors = (
         anatomical_priors(pset, subject, size=prior_options["size"],
-                          symmetric=prior_options["symmetric"])
+                          symmetric=prior_options["symmetric"],
+                          t10=prior_options["t10"])
         if anatomical
         else []
     )  # fmt: skip
@@ -216,6 +224,7 @@ def refine_on_every_frame(
     anatomical: bool,
     symmetric: float | None,
     slides: dict[str, Slide] | None = None,
+    t10: T10Placement | None = None,
 ) -> tuple[IdentificationResult, dict[str, Any]]:
     """The identification on ``trials`` (frames selected from ``motion_trials``) refined on
     every frame of ``motion_trials`` (:func:`mocap_mj.identify.long.refine`) with the priors
@@ -237,7 +246,9 @@ def refine_on_every_frame(
     priors: list[Prior] = [settings.weak_prior(result.theta)]
     box = None
     if anatomical:
-        priors += anatomical_priors(pset, subject, size=size, symmetric=symmetric, noise=noise)
+        priors += anatomical_priors(
+            pset, subject, size=size, symmetric=symmetric, noise=noise, t10=t10
+        )
         box = theta_bounds(pset, subject)
     qpos = [scratch_array((len(t.markers), pset.model.nq)) for t in motion_trials]
     robust = _robust(pset, result, trials, settings)
@@ -391,6 +402,7 @@ def _solve(
     symmetric: float | None,
     progress: ProgressCallback | None,
     slides: dict[str, Slide] | None = None,
+    t10: T10Placement | None = None,
 ) -> tuple[IdentificationResult, dict[str, float]]:
     """The joint LM of :func:`identify_to_folder`: with ``anatomical`` through
     :func:`solve_anatomical` (ranges and landmark priors; ``symmetric`` [m] the left/right
@@ -408,9 +420,34 @@ def _solve(
             symmetric=symmetric,
             progress=progress,
             slides=slides,
+            t10=t10,
         )
     result = identify_lm(trials, pset=pset, theta0=theta0, settings=settings, progress=progress)
     return result, {}
+
+
+def _t10_fields(t10: T10Placement) -> dict[str, Any]:
+    """summary.json's ``t10_placement``: the C7-T10 distance against the stature [mm]."""
+    return {
+        "c7_t10_mm": t10.measured * 1e3,
+        "expected_mm": t10.expected * 1e3,
+        "spread_mm": t10.spread * 1e3,
+        "shift_mm": t10.shift * 1e3,
+        "misplaced": t10.finding is not None,
+    }
+
+
+def _add_finding(summary: dict[str, Any], finding: Finding) -> None:
+    """``finding`` added to summary's ``marker_quality`` entry (created when the caller gave
+    none), with the markers it names counted among the suspects."""
+    entry = summary.get("marker_quality")
+    if entry is None:
+        entry = summary["marker_quality"] = {"findings": [], "suspects": {}, "excluded": []}
+    entry["findings"].append(finding.to_json())
+    named = dict(entry.get("suspects") or {})
+    for n in finding.markers:
+        named[n] = named.get(n, 0) + 1
+    entry["suspects"] = dict(sorted(named.items(), key=lambda kv: (-kv[1], kv[0])))
 
 
 def _summary_fields(
@@ -633,10 +670,13 @@ def anatomical_priors(
     size: float = 1.0,
     symmetric: float | None = None,
     noise: float = 0.001,
+    t10: T10Placement | None = None,
 ) -> list[LinearGaussianPrior]:
     """Landmark priors and, with ``symmetric`` [m], the left/right length prior; without the
-    rows on ``pset``'s frozen parameters (:func:`~mocap_mj.identify.partial.on_measured`)."""
-    priors = [landmark_prior(pset, subject, size=size, noise=noise)]
+    rows on ``pset``'s frozen parameters (:func:`~mocap_mj.identify.partial.on_measured`).
+    ``t10``: a T10 found misplaced (:mod:`mocap_mj.identify.trunk`; default None: trusted),
+    widening the rows that hang on it."""
+    priors = [landmark_prior(pset, subject, size=size, noise=noise, t10=t10)]
     if symmetric is not None:
         priors.append(symmetric_prior(pset, symmetric, noise=noise))
     return [on_measured(p, pset.frozen) for p in priors]
@@ -667,8 +707,10 @@ def solve_anatomical(
     symmetric: float | None = None,
     progress: ProgressCallback | None = None,
     slides: dict[str, Slide] | None = None,
+    t10: T10Placement | None = None,
 ) -> tuple[IdentificationResult, dict[str, float]]:
-    """The joint LM with anatomical ranges as bounds and the anatomical priors.
+    """The joint LM with anatomical ranges as bounds and the anatomical priors
+    (``t10``: see :func:`anatomical_priors`).
 
     The priors are weighed against the markers' effective noise: a first solve uses the
     nominal marker noise (``settings.prior_noise``, 1 mm); when the artefact's noise of one
@@ -694,8 +736,9 @@ def solve_anatomical(
     """
     lower, upper = theta_bounds(pset, subject)
     priors = anatomical_priors(
-        pset, subject, size=size, symmetric=symmetric, noise=settings.prior_noise
-    )
+        pset, subject, size=size, symmetric=symmetric, noise=settings.prior_noise,
+        t10=t10,
+    )  # fmt: skip
     start = pset.nominal if theta0 is None else theta0
     result = identify_lm(
         trials,

@@ -28,7 +28,14 @@ Columns:
     the uncertainty of the estimate itself. Where it is much smaller than ``std_mm`` the
     priors, not the motion, place the length (e.g. a joint centre set by its landmark's
     convention rows); where the two agree, the data do. Equal to ``std_mm`` without priors
-    (``--no-anatomy``).
+    (``--no-anatomy``). The data are weighed as the fit weighed them against the priors
+    (:func:`mocap_mj.identify.pipeline.artefact_noise`): on correlated residuals (tau of
+    ``CORRELATED_TAU`` frames or more) at the soft-tissue artefact's per-axis size, at least
+    ``SOFT_TISSUE_SIGMA`` (5 mm), not at the fit's smaller residual: the part of the artefact
+    the skeleton absorbed never shows in the residual, and a length placed by the rows
+    (a joint centre no marker moves about, the thorax origin without pelvis markers) would
+    otherwise be reported with the precision of a residual that says nothing about it.
+    So it may exceed ``std_mm`` where the fit's residual is under that floor.
 ``nominal_mm``
     The value on the nominal (unscaled) model.
 ``lower_mm``, ``upper_mm``
@@ -131,6 +138,15 @@ def parameter_flag(value: float, lower: float, upper: float) -> str:
     return ""
 
 
+def _prior_weighted_tau(sigma: float, tau: float) -> float:
+    """The correlation time [frames] that weighs the data of a fit of per-axis residual
+    ``sigma`` [m] as the fit weighed them against its priors: ``(artefact_noise / sigma)^2``
+    (equal to ``tau`` when ``sigma`` is at least the soft-tissue floor or tau is short)."""
+    from .pipeline import artefact_noise  # the pipeline imports this module
+
+    return float((artefact_noise(sigma, tau) / sigma) ** 2) if sigma > 0 else tau
+
+
 def segment_table(
     pset: ParameterSet,
     result: LMResult,
@@ -156,10 +172,11 @@ def segment_table(
     ]
     white_cov = parameter_covariance(result, settings=settings)
     slow_cov = parameter_covariance(result, tau=tau, settings=settings)
+    tau_post = _prior_weighted_tau(result.sigma, tau)
     post_cov = (
         slow_cov
         if prior_information is None
-        else parameter_covariance(result, tau=tau, prior_information=prior_information)
+        else parameter_covariance(result, tau=tau_post, prior_information=prior_information)
     )
     rows = []
     values = joint_centre_lengths(pset, result.theta)
@@ -169,7 +186,7 @@ def segment_table(
     std_post = (
         std_slow
         if prior_information is None
-        else length_std(pset, result, tau=tau, prior_information=prior_information)
+        else length_std(pset, result, tau=tau_post, prior_information=prior_information)
     )
     grad = length_gradient(pset, result.theta)[:, :k]
     nan = (math.nan, math.nan, math.nan)
