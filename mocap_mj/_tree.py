@@ -1244,6 +1244,17 @@ def build_tree(model: mujoco.MjModel) -> Tree:
     )
 
 
+def moved(tree: Tree, model: mujoco.MjModel) -> Tree:
+    """``tree`` with the body and site positions of ``model`` (what a new theta changes:
+    :meth:`~mocap_mj.parameters.ParameterSet.apply`); the rest is kept, so a change of theta
+    costs two copies instead of :func:`build_tree` (about 1 ms, 15-20 times an
+    identification)."""
+    return tree._replace(
+        body_pos=np.array(model.body_pos, dtype=float),
+        site_pos=np.array(model.site_pos, dtype=float),
+    )
+
+
 def _rolling_tables(m: mujoco.MjModel) -> dict[str, np.ndarray]:
     """:class:`Tree`'s rolling fields of the couplings recorded in m (:mod:`mocap_mj.rolling`)."""
     from . import rolling
