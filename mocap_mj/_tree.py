@@ -628,6 +628,15 @@ def project_rows(tr, qpos):
         project(tr, qpos[t])
 
 
+@_kernel
+def integrate_rows(tr, qpos, dv):
+    """:func:`integrate` (scale 1) applied in place to every row of qpos (B, nq) with the
+    row's dv (B, nv): the joint LM's step of every frame, one call instead of B calls of
+    ``mj_integratePos``."""
+    for t in range(qpos.shape[0]):
+        integrate(tr, qpos[t], dv[t], 1.0)
+
+
 # ------------------------------------------------------------------ one frame's LM
 def work(tr: Tree, nq: int) -> Work:
     """Scratch arrays for one frame (see :class:`Work`)."""

@@ -57,6 +57,7 @@ import mujoco
 import numpy as np
 import scipy.linalg
 
+from .. import _tree
 from .._threads import single_blas_thread
 from ..errors import MocapError, SolverError, check_shape
 from ..ik import IKResult, IKSettings, IKSolver
@@ -394,7 +395,9 @@ def finish_poses(
     box-constrained at the limits): given theta the frames are independent."""
     problem.kin.set_theta(theta)
     limits = problem.limits
-    q = limits.project(problem.kin.integrate(problem.qpos, dq))
+    q = np.array(problem.qpos, dtype=float)
+    _tree.integrate_rows(problem.kin.tree(), q, np.ascontiguousarray(dq, dtype=float))
+    q = limits.project(q)
     if iterations > 0:
         q = limits.solve_frames(problem.markers, q, w, max_iterations=iterations).qpos
     return q
