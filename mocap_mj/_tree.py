@@ -865,7 +865,10 @@ def blocks(items: int, frames: int, min_block: int = PARALLEL_MIN) -> np.ndarray
     (default PARALLEL_MIN) of the work's ``frames`` per block (k = 1: run in the caller, see
     :func:`run_blocks`)."""
     k = max(1, min(nb.get_num_threads(), items, frames // max(min_block, 1)))
-    return np.linspace(0, items, k + 1).round().astype(np.int64)
+    # np.linspace(0, items, k + 1).round(), without its overhead (about 7 us of 9 a call, 230
+    # calls a run): the same i * (items / k), rounded half to even, and the end exact.
+    step = items / k
+    return np.array([round(i * step) for i in range(k)] + [items], dtype=np.int64)
 
 
 #: Jobs of :func:`_ik_range`.
