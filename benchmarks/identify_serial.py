@@ -3,8 +3,8 @@
 Minima of --repeats calls (the calling thread's CPU, `time.thread_time`, so that another
 user's load on the shared machine inflates it least): the step of each iteration of seed 0
 (`lm.bounded_step` on the reduced systems that seed 0's solve formed), a change of theta
-with the compiled tree (`Kinematics.set_theta` + `tree`), the joint step of the pose finish
-without its IK iterations (`lm.finish_poses`, 0 iterations: integrate and project), the prior
+with the compiled tree (`Kinematics.set_theta` + `tree`), the pose finish
+without its IK iterations (`lm.finish_poses`, 0 iterations: integrate and project) and with one, the prior
 (`IdentificationProblem.prior`) and a nested `single_blas_thread` call. With --runs R: the
 calling thread's CPU of whole identifications of seeds 0-9, the minimum of R per seed,
 summed over the seeds (iterations printed, to compare two versions' answers). Every
@@ -95,7 +95,11 @@ def parts(repeats: int) -> None:
     w = problem.present.astype(float)
     finish = _best(lambda: lm_module.finish_poses(problem, theta, dq, w, 0), repeats)
     print(f"finish_poses, 0 iterations (integrate, project): {finish * 1e3:.3f} ms")
-    print(f"problem.prior: {_best(lambda: problem.prior(theta), repeats) * 1e3:.3f} ms")
+    finish = _best(lambda: lm_module.finish_poses(problem, theta, dq, w, 1), repeats)
+    print(f"finish_poses, 1 iteration (both threads): {finish * 1e3:.3f} ms")
+    with one_blas_thread():  # as inside identify_lm
+        prior = _best(lambda: problem.prior(theta), repeats)
+    print(f"problem.prior: {prior * 1e3:.3f} ms")
 
     @single_blas_thread
     def inner() -> None:

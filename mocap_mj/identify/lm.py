@@ -392,14 +392,18 @@ def finish_poses(
 ) -> np.ndarray:
     """Poses (n, nq) after the joint step dq (n, nv) under theta (P,) [m], projected onto the
     joint limits and finished by ``iterations`` per-frame IK iterations (own damping,
-    box-constrained at the limits): given theta the frames are independent."""
+    box-constrained at the limits) with the loss's weights w (n, M) (0 where a marker is
+    missing, as :class:`~mocap_mj.identify.losses.Loss` gives them): given theta the frames
+    are independent."""
     problem.kin.set_theta(theta)
     limits = problem.limits
     q = np.array(problem.qpos, dtype=float)
     _tree.integrate_rows(problem.kin.tree(), q, np.ascontiguousarray(dq, dtype=float))
     q = limits.project(q)
     if iterations > 0:
-        q = limits.solve_frames(problem.markers, q, w, max_iterations=iterations).qpos
+        q = limits.solve_frames(
+            problem.markers, q, w, max_iterations=iterations, prepared=(problem.target, w)
+        ).qpos
     return q
 
 
