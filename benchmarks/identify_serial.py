@@ -3,9 +3,9 @@
 Minima of --repeats calls (the calling thread's CPU, `time.thread_time`, so that another
 user's load on the shared machine inflates it least): the step of each iteration of seed 0
 (`lm.bounded_step` on the reduced systems that seed 0's solve formed), a change of theta
-with the compiled tree (`Kinematics.set_theta` + `tree`), the pose finish
-without its IK iterations (`lm.finish_poses`, 0 iterations: integrate and project) and with one, the prior
-(`IdentificationProblem.prior`) and a nested `single_blas_thread` call. With --runs R: the
+with the compiled tree (`Kinematics.set_theta` + `tree`), the pose finish without its IK
+iterations (`lm.finish_poses`, 0 iterations: integrate and project) and with one, the
+prior (`IdentificationProblem.prior`) and a nested `single_blas_thread` call. With --runs R: the
 calling thread's CPU of whole identifications of seeds 0-9, the minimum of R per seed,
 summed over the seeds (iterations printed, to compare two versions' answers). Every
 function it calls exists on main before issue 18n too, so the same script times a `git
