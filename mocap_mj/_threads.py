@@ -36,9 +36,9 @@ _inside = threading.local()
 
 def single_blas_thread(fn: F) -> F:
     """Decorator: run ``fn`` inside :func:`one_blas_thread`; a call from within another such
-    function of the same thread runs as it is (the limit holds already, and each limit costs
-    a look-up of the libraries' settings, about 40 us: an identification calls the IK's entry
-    points about 20 times)."""
+    function of the same thread runs as it is (the limit holds already, and each limit looks
+    up and sets the libraries' settings again: the IK's entry points run inside
+    ``identify_lm`` dozens of times)."""
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:

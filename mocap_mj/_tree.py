@@ -865,8 +865,8 @@ def blocks(items: int, frames: int, min_block: int = PARALLEL_MIN) -> np.ndarray
     (default PARALLEL_MIN) of the work's ``frames`` per block (k = 1: run in the caller, see
     :func:`run_blocks`)."""
     k = max(1, min(nb.get_num_threads(), items, frames // max(min_block, 1)))
-    # np.linspace(0, items, k + 1).round(), without its overhead (about 7 us of 9 a call, 230
-    # calls a run): the same i * (items / k), rounded half to even, and the end exact.
+    # np.linspace(0, items, k + 1).round() without its overhead (hundreds of calls a run):
+    # the same i * (items / k), rounded half to even, and the end exact.
     step = items / k
     return np.array([round(i * step) for i in range(k)] + [items], dtype=np.int64)
 
@@ -1259,8 +1259,7 @@ def build_tree(model: mujoco.MjModel) -> Tree:
 def moved(tree: Tree, model: mujoco.MjModel) -> Tree:
     """``tree`` with the body and site positions of ``model`` (what a new theta changes:
     :meth:`~mocap_mj.parameters.ParameterSet.apply`); the rest is kept, so a change of theta
-    costs two copies instead of :func:`build_tree` (about 1 ms, 15-20 times an
-    identification)."""
+    (every step of the joint LM) costs two copies instead of :func:`build_tree`."""
     return tree._replace(
         body_pos=np.array(model.body_pos, dtype=float),
         site_pos=np.array(model.site_pos, dtype=float),

@@ -246,8 +246,8 @@ class IKSolver:
         prepared : (target (B, M, 3) [m], weights (B, M)), optional
             ``markers`` and ``weights`` already checked: finite targets, weights finite,
             non-negative and 0 where a marker is missing (as the joint LM's problem holds
-            them); used as they are instead of checked and copied again (about 0.4 ms at
-            500 frames, after every step of the joint LM). Default None: checked.
+            them); used as they are instead of checked and copied again (the joint LM's pose
+            finish, after every step). Default None: checked.
         """
         kin, st = self.kin, self.settings
         target, w = self._prepare(markers, weights) if prepared is None else prepared

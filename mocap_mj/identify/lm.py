@@ -263,10 +263,11 @@ def informed_solve(
     ``floor`` (the others keep their value: the data hardly constrain them).
 
     Only the few eigenvectors U (Pf, k) of s_mat at or below the floor are computed
-    (``scipy.linalg.eigh`` by value: the full decomposition of a 147 x 147 system costs about
-    twice as much, and it is serial); x is the solution of the equality-constrained system
+    (``scipy.linalg.eigh`` by value: the step needs no other, and the decomposition is serial
+    work between the parallel passes); x is the solution of the equality-constrained system
     [s_damped U; U^T 0] [x; l] = [rhs; 0] by one Cholesky factor of s_damped (positive
-    definite: the damping and the priors), which is the solve in the complement's basis.
+    definite: the damping and the priors), which is the solve in the complement's basis
+    (the eigenbasis solve when s_damped has no Cholesky factor). Figures: docs/identification.md.
     """
     sym = 0.5 * (s_mat + s_mat.T)
     _, low = scipy.linalg.eigh(
