@@ -11,6 +11,7 @@ compute entry points therefore run with the BLAS pool limited to one thread
 from __future__ import annotations
 
 import functools
+import threading
 from collections.abc import Callable
 from contextlib import AbstractContextManager
 from typing import Any, TypeVar
@@ -30,12 +31,24 @@ def one_blas_thread() -> AbstractContextManager[Any]:
     return _controller.limit(limits=1, user_api="blas")
 
 
+_inside = threading.local()
+
+
 def single_blas_thread(fn: F) -> F:
-    """Decorator: run ``fn`` inside :func:`one_blas_thread`."""
+    """Decorator: run ``fn`` inside :func:`one_blas_thread`; a call from within another such
+    function of the same thread runs as it is (the limit holds already, and each limit looks
+    up and sets the libraries' settings again: the IK's entry points run inside
+    ``identify_lm`` dozens of times)."""
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
-        with one_blas_thread():
+        if getattr(_inside, "active", False):
             return fn(*args, **kwargs)
+        with one_blas_thread():
+            _inside.active = True
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                _inside.active = False
 
     return wrapper  # type: ignore[return-value]

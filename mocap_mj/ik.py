@@ -229,6 +229,7 @@ class IKSolver:
         max_iterations: int | None = None,
         tree: _tree.Tree | None = None,
         min_block: int = _tree.PARALLEL_MIN,
+        prepared: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> IKResult:
         """Solve B independent frames from the given starting poses.
 
@@ -242,9 +243,14 @@ class IKSolver:
         min_block : int
             Fewest frames a thread takes (:func:`mocap_mj._tree.blocks`; default
             ``PARALLEL_MIN``, sized for warm starts of a few iterations each).
+        prepared : (target (B, M, 3) [m], weights (B, M)), optional
+            ``markers`` and ``weights`` already checked: finite targets, weights finite,
+            non-negative and 0 where a marker is missing (as the joint LM's problem holds
+            them); used as they are instead of checked and copied again (the joint LM's pose
+            finish, after every step). Default None: checked.
         """
         kin, st = self.kin, self.settings
-        target, w = self._prepare(markers, weights)
+        target, w = self._prepare(markers, weights) if prepared is None else prepared
         n = len(target)
         qpos = np.array(qpos0, dtype=float, copy=True)
         check_shape("qpos0", qpos, (n, kin.nq))

@@ -127,10 +127,12 @@ class Kinematics:
 
     # ------------------------------------------------------------- parameters
     def set_theta(self, theta: np.ndarray) -> None:
-        """Write theta (P,) [m] into this kinematics' model."""
+        """Write theta (P,) [m] into this kinematics' model (body and site positions; the
+        compiled tables of :meth:`tree` follow them, other model fields are read once)."""
         self.theta = self.pset.check(theta).copy()
         self.pset.apply(self.model, self.theta)
-        self._tree = None
+        if self._tree is not None:  # theta moves bodies and sites only: the rest is kept
+            self._tree = _tree.moved(self._tree, self.model)
 
     def kappa_tables(self) -> KappaTables:
         """The kinematic parameters' (parameter, body) pairs for the compiled LM blocks."""

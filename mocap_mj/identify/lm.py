@@ -55,7 +55,9 @@ from typing import Literal, NamedTuple
 
 import mujoco
 import numpy as np
+import scipy.linalg
 
+from .. import _tree
 from .._threads import single_blas_thread
 from ..errors import MocapError, SolverError, check_shape
 from ..ik import IKResult, IKSettings, IKSolver
@@ -258,10 +260,30 @@ def informed_solve(
     s_mat: np.ndarray, s_damped: np.ndarray, rhs: np.ndarray, floor: float
 ) -> np.ndarray:
     """Solve s_damped x = rhs within the eigen-directions of s_mat with information above
-    ``floor`` (the others keep their value: the data hardly constrain them)."""
-    lam, vec = np.linalg.eigh(0.5 * (s_mat + s_mat.T))
-    basis = vec[:, lam > floor]
-    return basis @ np.linalg.solve(basis.T @ s_damped @ basis, basis.T @ rhs)
+    ``floor`` (the others keep their value: the data hardly constrain them).
+
+    Only the few eigenvectors U (Pf, k) of s_mat at or below the floor are computed
+    (``scipy.linalg.eigh`` by value: the step needs no other, and the decomposition is serial
+    work between the parallel passes); x is the solution of the equality-constrained system
+    [s_damped U; U^T 0] [x; l] = [rhs; 0] by one Cholesky factor of s_damped (positive
+    definite: the damping and the priors), which is the solve in the complement's basis
+    (the eigenbasis solve when s_damped has no Cholesky factor). Figures: docs/identification.md.
+    """
+    sym = 0.5 * (s_mat + s_mat.T)
+    _, low = scipy.linalg.eigh(
+        sym, subset_by_value=(-np.inf, floor), driver="evr", check_finite=False
+    )
+    try:
+        factor = scipy.linalg.cho_factor(s_damped, check_finite=False)
+    except np.linalg.LinAlgError:  # not positive definite: the eigenbasis solve
+        lam, vec = np.linalg.eigh(sym)
+        basis = vec[:, lam > floor]
+        return basis @ np.linalg.solve(basis.T @ s_damped @ basis, basis.T @ rhs)
+    z = scipy.linalg.cho_solve(factor, rhs, check_finite=False)
+    if low.shape[1] == 0:
+        return z
+    y = scipy.linalg.cho_solve(factor, low, check_finite=False)
+    return z - y @ np.linalg.solve(low.T @ y, low.T @ z)
 
 
 def bounded_step(
@@ -286,10 +308,13 @@ def bounded_step(
     keep = np.ones(theta_f.size, dtype=bool)
     dth = np.zeros(theta_f.size)
     for _ in range(theta_f.size):
-        idx = np.flatnonzero(keep)
-        dth[:] = 0.0
-        sub = np.ix_(idx, idx)
-        dth[idx] = informed_solve(s_mat[sub], s_damped[sub], rhs[idx], floor)
+        if keep.all():  # no parameter held (always without bounds): no copies
+            dth[:] = informed_solve(s_mat, s_damped, rhs, floor)
+        else:
+            idx = np.flatnonzero(keep)
+            dth[:] = 0.0
+            sub = np.ix_(idx, idx)
+            dth[idx] = informed_solve(s_mat[sub], s_damped[sub], rhs[idx], floor)
         out = keep & (((theta_f <= lower_f) & (dth < 0)) | ((theta_f >= upper_f) & (dth > 0)))
         if not np.any(out):
             break
@@ -368,12 +393,18 @@ def finish_poses(
 ) -> np.ndarray:
     """Poses (n, nq) after the joint step dq (n, nv) under theta (P,) [m], projected onto the
     joint limits and finished by ``iterations`` per-frame IK iterations (own damping,
-    box-constrained at the limits): given theta the frames are independent."""
+    box-constrained at the limits) with the loss's weights w (n, M) (0 where a marker is
+    missing, as :class:`~mocap_mj.identify.losses.Loss` gives them): given theta the frames
+    are independent."""
     problem.kin.set_theta(theta)
     limits = problem.limits
-    q = limits.project(problem.kin.integrate(problem.qpos, dq))
+    q = np.array(problem.qpos, dtype=float)
+    _tree.integrate_rows(problem.kin.tree(), q, np.ascontiguousarray(dq, dtype=float))
+    q = limits.project(q)
     if iterations > 0:
-        q = limits.solve_frames(problem.markers, q, w, max_iterations=iterations).qpos
+        q = limits.solve_frames(
+            problem.markers, q, w, max_iterations=iterations, prepared=(problem.target, w)
+        ).qpos
     return q
 
 

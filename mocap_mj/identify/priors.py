@@ -109,16 +109,26 @@ def weak_prior(
 
 
 def total_prior(
-    priors: Sequence[Prior], theta: np.ndarray, free: np.ndarray
+    priors: Sequence[Prior],
+    theta: np.ndarray,
+    free: np.ndarray,
+    hessian: np.ndarray | None = None,
 ) -> tuple[float, np.ndarray, np.ndarray]:
-    """Summed cost [m^2], gradient (Pf,) [m] and Hessian (Pf, Pf) over the free parameters."""
+    """Summed cost [m^2], gradient (Pf,) [m] and Hessian (Pf, Pf) over the free parameters.
+
+    ``hessian``: the summed Hessian of an earlier call with the same priors, returned as it
+    is (it does not depend on theta; default None: formed, a (P, P) product per prior).
+    """
     pf = free.size
-    cost, grad, hess = 0.0, np.zeros(pf), np.zeros((pf, pf))
+    cost, grad = 0.0, np.zeros(pf)
     for prior in priors:
         cost += prior.cost(theta)
         grad += prior.gradient(theta)[free]
-        hess += prior.hessian()[np.ix_(free, free)]
-    return cost, grad, hess
+    if hessian is None:
+        hessian = np.zeros((pf, pf))
+        for prior in priors:
+            hessian += prior.hessian()[np.ix_(free, free)]
+    return cost, grad, hessian
 
 
 __all__ = ["LinearGaussianPrior", "Prior", "total_prior", "weak_prior"]

@@ -165,6 +165,7 @@ class IdentificationProblem:
         self.n = len(markers)
         self.theta0 = kin.theta.copy() if theta0 is None else np.asarray(theta0, dtype=float)
         self.priors = tuple(priors)
+        self._prior_hessian: np.ndarray | None = None
         self.lower, self.upper = check_bounds(kin.pset.size, lower, upper)
         self.loss: Loss = L2() if loss is None else loss
         if weights is not None:
@@ -194,8 +195,12 @@ class IdentificationProblem:
         return loss_threshold(dist[self.present], factor)
 
     def prior(self, theta: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-        """Summed prior cost [m^2], gradient (Pf,) and Hessian (Pf, Pf) over the free set."""
-        return total_prior(self.priors, theta, self.free)
+        """Summed prior cost [m^2], gradient (Pf,) and Hessian (Pf, Pf) over the free set
+        (the Hessian, constant by :class:`Prior`'s contract, is formed once)."""
+        cost, grad, self._prior_hessian = total_prior(
+            self.priors, theta, self.free, self._prior_hessian
+        )
+        return cost, grad, self._prior_hessian
 
     def cost(self, dist: np.ndarray, theta: np.ndarray, c: float) -> float:
         """F [m^2] for distances dist (n, M) [m], theta (P,) [m] and loss threshold c [m]."""
