@@ -84,7 +84,12 @@ def test_interrupted_identify_leaves_no_partial_result(
         assert RESULT_FILES <= {p.name for p in out.iterdir()}
     else:
         assert not looks_like_a_result(out)
-        assert proc.returncode == (130 if sig == signal.SIGINT else -signal.SIGKILL)
+        # Ctrl-C: the CLI's 130, or death by the signal itself (-2, which a shell also reports
+        # as 130) when it lands where Python's handler is not in charge (a native library's
+        # own handler during in-process JIT compilation, the interpreter's start-up or
+        # shutdown): seen once in a CI run, not reproduced in six local runs of this file.
+        interrupted = (130, -signal.SIGINT) if sig == signal.SIGINT else (-signal.SIGKILL,)
+        assert proc.returncode in interrupted
     leftovers = [p.name for p in tmp_path.iterdir() if p.name.startswith(".out.")]
     if sig == signal.SIGINT:
         assert leftovers == []
