@@ -227,7 +227,7 @@ def stack_trials(markers: np.ndarray | Sequence[np.ndarray], n_markers: int) -> 
     return np.concatenate(out, axis=0)
 
 
-def _median_distance(a: np.ndarray, b: np.ndarray) -> float:
+def median_distance(a: np.ndarray, b: np.ndarray) -> float:
     """Median over frames of |a - b| [m] (NaN if no frame has both)."""
     d = np.linalg.norm(a - b, axis=-1)
     d = d[np.isfinite(d)]
@@ -317,7 +317,7 @@ class _Distances:
         return float(np.clip(meas / nom, MIN_SCALE, MAX_SCALE)) if np.isfinite(meas) else 1.0
 
     def distance(self, name: str, a: np.ndarray, b: np.ndarray, nominal: float) -> None:
-        self.raw[name] = (_median_distance(a, b), nominal)
+        self.raw[name] = (median_distance(a, b), nominal)
 
     def pair(self, name: str, a: str, b: str) -> None:
         s = self.s

@@ -30,6 +30,7 @@ import numpy as np
 from ..marker_quality import Finding, placement_finding
 from ..parameters import ParameterSet
 from ..subject import Subject
+from .initial import median_distance, stack_trials
 from .problem import TrialData
 from .ranges import NOMINAL_HEIGHT
 
@@ -58,15 +59,6 @@ class T10Placement(NamedTuple):
     finding: Finding | None
 
 
-def _median_distance(trials: Sequence[TrialData], i: int, j: int) -> float:
-    d = np.concatenate(
-        [np.linalg.norm(np.asarray(t.markers)[:, i] - np.asarray(t.markers)[:, j], axis=1)
-         for t in trials]
-    )  # fmt: skip
-    d = d[np.isfinite(d)]
-    return float(np.median(d)) if d.size else float("nan")
-
-
 def t10_placement(
     pset: ParameterSet, trials: Sequence[TrialData], subject: Subject
 ) -> T10Placement | None:
@@ -77,7 +69,8 @@ def t10_placement(
     if "C7" not in names or "T10" not in names or stature is None:
         return None
     i, j = names.index("C7"), names.index("T10")
-    measured = _median_distance(trials, i, j)
+    markers = stack_trials([t.markers for t in trials], len(names))
+    measured = median_distance(markers[:, i], markers[:, j])
     if not np.isfinite(measured):
         return None
     k = pset.n_kappa
