@@ -24,7 +24,7 @@ from mocap_mj.identify.anatomy import (
     symmetric_prior,
 )
 from mocap_mj.identify.lm import LMSettings, TrialData, identify_lm
-from mocap_mj.identify.pipeline import SOFT_TISSUE_SIGMA, artefact_noise
+from mocap_mj.identify.noise import SOFT_TISSUE_SIGMA, artefact_noise
 from mocap_mj.identify.priors import LinearGaussianPrior
 from mocap_mj.identify.ranges import (
     ALIGNMENT_RANGES,

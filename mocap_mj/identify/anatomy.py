@@ -102,7 +102,7 @@ so ``noise`` is the per-axis marker noise of an independent observation. On real
 the residuals are soft-tissue artefact correlated over tens of frames
 (:func:`mocap_mj.identify.noise.residual_correlation_time`): the pipeline sets ``noise`` to
 the artefact's per-axis size (at least the fit's sigma, at least
-:data:`~mocap_mj.identify.pipeline.SOFT_TISSUE_SIGMA`) times the square root of that time.
+:data:`~mocap_mj.identify.noise.SOFT_TISSUE_SIGMA`) times the square root of that time.
 """
 
 from __future__ import annotations

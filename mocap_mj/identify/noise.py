@@ -44,3 +44,25 @@ def residual_correlation_time(residuals: np.ndarray) -> float:
             break
         tau += 2.0 * pair
     return float(min(tau, t))
+
+
+#: Per-axis soft-tissue artefact [m] assumed at least on a real recording (residuals
+#: correlated over ``CORRELATED_TAU`` frames or more). The fit's residual is only the part of
+#: the artefact the model could not absorb: the part that looks like joint motion or a
+#: shifted joint centre is taken up by the skeleton and never appears in it. Skin markers
+#: move 5-30 mm against the bone (Leardini et al. 2005, Peters et al. 2010): 5 mm per axis
+#: (8.7 mm in 3-D) is the low end.
+SOFT_TISSUE_SIGMA = 0.005
+#: Residual correlation time [frames] from which residuals are taken as soft-tissue artefact
+#: rather than white measurement noise (tau about 1).
+CORRELATED_TAU = 2.0
+
+
+def artefact_noise(sigma: float, tau: float) -> float:
+    """The per-axis noise [m] of one independent observation that the priors are weighed
+    against: ``sigma`` [m] (the fit's per-axis residual) times sqrt(``tau``) [frames], with
+    ``sigma`` raised to ``SOFT_TISSUE_SIGMA`` when the residuals are correlated (``tau`` >=
+    ``CORRELATED_TAU``): the fit's residual underestimates the artefact it absorbed."""
+    if tau >= CORRELATED_TAU:
+        sigma = max(sigma, SOFT_TISSUE_SIGMA)
+    return sigma * float(np.sqrt(tau))

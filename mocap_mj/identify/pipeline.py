@@ -29,6 +29,7 @@ from .initial import estimate_stature, place_markers, scaled_theta, segment_scal
 from .lm import LMSettings, identify_lm, solver_joint_range
 from .long import Robust, Weigh, refine, result_at, robust_loss, scratch_array
 from .motion_out import write_every_frame_motion
+from .noise import SOFT_TISSUE_SIGMA, artefact_noise
 from .output import write_result
 from .partial import Unmeasured, freeze_unmeasured, on_measured
 from .plausibility import kappa_outside_bounds, marker_rmse_by_marker
@@ -641,26 +642,6 @@ def result_text(summary: dict[str, Any], pset: ParameterSet, out: Path) -> str:
 
 #: Effective noise [m] below which one solve with the nominal prior noise is kept.
 REWEIGHT_RATIO = 1.5
-#: Per-axis soft-tissue artefact [m] assumed at least on a real recording (residuals
-#: correlated over ``CORRELATED_TAU`` frames or more). The fit's residual is only the part of
-#: the artefact the model could not absorb: the part that looks like joint motion or a
-#: shifted joint centre is taken up by the skeleton and never appears in it. Skin markers
-#: move 5-30 mm against the bone (Leardini et al. 2005, Peters et al. 2010): 5 mm per axis
-#: (8.7 mm in 3-D) is the low end.
-SOFT_TISSUE_SIGMA = 0.005
-#: Residual correlation time [frames] from which residuals are taken as soft-tissue artefact
-#: rather than white measurement noise (tau about 1).
-CORRELATED_TAU = 2.0
-
-
-def artefact_noise(sigma: float, tau: float) -> float:
-    """The per-axis noise [m] of one independent observation that the priors are weighed
-    against: ``sigma`` [m] (the fit's per-axis residual) times sqrt(``tau``) [frames], with
-    ``sigma`` raised to ``SOFT_TISSUE_SIGMA`` when the residuals are correlated (``tau`` >=
-    ``CORRELATED_TAU``): the fit's residual underestimates the artefact it absorbed."""
-    if tau >= CORRELATED_TAU:
-        sigma = max(sigma, SOFT_TISSUE_SIGMA)
-    return sigma * float(np.sqrt(tau))
 
 
 def anatomical_priors(

@@ -29,7 +29,7 @@ Columns:
     priors, not the motion, place the length (e.g. a joint centre set by its landmark's
     convention rows); where the two agree, the data do. Equal to ``std_mm`` without priors
     (``--no-anatomy``). The data are weighed as the fit weighed them against the priors
-    (:func:`mocap_mj.identify.pipeline.artefact_noise`): on correlated residuals (tau of
+    (:func:`mocap_mj.identify.noise.artefact_noise`): on correlated residuals (tau of
     ``CORRELATED_TAU`` frames or more) at the soft-tissue artefact's per-axis size, at least
     ``SOFT_TISSUE_SIGMA`` (5 mm), not at the fit's smaller residual: the part of the artefact
     the skeleton absorbed never shows in the residual, and a length placed by the rows
@@ -70,6 +70,7 @@ from .consistency import (
     parameter_covariance,
 )
 from .lm import LMResult, LMSettings, TrialData
+from .noise import artefact_noise
 from .partial import NOT_MEASURED
 
 #: A parameter within this distance [m] of a bound is reported at it: a solver that enforces
@@ -142,8 +143,6 @@ def _prior_weighted_tau(sigma: float, tau: float) -> float:
     """The correlation time [frames] that weighs the data of a fit of per-axis residual
     ``sigma`` [m] as the fit weighed them against its priors: ``(artefact_noise / sigma)^2``
     (equal to ``tau`` when ``sigma`` is at least the soft-tissue floor or tau is short)."""
-    from .pipeline import artefact_noise  # the pipeline imports this module
-
     return float((artefact_noise(sigma, tau) / sigma) ** 2) if sigma > 0 else tau
 
 
