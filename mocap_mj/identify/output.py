@@ -189,6 +189,15 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
             f"- priors weighed against a marker noise of {w['noise_mm']:.2f} mm (fit sigma "
             f"{w['sigma_mm']:.2f} mm, residual correlation time {w['tau_frames']:.1f} frames)"
         )
+    per_trial = w.get("trial_weights") or []
+    if len(per_trial) > 1:
+        taus = w.get("trial_tau_frames") or [float("nan")] * len(per_trial)
+        lines.append(
+            "- trials weighed by their independent frames (weight, residual correlation time "
+            "about zero): "
+            + ", ".join(f"trial {i}: {v:.2f} ({t:.0f} frames)" for i, (v, t) in
+                        enumerate(zip(per_trial, taus, strict=True)))
+        )  # fmt: skip
     bound = summary.get("kappa_at_bound", {})
     lines.append(
         "- parameters at a bound of their anatomical range: "
