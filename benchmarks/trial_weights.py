@@ -29,8 +29,7 @@ from unittest import mock
 import numpy as np
 
 from mocap_mj import ParameterSet
-from mocap_mj.identify import LMSettings, TrialData
-from mocap_mj.identify import pipeline
+from mocap_mj.identify import LMSettings, TrialData, pipeline
 from mocap_mj.identify.pipeline import identify_to_folder
 from mocap_mj.score import score
 from mocap_synth import SynthConfig, synthesize, write_experiment
