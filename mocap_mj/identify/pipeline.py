@@ -120,7 +120,7 @@ def identify_to_folder(
     theta0, scales, pset = _initial_theta(trials, pset, theta0, init)
     subject = _with_stature(subject or Subject(), trials, pset)
     stature = subject.stature()
-    t10 = t10_placement(pset, trials, subject) if anatomical else None
+    t10 = t10_check(pset, trials, subject) if anatomical else None
     prior_options: dict[str, Any] = {
         "subject": subject,
         "size": stature[0] / NOMINAL_HEIGHT if stature else scales.get("overall", 1.0),
@@ -366,6 +366,16 @@ def _with_stature(subject: Subject, trials: Sequence[TrialData], pset: Parameter
         return subject
     scales = segment_scales(pset, [t.markers for t in trials])
     return subject.with_stature_estimate(estimate_stature(scales))
+
+
+def t10_check(
+    pset: ParameterSet, trials: Sequence[TrialData], subject: Subject
+) -> T10Placement | None:
+    """T10's placement against ``subject``'s stature, estimated from the trials' markers
+    when not measured (:func:`~mocap_mj.identify.trunk.t10_placement`): what
+    :func:`identify_to_folder` finds and reports (``--strict`` refuses its finding before
+    the fit)."""
+    return t10_placement(pset, trials, _with_stature(subject, trials, pset))
 
 
 def _initial_theta(
