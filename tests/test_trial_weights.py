@@ -11,12 +11,14 @@ landmarks placed anatomically), 1 mm white noise.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
 from mocap_mj import ParameterSet
+from mocap_mj.cli import main
 from mocap_mj.identify import anatomy, pipeline
 from mocap_mj.identify.anatomy import landmark_prior
 from mocap_mj.identify.consistency import joint_centre_lengths
@@ -161,3 +163,20 @@ def test_without_t10_the_thorax_depth_is_placed() -> None:
     assert at_bound == []
     k = pset.kappa_names.index("neck_depth")
     assert abs(result.theta[k] - exp.theta_true[k]) < 0.005
+
+
+REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
+
+
+def test_strict_refuses_a_misplaced_t10(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Movement_trial's T10 sits 89 mm further from C7 than its stature predicts: --strict
+    refuses the placement finding like the marker-data findings (exit 2, one line naming
+    the file, nothing written); without --strict it is a warning (tests/test_trunk.py)."""
+    trial = REAL / "Movement_trial.c3d"
+    if not trial.exists():
+        pytest.skip("../shared/data/real not present: the real trial is in the shared folder")
+    out = tmp_path / "out"
+    assert main(["identify", "--markers", str(trial), "--out", str(out), "--strict"]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(err) == 1 and "Movement_trial.c3d: T10" in err[0] and "--strict" in err[0]
+    assert not out.exists()
