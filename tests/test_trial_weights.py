@@ -29,6 +29,7 @@ from mocap_mj.identify.noise import (
     residual_correlation_time,
     trial_weights,
 )
+from mocap_mj.identify.output import _anatomy_lines
 from mocap_mj.identify.partial import freeze_unmeasured, on_measured
 from mocap_mj.identify.pipeline import solve_anatomical
 from mocap_mj.identify.problem import TrialData
@@ -180,3 +181,18 @@ def test_strict_refuses_a_misplaced_t10(tmp_path: Path, capsys: pytest.CaptureFi
     err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
     assert len(err) == 1 and "Movement_trial.c3d: T10" in err[0] and "--strict" in err[0]
     assert not out.exists()
+
+
+def test_report_lists_the_trial_weights() -> None:
+    summary = {
+        "anatomical_priors": True,
+        "markers_files": ["a/Movement.c3d", "a/Static.c3d"],
+        "prior_weighting": {
+            "noise_mm": 30.0, "sigma_mm": 2.0, "tau_frames": 45.0,
+            "trial_weights": [1.6, 0.61], "trial_tau_frames": [163.0, 431.0],
+        },
+    }  # fmt: skip
+    text = "\n".join(_anatomy_lines(summary))
+    assert "Movement.c3d 1.60 (163 frames), Static.c3d 0.61 (431 frames)" in text
+    summary["prior_weighting"].update(trial_weights=[1.0], trial_tau_frames=[40.0])
+    assert "independent frames" not in "\n".join(_anatomy_lines(summary))

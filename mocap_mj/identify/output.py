@@ -192,11 +192,14 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
     per_trial = w.get("trial_weights") or []
     if len(per_trial) > 1:
         taus = w.get("trial_tau_frames") or [float("nan")] * len(per_trial)
+        files = summary.get("markers_files") or []
+        names = [Path(f).name for f in files] if len(files) == len(per_trial) else [
+            f"trial {i}" for i in range(len(per_trial))]  # fmt: skip
         lines.append(
             "- trials weighed by their independent frames (weight, residual correlation time "
             "about zero): "
-            + ", ".join(f"trial {i}: {v:.2f} ({t:.0f} frames)" for i, (v, t) in
-                        enumerate(zip(per_trial, taus, strict=True)))
+            + ", ".join(f"{n} {v:.2f} ({t:.0f} frames)" for n, v, t in
+                        zip(names, per_trial, taus, strict=True))
         )  # fmt: skip
     bound = summary.get("kappa_at_bound", {})
     lines.append(
