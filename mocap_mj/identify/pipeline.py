@@ -725,6 +725,14 @@ def solve_anatomical(
     1, sigma the simulated noise) one solve is kept. The weak prior toward the initial model
     is unchanged (its mean becomes the first solve's model in the second solve).
 
+    Several trials are weighed in the second solve by the independent observations each
+    holds (:func:`~mocap_mj.identify.noise.trial_weights`, from each trial's residual
+    correlation time about zero after the first solve; re-estimated at each weighted solve's
+    model, at most ``TRIAL_WEIGHT_ROUNDS`` solves, until no weight changes by more than
+    ``TRIAL_WEIGHT_SETTLED``): a static trial's soft tissue is one offset over all its frames
+    and would otherwise outvote a movement. Residuals of white noise keep every weight 1 (no
+    second solve on their account, and no sliding weights); one trial always weighs 1.
+
     With ``slides`` (e.g. :data:`~mocap_mj.identify.tissue.SLIDES`; default None: off) the
     second solve also weighs the landmark markers that slide with their joint's angle
     (:mod:`mocap_mj.identify.tissue`) by the first solve's poses, against a per-axis artefact
