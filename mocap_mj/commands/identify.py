@@ -10,7 +10,8 @@ only when the fit is complete; a fit that cannot be determined by the data is re
 Before the fit the marker data are checked for markers that do not move with their segment
 (mislabels, label swaps, re-stuck markers, impossible distances): each finding is a warning
 on stderr and in summary.json and report.md (--strict: refused); --exclude-markers drops
-markers' data.
+markers' data. The anatomical fit also checks T10's placement against the stature (a
+``placement`` finding, a warning like the others; --strict refuses it too, before the fit).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from ..identify.lm import LMSettings
 from ..identify.losses import LossName
 from ..identify.output import frame_range
 from ..identify.paper import DEFAULT_DELTA, DEFAULT_STEP
-from ..identify.pipeline import INITS, identify_to_folder, result_text
+from ..identify.pipeline import INITS, identify_to_folder, result_text, t10_check
 from ..identify.plausibility import plausibility_text
 from ..identify.problem import TrialData
 from ..identify.selection import select_in_trials
@@ -217,12 +218,26 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
     subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
     count = _select_count(args.select, sum(len(t.markers) for t in trials), len(trials))
     _, quality = check_trials(args, pset, to_check, excluded)  # after every bad-input error
+    if args.strict and not args.no_anatomy:
+        _refuse_misplaced_t10(pset, trials, subject)
     return into_out_folder(
         args,
         lambda out: _identify(
             args, pset, loaded, trials, ranges, subject, out, count, read_seconds, quality
         ),
     )
+
+
+def _refuse_misplaced_t10(pset: ParameterSet, trials: list[TrialData], subject: Subject) -> None:
+    """``--strict``: refuse the trials when T10's placement finding (found in the fit, from
+    the stature: :func:`mocap_mj.identify.pipeline.t10_check`) would be reported, as the
+    marker-data findings are: --strict refuses whatever the run would warn about."""
+    placement = t10_check(pset, trials, subject)
+    if placement is not None and placement.finding is not None:
+        raise MocapError(
+            f"{placement.finding.message}; --strict refuses a placement finding (re-place "
+            "the marker, drop it with --exclude-markers T10, or run without --strict)"
+        )
 
 
 def _select_count(text: str, frames: int, n_trials: int) -> int | None:

@@ -425,6 +425,58 @@ def _spine_joint_rows(rows: _Rows, s: float, t10: T10Placement | None = None) ->
             carried = _t10_carried(rows.pset, t10.shift if c == "z" else t10.spread)[c]
             sigma = float(np.hypot(sigma, carried))
         rows.add(terms, 0.0, sigma, f"T12/L1.{c} from T10 along and anterior of C7-T10")
+    if not _has_data(rows.pset, "T10"):
+        _depth_without_t10(rows, s)
+
+
+def _has_data(pset: ParameterSet, marker: str) -> bool:
+    """Whether ``marker`` is in ``pset`` with its offset measured (not frozen: a marker
+    without data in the trials, :func:`mocap_mj.identify.partial.freeze_unmeasured`)."""
+    names = pset.marker_names
+    if marker not in names:
+        return False
+    i = pset.n_kappa + 3 * names.index(marker)
+    return not bool(np.any(np.asarray(pset.frozen)[i : i + 3]))
+
+
+def _depth_without_t10(rows: _Rows, s: float) -> None:
+    """T12/L1's depth (the thorax origin's x row) from C7 and the sternum when T10 has no
+    data: without T10 nothing else places the thorax origin front to back (the lumbar
+    segment has no marker), and the depth of C7/T1 (``neck_depth``) drifts to a bound.
+
+    The origin on the line from STRN (or, without it, CLAV) to C7 and anterior of it by
+    the nominal model's fractions (:func:`_nominal_fractions`: the fractions scale with
+    the chest and turn with the thorax frame, like the T10 rows), with the width
+    :data:`THORAX_SPREAD` (8 %, adults of one stature) of the nominal chest's C7-to-sternum
+    distance times ``s`` (the stature ratio): chest depth varies between adults of one
+    stature about as much as trunk lengths do (Dumas et al. 2007 Table 2)."""
+    for front in ("STRN", "CLAV"):
+        if not _has_data(rows.pset, front) or not _has_data(rows.pset, "C7"):
+            continue
+        along, up, length = _nominal_fractions(rows.pset, front, "C7")
+        terms = _add({front + ".x": 1.0}, _rotated(front, "C7", along, up, "x"))
+        rows.add(terms, 0.0, THORAX_SPREAD * length * s,
+                 f"T12/L1.x from {front} and C7 (no T10)")  # fmt: skip
+        break
+    # The thorax frame's tilt against its markers, which Plug-in Gait's thorax axis row
+    # (on T10) fixed: the frame's z axis through T12/L1 and C7/T1 at the nominal model's
+    # angle, a convention row (both joints are placed from the markers).
+    kappa0 = dict(zip(rows.pset.names, rows.pset.nominal, strict=False))
+    if kappa0.get("thorax_length") and "neck_depth" in kappa0:
+        ratio = kappa0["neck_depth"] / kappa0["thorax_length"]
+        rows.add({"neck_depth": 1.0, "thorax_length": -ratio}, 0.0, SIGMA_CONVENTION,
+                 f"thorax tilt (no T10): neck_depth = {ratio:.3f} thorax_length")  # fmt: skip
+
+
+def _nominal_fractions(pset: ParameterSet, v_from: str, v_to: str) -> tuple[float, float, float]:
+    """(along, up, length [m]): the nominal thorax origin as ``v_from + along d + up R90 d``,
+    d = ``v_to - v_from`` in the sagittal (x, z) plane (:func:`_rotated`), and |d|."""
+    k, names = pset.n_kappa, pset.marker_names
+    a, b = (pset.nominal[k + 3 * names.index(m) :][:3] for m in (v_from, v_to))
+    dx, dz = b[0] - a[0], b[2] - a[2]
+    # origin - a = along (dx, dz) + up (-dz, dx)
+    along, up = np.linalg.solve(np.array([[dx, -dz], [dz, dx]]), -np.array([a[0], a[2]]))
+    return float(along), float(up), float(np.hypot(dx, dz))
 
 
 def _t10_carried(pset: ParameterSet, shift: float) -> dict[str, float]:

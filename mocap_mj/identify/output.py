@@ -189,6 +189,18 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
             f"- priors weighed against a marker noise of {w['noise_mm']:.2f} mm (fit sigma "
             f"{w['sigma_mm']:.2f} mm, residual correlation time {w['tau_frames']:.1f} frames)"
         )
+    per_trial = w.get("trial_weights") or []
+    if len(per_trial) > 1:
+        taus = w.get("trial_tau_frames") or [float("nan")] * len(per_trial)
+        files = summary.get("markers_files") or []
+        names = [Path(f).name for f in files] if len(files) == len(per_trial) else [
+            f"trial {i}" for i in range(len(per_trial))]  # fmt: skip
+        lines.append(
+            "- trials weighed by their independent frames (weight, residual correlation time "
+            "about zero): "
+            + ", ".join(f"{n} {v:.2f} ({t:.0f} frames)" for n, v, t in
+                        zip(names, per_trial, taus, strict=True))
+        )  # fmt: skip
     bound = summary.get("kappa_at_bound", {})
     lines.append(
         "- parameters at a bound of their anatomical range: "

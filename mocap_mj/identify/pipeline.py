@@ -23,13 +23,18 @@ from ..strict_json import dumps, jsonable
 from ..subject import Subject
 from ..tables import write_joint_centres_csv
 from .anatomy import ASYMMETRY_SIGMA, landmark_prior, symmetric_prior
-from .consistency import correlation_time
+from .consistency import correlation_time, trial_residuals
 from .identifiability import Identifiability
 from .initial import estimate_stature, place_markers, scaled_theta, segment_scales
 from .lm import LMSettings, identify_lm, solver_joint_range
 from .long import Robust, Weigh, refine, result_at, robust_loss, scratch_array
 from .motion_out import write_every_frame_motion
-from .noise import SOFT_TISSUE_SIGMA, artefact_noise
+from .noise import (
+    SOFT_TISSUE_SIGMA,
+    artefact_noise,
+    residual_correlation_time,
+    trial_weights,
+)
 from .output import write_result
 from .partial import Unmeasured, freeze_unmeasured, on_measured
 from .plausibility import kappa_outside_bounds, marker_rmse_by_marker
@@ -115,7 +120,7 @@ def identify_to_folder(
     theta0, scales, pset = _initial_theta(trials, pset, theta0, init)
     subject = _with_stature(subject or Subject(), trials, pset)
     stature = subject.stature()
-    t10 = t10_placement(pset, trials, subject) if anatomical else None
+    t10 = t10_check(pset, trials, subject) if anatomical else None
     prior_options: dict[str, Any] = {
         "subject": subject,
         "size": stature[0] / NOMINAL_HEIGHT if stature else scales.get("overall", 1.0),
@@ -219,7 +224,7 @@ def refine_on_every_frame(
     *,
     pset: ParameterSet,
     settings: LMSettings,
-    weighting: dict[str, float],
+    weighting: dict[str, Any],
     subject: Subject,
     size: float,
     anatomical: bool,
@@ -297,7 +302,7 @@ def _robust(
 
 
 def _sliding_weigh(
-    pset: ParameterSet, weighting: dict[str, float], slides: dict[str, Slide] | None
+    pset: ParameterSet, weighting: dict[str, Any], slides: dict[str, Slide] | None
 ) -> Weigh | None:
     """The sliding landmarks' weights by pose (:meth:`SlidingModel.weights`) that the solve
     weighed with (``weighting`` has ``slide_base_mm``), else None."""
@@ -333,7 +338,7 @@ def _measured_fields(pset: ParameterSet, missing: Unmeasured) -> dict[str, Any]:
 
 def _prior_fields(
     anatomical: bool,
-    weighting: dict[str, float],
+    weighting: dict[str, Any],
     symmetric: float | None,
     asymmetry_prior: bool,
     subject: Subject,
@@ -361,6 +366,16 @@ def _with_stature(subject: Subject, trials: Sequence[TrialData], pset: Parameter
         return subject
     scales = segment_scales(pset, [t.markers for t in trials])
     return subject.with_stature_estimate(estimate_stature(scales))
+
+
+def t10_check(
+    pset: ParameterSet, trials: Sequence[TrialData], subject: Subject
+) -> T10Placement | None:
+    """T10's placement against ``subject``'s stature, estimated from the trials' markers
+    when not measured (:func:`~mocap_mj.identify.trunk.t10_placement`): what
+    :func:`identify_to_folder` finds and reports (``--strict`` refuses its finding before
+    the fit)."""
+    return t10_placement(pset, trials, _with_stature(subject, trials, pset))
 
 
 def _initial_theta(
@@ -404,7 +419,7 @@ def _solve(
     progress: ProgressCallback | None,
     slides: dict[str, Slide] | None = None,
     t10: T10Placement | None = None,
-) -> tuple[IdentificationResult, dict[str, float]]:
+) -> tuple[IdentificationResult, dict[str, Any]]:
     """The joint LM of :func:`identify_to_folder`: with ``anatomical`` through
     :func:`solve_anatomical` (ranges and landmark priors; ``symmetric`` [m] the left/right
     prior's standard deviation or None; ``slides`` the sliding landmarks or None), else the
@@ -642,6 +657,12 @@ def result_text(summary: dict[str, Any], pset: ParameterSet, out: Path) -> str:
 
 #: Effective noise [m] below which one solve with the nominal prior noise is kept.
 REWEIGHT_RATIO = 1.5
+#: Solves with per-trial weights at most (:func:`solve_anatomical`): each re-estimates the
+#: trials' correlation times at the last solve's model, since a trial's residuals also carry
+#: the bias another, overweighted trial pulled into the model.
+TRIAL_WEIGHT_ROUNDS = 4
+#: The rounds stop when no trial's weight changes by more than this factor.
+TRIAL_WEIGHT_SETTLED = 1.25
 
 
 def anatomical_priors(
@@ -689,7 +710,7 @@ def solve_anatomical(
     progress: ProgressCallback | None = None,
     slides: dict[str, Slide] | None = None,
     t10: T10Placement | None = None,
-) -> tuple[IdentificationResult, dict[str, float]]:
+) -> tuple[IdentificationResult, dict[str, Any]]:
     """The joint LM with anatomical ranges as bounds and the anatomical priors
     (``t10``: see :func:`anatomical_priors`).
 
@@ -704,6 +725,14 @@ def solve_anatomical(
     1, sigma the simulated noise) one solve is kept. The weak prior toward the initial model
     is unchanged (its mean becomes the first solve's model in the second solve).
 
+    Several trials are weighed in the second solve by the independent observations each
+    holds (:func:`~mocap_mj.identify.noise.trial_weights`, from each trial's residual
+    correlation time about zero after the first solve; re-estimated at each weighted solve's
+    model, at most ``TRIAL_WEIGHT_ROUNDS`` solves, until no weight changes by more than
+    ``TRIAL_WEIGHT_SETTLED``): a static trial's soft tissue is one offset over all its frames
+    and would otherwise outvote a movement. Residuals of white noise keep every weight 1 (no
+    second solve on their account, and no sliding weights); one trial always weighs 1.
+
     With ``slides`` (e.g. :data:`~mocap_mj.identify.tissue.SLIDES`; default None: off) the
     second solve also weighs the landmark markers that slide with their joint's angle
     (:mod:`mocap_mj.identify.tissue`) by the first solve's poses, against a per-axis artefact
@@ -711,7 +740,8 @@ def solve_anatomical(
     residuals show soft tissue, never on white noise. ``mocap-mj identify`` passes
     :data:`~mocap_mj.identify.tissue.SLIDES` unless ``--no-sliding-landmarks``
     (docs/real-data.md "Soft-tissue sliding"). Returns the result and the weighting used
-    (``noise_mm``, ``sigma_mm``, ``tau_frames``; when the sliding weights were applied,
+    (``noise_mm``, ``sigma_mm``, ``tau_frames``, ``trial_tau_frames`` and ``trial_weights``
+    (one per trial); when the sliding weights were applied,
     ``slide_weight_min``, the smallest of them, and ``slide_base_mm``, the per-axis artefact
     ``base``).
     """
@@ -733,32 +763,80 @@ def solve_anatomical(
     )
     tau = correlation_time(pset, result, trials)
     noise = artefact_noise(result.sigma, tau)
-    weighting = {"sigma_mm": result.sigma * 1e3, "tau_frames": tau, "noise_mm": noise * 1e3}
-    if noise <= REWEIGHT_RATIO * settings.prior_noise:
+    residuals = trial_residuals(pset, result, trials)
+    taus = [residual_correlation_time(r, about_mean=False) for r in residuals]
+    per_trial = trial_weights(taus, [len(r) for r in residuals])
+    weighting: dict[str, Any] = {
+        "sigma_mm": result.sigma * 1e3,
+        "tau_frames": tau,
+        "noise_mm": noise * 1e3,
+        "trial_tau_frames": taus,
+        "trial_weights": per_trial,
+    }
+    soft = noise > REWEIGHT_RATIO * settings.prior_noise
+    if not soft and all(w == 1.0 for w in per_trial):
         weighting["noise_mm"] = settings.prior_noise * 1e3
         return result, weighting
-    logger.info("priors reweighted: noise %.2f mm (sigma x sqrt(tau %.1f))", noise * 1e3, tau)
+    if soft:
+        logger.info("priors reweighted: noise %.2f mm (sigma x sqrt(tau %.1f))", noise * 1e3, tau)
+    else:
+        noise = settings.prior_noise
+        weighting["noise_mm"] = noise * 1e3
+    if any(w != 1.0 for w in per_trial):
+        logger.info(
+            "trials weighed by their independent frames: %s",
+            ", ".join(f"{w:.2f} (tau {t:.0f})" for w, t in zip(per_trial, taus, strict=True)),
+        )
     first = result
     weighted = list(trials)
-    if slides:
+    if slides and soft:
         base = max(first.sigma, SOFT_TISSUE_SIGMA)
         weights = [sliding_weights(pset, q, base, slides) for q in first.qpos]
         weighted = [t._replace(weights=w) for t, w in zip(trials, weights, strict=True)]
         weighting["slide_weight_min"] = float(min(w.min() for w in weights))
         weighting["slide_base_mm"] = base * 1e3
-    result = identify_lm(
-        weighted,
+    solve = partial(
+        identify_lm,
         pset=pset,
-        theta0=first.theta,
         settings=settings,
         progress=progress,
-        initial_qpos=first.qpos,
         priors=[settings.weak_prior(first.theta), *(p.with_noise(noise) for p in priors)],
         lower=lower,
         upper=upper,
     )
+    result = solve(_trials_weighed(weighted, per_trial), theta0=first.theta,
+                   initial_qpos=first.qpos)  # fmt: skip
+    seconds, iterations = first.seconds + result.seconds, first.iterations + result.iterations
+    for _ in range(TRIAL_WEIGHT_ROUNDS - 1):
+        if all(w == 1.0 for w in per_trial):
+            break
+        taus = [residual_correlation_time(r, about_mean=False)
+                for r in trial_residuals(pset, result, trials)]  # fmt: skip
+        update = trial_weights(taus, [len(r) for r in residuals])
+        if max(abs(np.log(u / w)) for u, w in zip(update, per_trial, strict=True)) < np.log(
+            TRIAL_WEIGHT_SETTLED
+        ):
+            break
+        per_trial = update
+        weighting.update(trial_tau_frames=taus, trial_weights=per_trial)
+        logger.info("trials reweighed: %s", ", ".join(f"{w:.2f}" for w in per_trial))
+        result = solve(_trials_weighed(weighted, per_trial), theta0=result.theta,
+                       initial_qpos=result.qpos)  # fmt: skip
+        seconds, iterations = seconds + result.seconds, iterations + result.iterations
     result.theta0 = first.theta0
-    result.seconds += first.seconds
+    result.seconds = seconds
     result.init_seconds = first.init_seconds
-    result.iterations += first.iterations
+    result.iterations = iterations
     return result, weighting
+
+
+def _trials_weighed(trials: Sequence[TrialData], weights: Sequence[float]) -> list[TrialData]:
+    """``trials`` with every sample's weight (their own, default 1) times the trial's
+    weight [1] from ``weights``; a trial of weight 1 is returned as it is."""
+    out = []
+    for t, w in zip(trials, weights, strict=True):
+        if w != 1.0:
+            own = np.ones(t.markers.shape[:2]) if t.weights is None else t.weights
+            t = t._replace(weights=w * own)
+        out.append(t)
+    return out
