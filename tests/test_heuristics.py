@@ -38,6 +38,26 @@ def test_refit_replaces_only_frames_a_fresh_ik_fits_better(exp) -> None:  # type
     np.testing.assert_array_equal(qpos[untouched], before[untouched])
 
 
+def test_refit_judges_the_weighted_fit_by_its_own_weights(exp) -> None:  # type: ignore[no-untyped-def]
+    # One marker displaced 30 mm in every frame and weighed down 100x: the weighted IK's poses
+    # fit it badly on purpose. Judged unweighted (the old rule), a fresh unweighted IK "fits
+    # better" and would swap the poses back at every refit; judged by the fit's own weights,
+    # the weighted poses stand.
+    kin = Kinematics(exp.pset)
+    kin.set_theta(np.asarray(exp.theta_true))
+    markers = np.asarray(exp.markers).copy()
+    markers[:, 0] += 0.03
+    weights = np.ones(markers.shape[:2])
+    weights[:, 0] = 0.01
+    solver = IKSolver(kin)
+    segments = [slice(0, 20), slice(20, 40)]
+    weighted = solver.solve_trial(markers, weights).qpos
+    qpos = weighted.copy()
+    assert len(refit_frames(solver, markers, qpos, segments, weights)) == 0
+    np.testing.assert_array_equal(qpos, weighted)
+    assert len(refit_frames(solver, markers, weighted.copy(), segments)) > 20
+
+
 def test_refit_schedule_and_stall_monitor() -> None:
     sched = RefitSchedule(factor=1.5, settle_gain=1e-2, max_refits=2, last_rmse=0.003)
     assert sched.improved(True, 0.0019) and not sched.improved(False, 0.0019)

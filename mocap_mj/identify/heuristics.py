@@ -17,15 +17,24 @@ import numpy as np
 from ..ik import IKSolver
 
 
-def frame_rmse(dist: np.ndarray, present: np.ndarray) -> np.ndarray:
-    """Marker RMSE (n,) [m] of each frame from distances dist (n, M) [m] (0 where missing)."""
-    return np.sqrt(
-        np.sum(np.where(present, dist, 0.0) ** 2, axis=1) / np.maximum(present.sum(axis=1), 1)
-    )
+def frame_rmse(
+    dist: np.ndarray, present: np.ndarray, weights: np.ndarray | None = None
+) -> np.ndarray:
+    """Marker RMSE (n,) [m] of each frame from distances dist (n, M) [m] (0 where missing);
+    with ``weights`` (n, M) [1] the weighted RMSE sqrt(sum w d^2 / sum w) over present markers
+    (the per-frame objective of a fit that weighs its samples)."""
+    w = present if weights is None else np.where(present, weights, 0.0)
+    num = np.sum(w * np.where(present, dist, 0.0) ** 2, axis=1)
+    den = np.sum(w, axis=1)
+    return np.sqrt(num / np.where(den > 0, den, 1.0))
 
 
 def refit_frames(
-    solver: IKSolver, markers: np.ndarray, qpos: np.ndarray, segments: Sequence[slice]
+    solver: IKSolver,
+    markers: np.ndarray,
+    qpos: np.ndarray,
+    segments: Sequence[slice],
+    weights: np.ndarray | None = None,
 ) -> np.ndarray:
     """Solve every trial's IK afresh with the solver's current theta; keep each frame's better
     pose (in place in qpos (n, nq)) and return the indices of the frames replaced.
@@ -35,15 +44,27 @@ def refit_frames(
     far from the subject, can settle whole stretches of frames in a wrong configuration (an
     arm twisted about itself, a foot flipped) that joint iterations and warm starts never
     leave; with the model improved, a fresh IK (new chain starts, repair) finds the right one.
+
+    ``weights`` (n, M) [1] (default None: all 1) are the fit's per-sample weights: the fresh
+    IK weighs the markers alike and the RMSE compared is the weighted one, the objective the
+    fit minimises. Judged unweighted, a pose the weighted fit moved away from on purpose (a
+    sliding landmark weighed down) would look worse than a fresh unweighted IK's, be swapped
+    back at every refit and moved away again by the next steps.
     """
     present = np.all(np.isfinite(markers), axis=2)
-    x = solver.kin.site_positions(qpos)
-    before = frame_rmse(np.linalg.norm(np.nan_to_num(markers) - x, axis=2), present)
+    target = np.nan_to_num(markers)
+
+    def rmse(q: np.ndarray, rows: slice | np.ndarray) -> np.ndarray:
+        dist = np.linalg.norm(target[rows] - solver.kin.site_positions(q), axis=2)
+        return frame_rmse(dist, present[rows], None if weights is None else weights[rows])
+
+    before = rmse(qpos, slice(None))
     changed = [np.zeros(0, dtype=int)]
     for seg in segments:
-        r = solver.solve_trial(markers[seg])
+        r = solver.solve_trial(markers[seg], None if weights is None else weights[seg])
         rows = np.arange(seg.start, seg.stop)
-        better = np.nan_to_num(r.marker_rmse, nan=np.inf) < 0.98 * before[rows]
+        fresh = r.marker_rmse if weights is None else rmse(r.qpos, seg)
+        better = np.nan_to_num(fresh, nan=np.inf) < 0.98 * before[rows]
         qpos[rows[better]] = r.qpos[better]
         changed.append(rows[better])
     return np.concatenate(changed)
@@ -90,20 +111,21 @@ class RefitSchedule:
 
 @dataclass
 class StallMonitor:
-    """Stop once settled when the marker RMSE fell by less than ``rel`` (relative) over the last
-    ``window`` accepted steps: heavily damped crawling along a curved valley of weakly informed
-    directions, which changes nothing measurable."""
+    """Stop once settled when a level (the solver passes sqrt(F), in the marker RMSE's units)
+    fell by less than ``rel`` (relative) over the last ``window`` accepted steps: heavily damped
+    crawling along a curved valley of weakly informed directions, which changes nothing
+    measurable."""
 
     window: int
     rel: float
     history: list[float] = field(default_factory=list)
 
-    def accepted(self, rmse: float) -> None:
-        self.history.append(rmse)
+    def accepted(self, level: float) -> None:
+        self.history.append(level)
 
-    def stalled(self, rmse: float) -> bool:
+    def stalled(self, level: float) -> bool:
         h = self.history
-        return len(h) > self.window and h[-self.window - 1] - rmse < self.rel * rmse
+        return len(h) > self.window and h[-self.window - 1] - level < self.rel * level
 
 
 __all__ = ["RefitSchedule", "StallMonitor", "frame_rmse", "refit_frames"]

@@ -148,8 +148,9 @@ class LMSettings:
         step's dq is a poor guess for frames at or near their joint limits; each frame's own
         damped iterations finish its step.
     stall_window, stall_rel : int, float
-        Once settled, stop when the marker RMSE fell by less than ``stall_rel`` (relative)
-        over the last ``stall_window`` accepted steps.
+        Once settled, stop when sqrt(F) (the objective in the marker RMSE's units: with sample
+        weights or priors the unweighted RMSE may rise while F falls) fell by less than
+        ``stall_rel`` (relative) over the last ``stall_window`` accepted steps.
     max_refits : int
     mu_decrease : "nielsen" or "third"
         Damping after an accepted step: Nielsen's ``mu *= max(1/3, 1 - (2 rho - 1)^3)``, or
@@ -549,7 +550,9 @@ def _iterate(
     gain = cost - step.cost
     stalled = schedule.settling(accepted, gain, cost)
     if (schedule.improved(accepted, stats.rmse) or stalled) and schedule.take(it):
-        fixed = refit_frames(problem.limits, problem.markers, problem.qpos, problem.segments)
+        fixed = refit_frames(
+            problem.limits, problem.markers, problem.qpos, problem.segments, problem.sample_weights
+        )
         if len(fixed):
             state.dist = problem.residuals(problem.qpos)
             schedule.last_rmse = state.rmse(problem)
@@ -558,9 +561,12 @@ def _iterate(
         schedule.last_rmse = stats.rmse
     schedule.settled |= stalled
     stop = stop_reason(st, it, accepted, gain, cost, stats.sigma, step, state.mu)
+    # The stall is judged on the objective (its square root, in RMSE's units): with sample
+    # weights or priors the unweighted marker RMSE may rise while F still falls.
+    level = float(np.sqrt(trace[-1].cost))
     if accepted:
-        stall.accepted(stats.rmse)
-    if stop is None and schedule.settled and stall.stalled(stats.rmse):
+        stall.accepted(level)
+    if stop is None and schedule.settled and stall.stalled(level):
         stop = Status.STALL
     return stop
 
@@ -577,7 +583,9 @@ def _repair(
     frame improved. False: nothing changed, the stop stands."""
     if not schedule.take_at_stop(it):
         return False
-    fixed = refit_frames(problem.limits, problem.markers, problem.qpos, problem.segments)
+    fixed = refit_frames(
+        problem.limits, problem.markers, problem.qpos, problem.segments, problem.sample_weights
+    )
     if len(fixed) == 0:
         return False
     state.dist = problem.residuals(problem.qpos)

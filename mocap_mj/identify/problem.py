@@ -168,9 +168,12 @@ class IdentificationProblem:
         self._prior_hessian: np.ndarray | None = None
         self.lower, self.upper = check_bounds(kin.pset.size, lower, upper)
         self.loss: Loss = L2() if loss is None else loss
+        # The per-sample weights (n, M) [1] or None, also what a refit's fresh IK weighs by.
+        self.sample_weights: np.ndarray | None = None
         if weights is not None:
             check_shape("weights", weights, self.present.shape)
-            self.loss = Weighted(self.loss, np.asarray(weights, dtype=float))
+            self.sample_weights = np.asarray(weights, dtype=float)
+            self.loss = Weighted(self.loss, self.sample_weights)
         self.used = [np.ones(self.n, dtype=bool)] if used is None else [np.asarray(u) for u in used]
         self.segments = self.segments_of(self.used)
         if self.segments[-1].stop != self.n:

@@ -16,7 +16,7 @@ class Status(enum.Enum):
     """Why a solver stopped (the value is the message shown to users)."""
 
     NOISE = "cost change below tol_noise * sigma^2"
-    STALL = "marker RMSE changed by less than stall_rel over stall_window accepted steps"
+    STALL = "sqrt(F) changed by less than stall_rel over stall_window accepted steps"
     COST = "relative cost change below tol_cost"
     STEP = "step below tol_theta and tol_q"
     NO_DESCENT = "no descent direction found (damping exhausted)"
