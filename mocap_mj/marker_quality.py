@@ -20,6 +20,14 @@ positions (T, M, 3) [m] and the model's segment (body) of each marker:
     more than a body segment can accelerate in a frame, :data:`ACCEL_MAX` dt^2 and at least
     :data:`JUMP_MIN`; when another marker jumps at the same frame onto this one's
     prediction and back later, the two labels are swapped over that frame range.
+``ghost``
+    In some frames a marker's distance to every other marker of its segment departs from
+    that distance's median over the trial by more than :data:`GHOST_MIN` (40 mm), counting
+    only the distances rigid enough otherwise (p5-p95 within SPREAD_MAX): a ghost or a
+    momentary mislabel, found whatever the frame rate (``jump`` cannot see a 50-100 mm
+    ghost below about 60 Hz, where a body segment may move that far between frames). When
+    the segment has two markers, the one further from the midpoint of its neighbouring
+    frames is named.
 ``distance`` / ``asymmetry``
     The median distance between two Plug-in Gait landmarks of one bone (elbow-wrist,
     shoulder-elbow, knee-ankle, heel-toe) outside the range of any person 0.85-2.1 m tall
@@ -50,6 +58,7 @@ __all__ = [
     "ACCEL_MAX",
     "ASYMMETRY_MAX",
     "BONE_FRACTIONS",
+    "GHOST_MIN",
     "JUMP_MIN",
     "SPREAD_MAX",
     "STEP_MIN",
@@ -67,6 +76,10 @@ __all__ = [
 #: The largest range on the shared real trials is 31 mm (RTHI-RKNE, functional knee trial:
 #: thigh skin sliding with flexion); 50 mm leaves margin for faster motion.
 SPREAD_MAX = 0.050
+#: Departure [m] of one frame's same-segment distance from its median over the trial above
+#: which the frame is off its segment (``ghost``): above the 31 mm p5-p95 range of soft tissue
+#: on the shared trials (SPREAD_MAX's comment), so sliding skin stays below it.
+GHOST_MIN = 0.040
 #: Persistent change [m] of a same-segment distance's median at one frame (a re-stuck marker).
 STEP_MIN = 0.020
 #: Largest acceleration [m/s^2] of a skin marker (about 30 g: above heel strike and hand
@@ -110,7 +123,7 @@ _STEP_BLOCKS = 400
 class Finding:
     """One piece of evidence that marker data cannot be trusted.
 
-    file: the marker file; kind: ``spread``, ``step``, ``jump``, ``swap``, ``distance``,
+    file: the marker file; kind: ``spread``, ``step``, ``jump``, ``swap``, ``ghost``, ``distance``,
     ``asymmetry`` or ``placement``;
     markers: the marker(s) it names, suspect first; frames: [first, last) of the file's
     frames it concerns (None: the whole trial); value_mm: the measured figure [mm];
@@ -156,6 +169,7 @@ def check_marker_quality(
     found: list[Finding] = []
     found += _segment_findings(path, names, x, segments, first_frame)
     found += _jump_findings(path, names, x, rate, first_frame)
+    found += _ghost_findings(path, names, x, segments, first_frame)
     found += _bone_findings(path, names, x)
     return found
 
@@ -279,6 +293,64 @@ def _segment_findings(
                     f"{before * 1e3:.0f} -> {after * 1e3:.0f} mm (re-stuck or slipped?)",
                 )
             )
+    return out
+
+
+def _ghost_findings(
+    path: str, names: Sequence[str], x: np.ndarray, segments: Sequence[str], first: int
+) -> list[Finding]:
+    """``ghost`` findings: frames where a marker is off its segment (module docstring)."""
+    by_segment: dict[str, list[int]] = {}
+    for i, s in enumerate(segments):
+        by_segment.setdefault(s, []).append(i)
+    off = np.zeros(x.shape[:2], dtype=bool)  # (T, M)
+    size = np.zeros(x.shape[:2])
+    for members in by_segment.values():
+        for i in members:
+            mates = [j for j in members if j != i]
+            dev = []
+            for j in mates:
+                d = np.linalg.norm(x[:, i] - x[:, j], axis=1)
+                ok = np.isfinite(d)
+                if ok.sum() < 10:
+                    continue
+                p5, p95 = np.percentile(d[ok], [5, 95])
+                if p95 - p5 <= SPREAD_MAX:  # otherwise a ``spread``: not rigid enough
+                    dev.append(np.where(ok, np.abs(d - np.median(d[ok])), np.nan))
+            if not dev:
+                continue
+            with np.errstate(invalid="ignore"):
+                low = np.min(np.stack(dev), axis=0)  # the least departure over the mates
+                off[:, i] = low > GHOST_MIN
+            size[:, i] = np.nan_to_num(low)
+        if len(members) == 2:  # both depart together: name the one off its own track
+            a, b = members
+            both = off[:, a] & off[:, b]
+            if both.any():
+                mid = np.full_like(x[:, members], np.nan)
+                mid[1:-1] = 0.5 * (x[:-2, members] + x[2:, members])
+                err = np.nan_to_num(np.linalg.norm(x[:, members] - mid, axis=2))  # (T, 2)
+                off[both, a] = err[both, 0] >= err[both, 1]
+                off[both, b] = ~off[both, a]
+    out: list[Finding] = []
+    for i in np.flatnonzero(off.any(axis=0)):
+        ts = np.flatnonzero(off[:, i])
+        if len(ts) > 0.05 * len(x):
+            continue  # off for long: a ``spread`` or ``step``, not a ghost
+        shown = ", ".join(str(first + t) for t in ts[:5]) + (", ..." if len(ts) > 5 else "")
+        biggest = float(size[ts, i].max())
+        out.append(
+            _line(
+                path,
+                "ghost",
+                (names[int(i)],),
+                (first + int(ts[0]), first + int(ts[-1]) + 1),
+                biggest * 1e3,
+                f"<= {GHOST_MIN * 1e3:.0f} mm from its segment's median distances",
+                f"{names[int(i)]}: off its segment in {len(ts)} frame(s), at frame(s) "
+                f"{shown}, by up to {biggest * 1e3:.0f} mm (a ghost or a momentary mislabel?)",
+            )
+        )
     return out
 
 
