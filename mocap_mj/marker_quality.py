@@ -46,7 +46,7 @@ frames (no solve): it runs on hour-long recordings too.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import mujoco
@@ -64,6 +64,7 @@ __all__ = [
     "STEP_MIN",
     "Finding",
     "check_marker_quality",
+    "drop_ghosts",
     "exclude_markers",
     "marker_segments",
     "parse_marker_list",
@@ -127,7 +128,9 @@ class Finding:
     ``asymmetry`` or ``placement``;
     markers: the marker(s) it names, suspect first; frames: [first, last) of the file's
     frames it concerns (None: the whole trial); value_mm: the measured figure [mm];
-    expected: what a trustworthy marker would give; message: the one-line text.
+    expected: what a trustworthy marker would give; message: the one-line text; samples:
+    the file's frames of the first marker's samples that are not the marker (``ghost``
+    only, else empty): :func:`drop_ghosts` removes them from the fit.
     """
 
     file: str
@@ -137,6 +140,7 @@ class Finding:
     value_mm: float
     expected: str
     message: str
+    samples: tuple[int, ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -172,6 +176,33 @@ def check_marker_quality(
     found += _ghost_findings(path, names, x, segments, first_frame)
     found += _bone_findings(path, names, x)
     return found
+
+
+def drop_ghosts(
+    markers: np.ndarray,
+    names: Sequence[str],
+    findings: Sequence[Finding],
+    path: str,
+    *,
+    first_frame: int = 0,
+) -> tuple[np.ndarray, int]:
+    """markers (T, M, 3) [m] of file ``path`` with the samples of its ``ghost`` findings
+    missing (NaN; on a copy when there is any), and how many were dropped.
+
+    A sample off every rigid distance of its segment by more than GHOST_MIN is not the
+    marker, and a least-squares fit follows it: a knee marker 50-100 mm off in 1 % of the
+    frames moved a joint-centre distance by 0.9-1.7 mm on the shared trials
+    (docs/real-data.md, "The same person, captured differently"). ``first_frame``: the file's
+    frame of row 0, as given to :func:`check_marker_quality`.
+    """
+    drop = [(f.markers[0], f.samples) for f in findings if f.kind == "ghost" and f.file == path]
+    count = sum(len(samples) for _, samples in drop)
+    if not count:
+        return markers, 0
+    out = np.array(markers, dtype=float)
+    for name, samples in drop:
+        out[np.asarray(samples) - first_frame, list(names).index(name)] = np.nan
+    return out, count
 
 
 def marker_segments(model: mujoco.MjModel) -> list[str]:
@@ -333,24 +364,24 @@ def _ghost_findings(
                 off[both, a] = err[both, 0] >= err[both, 1]
                 off[both, b] = ~off[both, a]
     out: list[Finding] = []
-    for i in np.flatnonzero(off.any(axis=0)):
-        ts = np.flatnonzero(off[:, i])
+    for col in np.flatnonzero(off.any(axis=0)):
+        ts = np.flatnonzero(off[:, col])
         if len(ts) > 0.05 * len(x):
             continue  # off for long: a ``spread`` or ``step``, not a ghost
         shown = ", ".join(str(first + t) for t in ts[:5]) + (", ..." if len(ts) > 5 else "")
-        biggest = float(size[ts, i].max())
-        out.append(
-            _line(
-                path,
-                "ghost",
-                (names[int(i)],),
-                (first + int(ts[0]), first + int(ts[-1]) + 1),
-                biggest * 1e3,
-                f"<= {GHOST_MIN * 1e3:.0f} mm from its segment's median distances",
-                f"{names[int(i)]}: off its segment in {len(ts)} frame(s), at frame(s) "
-                f"{shown}, by up to {biggest * 1e3:.0f} mm (a ghost or a momentary mislabel?)",
-            )
+        biggest = float(size[ts, col].max())
+        line = _line(
+            path,
+            "ghost",
+            (names[int(col)],),
+            (first + int(ts[0]), first + int(ts[-1]) + 1),
+            biggest * 1e3,
+            f"<= {GHOST_MIN * 1e3:.0f} mm from its segment's median distances",
+            f"{names[int(col)]}: off its segment in {len(ts)} frame(s), at frame(s) {shown}, "
+            f"by up to {biggest * 1e3:.0f} mm (a ghost or a momentary mislabel?): those "
+            "samples are left out of the fit",
         )
+        out.append(replace(line, samples=tuple(first + int(t) for t in ts)))
     return out
 
 

@@ -22,9 +22,10 @@ from mocap_mj import ParameterSet
 from mocap_mj.cli import main
 from mocap_mj.errors import InputFileError
 from mocap_mj.identify.consistency import joint_centre_lengths
-from mocap_mj.io import MarkerTrajectory, load_markers, save_trc
+from mocap_mj.io import MarkerTrajectory, load_markers, save_csv, save_trc
 from mocap_mj.io.handedness import check_handedness
-from mocap_mj.marker_quality import check_marker_quality, marker_segments
+from mocap_mj.marker_quality import check_marker_quality, drop_ghosts, marker_segments
+from mocap_mj.results import load_motion
 from mocap_synth import SynthConfig, synthesize
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -151,3 +152,27 @@ def test_ghost_found_whatever_the_rate(walk: MarkerTrajectory) -> None:
                  if f.kind == "ghost"]  # fmt: skip
         assert [(f.markers, f.frames) for f in found] == [(("LKNE",), (12, 28))], found
         assert "LKNE: off its segment in 2 frame(s), at frame(s) 12, 27" in found[0].message
+    kept, count = drop_ghosts(x, pset.marker_names, found, "walk")
+    assert count == 2
+    assert np.array_equal(np.isnan(kept[..., 0]) & ~np.isnan(x[..., 0]),
+                          np.isin(np.arange(40), (12, 27))[:, None]
+                          & (np.arange(x.shape[1]) == knee)[None])  # fmt: skip
+
+
+def test_ik_leaves_ghost_samples_out(
+    walk: MarkerTrajectory, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The commands fit without the ghost samples and say how many they dropped."""
+    pset = ParameterSet()
+    x = walk.positions.copy()
+    knee, thigh = pset.marker_index("LKNE"), pset.marker_index("LTHI")
+    away = x[20, knee] - x[20, thigh]
+    x[20, knee] += 0.080 * away / np.linalg.norm(away)
+    path = tmp_path / "ghost.csv"
+    save_csv(path, MarkerTrajectory(walk.times, x, walk.names, walk.rate))
+    assert main(["ik", "--markers", str(path), "--out", str(tmp_path / "out"), "--json"]) == 0
+    assert "LKNE: off its segment in 1 frame(s), at frame(s) 20" in capsys.readouterr().err
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["marker_quality"]["ghost_samples_dropped"] == 1
+    fitted = load_motion(tmp_path / "out" / "motion.npz").markers  # what the solver was given
+    assert np.isnan(fitted[20, knee]).all() and np.isfinite(fitted[19:22:2, knee]).all()
