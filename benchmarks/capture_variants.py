@@ -148,6 +148,18 @@ def _column(c: Capture, names: tuple[str, ...]) -> int:
     raise SystemExit(f"none of {names} in the file")
 
 
+def _unlabelled(c: Capture, up: np.ndarray, rng: np.random.Generator) -> Capture:
+    """Five extra unlabelled points (``*101`` ...) wandering within 2 m of the subject."""
+    out = copy.copy(c)
+    centre = np.nanmedian(c.points.reshape(-1, 3), axis=0)
+    scale = 1.0 if c.units == "mm" else 1e-3
+    walk = np.cumsum(rng.normal(0.0, 5.0, (len(c.frames), 5, 3)), axis=0) * scale
+    extra = centre + rng.uniform(-2000.0, 2000.0, (1, 5, 3)) * scale + walk
+    out.points = np.concatenate([c.points, extra], axis=1)
+    out.labels = [*c.labels, *(f"*{101 + k}" for k in range(5))]
+    return out
+
+
 def _gaps(c: Capture, up: np.ndarray, rng: np.random.Generator) -> Capture:
     """10 % of one knee marker's frames missing, at random frames."""
     out = copy.copy(c)
@@ -200,6 +212,7 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("up_-z", "exact", "vertical axis -Z (proper rotation)", _vertical("-z")),
     Variant("metres", "exact", "coordinates in m, POINT:UNITS m", _metres),
     Variant("prefix", "exact", "labels 'Subject01:NAME'", _prefix),
+    Variant("unlabelled", "exact", "five extra unlabelled points '*101'...", _unlabelled),
     Variant("thin2", "degraded", "every 2nd frame, half the rate", _thin(2)),
     Variant("thin4", "degraded", "every 4th frame, a quarter of the rate", _thin(4)),
     Variant("first_half", "degraded", "the first half of the frames", _half(0)),
@@ -241,10 +254,12 @@ def write_capture(original: ezc3d.c3d, c: Capture, path: Path) -> None:
     pts[:3] = np.where(missing[..., None], 0.0, c.points).transpose(2, 1, 0)
     out["data"]["points"] = pts
     meta = out["data"]["meta_points"]
-    res = meta["residuals"][:, :, c.frames].copy()
+    extra = n_points - meta["residuals"].shape[1]  # points a variant added
+    res = np.pad(meta["residuals"][:, :, c.frames], ((0, 0), (0, extra), (0, 0)))
     res[0][missing.T] = -1.0
     meta["residuals"] = res
-    meta["camera_masks"] = meta["camera_masks"][:, :, c.frames]
+    meta["camera_masks"] = np.pad(meta["camera_masks"][:, :, c.frames],
+                                  ((0, 0), (0, extra), (0, 0)))  # fmt: skip
     analog = out["parameters"]["ANALOG"]
     point_rate = float(original["parameters"]["POINT"]["RATE"]["value"][0])
     per_frame = round(float(analog["RATE"]["value"][0]) / point_rate) if "RATE" in analog else 0
@@ -256,6 +271,8 @@ def write_capture(original: ezc3d.c3d, c: Capture, path: Path) -> None:
     point["RATE"]["value"] = [c.rate]
     point["UNITS"]["value"] = [c.units]
     point["LABELS"]["value"] = c.labels[:255]
+    if "DESCRIPTIONS" in point and extra:
+        point["DESCRIPTIONS"]["value"] = [*point["DESCRIPTIONS"]["value"], *[""] * extra][:255]
     for k, extra in enumerate(("LABELS2", "LABELS3")):
         if extra in point:
             point[extra]["value"] = c.labels[255 * (k + 1) : 255 * (k + 2)]
@@ -270,6 +287,7 @@ class Run:
     summary: dict
     lengths: dict[str, float]  # joint-centre distances [m]
     segments: dict[str, float]  # segments.csv value_mm
+    stds: dict[str, float]  # segments.csv std_mm (inflated by the residuals' correlation)
 
 
 def identify(path: Path, out: Path, pset: ParameterSet) -> Run:
@@ -281,13 +299,22 @@ def identify(path: Path, out: Path, pset: ParameterSet) -> Run:
     )
     seconds = time.perf_counter() - start
     if proc.returncode != 0:
-        return Run(proc.returncode, seconds, proc.stderr.strip(), {}, {}, {})
+        return Run(proc.returncode, seconds, proc.stderr.strip(), {}, {}, {}, {})
     summary = json.loads((out / "summary.json").read_text())
     lengths = joint_centre_lengths(pset, pset.load_json(out / "theta.json"))
     rows = [line.split(",") for line in (out / "segments.csv").read_text().splitlines()]
-    col = rows[0].index("value_mm")
+    col, sd = rows[0].index("value_mm"), rows[0].index("std_mm")
     segments = {r[0]: float(r[col]) for r in rows[1:] if r[1] == "length"}
-    return Run(0, seconds, proc.stderr.strip(), summary, lengths, segments)
+    stds = {r[0]: float(r[sd]) for r in rows[1:] if r[1] == "length"}
+    return Run(0, seconds, proc.stderr.strip(), summary, lengths, segments, stds)
+
+
+def stature_mm(s: dict) -> float:
+    """The stature the run used [mm]: measured, else estimated."""
+    measured = s.get("measurements", {}).get("height")
+    if measured:
+        return float(measured["value"]) * 1e3
+    return float((s.get("stature_estimate") or {}).get("value", float("nan"))) * 1e3
 
 
 def _max_diff(a: dict[str, float], b: dict[str, float], scale: float) -> tuple[float, str]:
@@ -300,10 +327,13 @@ def line(name: str, kind: str, run: Run, base: Run) -> str:
     if run.code != 0:
         last = run.stderr.splitlines()[-1] if run.stderr else ""
         verdict = "ok (refused)" if kind == "refused" else "FAIL (refused)"
-        return (f"| {name} | {kind} | exit {run.code} | | | | | | {run.seconds:.1f} | "
+        return (f"| {name} | {kind} | exit {run.code} | | | | | | | {run.seconds:.1f} | "
                 f"{verdict}: {last} |")  # fmt: skip
     jc, jc_name = _max_diff(run.lengths, base.lengths, 1e3)
     seg, seg_name = _max_diff(run.segments, base.segments, 1.0)
+    z = max(abs(run.segments[k] - base.segments[k]) / base.stds[k] for k in base.segments
+            if k in run.segments and base.stds[k] > 0)  # fmt: skip
+    stature = stature_mm(run.summary) - stature_mm(base.summary)
     s = run.summary
     outside = ", ".join(s.get("kappa_outside_bounds_mm") or {}) or "-"
     at_bound = ", ".join(s.get("kappa_at_bound") or {}) or "-"
@@ -315,7 +345,8 @@ def line(name: str, kind: str, run: Run, base: Run) -> str:
     else:
         verdict = "ok" if tol is not None and worst <= tol else f"FAIL (> {tol} mm)"
     return (f"| {name} | {kind} | {s['frames_used']} | {jc:.3f} ({jc_name}) | {seg:.3f} "
-            f"({seg_name}) | {s['marker_rmse_mm']:.2f} | {outside} / {at_bound} | {findings} | "
+            f"({seg_name}) | {z:.2f} | {stature:+.1f} | {s['marker_rmse_mm']:.2f} | {outside} / "
+            f"{at_bound} | {findings} | "
             f"{run.seconds:.1f} | {verdict} |")  # fmt: skip
 
 
@@ -347,9 +378,10 @@ def main() -> None:
               f"{s['marker_rmse_mm']:.2f} mm, {base.seconds:.1f} s\n")  # fmt: skip
         print(
             "| variant | expected | frames | max joint-centre diff mm | max segments.csv diff "
-            "mm | RMSE mm | outside / at bound | findings | s | verdict |"
+            "mm | max diff / std | stature diff mm | RMSE mm | outside / at bound | findings | "
+            "s | verdict |"
         )
-        print("|---|---|---|---|---|---|---|---|---|---|")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|")
         for v in variants:
             rng = np.random.default_rng(args.seed)
             path = folder / f"{v.name}.c3d"

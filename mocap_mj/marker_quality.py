@@ -129,8 +129,9 @@ class Finding:
     markers: the marker(s) it names, suspect first; frames: [first, last) of the file's
     frames it concerns (None: the whole trial); value_mm: the measured figure [mm];
     expected: what a trustworthy marker would give; message: the one-line text; samples:
-    the file's frames of the first marker's samples that are not the marker (``ghost``
-    only, else empty): :func:`drop_ghosts` removes them from the fit.
+    the file's frames of the first marker's samples that are not the marker (``ghost``: the
+    frames off the segment; ``jump``: the frame each jump lands on; else empty):
+    :func:`drop_ghosts` removes them from the fit.
     """
 
     file: str
@@ -186,23 +187,24 @@ def drop_ghosts(
     *,
     first_frame: int = 0,
 ) -> tuple[np.ndarray, int]:
-    """markers (T, M, 3) [m] of file ``path`` with the samples of its ``ghost`` findings
-    missing (NaN; on a copy when there is any), and how many were dropped.
+    """markers (T, M, 3) [m] of file ``path`` with the samples its ``ghost`` and ``jump``
+    findings name missing (NaN; on a copy when there is any), and how many were dropped.
 
-    A sample off every rigid distance of its segment by more than GHOST_MIN is not the
-    marker, and a least-squares fit follows it: a knee marker 50-100 mm off in 1 % of the
+    A sample off every rigid distance of its segment by more than GHOST_MIN, or one that
+    lands off its track further than a body segment accelerates, is not the marker (or, for
+    a jump to a new place for good, one sample of it: little lost), and a least-squares fit
+    follows it: a knee marker 50-100 mm off in 1 % of the
     frames moved a joint-centre distance by 0.9-1.7 mm on the shared trials
     (docs/real-data.md, "The same person, captured differently"). ``first_frame``: the file's
     frame of row 0, as given to :func:`check_marker_quality`.
     """
-    drop = [(f.markers[0], f.samples) for f in findings if f.kind == "ghost" and f.file == path]
-    count = sum(len(samples) for _, samples in drop)
-    if not count:
+    drop = {(f.markers[0], t) for f in findings if f.file == path for t in f.samples}
+    if not drop:
         return markers, 0
     out = np.array(markers, dtype=float)
-    for name, samples in drop:
-        out[np.asarray(samples) - first_frame, list(names).index(name)] = np.nan
-    return out, count
+    for name, t in drop:
+        out[t - first_frame, list(names).index(name)] = np.nan
+    return out, len(drop)
 
 
 def marker_segments(model: mujoco.MjModel) -> list[str]:
@@ -488,18 +490,18 @@ def _jump_findings(
         ts = [t for t, _ in events]
         biggest = max(e for _, e in events)
         shown = ", ".join(str(first + t) for t in ts[:5]) + (", ..." if len(ts) > 5 else "")
-        out.append(
-            _line(
-                path,
-                "jump",
-                (names[i],),
-                (first + ts[0], first + ts[-1] + 1),
-                biggest * 1e3,
-                f"<= {limit * 1e3:.0f} mm per frame at {rate:g} Hz",
-                f"{names[i]}: {len(ts)} jump(s) off its track, at frame(s) {shown}, up to "
-                f"{biggest * 1e3:.0f} mm (a ghost, a label change or a re-stick?)",
-            )
+        line = _line(
+            path,
+            "jump",
+            (names[i],),
+            (first + ts[0], first + ts[-1] + 1),
+            biggest * 1e3,
+            f"<= {limit * 1e3:.0f} mm per frame at {rate:g} Hz",
+            f"{names[i]}: {len(ts)} jump(s) off its track, at frame(s) {shown}, up to "
+            f"{biggest * 1e3:.0f} mm (a ghost, a label change or a re-stick?): the samples "
+            "at the jumps are left out of the fit",
         )
+        out.append(replace(line, samples=tuple(first + t for t in ts)))
     return out
 
 

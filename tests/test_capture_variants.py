@@ -173,6 +173,6 @@ def test_ik_leaves_ghost_samples_out(
     assert main(["ik", "--markers", str(path), "--out", str(tmp_path / "out"), "--json"]) == 0
     assert "LKNE: off its segment in 1 frame(s), at frame(s) 20" in capsys.readouterr().err
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
-    assert summary["marker_quality"]["ghost_samples_dropped"] == 1
+    assert summary["marker_quality"]["samples_dropped"] == 1
     fitted = load_motion(tmp_path / "out" / "motion.npz").markers  # what the solver was given
     assert np.isnan(fitted[20, knee]).all() and np.isfinite(fitted[19:22:2, knee]).all()

@@ -212,7 +212,7 @@ def test_ik_warns_records_and_strict_refuses(
         "findings": [],
         "suspects": {},
         "excluded": ["LWRA", "LWRB"],
-        "ghost_samples_dropped": 0,
+        "samples_dropped": 0,
     }
     assert set(summary["markers_without_data"]) == {"LWRA", "LWRB"}
 

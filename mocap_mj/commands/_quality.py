@@ -84,7 +84,7 @@ def check_trials(
         "findings": [f.to_json() for f in found],
         "suspects": named,
         "excluded": list(excluded),
-        "ghost_samples_dropped": sum(len(f.samples) for f in found if f.kind == "ghost"),
+        "samples_dropped": len({(f.file, f.markers[0], t) for f in found for t in f.samples}),
     }
     return found, entry
 
@@ -93,7 +93,8 @@ def without_ghosts(
     markers: np.ndarray, pset: ParameterSet, found: Sequence[Finding], path: str, first: int
 ) -> np.ndarray:
     """markers (T, M, 3) [m] of ``path`` (row 0 = the file's frame ``first``) with the
-    samples of its ``ghost`` findings missing (:func:`~mocap_mj.marker_quality.drop_ghosts`)."""
+    samples its ``ghost`` and ``jump`` findings name missing
+    (:func:`~mocap_mj.marker_quality.drop_ghosts`)."""
     return drop_ghosts(markers, pset.marker_names, found, path, first_frame=first)[0]
 
 
