@@ -49,7 +49,7 @@ REAL = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real"
 DEFAULT_TRIALS = ("Movement_trial.c3d", "Test_func_rknee.c3d")
 #: What an exact transform may change [mm]: the LM stops on a relative cost change, so two
 #: runs on the same numbers in other axes end within a fraction of the per-parameter CRLB.
-EXACT_MM = 0.5
+EXACT_MM = 0.1
 #: What less or worse data of the same trial may change [mm]: the single-trial models of one
 #: subject and session differ by up to ~10 mm per joint-centre distance (docs/real-data.md).
 DEGRADED_MM = 10.0
