@@ -129,6 +129,20 @@ def _thin(k: int) -> Callable[[Capture, np.ndarray, np.random.Generator], Captur
     return lambda c, up, rng: _rows(c, np.arange(0, len(c.frames), k), c.rate / k)
 
 
+def _upsample(k: int) -> Callable[[Capture, np.ndarray, np.random.Generator], Capture]:
+    """``k`` times the rate, the samples between frames linearly interpolated (missing where
+    either neighbour is): a high-rate system's file of the same motion."""
+
+    def apply(c: Capture, up: np.ndarray, rng: np.random.Generator) -> Capture:
+        pos = np.arange((len(c.frames) - 1) * k + 1) / k
+        i = np.minimum(pos.astype(int), len(c.frames) - 2)
+        a = (pos - i)[:, None, None]
+        points = (1.0 - a) * c.points[i] + a * c.points[i + 1]
+        return Capture(points, c.labels, c.rate * k, c.frames[np.round(pos).astype(int)], c.units)
+
+    return apply
+
+
 def _half(which: int) -> Callable[[Capture, np.ndarray, np.random.Generator], Capture]:
     def apply(c: Capture, up: np.ndarray, rng: np.random.Generator) -> Capture:
         n = len(c.frames) // 2
@@ -215,6 +229,7 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("unlabelled", "exact", "five extra unlabelled points '*101'...", _unlabelled),
     Variant("thin2", "degraded", "every 2nd frame, half the rate", _thin(2)),
     Variant("thin4", "degraded", "every 4th frame, a quarter of the rate", _thin(4)),
+    Variant("upsample8", "degraded", "8x the rate, interpolated", _upsample(8)),
     Variant("first_half", "degraded", "the first half of the frames", _half(0)),
     Variant("second_half", "degraded", "the second half of the frames", _half(1)),
     Variant("reversed", "degraded", "time reversed", _reverse),
