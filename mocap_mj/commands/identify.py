@@ -235,8 +235,8 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
 def _without_ghosts(
     pset: ParameterSet, trials: list[TrialData], ranges: list[list[int]], found: list[Finding]
 ) -> list[TrialData]:
-    """The trials with the samples of their ``ghost`` findings missing (they are not the
-    marker, and a least-squares fit would follow them)."""
+    """The trials with the samples their ``ghost`` and ``jump`` findings name missing (they
+    are not the marker, and a least-squares fit would follow them)."""
     return [
         t._replace(markers=without_ghosts(t.markers, pset, found, t.name, r[0]))
         for t, r in zip(trials, ranges, strict=True)
