@@ -31,10 +31,11 @@ from mocap_synth import SynthConfig, synthesize
 ROOT = Path(__file__).resolve().parents[1]
 REAL = ROOT.parent / "shared" / "data" / "real"
 SKIP = "../shared/data/real not present: real-data checks need the shared folder beside the repo"
-#: Exact transforms: measured <= 0.03 mm on two trials x eight transforms
-#: (benchmarks/capture_variants.py; docs/real-data.md): the numbers differ only by rounding,
-#: which moves where the LM's relative-cost-change test stops. 0.1 mm keeps a margin.
-EXACT_MM = 0.1
+#: Exact transforms (benchmarks/capture_variants.py's EXACT_MM and its argument): the numbers
+#: differ only by rounding, which moves where the LM's relative-cost-change test stops along
+#: a flat direction of the cost: up to 0.18 mm measured (Qualisys.c3d), 0.0000 mm on this
+#: cropped trial. A heading-, unit- or name-dependent start would move lengths by mm.
+EXACT_MM = 0.5
 
 
 def _bench() -> ModuleType:
