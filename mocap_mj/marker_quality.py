@@ -20,6 +20,14 @@ positions (T, M, 3) [m] and the model's segment (body) of each marker:
     more than a body segment can accelerate in a frame, :data:`ACCEL_MAX` dt^2 and at least
     :data:`JUMP_MIN`; when another marker jumps at the same frame onto this one's
     prediction and back later, the two labels are swapped over that frame range.
+``ghost``
+    In some frames a marker's distance to every other marker of its segment departs from
+    that distance's median over the trial by more than :data:`GHOST_MIN` (40 mm), counting
+    only the distances rigid enough otherwise (p5-p95 within SPREAD_MAX): a ghost or a
+    momentary mislabel, found whatever the frame rate (``jump`` cannot see a 50-100 mm
+    ghost below about 60 Hz, where a body segment may move that far between frames). When
+    the segment has two markers, the one further from the midpoint of its neighbouring
+    frames is named.
 ``distance`` / ``asymmetry``
     The median distance between two Plug-in Gait landmarks of one bone (elbow-wrist,
     shoulder-elbow, knee-ankle, heel-toe) outside the range of any person 0.85-2.1 m tall
@@ -38,7 +46,7 @@ frames (no solve): it runs on hour-long recordings too.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import mujoco
@@ -50,11 +58,13 @@ __all__ = [
     "ACCEL_MAX",
     "ASYMMETRY_MAX",
     "BONE_FRACTIONS",
+    "GHOST_MIN",
     "JUMP_MIN",
     "SPREAD_MAX",
     "STEP_MIN",
     "Finding",
     "check_marker_quality",
+    "drop_ghosts",
     "exclude_markers",
     "marker_segments",
     "parse_marker_list",
@@ -67,6 +77,10 @@ __all__ = [
 #: The largest range on the shared real trials is 31 mm (RTHI-RKNE, functional knee trial:
 #: thigh skin sliding with flexion); 50 mm leaves margin for faster motion.
 SPREAD_MAX = 0.050
+#: Departure [m] of one frame's same-segment distance from its median over the trial above
+#: which the frame is off its segment (``ghost``): above the 31 mm p5-p95 range of soft tissue
+#: on the shared trials (SPREAD_MAX's comment), so sliding skin stays below it.
+GHOST_MIN = 0.040
 #: Persistent change [m] of a same-segment distance's median at one frame (a re-stuck marker).
 STEP_MIN = 0.020
 #: Largest acceleration [m/s^2] of a skin marker (about 30 g: above heel strike and hand
@@ -110,11 +124,14 @@ _STEP_BLOCKS = 400
 class Finding:
     """One piece of evidence that marker data cannot be trusted.
 
-    file: the marker file; kind: ``spread``, ``step``, ``jump``, ``swap``, ``distance``,
+    file: the marker file; kind: ``spread``, ``step``, ``jump``, ``swap``, ``ghost``, ``distance``,
     ``asymmetry`` or ``placement``;
     markers: the marker(s) it names, suspect first; frames: [first, last) of the file's
     frames it concerns (None: the whole trial); value_mm: the measured figure [mm];
-    expected: what a trustworthy marker would give; message: the one-line text.
+    expected: what a trustworthy marker would give; message: the one-line text; samples:
+    the file's frames of the first marker's samples that are not the marker (``ghost``: the
+    frames off the segment; ``jump``: the frame each jump lands on; else empty):
+    :func:`drop_ghosts` removes them from the fit.
     """
 
     file: str
@@ -124,6 +141,7 @@ class Finding:
     value_mm: float
     expected: str
     message: str
+    samples: tuple[int, ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -156,8 +174,37 @@ def check_marker_quality(
     found: list[Finding] = []
     found += _segment_findings(path, names, x, segments, first_frame)
     found += _jump_findings(path, names, x, rate, first_frame)
+    found += _ghost_findings(path, names, x, segments, first_frame)
     found += _bone_findings(path, names, x)
     return found
+
+
+def drop_ghosts(
+    markers: np.ndarray,
+    names: Sequence[str],
+    findings: Sequence[Finding],
+    path: str,
+    *,
+    first_frame: int = 0,
+) -> tuple[np.ndarray, int]:
+    """markers (T, M, 3) [m] of file ``path`` with the samples its ``ghost`` and ``jump``
+    findings name missing (NaN; on a copy when there is any), and how many were dropped.
+
+    A sample off every rigid distance of its segment by more than GHOST_MIN, or one that
+    lands off its track further than a body segment accelerates, is not the marker (or, for
+    a jump to a new place for good, one sample of it: little lost), and a least-squares fit
+    follows it: a knee marker 50-100 mm off in 1 % of the
+    frames moved a joint-centre distance by 0.9-1.7 mm on the shared trials
+    (docs/real-data.md, "The same person, captured differently"). ``first_frame``: the file's
+    frame of row 0, as given to :func:`check_marker_quality`.
+    """
+    drop = {(f.markers[0], t) for f in findings if f.file == path for t in f.samples}
+    if not drop:
+        return markers, 0
+    out = np.array(markers, dtype=float)
+    for name, t in drop:
+        out[t - first_frame, list(names).index(name)] = np.nan
+    return out, len(drop)
 
 
 def marker_segments(model: mujoco.MjModel) -> list[str]:
@@ -282,6 +329,64 @@ def _segment_findings(
     return out
 
 
+def _ghost_findings(
+    path: str, names: Sequence[str], x: np.ndarray, segments: Sequence[str], first: int
+) -> list[Finding]:
+    """``ghost`` findings: frames where a marker is off its segment (module docstring)."""
+    by_segment: dict[str, list[int]] = {}
+    for i, s in enumerate(segments):
+        by_segment.setdefault(s, []).append(i)
+    off = np.zeros(x.shape[:2], dtype=bool)  # (T, M)
+    size = np.zeros(x.shape[:2])
+    for members in by_segment.values():
+        for i in members:
+            mates = [j for j in members if j != i]
+            dev = []
+            for j in mates:
+                d = np.linalg.norm(x[:, i] - x[:, j], axis=1)
+                ok = np.isfinite(d)
+                if ok.sum() < 10:
+                    continue
+                p5, p95 = np.percentile(d[ok], [5, 95])
+                if p95 - p5 <= SPREAD_MAX:  # otherwise a ``spread``: not rigid enough
+                    dev.append(np.where(ok, np.abs(d - np.median(d[ok])), np.nan))
+            if not dev:
+                continue
+            with np.errstate(invalid="ignore"):
+                low = np.min(np.stack(dev), axis=0)  # the least departure over the mates
+                off[:, i] = low > GHOST_MIN
+            size[:, i] = np.nan_to_num(low)
+        if len(members) == 2:  # both depart together: name the one off its own track
+            a, b = members
+            both = off[:, a] & off[:, b]
+            if both.any():
+                mid = np.full_like(x[:, members], np.nan)
+                mid[1:-1] = 0.5 * (x[:-2, members] + x[2:, members])
+                err = np.nan_to_num(np.linalg.norm(x[:, members] - mid, axis=2))  # (T, 2)
+                off[both, a] = err[both, 0] >= err[both, 1]
+                off[both, b] = ~off[both, a]
+    out: list[Finding] = []
+    for col in np.flatnonzero(off.any(axis=0)):
+        ts = np.flatnonzero(off[:, col])
+        if len(ts) > 0.05 * len(x):
+            continue  # off for long: a ``spread`` or ``step``, not a ghost
+        shown = ", ".join(str(first + t) for t in ts[:5]) + (", ..." if len(ts) > 5 else "")
+        biggest = float(size[ts, col].max())
+        line = _line(
+            path,
+            "ghost",
+            (names[int(col)],),
+            (first + int(ts[0]), first + int(ts[-1]) + 1),
+            biggest * 1e3,
+            f"<= {GHOST_MIN * 1e3:.0f} mm from its segment's median distances",
+            f"{names[int(col)]}: off its segment in {len(ts)} frame(s), at frame(s) {shown}, "
+            f"by up to {biggest * 1e3:.0f} mm (a ghost or a momentary mislabel?): those "
+            "samples are left out of the fit",
+        )
+        out.append(replace(line, samples=tuple(first + int(t) for t in ts)))
+    return out
+
+
 def _step(d: np.ndarray) -> tuple[float, int, float, float] | None:
     """The largest persistent change of d (n,) [m]: (size, first index after, level before,
     level after), or None when below STEP_MIN.
@@ -385,18 +490,18 @@ def _jump_findings(
         ts = [t for t, _ in events]
         biggest = max(e for _, e in events)
         shown = ", ".join(str(first + t) for t in ts[:5]) + (", ..." if len(ts) > 5 else "")
-        out.append(
-            _line(
-                path,
-                "jump",
-                (names[i],),
-                (first + ts[0], first + ts[-1] + 1),
-                biggest * 1e3,
-                f"<= {limit * 1e3:.0f} mm per frame at {rate:g} Hz",
-                f"{names[i]}: {len(ts)} jump(s) off its track, at frame(s) {shown}, up to "
-                f"{biggest * 1e3:.0f} mm (a ghost, a label change or a re-stick?)",
-            )
+        line = _line(
+            path,
+            "jump",
+            (names[i],),
+            (first + ts[0], first + ts[-1] + 1),
+            biggest * 1e3,
+            f"<= {limit * 1e3:.0f} mm per frame at {rate:g} Hz",
+            f"{names[i]}: {len(ts)} jump(s) off its track, at frame(s) {shown}, up to "
+            f"{biggest * 1e3:.0f} mm (a ghost, a label change or a re-stick?): the samples "
+            "at the jumps are left out of the fit",
         )
+        out.append(replace(line, samples=tuple(first + t for t in ts)))
     return out
 
 

@@ -330,8 +330,11 @@ def test_round_trip_to_a_micrometre_with_nans(tmp_path: Path, save, suffix: str)
 
 def test_csv_round_trip_keeps_arbitrary_axes_via_up_setting(tmp_path: Path) -> None:
     # Data with feet above the head would be flipped by detection; the up=z line prevents it.
+    # (Turned 180 degrees about x: negating all three axes would mirror the subject, which
+    # the loader refuses.)
     traj = _with_gaps()
-    flipped = MarkerTrajectory(traj.times, -traj.positions, traj.names, traj.rate, {})
+    turned = traj.positions * np.array([1.0, -1.0, -1.0])
+    flipped = MarkerTrajectory(traj.times, turned, traj.names, traj.rate, {})
     path = tmp_path / "flip.csv"
     save_csv(path, flipped)
     back = load_markers(path)

@@ -212,6 +212,7 @@ def test_ik_warns_records_and_strict_refuses(
         "findings": [],
         "suspects": {},
         "excluded": ["LWRA", "LWRB"],
+        "samples_dropped": 0,
     }
     assert set(summary["markers_without_data"]) == {"LWRA", "LWRB"}
 

@@ -21,6 +21,7 @@ from ..errors import MocapError
 from ..marker_quality import (
     Finding,
     check_marker_quality,
+    drop_ghosts,
     exclude_markers,
     marker_segments,
     suspects,
@@ -83,8 +84,18 @@ def check_trials(
         "findings": [f.to_json() for f in found],
         "suspects": named,
         "excluded": list(excluded),
+        "samples_dropped": len({(f.file, f.markers[0], t) for f in found for t in f.samples}),
     }
     return found, entry
+
+
+def without_ghosts(
+    markers: np.ndarray, pset: ParameterSet, found: Sequence[Finding], path: str, first: int
+) -> np.ndarray:
+    """markers (T, M, 3) [m] of ``path`` (row 0 = the file's frame ``first``) with the
+    samples its ``ghost`` and ``jump`` findings name missing
+    (:func:`~mocap_mj.marker_quality.drop_ghosts`)."""
+    return drop_ghosts(markers, pset.marker_names, found, path, first_frame=first)[0]
 
 
 def drop_excluded(markers: np.ndarray, pset: ParameterSet, excluded: Sequence[str]) -> np.ndarray:

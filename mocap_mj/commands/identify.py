@@ -39,6 +39,7 @@ from ..identify.problem import TrialData
 from ..identify.selection import select_in_trials
 from ..identify.tissue import SLIDES
 from ..ik import IKSettings
+from ..marker_quality import Finding
 from ..parameters import ParameterSet
 from ..subject import Subject
 from ._markers import add_marker_options, load_trial, model_for
@@ -48,6 +49,7 @@ from ._quality import (
     drop_excluded,
     parse_marker_list,
     quality_text,
+    without_ghosts,
 )
 from ._subject import add_subject_options, subject_from_args
 
@@ -212,12 +214,14 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
             raise MocapError("--select: the paper's solver samples its own frames (--sampling)")
         from .paper import run_paper
 
-        check_trials(args, pset, to_check, excluded)
+        found, _ = check_trials(args, pset, to_check, excluded)
+        trials = _without_ghosts(pset, trials, ranges, found)
         with output_folder(args.out, force=args.force) as out:
             return run_paper(args, pset, trials, ranges, out)
     subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
     count = _select_count(args.select, sum(len(t.markers) for t in trials), len(trials))
-    _, quality = check_trials(args, pset, to_check, excluded)  # after every bad-input error
+    found, quality = check_trials(args, pset, to_check, excluded)  # after every bad-input error
+    trials = _without_ghosts(pset, trials, ranges, found)
     if args.strict and not args.no_anatomy:
         _refuse_misplaced_t10(pset, trials, subject)
     return into_out_folder(
@@ -226,6 +230,17 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
             args, pset, loaded, trials, ranges, subject, out, count, read_seconds, quality
         ),
     )
+
+
+def _without_ghosts(
+    pset: ParameterSet, trials: list[TrialData], ranges: list[list[int]], found: list[Finding]
+) -> list[TrialData]:
+    """The trials with the samples their ``ghost`` and ``jump`` findings name missing (they
+    are not the marker, and a least-squares fit would follow them)."""
+    return [
+        t._replace(markers=without_ghosts(t.markers, pset, found, t.name, r[0]))
+        for t, r in zip(trials, ranges, strict=True)
+    ]
 
 
 def _refuse_misplaced_t10(pset: ParameterSet, trials: list[TrialData], subject: Subject) -> None:

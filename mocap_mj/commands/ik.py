@@ -41,6 +41,7 @@ from ._quality import (
     drop_excluded,
     parse_marker_list,
     quality_text,
+    without_ghosts,
 )
 
 
@@ -125,9 +126,10 @@ def run(args: argparse.Namespace) -> int:
     excluded = parse_marker_list(args.exclude_markers, pset.marker_names)
     trial = trial._replace(markers=drop_excluded(trial.markers, pset, excluded))
     check_markers(trial.path, pset.marker_names, trial.markers[sl], args.min_markers)
-    _, quality = check_trials(
+    found, quality = check_trials(
         args, pset, [(trial.path, trial.markers[sl], trial.rate, sl.start)], excluded
     )
+    trial = trial._replace(markers=without_ghosts(trial.markers, pset, found, trial.path, 0))
     return into_out_folder(args, lambda out: _solve_and_write(args, pset, trial, sl, out, quality))
 
 

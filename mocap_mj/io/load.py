@@ -12,6 +12,7 @@ import numpy as np
 
 from mocap_mj.errors import InputFileError
 from mocap_mj.io.formats import RawMarkers, read_raw
+from mocap_mj.io.handedness import HANDEDNESS_MARKERS, check_handedness
 from mocap_mj.io.names import builtin_alias, is_non_marker, load_marker_map, split_prefix
 from mocap_mj.io.orientation import (
     FOOT_MARKERS,
@@ -51,7 +52,9 @@ def load_markers(
     ``marker_map`` lists; ``marker_map`` renames; other names that spell a Plug-in Gait marker
     (``lasi``, ``L_IAS``, ``LFRA``: :func:`~mocap_mj.io.names.builtin_alias`) take its name
     when that is unambiguous; units become metres; missing samples become NaN; the marker
-    cloud's size is checked against the unit; the vertical axis is rotated onto +Z.
+    cloud's size is checked against the unit; the vertical axis is rotated onto +Z; a
+    mirrored recording (left markers on the subject's right: a left-handed export or every
+    left/right label swapped) is refused (:mod:`mocap_mj.io.handedness`).
 
     One missing-data rule holds in every format: a sample is missing when any coordinate is
     NaN or an empty cell, when all three coordinates are exactly 0 (how many tools write a
@@ -98,7 +101,8 @@ def load_markers(
     InputFileError
         Unreadable, truncated or malformed file (the message names the file and the line,
         byte or C3D group), unknown units, a marker cloud whose size does not fit the unit,
-        several subjects without ``subject``, duplicate marker names, or no markers at all.
+        several subjects without ``subject``, duplicate marker names, no markers at all, or
+        a mirrored recording.
     UnknownNameError
         ``up`` is not an axis name.
     """
@@ -198,6 +202,7 @@ class Reading:
             raw, survey.up_positions(), survey.up_names, wanted_up
         )
         self.rotation = rotation_to_z_up(up_axis)
+        check_handedness(file, survey.up_positions() @ self.rotation.T, survey.up_names)
         self.source: dict[str, Any] = {
             "path": str(file.resolve()),
             "format": raw.format,
@@ -248,13 +253,14 @@ class Reading:
 class _Survey:
     """What the loader needs from every frame before it converts any: missing and zero
     samples per marker, the cloud's extent per frame, and the markers the vertical axis is
-    detected from (:func:`mocap_mj.io.orientation.detect_up`: head, trunk and foot)."""
+    detected from (:func:`mocap_mj.io.orientation.detect_up`: head, trunk and foot) and
+    the handedness checked from (:mod:`mocap_mj.io.handedness`: pelvis and head)."""
 
     def __init__(self, names: list[str]) -> None:
         n = len(names)
         self.missing, self.zeros = np.zeros(n, dtype=int), np.zeros(n, dtype=int)
         self.extents: list[np.ndarray] = [np.zeros(0)]
-        wanted = {*HEAD_MARKERS, *TRUNK_MARKERS, *FOOT_MARKERS}
+        wanted = {*HEAD_MARKERS, *TRUNK_MARKERS, *FOOT_MARKERS, *HANDEDNESS_MARKERS}
         self.up_columns = [i for i, name in enumerate(names) if name in wanted]
         self.up_names = [names[i] for i in self.up_columns]
         self._up: list[np.ndarray] = []
