@@ -105,10 +105,11 @@ class LMSettings:
     max_iterations : int
     tol_noise : float
         An accepted step that lowers F by less than ``tol_noise * sigma^2`` ends the solve
-        (sigma: per-axis noise estimated from the fit). Near the minimum a step that lowers F
-        by delta moves theta by sqrt(2 delta) / sigma standard deviations (Mahalanobis, in
-        the reduced information): with 1.0, at most 1.4 standard deviations along a single
-        direction.
+        (sigma: per-axis noise estimated from the fit, each sample weighed by its weight when
+        the trials carry sample weights, :meth:`IdentificationProblem.weighted_sigma`). Near
+        the minimum a step that lowers F by delta moves theta by sqrt(2 delta) / sigma
+        standard deviations (Mahalanobis, in the reduced information): with 1.0, at most 1.4
+        standard deviations along a single direction.
     tol_cost : float
         Relative decrease of F below which an accepted step ends the solve.
     tol_theta : float [m]
@@ -560,7 +561,8 @@ def _iterate(
             return False
         schedule.last_rmse = stats.rmse
     schedule.settled |= stalled
-    stop = stop_reason(st, it, accepted, gain, cost, stats.sigma, step, state.mu)
+    sigma = stats.sigma if problem.sample_weights is None else problem.weighted_sigma(state.dist)
+    stop = stop_reason(st, it, accepted, gain, cost, sigma, step, state.mu)
     # The stall is judged on the objective (its square root, in RMSE's units): with sample
     # weights or priors the unweighted marker RMSE may rise while F still falls.
     level = float(np.sqrt(trace[-1].cost))

@@ -217,6 +217,19 @@ class IdentificationProblem:
         sigma = rmse / np.sqrt(3 * max(1.0 - n_unk / max(n_res, 1), 1e-6))
         return FitStatistics(rmse, float(sigma), n_res, n_unk)
 
+    def weighted_sigma(self, dist: np.ndarray) -> float:
+        """The noise estimate [m] of :meth:`statistics` with each sample weighed by its
+        ``sample_weights`` (the same without them): the noise of a unit-weight sample, in the
+        units of the weighted cost F that the solver's noise test compares a gain with. A
+        weighed-down sample (a sliding landmark) would otherwise inflate it, and the solver
+        would stop while F still falls by more than the noise."""
+        if self.sample_weights is None:
+            return self.statistics(dist).sigma
+        stats = self.statistics(dist)
+        w = np.where(self.present, self.sample_weights, 0.0)
+        rmse = float(np.sqrt(np.sum(w * dist**2) / max(self.present.sum(), 1)))
+        return rmse / np.sqrt(3 * max(1.0 - stats.n_unknowns / max(stats.n_residuals, 1), 1e-6))
+
     def reduce(self, sl: slice, w: np.ndarray, mu: float, *, limits: bool = True) -> ReducedChunk:
         """Frames ``sl`` with weights w (n, M) eliminated with damping mu (compiled blocks).
 
