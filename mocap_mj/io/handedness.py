@@ -38,10 +38,13 @@ import numpy as np
 
 from mocap_mj.errors import InputFileError
 
-__all__ = ["GROUPS", "HANDEDNESS_MARKERS", "MIN_SINE", "UP_PAIRS", "check_handedness"]
+__all__ = ["GROUPS", "HANDEDNESS_MARKERS", "MAX_FRAMES", "MIN_SINE", "UP_PAIRS", "check_handedness"]
 
 #: |median sine| above which a group decides (module docstring).
 MIN_SINE = 0.5
+#: Frames the medians are taken over at most, evenly spaced (a global property of the
+#: recording: 20,000 frames decide it as well as an hour's 360,000, without copying them all).
+MAX_FRAMES = 20_000
 
 
 class Group(NamedTuple):
@@ -133,6 +136,7 @@ def check_handedness(file: Path | str, positions: np.ndarray, names: Sequence[st
         what was expected and the two possible causes.
     """
     index = {n: i for i, n in enumerate(names)}
+    positions = positions[:: max(1, -(-len(positions) // MAX_FRAMES))]
     up = _subject_up(positions, index)
     if up is None:
         return

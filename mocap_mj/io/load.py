@@ -198,11 +198,11 @@ class Reading:
         for chunk in chunks():
             survey.add(*self._metres(chunk))
         check_extent(file, median_extent(np.concatenate(survey.extents)), unit, units_note)
-        up_axis, up_how, detected = _vertical(
-            raw, survey.up_positions(), survey.up_names, wanted_up
-        )
+        surveyed = survey.up_positions()
+        up_axis, up_how, detected = _vertical(raw, surveyed, survey.up_names, wanted_up)
         self.rotation = rotation_to_z_up(up_axis)
-        check_handedness(file, survey.up_positions() @ self.rotation.T, survey.up_names)
+        check_handedness(file, surveyed, survey.up_names)  # in any axes
+        del surveyed
         self.source: dict[str, Any] = {
             "path": str(file.resolve()),
             "format": raw.format,
