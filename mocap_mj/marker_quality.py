@@ -186,9 +186,11 @@ def drop_ghosts(
     path: str,
     *,
     first_frame: int = 0,
+    in_place: bool = False,
 ) -> tuple[np.ndarray, int]:
     """markers (T, M, 3) [m] of file ``path`` with the samples its ``ghost`` and ``jump``
-    findings name missing (NaN; on a copy when there is any), and how many were dropped.
+    findings name missing (NaN; on a copy when there is any, unless ``in_place``: default
+    False, the caller's array is left as it is), and how many were dropped.
 
     A sample off every rigid distance of its segment by more than GHOST_MIN, or one that
     lands off its track further than a body segment accelerates, is not the marker (or, for
@@ -201,7 +203,7 @@ def drop_ghosts(
     drop = {(f.markers[0], t) for f in findings if f.file == path for t in f.samples}
     if not drop:
         return markers, 0
-    out = np.array(markers, dtype=float)
+    out = markers if in_place else np.array(markers, dtype=float)
     for name, t in drop:
         out[t - first_frame, list(names).index(name)] = np.nan
     return out, len(drop)

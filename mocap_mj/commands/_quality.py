@@ -94,8 +94,11 @@ def without_ghosts(
 ) -> np.ndarray:
     """markers (T, M, 3) [m] of ``path`` (row 0 = the file's frame ``first``) with the
     samples its ``ghost`` and ``jump`` findings name missing
-    (:func:`~mocap_mj.marker_quality.drop_ghosts`)."""
-    return drop_ghosts(markers, pset.marker_names, found, path, first_frame=first)[0]
+    (:func:`~mocap_mj.marker_quality.drop_ghosts`). A long recording's markers are a memory
+    map in the command's scratch folder (:func:`~mocap_mj.commands._markers.load_trial`),
+    the command's own: the samples are dropped in it, not in a copy of the whole recording."""
+    own = isinstance(markers, np.memmap) and markers.flags.writeable
+    return drop_ghosts(markers, pset.marker_names, found, path, first_frame=first, in_place=own)[0]
 
 
 def drop_excluded(markers: np.ndarray, pset: ParameterSet, excluded: Sequence[str]) -> np.ndarray:
