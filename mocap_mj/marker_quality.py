@@ -280,11 +280,8 @@ def _segment_findings(
     path: str, names: Sequence[str], x: np.ndarray, segments: Sequence[str], first: int
 ) -> list[Finding]:
     xs, idx = _sampled(x)
-    by_segment: dict[str, list[int]] = {}
-    for i, s in enumerate(segments):
-        by_segment.setdefault(s, []).append(i)
     out: list[Finding] = []
-    for members in by_segment.values():
+    for members in _by_segment(segments):
         spread: dict[tuple[int, int], float] = {}
         steps: dict[tuple[int, int], tuple[float, int, float, float]] = {}
         for a_pos, i in enumerate(members):
@@ -331,27 +328,33 @@ def _segment_findings(
     return out
 
 
+def _by_segment(segments: Sequence[str]) -> list[list[int]]:
+    """The marker indices of each segment, in the order the segments first appear."""
+    groups: dict[str, list[int]] = {}
+    for i, s in enumerate(segments):
+        groups.setdefault(s, []).append(i)
+    return list(groups.values())
+
+
 def _ghost_findings(
     path: str, names: Sequence[str], x: np.ndarray, segments: Sequence[str], first: int
 ) -> list[Finding]:
     """``ghost`` findings: frames where a marker is off its segment (module docstring)."""
-    by_segment: dict[str, list[int]] = {}
-    for i, s in enumerate(segments):
-        by_segment.setdefault(s, []).append(i)
     off = np.zeros(x.shape[:2], dtype=bool)  # (T, M)
     size = np.zeros(x.shape[:2])
-    for members in by_segment.values():
-        for i in members:
-            mates = [j for j in members if j != i]
-            dev = []
-            for j in mates:
+    for members in _by_segment(segments):
+        rigid: dict[tuple[int, int], np.ndarray] = {}  # a pair's departure (T,) [m]
+        for a_pos, i in enumerate(members):
+            for j in members[a_pos + 1 :]:
                 d = np.linalg.norm(x[:, i] - x[:, j], axis=1)
                 ok = np.isfinite(d)
                 if ok.sum() < 10:
                     continue
                 p5, p95 = np.percentile(d[ok], [5, 95])
                 if p95 - p5 <= SPREAD_MAX:  # otherwise a ``spread``: not rigid enough
-                    dev.append(np.where(ok, np.abs(d - np.median(d[ok])), np.nan))
+                    rigid[(i, j)] = np.where(ok, np.abs(d - np.median(d[ok])), np.nan)
+        for i in members:
+            dev = [v for pair, v in rigid.items() if i in pair]
             if not dev:
                 continue
             with np.errstate(invalid="ignore"):

@@ -450,14 +450,12 @@ def _depth_without_t10(rows: _Rows, s: float) -> None:
     :data:`THORAX_SPREAD` (8 %, adults of one stature) of the nominal chest's C7-to-sternum
     distance times ``s`` (the stature ratio): chest depth varies between adults of one
     stature about as much as trunk lengths do (Dumas et al. 2007 Table 2)."""
-    for front in ("STRN", "CLAV"):
-        if not _has_data(rows.pset, front) or not _has_data(rows.pset, "C7"):
-            continue
+    front = next((m for m in ("STRN", "CLAV") if _has_data(rows.pset, m)), None)
+    if front is not None and _has_data(rows.pset, "C7"):
         along, up, length = _nominal_fractions(rows.pset, front, "C7")
         terms = _add({front + ".x": 1.0}, _rotated(front, "C7", along, up, "x"))
         rows.add(terms, 0.0, THORAX_SPREAD * length * s,
                  f"T12/L1.x from {front} and C7 (no T10)")  # fmt: skip
-        break
     # The thorax frame's tilt against its markers, which Plug-in Gait's thorax axis row
     # (on T10) fixed: the frame's z axis through T12/L1 and C7/T1 at the nominal model's
     # angle, a convention row (both joints are placed from the markers).
@@ -468,11 +466,15 @@ def _depth_without_t10(rows: _Rows, s: float) -> None:
                  f"thorax tilt (no T10): neck_depth = {ratio:.3f} thorax_length")  # fmt: skip
 
 
+def _nominal_offset(pset: ParameterSet, marker: str) -> np.ndarray:
+    """The nominal model's offset (3,) [m] of ``marker`` in its body's frame."""
+    return pset.split(pset.nominal)[1][pset.marker_index(marker)]
+
+
 def _nominal_fractions(pset: ParameterSet, v_from: str, v_to: str) -> tuple[float, float, float]:
     """(along, up, length [m]): the nominal thorax origin as ``v_from + along d + up R90 d``,
     d = ``v_to - v_from`` in the sagittal (x, z) plane (:func:`_rotated`), and |d|."""
-    k, names = pset.n_kappa, pset.marker_names
-    a, b = (pset.nominal[k + 3 * names.index(m) :][:3] for m in (v_from, v_to))
+    a, b = (_nominal_offset(pset, m) for m in (v_from, v_to))
     dx, dz = b[0] - a[0], b[2] - a[2]
     # origin - a = along (dx, dz) + up (-dz, dx)
     along, up = np.linalg.solve(np.array([[dx, -dz], [dz, dx]]), -np.array([a[0], a[2]]))
@@ -486,8 +488,7 @@ def _t10_carried(pset: ParameterSet, shift: float) -> dict[str, float]:
     names = pset.marker_names
     if not shift or "C7" not in names or "T10" not in names:
         return {"x": 0.0, "z": 0.0}
-    k = pset.n_kappa
-    c7, t10 = (pset.nominal[k + 3 * names.index(m) :][:3] for m in ("C7", "T10"))
+    c7, t10 = (_nominal_offset(pset, m) for m in ("C7", "T10"))
     u = (t10 - c7) / np.linalg.norm(t10 - c7)
     # _rotated(C7, T10, along, up): x = along dx - up dz, z = along dz + up dx; plus T10 itself.
     return {

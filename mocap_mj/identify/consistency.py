@@ -100,9 +100,14 @@ def trial_residuals(
 
 def correlation_time(pset: ParameterSet, result: LMResult, trials: Sequence[TrialData]) -> float:
     """Residual correlation time [frames] of a fit: T / sum_i (T_i / tau_i) over its trials."""
-    res = trial_residuals(pset, result, trials)
-    independent = sum(len(r) / residual_correlation_time(r) for r in res)
-    return sum(len(r) for r in res) / max(independent, 1e-12)
+    return pooled_correlation_time(trial_residuals(pset, result, trials))
+
+
+def pooled_correlation_time(residuals: Sequence[np.ndarray]) -> float:
+    """T / sum_i (T_i / tau_i) [frames] over the trials' residuals (T_i, M, 3) [m]
+    (:func:`trial_residuals`)."""
+    independent = sum(len(r) / residual_correlation_time(r) for r in residuals)
+    return sum(len(r) for r in residuals) / max(independent, 1e-12)
 
 
 def parameter_covariance(

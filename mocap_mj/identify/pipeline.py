@@ -23,7 +23,7 @@ from ..strict_json import dumps, jsonable
 from ..subject import Subject
 from ..tables import write_joint_centres_csv
 from .anatomy import ASYMMETRY_SIGMA, landmark_prior, symmetric_prior
-from .consistency import correlation_time, trial_residuals
+from .consistency import pooled_correlation_time, trial_residuals
 from .identifiability import Identifiability
 from .initial import estimate_stature, place_markers, scaled_theta, segment_scales
 from .lm import LMSettings, identify_lm, solver_joint_range
@@ -120,7 +120,7 @@ def identify_to_folder(
     theta0, scales, pset = _initial_theta(trials, pset, theta0, init)
     subject = _with_stature(subject or Subject(), trials, pset)
     stature = subject.stature()
-    t10 = t10_check(pset, trials, subject) if anatomical else None
+    t10 = t10_placement(pset, trials, subject) if anatomical else None  # stature estimated
     prior_options: dict[str, Any] = {
         "subject": subject,
         "size": stature[0] / NOMINAL_HEIGHT if stature else scales.get("overall", 1.0),
@@ -761,11 +761,10 @@ def solve_anatomical(
         lower=lower,
         upper=upper,
     )
-    tau = correlation_time(pset, result, trials)
-    noise = artefact_noise(result.sigma, tau)
     residuals = trial_residuals(pset, result, trials)
-    taus = [residual_correlation_time(r, about_mean=False) for r in residuals]
-    per_trial = trial_weights(taus, [len(r) for r in residuals])
+    tau = pooled_correlation_time(residuals)
+    noise = artefact_noise(result.sigma, tau)
+    taus, per_trial = _trial_weighting(residuals)
     weighting: dict[str, Any] = {
         "sigma_mm": result.sigma * 1e3,
         "tau_frames": tau,
@@ -810,9 +809,7 @@ def solve_anatomical(
     for _ in range(TRIAL_WEIGHT_ROUNDS - 1):
         if all(w == 1.0 for w in per_trial):
             break
-        taus = [residual_correlation_time(r, about_mean=False)
-                for r in trial_residuals(pset, result, trials)]  # fmt: skip
-        update = trial_weights(taus, [len(r) for r in residuals])
+        taus, update = _trial_weighting(trial_residuals(pset, result, trials))
         if max(abs(np.log(u / w)) for u, w in zip(update, per_trial, strict=True)) < np.log(
             TRIAL_WEIGHT_SETTLED
         ):
@@ -828,6 +825,14 @@ def solve_anatomical(
     result.init_seconds = first.init_seconds
     result.iterations = iterations
     return result, weighting
+
+
+def _trial_weighting(residuals: Sequence[np.ndarray]) -> tuple[list[float], list[float]]:
+    """Each trial's residual correlation time about zero [frames] and its weight [1]
+    (:func:`~mocap_mj.identify.noise.trial_weights`) from the trials' residuals (T_i, M, 3)
+    [m]."""
+    taus = [residual_correlation_time(r, about_mean=False) for r in residuals]
+    return taus, trial_weights(taus, [len(r) for r in residuals])
 
 
 def _trials_weighed(trials: Sequence[TrialData], weights: Sequence[float]) -> list[TrialData]:

@@ -118,6 +118,12 @@ def loss_threshold(distances: np.ndarray, factor: float) -> float:
     return factor * (float(np.median(d)) / CHI3_MEDIAN if d.size else 1e-3)
 
 
+def _per_axis_noise(rmse: float, n_res: int, n_unk: int) -> float:
+    """Per-axis noise [m] from a 3D marker RMSE [m]: rmse / sqrt(3 (1 - unknowns /
+    residuals)), the residuals' degrees of freedom taken out."""
+    return float(rmse / np.sqrt(3 * max(1.0 - n_unk / max(n_res, 1), 1e-6)))
+
+
 class IdentificationProblem:
     """Pooled frames, loss, priors and box of one identification (see the module docstring).
 
@@ -214,8 +220,7 @@ class IdentificationProblem:
         n_res = int(3 * self.present.sum())
         n_unk = self.n_dofs + int(self.free.size)
         rmse = float(np.sqrt(np.sum(dist**2) / max(self.present.sum(), 1)))
-        sigma = rmse / np.sqrt(3 * max(1.0 - n_unk / max(n_res, 1), 1e-6))
-        return FitStatistics(rmse, float(sigma), n_res, n_unk)
+        return FitStatistics(rmse, _per_axis_noise(rmse, n_res, n_unk), n_res, n_unk)
 
     def weighted_sigma(self, dist: np.ndarray) -> float:
         """The noise estimate [m] of :meth:`statistics` with each sample weighed by its
@@ -225,10 +230,9 @@ class IdentificationProblem:
         would stop while F still falls by more than the noise."""
         if self.sample_weights is None:
             return self.statistics(dist).sigma
-        stats = self.statistics(dist)
         w = np.where(self.present, self.sample_weights, 0.0)
         rmse = float(np.sqrt(np.sum(w * dist**2) / max(self.present.sum(), 1)))
-        return rmse / np.sqrt(3 * max(1.0 - stats.n_unknowns / max(stats.n_residuals, 1), 1e-6))
+        return _per_axis_noise(rmse, int(3 * self.present.sum()), self.n_dofs + self.free.size)
 
     def reduce(self, sl: slice, w: np.ndarray, mu: float, *, limits: bool = True) -> ReducedChunk:
         """Frames ``sl`` with weights w (n, M) eliminated with damping mu (compiled blocks).
