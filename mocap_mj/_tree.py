@@ -1151,6 +1151,7 @@ class KappaTables(NamedTuple):
     Fields
     ------
     pair_k, pair_parent : (npair,) int, the parameter and the moved body's parent
+    pair_body : (npair,) int, the moved body (the pair moves the sites of its subtree)
     pair_dir : (npair, 3) float, direction in the parent's frame
     site_pairptr : (ns + 1,) int; site_pairs : (sum,) int, the pairs that move each site
     n_kappa : int
@@ -1162,6 +1163,7 @@ class KappaTables(NamedTuple):
     site_pairptr: np.ndarray
     site_pairs: np.ndarray
     n_kappa: int
+    pair_body: np.ndarray
 
 
 def kappa_tables(
@@ -1186,6 +1188,7 @@ def kappa_tables(
         ptr,
         flat,
         int(n_kappa),
+        np.array([b for _, b in pairs], dtype=np.int64),
     )
 
 
