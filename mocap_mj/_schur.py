@@ -96,6 +96,24 @@ def _hold_limits(tr, q, w, bmat):
 
 
 @_jit
+def _column_runs(cols, colptr):
+    """Each row's columns ``cols[colptr[i]:colptr[i + 1]]`` (ascending) as runs of
+    consecutive columns: (r, 2) [first, last + 1) and ptr (nrow + 1,)."""
+    runs = np.zeros((cols.size, 2), dtype=np.int64)
+    ptr = np.zeros(colptr.size, dtype=np.int64)
+    n = 0
+    for i in range(colptr.size - 1):
+        for e in range(colptr[i], colptr[i + 1]):
+            if e > colptr[i] and cols[e] == cols[e - 1] + 1:
+                runs[n - 1, 1] = cols[e] + 1
+            else:
+                runs[n, 0], runs[n, 1] = cols[e], cols[e] + 1
+                n += 1
+        ptr[i + 1] = n
+    return runs[:n].copy(), ptr
+
+
+@_jit
 def _pair_tables(tr, kt):
     """The structure the kinematic parameters' blocks are summed over (fixed per model).
 
@@ -152,6 +170,7 @@ def _schur_range(
     vp = np.zeros((kt.pair_k.size, 3))
     agg, mot, frc = w.agg, w.mot, w.frc  # the subtree sums of normal_equations
     pd_ptr, pd_dofs, pd_inside, pp = _pair_tables(tr, kt)
+    out_runs, out_ptr = _column_runs(y_cols, y_colptr)
     # B's free columns and g_q, [B_free, g] (nv, Pf + 1), are formed in place in yb (col:
     # each parameter's column there, -1 when frozen), written only at their structural
     # non-zeros (each dof's runs) and cleared there once read, so that no frame clears or
@@ -244,12 +263,19 @@ def _schur_range(
         _rows_lt_solve(tr, a, yb, y_runs, y_runptr)
         for i in range(nv):
             sd = 1.0 / np.sqrt(a[i, i])
-            c_lo, c_hi = y_colptr[i], y_colptr[i + 1]
-            at = y_base[i] + (t * y_row[i, 1] + y_row[i, 0]) * (c_hi - c_lo)
-            for c in range(c_hi - c_lo):
-                y_out[at + c] = yb[i, y_cols[c_lo + c]] * sd
-                yb[i, y_cols[c_lo + c]] = 0.0
-            yg_out[t, i] = yb[i, free.size] * sd
+            yi = yb[i]
+            at = np.uint64(
+                y_base[i] + (t * y_row[i, 1] + y_row[i, 0]) * (y_colptr[i + 1] - y_colptr[i])
+            )
+            for r in range(out_ptr[i], out_ptr[i + 1]):  # the row's columns, run by run
+                c_lo, c_hi = np.uint64(out_runs[r, 0]), np.uint64(out_runs[r, 1])
+                for c in range(c_lo, c_hi):
+                    y_out[at + (c - c_lo)] = yi[c] * sd
+                at += c_hi - c_lo
+            for r in range(y_runptr[i], y_runptr[i + 1]):  # cleared where the solve wrote
+                for c in range(np.uint64(y_runs[r, 0]), np.uint64(y_runs[r, 1])):
+                    yi[c] = 0.0
+            yg_out[t, i] = yi[free.size] * sd
 
 
 def gram_groups(tr: Tree, kt: KappaTables, free: np.ndarray) -> list[tuple[slice, np.ndarray]]:
