@@ -12,8 +12,9 @@ Timed: the Schur pass (`_schur._schur_range` alone, and `frame_blocks`: the kern
 Gram products), the pose finish (one and two IK iterations from the poses), the cold IK of
 the coarse phase's 100-frame subset (`IKSolver.solve_trial`), `fk` (`_tree.forward`),
 fk plus `normal_equations` (the IK's and the Schur pass's per-frame start, in a kernel of
-this script's own), the Gram products of the packed Y (`PackedY.gram`) and the reduced
-gradient (`_schur.reduced_gradient`).
+this script's own), the Gram products of the packed Y (`PackedY.gram`), the reduced gradient
+(`_schur.reduced_gradient`) and the IK of every frame (`IKSolver.solve_trial`: chains from
+cold starts, as `mocap-mj ik` runs).
 
 Run: python benchmarks/kernels.py [--repeats 40] [--only schur]
 """
@@ -168,6 +169,7 @@ def main() -> None:
                 n,
                 True,
             ),
+            ("IK of every frame (solve_trial)", lambda: solver.solve_trial(target), n, True),
             (
                 "cold IK of the 100-frame subset",
                 lambda: solver.solve_trial(target[sub]),

@@ -192,17 +192,20 @@ def _schur_range(
             ck = col[kk]
             if ck < 0:
                 continue
+            # a dof at or above the pair's body: vp . sum over b's subtree of w e_v
+            # = om . (M1_b x vp) + nu . (W_b vp)
+            a0, a1, a2 = sb[2] * v2 - sb[3] * v1, sb[3] * v0 - sb[1] * v2, sb[1] * v1 - sb[2] * v0
+            b0, b1, b2 = sb[0] * v0, sb[0] * v1, sb[0] * v2
             for e in range(pd_ptr[p], pd_ptr[p + 1]):
                 v = pd_dofs[e]
-                if pd_inside[e]:
+                if pd_inside[e]:  # a dof inside b's subtree: vp . f_v
                     f = frc[v]
                     yb[v, ck] += v0 * f[0] + v1 * f[1] + v2 * f[2]
-                else:  # e_v summed over b's subtree: om x M1_b + W_b nu
+                else:
                     m = mot[v]
-                    f0 = m[1] * sb[3] - m[2] * sb[2] + sb[0] * m[3]
-                    f1 = m[2] * sb[1] - m[0] * sb[3] + sb[0] * m[4]
-                    f2 = m[0] * sb[2] - m[1] * sb[1] + sb[0] * m[5]
-                    yb[v, ck] += v0 * f0 + v1 * f1 + v2 * f2
+                    yb[v, ck] += m[0] * a0 + m[1] * a1 + m[2] * a2 + (
+                        m[3] * b0 + m[4] * b1 + m[5] * b2
+                    )
         for e in range(pp.shape[0]):
             p, q = pp[e, 0], pp[e, 1]
             c_acc[kt.pair_k[p], kt.pair_k[q]] += agg[pp[e, 2], 0] * (
