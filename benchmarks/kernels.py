@@ -93,6 +93,80 @@ def timed(fn: Callable[[], Any], repeats: int) -> tuple[float, float]:
     return min(times), statistics.median(times)
 
 
+Case = tuple[str, Callable[[], Any], int, bool]
+
+
+def cases(
+    st: State, target: np.ndarray, w: np.ndarray, free: np.ndarray, sub: np.ndarray
+) -> list[Case]:
+    """(label, call, frames, parallel) of every kernel timed at one state (inputs as
+    :func:`inputs`; sub: the coarse phase's subset rows)."""
+    n = len(target)
+    tr, kt, qpos = st.tree, st.kt, st.qpos
+    nv = tr.dof_jnt.size
+    solver = IKSolver(st.kin)
+    n_par = kt.n_kappa + 3 * tr.site_body.size
+    blocks = _schur.frame_blocks(tr, kt, target, w, qpos, free, 1e-6)
+    y = blocks.y
+    kernel_outs = (
+        *y.kernel_args(),
+        np.empty((n, nv)),
+        np.empty((n, _schur.factor_size(tr))),
+        np.empty((n, nv)),
+        np.empty((n, nv)),
+    )
+    c_acc, gt_acc = np.zeros((n_par, n_par)), np.zeros(n_par)
+
+    def schur_kernel() -> None:
+        _schur._schur_range(
+            tr, kt, target, w, qpos, free, 0, n, True, 1e-6, *kernel_outs, c_acc, gt_acc
+        )
+
+    return [
+        ("Schur kernel alone (_schur_range)", schur_kernel, n, False),
+        (
+            "Schur pass (frame_blocks: kernel + Gram)",
+            lambda: _schur.frame_blocks(tr, kt, target, w, qpos, free, 1e-6),
+            n,
+            True,
+        ),
+        (
+            "information pass (frame_blocks, mu 0, no limits)",
+            lambda: _schur.frame_blocks(tr, kt, target, w, qpos, free, 0.0, limits=False),
+            n,
+            True,
+        ),
+        ("Gram products of the packed Y", lambda: y.gram(0, n), n, False),
+        (
+            "reduced gradient",
+            lambda: _schur.reduced_gradient(tr, kt, target, w, qpos),
+            n,
+            True,
+        ),
+        ("fk (_tree.forward)", lambda: _tree.forward(tr, qpos), n, True),
+        ("fk + normal_equations", lambda: _fk_normal(tr, target, w, qpos), n, False),
+        (
+            "pose finish, 1 IK iteration",
+            lambda: solver.solve_frames(target, qpos, w, max_iterations=1, prepared=(target, w)),
+            n,
+            True,
+        ),
+        (
+            "pose finish, 2 IK iterations",
+            lambda: solver.solve_frames(target, qpos, w, max_iterations=2, prepared=(target, w)),
+            n,
+            True,
+        ),
+        ("IK of every frame (solve_trial)", lambda: solver.solve_trial(target), n, True),
+        (
+            "cold IK of the 100-frame subset",
+            lambda: solver.solve_trial(target[sub]),
+            sub.size,
+            True,
+        ),
+    ]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=40, help="timed calls per kernel")
@@ -111,74 +185,8 @@ def main() -> None:
     assert rows is not None
     sub = rows[0]
     for st in states:
-        tr, kt, qpos = st.tree, st.kt, st.qpos
-        solver = IKSolver(st.kin)
-        n_par = kt.n_kappa + 3 * tr.site_body.size
-        blocks = _schur.frame_blocks(tr, kt, target, w, qpos, free, 1e-6)
-        y = blocks.y
-        kernel_outs = (
-            *y.kernel_args(),
-            np.empty((n, nv)),
-            np.empty((n, _schur.factor_size(tr))),
-            np.empty((n, nv)),
-            np.empty((n, nv)),
-        )
-        c_acc, gt_acc = np.zeros((n_par, n_par)), np.zeros(n_par)
-
-        def schur_kernel() -> None:
-            _schur._schur_range(
-                tr, kt, target, w, qpos, free, 0, n, True, 1e-6, *kernel_outs, c_acc, gt_acc
-            )
-
-        cases: list[tuple[str, Callable[[], Any], int, bool]] = [
-            ("Schur kernel alone (_schur_range)", schur_kernel, n, False),
-            (
-                "Schur pass (frame_blocks: kernel + Gram)",
-                lambda: _schur.frame_blocks(tr, kt, target, w, qpos, free, 1e-6),
-                n,
-                True,
-            ),
-            (
-                "information pass (frame_blocks, mu 0, no limits)",
-                lambda: _schur.frame_blocks(tr, kt, target, w, qpos, free, 0.0, limits=False),
-                n,
-                True,
-            ),
-            ("Gram products of the packed Y", lambda: y.gram(0, n), n, False),
-            (
-                "reduced gradient",
-                lambda: _schur.reduced_gradient(tr, kt, target, w, qpos),
-                n,
-                True,
-            ),
-            ("fk (_tree.forward)", lambda: _tree.forward(tr, qpos), n, True),
-            ("fk + normal_equations", lambda: _fk_normal(tr, target, w, qpos), n, False),
-            (
-                "pose finish, 1 IK iteration",
-                lambda: solver.solve_frames(
-                    target, qpos, w, max_iterations=1, prepared=(target, w)
-                ),
-                n,
-                True,
-            ),
-            (
-                "pose finish, 2 IK iterations",
-                lambda: solver.solve_frames(
-                    target, qpos, w, max_iterations=2, prepared=(target, w)
-                ),
-                n,
-                True,
-            ),
-            ("IK of every frame (solve_trial)", lambda: solver.solve_trial(target), n, True),
-            (
-                "cold IK of the 100-frame subset",
-                lambda: solver.solve_trial(target[sub]),
-                sub.size,
-                True,
-            ),
-        ]
         print(f"\n{st.name}:")
-        for label, fn, frames, parallel in cases:
+        for label, fn, frames, parallel in cases(st, target, w, free, sub):
             if args.only and args.only not in label:
                 continue
             for k in threads if parallel else [1]:

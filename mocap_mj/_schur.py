@@ -113,51 +113,6 @@ def _column_runs(cols, colptr):
     return runs[:n].copy(), ptr
 
 
-@_jit
-def _pair_tables(tr, kt):
-    """The structure the kinematic parameters' blocks are summed over (fixed per model).
-
-    Pair p (body b) moves the sites of b's subtree. A dof of a body at or above b moves all of
-    them (its product with the pair is over b's subtree sums, inside[e] False); a dof of a
-    body inside b's subtree moves only its own body's subtree (inside[e] True: over the
-    dof's own sums). Returned as ptr (npair + 1,), dofs and inside (e,) per pair; and every
-    two pairs (p, q) whose bodies are on one chain with the deeper body, whose subtree both
-    move: pp (k, 3) [p, q, body].
-    """
-    nb = tr.body_parent.size
-    anc = np.zeros((nb, nb), dtype=np.bool_)  # anc[a, c]: a is c or one of its ancestors
-    for c in range(nb):
-        a = c
-        while True:
-            anc[a, c] = True
-            if a == 0:
-                break
-            a = tr.body_parent[a]
-    npair, nv = kt.pair_k.size, tr.dof_jnt.size
-    ptr = np.zeros(npair + 1, dtype=np.int64)
-    dofs = np.zeros(npair * nv, dtype=np.int64)
-    inside = np.zeros(npair * nv, dtype=np.bool_)
-    e = 0
-    for p in range(npair):
-        b = kt.pair_body[p]
-        for v in range(nv):
-            c = tr.dof_body[v]
-            if anc[c, b] or anc[b, c]:
-                dofs[e] = v
-                inside[e] = c != b and anc[b, c]
-                e += 1
-        ptr[p + 1] = e
-    pp = np.zeros((npair * npair, 3), dtype=np.int64)
-    k = 0
-    for p in range(npair):
-        for q in range(npair):
-            bp, bq = kt.pair_body[p], kt.pair_body[q]
-            if anc[bp, bq] or anc[bq, bp]:
-                pp[k, 0], pp[k, 1], pp[k, 2] = p, q, bq if anc[bp, bq] else bp
-                k += 1
-    return ptr, dofs[:e].copy(), inside[:e].copy(), pp[:k].copy()
-
-
 @_kernel
 def _schur_range(
     tr, kt, target, wts, qpos, free, lo, hi, use_limits, mu, y_out, y_base, y_row, y_cols,
@@ -169,7 +124,7 @@ def _schur_range(
     n_par = kn + 3 * ns
     vp = np.zeros((kt.pair_k.size, 3))
     agg, mot, frc = w.agg, w.mot, w.frc  # the subtree sums of normal_equations
-    pd_ptr, pd_dofs, pd_inside, pp = _pair_tables(tr, kt)
+    pd_ptr, pd_dofs, pd_inside, pp = kt.pair_dofptr, kt.pair_dofs, kt.pair_inside, kt.pair_pairs
     out_runs, out_ptr = _column_runs(y_cols, y_colptr)
     # B's free columns and g_q, [B_free, g] (nv, Pf + 1), are formed in place in yb (col:
     # each parameter's column there, -1 when frozen), written only at their structural
@@ -203,8 +158,8 @@ def _schur_range(
                     yb[v, ck] += v0 * f[0] + v1 * f[1] + v2 * f[2]
                 else:
                     m = mot[v]
-                    yb[v, ck] += m[0] * a0 + m[1] * a1 + m[2] * a2 + (
-                        m[3] * b0 + m[4] * b1 + m[5] * b2
+                    yb[v, ck] += (
+                        m[0] * a0 + m[1] * a1 + m[2] * a2 + (m[3] * b0 + m[4] * b1 + m[5] * b2)
                     )
         for e in range(pp.shape[0]):
             p, q = pp[e, 0], pp[e, 1]

@@ -1236,10 +1236,16 @@ class KappaTables(NamedTuple):
     Fields
     ------
     pair_k, pair_parent : (npair,) int, the parameter and the moved body's parent
-    pair_body : (npair,) int, the moved body (the pair moves the sites of its subtree)
     pair_dir : (npair, 3) float, direction in the parent's frame
     site_pairptr : (ns + 1,) int; site_pairs : (sum,) int, the pairs that move each site
     n_kappa : int
+    pair_body : (npair,) int, the moved body (the pair moves the sites of its subtree)
+    pair_dofptr : (npair + 1,) int; pair_dofs, pair_inside : (sum,) int, bool: the dofs that
+        move some of a pair's sites, ascending, and whether the dof's body is inside the
+        pair's body's subtree (it moves only its own body's subtree) or at or above it (it
+        moves all of the pair's sites)
+    pair_pairs : (k, 3) int, [p, q, body] for every two pairs (either order, each with
+        itself) that move common sites: those of ``body``'s subtree, the deeper of theirs
     """
 
     pair_k: np.ndarray
@@ -1249,6 +1255,10 @@ class KappaTables(NamedTuple):
     site_pairs: np.ndarray
     n_kappa: int
     pair_body: np.ndarray
+    pair_dofptr: np.ndarray
+    pair_dofs: np.ndarray
+    pair_inside: np.ndarray
+    pair_pairs: np.ndarray
 
 
 def kappa_tables(
@@ -1258,14 +1268,25 @@ def kappa_tables(
     sites_of_pair: list[np.ndarray],
     n_sites: int,
     n_kappa: int,
+    ancestor: np.ndarray,
+    dof_body: np.ndarray,
 ) -> KappaTables:
-    """:class:`KappaTables` from :class:`mocap_mj.Kinematics`' kappa tables."""
+    """:class:`KappaTables` from :class:`mocap_mj.Kinematics`' kappa tables, its ancestor
+    table (nb, nb) bool (``ancestor[b, a]``: body a is b or one of b's ancestors) and the
+    dofs' bodies (nv,) int."""
     per_site: list[list[int]] = [[] for _ in range(n_sites)]
     for p, sites in enumerate(sites_of_pair):
         for s in sites:
             per_site[int(s)].append(p)
     ptr = np.concatenate([[0], np.cumsum([len(x) for x in per_site])]).astype(np.int64)
     flat = np.array([p for x in per_site for p in x], dtype=np.int64)
+    body = np.array([b for _, b in pairs], dtype=np.int64)
+    dof_body = np.asarray(dof_body, dtype=np.int64)
+    above = ancestor[body][:, dof_body]  # (npair, nv): the dof's body is at or above the pair's
+    inside = ancestor[dof_body][:, body].T & (dof_body[None, :] != body[:, None])
+    moves = above | inside
+    pp, qq = np.nonzero(ancestor[body][:, body] | ancestor[body][:, body].T)
+    deeper = np.where(ancestor[body[qq], body[pp]], body[qq], body[pp])
     return KappaTables(
         np.array([k for k, _ in pairs], dtype=np.int64),
         np.asarray(parents, dtype=np.int64),
@@ -1273,7 +1294,11 @@ def kappa_tables(
         ptr,
         flat,
         int(n_kappa),
-        np.array([b for _, b in pairs], dtype=np.int64),
+        body,
+        np.concatenate([[0], np.cumsum(moves.sum(axis=1))]).astype(np.int64),
+        np.nonzero(moves)[1].astype(np.int64),
+        inside[moves],
+        np.stack([pp, qq, deeper], axis=1).astype(np.int64),
     )
 
 
