@@ -15,7 +15,10 @@ frames' steps follow as ``dq = L^-1 D^-1/2 (y_g - Y dtheta)`` (:func:`back_subst
 
 Model-parameter Jacobians: kinematic parameter k moves body b's origin by ``R_parent(b) d_kb``
 per metre (``ParameterSet.direction``), which translates every site in b's subtree; a marker
-offset moves its own site by the rotation of its body.
+offset moves its own site by the rotation of its body. So a kinematic parameter's products
+with the dofs' columns and with the other parameters' are products with the subtree sums of
+the weighted site positions that :func:`mocap_mj._tree.normal_equations` forms, not sums
+over the sites; only the marker offsets' blocks are formed site by site.
 """
 
 from __future__ import annotations
@@ -306,9 +309,10 @@ class _Layout(NamedTuple):
     """Where :class:`PackedY` keeps each dof's row, per frame of the call (times n frames):
     offsets (groups + 1,) of the group blocks and base (nv,) of each dof's block; row (nv, 2)
     the dof's row in its group and the group's rows; the dof's columns ``cols[colptr[i]:
-    colptr[i + 1]]`` and the same as runs of consecutive columns ``runs[runptr[i]:
-    runptr[i + 1]]`` ([first, last + 1) each; a limb's dof has 7-8); square: each group's
-    ``np.ix_(c, c)``, made once (an ``np.ix_`` costs about 10 us, 17 groups a thread a pass)."""
+    colptr[i + 1]]`` and runs ``runs[runptr[i]:runptr[i + 1]]`` ([first, last + 1) each) that
+    cover them, gaps of up to ``RUN_GAP`` columns included (a limb's dof has 2-3); square:
+    each group's ``np.ix_(c, c)``, made once (an ``np.ix_`` costs about 10 us, 17 groups a
+    thread a pass)."""
 
     offsets: np.ndarray
     base: np.ndarray

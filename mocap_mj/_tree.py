@@ -4,9 +4,9 @@ The kernels mirror what MuJoCo does for the joint types this project supports (f
 hinge) and are checked against it in ``tests/test_tree.py``:
 
 - :func:`fk` is ``mj_kinematics`` restricted to body frames, joint anchors/axes and sites;
-- :func:`normal_equations` assembles ``H = J^T W J`` (nv x nv) and ``g = J^T W r`` from the
-  marker Jacobian columns ``a_v x (x_s - p_v)`` of the dofs that move each site, without ever
-  forming the (3M x nv) Jacobian;
+- :func:`normal_equations` assembles ``H = J^T W J`` (nv x nv) and ``g = J^T W r`` of the
+  marker Jacobian columns ``a_v x (x_s - p_v)`` without ever forming the (3M x nv) Jacobian,
+  from per-body sums of the weighted site positions over each subtree;
 - :func:`factor` / :func:`solve` are MuJoCo's sparse ``L^T D L`` factorisation of a matrix with
   the sparsity of the mass matrix (``mj_factorI`` / ``mj_solveM``): ``H`` has exactly that
   sparsity (two dofs meet in ``H`` only through a site both move, so one is the other's
