@@ -15,7 +15,10 @@ frames' steps follow as ``dq = L^-1 D^-1/2 (y_g - Y dtheta)`` (:func:`back_subst
 
 Model-parameter Jacobians: kinematic parameter k moves body b's origin by ``R_parent(b) d_kb``
 per metre (``ParameterSet.direction``), which translates every site in b's subtree; a marker
-offset moves its own site by the rotation of its body.
+offset moves its own site by the rotation of its body. So a kinematic parameter's products
+with the dofs' columns and with the other parameters' are products with the subtree sums of
+the weighted site positions that :func:`mocap_mj._tree.normal_equations` forms, not sums
+over the sites; only the marker offsets' blocks are formed site by site.
 """
 
 from __future__ import annotations
@@ -51,18 +54,24 @@ def _rows_lt_solve(tr, a, y, runs, runptr):
     """y (nv, c) <- L^-T y, rows at once, for a factored by ``factor``, over each row's
     structural non-zeros only: row k's runs of columns ``runs[runptr[k]:runptr[k + 1]]``
     ([first, last + 1) each; within every ancestor's, :func:`gram_groups`) and the last
-    column (the gradient's). Entries outside a row's runs are neither read nor written."""
+    column (the gradient's). Entries outside a row's runs are neither read nor written.
+
+    The runs' bounds are taken as unsigned: numba checks a signed index for a negative
+    value (Python's wraparound) at every access, which kept the inner loop from
+    vectorising (13 against 9 us a frame on the bundled model)."""
     parent = tr.dof_parent
     last = y.shape[1] - 1
     for k in range(a.shape[0] - 1, -1, -1):
+        yk = y[k]
         i = parent[k]
         while i >= 0:
             f = a[k, i]
             if f != 0.0:
+                yi = y[i]
                 for r in range(runptr[k], runptr[k + 1]):
-                    for c in range(runs[r, 0], runs[r, 1]):
-                        y[i, c] -= f * y[k, c]
-                y[i, last] -= f * y[k, last]
+                    for c in range(np.uint64(runs[r, 0]), np.uint64(runs[r, 1])):
+                        yi[c] -= f * yk[c]
+                yi[last] -= f * yk[last]
             i = parent[i]
 
 
@@ -89,6 +98,24 @@ def _hold_limits(tr, q, w, bmat):
                 g[v] = 0.0
 
 
+@_jit
+def _column_runs(cols, colptr):
+    """Each row's columns ``cols[colptr[i]:colptr[i + 1]]`` (ascending) as runs of
+    consecutive columns: (r, 2) [first, last + 1) and ptr (nrow + 1,)."""
+    runs = np.zeros((cols.size, 2), dtype=np.int64)
+    ptr = np.zeros(colptr.size, dtype=np.int64)
+    n = 0
+    for i in range(colptr.size - 1):
+        for e in range(colptr[i], colptr[i + 1]):
+            if e > colptr[i] and cols[e] == cols[e - 1] + 1:
+                runs[n - 1, 1] = cols[e] + 1
+            else:
+                runs[n, 0], runs[n, 1] = cols[e], cols[e] + 1
+                n += 1
+        ptr[i + 1] = n
+    return runs[:n].copy(), ptr
+
+
 @_kernel
 def _schur_range(
     tr, kt, target, wts, qpos, free, lo, hi, use_limits, mu, y_out, y_base, y_row, y_cols,
@@ -99,6 +126,9 @@ def _schur_range(
     kn = kt.n_kappa
     n_par = kn + 3 * ns
     vp = np.zeros((kt.pair_k.size, 3))
+    agg, mot, frc = w.agg, w.mot, w.frc  # the subtree sums of normal_equations
+    pd_ptr, pd_dofs, pd_inside, pp = kt.pair_dofptr, kt.pair_dofs, kt.pair_inside, kt.pair_pairs
+    out_runs, out_ptr = _column_runs(y_cols, y_colptr)
     # B's free columns and g_q, [B_free, g] (nv, Pf + 1), are formed in place in yb (col:
     # each parameter's column there, -1 when frozen), written only at their structural
     # non-zeros (each dof's runs) and cleared there once read, so that no frame clears or
@@ -111,6 +141,35 @@ def _schur_range(
         fk(tr, qpos[t], w)
         normal_equations(tr, target[t], wts[t], w)
         _pair_directions(kt, w, vp)
+        # the kinematic parameters' blocks from the subtree sums
+        for p in range(kt.pair_k.size):
+            kk = kt.pair_k[p]
+            sb = agg[kt.pair_body[p]]
+            v0, v1, v2 = vp[p, 0], vp[p, 1], vp[p, 2]
+            gt_acc[kk] += v0 * sb[10] + v1 * sb[11] + v2 * sb[12]
+            ck = col[kk]
+            if ck < 0:
+                continue
+            # a dof at or above the pair's body: vp . sum over b's subtree of w e_v
+            # = om . (M1_b x vp) + nu . (W_b vp)
+            a0, a1, a2 = sb[2] * v2 - sb[3] * v1, sb[3] * v0 - sb[1] * v2, sb[1] * v1 - sb[2] * v0
+            b0, b1, b2 = sb[0] * v0, sb[0] * v1, sb[0] * v2
+            for e in range(pd_ptr[p], pd_ptr[p + 1]):
+                v = pd_dofs[e]
+                if pd_inside[e]:  # a dof inside b's subtree: vp . f_v
+                    f = frc[v]
+                    yb[v, ck] += v0 * f[0] + v1 * f[1] + v2 * f[2]
+                else:
+                    m = mot[v]
+                    yb[v, ck] += (
+                        m[0] * a0 + m[1] * a1 + m[2] * a2 + (m[3] * b0 + m[4] * b1 + m[5] * b2)
+                    )
+        for e in range(pp.shape[0]):
+            p, q = pp[e, 0], pp[e, 1]
+            c_acc[kt.pair_k[p], kt.pair_k[q]] += agg[pp[e, 2], 0] * (
+                vp[p, 0] * vp[q, 0] + vp[p, 1] * vp[q, 1] + vp[p, 2] * vp[q, 2]
+            )
+        # the marker offsets' blocks, site by site (an offset moves its own site only)
         for s in range(ns):
             ws = wts[t, s]
             if ws <= 0:
@@ -128,16 +187,6 @@ def _schur_range(
                 p = kt.site_pairs[pi]
                 kk = kt.pair_k[p]
                 v0, v1, v2 = ws * vp[p, 0], ws * vp[p, 1], ws * vp[p, 2]
-                ck = col[kk]
-                if ck >= 0:
-                    for k in range(d_hi - d_lo):
-                        yb[tr.site_dofs[d_lo + k], ck] += (
-                            w.jcol[k, 0] * v0 + w.jcol[k, 1] * v1 + w.jcol[k, 2] * v2
-                        )
-                gt_acc[kk] += v0 * r0 + v1 * r1 + v2 * r2
-                for pj in range(kt.site_pairptr[s], kt.site_pairptr[s + 1]):
-                    q = kt.site_pairs[pj]
-                    c_acc[kk, kt.pair_k[q]] += v0 * vp[q, 0] + v1 * vp[q, 1] + v2 * vp[q, 2]
                 for j in range(3):
                     # C's (offset, kappa) block is the transpose of this one, mirrored by
                     # the caller (the same sums in the same order)
@@ -175,12 +224,19 @@ def _schur_range(
         _rows_lt_solve(tr, a, yb, y_runs, y_runptr)
         for i in range(nv):
             sd = 1.0 / np.sqrt(a[i, i])
-            c_lo, c_hi = y_colptr[i], y_colptr[i + 1]
-            at = y_base[i] + (t * y_row[i, 1] + y_row[i, 0]) * (c_hi - c_lo)
-            for c in range(c_hi - c_lo):
-                y_out[at + c] = yb[i, y_cols[c_lo + c]] * sd
-                yb[i, y_cols[c_lo + c]] = 0.0
-            yg_out[t, i] = yb[i, free.size] * sd
+            yi = yb[i]
+            at = np.uint64(
+                y_base[i] + (t * y_row[i, 1] + y_row[i, 0]) * (y_colptr[i + 1] - y_colptr[i])
+            )
+            for r in range(out_ptr[i], out_ptr[i + 1]):  # the row's columns, run by run
+                c_lo, c_hi = np.uint64(out_runs[r, 0]), np.uint64(out_runs[r, 1])
+                for c in range(c_lo, c_hi):
+                    y_out[at + (c - c_lo)] = yi[c] * sd
+                at += c_hi - c_lo
+            for r in range(y_runptr[i], y_runptr[i + 1]):  # cleared where the solve wrote
+                for c in range(np.uint64(y_runs[r, 0]), np.uint64(y_runs[r, 1])):
+                    yi[c] = 0.0
+            yg_out[t, i] = yi[free.size] * sd
 
 
 def gram_groups(tr: Tree, kt: KappaTables, free: np.ndarray) -> list[tuple[slice, np.ndarray]]:
@@ -231,11 +287,19 @@ def cached_gram_groups(
     return _GROUPS[key]
 
 
+#: Columns between two runs of a row that :func:`_runs` closes over (default 8): the L^-T
+#: solve then carries the zeros between them, cheaper than starting another loop (a limb
+#: dof's kinematic parameters alternate with the other side's, runs of 1-3 columns).
+RUN_GAP = 8
+
+
 def _runs(cols: np.ndarray) -> np.ndarray:
-    """Sorted column indices cols (k,) int as runs of consecutive ones, (r, 2) [first, last + 1)."""
+    """Sorted column indices cols (k,) int as runs (r, 2) [first, last + 1) that cover them,
+    two runs merged where at most ``RUN_GAP`` columns lie between them (columns outside a
+    row's structure are zero in it)."""
     if cols.size == 0:
         return np.zeros((0, 2), dtype=np.int64)
-    breaks = np.flatnonzero(np.diff(cols) != 1) + 1
+    breaks = np.flatnonzero(np.diff(cols) > RUN_GAP + 1) + 1
     first = cols[np.concatenate([[0], breaks])]
     last = cols[np.concatenate([breaks - 1, [cols.size - 1]])] + 1
     return np.stack([first, last], axis=1).astype(np.int64)
@@ -245,9 +309,10 @@ class _Layout(NamedTuple):
     """Where :class:`PackedY` keeps each dof's row, per frame of the call (times n frames):
     offsets (groups + 1,) of the group blocks and base (nv,) of each dof's block; row (nv, 2)
     the dof's row in its group and the group's rows; the dof's columns ``cols[colptr[i]:
-    colptr[i + 1]]`` and the same as runs of consecutive columns ``runs[runptr[i]:
-    runptr[i + 1]]`` ([first, last + 1) each; a limb's dof has 7-8); square: each group's
-    ``np.ix_(c, c)``, made once (an ``np.ix_`` costs about 10 us, 17 groups a thread a pass)."""
+    colptr[i + 1]]`` and runs ``runs[runptr[i]:runptr[i + 1]]`` ([first, last + 1) each) that
+    cover them, gaps of up to ``RUN_GAP`` columns included (a limb's dof has 2-3); square:
+    each group's ``np.ix_(c, c)``, made once (an ``np.ix_`` costs about 10 us, 17 groups a
+    thread a pass)."""
 
     offsets: np.ndarray
     base: np.ndarray

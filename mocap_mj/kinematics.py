@@ -144,6 +144,8 @@ class Kinematics:
                 self.kappa_sites,
                 self.n_markers,
                 self.pset.n_kappa,
+                self.ancestor,
+                self.dof_body,
             )
         return self._kappa_tables
 

@@ -74,11 +74,15 @@ def test_jacobian_matches_mj_jac_site(kin: Kinematics) -> None:
         np.testing.assert_allclose(jac, mj_site_jacobian(kin, q), rtol=0, atol=1e-12)
 
 
-def test_normal_equations_and_sparse_solve(kin: Kinematics) -> None:
+@pytest.mark.parametrize("away", [0.0, 30.0])
+def test_normal_equations_and_sparse_solve(kin: Kinematics, away: float) -> None:
+    # away: the subject stands this far [m] from the lab's origin (the normal equations are
+    # formed from sums about the root's origin, so the lab's origin must not matter)
     tr = kin.tree()
     w = tree_kernels.work(tr, kin.nq)
     rng = np.random.default_rng(4)
     q = poses(kin, 1, 4)[0]
+    q[:3] += away * np.array([0.6, -0.8, 0.0])
     fk(tr, q, w)
     target = w.site_xpos + rng.normal(0, 0.01, w.site_xpos.shape)
     wts = rng.uniform(0.5, 2.0, kin.n_markers)
