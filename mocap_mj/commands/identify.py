@@ -374,5 +374,11 @@ def _identify(
         )
     if quality is not None:
         text += quality_text(quality) + "\n"
-    plaus = plausibility_text(pset, per_marker, outside, at_bound=summary["kappa_at_bound"])
+    plaus = plausibility_text(
+        pset,
+        per_marker,
+        outside,
+        at_bound=summary["kappa_at_bound"],
+        at_limit=summary["joints_at_limit"],
+    )
     return summary, text + plaus
