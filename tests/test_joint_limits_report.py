@@ -3,11 +3,18 @@ ball cone, reported in summary.json, stdout and report.md."""
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 
+from mocap_mj.cli import main
 from mocap_mj.identify.lm import LMSettings, solver_joint_range
 from mocap_mj.identify.plausibility import joints_at_limit, limits_text, plausibility_text
+from mocap_mj.io import MarkerTrajectory, save_csv
 from mocap_mj.parameters import ParameterSet
+from mocap_synth.config import SynthConfig
+from mocap_synth.experiment import synthesize
 
 
 def _quat(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -47,3 +54,27 @@ def test_shares_per_hinge_side_and_ball_cone() -> None:
     assert "joints held at a limit" in line and "thorax" in line
     few = {"knee_flex_l": {"share": 0.05, "limit": "lower", "limit_deg": -5.0}}
     assert "joints held" not in plausibility_text(pset, np.zeros(pset.n_markers), {}, at_limit=few)
+
+
+def test_ik_reports_a_joint_held_at_its_limit(tmp_path: Path) -> None:
+    # A walk tracked with a model whose left knee may not flex past 5 degrees: the knee is
+    # held at that limit in the frames where the walk flexes it further.
+    pset = ParameterSet()
+    exp = synthesize(SynthConfig(frames=60, noise_mm=1.0, seed=0, motion="walk"), pset)
+    csv = tmp_path / "walk.csv"
+    save_csv(csv, MarkerTrajectory(exp.times, np.asarray(exp.markers), pset.marker_names, 100.0))
+    knee = pset.model.joint("knee_flex_l")
+    flexed = np.degrees(np.asarray(exp.qpos)[:, knee.qposadr[0]]) > 5.0
+    assert 0.2 < flexed.mean() < 0.9  # the walk flexes it past 5 degrees in part of the frames
+    text = pset.path.read_text().replace(
+        'name="knee_flex_l" type="hinge" axis="0 1 0" range="-5 150"',
+        'name="knee_flex_l" type="hinge" axis="0 1 0" range="-5 5"',
+    )
+    model = tmp_path / "knee_held.xml"
+    model.write_text(text)
+    code = main(["ik", "--markers", str(csv), "--model", str(model), "--out",
+                 str(tmp_path / "ik"), "--json"])  # fmt: skip
+    assert code == 0
+    held = json.loads((tmp_path / "ik" / "summary.json").read_text())["joints_at_limit"]
+    assert held["knee_flex_l"]["limit"] == "upper"
+    assert abs(held["knee_flex_l"]["share"] - flexed.mean()) < 0.1
