@@ -207,6 +207,8 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
         "- parameters at a bound of their anatomical range: "
         + (", ".join(f"{n} ({b})" for n, b in bound.items()) or "none")
     )
+    if summary.get("shoulder_note"):
+        lines.append(f"- shoulders: {summary['shoulder_note']}")
     held = summary.get("joints_at_limit") or {}
     lines.append(
         "- joints held at a limit of their range (share of the fitted frames): "
