@@ -67,6 +67,7 @@ __all__ = [
     "GHOST_MIN",
     "JUMP_MIN",
     "MOVED_MIN",
+    "NOT_RIGID_BETWEEN_TRIALS",
     "SPREAD_MAX",
     "STEP_MIN",
     "Finding",
@@ -96,6 +97,11 @@ STEP_MIN = 0.020
 #: in a jump against standing, a scapula marker with the arms raised: up to 20 mm on the
 #: shared trials of one session), below a re-attached marker's usual move of several cm.
 MOVED_MIN = 0.030
+#: Segments whose marker distances change with posture between trials, left out of
+#: ``moved``: the model's thorax carries markers on the spine (C7, T10), the sternum and the
+#: scapula (RBAK), and the spine flexes and the scapula turns with the arms (C7-T10 20 mm
+#: longer in the shared jump than standing, STRN-RBAK 16 mm with the arms raised).
+NOT_RIGID_BETWEEN_TRIALS = frozenset({"thorax"})
 #: Largest acceleration [m/s^2] of a skin marker (about 30 g: above heel strike and hand
 #: impacts measured on the skin, 5-20 g); a larger constant-velocity prediction error is a jump.
 ACCEL_MAX = 300.0
@@ -201,14 +207,15 @@ def between_trials(
     """``moved`` findings across trials fitted with one model: ``paths`` (K,) and each
     trial's markers (T_k, M, 3) [m] (NaN where missing); names and segments (M,) as for
     :func:`check_marker_quality`. A pair needs at least 10 frames with both markers in
-    every trial. With three or more trials, the trial whose median lies furthest from the
-    median of all is named, when the others agree within MOVED_MIN."""
+    every trial; the segments of :data:`NOT_RIGID_BETWEEN_TRIALS` are left out. With three
+    or more trials, the trial whose median lies furthest from the median of all is named,
+    when the others agree within MOVED_MIN."""
     if len(paths) < 2:
         return []
-    medians = [_pair_medians(x, segments) for x in markers]
+    medians = [_pair_medians(x, segments, skip=NOT_RIGID_BETWEEN_TRIALS) for x in markers]
     common = set.intersection(*(set(m) for m in medians))
     flagged: dict[tuple[int, int], float] = {}
-    for key in common:
+    for key in sorted(common):
         apart = max(m[key] for m in medians) - min(m[key] for m in medians)
         if apart > MOVED_MIN:
             flagged[key] = apart
@@ -243,12 +250,17 @@ def between_trials(
     return out
 
 
-def _pair_medians(x: np.ndarray, segments: Sequence[str]) -> dict[tuple[int, int], float]:
+def _pair_medians(
+    x: np.ndarray, segments: Sequence[str], skip: frozenset[str] = frozenset()
+) -> dict[tuple[int, int], float]:
     """The median [m] over the frames of x (T, M, 3) [m] of every same-segment marker
-    distance with at least 10 frames of data, keyed by the pair's marker indices."""
+    distance with at least 10 frames of data, keyed by the pair's marker indices; the
+    segments named in ``skip`` are left out."""
     xs, _ = _sampled(x)
     out: dict[tuple[int, int], float] = {}
     for members in _by_segment(segments):
+        if segments[members[0]] in skip:
+            continue
         for a_pos, i in enumerate(members):
             for j in members[a_pos + 1 :]:
                 d = np.linalg.norm(xs[:, i] - xs[:, j], axis=1)
