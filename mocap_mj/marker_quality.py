@@ -28,6 +28,11 @@ positions (T, M, 3) [m] and the model's segment (body) of each marker:
     ghost below about 60 Hz, where a body segment may move that far between frames). When
     the segment has two markers, the one further from the midpoint of its neighbouring
     frames is named.
+``moved``
+    Between trials fitted with one model (:func:`between_trials`): a same-segment distance's
+    median differs between two trials by more than :data:`MOVED_MIN` (30 mm), a marker
+    re-attached elsewhere (or fallen off) between the trials. One marker offset cannot fit
+    both trials; each trial alone can.
 ``distance`` / ``asymmetry``
     The median distance between two Plug-in Gait landmarks of one bone (elbow-wrist,
     shoulder-elbow, knee-ankle, heel-toe) outside the range of any person 0.85-2.1 m tall
@@ -47,6 +52,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any
 
 import mujoco
@@ -60,9 +66,12 @@ __all__ = [
     "BONE_FRACTIONS",
     "GHOST_MIN",
     "JUMP_MIN",
+    "MOVED_MIN",
+    "NOT_RIGID_BETWEEN_TRIALS",
     "SPREAD_MAX",
     "STEP_MIN",
     "Finding",
+    "between_trials",
     "check_marker_quality",
     "drop_ghosts",
     "exclude_markers",
@@ -83,6 +92,16 @@ SPREAD_MAX = 0.050
 GHOST_MIN = 0.040
 #: Persistent change [m] of a same-segment distance's median at one frame (a re-stuck marker).
 STEP_MIN = 0.020
+#: Difference [m] between two trials' medians of a same-segment distance above which a marker
+#: moved between the trials (``moved``): above what posture alone changes (the spine flexed
+#: in a jump against standing, a scapula marker with the arms raised: up to 20 mm on the
+#: shared trials of one session), below a re-attached marker's usual move of several cm.
+MOVED_MIN = 0.030
+#: Segments whose marker distances change with posture between trials, left out of
+#: ``moved``: the model's thorax carries markers on the spine (C7, T10), the sternum and the
+#: scapula (RBAK), and the spine flexes and the scapula turns with the arms (C7-T10 20 mm
+#: longer in the shared jump than standing, STRN-RBAK 16 mm with the arms raised).
+NOT_RIGID_BETWEEN_TRIALS = frozenset({"thorax"})
 #: Largest acceleration [m/s^2] of a skin marker (about 30 g: above heel strike and hand
 #: impacts measured on the skin, 5-20 g); a larger constant-velocity prediction error is a jump.
 ACCEL_MAX = 300.0
@@ -177,6 +196,78 @@ def check_marker_quality(
     found += _ghost_findings(path, names, x, segments, first_frame)
     found += _bone_findings(path, names, x)
     return found
+
+
+def between_trials(
+    paths: Sequence[str],
+    names: Sequence[str],
+    markers: Sequence[np.ndarray],
+    segments: Sequence[str],
+) -> list[Finding]:
+    """``moved`` findings across trials fitted with one model: ``paths`` (K,) and each
+    trial's markers (T_k, M, 3) [m] (NaN where missing); names and segments (M,) as for
+    :func:`check_marker_quality`. A pair needs at least 10 frames with both markers in
+    every trial; the segments of :data:`NOT_RIGID_BETWEEN_TRIALS` are left out. With three
+    or more trials, the trial whose median lies furthest from the median of all is named,
+    when the others agree within MOVED_MIN."""
+    if len(paths) < 2:
+        return []
+    medians = [_pair_medians(x, segments, skip=NOT_RIGID_BETWEEN_TRIALS) for x in markers]
+    common = set.intersection(*(set(m) for m in medians))
+    flagged: dict[tuple[int, int], float] = {}
+    for key in sorted(common):
+        apart = max(m[key] for m in medians) - min(m[key] for m in medians)
+        if apart > MOVED_MIN:
+            flagged[key] = apart
+    out: list[Finding] = []
+    for i, others, size in _attribute(flagged):
+        j = others[0]
+        values = np.array([m[(i, j) if (i, j) in flagged else (j, i)] for m in medians])
+        off = np.abs(values - np.median(values))
+        odd = int(np.argmax(off))
+        rest = np.delete(values, odd)
+        where = ", ".join(paths)
+        if len(paths) > 2 and rest.max() - rest.min() <= MOVED_MIN:
+            where = paths[odd]
+        listed = ", ".join(
+            f"{val * 1e3:.0f} mm in {Path(p).name}" for val, p in zip(values, paths, strict=True)
+        )
+        if len(others) > 1:
+            listed = f"{names[i]}-{names[j]} {listed}"
+        out.append(
+            _line(
+                where,
+                "moved",
+                (names[i], *[names[k] for k in others]),
+                None,
+                size * 1e3,
+                f"within {MOVED_MIN * 1e3:.0f} mm between trials (fixed on its segment)",
+                f"{_who(names, i, others)} differs between the trials: {listed} (median "
+                "of each; moved between trials? one marker offset cannot fit them all: "
+                "identify them separately)",
+            )
+        )
+    return out
+
+
+def _pair_medians(
+    x: np.ndarray, segments: Sequence[str], skip: frozenset[str] = frozenset()
+) -> dict[tuple[int, int], float]:
+    """The median [m] over the frames of x (T, M, 3) [m] of every same-segment marker
+    distance with at least 10 frames of data, keyed by the pair's marker indices; the
+    segments named in ``skip`` are left out."""
+    xs, _ = _sampled(x)
+    out: dict[tuple[int, int], float] = {}
+    for members in _by_segment(segments):
+        if segments[members[0]] in skip:
+            continue
+        for a_pos, i in enumerate(members):
+            for j in members[a_pos + 1 :]:
+                d = np.linalg.norm(xs[:, i] - xs[:, j], axis=1)
+                d = d[np.isfinite(d)]
+                if d.size >= 10:
+                    out[(i, j)] = float(np.median(d))
+    return out
 
 
 def drop_ghosts(

@@ -14,6 +14,8 @@ from mocap_mj.errors import UnknownNameError
 from mocap_mj.io import MarkerTrajectory, load_markers, save_csv
 from mocap_mj.kinematics import Kinematics
 from mocap_mj.marker_quality import (
+    MOVED_MIN,
+    between_trials,
     check_marker_quality,
     exclude_markers,
     marker_segments,
@@ -121,6 +123,60 @@ def test_marker_restuck_30mm_away_halfway(pset: ParameterSet) -> None:
     assert abs(steps[0].frames[0] - 300) <= 3  # within a block of the step search
     assert 20.0 < steps[0].value_mm < 40.0
     assert next(iter(suspects(found))) == "LFRM"
+
+
+def _moved(pset: ParameterSet, exp: Experiment, name: str, toward: str, by: float) -> np.ndarray:
+    """The trial's markers with ``name`` re-attached ``by`` [m] closer to ``toward`` (a marker
+    of its segment) in the segment's frame, for the whole trial."""
+    names = pset.marker_names
+    i, j = names.index(name), names.index(toward)
+    _, offsets = pset.split(exp.theta_true)
+    off = offsets.reshape(-1, 3)
+    along = (off[j] - off[i]) / np.linalg.norm(off[j] - off[i])
+    kin = Kinematics(pset)
+    kin.set_theta(exp.theta_true)
+    xmat = kin.forward(np.asarray(exp.qpos)).xmat[:, int(pset.site_body[i])]  # (T, 3, 3)
+    markers = np.array(exp.markers)
+    markers[:, i] += xmat @ (by * along)
+    return markers
+
+
+def test_marker_moved_between_trials_is_named(pset: ParameterSet) -> None:
+    # Two halves of a walk with soft tissue as two trials of one session; in the second,
+    # LTHI re-attached 45 mm closer to the knee. Every trial alone is clean.
+    exp = _trial(pset, "walk")
+    moved = _moved(pset, exp, "LTHI", "LKNE", 0.045)
+    first, second = np.asarray(exp.markers)[:300], moved[300:]
+    segments = _segments(pset)
+    assert _check(pset, first) == [] and _check(pset, second) == []
+    clean = between_trials(["a.c3d", "b.c3d"], pset.marker_names, [first, exp.markers[300:]],
+                           segments)  # fmt: skip
+    assert clean == [], [f.message for f in clean]
+    found = between_trials(["a.c3d", "b.c3d"], pset.marker_names, [first, second], segments)
+    assert [f.kind for f in found] == ["moved"], [f.message for f in found]
+    assert set(found[0].markers) == {"LTHI", "LKNE"}
+    assert 40.0 < found[0].value_mm < 50.0
+    assert found[0].file == "a.c3d, b.c3d"  # two trials: either may be the one that moved
+    assert "a.c3d" in found[0].message and "b.c3d" in found[0].message
+    # Three trials: the odd one is named. 20 mm (below MOVED_MIN) is not a finding.
+    thirds = [np.asarray(exp.markers)[:200], np.asarray(exp.markers)[200:400], moved[400:]]
+    found = between_trials(["a", "b", "c"], pset.marker_names, thirds, segments)
+    assert [f.file for f in found] == ["c"], [f.message for f in found]
+    small = _moved(pset, exp, "LTHI", "LKNE", MOVED_MIN - 0.01)
+    two = [np.asarray(exp.markers)[:300], small[300:]]
+    assert between_trials(["a", "b"], pset.marker_names, two, segments) == []
+
+
+def test_shared_sessions_have_no_moved_marker(pset: ParameterSet) -> None:
+    # Trials of one session differ by posture only (up to 20 mm on the thorax's markers).
+    for group in (REAL[:2], REAL[2:]):
+        files = [SHARED / "real" / f"{n}.c3d" for n in group]
+        if not all(f.is_file() for f in files):
+            pytest.skip("the shared data are not in this checkout")
+        x = [load_markers(f, model_names=pset.marker_names).select(pset.marker_names)
+             for f in files]  # fmt: skip
+        found = between_trials([str(f) for f in files], pset.marker_names, x, _segments(pset))
+        assert found == [], [f.message for f in found]
 
 
 def test_exclude_markers(pset: ParameterSet) -> None:
@@ -246,3 +302,20 @@ def test_batch_column() -> None:
     assert _quality_cell(quality, "a.c3d") == "2 finding(s): RELB RWRA"
     assert _quality_cell(quality, "b.c3d") == "1 finding(s): LASI RASI"
     assert _quality_cell(quality, "c.c3d") == "none"
+
+
+def test_identify_strict_refuses_a_marker_moved_between_trials(
+    pset: ParameterSet, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    exp = _trial(pset, "walk")
+    moved = _moved(pset, exp, "LTHI", "LKNE", 0.045)
+    paths = [tmp_path / "a.csv", tmp_path / "b.csv"]
+    for path, x, t in ((paths[0], np.asarray(exp.markers)[:300], exp.times[:300]),
+                       (paths[1], moved[300:], exp.times[300:])):  # fmt: skip
+        save_csv(path, MarkerTrajectory(t, x, pset.marker_names, RATE))
+    code = main(["identify", "--markers", *map(str, paths), "--out", str(tmp_path / "out"),
+                 "--strict"])  # fmt: skip
+    err = [e for e in capsys.readouterr().err.splitlines() if e.startswith("mocap-mj identify")]
+    assert code == 2 and len(err) == 1, err
+    assert "LTHI-LKNE" in err[0] and "moved between trials" in err[0] and "--strict" in err[0]
+    assert not (tmp_path / "out").exists()

@@ -12,10 +12,13 @@ from mocap_mj.identify import LMSettings, TrialData
 from mocap_mj.identify.losses import L2, Cauchy, Huber, Weighted
 from mocap_mj.identify.pipeline import solve_anatomical
 from mocap_mj.identify.tissue import (
+    RAISED_ARMS,
     SHOULDER_SLIDE,
     SLIDES,
     Slide,
     SlidingModel,
+    arm_elevation,
+    raised_arms_note,
     recorded_sliding_model,
     slide_angles,
     sliding_weights,
@@ -87,6 +90,26 @@ def test_sho_weight_follows_humerothoracic_elevation(pset: ParameterSet) -> None
     assert np.all(
         sliding_weights(pset, q, base, {"SHO": Slide("shoulder", 0.01, 0.0, "nope")}) == 1.0
     )
+
+
+def test_raised_arms_noted_only_when_raised_in_every_trial(pset: ParameterSet) -> None:
+    """A pose with the left arm abducted 80 degrees throughout: noted, with its elevation;
+    the same arm hanging in a second trial (or the right arm, never raised): not."""
+    m = pset.model
+    adr = int(m.jnt_qposadr[m.joint("shoulder_l").id])
+    raised = np.tile(m.qpos0, (30, 1))
+    raised[:, adr : adr + 4] = _turn("x", np.radians(80.0))
+    raised[:3] = np.nan  # frames without a pose are left out
+    elevation = arm_elevation(pset, [raised])
+    assert elevation["l"] == pytest.approx((np.radians(80.0),) * 3, abs=1e-9)
+    assert elevation["r"] == pytest.approx((0.0,) * 3, abs=1e-9)
+    note = raised_arms_note(elevation)
+    assert note is not None and "left 80-80 deg" in note and "right" not in note
+    hanging = np.tile(m.qpos0, (30, 1))
+    assert raised_arms_note(arm_elevation(pset, [raised, hanging])) is None
+    # Just below the threshold: not raised.
+    raised[3:, adr : adr + 4] = _turn("x", RAISED_ARMS - 0.01)
+    assert raised_arms_note(arm_elevation(pset, [raised])) is None
 
 
 @pytest.mark.parametrize("loss", [L2(), Huber(), Cauchy()])

@@ -20,6 +20,7 @@ import numpy as np
 from ..errors import MocapError
 from ..marker_quality import (
     Finding,
+    between_trials,
     check_marker_quality,
     drop_ghosts,
     exclude_markers,
@@ -61,6 +62,10 @@ def check_trials(
     for path, markers, rate, first in trials:
         found += check_marker_quality(
             path, pset.marker_names, markers, rate, segments, first_frame=first
+        )
+    if args.command == "identify":  # one model for every trial: their markers must agree
+        found += between_trials(
+            [t[0] for t in trials], pset.marker_names, [t[1] for t in trials], segments
         )
     named = suspects(found)
     if found and args.strict:

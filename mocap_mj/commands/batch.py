@@ -199,8 +199,9 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
 
 
 def _quality_cell(quality: dict[str, Any], path: str) -> str:
-    """summary.csv's ``marker_quality`` of one trial: ``none`` or ``N finding(s): NAMES``."""
-    found = [f for f in quality["findings"] if f["file"] == path]
+    """summary.csv's ``marker_quality`` of one trial: ``none`` or ``N finding(s): NAMES``
+    (a ``moved`` finding may name several trials, joined by ", ")."""
+    found = [f for f in quality["findings"] if path in (f["file"], *f["file"].split(", "))]
     if not found:
         return "none"
     names = dict.fromkeys(n for f in found if f["kind"] != "asymmetry" for n in f["markers"])

@@ -347,6 +347,8 @@ def _identify(
     for f in (summary.get("marker_quality") or {}).get("findings", []):
         if f["kind"] == "placement":  # found in the identification, after the stature
             print(f"mocap-mj {args.command}: warning: {f['message']}", file=sys.stderr)
+    if summary.get("shoulder_note"):
+        print(f"mocap-mj {args.command}: warning: {summary['shoulder_note']}", file=sys.stderr)
     per_marker = np.array(
         [np.nan if v is None else v * 1e-3 for v in summary["marker_rmse_by_marker_mm"].values()]
     )
@@ -374,5 +376,11 @@ def _identify(
         )
     if quality is not None:
         text += quality_text(quality) + "\n"
-    plaus = plausibility_text(pset, per_marker, outside, at_bound=summary["kappa_at_bound"])
+    plaus = plausibility_text(
+        pset,
+        per_marker,
+        outside,
+        at_bound=summary["kappa_at_bound"],
+        at_limit=summary["joints_at_limit"],
+    )
     return summary, text + plaus

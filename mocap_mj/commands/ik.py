@@ -26,6 +26,7 @@ from ..checks import check_markers
 from ..cli import add_force_flag, add_json_flag, into_out_folder
 from ..errors import MocapError
 from ..identify.output import frame_range
+from ..identify.plausibility import AT_LIMIT_PRINT, joints_at_limit, limits_text
 from ..identify.robust_ik import solve_trial_loss
 from ..identify.tissue import recorded_sliding_model
 from ..ik import IKSettings, IKSolver, Status
@@ -186,7 +187,9 @@ def _solve_and_write(
         "markers_missing": list(trial.report.missing),
         "markers_without_data": never,
         "marker_quality": quality,
+        "joints_at_limit": joints_at_limit(kin.model, kin.model.jnt_range, [result.qpos]),
     }
+    held = {k: v for k, v in summary["joints_at_limit"].items() if v["share"] >= AT_LIMIT_PRINT}
     text = (
         f"{trial.report}\n"
         f"IK ({args.damping}): {n} frames in {seconds:.2f} s ({n / seconds:,.0f} frames/s), "
@@ -201,6 +204,7 @@ def _solve_and_write(
         )
         + (f"\nmarkers in the file without a valid sample: {', '.join(never)}" if never else "")
         + ("" if quality is None else f"\n{quality_text(quality)}")
+        + (f"\njoints held at a limit of their range: {limits_text(held)}" if held else "")
         + f"\nwrote {args.out}/motion.csv, joint_centres.csv, motion.npz, model.xml, summary.json"
     )
     return summary, text

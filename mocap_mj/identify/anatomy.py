@@ -39,10 +39,12 @@ Widths (standard deviations, per row) and their sources:
 * :data:`SIGMA_CONVENTION` = 3 mm: the joints of the model that stand in for a chain of
   joints (C7/T1 for the cervical spine, T12/L1 and L5/S1 for the thoracolumbar spine, the
   sternoclavicular joints for the shoulder girdle, whose clavicle carries the acromion marker
-  of the scapula). Such a joint has no functional centre: the point about which the data
-  turn it moves with the motion (model error, not information about the subject), so these
-  rows define it from the markers of its segment, as Plug-in Gait defines its segments, and
-  must outweigh the data: Dumas et al. (2007) C7/T1 from C7 and CLAV and T12/L1 from T10
+  of the scapula; the glenohumeral centre under SHO, its front-back and lateral rows, the
+  clavicle's end standing in for a glenoid that moves with the scapula). Such a joint has
+  no functional centre: the point about which the data turn it moves with the motion
+  (model error, not information about the subject), so these rows define it from the
+  markers of its segment, as Plug-in Gait defines its segments, and must outweigh the data:
+  Dumas et al. (2007) C7/T1 from C7 and CLAV and T12/L1 from T10
   and C7 with the nominal model's proportions (T12/L1's height along the spine at T10's
   placement width instead, :data:`SIGMA_T10_LEVEL`), written so that they do not depend on how
   the frame is tilted against its markers; L5/S1 as Reed et al. (1999) define it, behind
@@ -63,7 +65,13 @@ Widths (standard deviations, per row) and their sources:
   humeroulnar axis is tilted against the forearm (the carrying angle, 10-15 degrees) and
   the pronation axis runs from the radial head to the ulnar head, so the point about which
   trials at different elbow angles turn the forearm moves with them (one model for a jump
-  at 15-25 degrees and a pose at 90 put it 25-30 mm ahead of ELB at 10 mm).
+  at 15-25 degrees and a pose at 90 put it 25-30 mm ahead of ELB at 10 mm); the
+  glenohumeral centre under SHO (SHO's front-back and lateral rows; its height is the
+  shoulder offset's row, measured or regressed): the model's glenohumeral centre is the end
+  of a clavicle turning about its SC joint, standing in for a glenoid that the scapula
+  carries as it turns and glides on the thorax with the arm, so the point about which a
+  trial turns the humerus depends on that trial's arm motion; Plug-in Gait defines the
+  shoulder centre from SHO and the shoulder offset alone.
   At 10 mm the data moved these joints 30-60 mm between trials of one
   subject, at 3 mm they hold within a few mm (docs/real-data.md);
 * :data:`SIGMA_T10_LEVEL` = 15 mm (x stature / 1.75 m): T12/L1's height above or below the
@@ -518,7 +526,9 @@ def _shoulder_rows(
             rows.add(terms, mean, sig, f"{p}SHO.z = GH.z + shoulder_offset + r")
         else:
             mean = (0.0, sign * 0.01 * s)[ax]
-            rows.add(terms, mean, lm, f"{p}SHO.{c} = GH.{c} {mean * 1e3:+.0f} mm")
+            # GH under SHO, as Plug-in Gait defines its shoulder centre: a convention
+            # joint (the clavicle's end stands in for the scapula's glenoid).
+            rows.add(terms, mean, SIGMA_CONVENTION, f"{p}SHO.{c} = GH.{c} {mean * 1e3:+.0f} mm")
 
 
 def _limb_rows(rows: _Rows, subject: Subject, side: str, p: str, s: float) -> None:

@@ -15,6 +15,7 @@ from ..marker_quality import quality_lines
 from ..parameters import ParameterSet
 from ..results import Motion, save_motion
 from .identifiability import Identifiability
+from .plausibility import limits_text
 from .problem import TrialData
 from .result import IdentificationResult, IterationLog
 from .segments import uncertainty_lines
@@ -205,6 +206,13 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
     lines.append(
         "- parameters at a bound of their anatomical range: "
         + (", ".join(f"{n} ({b})" for n, b in bound.items()) or "none")
+    )
+    if summary.get("shoulder_note"):
+        lines.append(f"- shoulders: {summary['shoulder_note']}")
+    held = summary.get("joints_at_limit") or {}
+    lines.append(
+        "- joints held at a limit of their range (share of the fitted frames): "
+        + (limits_text(held) or "none")
     )
     return lines
 

@@ -37,13 +37,13 @@ from .noise import (
 )
 from .output import write_result
 from .partial import Unmeasured, freeze_unmeasured, on_measured
-from .plausibility import kappa_outside_bounds, marker_rmse_by_marker
+from .plausibility import joints_at_limit, kappa_outside_bounds, marker_rmse_by_marker
 from .priors import LinearGaussianPrior, Prior
 from .problem import TrialData
 from .ranges import NOMINAL_HEIGHT, kappa_ranges, theta_bounds
 from .result import IdentificationResult, ProgressCallback
 from .segments import SegmentRow, uncertainty_summary, write_segments_csv
-from .tissue import Slide, SlidingModel, sliding_weights
+from .tissue import Slide, SlidingModel, arm_elevation, raised_arms_note, sliding_weights
 from .trunk import T10Placement, t10_placement
 
 logger = logging.getLogger(__name__)
@@ -170,6 +170,15 @@ def identify_to_folder(
     summary.update(_measured_fields(pset, missing))
     summary["sliding_landmarks"] = None if sliding is None else sorted(sliding.slides)
     summary["kappa_at_bound"] = _kappa_at_bound(pset, result)
+    fitted = [q[used] for q, used in zip(result.qpos, result.used, strict=True)]
+    summary["joints_at_limit"] = joints_at_limit(
+        pset.model, solver_joint_range(pset.model, settings), fitted
+    )
+    elevation = arm_elevation(pset, fitted)
+    summary["arm_elevation_deg"] = {
+        s: [float(np.degrees(a)) for a in v] for s, v in elevation.items()
+    }
+    summary["shoulder_note"] = raised_arms_note(elevation)
     summary["t10_placement"] = None if t10 is None else _t10_fields(t10)
     if t10 is not None and t10.finding is not None:
         _add_finding(summary, t10.finding)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import mujoco
 import numpy as np
 
 from ..joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
@@ -61,15 +62,72 @@ def kappa_outside_bounds(
     return out
 
 
+#: A joint is at a limit within this distance [rad] of it (the solver holds a joint that the
+#: markers push past its limit exactly at it).
+AT_LIMIT_TOL = np.radians(0.5)
+#: Share of the frames at a limit from which a joint is reported (report.md, summary.json).
+AT_LIMIT_SHARE = 0.01
+#: Share of the frames at a limit from which the command's output names the joint.
+AT_LIMIT_PRINT = 0.10
+
+
+def joints_at_limit(
+    model: mujoco.MjModel,
+    joint_range: np.ndarray,
+    qpos: Sequence[np.ndarray],
+) -> dict[str, dict[str, float | str]]:
+    """The joints held at a limit in at least :data:`AT_LIMIT_SHARE` of the frames.
+
+    joint_range (njnt, 2) [rad]: the limits the poses were solved with; qpos: each trial's
+    poses (T_k, nq) (rows of NaN skipped). A hinge is at its lower or upper limit within
+    :data:`AT_LIMIT_TOL`, a ball at its cone (the rotation angle from the reference pose).
+    Returns ``{joint: {"share": fraction of frames, "limit": "lower" | "upper" | "cone",
+    "limit_deg": the limit [deg]}}`` (the side more often hit), the most held first. A pose
+    held at a limit is one the markers asked to go past it: the model's range, a marker's
+    placement or the frames' conventions (a pelvis frame tilted by high PSIS markers) are
+    then what the lengths nearby absorb.
+    """
+    q = np.concatenate([np.asarray(x, dtype=float) for x in qpos], axis=0)
+    q = q[np.all(np.isfinite(q), axis=1)]
+    out: dict[str, dict[str, float | str]] = {}
+    if len(q) == 0:
+        return out
+    for j in range(model.njnt):
+        lo, hi = (float(v) for v in joint_range[j])
+        if not model.jnt_limited[j] or hi <= lo:
+            continue
+        adr = int(model.jnt_qposadr[j])
+        kind = int(model.jnt_type[j])
+        if kind == int(mujoco.mjtJoint.mjJNT_HINGE):
+            a = q[:, adr]
+            hits = {"lower": (a <= lo + AT_LIMIT_TOL, lo), "upper": (a >= hi - AT_LIMIT_TOL, hi)}
+        elif kind == int(mujoco.mjtJoint.mjJNT_BALL):
+            w = np.clip(np.abs(q[:, adr]), 0.0, 1.0)
+            hits = {"cone": (2.0 * np.arccos(w) >= hi - AT_LIMIT_TOL, hi)}
+        else:
+            continue
+        side, (mask, limit) = max(hits.items(), key=lambda kv: int(kv[1][0].sum()))
+        share = float(mask.mean())
+        if share >= AT_LIMIT_SHARE:
+            out[model.joint(j).name] = {
+                "share": share,
+                "limit": side,
+                "limit_deg": float(np.degrees(limit)),
+            }
+    return dict(sorted(out.items(), key=lambda kv: -float(kv[1]["share"])))
+
+
 def plausibility_text(
     pset: ParameterSet,
     per_marker: np.ndarray,
     outside: dict[str, list[float]],
     worst: int = 5,
     at_bound: dict[str, str] | None = None,
+    at_limit: dict[str, dict[str, float | str]] | None = None,
 ) -> str:
-    """Readable lines: the worst-fitting markers, the parameters outside their range and
-    those held at a bound of it (``{name: "lower" | "upper"}``)."""
+    """Readable lines: the worst-fitting markers, the parameters outside their range, those
+    held at a bound of it (``{name: "lower" | "upper"}``) and the joints held at a limit in
+    at least :data:`AT_LIMIT_PRINT` of the frames (:func:`joints_at_limit`)."""
     order = [int(i) for i in np.argsort(-np.nan_to_num(per_marker, nan=-1.0))[:worst]]
     lines = [
         "worst markers (RMS mm): "
@@ -89,7 +147,21 @@ def plausibility_text(
             "them beyond it; weakly excited or a marker misplaced?): "
             + ", ".join(f"{n} ({b})" for n, b in at_bound.items())
         )
+    held = {n: v for n, v in (at_limit or {}).items() if float(v["share"]) >= AT_LIMIT_PRINT}
+    if held:
+        lines.append(
+            "joints held at a limit of their range (share of frames; the markers ask for "
+            "more, and the lengths nearby absorb it): " + limits_text(held)
+        )
     return "\n".join(lines)
+
+
+def limits_text(at_limit: dict[str, dict[str, float | str]]) -> str:
+    """``lumbar_flex lower -30 deg 100 %, ...`` for :func:`joints_at_limit`'s entries."""
+    return ", ".join(
+        f"{n} {v['limit']} {float(v['limit_deg']):.0f} deg {float(v['share']):.0%}"
+        for n, v in at_limit.items()
+    )
 
 
 #: Paired segment lengths compared left to right (``<name>_length_l/_r``).

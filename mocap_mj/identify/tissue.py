@@ -49,6 +49,7 @@ the exported model reproduces the fit (docs/ik.md).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from xml.etree import ElementTree
 
@@ -154,6 +155,64 @@ def slide_angles(pset: ParameterSet, qpos: np.ndarray, slides: dict[str, Slide])
             a = q[:, int(model.jnt_qposadr[jid])]
         angles[:, i] = np.abs(a - slide.angle0)
     return angles
+
+
+#: Humerothoracic elevation [rad] above which the arm counts as raised for
+#: :func:`raised_arms_note`: SHO's distance to CLAV held within 2 mm between trials at 13-29
+#: degrees and was 13-20 mm shorter at 72-79 degrees on the shared trials (docs/real-data.md,
+#: "Seventh round"); 45 degrees lies between.
+RAISED_ARMS = np.radians(45.0)
+#: Frames (evenly spaced) over which :func:`arm_elevation` takes its percentiles.
+_ELEVATION_FRAMES = 2000
+
+
+def arm_elevation(
+    pset: ParameterSet, qpos: Sequence[np.ndarray]
+) -> dict[str, tuple[float, float, float]]:
+    """Each side's humerothoracic elevation (the upper arm's tilt from the thorax, as
+    :data:`SHOULDER_SLIDE` measures it) over the frames of every trial's poses qpos
+    (T_k, nq): ``{"l" | "r": (p5, median, p95)}`` [rad], over at most 2000 evenly spaced
+    frames with a pose; a side whose SHO or bodies the model lacks is left out."""
+    q = np.concatenate([np.asarray(x, dtype=float) for x in qpos], axis=0)
+    q = q[np.all(np.isfinite(q), axis=1)]
+    if len(q) > _ELEVATION_FRAMES:
+        q = q[np.linspace(0, len(q) - 1, _ELEVATION_FRAMES).astype(int)]
+    out: dict[str, tuple[float, float, float]] = {}
+    if len(q) == 0:
+        return out
+    angles = slide_angles(pset, q, {"SHO": SHOULDER_SLIDE})
+    for side in ("l", "r"):
+        name = ("L" if side == "l" else "R") + "SHO"
+        if name not in pset.marker_names:
+            continue
+        a = angles[:, pset.marker_index(name)]
+        a = a[np.isfinite(a)]
+        if a.size:
+            p5, p50, p95 = np.percentile(a, [5, 50, 95])
+            out[side] = (float(p5), float(p50), float(p95))
+    return out
+
+
+def raised_arms_note(elevation: dict[str, tuple[float, float, float]]) -> str | None:
+    """A one-line note when an arm is raised above :data:`RAISED_ARMS` in 95 % of the
+    fitted frames, every trial's pooled (``elevation`` from :func:`arm_elevation`), else
+    None. SHO places the shoulder centre (a convention joint), and the skin over the
+    acromion carries SHO toward the sternum as the arm rises: with the arms raised
+    throughout, no frame shows SHO where Plug-in Gait defines it (the arm at the side)."""
+    raised = {s: v for s, v in elevation.items() if v[0] > RAISED_ARMS}
+    if not raised:
+        return None
+    sides = ", ".join(
+        f"{'left' if s == 'l' else 'right'} {np.degrees(v[0]):.0f}-{np.degrees(v[2]):.0f} deg"
+        for s, v in raised.items()
+    )
+    return (
+        f"the arms are raised from the trunk in every frame ({sides}, p5-p95): the shoulder "
+        "centres are placed from SHO, which the skin over the acromion carries toward the "
+        "sternum as the arm rises, so the clavicles come out short and the upper arms long; "
+        "identify with a trial where the arms hang or move as well (docs/real-data.md, "
+        '"The shoulder as a convention joint")'
+    )
 
 
 def sliding_weights(
