@@ -1,0 +1,90 @@
+"""Our joint centres against Vicon's own Plug-in Gait output stored in the same C3D file.
+
+    python benchmarks/vicon_pig.py RESULTS [--shared ../shared/data] [--trials NAME ...]
+
+RESULTS holds one ``mocap-mj identify`` folder per trial, named as the trial
+(``benchmarks/real_data.py --out RESULTS`` writes them). For each trial whose file carries
+Vicon's Plug-in Gait segment points (LFEP/LFEO hip and knee, LTIO ankle, LCLO shoulder,
+LHUO elbow, LRAO wrist, and the right side's): the median over frames of the distance
+between our centre (``joint_centres.csv``) and Vicon's; the distances from each shoulder
+centre to CLAV and C7, ours and Vicon's; Vicon's own segment lengths (median over frames).
+Prints mm; reads the files only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+from pathlib import Path
+
+import ezc3d
+import numpy as np
+
+#: Our joint centre -> Vicon's segment point at it (first found).
+POINTS = {"hip": ("FEP",), "knee": ("FEO", "TIP"), "ankle": ("TIO", "FOP"),
+          "shoulder": ("CLO", "HUP"), "elbow": ("HUO", "RAP"), "wrist": ("RAO", "HNP")}  # fmt: skip
+#: Vicon's segment lengths: (name, proximal point, distal point), side letter prefixed.
+LENGTHS = (("thigh", "FEP", "FEO"), ("shank", "FEO", "TIO"), ("upper arm", "HUP", "HUO"),
+           ("forearm", "HUO", "RAO"))  # fmt: skip
+
+
+def _points(path: Path) -> tuple[list[str], np.ndarray]:
+    """The file's point labels and positions (T, N, 3) [mm], NaN where a point is missing."""
+    c = ezc3d.c3d(str(path))
+    labels = list(c["parameters"]["POINT"]["LABELS"]["value"])
+    xyz = np.transpose(c["data"]["points"][:3], (2, 1, 0)).astype(float)
+    xyz[np.all(xyz == 0.0, axis=2)] = np.nan
+    return labels, xyz
+
+
+def _median_distance(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.nanmedian(np.linalg.norm(a - b, axis=1)))
+
+
+def compare(c3d: Path, result: Path) -> list[str]:
+    """The printed lines for one trial's file and its ``identify`` folder."""
+    labels, xyz = _points(c3d)
+    rows = list(csv.DictReader((result / "joint_centres.csv").open()))
+    vicon = xyz[np.array([int(r["frame"]) for r in rows])]
+
+    def at(name: str) -> np.ndarray:
+        return vicon[:, labels.index(name)]
+
+    def ours(joint: str, side: str) -> np.ndarray:
+        return np.array([[float(r[f"{joint}_{side}_{a}_mm"]) for a in "xyz"] for r in rows])
+
+    gaps, shoulder, lengths = [], [], []
+    for p, side in (("L", "l"), ("R", "r")):
+        for joint, codes in POINTS.items():
+            code = next((p + k for k in codes if p + k in labels), None)
+            if code is not None:
+                d = _median_distance(ours(joint, side), at(code))
+                gaps.append(f"{joint}_{side} {d:.1f}")
+        if p + "CLO" in labels:
+            for ref in ("CLAV", "C7"):
+                us = _median_distance(ours("shoulder", side), at(ref))
+                them = _median_distance(at(p + "CLO"), at(ref))
+                shoulder.append(f"{side} to {ref} {us:.1f} / {them:.1f}")
+        for name, a, b in LENGTHS:
+            if p + a in labels and p + b in labels:
+                lengths.append(f"{name}_{side} {_median_distance(at(p + a), at(p + b)):.1f}")
+    lines = [f"{c3d.stem}: median |ours - Vicon's| mm: {', '.join(gaps) or 'no Vicon output'}"]
+    if shoulder:
+        lines.append(f"  shoulder centre, ours / Vicon's, mm: {'; '.join(shoulder)}")
+    if lengths:
+        lines.append(f"  Vicon's segment lengths, mm: {', '.join(lengths)}")
+    return lines
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
+    ap.add_argument("results", type=Path)
+    ap.add_argument("--shared", type=Path, default=Path("../shared/data"))
+    ap.add_argument("--trials", nargs="+", default=["Movement_trial", "Static_trial"])
+    args = ap.parse_args()
+    for trial in args.trials:
+        print("\n".join(compare(args.shared / "real" / f"{trial}.c3d", args.results / trial)))
+
+
+if __name__ == "__main__":
+    main()
