@@ -67,6 +67,16 @@ def report(folder: Path, pset: ParameterSet) -> str:
     return "\n".join(lines)
 
 
+def pair_line(a: Path, b: Path, pset: ParameterSet) -> str:
+    """The largest joint-centre distance differences of two ``identify`` folders' models."""
+    la = joint_centre_lengths(pset, pset.load_json(a / "theta.json"))
+    lb = joint_centre_lengths(pset, pset.load_json(b / "theta.json"))
+    diff = sorted(((abs(la[n] - lb[n]) * 1e3, n) for n in la), reverse=True)
+    return (f"{a.name} vs {b.name}: max joint-centre distance difference {diff[0][0]:.1f} mm; "
+            "worst: " + ", ".join(f"{n} {v:.1f}" for v, n in diff[:4])
+            + f"; median {sorted(v for v, _ in diff)[len(diff) // 2]:.1f}")  # fmt: skip
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("folders", nargs="+", type=Path)
@@ -77,12 +87,7 @@ def main() -> None:
         print(report(f, pset))
     for group in args.pair:
         for a, b in itertools.combinations(group, 2):
-            la = joint_centre_lengths(pset, pset.load_json(Path(a) / "theta.json"))
-            lb = joint_centre_lengths(pset, pset.load_json(Path(b) / "theta.json"))
-            diff = sorted(((abs(la[n] - lb[n]) * 1e3, n) for n in la), reverse=True)
-            print(f"{Path(a).name} vs {Path(b).name}: max joint-centre distance difference "
-                  f"{diff[0][0]:.1f} mm; worst: " + ", ".join(f"{n} {v:.1f}" for v, n in diff[:4])
-                  + f"; median {sorted(v for v, _ in diff)[len(diff) // 2]:.1f}")  # fmt: skip
+            print(pair_line(Path(a), Path(b), pset))
 
 
 if __name__ == "__main__":

@@ -22,9 +22,8 @@ import sys
 import time
 from pathlib import Path
 
-from anatomy import report
+from anatomy import pair_line, report
 
-from mocap_mj.identify.consistency import joint_centre_lengths
 from mocap_mj.identify.plausibility import limits_text
 from mocap_mj.parameters import ParameterSet
 
@@ -70,11 +69,7 @@ def main() -> None:
         print(report(out / name, pset))
     for group in GROUPS.values():
         for a, b in itertools.combinations(group, 2):
-            la = joint_centre_lengths(pset, pset.load_json(out / a / "theta.json"))
-            lb = joint_centre_lengths(pset, pset.load_json(out / b / "theta.json"))
-            diff = sorted(((abs(la[n] - lb[n]) * 1e3, n) for n in la), reverse=True)
-            print(f"{a} vs {b}: max joint-centre distance difference {diff[0][0]:.1f} mm; "
-                  + ", ".join(f"{n} {v:.1f}" for v, n in diff[:4]))  # fmt: skip
+            print(pair_line(out / a, out / b, pset))
     for name, (ident, ik) in runs.items():
         ratio = "" if ik is None else (
             f", ik --model {ik['marker_rmse_mm']:.4f} mm, ratio "
