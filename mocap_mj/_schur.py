@@ -98,28 +98,10 @@ def _hold_limits(tr, q, w, bmat):
                 g[v] = 0.0
 
 
-@_jit
-def _column_runs(cols, colptr):
-    """Each row's columns ``cols[colptr[i]:colptr[i + 1]]`` (ascending) as runs of
-    consecutive columns: (r, 2) [first, last + 1) and ptr (nrow + 1,)."""
-    runs = np.zeros((cols.size, 2), dtype=np.int64)
-    ptr = np.zeros(colptr.size, dtype=np.int64)
-    n = 0
-    for i in range(colptr.size - 1):
-        for e in range(colptr[i], colptr[i + 1]):
-            if e > colptr[i] and cols[e] == cols[e - 1] + 1:
-                runs[n - 1, 1] = cols[e] + 1
-            else:
-                runs[n, 0], runs[n, 1] = cols[e], cols[e] + 1
-                n += 1
-        ptr[i + 1] = n
-    return runs[:n].copy(), ptr
-
-
 @_kernel
 def _schur_range(
-    tr, kt, target, wts, qpos, free, lo, hi, use_limits, mu, y_out, y_base, y_row, y_cols,
-    y_colptr, y_runs, y_runptr, yg_out, ld_out, gq_out, diag_out, c_acc, gt_acc,
+    tr, kt, target, wts, qpos, free, lo, hi, use_limits, mu, y_out, y_base, y_row, y_colptr,
+    y_exact, y_exactptr, y_runs, y_runptr, yg_out, ld_out, gq_out, diag_out, c_acc, gt_acc,
 ):  # fmt: skip
     nbody, njnt, ns, nv = tr.body_parent.size, tr.jnt_type.size, tr.site_body.size, tr.dof_jnt.size
     w = work_arrays(nbody, njnt, ns, nv, qpos.shape[1])
@@ -128,7 +110,6 @@ def _schur_range(
     vp = np.zeros((kt.pair_k.size, 3))
     agg, mot, frc = w.agg, w.mot, w.frc  # the subtree sums of normal_equations
     pd_ptr, pd_dofs, pd_inside, pp = kt.pair_dofptr, kt.pair_dofs, kt.pair_inside, kt.pair_pairs
-    out_runs, out_ptr = _column_runs(y_cols, y_colptr)
     # B's free columns and g_q, [B_free, g] (nv, Pf + 1), are formed in place in yb (col:
     # each parameter's column there, -1 when frozen), written only at their structural
     # non-zeros (each dof's runs) and cleared there once read, so that no frame clears or
@@ -228,8 +209,8 @@ def _schur_range(
             at = np.uint64(
                 y_base[i] + (t * y_row[i, 1] + y_row[i, 0]) * (y_colptr[i + 1] - y_colptr[i])
             )
-            for r in range(out_ptr[i], out_ptr[i + 1]):  # the row's columns, run by run
-                c_lo, c_hi = np.uint64(out_runs[r, 0]), np.uint64(out_runs[r, 1])
+            for r in range(y_exactptr[i], y_exactptr[i + 1]):  # the row's columns, run by run
+                c_lo, c_hi = np.uint64(y_exact[r, 0]), np.uint64(y_exact[r, 1])
                 for c in range(c_lo, c_hi):
                     y_out[at + (c - c_lo)] = yi[c] * sd
                 at += c_hi - c_lo
@@ -293,13 +274,13 @@ def cached_gram_groups(
 RUN_GAP = 8
 
 
-def _runs(cols: np.ndarray) -> np.ndarray:
+def _runs(cols: np.ndarray, gap: int = RUN_GAP) -> np.ndarray:
     """Sorted column indices cols (k,) int as runs (r, 2) [first, last + 1) that cover them,
-    two runs merged where at most ``RUN_GAP`` columns lie between them (columns outside a
-    row's structure are zero in it)."""
+    two runs merged where at most ``gap`` columns lie between them (default RUN_GAP; columns
+    outside a row's structure are zero in it; 0: runs of consecutive columns only)."""
     if cols.size == 0:
         return np.zeros((0, 2), dtype=np.int64)
-    breaks = np.flatnonzero(np.diff(cols) > RUN_GAP + 1) + 1
+    breaks = np.flatnonzero(np.diff(cols) > gap + 1) + 1
     first = cols[np.concatenate([[0], breaks])]
     last = cols[np.concatenate([breaks - 1, [cols.size - 1]])] + 1
     return np.stack([first, last], axis=1).astype(np.int64)
@@ -308,17 +289,20 @@ def _runs(cols: np.ndarray) -> np.ndarray:
 class _Layout(NamedTuple):
     """Where :class:`PackedY` keeps each dof's row, per frame of the call (times n frames):
     offsets (groups + 1,) of the group blocks and base (nv,) of each dof's block; row (nv, 2)
-    the dof's row in its group and the group's rows; the dof's columns ``cols[colptr[i]:
-    colptr[i + 1]]`` and runs ``runs[runptr[i]:runptr[i + 1]]`` ([first, last + 1) each) that
-    cover them, gaps of up to ``RUN_GAP`` columns included (a limb's dof has 2-3); square:
+    the dof's row in its group and the group's rows; the number of the dof's columns
+    ``colptr[i + 1] - colptr[i]``, the same columns as runs of consecutive ones
+    ``exact[exactptr[i]:exactptr[i + 1]]`` and as runs ``runs[runptr[i]:runptr[i + 1]]``
+    that cover them, gaps of up to ``RUN_GAP`` columns included (a limb's dof has 2-3; each
+    [first, last + 1)); square:
     each group's ``np.ix_(c, c)``, made once (an ``np.ix_`` costs about 10 us, 17 groups a
     thread a pass)."""
 
     offsets: np.ndarray
     base: np.ndarray
     row: np.ndarray
-    cols: np.ndarray
     colptr: np.ndarray
+    exact: np.ndarray
+    exactptr: np.ndarray
     runs: np.ndarray
     runptr: np.ndarray
     square: tuple[tuple[np.ndarray, ...], ...]
@@ -344,15 +328,18 @@ def _layout(groups: list[tuple[slice, np.ndarray]], nv: int) -> _Layout:
             base[i] = offsets[g]
             row[i] = (i - d.start, d.stop - d.start)
             counts[i], cols[i] = c.size, c.astype(np.int64)
-    runs = [_runs(c) for c in cols]
+
+    def flat(runs: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        ptr = np.concatenate([[0], np.cumsum([len(r) for r in runs])]).astype(np.int64)
+        return np.concatenate([*runs, np.zeros((0, 2))]).astype(np.int64), ptr
+
     lay = _Layout(
         offsets,
         base,
         row,
-        np.concatenate(cols).astype(np.int64),
         np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
-        np.concatenate([*runs, np.zeros((0, 2))]).astype(np.int64),
-        np.concatenate([[0], np.cumsum([len(r) for r in runs])]).astype(np.int64),
+        *flat([_runs(c, 0) for c in cols]),
+        *flat([_runs(c) for c in cols]),
         tuple(np.ix_(c, c) for _, c in groups),
     )
     if len(_LAYOUTS) > 64:
@@ -384,7 +371,8 @@ class PackedY:
     def kernel_args(self) -> tuple[np.ndarray, ...]:
         """The buffer and its tables, as :func:`_schur_range` takes them."""
         lay = self.layout
-        return self.buffer, self.base, lay.row, lay.cols, lay.colptr, lay.runs, lay.runptr
+        return (self.buffer, self.base, lay.row, lay.colptr, lay.exact, lay.exactptr, lay.runs,
+                lay.runptr)  # fmt: skip
 
     def matvec(self, x: np.ndarray) -> np.ndarray:
         """Y x (n, nv) for x (Pf,)."""
