@@ -50,7 +50,7 @@ frames (no solve): it runs on hour-long recordings too.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -261,12 +261,8 @@ def _pair_medians(
     for members in _by_segment(segments):
         if segments[members[0]] in skip:
             continue
-        for a_pos, i in enumerate(members):
-            for j in members[a_pos + 1 :]:
-                d = np.linalg.norm(xs[:, i] - xs[:, j], axis=1)
-                d = d[np.isfinite(d)]
-                if d.size >= 10:
-                    out[(i, j)] = float(np.median(d))
+        for i, j, d, ok in _pair_distances(xs, members):
+            out[(i, j)] = float(np.median(d[ok]))
     return out
 
 
@@ -375,19 +371,14 @@ def _segment_findings(
     for members in _by_segment(segments):
         spread: dict[tuple[int, int], float] = {}
         steps: dict[tuple[int, int], tuple[float, int, float, float]] = {}
-        for a_pos, i in enumerate(members):
-            for j in members[a_pos + 1 :]:
-                d = np.linalg.norm(xs[:, i] - xs[:, j], axis=1)
-                ok = np.isfinite(d)
-                if ok.sum() < 10:
-                    continue
-                p5, p95 = np.percentile(d[ok], [5, 95])
-                if p95 - p5 > SPREAD_MAX:
-                    spread[(i, j)] = float(p95 - p5)
-                step = _step(d[ok])
-                if step is not None:
-                    size, at, before, after = step
-                    steps[(i, j)] = (size, int(idx[np.flatnonzero(ok)[at]]), before, after)
+        for i, j, d, ok in _pair_distances(xs, members):
+            p5, p95 = np.percentile(d[ok], [5, 95])
+            if p95 - p5 > SPREAD_MAX:
+                spread[(i, j)] = float(p95 - p5)
+            step = _step(d[ok])
+            if step is not None:
+                size, at, before, after = step
+                steps[(i, j)] = (size, int(idx[np.flatnonzero(ok)[at]]), before, after)
         for i, others, v in _attribute(spread):
             out.append(
                 _line(
@@ -419,6 +410,19 @@ def _segment_findings(
     return out
 
 
+def _pair_distances(
+    x: np.ndarray, members: Sequence[int]
+) -> Iterator[tuple[int, int, np.ndarray, np.ndarray]]:
+    """Every pair (i, j) of the markers ``members`` (indices into x (T, M, 3) [m]) with at
+    least 10 frames of both: i, j, their distance (T,) [m] and where it is finite (T,)."""
+    for a_pos, i in enumerate(members):
+        for j in members[a_pos + 1 :]:
+            d = np.linalg.norm(x[:, i] - x[:, j], axis=1)
+            ok = np.isfinite(d)
+            if ok.sum() >= 10:
+                yield i, j, d, ok
+
+
 def _by_segment(segments: Sequence[str]) -> list[list[int]]:
     """The marker indices of each segment, in the order the segments first appear."""
     groups: dict[str, list[int]] = {}
@@ -435,15 +439,10 @@ def _ghost_findings(
     size = np.zeros(x.shape[:2])
     for members in _by_segment(segments):
         rigid: dict[tuple[int, int], np.ndarray] = {}  # a pair's departure (T,) [m]
-        for a_pos, i in enumerate(members):
-            for j in members[a_pos + 1 :]:
-                d = np.linalg.norm(x[:, i] - x[:, j], axis=1)
-                ok = np.isfinite(d)
-                if ok.sum() < 10:
-                    continue
-                p5, p95 = np.percentile(d[ok], [5, 95])
-                if p95 - p5 <= SPREAD_MAX:  # otherwise a ``spread``: not rigid enough
-                    rigid[(i, j)] = np.where(ok, np.abs(d - np.median(d[ok])), np.nan)
+        for i, j, d, ok in _pair_distances(x, members):
+            p5, p95 = np.percentile(d[ok], [5, 95])
+            if p95 - p5 <= SPREAD_MAX:  # otherwise a ``spread``: not rigid enough
+                rigid[(i, j)] = np.where(ok, np.abs(d - np.median(d[ok])), np.nan)
         for i in members:
             dev = [v for pair, v in rigid.items() if i in pair]
             if not dev:
