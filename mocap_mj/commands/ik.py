@@ -189,7 +189,7 @@ def _solve_and_write(
         "marker_quality": quality,
         "joints_at_limit": joints_at_limit(kin.model, kin.model.jnt_range, [result.qpos]),
     }
-    held = {k: v for k, v in summary["joints_at_limit"].items() if v["share"] >= AT_LIMIT_PRINT}
+    held = limits_text(summary["joints_at_limit"], AT_LIMIT_PRINT)
     text = (
         f"{trial.report}\n"
         f"IK ({args.damping}): {n} frames in {seconds:.2f} s ({n / seconds:,.0f} frames/s), "
@@ -204,7 +204,7 @@ def _solve_and_write(
         )
         + (f"\nmarkers in the file without a valid sample: {', '.join(never)}" if never else "")
         + ("" if quality is None else f"\n{quality_text(quality)}")
-        + (f"\njoints held at a limit of their range: {limits_text(held)}" if held else "")
+        + (f"\njoints held at a limit of their range: {held}" if held else "")
         + f"\nwrote {args.out}/motion.csv, joint_centres.csv, motion.npz, model.xml, summary.json"
     )
     return summary, text

@@ -147,20 +147,22 @@ def plausibility_text(
             "them beyond it; weakly excited or a marker misplaced?): "
             + ", ".join(f"{n} ({b})" for n, b in at_bound.items())
         )
-    held = {n: v for n, v in (at_limit or {}).items() if float(v["share"]) >= AT_LIMIT_PRINT}
+    held = limits_text(at_limit or {}, AT_LIMIT_PRINT)
     if held:
         lines.append(
             "joints held at a limit of their range (share of frames; the markers ask for "
-            "more, and the lengths nearby absorb it): " + limits_text(held)
+            "more, and the lengths nearby absorb it): " + held
         )
     return "\n".join(lines)
 
 
-def limits_text(at_limit: dict[str, dict[str, float | str]]) -> str:
-    """``lumbar_flex lower -30 deg 100 %, ...`` for :func:`joints_at_limit`'s entries."""
+def limits_text(at_limit: dict[str, dict[str, float | str]], least: float = 0.0) -> str:
+    """``lumbar_flex lower -30 deg 100 %, ...`` for :func:`joints_at_limit`'s entries held in
+    at least ``least`` of the frames (default 0: every entry); "" when none is."""
     return ", ".join(
         f"{n} {v['limit']} {float(v['limit_deg']):.0f} deg {float(v['share']):.0%}"
         for n, v in at_limit.items()
+        if float(v["share"]) >= least
     )
 
 
