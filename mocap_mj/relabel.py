@@ -1,0 +1,486 @@
+"""Mislabelled markers found and corrected: labels exchanged within a segment, across
+neighbouring segments, left for right, over a whole trial or over a span of frames.
+
+A label error keeps every marker where it is and moves only its name, so the data alone
+cannot always see it (a reversed symmetric plate keeps every distance; a left/right exchange
+of the pelvis mirrors it). A model can: each labeling is judged by how well the model's
+skeleton fits it. :func:`find_label_errors` does so in four steps.
+
+Candidates (:func:`candidates`)
+    The labelings a label error produces, as permutations of model markers: every exchange
+    of two markers of one segment and every exchange of two disjoint pairs of them (a
+    cluster or plate reversed front to back or mirrored: LFHD/RFHD with LBHD/RBHD), every
+    exchange of a marker with one of a neighbouring segment (RKNE with RTIB: the nearest
+    marker-carrying ancestor in the model's tree), every exchange of mirror-named markers
+    (``L<x>`` with ``R<x>``: LASI with RASI, LKNE with RKNE) and of all the mirror-named
+    markers of a left segment with its right twin (a side template applied to the wrong
+    side). Three-cycles and longer permutations are not tried.
+Spans
+    A label can change only where its marker is lost (a gap: the frame it reappears) or
+    where its track jumps further than a body segment accelerates (``jump`` of
+    :mod:`mocap_mj.marker_quality`): a candidate is judged on each span of frames between
+    the breakpoints of its own markers, so a swap that starts after one occlusion and ends
+    at the next is found for that span, and one over the whole trial on every span.
+Evidence
+    An IK with a model (:class:`~mocap_mj.ik.IKSolver`, joint limits kept: an implausible
+    pose cannot fit a wrong labeling) on a sample of frames: at most :data:`EVEN_FRAMES`
+    evenly spaced ones, plus three in every span between the breakpoints of any marker (at
+    most :data:`MAX_FRAMES` in all). ``identify`` gives the bundled model's nominal skeleton
+    scaled by the subject's overall size (:func:`reference_theta`: it is built from no
+    label of the trial, so it cannot have absorbed the error); ``ik`` the model it is given.
+    Each candidate is first screened on the original labeling's poses (the residuals of
+    its markers with their labels exchanged); the best :data:`CONFIRM` are then fitted
+    again by IK with the exchanged labels.
+Margin
+    A candidate is taken on a span when, over its sampled frames (at least
+    :data:`MIN_FRAMES`), the median RMS residual of its markers falls to at most
+    :data:`FACTOR` (one half) of the original labeling's and by at least :data:`MARGIN_MIN`
+    (30 mm), and the whole body's median RMS residual falls too. A marker exchanged with
+    one 100-300 mm away leaves a residual of that size; the nominal model misplaces a
+    Plug-in Gait marker by 40-110 mm at most on the shared recordings (thigh and tibia
+    wands), and soft tissue and noise move a marker by a few mm to 30 mm: neither halves a
+    residual and removes 30 mm from it. Markers closer together than about 60 mm (the two
+    wrist-bar markers) are exchanged only when the evidence is that clear.
+
+Candidates are taken greedily, the largest drop of the squared residual first, one per
+segment in a round, the data corrected and judged again (at most :data:`MAX_ROUNDS`
+rounds): an exchange that spoils the pose of a segment cannot make its neighbour's look
+wrong. The check costs one IK of the sampled frames per round and one per confirmed
+candidate, whatever the recording's length.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .identify.initial import segment_scales
+from .ik import IKSolver
+from .kinematics import Kinematics
+from .marker_quality import ACCEL_MAX, JUMP_MIN, _prediction_error
+from .parameters import ParameterSet
+
+__all__ = [
+    "CONFIRM",
+    "EVEN_FRAMES",
+    "FACTOR",
+    "MARGIN_MIN",
+    "MAX_FRAMES",
+    "MAX_ROUNDS",
+    "MIN_FRAMES",
+    "Candidate",
+    "Relabel",
+    "apply_relabels",
+    "candidates",
+    "find_label_errors",
+    "reference_theta",
+    "relabel_lines",
+]
+
+#: The corrected labeling's median RMS residual of the exchanged markers, at most this
+#: fraction of the original labeling's (module docstring, "Margin").
+FACTOR = 0.5
+#: ... and at least this much [m] below it.
+MARGIN_MIN = 0.030
+#: Evenly spaced frames the IK evidence is taken on (plus three per span between breakpoints).
+EVEN_FRAMES = 200
+#: Most frames the IK evidence is taken on.
+MAX_FRAMES = 3000
+#: Fewest sampled frames with all of a candidate's markers a span needs to be judged.
+MIN_FRAMES = 3
+#: Most candidates fitted again by IK in a round (the best by the screen first).
+CONFIRM = 40
+#: Most rounds of find, correct, judge again.
+MAX_ROUNDS = 8
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A labeling to try: ``slots[k]`` takes the data labelled ``sources[k]`` (marker
+    indices; a permutation of one set); kind: ``within segment``, ``across segments`` or
+    ``left/right``."""
+
+    kind: str
+    slots: tuple[int, ...]
+    sources: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class Relabel:
+    """One correction of one file's labels.
+
+    file; kind (:class:`Candidate`); markers: the corrected labels, ``markers[k]`` takes the
+    data the file labels ``sources[k]``; frames: [first, last) of the file's frames;
+    before_mm, after_mm: median RMS IK residual [mm] of those markers with the file's labels
+    and with the corrected ones; applied: whether the fitted data carry the correction;
+    message: the one-line text.
+    """
+
+    file: str
+    kind: str
+    markers: tuple[str, ...]
+    sources: tuple[str, ...]
+    frames: tuple[int, int]
+    before_mm: float
+    after_mm: float
+    applied: bool
+    message: str
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "file": self.file,
+            "kind": self.kind,
+            "markers": list(self.markers),
+            "sources": list(self.sources),
+            "frames": list(self.frames),
+            "before_mm": round(self.before_mm, 1),
+            "after_mm": round(self.after_mm, 1),
+            "applied": self.applied,
+            "message": self.message,
+        }
+
+
+# ------------------------------------------------------------------------------- candidates
+def candidates(pset: ParameterSet) -> list[Candidate]:
+    """Every labeling :func:`find_label_errors` tries for the model's markers (module
+    docstring, "Candidates"), each permutation once."""
+    names = list(pset.marker_names)
+    body = [int(b) for b in pset.model.site_bodyid]
+    groups: dict[int, list[int]] = {}
+    for i, b in enumerate(body):
+        groups.setdefault(b, []).append(i)
+    out: dict[tuple[tuple[int, ...], tuple[int, ...]], Candidate] = {}
+
+    def add(kind: str, pairs: Sequence[tuple[int, int]]) -> None:
+        slots = tuple(k for a, b in pairs for k in (a, b))
+        sources = tuple(k for a, b in pairs for k in (b, a))
+        order = np.argsort(slots)
+        key = (tuple(slots[i] for i in order), tuple(sources[i] for i in order))
+        out.setdefault(key, Candidate(kind, *key))
+
+    mirror = _mirror_pairs(names)
+    for members in groups.values():
+        pairs = list(itertools.combinations(members, 2))
+        for p in pairs:
+            add("left/right" if p in mirror else "within segment", [p])
+        for p, q in itertools.combinations(pairs, 2):
+            if not set(p) & set(q):
+                add("within segment", [p, q])
+    for b, members in groups.items():
+        up = _marker_parent(pset, b, groups)
+        if up is not None:
+            for i, j in itertools.product(groups[up], members):
+                add("across segments", [(i, j)])
+    for p in mirror:
+        add("left/right", [p])
+    for b, members in groups.items():
+        sided = [p for p in mirror if p[0] in members and body[p[1]] != b]
+        if len(sided) > 1:
+            add("left/right", sided)
+    return list(out.values())
+
+
+def _mirror_pairs(names: Sequence[str]) -> set[tuple[int, int]]:
+    """(i, j), i < j, of markers named ``L<x>`` and ``R<x>``."""
+    index = {n: i for i, n in enumerate(names)}
+    out = set()
+    for n, i in index.items():
+        j = index.get("R" + n[1:]) if n.startswith("L") else None
+        if j is not None:
+            out.add((min(i, j), max(i, j)))
+    return out
+
+
+def _marker_parent(pset: ParameterSet, b: int, groups: Mapping[int, list[int]]) -> int | None:
+    """The nearest ancestor of body b that carries markers (None: none)."""
+    parent = pset.model.body_parentid
+    a = int(parent[b])
+    while a > 0 and a not in groups:
+        a = int(parent[a])
+    return a if a > 0 else None
+
+
+# -------------------------------------------------------------------------------- the model
+def reference_theta(pset: ParameterSet, markers: np.ndarray | Sequence[np.ndarray]) -> np.ndarray:
+    """theta (P,) [m]: the model's nominal skeleton and marker offsets scaled by the
+    subject's overall size (the median of the segment ratios of
+    :func:`~mocap_mj.identify.initial.segment_scales`, robust to a few exchanged labels),
+    built from no marker's label alone."""
+    overall = float(segment_scales(pset, markers)["overall"].value)
+    return np.asarray(pset.nominal, dtype=float) * (overall if np.isfinite(overall) else 1.0)
+
+
+# --------------------------------------------------------------------------- the search
+def find_label_errors(
+    path: str,
+    markers: np.ndarray,
+    rate: float,
+    kin: Kinematics,
+    *,
+    first_frame: int = 0,
+) -> list[Relabel]:
+    """The label errors of file ``path``'s markers (T, M, 3) [m] (model order, NaN where
+    missing; not modified), judged with the model ``kin`` at its theta (module docstring);
+    rate [Hz]; ``first_frame``: the file's frame of row 0. Each :class:`Relabel` is
+    ``applied=True``; :func:`apply_relabels` makes the corrected copy."""
+    x = np.asarray(markers, dtype=float)
+    if len(x) < MIN_FRAMES:
+        return []
+    pset = kin.pset
+    cands = candidates(pset)
+    breaks = _breakpoints(x, rate)
+    sample = _sample(len(x), breaks)
+    solver = IKSolver(kin)
+    xs = x[sample].copy()
+    out: list[Relabel] = []
+    for _ in range(MAX_ROUNDS):
+        taken = _round(path, pset, solver, xs, sample, len(x), breaks, cands, first_frame)
+        if not taken:
+            break
+        for r, spans in taken:
+            out.append(r)
+            for a, b in spans:
+                rows = (sample >= a) & (sample < b)
+                xs[rows] = _permuted(xs[rows], pset.marker_names, r)
+    return out
+
+
+def apply_relabels(
+    markers: np.ndarray,
+    names: Sequence[str],
+    relabels: Sequence[Relabel],
+    path: str,
+    *,
+    first_frame: int = 0,
+    in_place: bool = False,
+) -> np.ndarray:
+    """markers (T, M, 3) [m] of file ``path`` with the ``applied`` corrections of
+    :func:`find_label_errors` made, in order (on a copy unless ``in_place``; the caller's
+    array untouched by default)."""
+    mine = [r for r in relabels if r.file == path and r.applied]
+    if not mine:
+        return markers
+    out = markers if in_place else np.array(markers, dtype=float)
+    for r in mine:
+        a, b = r.frames[0] - first_frame, r.frames[1] - first_frame
+        out[a:b] = _permuted(np.asarray(out[a:b]), names, r)
+    return out
+
+
+def _permuted(x: np.ndarray, names: Sequence[str], r: Relabel) -> np.ndarray:
+    """x (n, M, 3) with r's slots taking the data of its sources (a new array)."""
+    index = {n: i for i, n in enumerate(names)}
+    y = np.array(x, dtype=float)
+    y[:, [index[n] for n in r.markers]] = x[:, [index[n] for n in r.sources]]
+    return y
+
+
+def _breakpoints(x: np.ndarray, rate: float) -> list[np.ndarray]:
+    """Per marker, the sorted frames (rows) where its label may change: where it reappears
+    after a gap and where its track jumps (module docstring, "Spans")."""
+    present = np.all(np.isfinite(x), axis=2)  # (T, M)
+    back = np.zeros_like(present)
+    back[1:] = present[1:] & ~present[:-1]
+    jump = np.zeros_like(present)
+    if len(x) >= 3:
+        with np.errstate(invalid="ignore"):
+            jump[2:] = _prediction_error(x) > max(JUMP_MIN, ACCEL_MAX / rate**2)
+        jump[3:] &= ~jump[2:-1]  # a jump also spoils the next frame's prediction
+    return [np.flatnonzero(back[:, m] | jump[:, m]) for m in range(x.shape[1])]
+
+
+def _sample(n: int, breaks: Sequence[np.ndarray]) -> np.ndarray:
+    """The sorted frames the evidence is taken on (module docstring, "Evidence")."""
+    edges = np.unique(np.concatenate([[0, n], *breaks]).astype(int))
+    a, b = edges[:-1], edges[1:]
+    spans = np.concatenate([a, (a + b) // 2, b - 1])
+    even = np.linspace(0, n - 1, min(n, EVEN_FRAMES)).astype(int)
+    out = np.unique(np.concatenate([even, spans]))
+    if len(out) > MAX_FRAMES:
+        out = out[np.linspace(0, len(out) - 1, MAX_FRAMES).astype(int)]
+    return out
+
+
+def _spans(c: Candidate, breaks: Sequence[np.ndarray], n: int) -> np.ndarray:
+    """(S, 2) rows [first, last) of the spans between the breakpoints of c's markers."""
+    edges = np.unique(np.concatenate([[0, n], *(breaks[m] for m in c.slots)]).astype(int))
+    return np.stack([edges[:-1], edges[1:]], axis=1)
+
+
+@dataclass
+class _Pose:
+    """The sampled frames' IK with one labeling: the model's marker positions (n, M, 3)
+    [m], the squared residual per marker (n, M) [m^2] (NaN where missing or unsolved) and
+    the whole body's RMS residual per frame (n,) [m]."""
+
+    sites: np.ndarray
+    sq: np.ndarray
+    rms: np.ndarray
+
+
+def _pose(solver: IKSolver, x: np.ndarray) -> _Pose:
+    res = solver.solve_trial(x)
+    ok = res.solved & np.all(np.isfinite(res.qpos), axis=1)
+    sites = np.full_like(x, np.nan)
+    if ok.any():
+        sites[ok] = solver.kin.marker_positions(res.qpos[ok])
+    sq = np.sum((sites - x) ** 2, axis=2)
+    with np.errstate(invalid="ignore"), np.testing.suppress_warnings() as sup:
+        sup.filter(RuntimeWarning)
+        rms = np.sqrt(np.nanmean(sq, axis=1))
+    return _Pose(sites, sq, rms)
+
+
+def _screen(
+    c: Candidate, x: np.ndarray, base: _Pose, rows: list[np.ndarray]
+) -> tuple[float, list[int]]:
+    """The screen of c on the original poses: (median drop of its markers' squared
+    residual summed over them [m^2], the spans (indices into ``rows``) where it passes
+    half the margin)."""
+    s, src = list(c.slots), list(c.sources)
+    old = np.sqrt(np.mean(base.sq[:, s], axis=1))
+    new = np.sqrt(np.mean(np.sum((base.sites[:, s] - x[:, src]) ** 2, axis=2), axis=1))
+    passing, gain = [], []
+    for k, r in enumerate(rows):
+        o, n = old[r], new[r]
+        good = np.isfinite(o) & np.isfinite(n)
+        if good.sum() < MIN_FRAMES:
+            continue
+        mo, mn = np.median(o[good]), np.median(n[good])
+        if mn < 0.8 * mo and mo - mn > MARGIN_MIN / 2:
+            passing.append(k)
+            gain.append(len(s) * (mo**2 - mn**2))
+    return (max(gain) if gain else 0.0), passing
+
+
+def _confirm(
+    c: Candidate, solver: IKSolver, x: np.ndarray, base: _Pose, rows: list[np.ndarray]
+) -> list[tuple[int, float, float, float]]:
+    """The spans (indices into ``rows``) where c passes the margin after an IK with its
+    labels: (span, before, after [m] median RMS of c's markers, the median drop of the
+    whole body's summed squared residual [m^2])."""
+    idx = np.concatenate(rows)
+    y = x[idx].copy()
+    y[:, list(c.slots)] = x[idx][:, list(c.sources)]
+    new = _pose(solver, y)
+    s = list(c.slots)
+    out, at = [], 0
+    for k, r in enumerate(rows):
+        sl = slice(at, at + len(r))
+        at += len(r)
+        o = np.sqrt(np.mean(base.sq[r][:, s], axis=1))
+        n = np.sqrt(np.mean(new.sq[sl][:, s], axis=1))
+        good = np.isfinite(o) & np.isfinite(n) & np.isfinite(new.rms[sl] + base.rms[r])
+        if good.sum() < MIN_FRAMES:
+            continue
+        mo, mn = float(np.median(o[good])), float(np.median(n[good]))
+        drop = np.nansum(base.sq[r][good], axis=1) - np.nansum(new.sq[sl][good], axis=1)
+        if mn <= FACTOR * mo and mo - mn >= MARGIN_MIN and np.median(drop) > 0:
+            out.append((k, mo, mn, float(np.median(drop))))
+    return out
+
+
+def _round(
+    path: str,
+    pset: ParameterSet,
+    solver: IKSolver,
+    x: np.ndarray,
+    sample: np.ndarray,
+    n: int,
+    breaks: Sequence[np.ndarray],
+    cands: Sequence[Candidate],
+    first: int,
+) -> list[tuple[Relabel, list[tuple[int, int]]]]:
+    """One round on the sampled frames x (n_s, M, 3) [m] (rows ``sample`` of the T = n
+    frames): the corrections taken, each with its spans [first, last) of rows of the
+    recording (module docstring, "Evidence" and the rounds)."""
+    base = _pose(solver, x)
+    site_body = pset.model.site_bodyid
+
+    def bodies(c: Candidate) -> set[int]:
+        return {int(site_body[m]) for m in c.slots}
+
+    plans = []
+    hit: set[int] = set()
+    for c in cands:
+        spans = _spans(c, breaks, n)
+        rows = [np.arange(a, b) for a, b in np.searchsorted(sample, spans)]
+        gain, passing = _screen(c, x, base, rows)
+        plans.append((gain if passing else 0.0, c, spans, rows))
+        if passing:
+            hit |= bodies(c)
+    pool = [p for p in plans if p[0] > 0 or (hit and bodies(p[1]) <= hit)]
+    pool.sort(key=lambda p: -p[0])
+    confirmed = []
+    for _, c, spans, rows in pool[:CONFIRM]:
+        ok = _confirm(c, solver, x, base, rows)
+        if ok:
+            judged = [
+                (int(spans[k][0]), int(spans[k][1]), mo, mn, len(rows[k])) for k, mo, mn, _ in ok
+            ]
+            confirmed.append((max(g for *_, g in ok), c, judged))
+    confirmed.sort(key=lambda t: -t[0])
+    taken: list[tuple[Relabel, list[tuple[int, int]]]] = []
+    used: set[int] = set()
+    for _, c, judged in confirmed:
+        if bodies(c) & used:
+            continue
+        used |= bodies(c)
+        taken += _relabels(path, pset.marker_names, c, judged, first)
+    return taken
+
+
+def _relabels(
+    path: str,
+    names: Sequence[str],
+    c: Candidate,
+    judged: Sequence[tuple[int, int, float, float, int]],
+    first: int,
+) -> list[tuple[Relabel, list[tuple[int, int]]]]:
+    """c's corrections, one per run of adjacent spans (first, last, before, after [m], rows)."""
+    runs: list[list[tuple[int, int, float, float, int]]] = []
+    for j in sorted(judged):
+        if runs and runs[-1][-1][1] == j[0]:
+            runs[-1].append(j)
+        else:
+            runs.append([j])
+    pairs = sorted({(min(a, b), max(a, b)) for a, b in zip(c.slots, c.sources, strict=True)})
+    said = ", ".join(f"{names[a]} <-> {names[b]}" for a, b in pairs)
+    out = []
+    for run in runs:
+        w = np.array([j[4] for j in run], dtype=float)
+        before = float(np.average([j[2] for j in run], weights=w)) * 1e3
+        after = float(np.average([j[3] for j in run], weights=w)) * 1e3
+        frames = (first + run[0][0], first + run[-1][1])
+        text = (
+            f"{path}: labels exchanged ({c.kind}): {said} in frames {frames[0]}-{frames[1] - 1}; "
+            f"the model fits these markers {before:.0f} mm RMS as labelled, {after:.0f} mm "
+            "exchanged back"
+        )
+        r = Relabel(
+            path,
+            c.kind,
+            tuple(names[k] for k in c.slots),
+            tuple(names[k] for k in c.sources),
+            frames,
+            before,
+            after,
+            True,
+            text,
+        )
+        out.append((r, [(j[0], j[1]) for j in run]))
+    return out
+
+
+def relabel_lines(entries: Sequence[Mapping[str, Any]]) -> list[str]:
+    """report.md's lines on the corrected labels from summary.json's ``relabelled``
+    entries (:meth:`Relabel.to_json`)."""
+    lines = []
+    for e in entries:
+        done = "corrected" if e["applied"] else "not corrected (--no-relabel)"
+        lines.append(f"- {done}: {e['message']}")
+    return lines
