@@ -316,8 +316,12 @@ def suspects(findings: Sequence[Finding]) -> dict[str, int]:
 
 def quality_lines(entry: Mapping[str, Any]) -> list[str]:
     """The report.md section on marker data quality from summary.json's ``marker_quality``
-    entry (``findings`` as :meth:`Finding.to_json`, ``suspects``, ``excluded``)."""
+    entry (``findings`` as :meth:`Finding.to_json`, ``suspects``, ``excluded``, and
+    ``relabelled`` as :meth:`mocap_mj.relabel.Relabel.to_json`)."""
     lines = ["## Marker data quality", ""]
+    for r in entry.get("relabelled") or []:
+        done = "labels corrected" if r["applied"] else "labels not corrected (--no-relabel)"
+        lines.append(f"- {done}: {r['message']}")
     if entry.get("excluded"):
         lines.append(
             f"- excluded by --exclude-markers: {', '.join(entry['excluded'])} (their data "

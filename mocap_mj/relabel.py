@@ -78,7 +78,6 @@ __all__ = [
     "candidates",
     "find_label_errors",
     "reference_theta",
-    "relabel_lines",
 ]
 
 #: The corrected labeling's median RMS residual of the exchanged markers, at most this
@@ -306,9 +305,16 @@ def _sample(n: int, breaks: Sequence[np.ndarray]) -> np.ndarray:
 
 
 def _spans(c: Candidate, breaks: Sequence[np.ndarray], n: int) -> np.ndarray:
-    """(S, 2) rows [first, last) of the spans between the breakpoints of c's markers."""
+    """(S, 2) rows [first, last) of the spans between the breakpoints of c's markers; a
+    span shorter than MIN_FRAMES frames (a flicker: the quality check's ghosts and jumps)
+    is joined to the one before it (the first to the one after)."""
     edges = np.unique(np.concatenate([[0, n], *(breaks[m] for m in c.slots)]).astype(int))
-    return np.stack([edges[:-1], edges[1:]], axis=1)
+    keep = [0]
+    for e in edges[1:-1]:
+        if e - keep[-1] >= MIN_FRAMES and n - e >= MIN_FRAMES:
+            keep.append(int(e))
+    keep.append(n)
+    return np.stack([keep[:-1], keep[1:]], axis=1)
 
 
 @dataclass
@@ -474,13 +480,3 @@ def _relabels(
         )
         out.append((r, [(j[0], j[1]) for j in run]))
     return out
-
-
-def relabel_lines(entries: Sequence[Mapping[str, Any]]) -> list[str]:
-    """report.md's lines on the corrected labels from summary.json's ``relabelled``
-    entries (:meth:`Relabel.to_json`)."""
-    lines = []
-    for e in entries:
-        done = "corrected" if e["applied"] else "not corrected (--no-relabel)"
-        lines.append(f"- {done}: {e['message']}")
-    return lines

@@ -6,6 +6,12 @@ Findings are warnings by default (one line each on stderr, recorded in summary.j
 not proof (a child's forearm, an unusual marker set), and a fit of the remaining markers is
 still useful. ``--strict`` refuses the data instead (exit 2, nothing written), for pipelines
 that must not publish a model built on suspect markers.
+
+Before the check, labels exchanged by mistake are corrected (:mod:`mocap_mj.relabel`): in the
+command's own copy of the markers (the files are never touched), one line each on stderr,
+listed in summary.json's ``marker_quality.relabelled`` and in report.md. ``--no-relabel``
+leaves the labels as they are and prints the same lines as warnings; ``--strict`` refuses a
+recording whose labels need a correction.
 """
 
 from __future__ import annotations
@@ -13,11 +19,13 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from ..errors import MocapError
+from ..kinematics import Kinematics
 from ..marker_quality import (
     Finding,
     between_trials,
@@ -29,6 +37,7 @@ from ..marker_quality import (
 )
 from ..marker_quality import parse_marker_list as parse_marker_list
 from ..parameters import ParameterSet
+from ..relabel import Relabel, apply_relabels, find_label_errors, reference_theta
 
 
 def add_quality_options(parser: argparse.ArgumentParser) -> None:
@@ -44,7 +53,14 @@ def add_quality_options(parser: argparse.ArgumentParser) -> None:
         "--strict",
         action="store_true",
         help="refuse the data (exit 2, no output) when the marker-data quality check finds "
-        "anything (default: warn on stderr and carry on)",
+        "anything or a label needs correcting (default: warn on stderr and carry on)",
+    )
+    g.add_argument(
+        "--no-relabel",
+        action="store_true",
+        help="leave labels the model shows exchanged (within a segment, across neighbouring "
+        "segments, left for right) as they are, and only warn (default: correct them in "
+        "the fitted copy of the data and say so)",
     )
 
 
@@ -57,6 +73,7 @@ def check_trials(
     """Check each (path, markers (T, M, 3) [m], rate [Hz], file's frame of row 0), the
     ``excluded`` markers already dropped; raise under ``--strict``, else print the findings
     on stderr; return them and the summary's ``marker_quality`` entry."""
+    relabelled = relabel(args, pset, trials)
     segments = marker_segments(pset.model)
     found: list[Finding] = []
     for path, markers, rate, first in trials:
@@ -86,12 +103,47 @@ def check_trials(
             file=sys.stderr,
         )
     entry = {
+        "relabelled": [r.to_json() for r in relabelled],
         "findings": [f.to_json() for f in found],
         "suspects": named,
         "excluded": list(excluded),
         "samples_dropped": len({(f.file, f.markers[0], t) for f in found for t in f.samples}),
     }
     return found, entry
+
+
+def relabel(
+    args: argparse.Namespace,
+    pset: ParameterSet,
+    trials: Sequence[tuple[str, np.ndarray, float, int]],
+) -> list[Relabel]:
+    """The label errors of each (path, markers (T, M, 3) [m], rate [Hz], file's frame of
+    row 0), corrected in those arrays (the command's own copy of the data) unless
+    ``--no-relabel``; refused under ``--strict``; one line each on stderr. ``identify``
+    judges them with the nominal model scaled to the subject, ``ik`` with its model."""
+    kin = Kinematics(pset)
+    if args.command == "identify":
+        kin.set_theta(reference_theta(pset, [t[1] for t in trials]))
+    out: list[Relabel] = []
+    for path, markers, rate, first in trials:
+        found = find_label_errors(path, markers, rate, kin, first_frame=first)
+        if found and args.strict:
+            raise MocapError(
+                f"{found[0].message} ({len(found)} label correction(s) in {path}; --strict "
+                "refuses a recording whose labels need correcting: fix the labels or run "
+                "without --strict)"
+            )
+        if not args.no_relabel:
+            apply_relabels(
+                markers, pset.marker_names, found, path, first_frame=first, in_place=True
+            )
+        else:
+            found = [replace(r, applied=False) for r in found]
+        for r in found:
+            verb = "relabelled" if r.applied else "warning: not relabelled (--no-relabel)"
+            print(f"mocap-mj {args.command}: {verb}: {r.message}", file=sys.stderr)
+        out += found
+    return out
 
 
 def without_ghosts(
@@ -116,6 +168,10 @@ def quality_text(entry: dict[str, Any]) -> str:
     """The stdout line of a command on its marker-data quality."""
     excluded = entry["excluded"]
     head = f"excluded markers: {', '.join(excluded)}; " if excluded else ""
+    fixed = entry.get("relabelled") or []
+    if fixed:
+        done = sum(r["applied"] for r in fixed)
+        head += f"labels corrected: {done} of {len(fixed)} exchange(s) found; "
     n = len(entry["findings"])
     if not n:
         return f"{head}marker data quality: no finding"
