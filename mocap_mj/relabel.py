@@ -72,6 +72,7 @@ __all__ = [
     "MAX_FRAMES",
     "MAX_ROUNDS",
     "MIN_FRAMES",
+    "NEIGHBOURHOODS",
     "Candidate",
     "Relabel",
     "apply_relabels",
@@ -91,8 +92,11 @@ EVEN_FRAMES = 200
 MAX_FRAMES = 3000
 #: Fewest sampled frames with all of a candidate's markers a span needs to be judged.
 MIN_FRAMES = 3
-#: Most candidates fitted again by IK in a round (the best by the screen first).
-CONFIRM = 40
+#: Most candidates fitted again by IK in a round.
+CONFIRM = 60
+#: Neighbourhoods (the segments of a candidate the screen passes) judged in a round when
+#: one of them gives a correction; more are judged until one does (or CONFIRM is reached).
+NEIGHBOURHOODS = 3
 #: Most rounds of find, correct, judge again.
 MAX_ROUNDS = 8
 
@@ -279,17 +283,17 @@ def _permuted(x: np.ndarray, names: Sequence[str], r: Relabel) -> np.ndarray:
 
 
 def _breakpoints(x: np.ndarray, rate: float) -> list[np.ndarray]:
-    """Per marker, the sorted frames (rows) where its label may change: where it reappears
-    after a gap and where its track jumps (module docstring, "Spans")."""
+    """Per marker, the sorted frames (rows) where its label may change: where it is lost,
+    where it reappears after a gap and where its track jumps (module docstring, "Spans")."""
     present = np.all(np.isfinite(x), axis=2)  # (T, M)
-    back = np.zeros_like(present)
-    back[1:] = present[1:] & ~present[:-1]
-    jump = np.zeros_like(present)
+    edge = np.zeros_like(present)
+    edge[1:] = present[1:] != present[:-1]
     if len(x) >= 3:
         with np.errstate(invalid="ignore"):
-            jump[2:] = _prediction_error(x) > max(JUMP_MIN, ACCEL_MAX / rate**2)
-        jump[3:] &= ~jump[2:-1]  # a jump also spoils the next frame's prediction
-    return [np.flatnonzero(back[:, m] | jump[:, m]) for m in range(x.shape[1])]
+            jump = _prediction_error(x) > max(JUMP_MIN, ACCEL_MAX / rate**2)  # frames 2..T-1
+        jump[1:] &= ~jump[:-1]  # a jump also spoils the next frame's prediction
+        edge[2:] |= jump
+    return [np.flatnonzero(edge[:, m]) for m in range(x.shape[1])]
 
 
 def _sample(n: int, breaks: Sequence[np.ndarray]) -> np.ndarray:
@@ -305,16 +309,14 @@ def _sample(n: int, breaks: Sequence[np.ndarray]) -> np.ndarray:
 
 
 def _spans(c: Candidate, breaks: Sequence[np.ndarray], n: int) -> np.ndarray:
-    """(S, 2) rows [first, last) of the spans between the breakpoints of c's markers; a
-    span shorter than MIN_FRAMES frames (a flicker: the quality check's ghosts and jumps)
-    is joined to the one before it (the first to the one after)."""
+    """(S, 2) rows [first, last) of the spans between the breakpoints of c's markers."""
     edges = np.unique(np.concatenate([[0, n], *(breaks[m] for m in c.slots)]).astype(int))
-    keep = [0]
-    for e in edges[1:-1]:
-        if e - keep[-1] >= MIN_FRAMES and n - e >= MIN_FRAMES:
-            keep.append(int(e))
-    keep.append(n)
-    return np.stack([keep[:-1], keep[1:]], axis=1)
+    return np.stack([edges[:-1], edges[1:]], axis=1)
+
+
+#: A span taken: first, last row of the recording, before, after [m] (median RMS of the
+#: candidate's markers), sampled frames in it.
+_Judged = tuple[int, int, float, float, int]
 
 
 @dataclass
@@ -335,58 +337,70 @@ def _pose(solver: IKSolver, x: np.ndarray) -> _Pose:
     if ok.any():
         sites[ok] = solver.kin.marker_positions(res.qpos[ok])
     sq = np.sum((sites - x) ** 2, axis=2)
+    return _Pose(sites, sq, _rms(sq))
+
+
+def _rms(sq: np.ndarray) -> np.ndarray:
+    """(n,) [m]: the RMS over the columns of sq (n, k) [m^2] present in each row (NaN: none)."""
     with np.errstate(invalid="ignore"), np.testing.suppress_warnings() as sup:
         sup.filter(RuntimeWarning)
-        rms = np.sqrt(np.nanmean(sq, axis=1))
-    return _Pose(sites, sq, rms)
+        return np.sqrt(np.nanmean(sq, axis=1))
 
 
-def _screen(
-    c: Candidate, x: np.ndarray, base: _Pose, rows: list[np.ndarray]
-) -> tuple[float, list[int]]:
-    """The screen of c on the original poses: (median drop of its markers' squared
-    residual summed over them [m^2], the spans (indices into ``rows``) where it passes
-    half the margin)."""
+def _medians(o: np.ndarray, n: np.ndarray) -> tuple[float, float] | None:
+    """The medians [m] of o and n (m,) [m] over the frames where both are known, or None
+    when those are fewer than MIN_FRAMES (or than the span's frames, when it is shorter)."""
+    good = np.isfinite(o) & np.isfinite(n)
+    if good.sum() < min(MIN_FRAMES, len(o)) or not good.any():
+        return None
+    return float(np.median(o[good])), float(np.median(n[good]))
+
+
+def _screen(c: Candidate, x: np.ndarray, base: _Pose, rows: list[np.ndarray]) -> float:
+    """The screen of c on the original labeling's poses (its markers' residuals with the
+    labels exchanged, the pose kept): the largest drop over the spans of the squared
+    residual summed over c's markers [m^2] where it passes half the margin, else 0."""
     s, src = list(c.slots), list(c.sources)
-    old = np.sqrt(np.mean(base.sq[:, s], axis=1))
-    new = np.sqrt(np.mean(np.sum((base.sites[:, s] - x[:, src]) ** 2, axis=2), axis=1))
-    passing, gain = [], []
-    for k, r in enumerate(rows):
-        o, n = old[r], new[r]
-        good = np.isfinite(o) & np.isfinite(n)
-        if good.sum() < MIN_FRAMES:
-            continue
-        mo, mn = np.median(o[good]), np.median(n[good])
-        if mn < 0.8 * mo and mo - mn > MARGIN_MIN / 2:
-            passing.append(k)
-            gain.append(len(s) * (mo**2 - mn**2))
-    return (max(gain) if gain else 0.0), passing
+    old = _rms(base.sq[:, s])
+    new = _rms(np.sum((base.sites[:, s] - x[:, src]) ** 2, axis=2))
+    best = 0.0
+    for r in rows:
+        m = _medians(old[r], new[r])
+        if m is not None and m[1] < 0.8 * m[0] and m[0] - m[1] > MARGIN_MIN / 2:
+            best = max(best, len(s) * (m[0] ** 2 - m[1] ** 2))
+    return best
 
 
 def _confirm(
-    c: Candidate, solver: IKSolver, x: np.ndarray, base: _Pose, rows: list[np.ndarray]
-) -> list[tuple[int, float, float, float]]:
+    c: Candidate,
+    solver: IKSolver,
+    x: np.ndarray,
+    base: _Pose,
+    rows: list[np.ndarray],
+    hood: Sequence[int],
+) -> list[tuple[int, float, float, float, float]]:
     """The spans (indices into ``rows``) where c passes the margin after an IK with its
-    labels: (span, before, after [m] median RMS of c's markers, the median drop of the
-    whole body's summed squared residual [m^2])."""
+    labels: (span, before, after [m]: median RMS of c's markers present, the median drop
+    of the whole body's summed squared residual [m^2], the median RMS after [m] of the
+    markers ``hood``: those of the segments c is judged among)."""
     idx = np.concatenate(rows)
     y = x[idx].copy()
     y[:, list(c.slots)] = x[idx][:, list(c.sources)]
     new = _pose(solver, y)
     s = list(c.slots)
+    old_c, new_c, new_h = _rms(base.sq[idx][:, s]), _rms(new.sq[:, s]), _rms(new.sq[:, hood])
+    drop = np.nansum(base.sq[idx], axis=1) - np.nansum(new.sq, axis=1)
+    drop[~np.isfinite(base.rms[idx] + new.rms)] = np.nan
     out, at = [], 0
     for k, r in enumerate(rows):
         sl = slice(at, at + len(r))
         at += len(r)
-        o = np.sqrt(np.mean(base.sq[r][:, s], axis=1))
-        n = np.sqrt(np.mean(new.sq[sl][:, s], axis=1))
-        good = np.isfinite(o) & np.isfinite(n) & np.isfinite(new.rms[sl] + base.rms[r])
-        if good.sum() < MIN_FRAMES:
+        m = _medians(old_c[sl], new_c[sl])
+        if m is None or not np.isfinite(drop[sl]).any():
             continue
-        mo, mn = float(np.median(o[good])), float(np.median(n[good]))
-        drop = np.nansum(base.sq[r][good], axis=1) - np.nansum(new.sq[sl][good], axis=1)
-        if mn <= FACTOR * mo and mo - mn >= MARGIN_MIN and np.median(drop) > 0:
-            out.append((k, mo, mn, float(np.median(drop))))
+        gain = float(np.nanmedian(drop[sl]))
+        if m[1] <= FACTOR * m[0] and m[0] - m[1] >= MARGIN_MIN and gain > 0:
+            out.append((k, m[0], m[1], gain, float(np.nanmedian(new_h[sl]))))
     return out
 
 
@@ -405,50 +419,92 @@ def _round(
     frames): the corrections taken, each with its spans [first, last) of rows of the
     recording (module docstring, "Evidence" and the rounds)."""
     base = _pose(solver, x)
-    site_body = pset.model.site_bodyid
-
-    def bodies(c: Candidate) -> set[int]:
-        return {int(site_body[m]) for m in c.slots}
-
     plans = []
-    hit: set[int] = set()
     for c in cands:
         spans = _spans(c, breaks, n)
         rows = [np.arange(a, b) for a, b in np.searchsorted(sample, spans)]
-        gain, passing = _screen(c, x, base, rows)
-        plans.append((gain if passing else 0.0, c, spans, rows))
-        if passing:
-            hit |= bodies(c)
-    pool = [p for p in plans if p[0] > 0 or (hit and bodies(p[1]) <= hit)]
-    pool.sort(key=lambda p: -p[0])
-    confirmed = []
-    for _, c, spans, rows in pool[:CONFIRM]:
-        ok = _confirm(c, solver, x, base, rows)
-        if ok:
-            judged = [
-                (int(spans[k][0]), int(spans[k][1]), mo, mn, len(rows[k])) for k, mo, mn, _ in ok
-            ]
-            confirmed.append((max(g for *_, g in ok), c, judged))
-    confirmed.sort(key=lambda t: -t[0])
+        plans.append(_Plan(_screen(c, x, base, rows), c, _bodies(pset, c), spans, rows))
+    won: list[tuple[float, _Plan, list[_Judged]]] = []
+    hoods: list[frozenset[int]] = []
+    tried = 0
+    for top in sorted((p for p in plans if p.screen > 0), key=lambda p: -p.screen):
+        if any(top.bodies <= h for h in hoods):
+            continue
+        if tried >= CONFIRM or (len(hoods) >= NEIGHBOURHOODS and won):
+            break
+        pool = [p for p in plans if p.bodies <= top.bodies and not _within(p.bodies, hoods)]
+        hoods.append(top.bodies)
+        tried += len(pool)
+        best = _best_in(pool, solver, x, base, top.bodies, pset)
+        if best is not None:
+            won.append(best)
+    won.sort(key=lambda t: -t[0])
     taken: list[tuple[Relabel, list[tuple[int, int]]]] = []
     used: set[int] = set()
-    for _, c, judged in confirmed:
-        if bodies(c) & used:
-            continue
-        used |= bodies(c)
-        taken += _relabels(path, pset.marker_names, c, judged, first)
+    for _, p, judged in won:
+        if not p.bodies & used:
+            used |= p.bodies
+            taken += _relabels(path, pset.marker_names, p.c, judged, first)
     return taken
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """A candidate in a round: its screen [m^2], its segments (body ids), its spans (S, 2)
+    [first, last) and each span's rows of the sampled frames."""
+
+    screen: float
+    c: Candidate
+    bodies: frozenset[int]
+    spans: np.ndarray
+    rows: list[np.ndarray]
+
+
+def _bodies(pset: ParameterSet, c: Candidate) -> frozenset[int]:
+    return frozenset(int(pset.model.site_bodyid[m]) for m in c.slots)
+
+
+def _within(b: frozenset[int], hoods: Sequence[frozenset[int]]) -> bool:
+    return any(b <= h for h in hoods)
+
+
+def _best_in(
+    pool: Sequence[_Plan],
+    solver: IKSolver,
+    x: np.ndarray,
+    base: _Pose,
+    hood: frozenset[int],
+    pset: ParameterSet,
+) -> tuple[float, _Plan, list[_Judged]] | None:
+    """The candidate of ``pool`` (those within the segments ``hood``) that passes the margin
+    and leaves the hood's markers the smallest residual: (its whole-body drop [m^2], it,
+    its spans taken), or None."""
+    watch = [m for m, b in enumerate(pset.model.site_bodyid) if int(b) in hood]
+    best: tuple[float, float, _Plan, list[_Judged]] | None = None
+    for p in pool:
+        ok = _confirm(p.c, solver, x, base, p.rows, watch)
+        if not ok:
+            continue
+        w = np.array([len(p.rows[k]) for k, *_ in ok], dtype=float)
+        left = float(np.average([h for *_, h in ok], weights=w))
+        judged = [
+            (int(p.spans[k][0]), int(p.spans[k][1]), mo, mn, len(p.rows[k]))
+            for k, mo, mn, _, _ in ok
+        ]
+        if best is None or left < best[0]:
+            best = (left, max(g for _, _, _, g, _ in ok), p, judged)
+    return None if best is None else best[1:]
 
 
 def _relabels(
     path: str,
     names: Sequence[str],
     c: Candidate,
-    judged: Sequence[tuple[int, int, float, float, int]],
+    judged: Sequence[_Judged],
     first: int,
 ) -> list[tuple[Relabel, list[tuple[int, int]]]]:
     """c's corrections, one per run of adjacent spans (first, last, before, after [m], rows)."""
-    runs: list[list[tuple[int, int, float, float, int]]] = []
+    runs: list[list[_Judged]] = []
     for j in sorted(judged):
         if runs and runs[-1][-1][1] == j[0]:
             runs[-1].append(j)
