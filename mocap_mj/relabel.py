@@ -83,7 +83,7 @@ __all__ = [
 
 #: The corrected labeling's median RMS residual of the exchanged markers, at most this
 #: fraction of the original labeling's (module docstring, "Margin").
-FACTOR = 0.5
+FACTOR = 0.6
 #: ... and at least this much [m] below it.
 MARGIN_MIN = 0.030
 #: Evenly spaced frames the IK evidence is taken on (plus three per span between breakpoints).
@@ -491,9 +491,25 @@ def _best_in(
             (int(p.spans[k][0]), int(p.spans[k][1]), mo, mn, len(p.rows[k]))
             for k, mo, mn, _, _ in ok
         ]
+        judged += _short_spans(p.spans, ok)
         if best is None or left < best[0]:
             best = (left, max(g for _, _, _, g, _ in ok), p, judged)
     return None if best is None else best[1:]
+
+
+def _short_spans(
+    spans: np.ndarray, ok: Sequence[tuple[int, float, float, float, float]]
+) -> list[_Judged]:
+    """The spans shorter than MIN_FRAMES frames not taken on their own evidence (a frame or
+    two around a flicker of one marker, too few to judge) whose neighbours are all taken:
+    they follow them (with no sampled frames of their own)."""
+    taken = {k: (mo, mn) for k, mo, mn, _, _ in ok}
+    out = []
+    for k, (a, b) in enumerate(spans):
+        near = [j for j in (k - 1, k + 1) if 0 <= j < len(spans)]
+        if k not in taken and b - a < MIN_FRAMES and near and all(j in taken for j in near):
+            out.append((int(a), int(b), *taken[near[0]], 0))
+    return out
 
 
 def _relabels(
@@ -505,7 +521,7 @@ def _relabels(
 ) -> list[tuple[Relabel, list[tuple[int, int]]]]:
     """c's corrections, one per run of adjacent spans (first, last, before, after [m], rows)."""
     runs: list[list[_Judged]] = []
-    for j in sorted(judged):
+    for j in sorted(judged):  # spans do not overlap: sorted by first frame
         if runs and runs[-1][-1][1] == j[0]:
             runs[-1].append(j)
         else:
