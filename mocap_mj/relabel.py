@@ -52,6 +52,7 @@ candidate, whatever the recording's length.
 from __future__ import annotations
 
 import itertools
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -63,6 +64,7 @@ from .ik import IKSolver
 from .kinematics import Kinematics
 from .marker_quality import ACCEL_MAX, JUMP_MIN, _prediction_error
 from .parameters import ParameterSet
+from .rigid import rigid_fit
 
 __all__ = [
     "CONFIRM",
@@ -323,27 +325,35 @@ _Judged = tuple[int, int, float, float, int]
 class _Pose:
     """The sampled frames' IK with one labeling: the model's marker positions (n, M, 3)
     [m], the squared residual per marker (n, M) [m^2] (NaN where missing or unsolved) and
-    the whole body's RMS residual per frame (n,) [m]."""
+    the whole body's RMS residual per frame (n,) [m]; the body origins (joint centres)
+    (n, nbody, 3) [m] when asked for."""
 
     sites: np.ndarray
     sq: np.ndarray
     rms: np.ndarray
+    origins: np.ndarray | None = None
 
 
-def _pose(solver: IKSolver, x: np.ndarray) -> _Pose:
+def _pose(solver: IKSolver, x: np.ndarray, *, origins: bool = False) -> _Pose:
+    """The IK of x (n, M, 3) [m]; with ``origins``, the body origins (n, nbody, 3) [m] too."""
     res = solver.solve_trial(x)
     ok = res.solved & np.all(np.isfinite(res.qpos), axis=1)
     sites = np.full_like(x, np.nan)
+    xpos = np.full((len(x), solver.kin.model.nbody, 3), np.nan) if origins else None
     if ok.any():
-        sites[ok] = solver.kin.marker_positions(res.qpos[ok])
+        if xpos is not None:
+            frames = solver.kin.forward(res.qpos[ok])
+            sites[ok], xpos[ok] = frames.site_xpos, frames.xpos
+        else:
+            sites[ok] = solver.kin.marker_positions(res.qpos[ok])
     sq = np.sum((sites - x) ** 2, axis=2)
-    return _Pose(sites, sq, _rms(sq))
+    return _Pose(sites, sq, _rms(sq), xpos)
 
 
 def _rms(sq: np.ndarray) -> np.ndarray:
     """(n,) [m]: the RMS over the columns of sq (n, k) [m^2] present in each row (NaN: none)."""
-    with np.errstate(invalid="ignore"), np.testing.suppress_warnings() as sup:
-        sup.filter(RuntimeWarning)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a row with none present: NaN
         return np.sqrt(np.nanmean(sq, axis=1))
 
 
@@ -356,19 +366,65 @@ def _medians(o: np.ndarray, n: np.ndarray) -> tuple[float, float] | None:
     return float(np.median(o[good])), float(np.median(n[good]))
 
 
-def _screen(c: Candidate, x: np.ndarray, base: _Pose, rows: list[np.ndarray]) -> float:
-    """The screen of c on the original labeling's poses (its markers' residuals with the
-    labels exchanged, the pose kept): the largest drop over the spans of the squared
-    residual summed over c's markers [m^2] where it passes half the margin, else 0."""
+def _screen(
+    c: Candidate, x: np.ndarray, base: _Pose, rows: list[np.ndarray], local: _Local
+) -> float:
+    """The screen of c: its markers' residuals with the labels exchanged, on the original
+    labeling's poses and on rigid fits of c's segments alone (:func:`_local_fit`): the
+    largest drop over the spans of the squared residual summed over c's markers [m^2]
+    where either passes half the margin, else 0."""
     s, src = list(c.slots), list(c.sources)
-    old = _rms(base.sq[:, s])
-    new = _rms(np.sum((base.sites[:, s] - x[:, src]) ** 2, axis=2))
+    tests = [(_rms(base.sq[:, s]), _rms(np.sum((base.sites[:, s] - x[:, src]) ** 2, axis=2)))]
+    tests.append(local.screen(c, x))
     best = 0.0
-    for r in rows:
-        m = _medians(old[r], new[r])
-        if m is not None and m[1] < 0.8 * m[0] and m[0] - m[1] > MARGIN_MIN / 2:
-            best = max(best, len(s) * (m[0] ** 2 - m[1] ** 2))
+    for old, new in tests:
+        for r in rows:
+            m = _medians(old[r], new[r])
+            if m is not None and m[1] < 0.8 * m[0] and m[0] - m[1] > MARGIN_MIN / 2:
+                best = max(best, len(s) * (m[0] ** 2 - m[1] ** 2))
     return best
+
+
+class _Local:
+    """Rigid fits of one segment's markers and its joint centre (the body origin where the
+    original labeling's IK puts it; not for the root) to the model's marker offsets, frame
+    by frame: a segment judged free of the poses the exchanged labels forced on it."""
+
+    def __init__(self, pset: ParameterSet, theta: np.ndarray, base: _Pose) -> None:
+        self.offsets = pset.split(theta)[1].reshape(-1, 3)  # (M, 3) [m], body frames
+        self.body = np.asarray(pset.model.site_bodyid, dtype=int)
+        self.root = int(self.body[0]) if len(self.body) else -1
+        while self.root > 0 and int(pset.model.body_parentid[self.root]) > 0:
+            self.root = int(pset.model.body_parentid[self.root])
+        assert base.origins is not None
+        self.origins = base.origins
+
+    def residuals(self, y: np.ndarray, slots: Sequence[int]) -> np.ndarray:
+        """(n,) [m]: RMS residual of the markers ``slots`` of y (n, M, 3) [m] in the rigid
+        fits of their segments (NaN where a segment has fewer than three points)."""
+        sq = np.full((len(y), len(slots)), np.nan)
+        for b in sorted({int(self.body[m]) for m in slots}):
+            members = np.flatnonzero(self.body == b)
+            ref, meas = self.offsets[members], y[:, members]
+            if b != self.root:
+                ref = np.vstack([ref, np.zeros(3)])
+                meas = np.concatenate([meas, self.origins[:, b][:, None]], axis=1)
+            if len(ref) < 3:
+                continue
+            rot, pos = rigid_fit(meas, ref)
+            fit = np.einsum("tij,mj->tmi", rot, ref) + pos[:, None]
+            for k, m in enumerate(slots):
+                if self.body[m] == b:
+                    at = int(np.flatnonzero(members == m)[0])
+                    sq[:, k] = np.sum((fit[:, at] - meas[:, at]) ** 2, axis=1)
+        return _rms(sq)
+
+    def screen(self, c: Candidate, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(old, new) (n,) [m]: c's markers' residuals in the rigid fits, as labelled and
+        exchanged."""
+        y = x.copy()
+        y[:, list(c.slots)] = x[:, list(c.sources)]
+        return self.residuals(x, c.slots), self.residuals(y, c.slots)
 
 
 def _confirm(
@@ -418,12 +474,13 @@ def _round(
     """One round on the sampled frames x (n_s, M, 3) [m] (rows ``sample`` of the T = n
     frames): the corrections taken, each with its spans [first, last) of rows of the
     recording (module docstring, "Evidence" and the rounds)."""
-    base = _pose(solver, x)
+    base = _pose(solver, x, origins=True)
+    local = _Local(pset, solver.kin.theta, base)
     plans = []
     for c in cands:
         spans = _spans(c, breaks, n)
         rows = [np.arange(a, b) for a, b in np.searchsorted(sample, spans)]
-        plans.append(_Plan(_screen(c, x, base, rows), c, _bodies(pset, c), spans, rows))
+        plans.append(_Plan(_screen(c, x, base, rows, local), c, _bodies(pset, c), spans, rows))
     won: list[tuple[float, _Plan, list[_Judged]]] = []
     hoods: list[frozenset[int]] = []
     tried = 0
