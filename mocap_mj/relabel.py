@@ -62,7 +62,7 @@ import numpy as np
 from .identify.initial import segment_scales
 from .ik import IKSolver
 from .kinematics import Kinematics
-from .marker_quality import ACCEL_MAX, JUMP_MIN, _prediction_error
+from .marker_quality import ACCEL_MAX, JUMP_MIN, Finding, _prediction_error
 from .parameters import ParameterSet
 from .rigid import rigid_fit
 
@@ -81,6 +81,7 @@ __all__ = [
     "candidates",
     "find_label_errors",
     "reference_theta",
+    "track_swaps",
 ]
 
 #: The corrected labeling's median RMS residual of the exchanged markers, at most this
@@ -107,7 +108,7 @@ MAX_ROUNDS = 8
 class Candidate:
     """A labeling to try: ``slots[k]`` takes the data labelled ``sources[k]`` (marker
     indices; a permutation of one set); kind: ``within segment``, ``across segments`` or
-    ``left/right``."""
+    ``left/right`` (and ``tracks`` for a :class:`Relabel` made by :func:`track_swaps`)."""
 
     kind: str
     slots: tuple[int, ...]
@@ -251,6 +252,53 @@ def find_label_errors(
             for a, b in spans:
                 rows = (sample >= a) & (sample < b)
                 xs[rows] = _permuted(xs[rows], pset.marker_names, r)
+    return out
+
+
+def track_swaps(
+    path: str,
+    names: Sequence[str],
+    markers: np.ndarray,
+    findings: Sequence[Finding],
+    *,
+    first_frame: int = 0,
+) -> list[Relabel]:
+    """Corrections of the ``swap`` findings of :func:`~mocap_mj.marker_quality.check_marker_quality`
+    on file ``path`` (markers (T, M, 3) [m], model order): two labels that each jump onto
+    the other's track at one frame and back at a later one (or at the end) are exchanged
+    back over those frames. This is evidence of the tracks, not of a model: it corrects
+    markers too close together for the model's margin (the two wrist-bar markers, about
+    50 mm apart). before_mm, after_mm: the mean distance [mm] of the two labels at the
+    swap's first frame from their constant-velocity predictions, as labelled and exchanged."""
+    x = np.asarray(markers)
+    index = {n: i for i, n in enumerate(names)}
+    out = []
+    for f in findings:
+        if f.file != path or f.kind != "swap" or f.frames is None:
+            continue
+        i, k = index[f.markers[0]], index[f.markers[1]]
+        a = f.frames[0] - first_frame
+        pred = 2 * np.asarray(x[a - 1], dtype=float) - x[a - 2]  # (M, 3)
+        before = (np.linalg.norm(x[a, i] - pred[i]) + np.linalg.norm(x[a, k] - pred[k])) / 2
+        after = (np.linalg.norm(x[a, k] - pred[i]) + np.linalg.norm(x[a, i] - pred[k])) / 2
+        text = (
+            f"{path}: labels exchanged (tracks): {names[i]} <-> {names[k]} in frames "
+            f"{f.frames[0]}-{f.frames[1] - 1}; each label jumps {before * 1e3:.0f} mm off its "
+            f"track onto the other's, {after * 1e3:.0f} mm exchanged back"
+        )
+        out.append(
+            Relabel(
+                path,
+                "tracks",
+                (names[i], names[k]),
+                (names[k], names[i]),
+                f.frames,
+                float(before * 1e3),
+                float(after * 1e3),
+                True,
+                text,
+            )
+        )
     return out
 
 

@@ -239,7 +239,8 @@ def _ik(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, list[str]]
 def test_ik_warns_records_and_strict_refuses(
     swapped_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    code, err = _ik(capsys, "--markers", str(swapped_csv), "--out", str(tmp_path / "a"))
+    code, err = _ik(capsys, "--markers", str(swapped_csv), "--out", str(tmp_path / "a"),
+                    "--no-relabel")  # fmt: skip
     assert code == 0
     assert any(
         "warning: " in e and "LWRA and LWRB: labels swapped in frames 40-79" in e for e in err
@@ -248,8 +249,15 @@ def test_ik_warns_records_and_strict_refuses(
     assert [(f["kind"], f["frames"]) for f in quality["findings"]] == [("swap", [40, 80])]
     assert quality["findings"][0]["file"] == str(swapped_csv)
 
+    # By default the swap is corrected (mocap_mj.relabel.track_swaps) and nothing is left.
+    code, err = _ik(capsys, "--markers", str(swapped_csv), "--out", str(tmp_path / "f"))
+    assert code == 0 and len(err) == 1 and "relabelled: " in err[0], err
+    assert "LWRA <-> LWRB in frames 40-79" in err[0]
+    quality = json.loads((tmp_path / "f" / "summary.json").read_text())["marker_quality"]
+    assert quality["findings"] == [] and quality["relabelled"][0]["frames"] == [40, 80]
+
     code, err = _ik(capsys, "--markers", str(swapped_csv), "--out", str(tmp_path / "b"), "--strict")
-    assert code == 2 and len(err) == 1 and "--strict" in err[0] and "LWRA and LWRB" in err[0]
+    assert code == 2 and len(err) == 1 and "--strict" in err[0] and "LWRA <-> LWRB" in err[0]
     assert not (tmp_path / "b").exists()
 
     code, err = _ik(capsys, "--markers", str(swapped_csv), "--out", str(tmp_path / "c"),
@@ -265,6 +273,7 @@ def test_ik_warns_records_and_strict_refuses(
     assert code == 0 and err == []
     summary = json.loads((tmp_path / "e" / "summary.json").read_text())
     assert summary["marker_quality"] == {
+        "relabelled": [],
         "findings": [],
         "suspects": {},
         "excluded": ["LWRA", "LWRB"],

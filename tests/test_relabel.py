@@ -5,6 +5,7 @@ clean trials give no correction; the commands say so and obey --no-relabel and -
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -13,9 +14,16 @@ import pytest
 from mocap_mj.cli import main
 from mocap_mj.io import MarkerTrajectory, save_csv
 from mocap_mj.kinematics import Kinematics
-from mocap_mj.marker_quality import quality_lines
+from mocap_mj.marker_quality import check_marker_quality, marker_segments, quality_lines
 from mocap_mj.parameters import ParameterSet
-from mocap_mj.relabel import Relabel, apply_relabels, candidates, find_label_errors, reference_theta
+from mocap_mj.relabel import (
+    Relabel,
+    apply_relabels,
+    candidates,
+    find_label_errors,
+    reference_theta,
+    track_swaps,
+)
 from mocap_synth.config import SynthConfig
 from mocap_synth.experiment import synthesize
 
@@ -123,6 +131,35 @@ def test_exchange_between_gaps_without_a_jump(pset: ParameterSet) -> None:
         x[a:b, [col("RASI"), col("LASI")]] = np.nan
     y = _exchange(pset, x, [("LASI", "RASI")], slice(160, 450))
     _assert_fixed(pset, x, y, [("LASI", "RASI")], (160, 450))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_mocap_synth_left_right_windows(pset: ParameterSet, seed: int) -> None:
+    # mocap_synth's own corruption: two left/right pairs exchanged over a window each.
+    cfg = SynthConfig(frames=600, rate=RATE, motion="walk", sta_mm=10.0, seed=seed)
+    exp = synthesize(replace(cfg, swaps=2), pset)
+    found = _find(pset, np.array(exp.markers))
+    want = {(*sorted((a, b)), first, last + 1) for a, b, first, last in exp.swapped}
+    assert {(*sorted(r.markers), *r.frames) for r in found} == want
+    fixed = apply_relabels(np.array(exp.markers), pset.marker_names, found, "trial.c3d")
+    assert _same(fixed, np.array(synthesize(cfg, pset).markers))
+
+
+def test_track_swap_of_close_markers(pset: ParameterSet) -> None:
+    # LWRA and LWRB, about 50 mm apart: too close for the model's margin, found by their
+    # tracks (each jumps onto the other's) and corrected from the quality check's finding.
+    x = _markers(pset)
+    y = _exchange(pset, x, [("LWRA", "LWRB")], slice(200, 320))
+    assert _find(pset, y) == []
+    found = check_marker_quality(
+        "trial.c3d", pset.marker_names, y, RATE, marker_segments(pset.model)
+    )
+    fixes = track_swaps("trial.c3d", pset.marker_names, y, found)
+    assert [(r.kind, sorted(r.markers), r.frames) for r in fixes] == [
+        ("tracks", ["LWRA", "LWRB"], (200, 320))
+    ]
+    assert fixes[0].before_mm > 30.0 > fixes[0].after_mm
+    assert _same(apply_relabels(y, pset.marker_names, fixes, "trial.c3d"), x)
 
 
 def test_one_trial_of_several(pset: ParameterSet) -> None:

@@ -37,7 +37,7 @@ from ..marker_quality import (
 )
 from ..marker_quality import parse_marker_list as parse_marker_list
 from ..parameters import ParameterSet
-from ..relabel import Relabel, apply_relabels, find_label_errors, reference_theta
+from ..relabel import Relabel, apply_relabels, find_label_errors, reference_theta, track_swaps
 
 
 def add_quality_options(parser: argparse.ArgumentParser) -> None:
@@ -58,9 +58,10 @@ def add_quality_options(parser: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--no-relabel",
         action="store_true",
-        help="leave labels the model shows exchanged (within a segment, across neighbouring "
-        "segments, left for right) as they are, and only warn (default: correct them in "
-        "the fitted copy of the data and say so)",
+        help="leave exchanged labels as they are and only warn: those the model shows "
+        "(within a segment, across neighbouring segments, left for right) and two tracks "
+        "that jump onto each other (default: correct them in the copy of the data that is "
+        "fitted, one line each on stderr; the files are never changed)",
     )
 
 
@@ -77,9 +78,16 @@ def check_trials(
     segments = marker_segments(pset.model)
     found: list[Finding] = []
     for path, markers, rate, first in trials:
-        found += check_marker_quality(
+        mine = check_marker_quality(
             path, pset.marker_names, markers, rate, segments, first_frame=first
         )
+        swaps = track_swaps(path, pset.marker_names, markers, mine, first_frame=first)
+        relabelled += act_on(args, pset, path, markers, first, swaps)
+        if swaps and not args.no_relabel:  # the corrected tracks checked again
+            mine = check_marker_quality(
+                path, pset.marker_names, markers, rate, segments, first_frame=first
+            )
+        found += mine
     if args.command == "identify":  # one model for every trial: their markers must agree
         found += between_trials(
             [t[0] for t in trials], pset.marker_names, [t[1] for t in trials], segments
@@ -118,8 +126,7 @@ def relabel(
     trials: Sequence[tuple[str, np.ndarray, float, int]],
 ) -> list[Relabel]:
     """The label errors of each (path, markers (T, M, 3) [m], rate [Hz], file's frame of
-    row 0), corrected in those arrays (the command's own copy of the data) unless
-    ``--no-relabel``; refused under ``--strict``; one line each on stderr. ``identify``
+    row 0) that a model shows (:func:`~mocap_mj.relabel.find_label_errors`): ``identify``
     judges them with the nominal model scaled to the subject, ``ik`` with its model."""
     kin = Kinematics(pset)
     if args.command == "identify":
@@ -127,23 +134,34 @@ def relabel(
     out: list[Relabel] = []
     for path, markers, rate, first in trials:
         found = find_label_errors(path, markers, rate, kin, first_frame=first)
-        if found and args.strict:
-            raise MocapError(
-                f"{found[0].message} ({len(found)} label correction(s) in {path}; --strict "
-                "refuses a recording whose labels need correcting: fix the labels or run "
-                "without --strict)"
-            )
-        if not args.no_relabel:
-            apply_relabels(
-                markers, pset.marker_names, found, path, first_frame=first, in_place=True
-            )
-        else:
-            found = [replace(r, applied=False) for r in found]
-        for r in found:
-            verb = "relabelled" if r.applied else "warning: not relabelled (--no-relabel)"
-            print(f"mocap-mj {args.command}: {verb}: {r.message}", file=sys.stderr)
-        out += found
+        out += act_on(args, pset, path, markers, first, found)
     return out
+
+
+def act_on(
+    args: argparse.Namespace,
+    pset: ParameterSet,
+    path: str,
+    markers: np.ndarray,
+    first: int,
+    found: Sequence[Relabel],
+) -> list[Relabel]:
+    """``found``'s corrections made in ``markers`` (T, M, 3) [m] (the command's own copy of
+    the data) unless ``--no-relabel`` (then marked not applied); refused under ``--strict``;
+    one line each on stderr."""
+    if found and args.strict:
+        raise MocapError(
+            f"{found[0].message} ({len(found)} label correction(s) in {path}; --strict "
+            "refuses a recording whose labels need correcting: fix the labels or run "
+            "without --strict)"
+        )
+    if args.no_relabel:
+        found = [replace(r, applied=False) for r in found]
+    apply_relabels(markers, pset.marker_names, found, path, first_frame=first, in_place=True)
+    for r in found:
+        verb = "relabelled" if r.applied else "warning: not relabelled (--no-relabel)"
+        print(f"mocap-mj {args.command}: {verb}: {r.message}", file=sys.stderr)
+    return list(found)
 
 
 def without_ghosts(
