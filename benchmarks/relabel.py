@@ -1,6 +1,7 @@
 """Label errors put into the shared recordings on purpose, found and corrected; prints figures.
 
     python benchmarks/relabel.py [--data ../shared/data/real] [--identify Movement_trial]
+                                 [--frames 1000 10000 100000]
 
 Every shared trial is read, and its labels exchanged after loading (the files are never
 touched): RKNE with RTIB and LASI with RASI over the whole trial, LTHI with LKNE over the
@@ -14,6 +15,10 @@ frames, and whether the corrected data equal the original (present samples, bit 
 With ``--identify NAME`` it also runs ``mocap-mj identify`` on that trial, as read and with
 the exchanges (written as a mocap-mj CSV to a temporary folder), and prints the largest
 difference of the identified kinematic parameters (segment lengths, theta.json) [mm].
+
+With ``--frames`` it times the search on synthetic recordings of those lengths (mocap_synth's
+range of motion at 100 Hz, soft tissue 10 mm/rad, played forwards and backwards), unmodified
+and with LASI/RASI exchanged over the whole recording.
 """
 
 from __future__ import annotations
@@ -127,12 +132,36 @@ def _value(theta: dict, name: str) -> float:
     return float(theta[name])
 
 
+def long_recordings(frames: list[int], pset: ParameterSet) -> None:
+    from mocap_synth import SynthConfig, synthesize
+
+    exp = synthesize(SynthConfig(frames=1000, motion="rom", sta_mm=10.0, seed=0), pset)
+    base = np.concatenate([exp.markers, exp.markers[::-1]])
+    col = pset.marker_names.index
+    for n in frames:
+        x = np.concatenate([base] * (-(-n // len(base))))[:n]
+        kin = Kinematics(pset)
+        kin.set_theta(reference_theta(pset, x))
+        y = np.array(x)
+        y[:, [col("LASI"), col("RASI")]] = x[:, [col("RASI"), col("LASI")]]
+        out = []
+        for data in (x, y):
+            t0 = time.perf_counter()
+            found = find_label_errors("long", data, 100.0, kin)
+            out.append(f"{len(found)} correction(s) in {time.perf_counter() - t0:.2f} s")
+        print(f"{n:>8,} frames: unmodified {out[0]}; LASI/RASI exchanged {out[1]}")
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--data", type=Path, default=HERE)
     p.add_argument("--identify", metavar="NAME", help="trial (file stem) to identify as well")
+    p.add_argument("--frames", type=int, nargs="*", default=[], help="synthetic lengths to time")
     args = p.parse_args()
     pset = ParameterSet()
+    if args.frames:
+        long_recordings(args.frames, pset)
+        return
     for path in sorted(args.data.glob("*.c3d")):
         search(path, pset)
     if args.identify:
