@@ -1,6 +1,6 @@
 """Label errors put into the shared recordings on purpose, found and corrected; prints figures.
 
-    python benchmarks/relabel.py [--data ../shared/data/real] [--identify Movement_trial]
+    python benchmarks/relabel.py [--data ../shared/data/real] [--identify Movement_trial ...]
                                  [--frames 1000 10000 100000]
 
 Every shared trial is read, and its labels exchanged after loading (the files are never
@@ -12,9 +12,12 @@ a swap between two occlusions), and the two front head markers with the two back
 four exchanges, the corrections found, whether each exchange was found with its markers and
 frames, and whether the corrected data equal the original (present samples, bit for bit).
 
-With ``--identify NAME`` it also runs ``mocap-mj identify`` on that trial, as read and with
-the exchanges (written as a mocap-mj CSV to a temporary folder), and prints the largest
-difference of the identified kinematic parameters (segment lengths, theta.json) [mm].
+With ``--identify NAME ...`` it also runs ``mocap-mj identify`` on those trials with each
+exchange alone and as read (with the same added occlusions), both written as mocap-mj CSV to a
+temporary folder, and prints the largest difference of the identified kinematic parameters
+(segment lengths, theta.json) [mm]. (The exchanges are identified one at a time: the pelvis's
+LASI/RASI and the head's front/back exchange together mirror both groups, which the reader
+refuses as a mirrored export, ``mocap_mj.io.handedness``.)
 
 With ``--frames`` it times the search on synthetic recordings of those lengths (mocap_synth's
 range of motion at 100 Hz, soft tissue 10 mm/rad, played forwards and backwards), unmodified
@@ -40,30 +43,35 @@ from mocap_mj.relabel import Relabel, apply_relabels, find_label_errors, referen
 HERE = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 
 
-def exchanged(x: np.ndarray, names: list[str]) -> tuple[np.ndarray, list[tuple]]:
-    """x (T, M, 3) [m] with the four exchanges, and what a correction must say of each:
-    (sorted marker names, first frame, last frame + 1)."""
+#: The exchanges put in (module docstring): name, pairs, whether over the middle third only.
+EXCHANGES: tuple[tuple[str, tuple[tuple[str, str], ...], bool], ...] = (
+    ("RKNE-RTIB", (("RKNE", "RTIB"),), False),
+    ("LASI-RASI", (("LASI", "RASI"),), False),
+    ("LTHI-LKNE span", (("LTHI", "LKNE"),), True),
+    ("head front-back", (("LFHD", "LBHD"), ("RFHD", "RBHD")), False),
+)
+
+
+def exchanged(
+    x: np.ndarray, names: list[str], which: tuple[str, ...] | None = None
+) -> tuple[np.ndarray, list[tuple]]:
+    """x (T, M, 3) [m] with the exchanges named in ``which`` (default: all four), and what
+    a correction must say of each: (sorted marker names, first frame, last frame + 1)."""
     y = np.array(x)
     n = len(y)
     a, b = n // 3, 2 * n // 3
     col = {m: i for i, m in enumerate(names)}
-
-    def swap(p: str, q: str, sl: slice = slice(None)) -> None:
-        y[sl, [col[p], col[q]]] = y[sl, [col[q], col[p]]]
-
-    swap("RKNE", "RTIB")
-    swap("LASI", "RASI")
-    swap("LTHI", "LKNE", slice(a, b))
-    y[a - 3 : a, col["LTHI"]] = np.nan
-    y[b : b + 3, col["LKNE"]] = np.nan
-    swap("LFHD", "LBHD")
-    swap("RFHD", "RBHD")
-    want = [
-        (("RKNE", "RTIB"), 0, n),
-        (("LASI", "RASI"), 0, n),
-        (("LKNE", "LTHI"), a, b),
-        (("LBHD", "LFHD", "RBHD", "RFHD"), 0, n),
-    ]
+    want = []
+    for name, pairs, span in EXCHANGES:
+        if which is not None and name not in which:
+            continue
+        sl = slice(a, b) if span else slice(None)
+        for p, q in pairs:
+            y[sl, [col[p], col[q]]] = y[sl, [col[q], col[p]]]
+        if span:  # the swap starts after LTHI's occlusion and ends at LKNE's
+            y[a - 3 : a, col["LTHI"]] = np.nan
+            y[b : b + 3, col["LKNE"]] = np.nan
+        want.append((tuple(sorted(m for pq in pairs for m in pq)), *((a, b) if span else (0, n))))
     return y, want
 
 
@@ -100,36 +108,39 @@ def search(path: Path, pset: ParameterSet) -> None:
 
 
 def identify_difference(path: Path, pset: ParameterSet) -> None:
+    """``mocap-mj identify`` on the trial with each exchange and on the trial as read (with
+    the same added occlusions), both written as mocap-mj CSV (the same digits): the largest
+    difference of the identified kinematic parameters [mm]."""
     names = list(pset.marker_names)
     tr = load_markers(str(path), model_names=pset.marker_names)
-    y, _ = exchanged(tr.select(pset.marker_names), names)
-    with tempfile.TemporaryDirectory() as tmp:
-        copy = Path(tmp) / f"{path.stem}_exchanged.csv"
-        save_csv(copy, MarkerTrajectory(tr.times, y, pset.marker_names, tr.rate))
-        theta = {}
-        for key, src in (("original", path), ("exchanged", copy)):
-            out = Path(tmp) / key
+    x = tr.select(pset.marker_names)
+    with tempfile.TemporaryDirectory() as folder:
+        tmp = Path(folder)
+
+        def identify(key: str, data: np.ndarray) -> dict[str, float]:
+            f = tmp / f"{key.replace(' ', '_')}.csv"
+            save_csv(f, MarkerTrajectory(tr.times, data, pset.marker_names, tr.rate))
             t0 = time.perf_counter()
-            code = cli(["identify", "--markers", str(src), "--out", str(out)])
-            print(f"identify {key}: exit {code}, {time.perf_counter() - t0:.1f} s")
-            theta[key] = json.loads((out / "theta.json").read_text())
-    a, b = theta["original"], theta["exchanged"]
-    kappa = [k for k in pset.kappa_names if k in json.dumps(a)]
-    diffs = {k: abs(_value(a, k) - _value(b, k)) * 1e3 for k in kappa}
-    worst = max(diffs, key=lambda k: diffs[k])
-    print(
-        f"{path.name}: largest kinematic parameter difference, exchanged and corrected "
-        f"against the file as read: {diffs[worst]:.3f} mm ({worst})"
-    )
+            code = cli(["identify", "--markers", str(f), "--out", str(f.with_suffix(""))])
+            print(f"identify {path.stem} {key}: exit {code}, {time.perf_counter() - t0:.1f} s")
+            theta = json.loads((f.with_suffix("") / "theta.json").read_text())
+            return {k: _value(theta, k) for k in pset.kappa_names}
+
+        for name, _, _ in EXCHANGES:
+            y, _ = exchanged(x, names, (name,))
+            a = identify(f"{name} as read", np.where(np.isnan(y), np.nan, x))
+            b = identify(name, y)
+            diffs = {k: abs(a[k] - b[k]) * 1e3 for k in pset.kappa_names}
+            worst = max(diffs, key=lambda k: diffs[k])
+            print(
+                f"{path.name} {name}: largest kinematic parameter difference, exchanged and "
+                f"corrected against as read: {diffs[worst]:.3f} mm ({worst})"
+            )
 
 
 def _value(theta: dict, name: str) -> float:
-    """A kinematic parameter [m] of a theta.json."""
-    for key in ("kappa", "kinematic", "parameters"):
-        if isinstance(theta.get(key), dict) and name in theta[key]:
-            v = theta[key][name]
-            return float(v["value"] if isinstance(v, dict) else v)
-    return float(theta[name])
+    """A kinematic parameter [m] of a theta.json (its ``kappa`` table)."""
+    return float(theta["kappa"][name])
 
 
 def long_recordings(frames: list[int], pset: ParameterSet) -> None:
@@ -155,7 +166,13 @@ def long_recordings(frames: list[int], pset: ParameterSet) -> None:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--data", type=Path, default=HERE)
-    p.add_argument("--identify", metavar="NAME", help="trial (file stem) to identify as well")
+    p.add_argument(
+        "--identify",
+        metavar="NAME",
+        nargs="*",
+        default=[],
+        help="trials (file stems) to identify as well",
+    )
     p.add_argument("--frames", type=int, nargs="*", default=[], help="synthetic lengths to time")
     args = p.parse_args()
     pset = ParameterSet()
@@ -164,8 +181,8 @@ def main() -> None:
         return
     for path in sorted(args.data.glob("*.c3d")):
         search(path, pset)
-    if args.identify:
-        identify_difference(args.data / f"{args.identify}.c3d", pset)
+    for name in args.identify:
+        identify_difference(args.data / f"{name}.c3d", pset)
 
 
 if __name__ == "__main__":
