@@ -15,7 +15,8 @@ frames, and whether the corrected data equal the original (present samples, bit 
 With ``--identify NAME ...`` it also runs ``mocap-mj identify`` on those trials with each
 exchange alone and as read (with the same added occlusions), both written as mocap-mj CSV to a
 temporary folder, and prints the largest difference of the identified kinematic parameters
-(segment lengths, theta.json) [mm]. (The exchanges are identified one at a time: the pelvis's
+(segment lengths, theta.json) [mm], with the labels corrected and, for comparison, left as
+labelled (``--no-relabel``). (The exchanges are identified one at a time: the pelvis's
 LASI/RASI and the head's front/back exchange together mirror both groups, which the reader
 refuses as a mirrored export, ``mocap_mj.io.handedness``.)
 
@@ -117,11 +118,11 @@ def identify_difference(path: Path, pset: ParameterSet) -> None:
     with tempfile.TemporaryDirectory() as folder:
         tmp = Path(folder)
 
-        def identify(key: str, data: np.ndarray) -> dict[str, float]:
-            f = tmp / f"{key.replace(' ', '_')}.csv"
+        def identify(key: str, data: np.ndarray, *flags: str) -> dict[str, float]:
+            f = tmp / f"{key.replace(' ', '_')}{'_'.join(flags)}.csv"
             save_csv(f, MarkerTrajectory(tr.times, data, pset.marker_names, tr.rate))
             t0 = time.perf_counter()
-            code = cli(["identify", "--markers", str(f), "--out", str(f.with_suffix(""))])
+            code = cli(["identify", "--markers", str(f), "--out", str(f.with_suffix("")), *flags])
             print(f"identify {path.stem} {key}: exit {code}, {time.perf_counter() - t0:.1f} s")
             theta = json.loads((f.with_suffix("") / "theta.json").read_text())
             return {k: _value(theta, k) for k in pset.kappa_names}
@@ -129,13 +130,15 @@ def identify_difference(path: Path, pset: ParameterSet) -> None:
         for name, _, _ in EXCHANGES:
             y, _ = exchanged(x, names, (name,))
             a = identify(f"{name} as read", np.where(np.isnan(y), np.nan, x))
-            b = identify(name, y)
-            diffs = {k: abs(a[k] - b[k]) * 1e3 for k in pset.kappa_names}
-            worst = max(diffs, key=lambda k: diffs[k])
-            print(
-                f"{path.name} {name}: largest kinematic parameter difference, exchanged and "
-                f"corrected against as read: {diffs[worst]:.3f} mm ({worst})"
-            )
+            for flags in ((), ("--no-relabel",)):
+                b = identify(name, y, *flags)
+                diffs = {k: abs(a[k] - b[k]) * 1e3 for k in pset.kappa_names}
+                worst = max(diffs, key=lambda k: diffs[k])
+                how = "left as labelled" if flags else "corrected"
+                print(
+                    f"{path.name} {name}: largest kinematic parameter difference, exchanged "
+                    f"and {how}, against as read: {diffs[worst]:.3f} mm ({worst})"
+                )
 
 
 def _value(theta: dict, name: str) -> float:

@@ -4,7 +4,7 @@ neighbouring segments, left for right, over a whole trial or over a span of fram
 A label error keeps every marker where it is and moves only its name, so the data alone
 cannot always see it (a reversed symmetric plate keeps every distance; a left/right exchange
 of the pelvis mirrors it). A model can: each labeling is judged by how well the model's
-skeleton fits it. :func:`find_label_errors` does so in four steps.
+skeleton fits it. :func:`find_label_errors` does so as follows.
 
 Candidates (:func:`candidates`)
     The labelings a label error produces, as permutations of model markers: every exchange
@@ -16,37 +16,53 @@ Candidates (:func:`candidates`)
     markers of a left segment with its right twin (a side template applied to the wrong
     side). Three-cycles and longer permutations are not tried.
 Spans
-    A label can change only where its marker is lost (a gap: the frame it reappears) or
+    A label can change only where its marker is lost, where it reappears after a gap, or
     where its track jumps further than a body segment accelerates (``jump`` of
     :mod:`mocap_mj.marker_quality`): a candidate is judged on each span of frames between
     the breakpoints of its own markers, so a swap that starts after one occlusion and ends
-    at the next is found for that span, and one over the whole trial on every span.
+    at the next is found for exactly that span, and one over the whole trial on every span.
+    A frame with one of a candidate's markers missing is judged by the others (the RMS over
+    those present). A span shorter than :data:`MIN_FRAMES` frames that fails on its own
+    follows its neighbours when they are all taken (a marker lost for a frame inside a
+    swap is not evidence that the swap stopped).
 Evidence
     An IK with a model (:class:`~mocap_mj.ik.IKSolver`, joint limits kept: an implausible
     pose cannot fit a wrong labeling) on a sample of frames: at most :data:`EVEN_FRAMES`
-    evenly spaced ones, plus three in every span between the breakpoints of any marker (at
-    most :data:`MAX_FRAMES` in all). ``identify`` gives the bundled model's nominal skeleton
-    scaled by the subject's overall size (:func:`reference_theta`: it is built from no
-    label of the trial, so it cannot have absorbed the error); ``ik`` the model it is given.
-    Each candidate is first screened on the original labeling's poses (the residuals of
-    its markers with their labels exchanged); the best :data:`CONFIRM` are then fitted
-    again by IK with the exchanged labels.
+    evenly spaced ones, plus the first, middle and last of every span between the
+    breakpoints of any marker (at most :data:`MAX_FRAMES` in all). ``identify`` gives the
+    bundled model's nominal skeleton scaled by the subject's overall size
+    (:func:`reference_theta`: built from no label alone, so it cannot have absorbed the
+    error); ``ik`` the model it is given.
+Screen, then confirm
+    A screen says where to look: each candidate's markers' residuals with their labels
+    exchanged, on the original labeling's poses and on rigid (Kabsch) fits of the
+    candidate's segments alone, each segment's markers with its joint centre where the
+    original IK puts it (a segment whose labels forced a wrong pose on it is re-posed; the
+    joint centre keeps a head from fitting a front/back reversal upside down). The segments
+    of a candidate that passes half the margin form a neighbourhood; every candidate within
+    it is then fitted again by IK with its labels (the largest screens first, at most
+    :data:`NEIGHBOURHOODS` neighbourhoods in a round once one gives a correction, at most
+    :data:`CONFIRM` IKs), and of those that pass the margin the one that leaves the
+    neighbourhood's markers the smallest residual wins (an exchange of one diagonal of a
+    reversed head band passes too, but leaves two markers 65 mm off against 25 mm).
 Margin
     A candidate is taken on a span when, over its sampled frames (at least
-    :data:`MIN_FRAMES`), the median RMS residual of its markers falls to at most
-    :data:`FACTOR` (one half) of the original labeling's and by at least :data:`MARGIN_MIN`
-    (30 mm), and the whole body's median RMS residual falls too. A marker exchanged with
-    one 100-300 mm away leaves a residual of that size; the nominal model misplaces a
-    Plug-in Gait marker by 40-110 mm at most on the shared recordings (thigh and tibia
-    wands), and soft tissue and noise move a marker by a few mm to 30 mm: neither halves a
-    residual and removes 30 mm from it. Markers closer together than about 60 mm (the two
-    wrist-bar markers) are exchanged only when the evidence is that clear.
+    :data:`MIN_FRAMES`, or all of a shorter span), the median RMS residual of its markers
+    falls to :data:`FACTOR` (0.6) of the original labeling's or less and by at least
+    :data:`MARGIN_MIN` (30 mm), and the whole body's summed squared residual falls too. On
+    the five shared trials (unmodified) the nominal model misplaces a Plug-in Gait marker by
+    up to 110 mm (thigh and tibia wands), yet the best alternative labeling of any of them
+    reaches only 0.71 of the original residual and 7 mm less (LWRA/LWRB); an exchange
+    leaves 140-250 mm and falls to 25-100 mm (0.1-0.5). Soft tissue and noise move a marker
+    by a few mm to 30 mm. Markers closer together than about 75 mm cannot pass the margin:
+    the two wrist-bar markers, 50 mm apart, are corrected only by their tracks
+    (:func:`track_swaps`).
 
-Candidates are taken greedily, the largest drop of the squared residual first, one per
-segment in a round, the data corrected and judged again (at most :data:`MAX_ROUNDS`
-rounds): an exchange that spoils the pose of a segment cannot make its neighbour's look
-wrong. The check costs one IK of the sampled frames per round and one per confirmed
-candidate, whatever the recording's length.
+The winners of a round's neighbourhoods are taken, the largest drop of the whole body's
+squared residual first, one per segment, the data corrected and judged again (at most
+:data:`MAX_ROUNDS` rounds): a correction that spoils the pose of a segment cannot make its
+neighbour's look wrong for long. A round costs one IK of the sampled frames and one per
+candidate confirmed, whatever the recording's length.
 """
 
 from __future__ import annotations
@@ -93,7 +109,8 @@ MARGIN_MIN = 0.030
 EVEN_FRAMES = 200
 #: Most frames the IK evidence is taken on.
 MAX_FRAMES = 3000
-#: Fewest sampled frames with all of a candidate's markers a span needs to be judged.
+#: Fewest sampled frames with a candidate's markers a span needs to be judged (all of a
+#: shorter span).
 MIN_FRAMES = 3
 #: Most candidates fitted again by IK in a round.
 CONFIRM = 60
