@@ -232,8 +232,12 @@ def reference_theta(pset: ParameterSet, markers: np.ndarray | Sequence[np.ndarra
     """theta (P,) [m]: the model's nominal skeleton and marker offsets scaled by the
     subject's overall size (the median of the segment ratios of
     :func:`~mocap_mj.identify.initial.segment_scales`, robust to a few exchanged labels),
-    built from no marker's label alone."""
-    overall = float(segment_scales(pset, markers)["overall"].value)
+    built from no marker's label alone. markers: (T, M, 3) [m] or a sequence of trials;
+    at most :data:`MAX_FRAMES` evenly spaced frames of each are read (a long recording's
+    memory map is not copied whole)."""
+    trials = [markers] if isinstance(markers, np.ndarray) and markers.ndim == 3 else markers
+    few = [np.asarray(m[:: max(1, -(-len(m) // MAX_FRAMES))], dtype=float) for m in trials]
+    overall = float(segment_scales(pset, few)["overall"].value)
     return np.asarray(pset.nominal, dtype=float) * (overall if np.isfinite(overall) else 1.0)
 
 
