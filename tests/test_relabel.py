@@ -162,6 +162,37 @@ def test_track_swap_of_close_markers(pset: ParameterSet) -> None:
     assert _same(apply_relabels(y, pset.marker_names, fixes, "trial.c3d"), x)
 
 
+@pytest.fixture(scope="module")
+def clusters(tmp_path_factory: pytest.TempPathFactory) -> ParameterSet:
+    """The bundled thigh/shank-cluster marker set (three-marker plates, medial knee and
+    ankle markers) on the humanoid."""
+    from mocap_mj.marker_set import load_marker_set, model_with_marker_set
+    from mocap_mj.model import model_path
+
+    path = tmp_path_factory.mktemp("clusters") / "clusters.xml"
+    path.write_text(
+        model_with_marker_set(load_marker_set(model_path("pig_leg_clusters.yaml"))).to_xml()
+    )
+    return ParameterSet(path)
+
+
+@pytest.mark.parametrize(
+    "pairs",
+    [
+        [],  # no false alarm
+        [("LTH1", "LTH2")],  # a thigh plate front for back (60 mm apart)
+        [("LTH1", "LTH2"), ("LKNE", "LKNM")],  # and the knee's lateral for medial
+        [("RTH1", "RSK1")],  # a thigh plate marker for a shank plate marker
+    ],
+)
+def test_cluster_marker_set(clusters: ParameterSet, pairs: list[tuple[str, str]]) -> None:
+    x = _markers(clusters, "walk", seed=1)
+    y = _exchange(clusters, x, pairs)
+    found = _find(clusters, y)
+    assert len(found) == (1 if pairs else 0), [r.message for r in found]
+    assert _same(apply_relabels(y, clusters.marker_names, found, "trial.c3d"), x)
+
+
 def test_one_trial_of_several(pset: ParameterSet) -> None:
     trials = [_markers(pset, m, seed=5) for m in ("rom", "walk", "static")]
     trials[1] = _exchange(pset, trials[1], [("RTHI", "RKNE")])
