@@ -345,9 +345,11 @@ def apply_relabels(
     if not mine:
         return markers
     out = markers if in_place else np.array(markers, dtype=float)
+    index = {n: i for i, n in enumerate(names)}
     for r in mine:
         a, b = r.frames[0] - first_frame, r.frames[1] - first_frame
-        out[a:b] = _permuted(np.asarray(out[a:b]), names, r)
+        # only the exchanged columns are read (a copy of those) and written
+        out[a:b, [index[n] for n in r.markers]] = out[a:b, [index[n] for n in r.sources]]
     return out
 
 
