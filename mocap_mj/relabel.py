@@ -14,7 +14,9 @@ Candidates (:func:`candidates`)
     marker-carrying ancestor in the model's tree), every exchange of mirror-named markers
     (``L<x>`` with ``R<x>``: LASI with RASI, LKNE with RKNE) and of all the mirror-named
     markers of a left segment with its right twin (a side template applied to the wrong
-    side). Three-cycles and longer permutations are not tried.
+    side), and every turn of three markers of one segment by one place (a triangular
+    plate read rotated). Longer cycles, and exchanges across more than one joint, are not
+    tried.
 Spans
     A label can change only where its marker is lost, where it reappears after a gap, or
     where its track jumps further than a body segment accelerates (``jump`` of
@@ -184,12 +186,13 @@ def candidates(pset: ParameterSet) -> list[Candidate]:
         groups.setdefault(b, []).append(i)
     out: dict[tuple[tuple[int, ...], tuple[int, ...]], Candidate] = {}
 
-    def add(kind: str, pairs: Sequence[tuple[int, int]]) -> None:
-        slots = tuple(k for a, b in pairs for k in (a, b))
-        sources = tuple(k for a, b in pairs for k in (b, a))
+    def put(kind: str, slots: Sequence[int], sources: Sequence[int]) -> None:
         order = np.argsort(slots)
         key = (tuple(slots[i] for i in order), tuple(sources[i] for i in order))
         out.setdefault(key, Candidate(kind, *key))
+
+    def add(kind: str, pairs: Sequence[tuple[int, int]]) -> None:
+        put(kind, [k for a, b in pairs for k in (a, b)], [k for a, b in pairs for k in (b, a)])
 
     mirror = _mirror_pairs(names)
     for members in groups.values():
@@ -199,6 +202,9 @@ def candidates(pset: ParameterSet) -> list[Candidate]:
         for p, q in itertools.combinations(pairs, 2):
             if not set(p) & set(q):
                 add("within segment", [p, q])
+        for i, j, k in itertools.combinations(members, 3):  # a plate turned by one place
+            put("within segment", (i, j, k), (j, k, i))
+            put("within segment", (i, j, k), (k, i, j))
     for b, members in groups.items():
         up = _marker_parent(pset, b, groups)
         if up is not None:
@@ -661,6 +667,16 @@ def _short_spans(
     return out
 
 
+def _said(names: Sequence[str], c: Candidate) -> str:
+    """c in words: ``A <-> B`` for each exchanged pair, or ``A <- B`` (A takes the data
+    labelled B) for each marker of a longer cycle."""
+    take = dict(zip(c.slots, c.sources, strict=True))
+    if all(take[b] == a for a, b in take.items()):
+        pairs = sorted({(min(a, b), max(a, b)) for a, b in take.items()})
+        return ", ".join(f"{names[a]} <-> {names[b]}" for a, b in pairs)
+    return ", ".join(f"{names[a]} <- {names[b]}" for a, b in take.items())
+
+
 def _relabels(
     path: str,
     names: Sequence[str],
@@ -675,8 +691,7 @@ def _relabels(
             runs[-1].append(j)
         else:
             runs.append([j])
-    pairs = sorted({(min(a, b), max(a, b)) for a, b in zip(c.slots, c.sources, strict=True)})
-    said = ", ".join(f"{names[a]} <-> {names[b]}" for a, b in pairs)
+    said = _said(names, c)
     out = []
     for run in runs:
         w = np.array([j[4] for j in run], dtype=float)

@@ -193,6 +193,26 @@ def test_cluster_marker_set(clusters: ParameterSet, pairs: list[tuple[str, str]]
     assert _same(apply_relabels(y, clusters.marker_names, found, "trial.c3d"), x)
 
 
+@pytest.mark.parametrize("which", ["clusters", "pig"])
+def test_three_markers_turned_by_one_place(
+    clusters: ParameterSet, pset: ParameterSet, which: str
+) -> None:
+    # A triangular plate read rotated: each label on the next marker of the three.
+    model, turned = (
+        (clusters, ["LTH1", "LTH2", "LTH3"])
+        if which == "clusters"
+        else (pset, ["RFRM", "RWRA", "RWRB"])
+    )
+    x = _markers(model, "walk", seed=2)
+    col = [model.marker_names.index(n) for n in turned]
+    y = np.array(x)
+    y[:, col] = x[:, col[1:] + col[:1]]
+    found = _find(model, y)
+    assert [(sorted(r.markers), r.frames) for r in found] == [(sorted(turned), (0, len(x)))]
+    assert " <- " in found[0].message
+    assert _same(apply_relabels(y, model.marker_names, found, "trial.c3d"), x)
+
+
 def test_one_trial_of_several(pset: ParameterSet) -> None:
     trials = [_markers(pset, m, seed=5) for m in ("rom", "walk", "static")]
     trials[1] = _exchange(pset, trials[1], [("RTHI", "RKNE")])
