@@ -86,11 +86,12 @@ import numpy as np
 from .identify.initial import segment_scales
 from .ik import IKSolver
 from .kinematics import Kinematics
-from .marker_quality import ACCEL_MAX, JUMP_MIN, Finding, _prediction_error
+from .marker_quality import ACCEL_MAX, JUMP_MIN, Finding
 from .parameters import ParameterSet
 from .rigid import rigid_fit
 
 __all__ = [
+    "CHUNK",
     "CONFIRM",
     "EVEN_FRAMES",
     "FACTOR",
@@ -127,6 +128,8 @@ CONFIRM = 60
 NEIGHBOURHOODS = 3
 #: Most rounds of find, correct, judge again.
 MAX_ROUNDS = 8
+#: Frames read at once where every frame is read (the breakpoints).
+CHUNK = 20_000
 
 
 @dataclass(frozen=True)
@@ -369,16 +372,25 @@ def _permuted(x: np.ndarray, names: Sequence[str], r: Relabel) -> np.ndarray:
 
 def _breakpoints(x: np.ndarray, rate: float) -> list[np.ndarray]:
     """Per marker, the sorted frames (rows) where its label may change: where it is lost,
-    where it reappears after a gap and where its track jumps (module docstring, "Spans")."""
-    present = np.all(np.isfinite(x), axis=2)  # (T, M)
-    edge = np.zeros_like(present)
-    edge[1:] = present[1:] != present[:-1]
-    if len(x) >= 3:
-        with np.errstate(invalid="ignore"):
-            jump = _prediction_error(x) > max(JUMP_MIN, ACCEL_MAX / rate**2)  # frames 2..T-1
-        jump[1:] &= ~jump[:-1]  # a jump also spoils the next frame's prediction
-        edge[2:] |= jump
-    return [np.flatnonzero(edge[:, m]) for m in range(x.shape[1])]
+    where it reappears after a gap and where its track jumps (module docstring, "Spans").
+    Read in chunks of :data:`CHUNK` frames (a long recording's memory map is not copied)."""
+    limit = max(JUMP_MIN, ACCEL_MAX / rate**2)
+    found: list[list[np.ndarray]] = [[] for _ in range(x.shape[1])]
+    for a in range(0, len(x), CHUNK):
+        lo = max(a - 3, 0)  # three frames before: the prediction and the jump before it
+        c = np.asarray(x[lo : a + CHUNK], dtype=float)
+        present = np.all(np.isfinite(c), axis=2)  # (n, M)
+        edge = np.zeros_like(present)
+        edge[1:] = present[1:] != present[:-1]
+        if len(c) >= 3:
+            with np.errstate(invalid="ignore"):
+                jump = np.linalg.norm(c[2:] - 2 * c[1:-1] + c[:-2], axis=2) > limit
+            jump[1:] &= ~jump[:-1]  # a jump also spoils the next frame's prediction
+            edge[2:] |= jump
+        rows = edge[a - lo :]  # the chunk's own frames
+        for m in range(x.shape[1]):
+            found[m].append(a + np.flatnonzero(rows[:, m]))
+    return [np.concatenate([np.zeros(0, dtype=int), *f]) for f in found]
 
 
 def _sample(n: int, breaks: Sequence[np.ndarray]) -> np.ndarray:
