@@ -47,7 +47,7 @@ def report(folder: Path, pset: ParameterSet) -> str:
         )
     outside = kappa_outside_bounds(pset, theta, *kappa_ranges(pset, subject))
     lr = {k: v * 1e3 for k, v in left_right_differences(pset, theta).items()}
-    motion = load_motion(folder / "motion.npz")
+    motion = load_motion(folder / "motion.npz", pset.model)
     wid = {
         k: v * 1e3
         for k, v in width_errors(pset, theta, motion.qpos, motion.markers, subject).items()

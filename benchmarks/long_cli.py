@@ -39,6 +39,7 @@ import numpy as np
 from mocap_mj import ParameterSet
 from mocap_mj.io import MarkerTrajectory, save_trc
 from mocap_mj.io.formats.c3d_write import write_markers_c3d
+from mocap_mj.results import load_motion
 
 sys.path.insert(0, str(Path(__file__).parent))
 from long import all_frames_bound, observable_error, rms, worst_markers
@@ -114,8 +115,7 @@ def main() -> None:
 
     theta = pset.load_json(out / "theta.json")
     clean = np.load(cache / "clean.npy", mmap_mode="r")
-    with np.load(out / "motion.npz") as motion:
-        qpos = motion["qpos"]
+    qpos = load_motion(out / "motion.npz", pset.model).qpos
     fit = SimpleNamespace(theta=theta, free=~pset.frozen, sigma=summary["sigma_mm"] * 1e-3)
     idf_all = all_frames_bound(pset, fit, markers, qpos, args.info_stride)  # type: ignore[arg-type]
     frames = np.array(summary["frames_selected"][0])

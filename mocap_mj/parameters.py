@@ -24,7 +24,7 @@ from xml.etree import ElementTree
 import mujoco
 import numpy as np
 
-from . import rolling
+from . import exported, rolling
 from .errors import MocapError, ShapeError, UnknownNameError, check_shape
 from .io.atomic import atomic_write_text
 from .model import load_model, model_path
@@ -363,7 +363,7 @@ class ParameterSet:
         with other limits (``LMSettings.ball_limit_scale``) passes them so that the written
         model reproduces its fit.
         """
-        spec = mujoco.MjSpec.from_file(str(self.path))
+        spec = exported.internal_spec(self.path)
         if joint_range is not None:
             self._write_joint_range(spec, joint_range)
         body_pos = self.body_pos(theta)
@@ -395,7 +395,9 @@ class ParameterSet:
         with ``repr`` so that the file reloads to the same forward kinematics and limits (a
         cone rounded to 6 digits is narrower than the solver's by up to 5e-6 rad). The knee
         rolling is written as this set's model holds it (scaled by
-        :meth:`with_rolling_scaled`), so the file reproduces the solve's kinematics.
+        :meth:`with_rolling_scaled`), so the file reproduces the solve's kinematics: as its
+        ``<custom>`` record for this tool, and as slide joints coupled to the knee hinges by
+        equality constraints for plain MuJoCo (:func:`mocap_mj.exported.with_slides`).
         """
         spec = self.to_spec(theta, joint_range=joint_range)
         spec.compile()
@@ -414,7 +416,8 @@ class ParameterSet:
             if elem.tag == "joint" and elem.get("name", "") in ranges and elem.get("range"):
                 elem.set("range", " ".join(repr(float(v)) for v in ranges[elem.get("name", "")]))
         ElementTree.indent(root, space="  ")
-        return rolling.record(ElementTree.tostring(root, encoding="unicode") + "\n", self.model)
+        xml = rolling.record(ElementTree.tostring(root, encoding="unicode") + "\n", self.model)
+        return exported.with_slides(xml, self.model, joint_range)
 
     def export_mjcf(
         self, path: str | Path, theta: np.ndarray, *, joint_range: np.ndarray | None = None

@@ -6,8 +6,10 @@ A result folder (written by ``ik``, ``identify``, ``demo``; read by ``view``, ``
 ``model.xml``
     MJCF of the model the motion belongs to (the identified model for ``identify``).
 ``motion.npz``
-    ``qpos`` (T, nq) [m, unit quaternions, rad], ``times`` (T,) [s], ``markers`` (T, M, 3) [m]:
-    the measured markers in model site order with NaN where missing, ``marker_names`` (M,).
+    ``qpos`` (T, nq) [m, unit quaternions, rad] in the layout of ``model.xml`` as MuJoCo
+    compiles it (the knees' slide joints included, :mod:`mocap_mj.exported`), ``times`` (T,)
+    [s], ``markers`` (T, M, 3) [m]: the measured markers in model site order with NaN where
+    missing, ``marker_names`` (M,).
 ``theta.json``
     The model parameters (``ParameterSet.save_json``), when identified.
 ``summary.json``
@@ -25,9 +27,11 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
+import mujoco
 import numpy as np
 
 from .errors import InputFileError, check_shape
+from .exported import Layout
 from .io.atomic import atomic_write_bytes
 
 
@@ -78,13 +82,19 @@ def save_motion(path: str | Path, motion: Motion) -> None:
     atomic_write_bytes(path, npz_bytes(arrays))
 
 
-def load_motion(path: str | Path) -> Motion:
-    """Read a :class:`Motion` written by :func:`save_motion`."""
+def load_motion(path: str | Path, model: mujoco.MjModel | None = None) -> Motion:
+    """Read a :class:`Motion` written by :func:`save_motion`. With ``model`` (the tool's
+    model, :func:`mocap_mj.model.load_model`), qpos is converted to its layout
+    (:meth:`mocap_mj.exported.Layout.read`: the written slide columns dropped; a motion
+    written before them read as it is); without, it is the file's."""
     path = Path(path)
     try:
         with np.load(path) as data:
+            qpos = np.array(data["qpos"], dtype=float)
+            if model is not None:
+                qpos = Layout.of(model).read(qpos, str(path))
             return Motion(
-                qpos=np.array(data["qpos"], dtype=float),
+                qpos=qpos,
                 times=np.array(data["times"], dtype=float),
                 markers=np.array(data["markers"], dtype=float),
                 marker_names=tuple(str(n) for n in data["marker_names"]),

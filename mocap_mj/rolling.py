@@ -18,8 +18,10 @@ parameters' Jacobian then stays ``R_parent d`` (docs/model.md, "The knee's rolli
 
 A model records it as MJCF ``<custom><numeric>`` entries ``mocap_mj_roll:BODY:JOINT`` with
 data ``(L, q_max, c1x, c1y, c1z, c2x, c2y, c2z, c3x, c3y, c3z)``; a model without them has
-fixed hinges (model files written before the coupling existed read as before). The joint must
-be the body's first joint and a hinge whose axis (in the parent frame) is normal to every
+fixed hinges (model files written before the coupling existed read as before). A model file
+the tool writes also carries each coupling as two slide joints for plain MuJoCo
+(:mod:`mocap_mj.exported`); compiled as it is, such a model's couplings are its joints and
+:func:`read` skips them. The joint must be the body's first joint and a hinge whose axis (in the parent frame) is normal to every
 coefficient vector, so that the coupling is a planar motion about an instantaneous centre
 (:func:`mocap_mj._tree.dof_axes`).
 """
@@ -123,7 +125,12 @@ def read(model: mujoco.MjModel) -> Rolling | None:
             raise MocapError(
                 f"model numeric {name}: no body {parts[1]} or joint {parts[2]}"
             ) from None
-        if model.body_jntadr[body] != joint or model.jnt_type[joint] != mujoco.mjtJoint.mjJNT_HINGE:
+        first = model.body_jntadr[body]
+        if joint == first + 2 and np.all(
+            model.jnt_type[first:joint] == mujoco.mjtJoint.mjJNT_SLIDE
+        ):
+            continue  # carried by two slide joints: a model as written (mocap_mj.exported)
+        if first != joint or model.jnt_type[joint] != mujoco.mjtJoint.mjJNT_HINGE:
             raise MocapError(f"model numeric {name}: {parts[2]} is not {parts[1]}'s first hinge")
         coef = data[2:].reshape(3, 3)
         q = model.body_quat[body]

@@ -94,10 +94,10 @@ def score(
     pset = pset or ParameterSet()
     theta_true = pset.load_json(truth_dir / "truth.json")
     truth_info = _read_json(truth_dir / "truth.json")
-    truth_motion = load_motion(truth_dir / "truth_motion.npz")
+    truth_motion = load_motion(truth_dir / "truth_motion.npz", pset.model)
     theta_hat = pset.load_json(result_dir / "theta.json")
     summary = _read_json(result_dir / "summary.json")
-    motion = load_motion(result_dir / "motion.npz")
+    motion = load_motion(result_dir / "motion.npz", pset.model)
     idf = Identifiability.from_json(pset, _read_json(result_dir / "identifiability.json"))
 
     ranges = summary.get("frames_fitted_range") or [[0, len(motion.qpos)]]

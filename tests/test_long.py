@@ -94,7 +94,8 @@ def test_identify_select_fits_a_subset_and_moves_every_frame(tmp_path: Path) -> 
     assert len(kept) == 90 and np.all(np.diff(kept) > 0) and kept[-1] < 300
     assert summary["motion_frames"] == [300]
     with np.load(out / "motion.npz") as motion:
-        assert motion["qpos"].shape == (300, 55) and np.all(np.isfinite(motion["qpos"]))
+        # nq 55 and the knees' 4 slide joints (mocap_mj.exported)
+        assert motion["qpos"].shape == (300, 59) and np.all(np.isfinite(motion["qpos"]))
     # 1 mm per-axis noise: about sqrt(3 (1 - 48/117)) = 1.33 mm after every frame's IK
     assert 1.2 < summary["motion_marker_rmse_mm"] < 1.5
     score = _cli("score", "--truth", str(truth), "--result", str(out), "--json")

@@ -59,7 +59,7 @@ def test_real_skeleton_targets(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert {n: m["source"] for n, m in summary["measurements"].items()} == {
         n: m.source for n, m in subject.values.items()
     }
-    motion = load_motion(out / "motion.npz")
+    motion = load_motion(out / "motion.npz", pset.model)
     widths = width_errors(pset, theta, motion.qpos, motion.markers, subject)
     assert len(widths) == sum(
         subject.get(f"{w}_{s}") is not None
@@ -126,7 +126,7 @@ def test_multi_trial_wrist_and_elbow_centres_at_width(tmp_path: Path) -> None:
     theta = pset.load_json(out / "theta.json")
     subject = from_c3d(paths[0])
     for motion_file in ("motion.npz", "motion_1.npz"):
-        motion = load_motion(out / motion_file)
+        motion = load_motion(out / motion_file, pset.model)
         widths = width_errors(pset, theta, motion.qpos, motion.markers, subject)
         arms = {k: v for k, v in widths.items() if k.startswith(("wrist", "elbow"))}
         assert len(arms) == 4 and all(abs(v) <= 0.005 for v in arms.values()), widths

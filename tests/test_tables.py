@@ -24,6 +24,7 @@ from mocap_mj.ik import IKSolver
 from mocap_mj.io import MarkerTrajectory, save_csv
 from mocap_mj.joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
 from mocap_mj.kinematics import Kinematics
+from mocap_mj.results import load_motion
 from mocap_mj.subject import StatureEstimate, Subject
 from mocap_mj.tables import joint_centre_columns
 from mocap_synth import SynthConfig, synthesize
@@ -108,13 +109,13 @@ def test_exported_model_reproduces_the_fit(
     # The fit did use the widened cone, so the model's own limits could not reproduce it.
     pset = ParameterSet()
     theta = pset.load_json(out / "theta.json")
-    motion = np.load(out / "motion.npz")
+    motion = load_motion(out / "motion.npz", pset.model)
     adr = int(pset.model.jnt_qposadr[pset.model.joint("thorax").id])
-    turn = 2 * np.arccos(np.clip(np.abs(motion["qpos"][:, adr]), 0.0, 1.0))
+    turn = 2 * np.arccos(np.clip(np.abs(motion.qpos[:, adr]), 0.0, 1.0))
     assert np.median(np.degrees(turn)) > 50.0
     own = Kinematics(pset)  # the file's limits (45 degree thorax cone), identified theta
     own.set_theta(theta)
-    markers = motion["markers"]
+    markers = motion.markers
     own_rmse = IKSolver(own).solve_trial(markers).rmse() * 1e3
     assert own_rmse > 1.2 * summary["marker_rmse_mm"]
     # ik writes the joint centres of its model too.
@@ -129,12 +130,12 @@ def test_joint_centres_csv(identified: tuple[Path, dict]) -> None:
     assert columns[2:5] == [f"{JOINT_CENTRE_NAMES[0]}_{a}_mm" for a in "xyz"]
     assert "knee_l_x_mm" in columns and len(columns) == 2 + 3 * len(JOINT_CENTRE_NAMES)
     table = np.genfromtxt(out / "joint_centres.csv", delimiter=",", names=True)
-    motion = np.load(out / "motion.npz")
     exported = ParameterSet(out / "model.xml")
-    expected = joint_centre_trajectories(exported.model, motion["qpos"]) * 1e3  # (T, J, 3) mm
-    assert len(table) == len(motion["qpos"])
+    motion = load_motion(out / "motion.npz", exported.model)
+    expected = joint_centre_trajectories(exported.model, motion.qpos) * 1e3  # (T, J, 3) mm
+    assert len(table) == len(motion.qpos)
     np.testing.assert_array_equal(table["frame"], np.arange(len(table)))
-    np.testing.assert_allclose(table["time"], motion["times"], atol=1e-6)
+    np.testing.assert_allclose(table["time"], motion.times, atol=1e-6)
     j = JOINT_CENTRE_NAMES.index("knee_r")
     for k, a in enumerate("xyz"):
         np.testing.assert_allclose(table[f"knee_r_{a}_mm"], expected[:, j, k], atol=1e-4)

@@ -25,6 +25,7 @@ from ..angles import angle_columns, joint_angle_table
 from ..checks import check_markers
 from ..cli import add_force_flag, add_json_flag, into_out_folder
 from ..errors import MocapError
+from ..exported import Layout
 from ..identify.output import frame_range
 from ..identify.plausibility import AT_LIMIT_PRINT, joints_at_limit, limits_text
 from ..identify.robust_ik import solve_trial_loss
@@ -32,6 +33,7 @@ from ..identify.tissue import recorded_sliding_model
 from ..ik import IKSettings, IKSolver, Status
 from ..io.atomic import atomic_write_text
 from ..kinematics import Kinematics
+from ..model import load_written
 from ..parameters import ParameterSet
 from ..results import Motion, save_motion
 from ..tables import write_joint_centres_csv
@@ -108,7 +110,8 @@ def write_motion_csv(
     path: Path, model: Any, times: np.ndarray, qpos: np.ndarray, first_frame: int = 0
 ) -> None:
     """Joint angles as CSV: frame (of the marker file, from ``first_frame``), time [s], then
-    named columns in mm and degrees."""
+    named columns in mm and degrees, of ``model`` as written (qpos (T, nq) of its layout, the
+    knees' slide joints included: :mod:`mocap_mj.exported`)."""
     table = joint_angle_table(model, qpos)
     header = ",".join(["frame", "time", *angle_columns(model)])
     lines = [header]
@@ -159,8 +162,9 @@ def _solve_and_write(
         result = solve_trial_loss(solver, markers, loss, progress=progress, sliding=sliding)
     seconds = time.perf_counter() - t0
     pset.export_mjcf(out / "model.xml", pset.nominal)
-    save_motion(out / "motion.npz", Motion(result.qpos, times, markers, pset.marker_names))
-    write_motion_csv(out / "motion.csv", kin.model, times, result.qpos, sl.start)
+    written = Layout.of(kin.model).written(result.qpos)
+    save_motion(out / "motion.npz", Motion(written, times, markers, pset.marker_names))
+    write_motion_csv(out / "motion.csv", load_written(out / "model.xml"), times, written, sl.start)
     write_joint_centres_csv(
         out / "joint_centres.csv", kin.model, times, result.qpos, first_frame=sl.start
     )

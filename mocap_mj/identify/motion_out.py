@@ -25,6 +25,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from ..exported import Layout
 from ..ik import IKSolver
 from ..io.atomic import atomic_path
 from ..kinematics import Kinematics
@@ -143,8 +144,9 @@ def write_every_frame_motion(
 ) -> MotionFit:
     """IK of every frame of ``trials`` with the model as ``identify`` writes it (parameters
     theta (P,) [m], the joint limits the solver used), written chunk by chunk into
-    ``out``/motion.npz and joint_centres.csv (``motion_<i>.npz``, ``joint_centres_<i>.csv``
-    for the other trials); returns the fit over every frame.
+    ``out``/motion.npz (in model.xml's layout, :class:`mocap_mj.exported.Layout`) and
+    joint_centres.csv (``motion_<i>.npz``, ``joint_centres_<i>.csv`` for the other trials);
+    returns the fit over every frame.
 
     ``start`` (per trial (T_i, nq)): poses the chunk's frames start from (finite rows, e.g.
     the refinement's: warm, ``WARM_ITERATIONS`` LM iterations each); default and NaN chunks: solved
@@ -161,6 +163,7 @@ def write_every_frame_motion(
         pset.export_mjcf(path, theta, joint_range=solver_joint_range(pset.model, settings))
         written = ParameterSet(path)
     solver = IKSolver(Kinematics(written))
+    layout = Layout.of(written.model)
     model = pset.model_for(theta)
     t0 = time.perf_counter()
     firsts = list(first_frames) if first_frames is not None else [0] * len(trials)
@@ -178,8 +181,8 @@ def write_every_frame_motion(
                 out / f"motion{suffix}.npz",
                 trial,
                 pset.marker_names,
-                written.model.nq,
-                poses,
+                layout.nq_written,
+                (layout.written(q) for q in poses),
                 chunk,
             )
     return tally.fit._replace(seconds=time.perf_counter() - t0)

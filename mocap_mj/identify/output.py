@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from ..exported import Layout
 from ..io.atomic import atomic_write_text
 from ..kinematics import Kinematics
 from ..marker_quality import quality_lines
@@ -39,7 +40,8 @@ def write_result(
     identifiability.json and report.md (its iterations section: ``iterations``, default
     :func:`iteration_lines`). ``joint_range`` (njnt, 2): the limits the solver used, written
     into model.xml (see :meth:`ParameterSet.to_spec`). ``motion`` (trials, poses (T_i, nq)):
-    what motion.npz holds (default: ``trials`` and the fit's poses). ``sliding``: the
+    what motion.npz holds (default: ``trials`` and the fit's poses), written in model.xml's
+    layout (:class:`mocap_mj.exported.Layout`). ``sliding``: the
     landmarks' sliding model the fit was weighed with, recorded in model.xml for ``ik``
     (:func:`~mocap_mj.identify.tissue.with_sliding_model`; default None: not recorded)."""
     xml = pset.to_xml(result.theta, joint_range=joint_range)
@@ -58,9 +60,11 @@ def write_result(
         },
     )
     moved, poses = motion or (trials, result.qpos)
+    layout = Layout.of(pset.model)
     for i, (trial, qpos) in enumerate(zip(moved, poses, strict=True)):
         name = "motion.npz" if i == 0 else f"motion_{i}.npz"
-        save_motion(out / name, Motion(qpos, trial.times, trial.markers, pset.marker_names))
+        written = layout.written(qpos)
+        save_motion(out / name, Motion(written, trial.times, trial.markers, pset.marker_names))
     atomic_write_text(out / "identifiability.json", json.dumps(idf.to_json()) + "\n")
     write_plots(out, pset, result, trials)
     lines = report_lines(pset, result, idf, summary, iterations)
