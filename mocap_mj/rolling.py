@@ -21,9 +21,9 @@ data ``(L, q_max, c1x, c1y, c1z, c2x, c2y, c2z, c3x, c3y, c3z)``; a model withou
 fixed hinges (model files written before the coupling existed read as before). A model file
 the tool writes also carries each coupling as two slide joints for plain MuJoCo
 (:mod:`mocap_mj.exported`); compiled as it is, such a model's couplings are its joints and
-:func:`read` skips them. The joint must be the body's first joint and a hinge whose axis (in the parent frame) is normal to every
-coefficient vector, so that the coupling is a planar motion about an instantaneous centre
-(:func:`mocap_mj._tree.dof_axes`).
+:func:`read` skips them. The joint must be the body's first joint and a hinge whose axis (in
+the parent frame) is normal to every coefficient vector, so that the coupling is a planar
+motion about an instantaneous centre (:func:`mocap_mj._tree.dof_axes`).
 """
 
 from __future__ import annotations
