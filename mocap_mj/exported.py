@@ -43,6 +43,14 @@ SLIDE_SUFFIXES = ("_t1", "_t2")
 #: Grid of the least-squares fit of each slide's quartic over the hinge's range.
 FIT_POINTS = 2001
 
+#: The equalities' ``solref`` (time constant [s], damping ratio) and ``solimp``: stiffer than
+#: MuJoCo's defaults (0.02 s; 0.9-0.95), under which the slides lagged their hinge by up to
+#: 26 mm when a swinging knee hit its limit (the legs under gravity from a pelvis held still,
+#: 1 s); with these the lag stays below 0.3 mm. 0.004 s is twice the default 2 ms timestep
+#: (MuJoCo raises a time constant below that to it).
+SOLREF = (0.004, 1.0)
+SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
+
 
 def slide_names(joint: str) -> tuple[str, str]:
     """The names of the two slide joints that carry ``joint``'s coupling."""
@@ -212,10 +220,45 @@ def with_slides(xml: str, model: mujoco.MjModel, joint_range: np.ndarray | None 
             )
             body.insert(first + k, slide)
             ElementTree.SubElement(
-                equality, "joint", name=name, joint1=name, joint2=joint, polycoef=_fmt(coef[i, k])
+                equality,
+                "joint",
+                name=name,
+                joint1=name,
+                joint2=joint,
+                polycoef=_fmt(coef[i, k]),
+                solref=_fmt(np.array(SOLREF)),
+                solimp=_fmt(np.array(SOLIMP)),
             )
     ElementTree.indent(root, space="  ")
     return ElementTree.tostring(root, encoding="unicode") + "\n"
+
+
+def equality_residuals(model: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
+    """Residuals (neq_joint,) [m] of ``model``'s joint equalities at qpos (nq,) of its own
+    layout: q1 - poly(q2), both relative to ``qpos0``, as MuJoCo's constraint measures them."""
+    q = np.asarray(qpos, dtype=float)
+    out = []
+    for e in range(model.neq):
+        if model.eq_type[e] != mujoco.mjtEq.mjEQ_JOINT:
+            continue
+        a = [model.jnt_qposadr[model.eq_obj1id[e]], model.jnt_qposadr[model.eq_obj2id[e]]]
+        y, x = q[a] - model.qpos0[a]
+        out.append(y - np.polynomial.polynomial.polyval(x, model.eq_data[e, :5]))
+    return np.array(out)
+
+
+def stepped_residual(
+    model: mujoco.MjModel, qpos: np.ndarray, seconds: float = 1.0
+) -> tuple[float, np.ndarray]:
+    """The largest joint-equality residual [m] over ``seconds`` of ``mj_step`` from qpos
+    (nq,) at rest, and the final qpos (nq,): the coupling kept under simulation."""
+    data = mujoco.MjData(model)
+    data.qpos[:] = qpos
+    worst = float(np.max(np.abs(equality_residuals(model, data.qpos)), initial=0.0))
+    while data.time < seconds:
+        mujoco.mj_step(model, data)
+        worst = max(worst, float(np.max(np.abs(equality_residuals(model, data.qpos)))))
+    return worst, np.array(data.qpos)
 
 
 def internal_spec(path: str | Path) -> mujoco.MjSpec:
@@ -241,12 +284,16 @@ def internal_spec(path: str | Path) -> mujoco.MjSpec:
 __all__ = [
     "FIT_POINTS",
     "SLIDE_SUFFIXES",
+    "SOLIMP",
+    "SOLREF",
     "Layout",
     "carried",
     "coupled_joints",
+    "equality_residuals",
     "internal_spec",
     "polycoef",
     "slide_basis",
     "slide_names",
+    "stepped_residual",
     "with_slides",
 ]
