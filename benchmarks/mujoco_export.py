@@ -65,21 +65,13 @@ def deepest_flexion(model: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
     return qpos[int(np.argmax(flex))]
 
 
-def pelvis_held(path: Path) -> mujoco.MjModel:
-    """The written model with its free root removed (the pelvis fixed in the world)."""
-    spec = mujoco.MjSpec.from_file(str(path))
-    root = next(j for j in spec.joints if j.type == mujoco.mjtJoint.mjJNT_FREE)
-    spec.delete(root)
-    return spec.compile()
-
-
 def simulation(rd: ResultDir) -> tuple[float, float, float]:
     """Largest equality residuals [mm] over 1 s: free root, pelvis held; and the quartic fit."""
     plain = mujoco.MjModel.from_xml_path(str(rd.model))
     with np.load(rd.motion) as f:
         start = deepest_flexion(plain, np.array(f["qpos"], dtype=float))
     free, _ = exported.stepped_residual(plain, start)
-    held, _ = exported.stepped_residual(pelvis_held(rd.model), start[7:])
+    held, _ = exported.stepped_residual(exported.held_root(rd.model), start[7:])
     pset = ParameterSet(rd.model)
     layout = exported.Layout.of(pset.model)
     worst = 0.0

@@ -261,6 +261,16 @@ def stepped_residual(
     return worst, np.array(data.qpos)
 
 
+def held_root(path: str | Path) -> mujoco.MjModel:
+    """The model file ``path`` compiled as plain MuJoCo does, with its free root removed: the
+    root body held in the world (its qpos is the file's without the root's 7 coordinates)."""
+    spec = mujoco.MjSpec.from_file(str(path))
+    for joint in list(spec.joints):
+        if joint.type == mujoco.mjtJoint.mjJNT_FREE:
+            spec.delete(joint)
+    return spec.compile()
+
+
 def internal_spec(path: str | Path) -> mujoco.MjSpec:
     """``MjSpec`` of the MJCF file ``path`` as the tool models it: the slide joints that carry
     a recorded coupling (and their equalities) removed, the record kept; a file without them
@@ -290,6 +300,7 @@ __all__ = [
     "carried",
     "coupled_joints",
     "equality_residuals",
+    "held_root",
     "internal_spec",
     "polycoef",
     "slide_basis",
