@@ -38,7 +38,8 @@ from . import rolling
 from .errors import InputFileError
 
 #: Suffixes of the slide joints that carry a coupling (joint names ``JOINT_t1``, ``JOINT_t2``).
-SLIDE_SUFFIXES = ("_t1", "_t2")
+SLIDE_SUFFIXES = rolling.SLIDE_SUFFIXES
+slide_names = rolling.slide_names
 
 #: Grid of the least-squares fit of each slide's quartic over the hinge's range.
 FIT_POINTS = 2001
@@ -50,11 +51,6 @@ FIT_POINTS = 2001
 #: (MuJoCo raises a time constant below that to it).
 SOLREF = (0.004, 1.0)
 SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
-
-
-def slide_names(joint: str) -> tuple[str, str]:
-    """The names of the two slide joints that carry ``joint``'s coupling."""
-    return (f"{joint}{SLIDE_SUFFIXES[0]}", f"{joint}{SLIDE_SUFFIXES[1]}")
 
 
 def coupled_joints(model: mujoco.MjModel) -> list[tuple[str, str]]:
@@ -164,9 +160,11 @@ class Layout:
             return self.internal(q)
         if q.ndim == 2 and q.shape[1] == self.nq:
             return q
+        expected = f"nq = {self.nq}"
+        if self.roll is not None:
+            expected = f"nq = {self.nq_written} (with the knees' slide joints) or {self.nq}"
         raise InputFileError(
-            f"{source}: qpos has {q.shape[-1] if q.ndim else 0} columns, the model has "
-            f"nq = {self.nq_written} (with the knees' slide joints) or {self.nq} (without)"
+            f"{source}: qpos has {q.shape[-1] if q.ndim else 0} columns, the model has {expected}"
         )
 
 

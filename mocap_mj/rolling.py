@@ -40,6 +40,10 @@ from .errors import MocapError
 #: Prefix of the ``<custom><numeric>`` entries that record a coupling.
 RECORD_PREFIX = "mocap_mj_roll"
 
+#: Suffixes of the slide joints that carry a coupling in a model as written (``JOINT_t1``,
+#: ``JOINT_t2``; :mod:`mocap_mj.exported`).
+SLIDE_SUFFIXES = ("_t1", "_t2")
+
 #: gait2392's femur length at full extension [m]: minus its ``knee_r`` ``translation2`` spline
 #: at knee_angle 0, the length its translations are relative to (the unit of the coefficients).
 GAIT2392_FEMUR_LENGTH = 0.3958
@@ -178,14 +182,27 @@ def record(xml: str, model: mujoco.MjModel) -> str:
     return ElementTree.tostring(root, encoding="unicode") + "\n"
 
 
+def slide_names(joint: str) -> tuple[str, str]:
+    """The names of the two slide joints that carry ``joint``'s coupling in a model as
+    written (:mod:`mocap_mj.exported`)."""
+    return (f"{joint}{SLIDE_SUFFIXES[0]}", f"{joint}{SLIDE_SUFFIXES[1]}")
+
+
 def without(xml: str) -> str:
-    """MJCF text ``xml`` without its couplings' entries: the same model with fixed hinges
-    (e.g. for a solver that knows only MuJoCo's joints, as ``benchmarks/ik.py``'s mink)."""
+    """MJCF text ``xml`` without its couplings' entries (and, in a model as written, their
+    slide joints and equalities): the same model with fixed hinges (e.g. for a solver that
+    knows only MuJoCo's joints, as ``benchmarks/ik.py``'s mink)."""
     root = ElementTree.fromstring(xml)
+    slides: set[str] = set()
     for custom in root.iter("custom"):
         for elem in list(custom):
             if elem.tag == "numeric" and elem.get("name", "").startswith(f"{RECORD_PREFIX}:"):
+                slides.update(slide_names(elem.get("name", "").split(":")[-1]))
                 custom.remove(elem)
+    for parent in root.iter():
+        for elem in list(parent):
+            if elem.tag == "joint" and {elem.get("name"), elem.get("joint1")} & slides:
+                parent.remove(elem)
     return ElementTree.tostring(root, encoding="unicode") + "\n"
 
 
@@ -249,11 +266,13 @@ def posed(model: mujoco.MjModel, qpos: np.ndarray) -> Iterator[tuple[int, mujoco
 __all__ = [
     "GAIT2392_FEMUR_LENGTH",
     "RECORD_PREFIX",
+    "SLIDE_SUFFIXES",
     "Rolling",
     "kinematics",
     "posed",
     "read",
     "record",
     "set_lengths",
+    "slide_names",
     "without",
 ]

@@ -163,3 +163,11 @@ def test_motion_of_another_width_is_refused(result: Path, tmp_path: Path) -> Non
     save_motion(bad, Motion(motion.qpos[:, :-1], motion.times, motion.markers, motion.marker_names))
     with pytest.raises(InputFileError, match=rf"{re.escape(str(bad))}: qpos has 58 columns"):
         load_motion(bad, load_model(result / "result" / "model.xml"))
+
+
+def test_fixed_hinges_of_a_written_model() -> None:
+    from mocap_mj import rolling
+
+    pset = ParameterSet()
+    plain = mujoco.MjModel.from_xml_string(rolling.without(pset.to_xml(pset.nominal)))
+    assert (plain.nq, plain.neq, rolling.read(plain)) == (55, 0, None)
