@@ -2,9 +2,9 @@
 
 Symbols used in every docstring: T frames, M markers (39 for the bundled humanoid), nq and nv
 the model's position and velocity sizes (55 and 48; a written model.xml has 59 and 52 in
-plain MuJoCo, the knees' slide joints included: ``mocap_mj.exported``), K = 34 kinematic parameters, P = K + 3 M
-= 151 model parameters. Units are SI everywhere inside: metres, radians, seconds; conversion
-happens only at the file boundary (``mocap_mj.io``).
+plain MuJoCo, the knees' slide joints included: ``mocap_mj.exported``), K = 34 kinematic
+parameters, P = K + 3 M = 151 model parameters. Units are SI everywhere inside: metres,
+radians, seconds; conversion happens only at the file boundary (``mocap_mj.io``).
 """
 
 from __future__ import annotations
