@@ -49,13 +49,15 @@ IK_SETUP = "ik_setup.xml"
 
 
 def _subject_mass(args: argparse.Namespace, src: ExportSource) -> float | None:
-    """--mass, else a subject mass [kg] in the result's summary.json, else None."""
+    """--mass, else the subject's mass [kg] that the result's summary.json records (the
+    measurement the identification used: the C3D's PROCESSING group or --subject-file), else
+    None (the model's own masses)."""
     if args.mass is not None:
         return float(args.mass)
-    for key in ("subject_mass_kg", "mass_kg"):
-        value = src.summary.get(key)
-        if isinstance(value, int | float):
-            return float(value)
+    measured = src.summary.get("measurements", {}).get("mass", {})
+    value = measured.get("value") if isinstance(measured, dict) else None
+    if isinstance(value, int | float) and measured.get("unit", "kg") == "kg":
+        return float(value)
     return None
 
 
