@@ -1205,10 +1205,25 @@ def forward(tr: Tree, qpos: np.ndarray) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ tables
-#: What the first run of an install spends compiling the kernels on a 2-core machine
-#: (``benchmarks/cold_start.py``), said once when the on-disk cache is empty.
+#: What the first run of an install spends compiling the kernels on an idle 2-core machine
+#: (``benchmarks/cold_start.py``), said once when the on-disk cache is empty; scaled by
+#: :func:`compile_estimate` when other work already keeps the cores busy.
 COMPILE_SECONDS = 15
 _notice_given = False
+
+
+def compile_estimate(base: float = COMPILE_SECONDS) -> tuple[int, str]:
+    """The compile's expected wall time [s] on this machine now, and why it differs from
+    ``base``: the compiler gets a share ``cores / (load + 1)`` of the cores when the 1-minute
+    load average already exceeds what leaves one core idle, so the time grows by the inverse."""
+    cores = os.cpu_count() or 1
+    try:
+        load = os.getloadavg()[0]
+    except OSError:  # not available on this platform: assume idle
+        return round(base), ""
+    if load < cores - 0.5:
+        return round(base), ""
+    return round(base * (load + 1) / cores), f", the machine is busy: load {load:.1f} on {cores}"
 
 
 def compile_notice() -> None:
@@ -1223,8 +1238,9 @@ def compile_notice() -> None:
     except AttributeError:  # a numba without this cache layout: say nothing
         return
     if not index.exists():
+        seconds, why = compile_estimate()
         print(
-            f"mocap-mj: compiling the numeric kernels (once per install, ~{COMPILE_SECONDS} s)",
+            f"mocap-mj: compiling the numeric kernels (once per install, ~{seconds} s{why})",
             file=sys.stderr,
             flush=True,
         )
