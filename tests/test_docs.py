@@ -30,8 +30,12 @@ HISTORY: dict[str, re.Pattern[str]] = {
     "a git branch": re.compile(
         r"(?<!kinematic )(?<!tree's )\bbranch(es)?\b(?! of the (kinematic )?tree)", re.I
     ),
-    "an issue number": re.compile(r"\bissues? ?#?\d+[a-z]?\b|\bissue-\d+|(?<![\w&/])#\d{1,3}[a-z]?\b", re.I),
-    "a round of work": re.compile(rf"\b({ORDINALS}|this|previous|earlier|later) rounds?\b|\bround \d+\b", re.I),
+    "an issue number": re.compile(
+        r"\bissues? ?#?\d+[a-z]?\b|\bissue-\d+|(?<![\w&/])#\d{1,3}[a-z]?\b", re.I
+    ),
+    "a round of work": re.compile(
+        rf"\b({ORDINALS}|this|previous|earlier|later) rounds?\b|\bround \d+\b", re.I
+    ),
     "a merge": re.compile(r"\bmerg(e|es|ed|ing)\b", re.I),
     "main as a git branch": re.compile(r"\bon main\b|\bmain (after|before|at commit)\b|\bmain's\b"),
     "a commit hash": re.compile(
@@ -57,8 +61,7 @@ def python_files() -> list[Path]:
 
 
 def prose_lines(path: Path) -> Iterator[tuple[int, str]]:
-    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
-        yield number, line
+    yield from enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
 
 
 def history_findings(path: Path, code: bool) -> list[str]:
@@ -85,7 +88,7 @@ def test_no_history_words() -> None:
 
 
 def slug(heading: str) -> str:
-    """GitHub's anchor of a heading: markup dropped, lower case, punctuation removed, spaces to '-'."""
+    """GitHub's anchor of a heading: markup dropped, lower case, punctuation out, spaces to '-'."""
     text = re.sub(r"!?\[([^\]]*)\]\([^)]*\)", r"\1", heading)  # a link's text
     text = text.replace("`", "").replace("*", "").strip().lower()
     text = re.sub(r"[^\w\- ]", "", text)
