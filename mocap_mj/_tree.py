@@ -145,9 +145,10 @@ def _jit(fn: Callable[..., Any]) -> Any:
     Numba gives every compiled function a wrapper that unboxes its arguments from Python
     objects (for a :class:`Tree` and a :class:`Work`, 38 arrays) and a C-callable one, and
     compiles and optimises them with the function; a helper never called from Python does not
-    need them, and leaving them out shortens the first run's compile (docs/ik.md, "First
-    run"). Without its wrapper a call from Python would crash the interpreter, so the
-    dispatcher raises :class:`TypeError` instead: use :func:`python_callable` (tests do).
+    need them, and leaving them out shortens the first run's compile
+    (docs/validation.md#first-run). Without its wrapper a call from Python would crash the
+    interpreter, so the dispatcher raises :class:`TypeError` instead: use
+    :func:`python_callable` (tests do).
     """
     disp = share_cache(nb.njit(**_INNER_OPTIONS)(fn))
     disp.__class__ = _KernelOnly
@@ -172,7 +173,7 @@ def python_callable(helper: Any) -> Any:
 
 #: Small helpers are compiled like any kernel and LLVM inlines them where it pays. Numba's
 #: ``inline="always"`` would copy their IR into every caller before type inference, which
-#: lengthens the first run's compile (docs/ik.md, "First run").
+#: lengthens the first run's compile (docs/validation.md#first-run).
 _inline = _jit
 
 

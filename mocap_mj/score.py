@@ -290,7 +290,7 @@ def gauge_free(pset: ParameterSet, margin: float = GAUGE_MARGIN) -> ParameterSet
     limit. Aligning within the limits turns the zero until they do not, and the curved part
     of that turn (FIN 8 cm from the wrist, turned 3 degrees: 0.1 mm along its lever) counts
     as an error in the observable directions that the estimate does not have
-    (docs/long-recordings.md)."""
+    (docs/method.md#scoring-against-a-synthetic-truth)."""
     out = ParameterSet(pset.path)
     for j in _gauge_joints(out.model):
         out.model.jnt_range[j] += (-margin, margin)
@@ -326,8 +326,9 @@ def align_gauge_free(
     zero's path is curved: its direction at the estimate is not the truth's). A wider margin
     is no cure either: the LM may then walk further along that path before it settles. The
     nearest exact alignment is the definition of :func:`align_truth`'s
-    (docs/long-recordings.md). The forearms' zeros and FIN's direction are then moved to the
-    members nearest theta_hat in closed form (:func:`nearest_forearm_gauge`)."""
+    (docs/method.md#scoring-against-a-synthetic-truth). The forearms' zeros and FIN's direction
+    are then moved to the members nearest theta_hat in closed form
+    (:func:`nearest_forearm_gauge`)."""
     fits = []
     for margin in GAUGE_MARGINS:
         wide = gauge_free(pset, margin)
@@ -346,7 +347,7 @@ def align_gauge_free(
 #: radius's zero about the pronation axis (its markers turned back, every pronation angle
 #: shifted; the wrist's angles re-solved for FIN) and FIN's offset about the wrist (the hand's
 #: zero). Only the radius markers' places relative to the axis and FIN's distance from the
-#: wrist are determined by the markers (docs/long-recordings.md).
+#: wrist are determined by the markers (docs/method.md#scoring-against-a-synthetic-truth).
 FOREARM_GAUGES = (("pronation_l", "hand_l"), ("pronation_r", "hand_r"))
 
 
