@@ -1,0 +1,191 @@
+"""``plug_in_gait``: Plug-in Gait (the Conventional Gait Model 1.0) on a marker trajectory.
+
+Steps: the subject values (the static trial's offsets and measurements when one is given),
+the lower body (pelvis, Davis hip centres, chord knee and ankle centres, tibia, foot with the
+static offsets), the trunk and upper limbs when their markers are present, the angles in
+Vicon's conventions and the bone points. A trial that is itself static (the pelvis and leg
+markers still) uses the static model's foot, from the heel marker, as Nexus does.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import MocapError
+from ..io.trajectory import MarkerTrajectory
+from . import static as static_mod
+from .angles import ANGLES, FLIP_XY, FLIP_YZ, angle, progression_frame
+from .bones import bone_points
+from .segments import SIDES, Markers, Segment, lower_body, trunk, upper_limbs
+from .subject import UPPER, PigSubject
+
+_log = logging.getLogger(__name__)
+
+#: Markers the lower body needs; the trunk and upper limbs are computed when theirs exist.
+LOWER_MARKERS = ("LASI", "RASI", "LTHI", "LKNE", "LTIB", "LANK", "LTOE",
+                 "RTHI", "RKNE", "RTIB", "RANK", "RTOE")  # fmt: skip
+UPPER_MARKERS = ("C7", "T10", "CLAV", "STRN", "LFHD", "RFHD", "LBHD", "RBHD",
+                 "LSHO", "LELB", "LWRA", "LWRB", "LFIN", "RSHO", "RELB", "RWRA", "RWRB", "RFIN")  # fmt: skip
+
+
+@dataclass
+class PigResult:
+    """Plug-in Gait's outputs for one trial.
+
+    ``angles``: Vicon name (``LKneeAngles``...) -> (T, 3) [rad]; ``points``: Vicon bone
+    point name (``LFEO``...) -> (T, 3) [m] in the recording's lab frame; ``times`` (T,) [s];
+    ``frames`` (T,) the recording's own frame numbers; ``progression`` (3,) the direction
+    of progression in the lab; ``static``: whether the trial was processed as a static one.
+    """
+
+    times: np.ndarray
+    frames: np.ndarray
+    angles: dict[str, np.ndarray]
+    points: dict[str, np.ndarray]
+    subject: PigSubject
+    progression: np.ndarray
+    static: bool
+    notes: list[str] = field(default_factory=list)
+
+    def summary(self) -> dict[str, Any]:
+        return {
+            "frames": int(len(self.times)),
+            "first_frame": int(self.frames[0]) if len(self.frames) else None,
+            "static_trial": self.static,
+            "progression_axis_lab": [float(v) for v in self.progression],
+            "angles": sorted(self.angles),
+            "points": sorted(self.points),
+            "subject": self.subject.to_dict(),
+            "notes": list(self.notes),
+        }
+
+
+def _markers(traj: MarkerTrajectory) -> Markers:
+    return Markers({n: traj.positions[:, i] for i, n in enumerate(traj.names)}, traj.n_frames)
+
+
+def _require(m: Markers, names: tuple[str, ...], where: str) -> None:
+    missing = [n for n in names if n not in m]
+    if "SACR" not in m and ("LPSI" not in m or "RPSI" not in m):
+        missing.append("SACR (or LPSI and RPSI)")
+    if missing:
+        raise MocapError(f"{where}: Plug-in Gait needs the markers {', '.join(missing)}")
+
+
+def calibrate(static: MarkerTrajectory, subject: PigSubject) -> PigSubject:
+    """The subject with the offsets, inter-ASIS distance and leg lengths a static trial
+    gives (measured values are kept; the offsets always come from the static trial)."""
+    m = _markers(static)
+    where = str(static.source.get("path", "static trial"))
+    _require(m, LOWER_MARKERS + ("LHEE", "RHEE"), where)
+    subject = _with_marker_measures(m, subject, where)
+    segs, _ = lower_body(m, subject, _inter_asis(m, subject))
+    values = {}
+    for s in SIDES:
+        tibia = segs[f"tibia_torsioned_{s}"].axes
+        foot = static_mod.static_foot(m, s, tibia)
+        try:
+            flex, rot = static_mod.foot_offsets(segs[f"foot_raw_{s}"].axes, foot, s)
+        except ValueError as exc:
+            raise MocapError(f"{where}: {exc}") from None
+        values[f"static_plantar_flex_{s}"] = flex
+        values[f"static_rot_off_{s}"] = rot
+    return subject.with_values(values, f"{where}: static trial")
+
+
+def _with_marker_measures(m: Markers, subject: PigSubject, where: str) -> PigSubject:
+    """Leg lengths from the markers where the subject values give none."""
+    from ..subject import from_values
+
+    missing = [s for s in SIDES if subject.measured(f"leg_length_{s}") is None]
+    if not missing:
+        return subject
+    est = from_values(
+        [(f"leg_length_{s}", static_mod.leg_length(m, s)) for s in missing],
+        f"{where}: markers (ASIS-KNE-ANK)",
+    )
+    return PigSubject(subject.measurements.update(est), subject.values, subject.sources)
+
+
+def _inter_asis(m: Markers, subject: PigSubject) -> float:
+    given = subject.measured("asis_distance")
+    return given if given is not None else static_mod.inter_asis(m)
+
+
+def plug_in_gait(
+    trajectory: MarkerTrajectory,
+    subject: PigSubject,
+    static: MarkerTrajectory | None = None,
+    *,
+    frames: np.ndarray | None = None,
+    to_lab: np.ndarray | None = None,
+    override: PigSubject | None = None,
+) -> PigResult:
+    """Plug-in Gait on ``trajectory`` (metres, Z up) with ``subject``'s values.
+
+    ``static``: a static trial whose offsets replace the subject's; ``frames`` (T,) the
+    recording's frame numbers (default 0..T-1); ``to_lab`` (3, 3) the rotation from the
+    trajectory's Z-up frame back to the recording's lab frame for the points (default
+    identity); ``override``: values that win over the static trial's (a subject file).
+    Missing markers give NaN in every output that depends on them.
+    """
+    where = str(trajectory.source.get("path", "trajectory"))
+    m = _markers(trajectory)
+    _require(m, LOWER_MARKERS, where)
+    if static is not None:
+        subject = calibrate(static, subject)
+    is_static = static_mod.is_static(m)
+    notes = []
+    if is_static and static is None and all(n in m for n in ("LHEE", "RHEE")):
+        subject = calibrate(trajectory, subject)
+        notes.append("static trial: the foot is the static model's (toe to heel marker)")
+    if override is not None:
+        subject = subject.update(override)
+    subject = _with_marker_measures(m, subject, where)
+    segs, jc = lower_body(m, subject, _inter_asis(m, subject))
+    if is_static and "static trial" in " ".join(notes):
+        for s in SIDES:
+            foot = static_mod.static_foot(m, s, segs[f"tibia_torsioned_{s}"].axes)
+            segs[f"foot_{s}"] = Segment(segs[f"foot_{s}"].origin, foot)
+    upper = all(n in m for n in UPPER_MARKERS) and all(
+        subject.measured(f"{b}_{s}") is not None for b in UPPER for s in SIDES
+    )
+    if upper:
+        segs |= trunk(m, subject)
+        limbs, ujc = upper_limbs(m, subject, segs["thorax"])
+        segs |= limbs
+        jc |= ujc
+    else:
+        notes.append("no trunk or upper-limb outputs: markers or measurements missing")
+    axes = {k: v.axes for k, v in segs.items()}
+    prog = progression_frame(axes["pelvis"], segs["pelvis"].origin)
+    axes["progression"] = np.broadcast_to(prog, axes["pelvis"].shape)
+    if upper:
+        axes["thorax_up"] = axes["thorax"] @ FLIP_YZ
+        for s in SIDES:
+            axes[f"humerus_up_{s}"] = axes[f"humerus_{s}"] @ FLIP_XY
+    angles = {}
+    for name, spec in ANGLES.items():
+        if spec.distal.format(s="l") in axes and spec.proximal.format(s="l") in axes:
+            for s in SIDES:
+                angles[s.upper() + name] = angle(spec, s, axes)
+    widths = {s: subject.require(f"knee_width_{s}") for s in SIDES}
+    points = bone_points(segs, jc, widths, upper=upper)
+    rot = np.eye(3) if to_lab is None else np.asarray(to_lab)
+    points = {k: v @ rot.T for k, v in points.items()}
+    n = trajectory.n_frames
+    numbers = np.arange(n) if frames is None else np.asarray(frames)
+    return PigResult(
+        times=np.asarray(trajectory.times) + numbers[0] / trajectory.rate if n else np.zeros(0),
+        frames=numbers,
+        angles=angles,
+        points=points,
+        subject=subject,
+        progression=rot @ prog[:, 0],
+        static=is_static,
+        notes=notes,
+    )
