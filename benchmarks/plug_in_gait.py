@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from vicon_pig import _points  # noqa: E402  (the benchmarks' C3D point reader)
+from vicon_pig import _points
 
-from mocap_mj.clinical import PigSubject, pig_from_c3d, plug_in_gait  # noqa: E402
-from mocap_mj.io.load import load_markers  # noqa: E402
+from mocap_mj.clinical import pig_from_c3d, plug_in_gait
+from mocap_mj.io.load import load_markers
 
 ANGLE_TARGET = 1.0  # deg RMS
 POINT_TARGET = 1.0  # mm median
@@ -72,7 +72,8 @@ def main() -> None:
     real = args.shared / "real"
     runs = [
         ("Movement_trial (PROCESSING values)", real / "Movement_trial.c3d", None),
-        ("Movement_trial --static Static_trial", real / "Movement_trial.c3d", real / "Static_trial.c3d"),
+        ("Movement_trial --static Static_trial", real / "Movement_trial.c3d",
+         real / "Static_trial.c3d"),
         ("Static_trial (PROCESSING values)", real / "Static_trial.c3d", None),
     ]  # fmt: skip
     for title, trial, static in runs:
@@ -83,5 +84,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    _ = PigSubject
     main()

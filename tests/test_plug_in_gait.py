@@ -25,7 +25,7 @@ def _ry(a: float) -> np.ndarray:
 def _subject() -> PigSubject:
     values = [(f"{n}_{s}", v) for n, v in (("leg_length", 0.88), ("knee_width", 0.10),
               ("ankle_width", 0.07)) for s in "lr"]  # fmt: skip
-    return PigSubject(from_values(values + [("asis_distance", 0.24)], "test"))
+    return PigSubject(from_values([*values, ("asis_distance", 0.24)], "test"))
 
 
 def _pose(tilt: float, hip: float, knee: float, dorsi: float, n: int = 20) -> dict[str, np.ndarray]:

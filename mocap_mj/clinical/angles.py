@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import cardan_xyz, cardan_yxz, cardan_zxy, relative, unit
+from .geometry import cardan_xyz, cardan_yxz, cardan_zxy, relative
 
 #: The thorax turned into the lower body's orientation (x anterior, y left, z up).
 FLIP_YZ = np.diag([1.0, -1.0, -1.0])
@@ -36,7 +36,9 @@ class AngleSpec:
     components: tuple[tuple[int, float, float, float], ...]
 
 
-def _C(index: int, left: float, right: float, offset: float = 0.0) -> tuple[int, float, float, float]:
+def _C(
+    index: int, left: float, right: float, offset: float = 0.0
+) -> tuple[int, float, float, float]:
     return (index, left, right, offset)
 
 
@@ -46,24 +48,40 @@ _DECOMPOSE = {"yxz": cardan_yxz, "xyz": cardan_xyz, "zxy": cardan_zxy}
 #: progression frame (x along the direction of progression, z up), "thorax_up" the thorax
 #: with y and z reversed.
 ANGLES: dict[str, AngleSpec] = {
-    "PelvisAngles": AngleSpec("progression", "pelvis", "yxz", (_C(0, 1, 1), _C(1, 1, -1), _C(2, -1, 1))),
-    "HipAngles": AngleSpec("pelvis", "femur_{s}", "yxz", (_C(0, -1, -1), _C(1, -1, 1), _C(2, -1, 1))),
-    "KneeAngles": AngleSpec("femur_{s}", "tibia_{s}", "yxz", (_C(0, 1, 1), _C(1, -1, 1), _C(2, -1, 1))),
+    "PelvisAngles": AngleSpec(
+        "progression", "pelvis", "yxz", (_C(0, 1, 1), _C(1, 1, -1), _C(2, -1, 1))
+    ),
+    "HipAngles": AngleSpec(
+        "pelvis", "femur_{s}", "yxz", (_C(0, -1, -1), _C(1, -1, 1), _C(2, -1, 1))
+    ),
+    "KneeAngles": AngleSpec(
+        "femur_{s}", "tibia_{s}", "yxz", (_C(0, 1, 1), _C(1, -1, 1), _C(2, -1, 1))
+    ),
     "AnkleAngles": AngleSpec(
         "tibia_torsioned_{s}", "foot_{s}", "yxz", (_C(0, -1, -1, -90), _C(2, -1, 1), _C(1, -1, 1))
     ),
     "FootProgressAngles": AngleSpec(
         "progression", "foot_{s}", "yxz", (_C(0, 1, 1), _C(2, 1, -1), _C(1, -1, 1))
     ),
-    "ThoraxAngles": AngleSpec("progression", "thorax_up", "yxz", (_C(0, 1, 1), _C(1, 1, -1), _C(2, -1, 1))),
-    "SpineAngles": AngleSpec("pelvis", "thorax_up", "zxy", (_C(2, 1, 1), _C(1, -1, 1), _C(0, 1, -1))),
+    "ThoraxAngles": AngleSpec(
+        "progression", "thorax_up", "yxz", (_C(0, 1, 1), _C(1, 1, -1), _C(2, -1, 1))
+    ),
+    "SpineAngles": AngleSpec(
+        "pelvis", "thorax_up", "zxy", (_C(2, 1, 1), _C(1, -1, 1), _C(0, 1, -1))
+    ),
     "NeckAngles": AngleSpec("thorax_up", "head", "zxy", (_C(2, 1, 1), _C(1, -1, 1), _C(0, 1, -1))),
-    "HeadAngles": AngleSpec("progression", "head", "yxz", (_C(0, -1, -1), _C(1, 1, -1), _C(2, -1, 1))),
+    "HeadAngles": AngleSpec(
+        "progression", "head", "yxz", (_C(0, -1, -1), _C(1, 1, -1), _C(2, -1, 1))
+    ),
     "ShoulderAngles": AngleSpec(
         "thorax_up", "humerus_up_{s}", "xyz", (_C(1, -1, -1), _C(0, 1, -1), _C(2, -1, 1))
     ),
-    "ElbowAngles": AngleSpec("humerus_{s}", "radius_{s}", "yxz", (_C(0, 1, 1), _C(1, 1, 1), _C(2, -1, -1))),
-    "WristAngles": AngleSpec("radius_{s}", "hand_{s}", "yxz", (_C(0, 1, 1), _C(1, -1, 1), _C(2, -1, 1))),
+    "ElbowAngles": AngleSpec(
+        "humerus_{s}", "radius_{s}", "yxz", (_C(0, 1, 1), _C(1, 1, 1), _C(2, -1, -1))
+    ),
+    "WristAngles": AngleSpec(
+        "radius_{s}", "hand_{s}", "yxz", (_C(0, 1, 1), _C(1, -1, 1), _C(2, -1, 1))
+    ),
 }
 
 
@@ -85,7 +103,9 @@ def progression_frame(pelvis_axes: np.ndarray, pelvis_origin: np.ndarray) -> np.
             direction = step
     if not np.any(direction):
         facing = pelvis_axes[:, :, 0]
-        direction = np.nanmedian(facing, axis=0) if np.any(np.isfinite(facing)) else np.array([1.0, 0, 0])
+        direction = (
+            np.nanmedian(facing, axis=0) if np.any(np.isfinite(facing)) else np.array([1.0, 0, 0])
+        )
     axis = int(np.argmax(np.abs(direction[:2])))
     x = np.zeros(3)
     x[axis] = np.sign(direction[axis]) or 1.0

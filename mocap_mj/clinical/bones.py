@@ -17,7 +17,9 @@ import numpy as np
 from .segments import SIDES, Segment
 
 
-def _points(code: str, origin: np.ndarray, axes: np.ndarray, length: np.ndarray) -> dict[str, np.ndarray]:
+def _points(
+    code: str, origin: np.ndarray, axes: np.ndarray, length: np.ndarray
+) -> dict[str, np.ndarray]:
     out = {code + "O": origin}
     for k, letter in enumerate("ALP"):
         out[code + letter] = origin + length[:, None] * axes[..., k]

@@ -41,7 +41,9 @@ def davis_hip(
     return origin + pelvis @ np.array([x, y, z])
 
 
-def wand_direction(thorax: np.ndarray, origin: np.ndarray, sho: np.ndarray, side: str) -> np.ndarray:
+def wand_direction(
+    thorax: np.ndarray, origin: np.ndarray, sho: np.ndarray, side: str
+) -> np.ndarray:
     """The virtual shoulder wand (T, 3), a unit direction from the thorax origin: normal to
     the plane of the thorax's anterior axis and the shoulder marker, pointing up (Plug-in
     Gait's construction that stands in for a marker above the acromion)."""

@@ -28,8 +28,8 @@ _log = logging.getLogger(__name__)
 #: Markers the lower body needs; the trunk and upper limbs are computed when theirs exist.
 LOWER_MARKERS = ("LASI", "RASI", "LTHI", "LKNE", "LTIB", "LANK", "LTOE",
                  "RTHI", "RKNE", "RTIB", "RANK", "RTOE")  # fmt: skip
-UPPER_MARKERS = ("C7", "T10", "CLAV", "STRN", "LFHD", "RFHD", "LBHD", "RBHD",
-                 "LSHO", "LELB", "LWRA", "LWRB", "LFIN", "RSHO", "RELB", "RWRA", "RWRB", "RFIN")  # fmt: skip
+UPPER_MARKERS = ("C7", "T10", "CLAV", "STRN", "LFHD", "RFHD", "LBHD", "RBHD", "LSHO", "LELB",
+                 "LWRA", "LWRB", "LFIN", "RSHO", "RELB", "RWRA", "RWRB", "RFIN")  # fmt: skip
 
 
 @dataclass
@@ -53,7 +53,7 @@ class PigResult:
 
     def summary(self) -> dict[str, Any]:
         return {
-            "frames": int(len(self.times)),
+            "frames": len(self.times),
             "first_frame": int(self.frames[0]) if len(self.frames) else None,
             "static_trial": self.static,
             "progression_axis_lab": [float(v) for v in self.progression],
@@ -81,7 +81,7 @@ def calibrate(static: MarkerTrajectory, subject: PigSubject) -> PigSubject:
     gives (measured values are kept; the offsets always come from the static trial)."""
     m = _markers(static)
     where = str(static.source.get("path", "static trial"))
-    _require(m, LOWER_MARKERS + ("LHEE", "RHEE"), where)
+    _require(m, (*LOWER_MARKERS, "LHEE", "RHEE"), where)
     subject = _with_marker_measures(m, subject, where)
     segs, _ = lower_body(m, subject, _inter_asis(m, subject))
     values = {}

@@ -60,7 +60,8 @@ def write_result_c3d(path: Path, result: PigResult, rate: float) -> None:
     write_points_c3d(
         path,
         labels=points + angles,
-        descriptions=["Plug-in Gait bone point"] * len(points) + ["Plug-in Gait angle"] * len(angles),
+        descriptions=["Plug-in Gait bone point"] * len(points)
+        + ["Plug-in Gait angle"] * len(angles),
         values=values,
         rate=rate,
         angle_labels=angles,

@@ -87,7 +87,9 @@ def lower_body(
         untorsioned = rotate_about(tibia, 2, lat * torsion)
         raw = frame_zy(ankle - m[p + "TOE"], tibia[..., 1])
         rot_off = lat * subject.pig(f"static_rot_off_{s}")
-        foot = rotate_about(rotate_about(raw, 1, -subject.pig(f"static_plantar_flex_{s}")), 0, -rot_off)
+        foot = rotate_about(
+            rotate_about(raw, 1, -subject.pig(f"static_plantar_flex_{s}")), 0, -rot_off
+        )
         jc.update({f"hip_{s}": hip, f"knee_{s}": knee, f"ankle_{s}": ankle})
         segs.update(
             {

@@ -46,7 +46,7 @@ def register(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..clinical import PigSubject, pig_from_c3d, pig_from_yaml, plug_in_gait
+    from ..clinical import PigSubject, pig_from_yaml, plug_in_gait
     from ..clinical.outputs import write_all
     from ..io.load import load_markers
 
