@@ -174,7 +174,8 @@ def plug_in_gait(
             for s in SIDES:
                 angles[s.upper() + name] = angle(spec, s, axes)
     widths = {s: subject.require(f"knee_width_{s}") for s in SIDES}
-    points = bone_points(segs, jc, widths, upper=upper)
+    feet = {s: static_mod.foot_length(m, s, subject.marker_radius) for s in SIDES}
+    points = bone_points(segs, jc, widths, feet, upper=upper)
     rot = np.eye(3) if to_lab is None else np.asarray(to_lab)
     points = {k: v @ rot.T for k, v in points.items()}
     n = trajectory.n_frames

@@ -18,7 +18,7 @@ from .model import PigResult
 
 #: The points of joint_centres.csv: bone origins, then the proximal points.
 CENTRE_POINTS = (
-    "PELO", "LFEO", "RFEO", "LTIO", "RTIO", "LFOO", "RFOO", "TRXO", "HEDO",
+    "PELO", "LFEO", "RFEO", "LTIO", "RTIO", "LFOO", "RFOO", "LTOO", "RTOO", "TRXO", "HEDO",
     "LCLO", "RCLO", "LHUO", "RHUO", "LRAO", "RRAO", "LHNO", "RHNO",
     "LFEP", "RFEP", "LTIP", "RTIP", "LHUP", "RHUP", "LRAP", "RRAP", "LHNP", "RHNP",
 )  # fmt: skip

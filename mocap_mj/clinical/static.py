@@ -64,3 +64,11 @@ def leg_length(m: Markers, side: str) -> float:
         m[p + "KNE"] - m[p + "ANK"], axis=1
     )
     return float(np.nanmedian(d))
+
+
+def foot_length(m: Markers, side: str, radius: float) -> float:
+    """The foot bone's length [m]: the mean heel-toe marker distance over the trial less a
+    marker radius (NaN without HEE or TOE)."""
+    p = side.upper()
+    d = np.linalg.norm(m[p + "HEE"] - m[p + "TOE"], axis=1)
+    return float(np.nanmean(d)) - radius if np.any(np.isfinite(d)) else float("nan")
