@@ -12,7 +12,9 @@ side is forward; ankle dorsiflexion, inversion and internal rotation positive.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -124,4 +126,23 @@ def angle(spec: AngleSpec, side: str, frames: dict[str, np.ndarray]) -> np.ndarr
     for k, (i, left, right, offset) in enumerate(spec.components):
         v = (left if side == "l" else right) * raw[:, i] + np.deg2rad(offset)
         out[:, k] = np.angle(np.exp(1j * v))
+    return out
+
+
+def all_angles(segments: Mapping[str, Any], progression: np.ndarray) -> dict[str, np.ndarray]:
+    """Every angle of :data:`ANGLES` whose segments exist, by Vicon name (``LKneeAngles``)
+    -> (T, 3) [rad]. ``segments``: name -> object with ``axes`` (T, 3, 3);
+    ``progression`` (3, 3) from :func:`progression_frame`."""
+    axes = {k: v.axes for k, v in segments.items()}
+    axes["progression"] = np.broadcast_to(progression, axes["pelvis"].shape)
+    if "thorax" in axes:
+        axes["thorax_up"] = axes["thorax"] @ FLIP_YZ
+    for s in ("l", "r"):
+        if f"humerus_{s}" in axes:
+            axes[f"humerus_up_{s}"] = axes[f"humerus_{s}"] @ FLIP_XY
+    out = {}
+    for name, spec in ANGLES.items():
+        for s in ("l", "r"):
+            if spec.proximal.format(s=s) in axes and spec.distal.format(s=s) in axes:
+                out[s.upper() + name] = angle(spec, s, axes)
     return out

@@ -18,9 +18,9 @@ import numpy as np
 from ..errors import MocapError
 from ..io.trajectory import MarkerTrajectory
 from . import static as static_mod
-from .angles import ANGLES, FLIP_XY, FLIP_YZ, angle, progression_frame
+from .angles import all_angles, progression_frame
 from .bones import bone_points
-from .segments import SIDES, Markers, Segment, lower_body, trunk, upper_limbs
+from .segments import SIDES, Markers, lower_body, static_foot, trunk, upper_limbs
 from .subject import UPPER, PigSubject
 
 _log = logging.getLogger(__name__)
@@ -39,7 +39,8 @@ class PigResult:
     ``angles``: Vicon name (``LKneeAngles``...) -> (T, 3) [rad]; ``points``: Vicon bone
     point name (``LFEO``...) -> (T, 3) [m] in the recording's lab frame; ``times`` (T,) [s];
     ``frames`` (T,) the recording's own frame numbers; ``progression`` (3,) the direction
-    of progression in the lab; ``static``: whether the trial was processed as a static one.
+    of progression in the lab; ``static``: whether the trial was processed as a static one
+    (its own offsets and the static model's foot).
     """
 
     times: np.ndarray
@@ -87,7 +88,7 @@ def calibrate(static: MarkerTrajectory, subject: PigSubject) -> PigSubject:
     values = {}
     for s in SIDES:
         tibia = segs[f"tibia_torsioned_{s}"].axes
-        foot = static_mod.static_foot(m, s, tibia)
+        foot = static_foot(m, s, tibia)
         try:
             flex, rot = static_mod.foot_offsets(segs[f"foot_raw_{s}"].axes, foot, s)
         except ValueError as exc:
@@ -128,29 +129,25 @@ def plug_in_gait(
     """Plug-in Gait on ``trajectory`` (metres, Z up) with ``subject``'s values.
 
     ``static``: a static trial whose offsets replace the subject's; ``frames`` (T,) the
-    recording's frame numbers (default 0..T-1); ``to_lab`` (3, 3) the rotation from the
-    trajectory's Z-up frame back to the recording's lab frame for the points (default
-    identity); ``override``: values that win over the static trial's (a subject file).
-    Missing markers give NaN in every output that depends on them.
+    recording's frame numbers (default 0..T-1; the times count from frame 0); ``to_lab``
+    (3, 3) the rotation from the trajectory's Z-up frame back to the recording's lab frame
+    for the points (default identity); ``override``: values that win over the static
+    trial's (a subject file). Missing markers give NaN in every output that depends on them.
     """
     where = str(trajectory.source.get("path", "trajectory"))
     m = _markers(trajectory)
     _require(m, LOWER_MARKERS, where)
     if static is not None:
         subject = calibrate(static, subject)
-    is_static = static_mod.is_static(m)
     notes = []
-    if is_static and static is None and all(n in m for n in ("LHEE", "RHEE")):
+    as_static = static is None and static_mod.is_static(m) and all(n in m for n in ("LHEE", "RHEE"))
+    if as_static:
         subject = calibrate(trajectory, subject)
-        notes.append("static trial: the foot is the static model's (toe to heel marker)")
+        notes.append("static trial: its own offsets; the foot is the static model's (toe to heel)")
     if override is not None:
         subject = subject.update(override)
     subject = _with_marker_measures(m, subject, where)
-    segs, jc = lower_body(m, subject, _inter_asis(m, subject))
-    if is_static and "static trial" in " ".join(notes):
-        for s in SIDES:
-            foot = static_mod.static_foot(m, s, segs[f"tibia_torsioned_{s}"].axes)
-            segs[f"foot_{s}"] = Segment(segs[f"foot_{s}"].origin, foot)
+    segs, jc = lower_body(m, subject, _inter_asis(m, subject), heel_foot=as_static)
     upper = all(n in m for n in UPPER_MARKERS) and all(
         subject.measured(f"{b}_{s}") is not None for b in UPPER for s in SIDES
     )
@@ -161,32 +158,20 @@ def plug_in_gait(
         jc |= ujc
     else:
         notes.append("no trunk or upper-limb outputs: markers or measurements missing")
-    axes = {k: v.axes for k, v in segs.items()}
-    prog = progression_frame(axes["pelvis"], segs["pelvis"].origin)
-    axes["progression"] = np.broadcast_to(prog, axes["pelvis"].shape)
-    if upper:
-        axes["thorax_up"] = axes["thorax"] @ FLIP_YZ
-        for s in SIDES:
-            axes[f"humerus_up_{s}"] = axes[f"humerus_{s}"] @ FLIP_XY
-    angles = {}
-    for name, spec in ANGLES.items():
-        if spec.distal.format(s="l") in axes and spec.proximal.format(s="l") in axes:
-            for s in SIDES:
-                angles[s.upper() + name] = angle(spec, s, axes)
+    prog = progression_frame(segs["pelvis"].axes, segs["pelvis"].origin)
     widths = {s: subject.require(f"knee_width_{s}") for s in SIDES}
     feet = {s: static_mod.foot_length(m, s, subject.marker_radius) for s in SIDES}
-    points = bone_points(segs, jc, widths, feet, upper=upper)
     rot = np.eye(3) if to_lab is None else np.asarray(to_lab)
-    points = {k: v @ rot.T for k, v in points.items()}
+    points = bone_points(segs, jc, widths, feet, upper=upper)
     n = trajectory.n_frames
     numbers = np.arange(n) if frames is None else np.asarray(frames)
     return PigResult(
-        times=np.asarray(trajectory.times) + numbers[0] / trajectory.rate if n else np.zeros(0),
+        times=np.asarray(trajectory.times) + (numbers[0] / trajectory.rate if n else 0.0),
         frames=numbers,
-        angles=angles,
-        points=points,
+        angles=all_angles(segs, prog),
+        points={k: v @ rot.T for k, v in points.items()},
         subject=subject,
         progression=rot @ prog[:, 0],
-        static=is_static,
+        static=as_static,
         notes=notes,
     )

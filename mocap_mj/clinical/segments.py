@@ -56,11 +56,23 @@ def _lateral(side: str) -> float:
     return 1.0 if side == "l" else -1.0
 
 
+def static_foot(m: Markers, side: str, tibia: np.ndarray) -> np.ndarray:
+    """The foot of the static model (T, 3, 3): z from the toe to the heel marker, y from the
+    ankle flexion axis (the torsioned tibia's y, ``tibia`` (T, 3, 3))."""
+    p = side.upper()
+    return frame_zy(m[p + "HEE"] - m[p + "TOE"], tibia[..., 1])
+
+
 def lower_body(
-    m: Markers, subject: PigSubject, inter_asis: float
+    m: Markers, subject: PigSubject, inter_asis: float, *, heel_foot: bool = False
 ) -> tuple[dict[str, Segment], dict[str, np.ndarray]]:
     """Pelvis, femur, tibia (untorsioned for the knee, torsioned for the ankle) and foot
-    frames, and the hip, knee and ankle centres (keys ``hip_l``, ``knee_l``, ``ankle_l``...)."""
+    frames, and the hip, knee and ankle centres (keys ``hip_l``, ``knee_l``, ``ankle_l``...).
+
+    The foot is the uncorrected foot (z from the toe marker to the ankle centre) turned by
+    the static offsets, or with ``heel_foot`` the static model's foot (:func:`static_foot`).
+    Tibial torsion (positive external) turns the marker tibia, whose y follows the ankle
+    axis, back about its z to the untorsioned tibia of the knee angles."""
     r = subject.marker_radius
     mid = m.mid("LASI", "RASI")
     pelvis = frame_yx(m["LASI"] - m["RASI"], mid - m.sacrum())
@@ -84,12 +96,13 @@ def lower_body(
         ankle = chord(m[p + "TIB"], knee, ank, 0.5 * subject.require(f"ankle_width_{s}") + r)
         tibia = frame_zy(knee - ankle, lat * (ank - ankle))
         torsion = subject.pig(f"tibial_torsion_{s}")
-        untorsioned = rotate_about(tibia, 2, lat * torsion)
+        untorsioned = rotate_about(tibia, 2, -lat * torsion)
         raw = frame_zy(ankle - m[p + "TOE"], tibia[..., 1])
         rot_off = lat * subject.pig(f"static_rot_off_{s}")
-        foot = rotate_about(
-            rotate_about(raw, 1, -subject.pig(f"static_plantar_flex_{s}")), 0, -rot_off
-        )
+        flex = subject.pig(f"static_plantar_flex_{s}")
+        foot = rotate_about(rotate_about(raw, 1, -flex), 0, -rot_off)
+        if heel_foot:
+            foot = static_foot(m, s, tibia)
         jc.update({f"hip_{s}": hip, f"knee_{s}": knee, f"ankle_{s}": ankle})
         segs.update(
             {

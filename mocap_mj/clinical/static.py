@@ -1,13 +1,13 @@
-"""What a static trial gives Plug-in Gait: whether a trial is static, the foot as the static
-model defines it (from the heel marker), the static plantar-flexion and rotation offsets,
-and the inter-ASIS distance and leg lengths measured from the markers.
+"""What a static trial gives Plug-in Gait: whether a trial is static, the static
+plantar-flexion and rotation offsets, and the inter-ASIS distance, leg lengths and foot
+length measured from the markers.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .geometry import cardan_yxz, frame_zy, relative
+from .geometry import cardan_yxz, relative
 from .segments import Markers
 
 #: Markers whose stillness makes a trial static (pelvis and legs).
@@ -28,13 +28,6 @@ def is_static(m: Markers) -> bool:
         d = np.linalg.norm(p[ok] - np.median(p[ok], axis=0), axis=1)
         spread.append(np.percentile(d, 99))
     return bool(max(spread) < STILL_RADIUS)
-
-
-def static_foot(m: Markers, side: str, tibia: np.ndarray) -> np.ndarray:
-    """The foot of the static model (T, 3, 3): z from the toe to the heel marker, y from the
-    ankle flexion axis (the tibia's y, ``tibia`` (T, 3, 3))."""
-    p = side.upper()
-    return frame_zy(m[p + "HEE"] - m[p + "TOE"], tibia[..., 1])
 
 
 def foot_offsets(raw: np.ndarray, static: np.ndarray, side: str) -> tuple[float, float]:
