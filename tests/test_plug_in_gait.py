@@ -28,9 +28,18 @@ def _subject() -> PigSubject:
     return PigSubject(from_values([*values, ("asis_distance", 0.24)], "test"))
 
 
-def _pose(tilt: float, hip: float, knee: float, dorsi: float, n: int = 20) -> dict[str, np.ndarray]:
+def _rz(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def _pose(
+    tilt: float, hip: float, knee: float, dorsi: float, n: int = 20, torsion: float = 0.0
+) -> dict[str, np.ndarray]:
     """Lower-body markers (n, 3) [m] of a subject facing +x, walking 1 m along +x, in a
-    known pose [deg]: pelvis anterior tilt, hip and knee flexion, ankle dorsiflexion."""
+    known pose [deg]: pelvis anterior tilt, hip and knee flexion, ankle dorsiflexion; the
+    TIB and ANK markers turned ``torsion`` [deg] externally about the tibia (a tibial
+    torsion)."""
     subj = _subject()
     r = subj.marker_radius
     p_axes = _ry(np.radians(tilt))
@@ -50,8 +59,9 @@ def _pose(tilt: float, hip: float, knee: float, dorsi: float, n: int = 20) -> di
         tibia = femur @ _ry(np.radians(knee))
         ajc = kjc - 0.40 * tibia[:, 2]
         da = 0.035 + r
-        m[p + "ANK"] = ajc + lat * da * tibia[:, 1]
-        m[p + "TIB"] = ajc + 0.2 * tibia[:, 2] + lat * (da + 0.03) * tibia[:, 1]
+        wand = tibia @ _rz(lat * np.radians(torsion))
+        m[p + "ANK"] = ajc + lat * da * wand[:, 1]
+        m[p + "TIB"] = ajc + 0.2 * wand[:, 2] + lat * (da + 0.03) * wand[:, 1]
         foot = tibia @ _ry(-np.radians(90 + dorsi))
         m[p + "TOE"] = ajc - 0.15 * foot[:, 2]
         m[p + "HEE"] = m[p + "TOE"] + 0.22 * foot[:, 2]
@@ -115,6 +125,56 @@ def test_missing_marker_gives_nan_only_where_it_is_needed():
     assert np.all(np.isnan(res.points["LFEO"][5])) and np.all(np.isfinite(res.points["RFEO"][5]))
 
 
+def test_tibial_torsion_is_taken_out_of_the_knee():
+    pose = _trajectory(_pose(0, 10, 30, 0, torsion=15))
+    plain = plug_in_gait(pose, _subject())
+    given = _subject().with_values(
+        {"tibial_torsion_l": np.radians(15), "tibial_torsion_r": np.radians(15)}, "test"
+    )
+    corrected = plug_in_gait(pose, given)
+    for p in "LR":
+        # the wand's external turn reads as external knee rotation (negative) unless given
+        np.testing.assert_allclose(np.degrees(plain.angles[p + "KneeAngles"][:, 2]), -15, atol=1e-6)
+        np.testing.assert_allclose(
+            np.degrees(corrected.angles[p + "KneeAngles"])[:, 1:], 0, atol=1e-6
+        )
+        np.testing.assert_allclose(
+            np.degrees(corrected.angles[p + "KneeAngles"][:, 0]), 30, atol=1e-6
+        )
+
+
+def test_command_writes_tables_in_the_lab_frame(tmp_path):
+    from mocap_mj.cli import main
+    from mocap_mj.export.trc import write_trc
+
+    pose = _pose(12, 30, 40, 10)
+    names = list(pose)
+    trc = tmp_path / "walk.trc"
+    write_trc(trc, names, np.arange(20) / 100.0, np.stack([pose[k] for k in names], 1), up="y")
+    yaml_file = tmp_path / "subject.yaml"
+    yaml_file.write_text(
+        "leg_length_l: 880 mm\nleg_length_r: 880 mm\nknee_width_l: 100 mm\n"
+        "knee_width_r: 100 mm\nankle_width_l: 70 mm\nankle_width_r: 70 mm\n"
+        "asis_distance: 240 mm\nstatic_plantar_flex_l: 0 deg\n"
+    )
+    out = tmp_path / "pig"
+    args = ["plug-in-gait", "--markers", str(trc), "--subject-file", str(yaml_file)]
+    assert main([*args, "--out", str(out)]) == 0
+    rows = np.genfromtxt(out / "angles.csv", delimiter=",", names=True)
+    np.testing.assert_allclose(rows["LKneeAngles_X"], 40, atol=1e-3)
+    np.testing.assert_allclose(rows["RHipAngles_X"], 30, atol=1e-3)
+    centres = np.genfromtxt(out / "joint_centres.csv", delimiter=",", names=True)
+    res = plug_in_gait(_trajectory(pose), _subject())
+    # the TRC's lab is Y up: the centres come back in it, in mm
+    np.testing.assert_allclose(centres["LFEO_Y"], res.points["LFEO"][:, 2] * 1e3, atol=0.01)
+    np.testing.assert_allclose(centres["LFEO_Z"], -res.points["LFEO"][:, 1] * 1e3, atol=0.01)
+    assert {"summary.json", "report.md", "result.c3d"} <= {p.name for p in out.iterdir()}
+    # a missing measurement is one line and exit status 2, with no folder left behind
+    yaml_file.write_text("leg_length_l: 880 mm\n")
+    assert main([*args, "--out", str(tmp_path / "bad")]) == 2
+    assert not (tmp_path / "bad").exists()
+
+
 def _nexus(path: Path) -> tuple[list[str], np.ndarray]:
     import ezc3d
 
@@ -150,6 +210,41 @@ def test_shared_trials_match_nexus(trial):
         if name in labels and not name.startswith(NOT_REPRODUCED):
             dist = np.linalg.norm(ours * 1e3 - xyz[:, labels.index(name)], axis=1)
             assert np.nanmedian(dist) < 1.0, name
+
+
+@pytest.mark.skipif(not REAL.is_dir(), reason=SKIP)
+@pytest.mark.parametrize("degrees", [90.0, 180.0])
+def test_shared_trial_heading_changes_no_angle(degrees):
+    from mocap_mj.io.load import load_markers
+
+    path = REAL / "Movement_trial.c3d"
+    traj = load_markers(path)
+    base = plug_in_gait(traj, pig_from_c3d(path))
+    c, s = np.cos(np.radians(degrees)), np.sin(np.radians(degrees))
+    rz = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    moved = MarkerTrajectory(
+        traj.times, traj.positions @ rz.T + np.array([10.0, 10.0, 0.0]), traj.names, traj.rate
+    )
+    turned = plug_in_gait(moved, pig_from_c3d(path))
+    assert len(base.angles) == 24
+    for name, a in base.angles.items():
+        d = np.degrees(np.angle(np.exp(1j * (turned.angles[name] - a))))
+        assert np.nanmax(np.abs(d)) < 0.5, name
+
+
+@pytest.mark.skipif(not REAL.is_dir(), reason=SKIP)
+def test_shared_trial_missing_elbow_marker_gives_nan_in_that_arm_only():
+    from mocap_mj.io.load import load_markers
+
+    path = REAL / "Movement_trial.c3d"
+    traj = load_markers(path)
+    pos = traj.positions.copy()
+    pos[10, traj.names.index("LELB")] = np.nan
+    res = plug_in_gait(MarkerTrajectory(traj.times, pos, traj.names, traj.rate), pig_from_c3d(path))
+    for name in ("LElbowAngles", "LShoulderAngles", "LWristAngles"):
+        assert np.all(np.isnan(res.angles[name][10])) and np.all(np.isfinite(res.angles[name][11]))
+    for name in ("RElbowAngles", "LKneeAngles", "LThoraxAngles"):
+        assert np.all(np.isfinite(res.angles[name][10])), name
 
 
 @pytest.mark.skipif(not REAL.is_dir(), reason=SKIP)
