@@ -176,13 +176,13 @@ def test_command_writes_tables_in_the_lab_frame(tmp_path):
 
 
 def _nexus(path: Path) -> tuple[list[str], np.ndarray]:
-    import ezc3d
+    """The file's point labels and positions (T, N, 3) [mm], Nexus' outputs included."""
+    from mocap_mj.io.formats.c3d import read
 
-    c = ezc3d.c3d(str(path))
-    labels = list(c["parameters"]["POINT"]["LABELS"]["value"])
-    xyz = np.transpose(c["data"]["points"][:3], (2, 1, 0)).astype(float)
+    raw = read(path)
+    xyz = raw.positions.copy()
     xyz[np.all(xyz == 0.0, axis=2)] = np.nan
-    return labels, xyz
+    return list(raw.labels), xyz
 
 
 #: Bone points whose construction is Nexus' display choice we do not reproduce (the head

@@ -18,26 +18,26 @@ def unit(v: np.ndarray) -> np.ndarray:
         return np.where(n > 0, v / np.where(n > 0, n, 1.0), np.nan)
 
 
+def frame(a: int, va: np.ndarray, b: int, vb: np.ndarray) -> np.ndarray:
+    """Right-handed frames (T, 3, 3) (columns x, y, z) with axis ``a`` (0 x, 1 y, 2 z)
+    along ``va`` and axis ``b`` as close to ``vb`` as orthogonality allows."""
+    ua = unit(va)
+    cyclic = (b - a) % 3 == 1
+    uc = unit(np.cross(ua, vb) if cyclic else np.cross(vb, ua))
+    ub = np.cross(uc, ua) if cyclic else np.cross(ua, uc)
+    out = np.empty((*ua.shape[:-1], 3, 3))
+    out[..., a], out[..., b], out[..., 3 - a - b] = ua, ub, uc
+    return out
+
+
 def frame_zy(z: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Frames (T, 3, 3) with z along ``z`` and y as close to ``y`` as orthogonality allows
-    (x = y x z, then y = z x x)."""
-    zu = unit(z)
-    xu = unit(np.cross(y, zu))
-    return np.stack([xu, np.cross(zu, xu), zu], axis=-1)
+    """z along ``z``, y towards ``y`` (:func:`frame`)."""
+    return frame(2, z, 1, y)
 
 
 def frame_zx(z: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Frames (T, 3, 3) with z along ``z`` and x as close to ``x`` as orthogonality allows."""
-    zu = unit(z)
-    yu = unit(np.cross(zu, x))
-    return np.stack([np.cross(yu, zu), yu, zu], axis=-1)
-
-
-def frame_yx(y: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Frames (T, 3, 3) with y along ``y`` and x as close to ``x`` as orthogonality allows."""
-    yu = unit(y)
-    zu = unit(np.cross(x, yu))
-    return np.stack([np.cross(yu, zu), yu, zu], axis=-1)
+    """z along ``z``, x towards ``x`` (:func:`frame`)."""
+    return frame(2, z, 0, x)
 
 
 def chord(a: np.ndarray, b: np.ndarray, c: np.ndarray, delta: float) -> np.ndarray:
@@ -95,17 +95,3 @@ def rotate_about(axes: np.ndarray, axis: int, angle: float | np.ndarray) -> np.n
     out[..., i] = c * axes[..., i] + s * axes[..., j]
     out[..., j] = -s * axes[..., i] + c * axes[..., j]
     return out
-
-
-def frame_xy(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Frames (T, 3, 3) with x along ``x`` and y as close to ``y`` as orthogonality allows."""
-    xu = unit(x)
-    zu = unit(np.cross(xu, y))
-    return np.stack([xu, np.cross(zu, xu), zu], axis=-1)
-
-
-def frame_yz(y: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """Frames (T, 3, 3) with y along ``y`` and z as close to ``z`` as orthogonality allows."""
-    yu = unit(y)
-    xu = unit(np.cross(yu, z))
-    return np.stack([xu, yu, np.cross(xu, yu)], axis=-1)

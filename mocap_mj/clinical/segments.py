@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import centres
-from .geometry import chord, frame_xy, frame_yx, frame_yz, frame_zx, frame_zy, rotate_about
+from .geometry import chord, frame, frame_zx, frame_zy, rotate_about
 from .subject import PigSubject
 
 SIDES = ("l", "r")
@@ -75,7 +75,7 @@ def lower_body(
     axis, back about its z to the untorsioned tibia of the knee angles."""
     r = subject.marker_radius
     mid = m.mid("LASI", "RASI")
-    pelvis = frame_yx(m["LASI"] - m["RASI"], mid - m.sacrum())
+    pelvis = frame(1, m["LASI"] - m["RASI"], 0, mid - m.sacrum())
     segs = {"pelvis": Segment(mid, pelvis)}
     jc: dict[str, np.ndarray] = {}
     leg = subject.leg_length()
@@ -125,7 +125,7 @@ def trunk(m: Markers, subject: PigSubject) -> dict[str, Segment]:
     thorax = frame_zx(lower - upper, front - back)
     origin = m["CLAV"] - subject.marker_radius * thorax[..., 0]
     hfront, hback = m.mid("LFHD", "RFHD"), m.mid("LBHD", "RBHD")
-    head = frame_xy(hfront - hback, m.mid("LFHD", "LBHD") - m.mid("RFHD", "RBHD"))
+    head = frame(0, hfront - hback, 1, m.mid("LFHD", "LBHD") - m.mid("RFHD", "RBHD"))
     head = rotate_about(head, 1, subject.pig("head_offset"))
     return {"thorax": Segment(origin, thorax), "head": Segment(hfront, head)}
 
@@ -151,7 +151,7 @@ def upper_limbs(
         forearm = frame_zx(ejc - wri, wra - wrb)
         wjc = centres.wrist(wri, forearm[..., 1], subject.require(f"wrist_width_{s}"), r, s)
         humerus = frame_zx(sjc - ejc, ejc - wjc)
-        radius = frame_yz(humerus[..., 1], ejc - wjc)
+        radius = frame(1, humerus[..., 1], 2, ejc - wjc)
         hjc = centres.hand(wri, wjc, m[p + "FIN"], subject.require(f"hand_thickness_{s}"), r)
         hand = frame_zy(wjc - hjc, lat * (wri - wra))
         clavicle = frame_zy(thorax.origin - sjc, lat * wand)

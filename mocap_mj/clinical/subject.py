@@ -20,16 +20,21 @@ length (0.1288 leg length - 48.56 mm), offsets and torsion 0, the marker diamete
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from ..errors import InputFileError, MocapError
-from ..subject import MEASUREMENTS, Subject, from_c3d
+from ..subject import (
+    MEASUREMENTS,
+    Subject,
+    c3d_numbers,
+    from_c3d,
+    from_values,
+    parse_value,
+    read_mapping,
+)
 
 #: Plug-in Gait values that are not body measurements: name -> (unit inside, description).
 PIG_VALUES: dict[str, tuple[str, str]] = {
@@ -56,6 +61,7 @@ _C3D_PIG = {
     "STATICROTOFF": ("static_rot_off", 1.0),
     "TIBIALTORSION": ("tibial_torsion", 1.0),
 }
+#: Units of the Plug-in Gait values in a subject file.
 _UNITS = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "rad": 1.0, "deg": math.pi / 180.0}
 
 
@@ -129,29 +135,13 @@ class PigSubject:
 
 def pig_from_c3d(path: str | Path) -> PigSubject:
     """The Plug-in Gait subject values stored in a C3D file (PROCESSING, then SUBJECTS)."""
-    from ..io.formats.c3d import read_parameters
-
-    try:
-        params = read_parameters(Path(path))
-    except Exception as exc:  # ezc3d raises plain RuntimeError/IOError
-        raise InputFileError(f"{path}: cannot read the C3D parameters: {exc}") from None
     values: dict[str, float] = {}
     sources: dict[str, str] = {}
-    for group in ("SUBJECTS", "PROCESSING"):
-        for key, entry in params.get(group, {}).items():
-            spec = _pig_name(str(key))
-            if spec is None or not isinstance(entry, dict) or "value" not in entry:
-                continue
-            try:
-                value = float(np.asarray(entry["value"], dtype=float).ravel()[0])
-            except (ValueError, IndexError, TypeError):
-                continue
-            if not math.isfinite(value):
-                continue
-            name, factor = spec
-            if name.startswith("asis_trochanter") and value <= 0:
-                continue  # 0: not entered
-            values[name], sources[name] = value * factor, f"{path}: {group}:{key}"
+    for group, key, value in c3d_numbers(path):
+        spec = _pig_name(key)
+        if spec is None or (spec[0].startswith("asis_trochanter") and value <= 0):
+            continue  # not a Plug-in Gait value, or 0: "not entered"
+        values[spec[0]], sources[spec[0]] = value * spec[1], f"{path}: {group}:{key}"
     return PigSubject(from_c3d(path), values, sources)
 
 
@@ -166,42 +156,16 @@ def _pig_name(key: str) -> tuple[str, float] | None:
 
 def pig_from_yaml(path: str | Path) -> PigSubject:
     """Measurements and Plug-in Gait values of a YAML mapping ``name: value``."""
-    import yaml
-
-    from ..subject import from_values
-
-    try:
-        data = yaml.safe_load(Path(path).read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise InputFileError(f"{path}: cannot read the subject file: {exc}") from None
-    if not isinstance(data, Mapping):
-        raise InputFileError(f"{path}: expected a mapping of names to values")
     measures: list[tuple[str, float | None]] = []
     values: dict[str, float] = {}
-    for raw_name, raw in data.items():
+    for raw_name, raw in read_mapping(path).items():
         name = str(raw_name)
         if name in PIG_VALUES:
-            values[name] = _parse(raw, name, str(path))
+            values[name] = parse_value(raw, name, str(path), _UNITS)
         elif name in MEASUREMENTS:
-            measures.append((name, _parse(raw, name, str(path))))
+            measures.append((name, parse_value(raw, name, str(path))))
         else:
             known = ", ".join([*MEASUREMENTS, *PIG_VALUES])
             raise InputFileError(f"{path}: unknown subject value {name!r}; known: {known}")
     subject = from_values(measures, str(path))
     return PigSubject(subject, values, {k: f"{path}: {k}" for k in values})
-
-
-def _parse(raw: Any, name: str, source: str) -> float:
-    if isinstance(raw, bool):
-        raise InputFileError(f"{source}: {name}: expected a number, got {raw!r}")
-    if isinstance(raw, int | float):
-        return float(raw)
-    m = re.fullmatch(r"\s*([-+0-9.eE]+)\s*([a-z]+)\s*", str(raw))
-    try:
-        if m is not None and m.group(2) in _UNITS:
-            return float(m.group(1)) * _UNITS[m.group(2)]
-    except ValueError:
-        pass
-    raise InputFileError(
-        f"{source}: {name}: expected a number or '<number> mm|cm|m|rad|deg', got {raw!r}"
-    )
