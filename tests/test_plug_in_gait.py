@@ -34,9 +34,15 @@ def _rz(a: float) -> np.ndarray:
 
 
 def _pose(
-    tilt: float, hip: float, knee: float, dorsi: float, n: int = 20, torsion: float = 0.0
+    tilt: float,
+    hip: float,
+    knee: float,
+    dorsi: float,
+    n: int = 20,
+    torsion: float = 0.0,
+    walk: float = 1.0,
 ) -> dict[str, np.ndarray]:
-    """Lower-body markers (n, 3) [m] of a subject facing +x, walking 1 m along +x, in a
+    """Lower-body markers (n, 3) [m] of a subject facing +x, walking ``walk`` m along +x, in a
     known pose [deg]: pelvis anterior tilt, hip and knee flexion, ankle dorsiflexion; the
     TIB and ANK markers turned ``torsion`` [deg] externally about the tibia (a tibial
     torsion)."""
@@ -65,8 +71,8 @@ def _pose(
         foot = tibia @ _ry(-np.radians(90 + dorsi))
         m[p + "TOE"] = ajc - 0.15 * foot[:, 2]
         m[p + "HEE"] = m[p + "TOE"] + 0.22 * foot[:, 2]
-    walk = np.linspace(0.0, 1.0, n)[:, None] * np.array([1.0, 0.0, 0.0])
-    return {k: v[None] + walk for k, v in m.items()}
+    path = np.linspace(0.0, walk, n)[:, None] * np.array([1.0, 0.0, 0.0])
+    return {k: v[None] + path for k, v in m.items()}
 
 
 def _trajectory(markers: dict[str, np.ndarray]) -> MarkerTrajectory:
@@ -123,6 +129,16 @@ def test_missing_marker_gives_nan_only_where_it_is_needed():
     for name in ("RKneeAngles", "LPelvisAngles", "RAnkleAngles"):
         assert np.all(np.isfinite(res.angles[name][5])), name
     assert np.all(np.isnan(res.points["LFEO"][5])) and np.all(np.isfinite(res.points["RFEO"][5]))
+
+
+def test_standing_still_is_a_static_trial_unless_told():
+    still = _trajectory(_pose(5, 10, 15, 5, walk=0.0))
+    auto = plug_in_gait(still, _subject())
+    dynamic = plug_in_gait(still, _subject(), trial_type="dynamic")
+    assert auto.static and not dynamic.static
+    assert not plug_in_gait(_trajectory(_pose(5, 10, 15, 5)), _subject()).static
+    for res in (auto, dynamic):  # the heel lies on the toe-ankle line: no offsets either way
+        np.testing.assert_allclose(np.degrees(res.angles["LAnkleAngles"][:, 0]), 5, atol=1e-6)
 
 
 def test_tibial_torsion_is_taken_out_of_the_knee():

@@ -77,6 +77,17 @@ def _require(m: Markers, names: tuple[str, ...], where: str) -> None:
         raise MocapError(f"{where}: Plug-in Gait needs the markers {', '.join(missing)}")
 
 
+def _as_static(m: Markers, trial_type: str, has_static: bool, where: str) -> bool:
+    if trial_type not in ("auto", "static", "dynamic"):
+        raise MocapError(f"trial type {trial_type!r}: expected auto, static or dynamic")
+    heels = all(n in m for n in ("LHEE", "RHEE"))
+    if trial_type == "static" and not heels:
+        raise MocapError(f"{where}: a static trial needs the LHEE and RHEE markers")
+    if trial_type == "auto":
+        return not has_static and heels and static_mod.is_static(m)
+    return trial_type == "static"
+
+
 def calibrate(static: MarkerTrajectory, subject: PigSubject) -> PigSubject:
     """The subject with the offsets, inter-ASIS distance and leg lengths a static trial
     gives (measured values are kept; the offsets always come from the static trial)."""
@@ -125,6 +136,7 @@ def plug_in_gait(
     frames: np.ndarray | None = None,
     to_lab: np.ndarray | None = None,
     override: PigSubject | None = None,
+    trial_type: str = "auto",
 ) -> PigResult:
     """Plug-in Gait on ``trajectory`` (metres, Z up) with ``subject``'s values.
 
@@ -132,7 +144,10 @@ def plug_in_gait(
     recording's frame numbers (default 0..T-1; the times count from frame 0); ``to_lab``
     (3, 3) the rotation from the trajectory's Z-up frame back to the recording's lab frame
     for the points (default identity); ``override``: values that win over the static
-    trial's (a subject file). Missing markers give NaN in every output that depends on them.
+    trial's (a subject file); ``trial_type``: "static" (the trial gives its own offsets and
+    the static model's foot, as Nexus' static pipeline), "dynamic", or "auto" (static when
+    no ``static`` is given and the pelvis and leg markers stay still). Missing markers give
+    NaN in every output that depends on them.
     """
     where = str(trajectory.source.get("path", "trajectory"))
     m = _markers(trajectory)
@@ -140,7 +155,7 @@ def plug_in_gait(
     if static is not None:
         subject = calibrate(static, subject)
     notes = []
-    as_static = static is None and static_mod.is_static(m) and all(n in m for n in ("LHEE", "RHEE"))
+    as_static = _as_static(m, trial_type, static is not None, where)
     if as_static:
         subject = calibrate(trajectory, subject)
         notes.append("static trial: its own offsets; the foot is the static model's (toe to heel)")

@@ -39,6 +39,15 @@ def register(sub: Any) -> None:
         "static_plantar_flex_l, static_rot_off_l, asis_trochanter_l, tibial_torsion_l, "
         "head_offset with a unit) overriding the file's (default: none)",
     )
+    p.add_argument(
+        "--trial-type",
+        choices=("auto", "static", "dynamic"),
+        default="auto",
+        help="static: the trial gives its own foot offsets and the static model's foot (as "
+        "Nexus' static pipeline); dynamic: the offsets of the PROCESSING group, --static or "
+        "--subject-file; auto (default): static when no --static is given and the pelvis "
+        "and leg markers stay within 0.1 m of their median positions",
+    )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     add_force_flag(p)
     add_json_flag(p)
@@ -60,7 +69,15 @@ def run(args: argparse.Namespace) -> int:
     rotation = np.asarray(trial.source.get("rotation", np.eye(3)), dtype=float)
     first = int(trial.source.get("first_frame", 0) or 0)
     frames = first + np.arange(trial.n_frames)
-    result = plug_in_gait(trial, subject, static, frames=frames, to_lab=rotation.T, override=extra)
+    result = plug_in_gait(
+        trial,
+        subject,
+        static,
+        frames=frames,
+        to_lab=rotation.T,
+        override=extra,
+        trial_type=args.trial_type,
+    )
 
     def work(out: Path) -> tuple[Mapping[str, Any], str]:
         write_all(out, result, trial.rate, str(args.markers))
