@@ -152,6 +152,8 @@ def plug_in_gait(
     where = str(trajectory.source.get("path", "trajectory"))
     m = _markers(trajectory)
     _require(m, LOWER_MARKERS, where)
+    if override is not None:  # the measurements first, for the calibrations
+        subject = subject.update(override)
     if static is not None:
         subject = calibrate(static, subject)
     notes = []
@@ -159,7 +161,7 @@ def plug_in_gait(
     if as_static:
         subject = calibrate(trajectory, subject)
         notes.append("static trial: its own offsets; the foot is the static model's (toe to heel)")
-    if override is not None:
+    if override is not None:  # and its offsets over the calibrations'
         subject = subject.update(override)
     subject = _with_marker_measures(m, subject, where)
     segs, jc = lower_body(m, subject, _inter_asis(m, subject), heel_foot=as_static)

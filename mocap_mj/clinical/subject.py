@@ -83,9 +83,8 @@ class PigSubject:
         v = self.measured(name)
         if v is None:
             raise MocapError(
-                f"Plug-in Gait needs the subject's {name.replace('_', ' ')} "
-                f"({MEASUREMENTS[name][1]}): give it in the C3D PROCESSING group or "
-                "--subject-file"
+                f"Plug-in Gait needs the subject's {name} ({MEASUREMENTS[name][1]}): "
+                "give it in the C3D PROCESSING group or --subject-file"
             )
         return v
 
