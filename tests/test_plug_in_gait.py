@@ -137,6 +137,8 @@ def test_standing_still_is_a_static_trial_unless_told():
     dynamic = plug_in_gait(still, _subject(), trial_type="dynamic")
     assert auto.static and not dynamic.static
     assert not plug_in_gait(_trajectory(_pose(5, 10, 15, 5)), _subject()).static
+    # the measurements of a subject file serve the static calibration too
+    assert plug_in_gait(still, PigSubject(), override=_subject()).static
     for res in (auto, dynamic):  # the heel lies on the toe-ankle line: no offsets either way
         np.testing.assert_allclose(np.degrees(res.angles["LAnkleAngles"][:, 0]), 5, atol=1e-6)
 

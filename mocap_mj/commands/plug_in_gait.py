@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..cli import add_force_flag, add_json_flag, into_out_folder
+from ..clinical.subject import PigSubject
 
 
 def register(sub: Any) -> None:
@@ -55,16 +56,16 @@ def register(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..clinical import PigSubject, pig_from_yaml, plug_in_gait
+    from ..clinical import pig_from_yaml, plug_in_gait
     from ..clinical.outputs import write_all
     from ..io.load import load_markers
 
     trial = load_markers(args.markers)
-    subject = _file_subject(args.markers, PigSubject())
+    subject = _file_subject(args.markers)
     static = None
     if args.static:
         static = load_markers(args.static)
-        subject = _file_subject(args.static, PigSubject()).update(subject)
+        subject = _file_subject(args.static).update(subject)
     extra = pig_from_yaml(args.subject_file) if args.subject_file else None
     rotation = np.asarray(trial.source.get("rotation", np.eye(3)), dtype=float)
     first = int(trial.source.get("first_frame", 0) or 0)
@@ -93,10 +94,8 @@ def run(args: argparse.Namespace) -> int:
     return into_out_folder(args, work)
 
 
-def _file_subject(path: str, base: Any) -> Any:
+def _file_subject(path: str) -> PigSubject:
     """The subject values a C3D file stores (none for other formats)."""
     from ..clinical import pig_from_c3d
 
-    if Path(path).suffix.lower() != ".c3d":
-        return base
-    return base.update(pig_from_c3d(path))
+    return pig_from_c3d(path) if Path(path).suffix.lower() == ".c3d" else PigSubject()
