@@ -41,14 +41,20 @@ def _pose(
     n: int = 20,
     torsion: float = 0.0,
     walk: float = 1.0,
+    pelvis_turn: tuple[float, float] = (0.0, 0.0),
+    hip_abd: float = 0.0,
 ) -> dict[str, np.ndarray]:
     """Lower-body markers (n, 3) [m] of a subject facing +x, walking ``walk`` m along +x, in a
     known pose [deg]: pelvis anterior tilt, hip and knee flexion, ankle dorsiflexion; the
     TIB and ANK markers turned ``torsion`` [deg] externally about the tibia (a tibial
-    torsion)."""
+    torsion); the pelvis rolled and turned by ``pelvis_turn`` [deg] about the direction of
+    walking and the vertical; both thighs swung ``hip_abd`` [deg] out to the side."""
     subj = _subject()
     r = subj.marker_radius
-    p_axes = _ry(np.radians(tilt))
+    roll, turn = np.radians(pelvis_turn)
+    c, s = np.cos(roll), np.sin(roll)
+    rx = np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+    p_axes = _rz(turn) @ _ry(np.radians(tilt)) @ rx
     origin = np.array([0.0, 0.0, 1.0])
     x, y = p_axes[:, 0], p_axes[:, 1]
     m = {"LASI": origin + 0.12 * y, "RASI": origin - 0.12 * y,
@@ -57,7 +63,9 @@ def _pose(
         p = side.upper()
         hjc = davis_hip(p_axes[None], origin[None], leg_length=0.88, asis_trochanter=0.88 * 0.1288
                         - 0.04856, inter_asis=0.24, marker_radius=r, side=side)[0]  # fmt: skip
-        femur = p_axes @ _ry(-np.radians(hip))
+        c, s = np.cos(np.radians(hip_abd)), np.sin(np.radians(hip_abd))
+        swing = np.array([[1, 0, 0], [0, c, -lat * s], [0, lat * s, c]])  # knee out to the side
+        femur = p_axes @ _ry(-np.radians(hip)) @ swing
         kjc = hjc - 0.42 * femur[:, 2]
         dk = 0.05 + r
         m[p + "KNE"] = kjc + lat * dk * femur[:, 1]
@@ -99,6 +107,22 @@ def test_known_pose_reads_its_angles():
         for name in ("HipAngles", "KneeAngles", "AnkleAngles"):  # no out-of-plane motion
             np.testing.assert_allclose(deg[p + name][:, 1:], 0, atol=1e-6)
         np.testing.assert_allclose(deg[p + "FootProgressAngles"][:, 2], 0, atol=1e-6)
+
+
+def test_pelvis_and_hip_signs_follow_the_markers():
+    """Left side up, right side forward, knees out: the signs clinicians read."""
+    pose = _pose(0, 0, 0, 0, pelvis_turn=(8, 10), hip_abd=12)
+    assert np.all(pose["LASI"][:, 2] > pose["RASI"][:, 2])  # the left side is up
+    assert np.all(pose["RASI"][:, 0] > pose["LASI"][:, 0])  # the right side is forward
+    res = plug_in_gait(_trajectory(pose), _subject())
+    deg = {k: np.degrees(v) for k, v in res.angles.items()}
+    assert np.all(deg["LPelvisAngles"][:, 1] > 7) and np.all(deg["RPelvisAngles"][:, 1] < -7)
+    assert np.all(deg["RPelvisAngles"][:, 2] > 9) and np.all(deg["LPelvisAngles"][:, 2] < -9)
+    flat = _pose(0, 0, 0, 0, hip_abd=12)
+    assert flat["LKNE"][0, 1] > _pose(0, 0, 0, 0)["LKNE"][0, 1]  # the left knee went out
+    res = plug_in_gait(_trajectory(flat), _subject())
+    for p in "LR":  # abduction reads negative on both sides
+        np.testing.assert_allclose(np.degrees(res.angles[p + "HipAngles"][:, 1]), -12, atol=1e-6)
 
 
 def test_flexed_knee_positive_extended_knee_negative():
