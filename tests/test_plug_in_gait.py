@@ -299,3 +299,27 @@ def test_static_calibration_reproduces_nexus_offsets():
     for name in ("static_plantar_flex_l", "static_plantar_flex_r", "static_rot_off_l",
                  "static_rot_off_r"):  # fmt: skip
         assert abs(ours.pig(name) - given.pig(name)) < 1e-3, name
+
+
+@pytest.mark.skipif(not REAL.is_dir(), reason=SKIP)
+def test_command_keeps_the_recordings_frames(tmp_path):
+    import ezc3d
+
+    from mocap_mj.cli import main
+
+    path = REAL / "Movement_trial.c3d"
+    out = tmp_path / "pig"
+    assert main(["plug-in-gait", "--markers", str(path), "--out", str(out)]) == 0
+    rows = np.genfromtxt(out / "angles.csv", delimiter=",", names=True)
+    given = ezc3d.c3d(str(path))
+    first = int(given["header"]["points"]["first_frame"])
+    np.testing.assert_array_equal(rows["frame"], first + np.arange(len(rows)))
+    np.testing.assert_allclose(rows["time_s"], rows["frame"] / 120.0, atol=1e-6)
+    written = ezc3d.c3d(str(out / "result.c3d"))
+    assert int(written["header"]["points"]["first_frame"]) == first
+    labels = list(written["parameters"]["POINT"]["LABELS"]["value"])
+    ours = written["data"]["points"][:3, labels.index("LKneeAngles")]
+    nexus = given["data"]["points"][
+        :3, list(given["parameters"]["POINT"]["LABELS"]["value"]).index("LKneeAngles")
+    ]
+    np.testing.assert_allclose(ours, nexus, atol=1e-3)
