@@ -32,7 +32,9 @@ from .errors import MocapError
 from .strict_json import dumps
 
 #: Core subcommand modules (``mocap_mj.commands.<name>``), in help order.
-CORE_COMMANDS: tuple[str, ...] = ("info", "ik", "identify", "score", "export", "batch")
+CORE_COMMANDS: tuple[str, ...] = (
+    "info", "ik", "identify", "score", "export", "batch", "plug_in_gait",
+)  # fmt: skip
 
 
 def _registrars() -> list[Callable[[Any], None]]:
