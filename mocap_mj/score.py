@@ -15,7 +15,6 @@ aligned truth is from the nominal truth (the unobservable part) is reported sepa
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -32,17 +31,14 @@ from .kinematics import Kinematics
 from .marker_set import marked_bodies
 from .parameters import ParameterSet
 from .results import Motion, load_motion
+from .strict_json import read_object
 
 if TYPE_CHECKING:
     from .identify.lm import LMResult
 
 
 def _read_json(path: Path) -> dict[str, Any]:
-    try:
-        data: dict[str, Any] = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise InputFileError(f"{path}: cannot read JSON: {exc}") from None
-    return data
+    return read_object(path, "a JSON object")
 
 
 #: Median distance [m] between a result's fitted markers and the truth's noise-free markers
