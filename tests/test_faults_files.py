@@ -400,3 +400,27 @@ def test_a_symlinked_out_stays_a_link_to_the_result(
         assert staging_left(target) == [] and staging_left(link) == []
     code, lines = cli(capsys, "ik", "--markers", data["markers"], "--out", link)
     refused(code, lines, 2, link, "not empty")
+
+
+def test_batch_replaces_only_its_own_subject_folders(tmp_path: Path) -> None:
+    """A subject folder of ``batch --out`` is replaced only if a batch wrote it (subject.json);
+    a folder of the user's that bears a subject's name is kept and the subject fails."""
+    from mocap_mj.batch.dataset import Subject
+    from mocap_mj.batch.run import RECORD, execute
+
+    def job(subject: Subject, folder: Path) -> dict[str, object]:
+        (folder / "result.txt").write_text("new")
+        return {"rows": []}
+
+    (tmp_path / "S1").mkdir()
+    (tmp_path / "S1" / "notes.txt").write_text("the user's")
+    before = hashes(tmp_path / "S1")
+    record = execute(job, Subject("S1", ("t.csv",)), str(tmp_path), "h")
+    assert record["status"] == "failed"
+    assert str(tmp_path / "S1") in record["error"] and RECORD in record["error"]
+    assert hashes(tmp_path / "S1") == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["S1"]
+    (tmp_path / "S1" / RECORD).write_text("{}")  # now an earlier batch's subject folder
+    assert execute(job, Subject("S1", ("t.csv",)), str(tmp_path), "h")["status"] == "ok"
+    assert sorted(p.name for p in (tmp_path / "S1").iterdir()) == sorted([RECORD, "result.txt"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["S1"]
