@@ -42,7 +42,10 @@ def input_paths(args: argparse.Namespace) -> list[str]:
 
 def _holds(folder: str, path: str) -> bool:
     """``path`` is ``folder`` or lies inside it (both resolved)."""
-    return path == folder or os.path.commonpath([folder, path]) == folder
+    try:
+        return os.path.commonpath([folder, path]) == folder
+    except ValueError:  # on different drives (Windows)
+        return False
 
 
 def refuse_out_holding_inputs(args: argparse.Namespace) -> None:
