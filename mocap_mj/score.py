@@ -37,10 +37,6 @@ if TYPE_CHECKING:
     from .identify.lm import LMResult
 
 
-def _read_json(path: Path) -> dict[str, Any]:
-    return read_object(path, "a JSON object")
-
-
 #: Median distance [m] between a result's fitted markers and the truth's noise-free markers
 #: above which the result was not fitted to this truth (another subject or trial): the
 #: synthetic noise, soft-tissue artefact and outliers stay well below it.
@@ -89,12 +85,15 @@ def score(
     truth_dir, result_dir = Path(truth_dir), Path(result_dir)
     pset = pset or ParameterSet()
     theta_true = pset.load_json(truth_dir / "truth.json")
-    truth_info = _read_json(truth_dir / "truth.json")
+    truth_info = read_object(truth_dir / "truth.json", "the synthetic truth (a JSON object)")
     truth_motion = load_motion(truth_dir / "truth_motion.npz")
     theta_hat = pset.load_json(result_dir / "theta.json")
-    summary = _read_json(result_dir / "summary.json")
+    summary = read_object(result_dir / "summary.json", "the result's summary (a JSON object)")
     motion = load_motion(result_dir / "motion.npz")
-    idf = Identifiability.from_json(pset, _read_json(result_dir / "identifiability.json"))
+    idf = Identifiability.from_json(
+        pset,
+        read_object(result_dir / "identifiability.json", "the identifiability (a JSON object)"),
+    )
 
     ranges = summary.get("frames_fitted_range") or [[0, len(motion.qpos)]]
     a, b = ranges[0]
