@@ -10,7 +10,8 @@ status 2; no traceback is shown for bad input. An operating-system error (disk f
 permission denied) is one line and exit status 1; Ctrl-C or SIGTERM exits with 130 / 143.
 Commands write their output folder with :func:`mocap_mj.io.atomic.atomic_folder` (see
 :func:`output_folder`), so an interrupted or failed run leaves no folder that looks like a
-result.
+result. Before any work, an ``--out`` that is an input or holds one is refused
+(:mod:`mocap_mj.commands._inputs`): an input is never replaced or deleted.
 """
 
 from __future__ import annotations
