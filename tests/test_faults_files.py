@@ -167,28 +167,22 @@ def test_out_holding_an_input_is_refused_before_any_work(
 
 
 # ------------------------------------------------------------------ what --force deletes
-def test_force_refuses_a_folder_that_is_not_a_result(
+def test_force_replaces_only_an_empty_folder_or_a_result(
     data: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    out = tmp_path / "mine"
-    out.mkdir()
-    (out / "notes.txt").write_text("the user's own notes")
-    (out / "sub").mkdir()
-    (out / "sub" / "data.bin").write_bytes(b"\x00\x01")
-    before = hashes(out)
-    code, lines = cli(capsys, "ik", "--markers", data["markers"], "--out", out, "--force")
-    refused(code, lines, 2, out, "not a mocap-mj result folder", "--force")
-    assert hashes(out) == before
-    assert staging_left(out) == []
-
-
-def test_force_replaces_an_empty_folder_and_a_result(
-    data: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    out = tmp_path / "out"
+    mine = tmp_path / "mine"  # the user's own files: never deleted
+    (mine / "sub").mkdir(parents=True)
+    (mine / "notes.txt").write_text("the user's own notes")
+    (mine / "sub" / "data.bin").write_bytes(b"\x00\x01")
+    before = hashes(mine)
+    code, lines = cli(capsys, "ik", "--markers", data["markers"], "--out", mine, "--force")
+    refused(code, lines, 2, mine, "not a mocap-mj result folder", "--force")
+    assert hashes(mine) == before
+    assert staging_left(mine) == []
+    out = tmp_path / "out"  # empty, then an earlier result: replaced
     out.mkdir()
     assert cli(capsys, "ik", "--markers", data["markers"], "--out", out, "--force")[0] == 0
-    (out / "summary.json").write_text('{"earlier": true}\n')  # an earlier result
+    (out / "summary.json").write_text('{"earlier": true}\n')
     assert cli(capsys, "ik", "--markers", data["markers"], "--out", out, "--force")[0] == 0
     assert "earlier" not in (out / "summary.json").read_text()
     assert {"motion.npz", "model.xml", "summary.json"} <= {p.name for p in out.iterdir()}
@@ -212,6 +206,7 @@ def test_a_result_renamed_into_place_meanwhile_is_kept(tmp_path: Path, existing:
     assert staging_left(out) == []
 
 
+@pytest.mark.skipif(not hasattr(signal, "SIGSTOP"), reason="holds a process with SIGSTOP (POSIX)")
 def test_concurrent_runs_keep_the_first_result(data: dict[str, Path], tmp_path: Path) -> None:
     """Two real processes into one --out: the slow one (held stopped after its checks) is
     refused when it ends; the fast one's result stays byte for byte."""
@@ -268,6 +263,7 @@ def test_export_on_a_full_disk_leaves_no_folder_and_names_the_file(
     assert hashes(data["result"]) == before
 
 
+@pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="kill -9 is POSIX")
 def test_killed_export_leaves_no_folder_and_does_not_block_the_rerun(
     data: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
