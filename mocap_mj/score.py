@@ -15,7 +15,6 @@ aligned truth is from the nominal truth (the unobservable part) is reported sepa
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -32,17 +31,10 @@ from .kinematics import Kinematics
 from .marker_set import marked_bodies
 from .parameters import ParameterSet
 from .results import Motion, load_motion
+from .strict_json import read_object
 
 if TYPE_CHECKING:
     from .identify.lm import LMResult
-
-
-def _read_json(path: Path) -> dict[str, Any]:
-    try:
-        data: dict[str, Any] = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise InputFileError(f"{path}: cannot read JSON: {exc}") from None
-    return data
 
 
 #: Median distance [m] between a result's fitted markers and the truth's noise-free markers
@@ -93,12 +85,15 @@ def score(
     truth_dir, result_dir = Path(truth_dir), Path(result_dir)
     pset = pset or ParameterSet()
     theta_true = pset.load_json(truth_dir / "truth.json")
-    truth_info = _read_json(truth_dir / "truth.json")
+    truth_info = read_object(truth_dir / "truth.json", "the synthetic truth (a JSON object)")
     truth_motion = load_motion(truth_dir / "truth_motion.npz")
     theta_hat = pset.load_json(result_dir / "theta.json")
-    summary = _read_json(result_dir / "summary.json")
+    summary = read_object(result_dir / "summary.json", "the result's summary (a JSON object)")
     motion = load_motion(result_dir / "motion.npz")
-    idf = Identifiability.from_json(pset, _read_json(result_dir / "identifiability.json"))
+    idf = Identifiability.from_json(
+        pset,
+        read_object(result_dir / "identifiability.json", "the identifiability (a JSON object)"),
+    )
 
     ranges = summary.get("frames_fitted_range") or [[0, len(motion.qpos)]]
     a, b = ranges[0]

@@ -199,7 +199,7 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
     trials = []
     ranges = []
     for t in loaded:
-        sl = frame_range(args.frames, len(t.markers))
+        sl = frame_range(args.frames, len(t.markers), t.path)
         if sl.stop - sl.start < 1:
             raise MocapError(f"{t.path}: --frames {args.frames} selects no frame")
         ranges.append([sl.start, sl.stop])
