@@ -748,7 +748,8 @@ def solve_anatomical(
     of ``max(sigma, SOFT_TISSUE_SIGMA)``: the soft-tissue model applies only where the
     residuals show soft tissue, never on white noise. ``mocap-mj identify`` passes
     :data:`~mocap_mj.identify.tissue.SLIDES` unless ``--no-sliding-landmarks``
-    (docs/real-data.md "Soft-tissue sliding"). Returns the result and the weighting used
+    (docs/method.md#weighing-priors-trials-and-sliding-markers). Returns the result and the
+    weighting used
     (``noise_mm``, ``sigma_mm``, ``tau_frames``, ``trial_tau_frames`` and ``trial_weights``
     (one per trial); when the sliding weights were applied,
     ``slide_weight_min``, the smallest of them, and ``slide_base_mm``, the per-axis artefact
