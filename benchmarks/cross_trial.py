@@ -70,7 +70,7 @@ def main() -> int:
     if args.prior_mm is not None:
         over["prior_sigma"] = args.prior_mm * 1e-3
     if args.mu0 is not None:
-        over["mu0"] = args.mu0
+        over["tolerances"] = replace(st.tolerances, mu0=args.mu0)
     st = replace(st, **over)
     print(f"settings: {st}")
     results = []

@@ -27,13 +27,21 @@ from typing import Any
 import numpy as np
 
 from mocap_mj import ParameterSet
-from mocap_mj.identify import LMSettings, TrialData
+from mocap_mj.identify import LMSettings, Performance, Tolerances, TrialData
 from mocap_mj.identify.anatomy import ASYMMETRY_SIGMA
 from mocap_mj.identify.pipeline import anatomical_priors, identify_to_folder, prior_information
 from mocap_mj.score import score
 from mocap_mj.subject import Subject
 from mocap_synth import SynthConfig, synthesize, write_experiment
 from mocap_synth.config import MARKER_PLACEMENTS
+
+
+def _fields(settings: Any) -> set[str]:
+    return {f.name for f in dataclasses.fields(settings)} - {"tolerances", "performance"}
+
+
+def _fields(settings: Any) -> set[str]:
+    return {f.name for f in dataclasses.fields(settings)} - {"tolerances", "performance"}
 
 
 def main() -> None:
@@ -50,15 +58,21 @@ def main() -> None:
     parser.add_argument("--marker-placement", choices=MARKER_PLACEMENTS, default="anatomical")
     args = parser.parse_args()
     pset = ParameterSet()
-    fields = {f.name for f in dataclasses.fields(LMSettings)}
-    extra: dict[str, Any] = {}
+    groups: dict[str, Any] = {"": LMSettings(), "tolerances": Tolerances(),
+                              "performance": Performance()}  # fmt: skip
+    extra: dict[str, dict[str, Any]] = {g: {} for g in groups}
     for item in args.set:
         name, _, value = item.partition("=")
-        if name not in fields:
-            parser.error(f"--set: LMSettings has no field {name!r}")
-        kind = type(getattr(LMSettings(), name))
-        extra[name] = value.lower() in ("1", "true", "yes") if kind is bool else kind(value)
-    settings = LMSettings(**extra)
+        group = next((g for g, v in groups.items() if name in _fields(v)), None)
+        if group is None:
+            parser.error(f"--set: LMSettings, Tolerances and Performance have no field {name!r}")
+        kind = type(getattr(groups[group], name))
+        extra[group][name] = value.lower() in ("1", "true", "yes") if kind is bool else kind(value)
+    settings = LMSettings(
+        **extra[""],
+        tolerances=Tolerances(**extra["tolerances"]),
+        performance=Performance(**extra["performance"]),
+    )
     ratios: list[tuple[float, ...]] = []
     for seed in range(*args.seeds):
         with tempfile.TemporaryDirectory() as tmp:

@@ -321,7 +321,7 @@ def test_refinement_minimises_the_weighted_cost_of_the_sliding_landmarks(
     degrees), so the unweighted and the weighted optimum lie centimetres apart."""
     from functools import partial
 
-    from mocap_mj.identify.lm import LMSettings, TrialData, identify_lm
+    from mocap_mj.identify.lm import LMSettings, Tolerances, TrialData, identify_lm
     from mocap_mj.identify.tissue import SLIDES, SlidingModel
 
     exp, m = hand_zero.exp, pset.model  # 300 ROM frames; their information at the truth
@@ -340,7 +340,7 @@ def test_refinement_minimises_the_weighted_cost_of_the_sliding_landmarks(
     # a gain below sigma^2, may end a standard deviation short of it along a flat direction:
     # 4.3 mm here).
     trial = TrialData("rom", markers, exp.times, weights=weigh(qpos))
-    st = LMSettings(coarse_frames=0, tol_noise=1e-3)
+    st = LMSettings(tolerances=Tolerances(coarse_frames=0, tol_noise=1e-3))
     lm = identify_lm([trial], pset=pset, theta0=theta0, settings=st)
 
     def apart(theta: np.ndarray) -> float:
@@ -466,7 +466,7 @@ def test_refinement_minimises_the_robust_cost(pset: ParameterSet, hand_zero: Han
     """With ``robust`` (the Cauchy loss and the threshold of the fit), ``refine`` on every
     frame ends where the joint LM with that loss ends, and outliers (3 % of the samples
     displaced 50 mm) do not move it as they move the least-squares refinement."""
-    from mocap_mj.identify.lm import LMSettings, identify_lm
+    from mocap_mj.identify.lm import LMSettings, Tolerances, identify_lm
     from mocap_mj.identify.long import robust_loss
 
     exp = hand_zero.exp  # 300 ROM frames; their information at the truth
@@ -484,7 +484,7 @@ def test_refinement_minimises_the_robust_cost(pset: ParameterSet, hand_zero: Han
         qpos = np.full((len(markers), pset.model.nq), np.nan)
         runs[name] = refine(markers, pset, exp.theta_true, qpos, 1e-3, robust=r, steps=12,
                             tol_std=0.01).theta  # fmt: skip
-    settings = LMSettings(loss="cauchy", coarse_frames=0)
+    settings = LMSettings(loss="cauchy", tolerances=Tolerances(coarse_frames=0))
     lm = identify_lm([TrialData("rom", markers, exp.times)], pset=pset, theta0=exp.theta_true,
                      settings=settings)  # fmt: skip
 

@@ -8,7 +8,7 @@ priors, bounds, Schur blocks), :mod:`.losses` and :mod:`.priors` (its pieces), t
 
 from __future__ import annotations
 
-from .lm import LMResult, LMSettings, Termination, identify_lm, solve_lm
+from .lm import LMResult, LMSettings, Performance, Termination, Tolerances, identify_lm, solve_lm
 from .losses import Loss, loss_named
 from .priors import LinearGaussianPrior, Prior, weak_prior
 from .problem import IdentificationProblem, TrialData, build_problem
@@ -22,10 +22,12 @@ __all__ = [
     "LMSettings",
     "LinearGaussianPrior",
     "Loss",
+    "Performance",
     "Prior",
     "ProgressCallback",
     "Status",
     "Termination",
+    "Tolerances",
     "TrialData",
     "build_problem",
     "identify_lm",

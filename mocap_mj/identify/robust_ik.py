@@ -23,7 +23,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..ik import IKResult, IKSolver
-from .lm import LMSettings
+from .lm import LMSettings, Tolerances
 from .losses import Weighted, loss_named
 from .problem import loss_threshold
 from .tissue import SlidingModel
@@ -36,7 +36,7 @@ def solve_trial_loss(
     *,
     loss_scale: float = LMSettings.loss_scale,
     max_rounds: int = 30,
-    tol_noise: float = LMSettings.tol_noise,
+    tol_noise: float = Tolerances.tol_noise,
     progress: Callable[[int], None] | None = None,
     sliding: SlidingModel | None = None,
 ) -> IKResult:
