@@ -29,13 +29,15 @@ import numpy as np
 
 from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.identify import LMSettings, TrialData
+from mocap_mj.identify.api import identify
 from mocap_mj.identify.consistency import (
     correlation_time,
     excited_lengths,
     joint_centre_lengths,
     length_std,
 )
-from mocap_mj.identify.pipeline import identify_to_folder
+from mocap_mj.identify.output import write_result
+from mocap_mj.identify.recipe import Recipe
 from mocap_mj.ik import IKSolver
 from mocap_mj.io import load_markers
 
@@ -79,7 +81,9 @@ def main() -> int:
             t0 = time.perf_counter()
             folder = Path(tmp) / t.name
             folder.mkdir()
-            summary, res, _ = identify_to_folder([t], folder, pset=pset, settings=st, init="placed")
+            recipe = Recipe.of_settings(st, sliding_landmarks=False, select="all")
+            fit = identify([t], recipe, pset=pset, tolerances=st.tolerances)
+            summary, res = write_result(fit, folder, force=True), fit.result
             results.append(res)
             print(
                 f"{t.name}: own RMSE {res.marker_rmse * 1e3:.3f} mm, {res.iterations} it, "

@@ -1,7 +1,7 @@
 """Accuracy of the joint LM over synthetic seeds, per damping schedule (docs/identification.md).
 
 For each seed: the demo's experiment (500-frame range-of-motion trial, 1 mm noise, segment
-lengths ±10 %, offsets ±20 mm), identified with `identify_to_folder` and scored against the
+lengths ±10 %, offsets ±20 mm), identified with `mocap_mj.identify` and scored against the
 truth (`mocap_mj.score`): fit RMSE, iterations, kappa / offset errors over the bound, joint
 centres, observable directions.
 
@@ -29,7 +29,10 @@ import numpy as np
 from mocap_mj import ParameterSet
 from mocap_mj.identify import LMSettings, Performance, Tolerances, TrialData
 from mocap_mj.identify.anatomy import ASYMMETRY_SIGMA
-from mocap_mj.identify.pipeline import anatomical_priors, identify_to_folder, prior_information
+from mocap_mj.identify.api import identify
+from mocap_mj.identify.output import write_result
+from mocap_mj.identify.pipeline import anatomical_priors, prior_information
+from mocap_mj.identify.recipe import Recipe
 from mocap_mj.score import score
 from mocap_mj.subject import Subject
 from mocap_synth import SynthConfig, synthesize, write_experiment
@@ -83,11 +86,13 @@ def main() -> None:
             trial = TrialData("rom", np.asarray(exp.markers), np.asarray(exp.times))
             (d / "result").mkdir()
             t0 = time.perf_counter()
-            ident, _, idf = identify_to_folder(
-                [trial], d / "result", pset=pset, settings=settings,
-                extra={"frames_fitted_range": [[0, args.frames]]},
-                anatomical=not args.no_anatomy, asymmetry_prior=args.asymmetry_prior,
+            recipe = Recipe.of_settings(
+                settings, init="nominal", anatomy=not args.no_anatomy,
+                asymmetry_prior=args.asymmetry_prior, sliding_landmarks=False, select="all",
             )  # fmt: skip
+            fit = identify([trial], recipe, pset=pset, tolerances=settings.tolerances,
+                           performance=settings.performance)  # fmt: skip
+            ident, idf = write_result(fit, d / "result", force=True), fit.identifiability
             seconds = time.perf_counter() - t0
             s = score(d / "synth", d / "result", pset=pset, plot=False)
         priors = [] if args.no_anatomy else anatomical_priors(

@@ -446,13 +446,13 @@ def test_auto_selection_with_a_robust_loss_refines_with_it(
     selected frames and refines on every frame with the robust loss (once refused with an
     explicit number of frames, and auto fitted every frame instead)."""
     from mocap_mj import cli
-    from mocap_mj.commands import identify as identify_command
+    from mocap_mj.identify import api
 
     truth, out = tmp_path / "truth", tmp_path / "robust"
     proc = _cli("synth", "--out", str(truth), "--frames", "120", "--motion", "rom", "--seed", "6")
     assert proc.returncode == 0, proc.stderr
-    monkeypatch.setattr(identify_command, "AUTO_SELECT_ABOVE", 100)  # 120 frames count as long
-    monkeypatch.setattr(identify_command, "AUTO_SELECT_COUNT", 60)
+    monkeypatch.setattr(api, "AUTO_SELECT_ABOVE", 100)  # 120 frames count as long
+    monkeypatch.setattr(api, "AUTO_SELECT_COUNT", 60)
     markers = str(truth / "markers.trc")
     assert cli.main(["identify", "--markers", markers, "--robust", "--out", str(out)]) == 0
     summary = json.loads((out / "summary.json").read_text())
