@@ -43,8 +43,23 @@ def _fields(settings: Any) -> set[str]:
     return {f.name for f in dataclasses.fields(settings)} - {"tolerances", "performance"}
 
 
-def _fields(settings: Any) -> set[str]:
-    return {f.name for f in dataclasses.fields(settings)} - {"tolerances", "performance"}
+def _settings(items: list[str], parser: argparse.ArgumentParser) -> LMSettings:
+    """``--set NAME=VALUE``: fields of LMSettings, Tolerances or Performance."""
+    groups: dict[str, Any] = {"": LMSettings(), "tolerances": Tolerances(),
+                              "performance": Performance()}  # fmt: skip
+    extra: dict[str, dict[str, Any]] = {g: {} for g in groups}
+    for item in items:
+        name, _, value = item.partition("=")
+        group = next((g for g, v in groups.items() if name in _fields(v)), None)
+        if group is None:
+            parser.error(f"--set: LMSettings, Tolerances and Performance have no field {name!r}")
+        kind = type(getattr(groups[group], name))
+        extra[group][name] = value.lower() in ("1", "true", "yes") if kind is bool else kind(value)
+    return LMSettings(
+        **extra[""],
+        tolerances=Tolerances(**extra["tolerances"]),
+        performance=Performance(**extra["performance"]),
+    )
 
 
 def main() -> None:
@@ -61,21 +76,7 @@ def main() -> None:
     parser.add_argument("--marker-placement", choices=MARKER_PLACEMENTS, default="anatomical")
     args = parser.parse_args()
     pset = ParameterSet()
-    groups: dict[str, Any] = {"": LMSettings(), "tolerances": Tolerances(),
-                              "performance": Performance()}  # fmt: skip
-    extra: dict[str, dict[str, Any]] = {g: {} for g in groups}
-    for item in args.set:
-        name, _, value = item.partition("=")
-        group = next((g for g, v in groups.items() if name in _fields(v)), None)
-        if group is None:
-            parser.error(f"--set: LMSettings, Tolerances and Performance have no field {name!r}")
-        kind = type(getattr(groups[group], name))
-        extra[group][name] = value.lower() in ("1", "true", "yes") if kind is bool else kind(value)
-    settings = LMSettings(
-        **extra[""],
-        tolerances=Tolerances(**extra["tolerances"]),
-        performance=Performance(**extra["performance"]),
-    )
+    settings = _settings(args.set, parser)
     ratios: list[tuple[float, ...]] = []
     for seed in range(*args.seeds):
         with tempfile.TemporaryDirectory() as tmp:

@@ -252,7 +252,7 @@ def t10_check(
 ) -> T10Placement | None:
     """T10's placement against ``subject``'s stature, estimated from the trials' markers
     when not measured (:func:`~mocap_mj.identify.trunk.t10_placement`): what
-    :func:`identify_to_folder` finds and reports (``--strict`` refuses its finding before
+    :func:`solve_trials` finds and reports (``--strict`` refuses its finding before
     the fit)."""
     return t10_placement(pset, trials, _with_stature(subject, trials, pset))
 
@@ -263,7 +263,7 @@ def _initial_theta(
     theta0: np.ndarray | None,
     init: str,
 ) -> tuple[np.ndarray | None, dict[str, float], ParameterSet]:
-    """The initial model (P,) of :func:`identify_to_folder`, the segment scale estimates
+    """The initial model (P,) of :func:`solve_trials`, the segment scale estimates
     behind it (name -> factor; empty unless ``init`` scaled the nominal model) and the
     parameter set to solve with: ``pset`` with its knee rolling scaled to the initial model
     (:meth:`ParameterSet.with_rolling_scaled`, fixed for the solve).
