@@ -100,6 +100,13 @@ class Fit:
         return float(self.result.marker_rmse)
 
     @property
+    def findings(self) -> list[dict[str, Any]]:
+        """The marker-data quality findings (the check before the fit and T10's placement),
+        each as summary.json's ``marker_quality.findings`` holds it (kind, markers, frames,
+        message, ...)."""
+        return list((self.report.get("marker_quality") or {}).get("findings", []))
+
+    @property
     def timings(self) -> dict[str, float]:
         """Wall times [s] of the parts of the identification (those measured)."""
         keys = ("select_seconds", "seconds", "init_seconds")

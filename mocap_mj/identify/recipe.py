@@ -5,8 +5,9 @@ model, the anatomical priors and ranges, the left/right prior, the soft-tissue s
 the trials' weights, the loss, the frames it identifies on for a long recording and the
 refinement on every frame, the iterations and the weak prior. Every result folder holds the
 recipe it was made with (``recipe.yaml``); ``mocap-mj identify --recipe DIR/recipe.yaml`` on
-the same trials gives the same theta. How the solver gets there (its :class:`~.lm.Tolerances`)
-and how it uses memory (:class:`~.lm.Performance`) are not part of a recipe.
+the same trials gives the same theta. How the solver gets there (its
+:class:`~.settings.Tolerances`, the command's are the defaults) and how it uses memory
+(:class:`~.settings.Performance`) are not part of a recipe.
 
 Lengths are in metres in the file as in the code.
 """
