@@ -1,4 +1,6 @@
-"""Real-data skeleton checks of identified models (issue #14 targets); prints figures.
+"""Real-data skeleton checks of identified models; prints figures.
+
+See docs/validation.md#real-recordings.
 
     python benchmarks/anatomy.py OUT_DIR [OUT_DIR ...] [--pair A B [C ...]]
 

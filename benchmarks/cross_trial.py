@@ -1,4 +1,4 @@
-"""Cross-trial consistency on two real trials of one subject (issue 8).
+"""Cross-trial consistency on two real trials of one subject.
 
 Identifies a model from trial A alone and one from trial B alone (``--init placed``, as
 ``mocap-mj identify``), then reports:

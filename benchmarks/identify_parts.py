@@ -7,8 +7,7 @@ once each after the kernels loaded. CPU is `time.process_time` (both cores' thre
 is the figure to compare on a shared machine; "main" is the calling thread's CPU
 (`time.thread_time`): its own share of the parallel kernels plus everything serial, the floor
 of the wall time when the other core is free. Parts nest (the Schur blocks are inside
-`build_system`, which is inside the joint LM). Used for docs/identification.md ("Issue 18i",
-"Issue 18m").
+`build_system`, which is inside the joint LM). Used for docs/validation.md#speed.
 
 Run: python benchmarks/identify_parts.py [--seeds 0 6] [--kernels 30]
 """

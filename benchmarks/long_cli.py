@@ -106,8 +106,8 @@ def main() -> None:
     peak_kib = (
         int(timed[-1][1]) if timed else resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
     )
-    # CPU seconds (user + system) of the child: less dependent on the shared machine's load
-    # than the wall time (the other engineers' jobs take cores, not this job's work).
+    # CPU seconds (user + system) of the child: less dependent on other processes' load than
+    # the wall time (they take cores, not this job's work).
     cpu = float(timed[-1][3]) + float(timed[-1][4]) if timed else float("nan")
     peak = peak_kib / 2**20  # GiB
     summary = json.loads(proc.stdout)

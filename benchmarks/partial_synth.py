@@ -1,5 +1,5 @@
 """A lower-body marker set on synthetic data: the legs at the Cramer-Rao bound of that problem,
-the rest held at the prior (docs/real-data.md, "Partial marker sets").
+the rest held at the prior (docs/recordings.md#partial-marker-sets).
 
 For each seed: the demo's experiment (range of motion, 1 mm noise, segment lengths +-10 %,
 offsets +-20 mm) with only the 16 Plug-in Gait lower-body markers kept (the others NaN in

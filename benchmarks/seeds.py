@@ -1,4 +1,4 @@
-"""Accuracy of the joint LM over synthetic seeds, per damping schedule (docs/identification.md).
+"""Accuracy of the joint LM over synthetic seeds, per damping schedule (docs/validation.md).
 
 For each seed: the demo's experiment (500-frame range-of-motion trial, 1 mm noise, segment
 lengths ±10 %, offsets ±20 mm), identified with `mocap_mj.identify` and scored against the

@@ -1,6 +1,6 @@
 """A static trial with soft tissue plus a movement, identified together: accuracy against the
-synthetic truth with and without the per-trial weights (docs/real-data.md, "Static and
-movement trials in one fit").
+synthetic truth with and without the per-trial weights
+(docs/method.md#weighing-priors-trials-and-sliding-markers).
 
 For each seed: one subject (``mocap_synth``: segment lengths +-10 %, offsets +-20 mm,
 landmarks placed anatomically), a range-of-motion or walking trial (1 mm white noise, and

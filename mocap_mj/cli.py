@@ -10,7 +10,8 @@ status 2; no traceback is shown for bad input. An operating-system error (disk f
 permission denied) is one line and exit status 1; Ctrl-C or SIGTERM exits with 130 / 143.
 Commands write their output folder with :func:`mocap_mj.io.atomic.atomic_folder` (see
 :func:`output_folder`), so an interrupted or failed run leaves no folder that looks like a
-result.
+result. Before any work, an ``--out`` that is an input or holds one is refused
+(:mod:`mocap_mj.commands._inputs`): an input is never replaced or deleted.
 """
 
 from __future__ import annotations
@@ -28,11 +29,14 @@ from pathlib import Path
 from typing import Any
 
 from ._threads import one_blas_thread
+from .commands._inputs import refuse_out_holding_inputs
 from .errors import MocapError
 from .strict_json import dumps
 
 #: Core subcommand modules (``mocap_mj.commands.<name>``), in help order.
-CORE_COMMANDS: tuple[str, ...] = ("info", "ik", "identify", "score", "export", "batch")
+CORE_COMMANDS: tuple[str, ...] = (
+    "info", "ik", "identify", "score", "export", "batch", "plug_in_gait",
+)  # fmt: skip
 
 
 def _registrars() -> list[Callable[[Any], None]]:
@@ -77,6 +81,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     atexit.register(_ignore_late_interrupts)
     try:
         with _sigterm_as_exit(), one_blas_thread():
+            refuse_out_holding_inputs(args)  # before any work: an input is never touched
             return int(args.func(args) or 0)
     except MocapError as exc:
         print(f"mocap-mj {args.command}: error: {exc}", file=sys.stderr)
@@ -127,7 +132,14 @@ def add_json_flag(parser: argparse.ArgumentParser) -> None:
 
 
 def add_force_flag(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="replace an existing --out folder if it is a mocap-mj result (holds summary.json) "
+        "or empty; any other folder is refused, so that nothing but a result is deleted, and "
+        "an --out that is or holds an input is always refused (default: refuse a non-empty "
+        "folder)",
+    )
 
 
 def prepare_out(path: str | Path, *, force: bool = False) -> Path:

@@ -166,11 +166,9 @@ class Kinematics:
     def marker_positions(self, qpos: np.ndarray) -> np.ndarray:
         """Marker positions (T, M, 3) [m] for qpos (T, nq) (or (nq,) for one frame)."""
         qpos = self._check_qpos(qpos)
-        m, d = self.model, self.data
-        out = np.empty((len(qpos), m.nsite, 3))
-        for t, q in enumerate(qpos):
-            d.qpos[:] = q
-            rolling.kinematics(m, d, roll=self.rolling)
+        m = self.model
+        out = np.full((len(qpos), m.nsite, 3), np.nan)
+        for t, d in rolling.posed(m, qpos, data=self.data, roll=self.rolling):
             out[t] = d.site_xpos
         return out
 
@@ -184,16 +182,14 @@ class Kinematics:
 
     def _kinematics_rows(self, qpos: np.ndarray) -> Frames:
         """:meth:`forward` without the input check: qpos (T, nq), already validated."""
-        m, d = self.model, self.data
+        m = self.model
         n = len(qpos)
-        site_xpos = np.empty((n, m.nsite, 3))
-        xpos = np.empty((n, m.nbody, 3))
-        xmat = np.empty((n, m.nbody, 9))
-        xanchor = np.empty((n, m.njnt, 3))
-        xaxis = np.empty((n, m.njnt, 3))
-        for t, q in enumerate(qpos):
-            d.qpos[:] = q
-            rolling.kinematics(m, d, roll=self.rolling)
+        site_xpos = np.full((n, m.nsite, 3), np.nan)
+        xpos = np.full((n, m.nbody, 3), np.nan)
+        xmat = np.full((n, m.nbody, 9), np.nan)
+        xanchor = np.full((n, m.njnt, 3), np.nan)
+        xaxis = np.full((n, m.njnt, 3), np.nan)
+        for t, d in rolling.posed(m, qpos, data=self.data, roll=self.rolling):
             site_xpos[t] = d.site_xpos
             xpos[t] = d.xpos
             xmat[t] = d.xmat

@@ -25,9 +25,10 @@ import mujoco
 import numpy as np
 
 from . import rolling
-from .errors import MocapError, ShapeError, UnknownNameError, check_shape
+from .errors import InputFileError, MocapError, ShapeError, UnknownNameError, check_shape
 from .io.atomic import atomic_write_text
 from .model import load_model, model_path
+from .strict_json import read_object
 
 _AXES = {"x": 0, "y": 1, "z": 2}
 
@@ -163,8 +164,11 @@ class ParameterSet:
                 try:
                     b = model.body(body_name).id
                 except KeyError:
-                    raise UnknownNameError(
-                        "body", body_name, [model.body(i).name for i in range(model.nbody)]
+                    bodies = ", ".join(model.body(i).name for i in range(1, model.nbody))
+                    raise InputFileError(
+                        f"{self.path}: no body {body_name!r}, which the parameter {par.name} "
+                        "needs (the model must have the bundled humanoid's bodies); its "
+                        f"bodies: {bodies}"
                     ) from None
                 pos = np.array(model.body_pos[b], dtype=float)
                 if spec == "along":
@@ -175,8 +179,9 @@ class ParameterSet:
                 direction[k, b] = d
                 values.append(float(pos @ d))
             if max(values) - min(values) > 1e-12:
-                raise MocapError(
-                    f"parameter {par.name}: its bodies disagree on the nominal value {values}"
+                raise InputFileError(
+                    f"{self.path}: the bodies of the parameter {par.name} disagree on its "
+                    f"nominal value {values}"
                 )
             kappa0[k] = values[0]
         self.direction = direction
@@ -348,10 +353,7 @@ class ParameterSet:
 
     def load_json(self, path: str | Path) -> np.ndarray:
         """Read theta from a JSON file written by :meth:`save_json`."""
-        try:
-            data = json.loads(Path(path).read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise MocapError(f"{path}: cannot read parameters JSON: {exc}") from None
+        data = read_object(path, "the parameters (a JSON object with kappa and offsets)")
         return self.from_dict(data, source=str(path))
 
     def to_spec(self, theta: np.ndarray, *, joint_range: np.ndarray | None = None) -> mujoco.MjSpec:

@@ -97,8 +97,12 @@ def load_motion(path: str | Path) -> Motion:
                 markers=np.array(data["markers"], dtype=float),
                 marker_names=tuple(str(n) for n in data["marker_names"]),
             )
-    except (OSError, KeyError, ValueError) as exc:
-        raise InputFileError(f"{path}: not a motion file (qpos, times, markers): {exc}") from None
+    except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        # A truncated or damaged .npz: BadZipFile (no zip directory), EOFError (a member cut
+        # short), ValueError (not a zip: NumPy declines to unpickle it).
+        raise InputFileError(
+            f"{path}: not a complete motion file (an .npz with qpos, times, markers): {exc}"
+        ) from None
 
 
 @dataclass(frozen=True)

@@ -211,17 +211,25 @@ def kinematics(
         model.body_pos[roll.bodies] = base
 
 
-def posed(model: mujoco.MjModel, qpos: np.ndarray) -> Iterator[tuple[int, mujoco.MjData]]:
+def posed(
+    model: mujoco.MjModel,
+    qpos: np.ndarray,
+    *,
+    data: mujoco.MjData | None = None,
+    roll: Rolling | object | None = _READ,
+) -> Iterator[tuple[int, mujoco.MjData]]:
     """(frame index, data after ``mj_kinematics``) for each frame of qpos (T, nq) without NaN,
     the coupled bodies placed as :func:`kinematics` places them, with the couplings read once
     and every frame's translation computed at once (a long trial's hundreds of thousands of
-    frames cost MuJoCo's pass each, little more). The same ``MjData`` is reused: read what you
-    need before the next frame; ``model.body_pos`` is restored when the iteration ends."""
+    frames cost MuJoCo's pass each, little more). The same ``MjData`` (``data``, or a new one)
+    is reused: read what you need before the next frame; ``model.body_pos`` is restored when
+    the iteration ends. ``roll``: the model's couplings if the caller has read them already."""
     q = np.asarray(qpos, dtype=float)
-    data = mujoco.MjData(model)
+    data = mujoco.MjData(model) if data is None else data
     frames = np.flatnonzero(np.all(np.isfinite(q), axis=1)).tolist()
-    roll = read(model)
-    if roll is None:
+    if roll is _READ:
+        roll = read(model)
+    if not isinstance(roll, Rolling):
         for t in frames:
             data.qpos[:] = q[t]
             mujoco.mj_kinematics(model, data)

@@ -15,7 +15,6 @@ aligned truth is from the nominal truth (the unobservable part) is reported sepa
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -32,17 +31,10 @@ from .kinematics import Kinematics
 from .marker_set import marked_bodies
 from .parameters import ParameterSet
 from .results import Motion, load_motion
+from .strict_json import read_object
 
 if TYPE_CHECKING:
     from .identify.lm import LMResult
-
-
-def _read_json(path: Path) -> dict[str, Any]:
-    try:
-        data: dict[str, Any] = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise InputFileError(f"{path}: cannot read JSON: {exc}") from None
-    return data
 
 
 #: Median distance [m] between a result's fitted markers and the truth's noise-free markers
@@ -93,12 +85,15 @@ def score(
     truth_dir, result_dir = Path(truth_dir), Path(result_dir)
     pset = pset or ParameterSet()
     theta_true = pset.load_json(truth_dir / "truth.json")
-    truth_info = _read_json(truth_dir / "truth.json")
+    truth_info = read_object(truth_dir / "truth.json", "the synthetic truth (a JSON object)")
     truth_motion = load_motion(truth_dir / "truth_motion.npz")
     theta_hat = pset.load_json(result_dir / "theta.json")
-    summary = _read_json(result_dir / "summary.json")
+    summary = read_object(result_dir / "summary.json", "the result's summary (a JSON object)")
     motion = load_motion(result_dir / "motion.npz")
-    idf = Identifiability.from_json(pset, _read_json(result_dir / "identifiability.json"))
+    idf = Identifiability.from_json(
+        pset,
+        read_object(result_dir / "identifiability.json", "the identifiability (a JSON object)"),
+    )
 
     ranges = summary.get("frames_fitted_range") or [[0, len(motion.qpos)]]
     a, b = ranges[0]
@@ -290,7 +285,7 @@ def gauge_free(pset: ParameterSet, margin: float = GAUGE_MARGIN) -> ParameterSet
     limit. Aligning within the limits turns the zero until they do not, and the curved part
     of that turn (FIN 8 cm from the wrist, turned 3 degrees: 0.1 mm along its lever) counts
     as an error in the observable directions that the estimate does not have
-    (docs/long-recordings.md)."""
+    (docs/method.md#scoring-against-a-synthetic-truth)."""
     out = ParameterSet(pset.path)
     for j in _gauge_joints(out.model):
         out.model.jnt_range[j] += (-margin, margin)
@@ -326,8 +321,9 @@ def align_gauge_free(
     zero's path is curved: its direction at the estimate is not the truth's). A wider margin
     is no cure either: the LM may then walk further along that path before it settles. The
     nearest exact alignment is the definition of :func:`align_truth`'s
-    (docs/long-recordings.md). The forearms' zeros and FIN's direction are then moved to the
-    members nearest theta_hat in closed form (:func:`nearest_forearm_gauge`)."""
+    (docs/method.md#scoring-against-a-synthetic-truth). The forearms' zeros and FIN's direction
+    are then moved to the members nearest theta_hat in closed form
+    (:func:`nearest_forearm_gauge`)."""
     fits = []
     for margin in GAUGE_MARGINS:
         wide = gauge_free(pset, margin)
@@ -346,7 +342,7 @@ def align_gauge_free(
 #: radius's zero about the pronation axis (its markers turned back, every pronation angle
 #: shifted; the wrist's angles re-solved for FIN) and FIN's offset about the wrist (the hand's
 #: zero). Only the radius markers' places relative to the axis and FIN's distance from the
-#: wrist are determined by the markers (docs/long-recordings.md).
+#: wrist are determined by the markers (docs/method.md#scoring-against-a-synthetic-truth).
 FOREARM_GAUGES = (("pronation_l", "hand_l"), ("pronation_r", "hand_r"))
 
 

@@ -22,7 +22,7 @@ Inside, every length is in metres and the mass in kilograms.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -168,47 +168,57 @@ def from_c3d(path: str | Path) -> Subject:
     PROCESSING wins over SUBJECTS where both hold a value; zeros (Nexus' "not entered") and
     names that are not measurements (model outputs such as ``UpperLegLength``) are ignored.
     """
+    subject = Subject()
+    for group, key, value in c3d_numbers(path):
+        spec = _C3D_NAMES.get(key.upper())
+        if spec is not None and value > 0:
+            subject.set(spec[0], value * spec[1], f"{path}: {group}:{key}")
+    return subject
+
+
+def c3d_numbers(path: str | Path) -> Iterator[tuple[str, str, float]]:
+    """(group, name, value) of every finite number in a C3D file's SUBJECTS, then
+    PROCESSING group (the first value of each parameter), so that PROCESSING comes last."""
     from .io.formats.c3d import read_parameters
 
     try:
         params = read_parameters(Path(path))
     except Exception as exc:  # ezc3d raises plain RuntimeError/IOError
         raise InputFileError(f"{path}: cannot read the C3D parameters: {exc}") from None
-    subject = Subject()
     for group in ("SUBJECTS", "PROCESSING"):
-        if group not in params:
-            continue
-        for key, entry in params[group].items():
-            spec = _C3D_NAMES.get(str(key).upper())
-            if spec is None or not isinstance(entry, dict) or "value" not in entry:
+        for key, entry in params.get(group, {}).items():
+            if not isinstance(entry, dict) or "value" not in entry:
                 continue
             try:
                 value = float(np.asarray(entry["value"], dtype=float).ravel()[0])
             except (ValueError, IndexError, TypeError):
                 continue
-            if np.isfinite(value) and value > 0:
-                subject.set(spec[0], value * spec[1], f"{path}: {group}:{key}")
-    return subject
+            if np.isfinite(value):
+                yield group, str(key), value
 
 
-def _parse_value(raw: Any, name: str, source: str) -> float:
+def parse_value(raw: Any, name: str, source: str, units: Mapping[str, float] = _UNITS) -> float:
+    """A number, or a string ``"<number> <unit>"`` with a unit of ``units`` (unit -> factor
+    to SI), in SI units; a clear error otherwise."""
     if isinstance(raw, bool):
         raise MocapError(f"{source}: {name}: expected a number, got {raw!r}")
     if isinstance(raw, int | float):
         return float(raw)
     m = re.fullmatch(r"\s*([-+0-9.eE]+)\s*([a-z]+)\s*", str(raw))
-    if m is None or m.group(2) not in _UNITS:
+    if m is None or m.group(2) not in units:
         raise MocapError(
-            f"{source}: {name}: expected a number in SI units or '<number> mm|cm|m|kg', got {raw!r}"
+            f"{source}: {name}: expected a number in SI units or "
+            f"'<number> {'|'.join(units)}', got {raw!r}"
         )
     try:
-        return float(m.group(1)) * _UNITS[m.group(2)]
+        return float(m.group(1)) * units[m.group(2)]
     except ValueError:
         raise MocapError(f"{source}: {name}: {m.group(1)!r} is not a number") from None
 
 
-def from_yaml(path: str | Path) -> Subject:
-    """Measurements of a YAML mapping ``name: value`` (:data:`MEASUREMENTS`, SI or with unit)."""
+def read_mapping(path: str | Path) -> Mapping[Any, Any]:
+    """A YAML file's top-level mapping; one-line errors for an unreadable file or another
+    shape."""
     import yaml
 
     try:
@@ -217,10 +227,15 @@ def from_yaml(path: str | Path) -> Subject:
         raise InputFileError(f"{path}: cannot read the subject file: {exc}") from None
     if not isinstance(data, Mapping):
         raise InputFileError(f"{path}: expected a mapping of measurement names to values")
+    return data
+
+
+def from_yaml(path: str | Path) -> Subject:
+    """Measurements of a YAML mapping ``name: value`` (:data:`MEASUREMENTS`, SI or with unit)."""
     subject = Subject()
-    for name, raw in data.items():
+    for name, raw in read_mapping(path).items():
         _check_name(str(name), str(path))
-        subject.set(str(name), _parse_value(raw, str(name), str(path)), f"{path}: {name}")
+        subject.set(str(name), parse_value(raw, str(name), str(path)), f"{path}: {name}")
     return subject
 
 

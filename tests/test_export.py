@@ -5,6 +5,9 @@ OpenSim validation tests skip without the ``[opensim]`` extra.
 
 from __future__ import annotations
 
+import json
+import re
+import shutil
 from pathlib import Path
 
 import ezc3d
@@ -315,6 +318,24 @@ def test_export_command_writes_every_format(result: Path, tmp_path: Path) -> Non
     assert float(cells[0]) == pytest.approx(distance[4, 0] * 1e3, abs=1e-4)
     assert main(["export", str(result), "--out", str(tmp_path / "m.trc")]) == 0
     assert load_markers(tmp_path / "m.trc").n_frames == 12
+
+
+def test_osim_masses_sum_to_the_mass_the_result_records(result: Path, tmp_path: Path) -> None:
+    """The .osim's bodies sum to the subject mass in the result's summary.json (the measurement
+    the identification used), and --mass overrides it."""
+    folder = tmp_path / "result"
+    shutil.copytree(result, folder)
+    mass = {"value": 85.0, "unit": "kg", "source": "subject.yaml: mass"}
+    (folder / "summary.json").write_text(json.dumps({"measurements": {"mass": mass}}))
+
+    def total(path: Path) -> float:
+        return sum(float(m) for m in re.findall(r"<mass>([^<]+)</mass>", path.read_text()))
+
+    assert main(["export", str(folder), "--to", "osim", "--out", str(tmp_path / "a.osim")]) == 0
+    assert total(tmp_path / "a.osim") == pytest.approx(85.0, rel=1e-9)
+    args = ["export", str(folder), "--to", "osim", "--out", str(tmp_path / "b.osim")]
+    assert main([*args, "--mass", "60"]) == 0
+    assert total(tmp_path / "b.osim") == pytest.approx(60.0, rel=1e-9)
 
 
 def test_ik_setup_loads_in_opensim(result: Path, tmp_path: Path) -> None:

@@ -168,7 +168,7 @@ def hand_zero(pset: ParameterSet) -> HandZero:
 
 
 def test_an_equivalent_hand_zero_scores_no_error(pset: ParameterSet, hand_zero: HandZero) -> None:
-    """The cause of the hour's offsets reading 3x their bound (docs/long-recordings.md): a
+    """The cause of the hour's offsets reading 3x their bound (docs/method.md#long-recordings): a
     model equivalent to the truth, its right hand's zero turned 8 degrees about the wrist's
     deviation axis and FIN's offset turned back, has no error; aligned within the wrist's
     limits (which the truth's ROM poses, in the turned zero, cross) it seemed to have one."""
@@ -189,7 +189,7 @@ def test_a_hand_zero_beyond_the_margin_scores_no_error(
 ) -> None:
     """One widening of the wrist's hinges does not align every estimate: the hour through
     ``mocap-mj identify`` read 3.90x its offsets' bound because the 10-degree alignment
-    stopped short of the truth's model (docs/long-recordings.md), and an exact fit can
+    stopped short of the truth's model (docs/method.md#long-recordings), and an exact fit can
     still have turned the zero. Turned 18 degrees, a model equivalent to the truth reads a
     millimetre of RFIN error aligned with the 10-degree margin, none with
     ``align_gauge_free`` (the nearest exact alignment over wider margins)."""
@@ -251,7 +251,7 @@ def test_an_equivalent_forearm_zero_scores_no_error(
     """The hour's offsets read 1.30x their bound (LWRA, RWRA, LFIN, LFRM 9-11 sd): the
     estimate's radius markers were turned 10.8 and -8.4 degrees about the pronation axis
     against the truth's, and with one marker on the hand that turn is a gauge
-    (docs/long-recordings.md). A model equivalent to the truth, its forearms' zeros turned
+    (docs/method.md#long-recordings). A model equivalent to the truth, its forearms' zeros turned
     12 degrees (beyond the 5.5 degrees the truth's poses keep from the pronation limits)
     and its FINs turned, aligns exactly but with the turns cut short at the limit, which
     reads as error; ``align_gauge_free`` turns the rest in closed form and reads none."""
@@ -316,7 +316,7 @@ def test_refinement_minimises_the_weighted_cost_of_the_sliding_landmarks(
 ) -> None:
     """With ``weigh`` (the knee markers' soft-tissue sliding, by pose), ``refine`` on every
     frame ends where the joint LM with those weights ends: the same weighted problem, as
-    ``identify --select`` now solves the plain identification's (docs/long-recordings.md).
+    ``identify --select`` now solves the plain identification's (docs/method.md#long-recordings).
     The knee markers here slide 8 mm per radian of knee flexion (20 mm at the ROM's 145
     degrees), so the unweighted and the weighted optimum lie centimetres apart."""
     from functools import partial

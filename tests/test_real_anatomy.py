@@ -30,7 +30,7 @@ SKIP = "../shared/data/real not present: real-data checks need the shared folder
 
 #: Static_trial's first 300 frames: with the nominal proportions' L5/S1 row the lumbar rows
 #: conflicted there and a knee centre sat 5.9 mm off its width (6.3 on the whole trial); the
-#: first 150 frames did not show it (docs/real-data.md, "Fourth round").
+#: first 150 frames did not show it (docs/model.md#prior-rows).
 @pytest.mark.parametrize(("name", "frames"), [("Static_trial.c3d", "0:300"),
                                               ("anatomical_posture.c3d", "0:122")])  # fmt: skip
 def test_real_skeleton_targets(tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str,
@@ -70,7 +70,7 @@ def test_real_skeleton_targets(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert np.isfinite(summary["prior_weighting"]["noise_mm"])
     # The hip centres where Harrington's rows put them, within 1 sd (8 mm): a knee without
     # frontal-plane alignment pulled them 18-22 mm medially on Static_trial (2.3 / 2.7 sd;
-    # docs/real-data.md, fifth round).
+    # docs/model.md#frontal-plane-alignment-26-29).
     prior = landmark_prior(pset, subject)
     hjc = [i for i, lab in enumerate(prior.labels) if lab.endswith("(Harrington 2007)")]
     assert len(hjc) == 6
@@ -117,7 +117,7 @@ def test_multi_trial_wrist_and_elbow_centres_at_width(tmp_path: Path) -> None:
     the model's range (-160..30 degrees) allows. The elbow centres sit elbow_width/2 + r
     from ELB within 5 mm: ELB's level and depth define the elbow (a convention joint), so
     the jump's elbow at 15-25 degrees and the pose's at 90 do not move it off ELB (at 10 mm
-    they did: 4.6-7.7 mm off the width, docs/real-data.md "Seventh round")."""
+    they did: 4.6-7.7 mm off the width, docs/model.md#convention-joints)."""
     paths = [REAL / "Movement_trial.c3d", REAL / "Static_trial.c3d"]
     if not all(p.is_file() for p in paths):
         pytest.skip(SKIP)

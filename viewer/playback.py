@@ -327,7 +327,8 @@ def parse_frame(text: str, playback: Playback) -> int:
 def parse_frames(text: str, n: int) -> list[int]:
     """Frame indices from a Python-style slice ``"A:B[:S]"`` over ``n`` frames (B exclusive).
 
-    Empty parts take the slice defaults (``":"`` is every frame, ``"::2"`` every other one).
+    Empty parts take the slice defaults (``":"`` is every frame, ``"::2"`` every other one);
+    a bound past the ``n`` frames is refused.
     """
     parts = text.split(":")
     if len(parts) not in (2, 3):
@@ -339,6 +340,8 @@ def parse_frames(text: str, n: int) -> list[int]:
     step = s[0] if s else None
     if step is not None and step <= 0:
         raise MocapError(f"--frames: the step must be positive, got {step}")
+    if any(v is not None and not -n <= v <= n for v in (a, b)):  # not silently shortened
+        raise MocapError(f"--frames {text}: past the end, the result has {n} frames (0 to {n - 1})")
     frames = list(range(n))[slice(a, b, step)]
     if not frames:
         raise MocapError(f"--frames {text}: selects no frame of the {n}")

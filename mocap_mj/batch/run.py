@@ -109,8 +109,15 @@ def execute(job: Job, subject: Subject, out: str, digest: str) -> dict[str, Any]
 
 
 def _commit(tmp: Path, final: Path) -> None:
-    """Rename ``tmp`` to ``final``; an older ``final`` is moved aside first, then removed."""
+    """Rename ``tmp`` to ``final``; an older ``final`` is moved aside first, then removed.
+    Only a subject folder of a batch (holding :data:`RECORD`) is replaced: anything else at
+    ``final`` is the user's and is refused, kept as it is."""
     old = None
+    if (final.exists() or final.is_symlink()) and not (final / RECORD).is_file():
+        raise MocapError(
+            f"{final}: exists and is not a subject folder of a batch (no {RECORD}); it is "
+            "kept, choose another --out or move it away"
+        )
     if final.exists():
         old = final.with_name(f"{_OLD}{final.name}-{secrets.token_hex(4)}")
         os.replace(final, old)

@@ -104,12 +104,17 @@ def load_trial(
         else:
             whole = stream.positions(0, stream.n_frames)
             markers = MarkerTrajectory(times, whole, file_names, rate, stream.source).select(names)
-    model = load_model(model_for(args))
+    model_file = model_for(args)
+    model = load_model(model_file)
     report = dataclasses.replace(
         report, undetermined=undetermined_segments(model, [n for n in report.found if n in names])
     )
     if not report.found:
-        raise MocapError(f"{path}: none of the model's markers found (names: {file_names[:8]}...)")
+        which = f"the model {model_file}" if model_file else "the bundled model"
+        raise MocapError(
+            f"{path}: none of the markers of {which} found ({len(names)} marker sites: "
+            f"{list(names[:8])}...; the file's names: {list(file_names[:8])}...)"
+        )
     return Trial(path, np.asarray(times), markers, float(rate), report)
 
 

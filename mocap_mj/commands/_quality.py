@@ -32,7 +32,7 @@ from ..parameters import ParameterSet
 
 
 def add_quality_options(parser: argparse.ArgumentParser) -> None:
-    g = parser.add_argument_group("marker data quality (docs/real-data.md)")
+    g = parser.add_argument_group("marker data quality (docs/recordings.md#marker-data-quality)")
     g.add_argument(
         "--exclude-markers",
         metavar="NAMES",
@@ -80,8 +80,8 @@ def check_trials(
         print(
             f"mocap-mj {args.command}: warning: markers named by the data-quality check "
             f"(times named): {', '.join(f'{n} ({c})' for n, c in named.items())}; the most "
-            f"named first: --exclude-markers {','.join(top)} drops its data (docs/real-data.md,"
-            ' "Marker data quality")',
+            f"named first: --exclude-markers {','.join(top)} drops its data "
+            "(docs/recordings.md#what-each-warning-means)",
             file=sys.stderr,
         )
     entry = quality_entry(found, excluded)

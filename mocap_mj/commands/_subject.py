@@ -83,7 +83,7 @@ def add_subject_options(p: Any) -> None:
         help="weigh the knee epicondyle markers (KNE) alike at every knee angle (default: "
         "weigh them down as the knee flexes, their skin sliding on the femur, 10 mm per rad "
         "per axis, where the residuals show soft tissue; recorded in model.xml for ik; "
-        "docs/real-data.md)",
+        "docs/method.md#weighing-priors-trials-and-sliding-markers)",
     )
     g.add_argument(
         "--no-anatomy",

@@ -25,6 +25,7 @@ from ..batch.run import have_ray, one_line, run_batch
 from ..cli import add_json_flag, build_parser, finish
 from ..errors import MocapError
 from ..parameters import ParameterSet
+from ._inputs import refuse_out_holding_inputs
 from ._markers import load_trial
 
 #: Options that also apply to the IK of each trial (how the marker files are read).
@@ -218,6 +219,7 @@ def _command(command: str, out: Path, *options: str) -> dict[str, Any]:
     except SystemExit:  # argparse rejected an option (e.g. a manifest's): its last line
         lines = err.getvalue().strip().splitlines() or ["invalid options"]
         raise MocapError(lines[-1]) from None
+    refuse_out_holding_inputs(args)  # as the CLI checks it
     with contextlib.redirect_stdout(io.StringIO()), one_blas_thread():  # as the CLI runs it
         args.func(args)
     return dict(json.loads((Path(args.out) / "summary.json").read_text()))

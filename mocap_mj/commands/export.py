@@ -15,7 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from ..cli import add_json_flag, finish, prepare_out
+from ..cli import add_force_flag, add_json_flag, finish, output_folder, write_summary
 from ..errors import MocapError
 from ..export.c3d import write_c3d
 from ..export.ik_setup import write_ik_setup
@@ -32,6 +32,8 @@ from ..export.tables import (
 from ..export.trc import write_trc
 from ..io.atomic import atomic_write_text
 from ..model import load_model
+from ..results import ResultDir
+from ._inputs import refuse_overwriting
 
 #: File names of ``--to all``, per format.
 ALL_FILES: dict[str, str] = {
@@ -49,13 +51,15 @@ IK_SETUP = "ik_setup.xml"
 
 
 def _subject_mass(args: argparse.Namespace, src: ExportSource) -> float | None:
-    """--mass, else a subject mass [kg] in the result's summary.json, else None."""
+    """--mass, else the subject's mass [kg] that the result's summary.json records (the
+    measurement the identification used: the C3D's PROCESSING group or --subject-file), else
+    None (the model's own masses)."""
     if args.mass is not None:
         return float(args.mass)
-    for key in ("subject_mass_kg", "mass_kg"):
-        value = src.summary.get(key)
-        if isinstance(value, int | float):
-            return float(value)
+    measured = src.summary.get("measurements", {}).get("mass", {})
+    value = measured.get("value") if isinstance(measured, dict) else None
+    if isinstance(value, int | float) and measured.get("unit", "kg") == "kg":
+        return float(value)
     return None
 
 
@@ -102,25 +106,29 @@ def _builtin(fmt: str) -> Callable[[argparse.Namespace], dict[str, Any]]:
 
 
 def _run_all(args: argparse.Namespace) -> dict[str, Any]:
+    """Every format into the folder ``--out``, written whole (a hidden sibling renamed at the
+    end, with summary.json), as every command's result folder."""
     src = _source(args)
-    out = prepare_out(args.out, force=args.force)
-    for fmt, name in ALL_FILES.items():
-        _write(fmt, out / name, src, args)
     times = src.motion.times
-    write_ik_setup(
-        out / IK_SETUP,
-        model_file=ALL_FILES["osim"],
-        marker_file=ALL_FILES["trc"],
-        marker_names=src.motion.marker_names,
-        time_range=(float(times[0]), float(times[-1])),
-    )
-    return {
+    summary = {
         "result": str(src.root),
         "format": "all",
-        "out": str(out),
+        "out": str(args.out),
         "files": [*ALL_FILES.values(), IK_SETUP],
-        "frames": len(src.motion.times),
+        "frames": len(times),
     }
+    with output_folder(args.out, force=args.force) as out:
+        for fmt, name in ALL_FILES.items():
+            _write(fmt, out / name, src, args)
+        write_ik_setup(
+            out / IK_SETUP,
+            model_file=ALL_FILES["osim"],
+            marker_file=ALL_FILES["trc"],
+            marker_names=src.motion.marker_names,
+            time_range=(float(times[0]), float(times[-1])),
+        )
+        write_summary(out, summary)
+    return summary
 
 
 def _source(args: argparse.Namespace) -> ExportSource:
@@ -195,14 +203,24 @@ def register(sub: Any) -> None:
         metavar="MJCF",
         help="MJCF the scale factors are relative to (default: the bundled humanoid)",
     )
-    p.add_argument(
-        "--force", action="store_true", help="write into a non-empty --out folder (default: refuse)"
-    )
+    add_force_flag(p)
     for exporter in table.values():
         if exporter.add_arguments is not None:
             exporter.add_arguments(p)
     add_json_flag(p)
     p.set_defaults(func=run)
+
+
+def _result_files(args: argparse.Namespace) -> list[Path]:
+    """The files of RESULT_DIR (and ``--motion``) that an exported file must not replace."""
+    try:
+        rd = ResultDir.open(args.result) if args.result else None
+    except MocapError:  # reported by the exporter, with the rest of its checks
+        return []
+    files = [Path(args.motion)] if getattr(args, "motion", None) else []
+    if rd is not None:
+        files += [rd.model, rd.motion, rd.root / "theta.json", rd.root / "summary.json"]
+    return files
 
 
 def run(args: argparse.Namespace) -> int:
@@ -219,7 +237,7 @@ def run(args: argparse.Namespace) -> int:
                 f"give --to ({', '.join(sorted(table))}) or a {', '.join(sorted(by_suffix))} file"
             )
         fmt = by_suffix[suffix]
+    refuse_overwriting(args.out, _result_files(args))
     summary = table[fmt].run(args)
     text = f"wrote {summary.get('out', args.out)} ({fmt})"
-    folder = Path(args.out) if fmt == "all" else None  # summary.json beside the files
-    return finish(args, summary, text, folder)
+    return finish(args, summary, text)

@@ -5,7 +5,7 @@ positions (kinematic parameters) and every marker's offset on its segment, toget
 joint motion of every frame, by one Levenberg-Marquardt fit over all frames (the --solver paper
 alternative is Zou & Sugihara's Algorithm 1). Writes OUT/model.xml (the identified MJCF),
 theta.json, motion.npz (first trial; motion_<i>.npz for the others), identifiability.json,
-report.md, plots and summary.json; docs/reading-results.md explains them. The folder appears
+report.md, plots and summary.json; docs/outputs.md explains them. The folder appears
 only when the fit is complete; a fit that cannot be determined by the data is refused.
 Before the fit the marker data are checked for markers that do not move with their segment
 (mislabels, label swaps, re-stuck markers, impossible distances): each finding is a warning
@@ -198,7 +198,7 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
     trials = []
     ranges = []
     for t in loaded:
-        sl = frame_range(args.frames, len(t.markers))
+        sl = frame_range(args.frames, len(t.markers), t.path)
         if sl.stop - sl.start < 1:
             raise MocapError(f"{t.path}: --frames {args.frames} selects no frame")
         ranges.append([sl.start, sl.stop])

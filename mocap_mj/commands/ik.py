@@ -122,7 +122,7 @@ def write_motion_csv(
 def run(args: argparse.Namespace) -> int:
     pset = ParameterSet(model_for(args))
     trial = load_trial(args.markers, pset.marker_names, args)
-    sl = frame_range(args.frames, len(trial.markers))
+    sl = frame_range(args.frames, len(trial.markers), trial.path)
     if sl.stop - sl.start < 1:
         raise MocapError(f"{trial.path}: --frames {args.frames} selects no frame")
     excluded = parse_marker_list(args.exclude_markers, pset.marker_names)

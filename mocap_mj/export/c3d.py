@@ -58,13 +58,37 @@ def write_c3d(path: str | Path, src: ExportSource) -> None:
     """Write the C3D of ``src`` (see the module doc), atomically."""
     labels, desc, values = c3d_points(src)
     n_markers = len(src.motion.marker_names)
-    modeled = labels[n_markers : n_markers * 2 + len(JOINT_CENTRE_NAMES)]
-    angle_labels = [j.c3d_label for j in CLINICAL_JOINTS]
+    write_points_c3d(
+        path,
+        labels=labels,
+        descriptions=desc,
+        values=values,
+        rate=src.rate,
+        angle_labels=[j.c3d_label for j in CLINICAL_JOINTS],
+        modeled=labels[n_markers : n_markers * 2 + len(JOINT_CENTRE_NAMES)],
+    )
+
+
+def write_points_c3d(
+    path: str | Path,
+    *,
+    labels: list[str],
+    descriptions: list[str],
+    values: np.ndarray,
+    rate: float,
+    angle_labels: list[str],
+    modeled: list[str],
+    first_frame: int = 0,
+) -> None:
+    """Write points ``values`` (T, N, 3) (mm, degrees for ``angle_labels``) as a C3D,
+    atomically; NaN samples are written as invalid points. ``first_frame``: the first
+    frame's number as the readers report it (ezc3d's header, from 0; the file stores it
+    plus one, as does ``TRIAL:ACTUAL_START_FIELD``)."""
     c3d = ezc3d.c3d()
     point = c3d["parameters"]["POINT"]
-    point["RATE"]["value"] = np.array([src.rate])
+    point["RATE"]["value"] = np.array([rate])
     point["LABELS"]["value"] = labels
-    point["DESCRIPTIONS"]["value"] = desc
+    point["DESCRIPTIONS"]["value"] = descriptions
     point["UNITS"]["value"] = ["mm"]
     c3d.add_parameter("POINT", "ANGLES", angle_labels)
     c3d.add_parameter("POINT", "ANGLE_UNITS", ["deg"])
@@ -73,6 +97,9 @@ def write_c3d(path: str | Path, src: ExportSource) -> None:
     data = np.ones((4, len(labels), len(values)))
     data[:3] = np.transpose(values, (2, 1, 0))
     c3d["data"]["points"] = data
+    if first_frame:
+        c3d.add_parameter("TRIAL", "ACTUAL_START_FIELD", [int(first_frame) + 1, 0])
+        c3d["header"]["points"]["first_frame"] = int(first_frame)
     missing = ~np.all(np.isfinite(values), axis=2).T  # (N, T)
     residuals = np.where(missing, -1.0, 0.0)[np.newaxis]
     c3d["data"]["meta_points"]["residuals"] = residuals

@@ -49,7 +49,7 @@ from .summary import add_checks, add_finding, fit_report
 
 #: ``select="auto"``: above this many frames in all the trials, identify on a pose-diverse
 #: subset. The cost of an LM iteration grows with the frames while an hour of motion repeats
-#: a few thousand poses (docs/long-recordings.md).
+#: a few thousand poses (docs/method.md#long-recordings).
 AUTO_SELECT_ABOVE = 20_000
 #: ``select="auto"``: the subset's size (the long-recording benchmark's, 1000 frames).
 AUTO_SELECT_COUNT = 1000

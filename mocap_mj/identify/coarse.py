@@ -16,7 +16,7 @@ determines the same directions of theta, at a fraction of the cost per iteration
    with (the approach is done: the first steps need not be damped again).
 
 Only step 3 decides the answer: it stops by the same rules as the LM on every frame
-alone, at the same minimum (docs/identification.md, "Speed").
+alone, at the same minimum (docs/method.md#the-joint-levenbergmarquardt-solver).
 """
 
 from __future__ import annotations

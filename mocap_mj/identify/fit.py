@@ -62,7 +62,7 @@ class Fit:
     report : dict
         Everything :meth:`summary` reports that the attributes above do not hold as arrays:
         the fit's figures, prior weighting, checks and quality findings (``marker_quality``),
-        in summary.json's units (mm, s; names ending ``_mm``); see docs/reading-results.md.
+        in summary.json's units (mm, s; names ending ``_mm``); see docs/outputs.md.
     """
 
     pset: ParameterSet

@@ -143,7 +143,7 @@ def informed_solve(
     work between the parallel passes); x is the solution of the equality-constrained system
     [s_damped U; U^T 0] [x; l] = [rhs; 0] by one Cholesky factor of s_damped (positive
     definite: the damping and the priors), which is the solve in the complement's basis
-    (the eigenbasis solve when s_damped has no Cholesky factor). Figures: docs/identification.md.
+    (the eigenbasis solve when s_damped has no Cholesky factor).
     """
     sym = 0.5 * (s_mat + s_mat.T)
     _, low = scipy.linalg.eigh(

@@ -37,7 +37,7 @@ from .problem import TrialData
 #: LM iterations of each frame started from the refinement's poses (``start``): those are
 #: the converged IK under a model a fraction of a millimetre from the written one, and one
 #: Gauss-Newton step from there lands where the converged solve would stop, within its own
-#: tolerance (docs/long-recordings.md, "Issue 18h"), at a fraction of its time.
+#: tolerance (docs/method.md#long-recordings), at a fraction of its time.
 WARM_ITERATIONS = 1
 
 

@@ -280,16 +280,24 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
     return lines
 
 
-def frame_range(text: str | None, n: int) -> slice:
-    """``"A:B"`` (Python slice of frames) -> slice; None -> all frames."""
+def frame_range(text: str | None, n: int, source: str = "the recording") -> slice:
+    """``"A:B"`` (Python slice of frames, negative from the end) -> slice; None -> all frames.
+
+    A bound past the ``n`` frames of ``source`` is refused, naming its frame count: a range
+    silently shortened would fit other frames than the ones asked for.
+    """
+    from ..errors import MocapError
+
     if not text:
         return slice(0, n)
     try:
         a, b = (int(x) if x else None for x in text.split(":"))
     except ValueError:
-        from ..errors import MocapError
-
         raise MocapError(f"--frames: expected A:B (e.g. 0:500), got {text!r}") from None
+    if any(v is not None and not -n <= v <= n for v in (a, b)):
+        raise MocapError(
+            f"{source}: --frames {text}: past the end, the recording has {n} frames (0 to {n - 1})"
+        )
     return slice(*slice(a, b).indices(n)[:2])
 
 

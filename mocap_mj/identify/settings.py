@@ -18,7 +18,8 @@ MuDecrease = Literal["nielsen", "third"]
 @dataclass(frozen=True)
 class Tolerances:
     """The joint LM's stopping rules and safeguards: how the solver reaches the minimum of the
-    problem the recipe states (the reasons for the defaults: ``docs/identification.md``).
+    problem the recipe states (the reasons for the defaults:
+    ``docs/method.md#the-joint-levenbergmarquardt-solver``).
 
     Attributes
     ----------

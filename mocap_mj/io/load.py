@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import os
+import stat
 from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -119,6 +120,24 @@ def load_markers(
     )
 
 
+def require_file(file: Path) -> None:
+    """Raise :class:`InputFileError` unless ``file`` is a regular file (after symlinks),
+    naming what it is instead: absent, a folder, or a FIFO, socket or device (which a reader
+    would block on or read forever)."""
+    try:
+        mode = file.stat().st_mode
+    except FileNotFoundError:
+        raise InputFileError(f"{file}: no such file") from None
+    except OSError as exc:
+        raise InputFileError(f"{file}: cannot read: {exc.strerror or exc}") from None
+    if stat.S_ISDIR(mode):
+        raise InputFileError(f"{file}: is a folder, expected a marker file")
+    if not stat.S_ISREG(mode):
+        raise InputFileError(
+            f"{file}: is not a regular file (a pipe, socket or device), expected a marker file"
+        )
+
+
 def _arguments(
     path: str | os.PathLike[str],
     marker_map: Mapping[str, str] | str | os.PathLike[str] | None,
@@ -130,8 +149,7 @@ def _arguments(
     file = Path(path)
     wanted_up = normalize_up(up) if up is not None else None
     rename = load_marker_map(marker_map) if marker_map is not None else {}
-    if not file.is_file():
-        raise InputFileError(f"{file}: no such file")
+    require_file(file)
     if units is not None and metres_per_unit(units) is None:
         raise InputFileError(f"{file}: --units: expected mm, cm or m, got {units!r}")
     return file, wanted_up, rename
