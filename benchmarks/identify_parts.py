@@ -26,7 +26,7 @@ import numpy as np
 from mocap_mj import ParameterSet, _schur
 from mocap_mj import ik as ik_module
 from mocap_mj._threads import one_blas_thread
-from mocap_mj.identify import LMSettings, TrialData, identify_lm
+from mocap_mj.identify import LMSettings, Tolerances, TrialData, identify_lm
 from mocap_mj.identify import lm as lm_module
 from mocap_mj.identify import problem as problem_module
 from mocap_mj.identify.coarse import coarse_rows
@@ -93,7 +93,7 @@ def kernels(repeats: int) -> None:
     numba.set_num_threads(threads)
     print(f"Schur pass, 500 frames, one thread: {wall * 1e3:.2f} ms (minimum of {repeats})")
     trials = [TrialData("rom", markers, np.asarray(exp.times))]
-    rows = coarse_rows(trials, pset, LMSettings().coarse_frames)
+    rows = coarse_rows(trials, pset, Tolerances().coarse_frames)
     assert rows is not None
     subset = markers[rows[0]]
     wall, cpu, main = _best(lambda: solver.solve_trial(subset), repeats)

@@ -314,6 +314,38 @@ def suspects(findings: Sequence[Finding]) -> dict[str, int]:
     return dict(sorted(count.items(), key=lambda kv: (-kv[1], kv[0])))
 
 
+def check_trials_quality(
+    paths: Sequence[str],
+    names: Sequence[str],
+    markers: Sequence[np.ndarray],
+    rates: Sequence[float],
+    segments: Sequence[str],
+    first_frames: Sequence[int],
+    *,
+    between: bool = True,
+) -> list[Finding]:
+    """Every trial's findings (:func:`check_marker_quality`: ``paths``, markers (T_i, M, 3)
+    [m], rates [Hz] and first frames per trial) and, with ``between`` (one model for every
+    trial), those across trials (:func:`between_trials`)."""
+    found: list[Finding] = []
+    for path, x, rate, first in zip(paths, markers, rates, first_frames, strict=True):
+        found += check_marker_quality(path, names, x, rate, segments, first_frame=first)
+    if between:
+        found += between_trials(paths, names, markers, segments)
+    return found
+
+
+def quality_entry(found: Sequence[Finding], excluded: Sequence[str]) -> dict[str, Any]:
+    """summary.json's ``marker_quality`` entry: the findings, the markers they name
+    (:func:`suspects`), the ``excluded`` markers and the samples the findings drop."""
+    return {
+        "findings": [f.to_json() for f in found],
+        "suspects": suspects(found),
+        "excluded": list(excluded),
+        "samples_dropped": len({(f.file, f.markers[0], t) for f in found for t in f.samples}),
+    }
+
+
 def quality_lines(entry: Mapping[str, Any]) -> list[str]:
     """The report.md section on marker data quality from summary.json's ``marker_quality``
     entry (``findings`` as :meth:`Finding.to_json`, ``suspects``, ``excluded``)."""

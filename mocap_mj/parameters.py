@@ -362,7 +362,7 @@ class ParameterSet:
         ``joint_range`` (njnt, 2) [rad or m], as ``MjModel.jnt_range``: the joint limits to
         write instead of the file's (only the joints whose range differs are rewritten, in
         the file's angle unit); default: the file's limits. An identification that solved
-        with other limits (``LMSettings.ball_limit_scale``) passes them so that the written
+        with other limits (``Tolerances.ball_limit_scale``) passes them so that the written
         model reproduces its fit.
         """
         spec = exported.internal_spec(self.path)

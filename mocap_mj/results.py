@@ -26,6 +26,7 @@ import io
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -33,6 +34,9 @@ import numpy as np
 from .errors import InputFileError, check_shape
 from .exported import Layout
 from .io.atomic import atomic_write_bytes
+
+if TYPE_CHECKING:
+    from .ik import IKResult
 
 
 @dataclass(frozen=True)
@@ -45,12 +49,16 @@ class Motion:
     times : (T,) float [s]
     markers : (T, M, 3) float [m], NaN where missing (model site order)
     marker_names : tuple of str, (M,)
+    ik : IKResult or None
+        How each frame was solved (status, iterations, marker RMSE (T,) [m]) when the motion
+        was solved here (:func:`mocap_mj.identify.robust_ik.solve_motion`); not saved.
     """
 
     qpos: np.ndarray
     times: np.ndarray
     markers: np.ndarray
     marker_names: tuple[str, ...]
+    ik: IKResult | None = None
 
     def __post_init__(self) -> None:
         n = len(self.qpos)

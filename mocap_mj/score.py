@@ -260,10 +260,10 @@ def _align(
     pset: ParameterSet, theta_hat: np.ndarray, clean: np.ndarray, times: np.ndarray
 ) -> LMResult:
     """The LM of :func:`align_truth`: its theta (P,) [m] and its fit (``marker_rmse`` [m])."""
-    from .identify.lm import LMSettings, TrialData, identify_lm
+    from .identify.lm import LMSettings, Tolerances, TrialData, identify_lm
 
-    # From the estimate, near the truth's class: no coarse approach (LMSettings.coarse_frames).
-    settings = LMSettings(max_iterations=40, tol_noise=1e-3, coarse_frames=0)
+    # From the estimate, near the truth's class: no coarse approach (Tolerances.coarse_frames).
+    settings = LMSettings(max_iterations=40, tolerances=Tolerances(tol_noise=1e-3, coarse_frames=0))
     return identify_lm(
         [TrialData("truth", clean, times)], pset=pset, theta0=theta_hat, settings=settings
     )

@@ -212,7 +212,7 @@ def test_cli_identify_score_demo(tmp_path: Path) -> None:
 
 def test_score_of_truth_against_itself_is_zero(tmp_path: Path) -> None:
     """A result folder made from the truth itself scores zero parameter error."""
-    from mocap_mj.identify.output import write_result
+    from mocap_mj.identify.output import write_files
     from mocap_synth import write_experiment
 
     pset = ParameterSet()
@@ -239,7 +239,7 @@ def test_score_of_truth_against_itself_is_zero(tmp_path: Path) -> None:
         "seconds": 0.0,
         "expected_rmse_mm": 0.0,
     }
-    write_result(out, pset, result, idf, [trial], summary)
+    write_files(out, pset, result, idf, [trial], summary)
     (out / "summary.json").write_text(json.dumps(summary))
     from mocap_mj.score import score
 

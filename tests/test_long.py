@@ -322,7 +322,7 @@ def test_refinement_minimises_the_weighted_cost_of_the_sliding_landmarks(
     degrees), so the unweighted and the weighted optimum lie centimetres apart."""
     from functools import partial
 
-    from mocap_mj.identify.lm import LMSettings, TrialData, identify_lm
+    from mocap_mj.identify.lm import LMSettings, Tolerances, TrialData, identify_lm
     from mocap_mj.identify.tissue import SLIDES, SlidingModel
 
     exp, m = hand_zero.exp, pset.model  # 300 ROM frames; their information at the truth
@@ -341,7 +341,7 @@ def test_refinement_minimises_the_weighted_cost_of_the_sliding_landmarks(
     # a gain below sigma^2, may end a standard deviation short of it along a flat direction:
     # 4.3 mm here).
     trial = TrialData("rom", markers, exp.times, weights=weigh(qpos))
-    st = LMSettings(coarse_frames=0, tol_noise=1e-3)
+    st = LMSettings(tolerances=Tolerances(coarse_frames=0, tol_noise=1e-3))
     lm = identify_lm([trial], pset=pset, theta0=theta0, settings=st)
 
     def apart(theta: np.ndarray) -> float:
@@ -447,13 +447,13 @@ def test_auto_selection_with_a_robust_loss_refines_with_it(
     selected frames and refines on every frame with the robust loss (once refused with an
     explicit number of frames, and auto fitted every frame instead)."""
     from mocap_mj import cli
-    from mocap_mj.commands import identify as identify_command
+    from mocap_mj.identify import api
 
     truth, out = tmp_path / "truth", tmp_path / "robust"
     proc = _cli("synth", "--out", str(truth), "--frames", "120", "--motion", "rom", "--seed", "6")
     assert proc.returncode == 0, proc.stderr
-    monkeypatch.setattr(identify_command, "AUTO_SELECT_ABOVE", 100)  # 120 frames count as long
-    monkeypatch.setattr(identify_command, "AUTO_SELECT_COUNT", 60)
+    monkeypatch.setattr(api, "AUTO_SELECT_ABOVE", 100)  # 120 frames count as long
+    monkeypatch.setattr(api, "AUTO_SELECT_COUNT", 60)
     markers = str(truth / "markers.trc")
     assert cli.main(["identify", "--markers", markers, "--robust", "--out", str(out)]) == 0
     summary = json.loads((out / "summary.json").read_text())
@@ -467,7 +467,7 @@ def test_refinement_minimises_the_robust_cost(pset: ParameterSet, hand_zero: Han
     """With ``robust`` (the Cauchy loss and the threshold of the fit), ``refine`` on every
     frame ends where the joint LM with that loss ends, and outliers (3 % of the samples
     displaced 50 mm) do not move it as they move the least-squares refinement."""
-    from mocap_mj.identify.lm import LMSettings, identify_lm
+    from mocap_mj.identify.lm import LMSettings, Tolerances, identify_lm
     from mocap_mj.identify.long import robust_loss
 
     exp = hand_zero.exp  # 300 ROM frames; their information at the truth
@@ -485,7 +485,7 @@ def test_refinement_minimises_the_robust_cost(pset: ParameterSet, hand_zero: Han
         qpos = np.full((len(markers), pset.model.nq), np.nan)
         runs[name] = refine(markers, pset, exp.theta_true, qpos, 1e-3, robust=r, steps=12,
                             tol_std=0.01).theta  # fmt: skip
-    settings = LMSettings(loss="cauchy", coarse_frames=0)
+    settings = LMSettings(loss="cauchy", tolerances=Tolerances(coarse_frames=0))
     lm = identify_lm([TrialData("rom", markers, exp.times)], pset=pset, theta0=exp.theta_true,
                      settings=settings)  # fmt: skip
 

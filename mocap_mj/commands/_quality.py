@@ -20,11 +20,11 @@ import numpy as np
 from ..errors import MocapError
 from ..marker_quality import (
     Finding,
-    between_trials,
-    check_marker_quality,
+    check_trials_quality,
     drop_ghosts,
     exclude_markers,
     marker_segments,
+    quality_entry,
     suspects,
 )
 from ..marker_quality import parse_marker_list as parse_marker_list
@@ -57,16 +57,15 @@ def check_trials(
     """Check each (path, markers (T, M, 3) [m], rate [Hz], file's frame of row 0), the
     ``excluded`` markers already dropped; raise under ``--strict``, else print the findings
     on stderr; return them and the summary's ``marker_quality`` entry."""
-    segments = marker_segments(pset.model)
-    found: list[Finding] = []
-    for path, markers, rate, first in trials:
-        found += check_marker_quality(
-            path, pset.marker_names, markers, rate, segments, first_frame=first
-        )
-    if args.command == "identify":  # one model for every trial: their markers must agree
-        found += between_trials(
-            [t[0] for t in trials], pset.marker_names, [t[1] for t in trials], segments
-        )
+    found = check_trials_quality(
+        [t[0] for t in trials],
+        pset.marker_names,
+        [t[1] for t in trials],
+        [t[2] for t in trials],
+        marker_segments(pset.model),
+        [t[3] for t in trials],
+        between=args.command == "identify",  # one model for every trial: markers must agree
+    )
     named = suspects(found)
     if found and args.strict:
         raise MocapError(
@@ -85,12 +84,7 @@ def check_trials(
             "(docs/recordings.md#what-each-warning-means)",
             file=sys.stderr,
         )
-    entry = {
-        "findings": [f.to_json() for f in found],
-        "suspects": named,
-        "excluded": list(excluded),
-        "samples_dropped": len({(f.file, f.markers[0], t) for f in found for t in f.samples}),
-    }
+    entry = quality_entry(found, excluded)
     return found, entry
 
 

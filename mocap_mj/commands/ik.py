@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -26,16 +27,17 @@ from ..checks import check_markers
 from ..cli import add_force_flag, add_json_flag, into_out_folder
 from ..errors import MocapError
 from ..exported import Layout
+from ..identify.losses import LossName
 from ..identify.output import frame_range
 from ..identify.plausibility import AT_LIMIT_PRINT, joints_at_limit, limits_text
-from ..identify.robust_ik import solve_trial_loss
+from ..identify.problem import TrialData
+from ..identify.robust_ik import solve_motion
 from ..identify.tissue import recorded_sliding_model
-from ..ik import IKSettings, IKSolver, Status
+from ..ik import IKSettings, Status
 from ..io.atomic import atomic_write_text
-from ..kinematics import Kinematics
 from ..model import load_written
 from ..parameters import ParameterSet
-from ..results import Motion, save_motion
+from ..results import save_motion
 from ..tables import write_joint_centres_csv
 from ._markers import add_marker_options, load_trial, model_for
 from ._quality import (
@@ -146,27 +148,28 @@ def _solve_and_write(
     quality: dict[str, Any] | None = None,
 ) -> tuple[dict[str, Any], str]:
     markers, times = trial.markers[sl], trial.times[sl]
-    kin = Kinematics(pset)
-    solver = IKSolver(
-        kin,
-        IKSettings(
-            damping=args.damping, max_iterations=args.max_iterations, min_markers=args.min_markers
-        ),
-    )
     t0 = time.perf_counter()
     from .progress import frames_bar
 
-    loss = "cauchy" if args.robust else args.loss
-    sliding = None if args.no_sliding_landmarks else recorded_sliding_model(pset.model)
+    loss: LossName = "cauchy" if args.robust else args.loss
+    settings = IKSettings(
+        damping=args.damping, max_iterations=args.max_iterations, min_markers=args.min_markers
+    )
     with frames_bar("IK", len(markers), enabled=not args.json) as progress:
-        result = solve_trial_loss(solver, markers, loss, progress=progress, sliding=sliding)
+        motion = solve_motion(
+            pset, TrialData(str(trial.path), markers, times), loss=loss, settings=settings,
+            sliding=not args.no_sliding_landmarks, progress=progress,
+        )  # fmt: skip
     seconds = time.perf_counter() - t0
+    result, model = motion.ik, pset.model
+    assert result is not None  # solve_motion's motion carries its IK
+    sliding = None if args.no_sliding_landmarks else recorded_sliding_model(model)
     pset.export_mjcf(out / "model.xml", pset.nominal)
-    written = Layout.of(kin.model).written(result.qpos)
-    save_motion(out / "motion.npz", Motion(written, times, markers, pset.marker_names))
+    written = Layout.of(model).written(result.qpos)
+    save_motion(out / "motion.npz", replace(motion, qpos=written))
     write_motion_csv(out / "motion.csv", load_written(out / "model.xml"), times, written, sl.start)
     write_joint_centres_csv(
-        out / "joint_centres.csv", kin.model, times, result.qpos, first_frame=sl.start
+        out / "joint_centres.csv", model, times, result.qpos, first_frame=sl.start
     )
     n = len(markers)
     skipped = np.flatnonzero(result.status == Status.TOO_FEW_MARKERS)
@@ -191,7 +194,7 @@ def _solve_and_write(
         "markers_missing": list(trial.report.missing),
         "markers_without_data": never,
         "marker_quality": quality,
-        "joints_at_limit": joints_at_limit(kin.model, kin.model.jnt_range, [result.qpos]),
+        "joints_at_limit": joints_at_limit(model, model.jnt_range, [result.qpos]),
     }
     held = limits_text(summary["joints_at_limit"], AT_LIMIT_PRINT)
     text = (

@@ -11,7 +11,7 @@ import numpy as np
 from ..cli import finish
 from ..errors import MocapError
 from ..identify.identifiability import Identifiability
-from ..identify.output import expected_rmse, write_result
+from ..identify.output import expected_rmse, write_files
 from ..identify.paper import (
     DEFAULT_DELTA,
     DEFAULT_STEP,
@@ -62,7 +62,7 @@ def run_paper(
         *trace_lines(result),
         "",
     ]
-    write_result(out, pset, result, idf, trials, summary, iterations)
+    write_files(out, pset, result, idf, trials, summary, iterations)
     text = (
         f"identified {pset.size} parameters from {summary['frames_used']} frames in "
         f"{result.seconds:.2f} s (Algorithm 1, {settings.sampling} sampling, "

@@ -391,7 +391,7 @@ class _Solver:
         mu: float = 0.0,
     ) -> None:
         self.free, self.priors, self.box = free, priors, box
-        self.floor = st.prior_ratio * st.prior_weight
+        self.floor = st.tolerances.prior_ratio * st.prior_weight
         hess = sum((p.hessian() for p in priors), np.zeros_like(info))
         self.s_mat = info[np.ix_(free, free)] + hess[np.ix_(free, free)]
         lam, vec = np.linalg.eigh(0.5 * (self.s_mat + self.s_mat.T))

@@ -158,12 +158,8 @@ def write_every_frame_motion(
     weighed its fit (its soft-tissue sliding model); ``robust``: a robust loss and its
     threshold (default None: least squares), the warm frames weighed by its IRLS weights at
     their start poses, as the identification's robust fit weighed its samples."""
-    with tempfile.TemporaryDirectory(prefix="mocap-mj-") as tmp:
-        path = Path(tmp) / "model.xml"
-        pset.export_mjcf(path, theta, joint_range=solver_joint_range(pset.model, settings))
-        written = ParameterSet(path)
-    solver = IKSolver(Kinematics(written))
-    layout = Layout.of(written.model)
+    solver = _written_solver(pset, theta, settings)
+    layout = Layout.of(solver.kin.model)
     model = pset.model_for(theta)
     t0 = time.perf_counter()
     firsts = list(first_frames) if first_frames is not None else [0] * len(trials)
@@ -188,6 +184,41 @@ def write_every_frame_motion(
     return tally.fit._replace(seconds=time.perf_counter() - t0)
 
 
+def every_frame_motion(
+    pset: ParameterSet,
+    theta: np.ndarray,
+    settings: LMSettings,
+    trials: Sequence[TrialData],
+    *,
+    start: Sequence[NDArray[np.floating]] | None = None,
+    progress: Callable[[int], None] | None = None,
+    chunk: int = CHUNK,
+    weigh: Weigh | None = None,
+    robust: Robust | None = None,
+) -> tuple[list[np.ndarray], MotionFit]:
+    """:func:`write_every_frame_motion` held in memory: every frame's pose (T_i, nq) per
+    trial (the same poses, solved chunk by chunk alike) and the fit over every frame."""
+    solver = _written_solver(pset, theta, settings)
+    t0 = time.perf_counter()
+    tally = _Tally(progress)
+    poses = []
+    for i, trial in enumerate(trials):
+        q0 = start[i] if start is not None else None
+        chunks = _solved(solver, trial, q0, None, tally, chunk, weigh, robust)
+        poses.append(np.concatenate([np.zeros((0, solver.kin.nq)), *chunks]))
+    return poses, tally.fit._replace(seconds=time.perf_counter() - t0)
+
+
+def _written_solver(pset: ParameterSet, theta: np.ndarray, settings: LMSettings) -> IKSolver:
+    """The IK of the model as ``identify`` writes it: parameters theta (P,) [m], the joint
+    limits the solver used (:func:`solver_joint_range`), read back from its MJCF."""
+    with tempfile.TemporaryDirectory(prefix="mocap-mj-") as tmp:
+        path = Path(tmp) / "model.xml"
+        pset.export_mjcf(path, theta, joint_range=solver_joint_range(pset.model, settings))
+        written = ParameterSet(path)
+    return IKSolver(Kinematics(written))
+
+
 class _Tally:
     """The motion's fit so far, and the progress callback (frames done)."""
 
@@ -210,14 +241,15 @@ def _solved(
     solver: IKSolver,
     trial: TrialData,
     q0: NDArray[np.floating] | None,
-    table: _CentresTable,
+    table: _CentresTable | None,
     tally: _Tally,
     chunk: int,
     weigh: Weigh | None = None,
     robust: Robust | None = None,
 ) -> Iterator[np.ndarray]:
     """The trial's poses (n, nq) chunk by chunk (:func:`mocap_mj.identify.long.solve_chunk`:
-    warm from q0's finite rows, else chained), each also appended to the centres table."""
+    warm from q0's finite rows, else chained), each also appended to the centres table
+    (when given)."""
     nq = solver.kin.nq
     for s in range(0, len(trial.markers), chunk):
         m = np.asarray(trial.markers[s : s + chunk], dtype=float)
@@ -226,5 +258,6 @@ def _solved(
         t0 = time.perf_counter()
         f = solve_chunk(solver, m, q, WARM_ITERATIONS, weigh, robust)
         tally.add(f, len(m), time.perf_counter() - t0)
-        table.append(np.asarray(trial.times[s : s + chunk], dtype=float), q)
+        if table is not None:
+            table.append(np.asarray(trial.times[s : s + chunk], dtype=float), q)
         yield q
