@@ -15,6 +15,7 @@ import mocap_mj
 from mocap_mj import cli
 from mocap_mj.errors import InputFileError
 from mocap_mj.io import load_markers
+from mocap_mj.model import load_model
 from mocap_mj.results import load_motion
 from mocap_mj.subject import from_c3d
 from mocap_synth import SynthConfig, synthesize, write_experiment
@@ -149,7 +150,9 @@ def test_selection_in_memory_equals_the_streamed_motion(synthetic: Path, tmp_pat
     fit = _api_fit(synthetic, None, recipe)
     assert np.array_equal(fit.theta, by_command)
     assert fit.motion is not None and fit.summary()["frames_selected"]
-    streamed = load_motion(tmp_path / "cli" / "motion.npz")
+    streamed = load_motion(
+        tmp_path / "cli" / "motion.npz", load_model(tmp_path / "cli" / "model.xml")
+    )
     assert len(fit.motion[0].qpos) == 80
     assert np.array_equal(fit.motion[0].qpos, streamed.qpos, equal_nan=True)
 
@@ -162,7 +165,7 @@ def test_solve_motion_is_the_ik_command(synthetic: Path, tmp_path: Path) -> None
     traj = load_markers(str(synthetic), model_names=pset.marker_names)
     trial = mocap_mj.TrialData(str(synthetic), traj.select(pset.marker_names), traj.times)
     motion = mocap_mj.solve_motion(pset, trial)
-    written = load_motion(tmp_path / "ik" / "motion.npz")
+    written = load_motion(tmp_path / "ik" / "motion.npz", load_model(tmp_path / "ik" / "model.xml"))
     assert np.array_equal(motion.qpos, written.qpos, equal_nan=True)
     summary = json.loads((tmp_path / "ik" / "summary.json").read_text())
     assert motion.ik is not None and motion.ik.rmse() * 1e3 == summary["marker_rmse_mm"]
