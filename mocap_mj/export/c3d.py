@@ -5,8 +5,8 @@ Points, in this order, all in the MJCF world frame (z up, as the lab of the inpu
 - the measured markers, under their names (``LASI`` ...), in millimetres;
 - the model's markers, ``<name>_model`` (``LASI_model``), in millimetres;
 - the joint centres of :mod:`mocap_mj.joint_centres` (``hip_l`` ...), in millimetres;
-- the clinical angles of :mod:`mocap_mj.export.clinical` as Plug-in Gait-style points
-  (``LHipAngles``: x flexion, y adduction, z internal rotation), in degrees.
+- Plug-in Gait's angles of the model (:mod:`mocap_mj.export.clinical`) under Vicon's names
+  and components (``LHipAngles``: x flexion, y adduction, z internal rotation), in degrees.
 
 Parameters a reader expects: ``POINT:RATE``, ``POINT:UNITS`` = mm, ``POINT:ANGLES`` with
 ``POINT:ANGLE_UNITS`` = deg, ``POINT:MODELED_MARKERS`` (model markers and joint centres),
@@ -23,7 +23,7 @@ import numpy as np
 
 from ..io.atomic import atomic_write_bytes
 from ..joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
-from .clinical import CLINICAL_JOINTS, clinical_angles
+from .clinical import clinical_angles
 from .result import ExportSource
 from .tables import marker_residuals
 
@@ -34,21 +34,19 @@ def c3d_points(src: ExportSource) -> tuple[list[str], list[str], np.ndarray]:
     names = list(motion.marker_names)
     fitted, _ = marker_residuals(model, motion.qpos, motion.markers)
     centres = joint_centre_trajectories(model, motion.qpos)
-    angles = np.degrees(clinical_angles(model, motion.qpos))
+    by_name = clinical_angles(model, motion.qpos)
+    angles = np.degrees(np.stack(list(by_name.values()), axis=1))
     labels = [
         *names,
         *(f"{n}_model" for n in names),
         *JOINT_CENTRE_NAMES,
-        *(j.c3d_label for j in CLINICAL_JOINTS),
+        *by_name,
     ]
     desc = [
         *("measured marker" for _ in names),
         *("model marker (fitted)" for _ in names),
         *("joint centre" for _ in JOINT_CENTRE_NAMES),
-        *(
-            f"{j.distal} rel. {j.proximal or 'lab'}: " + ", ".join(j.components)
-            for j in CLINICAL_JOINTS
-        ),
+        *("Plug-in Gait angle of the model" for _ in by_name),
     ]
     values = np.concatenate([motion.markers * 1e3, fitted * 1e3, centres * 1e3, angles], axis=1)
     return labels, desc, values
@@ -64,7 +62,7 @@ def write_c3d(path: str | Path, src: ExportSource) -> None:
         descriptions=desc,
         values=values,
         rate=src.rate,
-        angle_labels=[j.c3d_label for j in CLINICAL_JOINTS],
+        angle_labels=labels[n_markers * 2 + len(JOINT_CENTRE_NAMES) :],
         modeled=labels[n_markers : n_markers * 2 + len(JOINT_CENTRE_NAMES)],
     )
 

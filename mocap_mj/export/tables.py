@@ -1,4 +1,5 @@
-"""CSV tables: clinical angles, per-marker residuals, and segment scale factors.
+"""CSV tables: clinical angles (Plug-in Gait's table), per-marker residuals, and segment
+scale factors.
 
 All files are comma-separated with one header row; frames are numbered from 0 with their time
 [s]; empty cells are missing values (a marker not measured, a frame not solved).
@@ -16,7 +17,7 @@ from .. import rolling
 from ..errors import check_shape
 from ..io.atomic import atomic_write_text
 from ..joint_centres import JOINT_CENTRES
-from .clinical import clinical_angles, clinical_columns
+from .clinical import angles_table_text
 from .result import posed_frames
 
 #: Segments of the scale table: (segment, proximal joint centre, distal joint centre). The
@@ -56,11 +57,15 @@ def table_text(header: Sequence[str], times: np.ndarray, values: np.ndarray, fmt
 
 
 def write_angles_csv(
-    path: str | Path, model: mujoco.MjModel, times: np.ndarray, qpos: np.ndarray
+    path: str | Path,
+    model: mujoco.MjModel,
+    times: np.ndarray,
+    qpos: np.ndarray,
+    first_frame: int = 0,
 ) -> None:
-    """Clinical angles (:mod:`mocap_mj.export.clinical`) in degrees, one column per angle."""
-    angles = np.degrees(clinical_angles(model, qpos)).reshape(len(qpos), -1)
-    atomic_write_text(path, table_text(clinical_columns(), times, angles, ".4f"))
+    """Plug-in Gait's angles of the model (:mod:`mocap_mj.export.clinical`) in degrees, the
+    table ``mocap-mj plug-in-gait`` writes (``frame,time_s``, then ``<Name>_X,_Y,_Z``)."""
+    atomic_write_text(path, angles_table_text(model, times, qpos, first_frame))
 
 
 def marker_residuals(
