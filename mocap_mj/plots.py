@@ -26,6 +26,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DPI",
+    "plot_angle_comparison",
     "plot_error_accumulation",
     "plot_marker_error_per_frame",
     "plot_parameter_errors",
@@ -285,4 +286,54 @@ def plot_residual_per_marker(
     ax.set_ylabel("RMSE [mm]")
     ax.set_title(title)
     ax.grid(axis="y", alpha=0.3)
+    return _save(fig, path)
+
+
+def plot_angle_comparison(
+    path: str | Path,
+    times: ArrayLike,
+    ours: Mapping[str, np.ndarray],
+    theirs: Mapping[str, np.ndarray],
+    *,
+    labels: tuple[str, str] = ("ours", "Plug-in Gait"),
+) -> Path:
+    """Each angle's three components, ours and the reference's in one panel per component
+    (rows: the angles without the side letter; left side blue, right red; ours solid, the
+    reference dashed).
+
+    Parameters
+    ----------
+    path : path
+        PNG file to write.
+    times : (T,) array [s]
+    ours, theirs : mapping of Vicon name (``LKneeAngles``) -> (T, 3) array [deg]
+        Only the names both hold are drawn.
+    labels : (str, str)
+        Legend names of ours and the reference.
+    """
+    t = _times(times)
+    names = [n for n in ours if n in theirs]
+    for n in names:
+        for what, a in (("ours", ours[n]), ("reference", theirs[n])):
+            if np.shape(a) != (len(t), 3):
+                raise ShapeError(f"{what} {n}: expected shape ({len(t)}, 3)")
+    joints = list(dict.fromkeys(n[1:] for n in names))
+    if not joints:
+        raise MocapError("no angle in both tables to plot")
+    fig = _figure((1800, 260 * len(joints) + 120))
+    axes = fig.subplots(len(joints), 3, squeeze=False, sharex=True)
+    for row, joint in enumerate(joints):
+        for k, axis in enumerate("XYZ"):
+            ax = axes[row][k]
+            for side, color in (("L", "tab:blue"), ("R", "tab:red")):
+                name = side + joint
+                if name in names:
+                    ax.plot(t, ours[name][:, k], color=color, lw=1.0, label=f"{side} {labels[0]}")
+                    ax.plot(t, theirs[name][:, k], color=color, lw=1.0, ls="--",
+                            label=f"{side} {labels[1]}")  # fmt: skip
+            ax.set_title(f"{joint} {axis} (deg)", fontsize=8)
+            ax.tick_params(labelsize=6)
+    axes[0][0].legend(fontsize=6)
+    for ax in axes[-1]:
+        ax.set_xlabel("time (s)", fontsize=7)
     return _save(fig, path)

@@ -3,8 +3,9 @@
 Inverse kinematics of one marker file with a given model (the bundled humanoid unless
 --model): each frame's joint angles minimise the distance between the model's marker sites and
 the measured markers (Levenberg-Marquardt, frames solved in chains warm-started from their
-neighbours). Writes OUT/motion.csv (joint angles, mm and degrees), motion.npz (qpos, times,
-markers; opened by `mocap-mj view`), model.xml and summary.json. Frames with fewer than
+neighbours). Writes OUT/motion.csv (joint angles, mm and degrees), angles.csv (the model's
+angles in Plug-in Gait's conventions, the table `mocap-mj plug-in-gait` writes), motion.npz
+(qpos, times, markers; opened by `mocap-mj view`), model.xml and summary.json. Frames with fewer than
 --min-markers present markers are left unsolved (empty in motion.csv). A model written by
 identify with the landmarks' soft-tissue sliding model (recorded in its model.xml) weighs
 them as identify did, so that its RMSE reproduces the fit (--no-sliding-landmarks: every
@@ -38,6 +39,7 @@ from ..io.atomic import atomic_write_text
 from ..model import load_written
 from ..parameters import ParameterSet
 from ..results import save_motion
+from ..export.tables import write_angles_csv
 from ..tables import write_joint_centres_csv
 from ._markers import add_marker_options, load_trial, model_for
 from ._quality import (
@@ -171,6 +173,7 @@ def _solve_and_write(
     write_joint_centres_csv(
         out / "joint_centres.csv", model, times, result.qpos, first_frame=sl.start
     )
+    write_angles_csv(out / "angles.csv", model, times, result.qpos, first_frame=sl.start)
     n = len(markers)
     skipped = np.flatnonzero(result.status == Status.TOO_FEW_MARKERS)
     seen = np.any(np.all(np.isfinite(markers), axis=2), axis=0)
@@ -212,6 +215,7 @@ def _solve_and_write(
         + (f"\nmarkers in the file without a valid sample: {', '.join(never)}" if never else "")
         + ("" if quality is None else f"\n{quality_text(quality)}")
         + (f"\njoints held at a limit of their range: {held}" if held else "")
-        + f"\nwrote {args.out}/motion.csv, joint_centres.csv, motion.npz, model.xml, summary.json"
+        + f"\nwrote {args.out}/motion.csv, joint_centres.csv, angles.csv, motion.npz, "
+        "model.xml, summary.json"
     )
     return summary, text

@@ -19,6 +19,7 @@ from ..parameters import ParameterSet
 from ..results import Motion, save_motion
 from ..strict_json import dumps, jsonable
 from ..tables import write_joint_centres_csv
+from .clinical_out import write_model_angles
 from .fit import Fit
 from .identifiability import Identifiability
 from .lm import solver_joint_range
@@ -38,7 +39,9 @@ def write_result(
 ) -> dict[str, Any]:
     """Write ``fit`` as a result folder (:mod:`mocap_mj.results`): model.xml, theta.json,
     recipe.yaml (:meth:`Recipe.save`: ``mocap-mj identify --recipe`` re-runs it),
-    motion.npz and joint_centres.csv (``_<i>`` for the other trials), segments.csv,
+    motion.npz and joint_centres.csv (``_<i>`` for the other trials), angles.csv (Plug-in
+    Gait's angles of the model, first trial; compared in report.md with the Nexus angles its
+    C3D holds), segments.csv,
     identifiability.json, report.md, plots and summary.json (``inputs``, e.g. the marker
     files read, then :meth:`Fit.summary`). The folder is replaced whole at the end
     (:func:`~mocap_mj.io.atomic.atomic_folder`; a non-empty ``folder`` only with ``force``);
@@ -61,6 +64,18 @@ def write_result(
             sliding=fit.sliding,
         )
         _write_tables(staging, fit.pset, fit.theta, motion, fit.segments, fit.first_frames)
+        lines, compared = write_model_angles(
+            staging,
+            fit.pset.model_for(fit.theta),
+            motion,
+            str(fit.trials[0].name) if fit.trials else "",
+            fit.first_frames[0] if fit.first_frames else 0,
+        )
+        if compared is not None:
+            summary["angles_vs_plug_in_gait"] = compared
+        if lines:
+            report = staging / "report.md"
+            atomic_write_text(report, report.read_text() + "\n" + "\n".join(lines))
         fit.recipe.save(staging / "recipe.yaml")
         atomic_write_text(staging / "summary.json", dumps(summary, indent=2) + "\n")
     return summary
