@@ -140,10 +140,10 @@ FIGURE = "angles_vs_plug_in_gait.png"
 
 def comparison_section(
     folder: Path, frames: np.ndarray, times: np.ndarray, ours: dict[str, np.ndarray],
-    ref: Reference,
+    ref: Reference, figure: str = FIGURE,
 ) -> tuple[list[str], list[Row]]:  # fmt: skip
     """(Markdown lines, rows) of ours (name -> (T, 3) [rad] at frames (T,), times (T,) [s])
-    against ``ref``, with both curves per component drawn into ``folder`` / :data:`FIGURE`."""
+    against ``ref``, with both curves per component drawn into ``folder`` / ``figure``."""
     from ..plots import plot_angle_comparison
 
     idx = aligned(frames, ref)
@@ -154,7 +154,7 @@ def comparison_section(
     rows = compare(ours, theirs)
     deg = {n: np.degrees(v) for n, v in ours.items()}
     plot_angle_comparison(
-        folder / FIGURE, times, deg, {n: np.degrees(v) for n, v in theirs.items()}
+        folder / figure, times, deg, {n: np.degrees(v) for n, v in theirs.items()}
     )
     lines = [
         "## Angles against Plug-in Gait",
@@ -163,7 +163,7 @@ def comparison_section(
         f"{ref.source}, {int(np.sum(idx >= 0))} frames in common. Where the two differ by "
         "construction: docs/clinical.md, \"Our model's angles and Plug-in Gait's\".",
         "",
-        f"![angles]({FIGURE})",
+        f"![angles]({figure})",
         "",
         *table_lines(rows),
         "",

@@ -42,7 +42,8 @@ TRUNK_SITES = ("LASI", "RASI", "LPSI", "RPSI", "SACR", "C7", "T10", "CLAV", "STR
                "LFHD", "RFHD", "LBHD", "RBHD")  # fmt: skip
 #: Bodies whose origins are the joint centres: (key, body with ``{s}`` for the side).
 CENTRES = (("hip_{s}", "thigh_{s}"), ("knee_{s}", "shank_{s}"), ("ankle_{s}", "foot_{s}"),
-           ("shoulder_{s}", "upperarm_{s}"), ("elbow_{s}", "ulna_{s}"), ("wrist_{s}", "hand_{s}"))  # fmt: skip
+           ("shoulder_{s}", "upperarm_{s}"), ("elbow_{s}", "ulna_{s}"),
+           ("wrist_{s}", "hand_{s}"))  # fmt: skip
 #: Joint axes: (key, hinge joint, body that carries the axis or None for the joint's own
 #: axis in the lab, direction in the reference pose: +1 left, -1 right).
 AXES = (("knee_femur_{s}", "knee_flex_{s}", None, 1.0),
@@ -147,17 +148,13 @@ def model_segments(model: mujoco.MjModel, qpos: np.ndarray) -> dict[str, Segment
                 knee, frame_zy(hip - pts[f"knee_thigh_{s}"], ax[f"knee_femur_{s}"])
             ),
             f"tibia_{s}": Segment(ankle, frame_zy(knee - ankle, ax[f"knee_tibia_{s}"])),
-            f"tibia_torsioned_{s}": Segment(
-                ankle, frame_zy(knee - ankle, ax[f"ankle_tibia_{s}"])
-            ),
+            f"tibia_torsioned_{s}": Segment(ankle, frame_zy(knee - ankle, ax[f"ankle_tibia_{s}"])),
             f"foot_{s}": Segment(
                 ankle, frame_zy(-mats[f"foot_{s}"][..., 0], ax[f"ankle_tibia_{s}"])
             ),
             f"humerus_{s}": Segment(elbow, humerus),
             f"radius_{s}": Segment(wrist, frame(1, humerus[..., 1], 2, elbow - wrist)),
-            f"hand_{s}": Segment(
-                wrist, frame_zy(mats[f"hand_{s}"][..., 2], ax[f"wrist_hand_{s}"])
-            ),
+            f"hand_{s}": Segment(wrist, frame_zy(mats[f"hand_{s}"][..., 2], ax[f"wrist_hand_{s}"])),
         }
     return segs
 

@@ -5,8 +5,8 @@ Inverse kinematics of one marker file with a given model (the bundled humanoid u
 the measured markers (Levenberg-Marquardt, frames solved in chains warm-started from their
 neighbours). Writes OUT/motion.csv (joint angles, mm and degrees), angles.csv (the model's
 angles in Plug-in Gait's conventions, the table `mocap-mj plug-in-gait` writes), motion.npz
-(qpos, times, markers; opened by `mocap-mj view`), model.xml and summary.json. Frames with fewer than
---min-markers present markers are left unsolved (empty in motion.csv). A model written by
+(qpos, times, markers; opened by `mocap-mj view`), model.xml and summary.json. Frames with
+fewer than --min-markers present markers are left unsolved (empty in motion.csv). A model written by
 identify with the landmarks' soft-tissue sliding model (recorded in its model.xml) weighs
 them as identify did, so that its RMSE reproduces the fit (--no-sliding-landmarks: every
 marker alike). The marker data are checked first, as by identify (warnings; --strict,
@@ -27,6 +27,7 @@ from ..angles import angle_columns, joint_angle_table
 from ..checks import check_markers
 from ..cli import add_force_flag, add_json_flag, into_out_folder
 from ..errors import MocapError
+from ..export.tables import write_angles_csv
 from ..exported import Layout
 from ..identify.losses import LossName
 from ..identify.output import frame_range
@@ -39,7 +40,6 @@ from ..io.atomic import atomic_write_text
 from ..model import load_written
 from ..parameters import ParameterSet
 from ..results import save_motion
-from ..export.tables import write_angles_csv
 from ..tables import write_joint_centres_csv
 from ._markers import add_marker_options, load_trial, model_for
 from ._quality import (
