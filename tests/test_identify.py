@@ -181,6 +181,7 @@ def test_cli_identify_score_demo(tmp_path: Path) -> None:
         "model.xml",
         "theta.json",
         "motion.npz",
+        "angles.csv",
         "identifiability.json",
         "report.md",
         "summary.json",
