@@ -353,3 +353,40 @@ def test_unsolved_frames_are_empty_in_every_table(result: Path, tmp_path: Path) 
     points = c3d["data"]["points"][:3, :, 2]
     n = len(m.marker_names)
     assert np.isfinite(points[:, :n]).all() and np.isnan(points[:, n:]).all()
+
+
+def test_export_angles_compare_reports_offset_and_correlation(result: Path, tmp_path: Path) -> None:
+    """--compare against a plug-in-gait folder whose knee flexion is ours less 5 deg: RMS 5,
+    offset +5, correlation 1 for that column, 0 elsewhere."""
+    out = tmp_path / "a.csv"
+    assert main(["export", str(result), "--to", "angles", "--out", str(out)]) == 0
+    lines = out.read_text().splitlines()
+    header = lines[0].split(",")
+    assert header[:2] == ["frame", "time_s"] and header[2] == "LPelvisAngles_X"
+    k = header.index("LKneeAngles_X")
+    rows = [r.split(",") for r in lines[1:]]
+    for r in rows:
+        r[k] = f"{float(r[k]) - 5.0:.4f}" if r[k] else ""
+    pig = tmp_path / "pig"
+    pig.mkdir()
+    (pig / "angles.csv").write_text("\n".join(",".join(r) for r in [header, *rows]) + "\n")
+    cmd = ["export", str(result), "--to", "angles", "--out", str(tmp_path / "b.csv")]
+    assert main([*cmd, "--compare", str(pig), "--json"]) == 0
+    table = (tmp_path / "b_vs_plug_in_gait.md").read_text()
+    assert (tmp_path / "b_vs_plug_in_gait.png").is_file()
+    cells = {r.split("|")[1].strip(): r.split("|")[2:5] for r in table.splitlines()[6:]}
+    rms, offset, corr = (float(v) for v in cells["LKneeAngles_X"])
+    assert (rms, offset, corr) == (pytest.approx(5.0), pytest.approx(5.0), pytest.approx(1.0))
+    rms, offset, corr = (float(v) for v in cells["LHipAngles_X"])
+    assert abs(rms) < 0.05 and abs(offset) < 0.05 and corr == pytest.approx(1.0)
+
+
+def test_export_compare_errors_are_one_line(
+    result: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = str(tmp_path / "a.csv")
+    assert main(["export", str(result), "--to", "angles", "--out", out, "--compare", "/nope"]) != 0
+    err = capsys.readouterr().err.strip()
+    assert "--compare /nope: no angles.csv" in err and len(err.splitlines()) == 1
+    assert main(["export", str(result), "--to", "mot", "--out", out, "--compare", "/nope"]) != 0
+    assert "--compare: only for --to angles" in capsys.readouterr().err

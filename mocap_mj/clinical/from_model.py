@@ -137,8 +137,9 @@ def model_segments(model: mujoco.MjModel, qpos: np.ndarray) -> dict[str, Segment
     if all(n in m for n in TRUNK_SITES[5:]):
         segs |= trunk_frames(m, 0.0, 0.0)
     else:
-        segs["thorax"] = Segment(pts["shoulder_l"] * np.nan, mats["thorax"] @ FLIP_YZ)
-        segs["head"] = Segment(pts["shoulder_l"] * np.nan, mats["head"])
+        nowhere = np.full((len(qpos), 3), np.nan)  # no angle uses these origins
+        segs["thorax"] = Segment(nowhere, mats["thorax"] @ FLIP_YZ)
+        segs["head"] = Segment(nowhere, mats["head"])
     for s in SIDES:
         hip, knee, ankle = pts[f"hip_{s}"], pts[f"knee_{s}"], pts[f"ankle_{s}"]
         sho, elbow, wrist = pts[f"shoulder_{s}"], pts[f"elbow_{s}"], pts[f"wrist_{s}"]

@@ -1,10 +1,10 @@
 """``mocap-mj export RESULT --to FORMAT --out PATH``: a result in the formats others read.
 
 Formats: OpenSim model (``osim``), motion (``mot``), TRC of the measured markers (``trc``) or
-of the model markers (``trc-model``), C3D with markers, joint centres and clinical angles
-(``c3d``), the model's angles in Plug-in Gait's conventions (``angles``, beside a
-``plug-in-gait`` folder's with ``--compare``), per-marker residuals (``residuals``) and
-segment scale factors (``scale``) as CSV, everything in one folder (``all``), and the
+of the model markers (``trc-model``), C3D with markers, joint centres and angles (``c3d``),
+the model's angles in Plug-in Gait's conventions (``angles``, beside a ``plug-in-gait``
+folder's with ``--compare``), per-marker residuals (``residuals``) and segment scale factors
+(``scale``) as CSV, everything in one folder (``all``), and the
 formats other packages register (:mod:`mocap_mj.export.registry`; the viewer adds ``glb``).
 Without ``--to`` the format follows the suffix of ``--out``.
 """

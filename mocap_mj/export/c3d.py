@@ -1,4 +1,4 @@
-"""C3D write-back (ezc3d): measured markers, model markers, joint centres and clinical angles.
+"""C3D write-back (ezc3d): measured markers, model markers, joint centres and the angles.
 
 Points, in this order, all in the MJCF world frame (z up, as the lab of the input file):
 
