@@ -77,7 +77,9 @@ def _layout(model: mujoco.MjModel) -> _Layout:
     joints: dict[str, tuple[int, int | None, float]] = {}
     for key, joint, carrier, direction in AXES:
         for s in SIDES:
-            j = model.joint(joint.format(s=s)).id
+            j = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint.format(s=s))
+            if j < 0:  # a model without this hinge: the angles that need it are NaN
+                continue
             sign = direction * np.sign(float(data.xaxis[j] @ left)) or 1.0
             body = None if carrier is None else model.body(carrier.format(s=s)).id
             joints[key.format(s=s)] = (j, body, float(sign))
@@ -99,7 +101,7 @@ def _read(
     frames whose qpos has a NaN."""
     n = len(qpos)
     pts = {k: np.full((n, 3), np.nan) for k in [*lay.sites, *lay.centres, *lay.carried]}
-    axes = {k: np.full((n, 3), np.nan) for k in lay.joints}
+    axes = {k.format(s=s): np.full((n, 3), np.nan) for k, *_ in AXES for s in SIDES}
     mats = {k: np.full((n, 3, 3), np.nan) for k in lay.bodies}
     for t, data in rolling.posed(model, qpos):
         for k, i in lay.sites.items():
