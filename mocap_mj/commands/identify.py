@@ -4,8 +4,10 @@ Identify the subject's model from one or more marker trials: the segment lengths
 positions (kinematic parameters) and every marker's offset on its segment, together with the
 joint motion of every frame, by one Levenberg-Marquardt fit over all frames (the --solver paper
 alternative is Zou & Sugihara's Algorithm 1). Writes OUT/model.xml (the identified MJCF),
-theta.json, motion.npz (first trial; motion_<i>.npz for the others), identifiability.json,
-report.md, plots and summary.json; docs/outputs.md explains them. The folder appears
+theta.json, motion.npz (first trial; motion_<i>.npz for the others), angles.csv (the model's
+angles in Plug-in Gait's conventions; report.md compares them with the Nexus angles a C3D
+holds), identifiability.json, report.md, plots and summary.json; docs/outputs.md explains
+them. The folder appears
 only when the fit is complete; a fit that cannot be determined by the data is refused.
 Before the fit the marker data are checked for markers that do not move with their segment
 (mislabels, label swaps, re-stuck markers, impossible distances): each finding is a warning
