@@ -244,7 +244,7 @@ def register(sub: Any) -> None:
         help="with --to angles: a `mocap-mj plug-in-gait` output folder whose angles.csv is "
         "put beside ours (OUT_vs_plug_in_gait.md: RMS difference, offset and correlation per "
         "component; OUT_vs_plug_in_gait.png: both curves); frames matched by number, else "
-        "by position",
+        "by position (default: no comparison)",
     )
     add_force_flag(p)
     for exporter in table.values():
