@@ -44,14 +44,27 @@ def _deg(model: mujoco.MjModel, qpos: np.ndarray) -> dict[str, np.ndarray]:
     return {k: np.degrees(v) for k, v in model_angles(model, np.atleast_2d(qpos)).items()}
 
 
+def _sites(model: mujoco.MjModel) -> dict[str, np.ndarray]:
+    """Marker site positions (3,) [m] in the reference pose."""
+    data = mujoco.MjData(model)
+    rolling.kinematics(model, data)
+    return {model.site(i).name: data.site_xpos[i].copy() for i in range(model.nsite)}
+
+
 def _pelvic_tilt(model: mujoco.MjModel) -> float:
     """The anterior tilt [deg] of the model's ASIS-PSIS line in the reference pose, from the
     marker sites directly."""
-    data = mujoco.MjData(model)
-    rolling.kinematics(model, data)
-    site = {n: data.site_xpos[model.site(n).id] for n in ("LASI", "RASI", "LPSI", "RPSI")}
+    site = _sites(model)
     v = 0.5 * (site["LASI"] + site["RASI"]) - 0.5 * (site["LPSI"] + site["RPSI"])
     return float(np.degrees(np.arctan2(-v[2], v[0])))
+
+
+def _toe_up(model: mujoco.MjModel, side: str) -> float:
+    """The rise [deg] of the heel-to-toe site line in the reference pose (the foot's long
+    axis, as Plug-in Gait's static foot)."""
+    site = _sites(model)
+    v = site[side + "TOE"] - site[side + "HEE"]
+    return float(np.degrees(np.arctan2(v[2], np.hypot(v[0], v[1]))))
 
 
 def test_the_table_has_plug_in_gaits_names_in_its_order() -> None:
@@ -60,17 +73,19 @@ def test_the_table_has_plug_in_gaits_names_in_its_order() -> None:
     assert got == [s + n for n in ANGLES for s in "LR"]
 
 
-def test_the_reference_pose_reads_zero_at_every_limb_joint() -> None:
+def test_the_reference_pose_reads_its_known_angles() -> None:
     model = load_model()
     a = _deg(model, model.qpos0)
-    for name in ("Knee", "Ankle", "Elbow", "Wrist"):
+    for name in ("Knee", "Elbow", "Wrist"):
         for s in "LR":
             np.testing.assert_allclose(a[f"{s}{name}Angles"][0], 0.0, atol=1e-6, err_msg=name)
     tilt = _pelvic_tilt(model)
     for s in "LR":  # a vertical femur reads the pelvis' anterior tilt as hip flexion
         np.testing.assert_allclose(a[f"{s}PelvisAngles"][0], [tilt, 0, 0], atol=1e-6)
         np.testing.assert_allclose(a[f"{s}HipAngles"][0], [tilt, 0, 0], atol=1e-6)
-        np.testing.assert_allclose(a[f"{s}FootProgressAngles"][0], [-90, 0, 0], atol=1e-6)
+        up = _toe_up(model, s)  # a vertical shank: the toe's rise is dorsiflexion
+        np.testing.assert_allclose(a[f"{s}AnkleAngles"][0], [up, 0, 0], atol=1e-6)
+        np.testing.assert_allclose(a[f"{s}FootProgressAngles"][0], [-90 - up, 0, 0], atol=1e-6)
 
 
 #: (joints, {angle (side letter added): (component, expected change [deg])}); the foot's

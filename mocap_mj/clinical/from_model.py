@@ -11,9 +11,9 @@ Segment frames (columns x, y, z in the lab), per side:
   Plug-in Gait takes the plane of the thigh wand);
 - tibia (knee angles): z from the ankle centre to the knee centre, y along the knee's
   flexion axis carried by the shank; tibia (ankle angles): y along the ankle axis;
-- foot: z along the model foot's long axis reversed (towards the heel), y along the ankle
-  axis carried by the foot (where Plug-in Gait takes the toe-to-ankle line turned by the
-  static plantar-flexion and rotation offsets);
+- foot: z from the TOE to the HEE marker site (the model foot's x reversed without them),
+  y along the tibia's ankle axis: Plug-in Gait's static foot, the heel-toe line that its
+  static plantar-flexion and rotation offsets turn the toe-to-ankle line onto;
 - thorax and head: from the C7, T10, CLAV, STRN and head marker sites (the body frames when
   those sites are absent), head offset 0;
 - humerus: z from the elbow centre to the shoulder centre, y along the elbow's flexion axis;
@@ -40,6 +40,8 @@ from .segments import SIDES, Markers, Segment, pelvis_frame, trunk_frames
 #: Marker sites the pelvis, thorax and head frames are built from.
 TRUNK_SITES = ("LASI", "RASI", "LPSI", "RPSI", "SACR", "C7", "T10", "CLAV", "STRN",
                "LFHD", "RFHD", "LBHD", "RBHD")  # fmt: skip
+#: Marker sites of the feet's long axes.
+FOOT_SITES = ("LHEE", "LTOE", "RHEE", "RTOE")
 #: Bodies whose origins are the joint centres: (key, body with ``{s}`` for the side).
 CENTRES = (("hip_{s}", "thigh_{s}"), ("knee_{s}", "shank_{s}"), ("ankle_{s}", "foot_{s}"),
            ("shoulder_{s}", "upperarm_{s}"), ("elbow_{s}", "ulna_{s}"),
@@ -68,7 +70,11 @@ class _Layout:
 
 
 def _layout(model: mujoco.MjModel) -> _Layout:
-    sites = {n: model.site(n).id for n in TRUNK_SITES if _has(model, mujoco.mjtObj.mjOBJ_SITE, n)}
+    sites = {
+        n: model.site(n).id
+        for n in (*TRUNK_SITES, *FOOT_SITES)
+        if _has(model, mujoco.mjtObj.mjOBJ_SITE, n)
+    }
     centres = {k.format(s=s): model.body(b.format(s=s)).id for k, b in CENTRES for s in SIDES}
     bodies = {b: model.body(b).id for b in BODIES}
     data = mujoco.MjData(model)
@@ -120,6 +126,15 @@ def _read(
     return pts, axes, mats
 
 
+def _heelward(m: Markers, side: str, mats: dict[str, np.ndarray]) -> np.ndarray:
+    """The foot's long axis (T, 3), towards the heel: from the TOE to the HEE site (Plug-in
+    Gait's static foot), else the model foot's x reversed."""
+    p = side.upper()
+    if p + "HEE" in m and p + "TOE" in m:
+        return m[p + "HEE"] - m[p + "TOE"]
+    return -mats[f"foot_{side}"][..., 0]
+
+
 def model_segments(model: mujoco.MjModel, qpos: np.ndarray) -> dict[str, Segment]:
     """The Plug-in Gait segments (see the module doc) of ``model`` posed at qpos (T, nq):
     ``pelvis``, ``thorax``, ``head`` and per side ``femur_l``, ``tibia_l``,
@@ -136,7 +151,7 @@ def model_segments(model: mujoco.MjModel, qpos: np.ndarray) -> dict[str, Segment
             pelvis_frame(m) if pelvic else mats["pelvis"],
         )
     }
-    if all(n in m for n in TRUNK_SITES[5:]):
+    if all(n in m for n in TRUNK_SITES[5:13]):
         segs |= trunk_frames(m, 0.0, 0.0)
     else:
         nowhere = np.full((len(qpos), 3), np.nan)  # no angle uses these origins
@@ -152,9 +167,7 @@ def model_segments(model: mujoco.MjModel, qpos: np.ndarray) -> dict[str, Segment
             ),
             f"tibia_{s}": Segment(ankle, frame_zy(knee - ankle, ax[f"knee_tibia_{s}"])),
             f"tibia_torsioned_{s}": Segment(ankle, frame_zy(knee - ankle, ax[f"ankle_tibia_{s}"])),
-            f"foot_{s}": Segment(
-                ankle, frame_zy(-mats[f"foot_{s}"][..., 0], ax[f"ankle_tibia_{s}"])
-            ),
+            f"foot_{s}": Segment(ankle, frame_zy(_heelward(m, s, mats), ax[f"ankle_tibia_{s}"])),
             f"humerus_{s}": Segment(elbow, humerus),
             f"radius_{s}": Segment(wrist, frame(1, humerus[..., 1], 2, elbow - wrist)),
             f"hand_{s}": Segment(wrist, frame_zy(mats[f"hand_{s}"][..., 2], ax[f"wrist_hand_{s}"])),
