@@ -115,6 +115,24 @@ def test_a_known_pose_gives_its_known_angles(joints: dict, expected: dict, side:
         np.testing.assert_allclose(posed[name][0], want, atol=1e-6, err_msg=name)
 
 
+@pytest.mark.parametrize("side", ["l", "r"])
+def test_internal_rotation_reads_positive_on_both_sides(side: str) -> None:
+    """The thigh turned toe-in by 15 deg: hip internal rotation +15 and the foot 15 deg more
+    toe-in; the shank turned toe-out by 15 deg at the knee: knee rotation -15."""
+    model = load_model()
+    base = _deg(model, model.qpos0)
+    sign = -1.0 if side == "l" else 1.0  # toe-in: clockwise from above for the left leg
+    hip = _deg(model, _pose(model, **{f"hip_{side}": (0, 0, sign, 15)}))
+    knee = _deg(model, _pose(model, **{f"knee_rot_{side}": 15.0}))  # the model's + is toe-out
+    p = side.upper()
+    for got, angle, delta in ((hip, "HipAngles", 15.0), (knee, "KneeAngles", -15.0)):
+        want = base[p + angle][0] + [0, 0, delta]
+        np.testing.assert_allclose(got[p + angle][0], want, atol=1e-6, err_msg=angle)
+        # the foot, pitched by its heel-toe line, turns within 0.1 deg of as much
+        foot = got[p + "FootProgressAngles"][0, 2] - base[p + "FootProgressAngles"][0, 2]
+        assert foot == pytest.approx(delta, abs=0.1)
+
+
 def test_a_tilted_pelvis_reads_anterior_tilt_and_leaves_the_joints() -> None:
     model = load_model()
     base = _deg(model, model.qpos0)
