@@ -1,8 +1,10 @@
 """CSV tables: clinical angles (Plug-in Gait's table), per-marker residuals, and segment
 scale factors.
 
-All files are comma-separated with one header row; frames are numbered from 0 with their time
-[s]; empty cells are missing values (a marker not measured, a frame not solved).
+All files are comma-separated with one header row; frames are numbered from 0 (angles: from
+``first_frame``) with their time [s]; empty cells are missing values (a marker not measured,
+a frame not solved). The angle table has Plug-in Gait's header (``frame,time_s``, then
+``LPelvisAngles_X``...).
 """
 
 from __future__ import annotations
