@@ -16,7 +16,7 @@ from mocap_mj.cli import main
 from mocap_mj.clinical.angles import ANGLES
 from mocap_mj.clinical.compare import c3d_angles, compare, folder_angles
 from mocap_mj.clinical.from_model import model_angles
-from mocap_mj.model import load_model
+from mocap_mj.model import load_model, model_path
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 MOVEMENT = SHARED / "Movement_trial.c3d"
@@ -166,6 +166,21 @@ def test_turning_within_the_progression_frame_reads_pelvic_rotation() -> None:
     np.testing.assert_allclose(a["LPelvisAngles"][0], [tilt, obliquity, -rotation], atol=1e-6)
     np.testing.assert_allclose(a["RPelvisAngles"][0], [tilt, -obliquity, rotation], atol=1e-6)
     assert rotation == pytest.approx(30.0, abs=0.5)
+
+
+def test_a_model_without_some_sites_and_hinges_falls_back_or_gives_nan() -> None:
+    """Without the pelvis, trunk and heel sites the body frames stand in; without a wrist
+    hinge that wrist's angles are NaN, every component (never half a frame)."""
+    spec = mujoco.MjSpec.from_file(str(model_path()))
+    for name in ("C7", "LASI", "LHEE"):
+        spec.delete(spec.site(name))
+    spec.delete(spec.joint("wrist_flex_l"))
+    model = spec.compile()
+    a = _deg(model, model.qpos0)
+    assert np.isnan(a["LWristAngles"]).all()
+    assert all(np.isfinite(v).all() for k, v in a.items() if k != "LWristAngles")
+    np.testing.assert_allclose(a["LPelvisAngles"][0], 0.0, atol=1e-9)  # the body frame
+    np.testing.assert_allclose(a["LKneeAngles"][0], 0.0, atol=1e-9)
 
 
 @pytest.mark.skipif(not MOVEMENT.is_file(), reason=f"shared recording absent: {MOVEMENT}")

@@ -172,6 +172,8 @@ def model_segments(model: mujoco.MjModel, qpos: np.ndarray) -> dict[str, Segment
             f"radius_{s}": Segment(wrist, frame(1, humerus[..., 1], 2, elbow - wrist)),
             f"hand_{s}": Segment(wrist, frame_zy(mats[f"hand_{s}"][..., 2], ax[f"wrist_hand_{s}"])),
         }
+    for seg in segs.values():  # a frame with one axis undefined is undefined
+        seg.axes[~np.all(np.isfinite(seg.axes), axis=(-2, -1))] = np.nan
     return segs
 
 
