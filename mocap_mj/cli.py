@@ -120,6 +120,42 @@ def _sigterm_as_exit() -> Iterator[None]:
 
 
 # ----------------------------------------------------------------- helpers for commands
+def number(
+    kind: type[float] | type[int] = float,
+    *,
+    above: float | None = None,
+    least: float | None = None,
+    most: float | None = None,
+) -> Callable[[str], Any]:
+    """An argparse ``type=`` for a numeric flag with a domain: a finite number of ``kind``,
+    greater than ``above``, at least ``least``, at most ``most``. Outside, argparse names the
+    flag: ``argument --observable-mm: expected a number > 0, got '0'`` (exit status 2)."""
+    rules = [f"> {above:g}" if above is not None else "", f">= {least:g}" if least is not None
+             else "", f"<= {most:g}" if most is not None else ""]  # fmt: skip
+    what = ("a whole number" if kind is int else "a number") + "".join(
+        f" {r}" if i == 0 else f" and {r}" for i, r in enumerate(r for r in rules if r)
+    )
+
+    def parse(text: str) -> Any:
+        try:
+            value = kind(text)
+        except ValueError:
+            value = None
+        if (
+            value is None
+            or value != value  # NaN
+            or abs(value) == float("inf")
+            or (above is not None and not value > above)
+            or (least is not None and not value >= least)
+            or (most is not None and not value <= most)
+        ):
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}")
+        return value
+
+    parse.__name__ = what  # argparse's fallback message names the type
+    return parse
+
+
 def add_json_flag(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--json", action="store_true", help="print the final summary as one JSON object on stdout"
