@@ -157,7 +157,11 @@ def _add_paper_options(p: argparse.ArgumentParser) -> None:
         help="which frames each iteration uses (required with --solver paper; default: none)",
     )
     g.add_argument(
-        "--iterations", type=number(int, least=1), default=100, metavar="N", help="iterations (default: 100)"
+        "--iterations",
+        type=number(int, least=1),
+        default=100,
+        metavar="N",
+        help="iterations (default: 100)",
     )
     g.add_argument(
         "--step",
@@ -179,7 +183,11 @@ def _add_paper_options(p: argparse.ArgumentParser) -> None:
         help="fraction of the frames per iteration for random/stochastic sampling (default: 0.1)",
     )
     g.add_argument(
-        "--seed", type=number(int, least=0), default=0, metavar="N", help="seed of the frame sampling (default: 0)"
+        "--seed",
+        type=number(int, least=0),
+        default=0,
+        metavar="N",
+        help="seed of the frame sampling (default: 0)",
     )
 
 
