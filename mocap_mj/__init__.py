@@ -8,6 +8,9 @@ happens only at the file boundary (``mocap_mj.io``).
 
 from __future__ import annotations
 
+import importlib
+from typing import TYPE_CHECKING, Any
+
 from .errors import (
     InputFileError,
     MocapError,
@@ -15,10 +18,36 @@ from .errors import (
     SolverError,
     UnknownNameError,
 )
-from .kinematics import Frames, Kinematics
-from .markers import MARKER_NAMES
-from .model import load_model, model_path
-from .parameters import KINEMATIC_PARAMETERS, KinematicParameter, ParameterSet
+
+if TYPE_CHECKING:
+    from .kinematics import Frames, Kinematics
+    from .markers import MARKER_NAMES
+    from .model import load_model, model_path
+    from .parameters import KINEMATIC_PARAMETERS, KinematicParameter, ParameterSet
+
+#: The names imported on first use (PEP 562), so that ``import mocap_mj`` (and the command
+#: line's start, which must answer Ctrl-C from its first moment) does not load MuJoCo and
+#: the compiled kernels before they are needed.
+_LAZY = {
+    "Frames": ".kinematics",
+    "Kinematics": ".kinematics",
+    "MARKER_NAMES": ".markers",
+    "load_model": ".model",
+    "model_path": ".model",
+    "KINEMATIC_PARAMETERS": ".parameters",
+    "KinematicParameter": ".parameters",
+    "ParameterSet": ".parameters",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
 
 __version__ = "0.1.0"
 

@@ -37,7 +37,12 @@ from .noise import (
 )
 from .output import write_result
 from .partial import Unmeasured, freeze_unmeasured, on_measured
-from .plausibility import joints_at_limit, kappa_outside_bounds, marker_rmse_by_marker
+from .plausibility import (
+    implausible_reasons,
+    joints_at_limit,
+    kappa_outside_bounds,
+    marker_rmse_by_marker,
+)
 from .priors import LinearGaussianPrior, Prior
 from .problem import TrialData
 from .ranges import NOMINAL_HEIGHT, kappa_ranges, theta_bounds
@@ -170,6 +175,12 @@ def identify_to_folder(
     summary.update(_measured_fields(pset, missing))
     summary["sliding_landmarks"] = None if sliding is None else sorted(sliding.slides)
     summary["kappa_at_bound"] = _kappa_at_bound(pset, result)
+    summary["implausible"] = implausible_reasons(
+        result.marker_rmse,
+        len(summary["kappa_at_bound"]),
+        int(np.sum(~pset.frozen[: pset.n_kappa])),
+        stature[0] if stature else None,
+    )
     fitted = [q[used] for q, used in zip(result.qpos, result.used, strict=True)]
     summary["joints_at_limit"] = joints_at_limit(
         pset.model, solver_joint_range(pset.model, settings), fitted
