@@ -108,10 +108,10 @@ def held_interrupts(fn: F) -> F:
             out = fn(*args, **kwargs)
             gc.collect()  # the figure's reference cycles, with their callbacks, now
         finally:
-            for s, handler in previous.items():
-                signal.signal(s, handler)
-            for s in dict.fromkeys(came):
-                signal.raise_signal(s)
+            for wanted_signal, handler in previous.items():
+                signal.signal(wanted_signal, handler)
+            for signum in dict.fromkeys(came):
+                signal.raise_signal(signum)
         return out
 
     return held  # type: ignore[return-value]

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import InputFileError, MocapError
+from .errors import InputFileError, MocapError, yaml_problem
 
 #: Measurement name -> (unit inside, description). ``_l``/``_r`` are the sides.
 MEASUREMENTS: dict[str, tuple[str, str]] = {
@@ -249,8 +249,10 @@ def from_yaml(path: str | Path) -> Subject:
 
     try:
         data = yaml.safe_load(Path(path).read_text())
-    except (OSError, yaml.YAMLError) as exc:
+    except OSError as exc:
         raise InputFileError(f"{path}: cannot read the subject file: {exc}") from None
+    except yaml.YAMLError as exc:
+        raise InputFileError(f"{path}: expected a YAML subject file: {yaml_problem(exc)}") from None
     if not isinstance(data, Mapping):
         raise InputFileError(f"{path}: expected a mapping of measurement names to values")
     subject = Subject()
