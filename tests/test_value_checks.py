@@ -7,15 +7,20 @@ outside their domain: one line naming the file and marker and frame, or the flag
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
 from pathlib import Path
 
 import ezc3d
 import numpy as np
 import pytest
 
-from mocap_mj.errors import InputFileError
+from mocap_mj.errors import InputFileError, MocapError
+from mocap_mj.identify.plausibility import implausible_reasons
 from mocap_mj.io import load_markers
 from mocap_mj.io.stream import open_markers
+from mocap_mj.subject import from_c3d, from_yaml
 
 # Two markers 1.5 m apart over three frames, in mm: a human-sized cloud.
 TRUTH_MM = np.array(
@@ -100,3 +105,115 @@ def test_a_coordinate_below_the_limit_is_read(tmp_path: Path) -> None:
     pos[2, 1, 0] = 999_000.0  # 999 m: far, but a position
     traj = load_markers(_csv(tmp_path / "near.csv", pos), up="z")
     assert traj.positions[2, 1, 0] == pytest.approx(999.0)
+
+
+# ---------------------------------------------------------------- subject measurements
+
+
+@pytest.fixture(scope="module")
+def synth_markers(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from mocap_synth import SynthConfig, synthesize, write_experiment
+
+    root = tmp_path_factory.mktemp("values")
+    write_experiment(synthesize(SynthConfig(frames=40, seed=5)), root / "synth")
+    return root / "synth" / "markers.csv"
+
+
+def _identify(markers: Path, out: Path, *flags: str) -> tuple[int, str, str]:
+    proc = subprocess.run(
+        [sys.executable, "-m", "mocap_mj", "identify", "--markers", str(markers),
+         "--out", str(out), *flags],
+        capture_output=True, text=True, timeout=900,
+    )  # fmt: skip
+    return proc.returncode, proc.stdout, proc.stderr
+
+
+@pytest.mark.parametrize(
+    ("flags", "message"),
+    [
+        (["--height", "5000"], "--height: expected a standing height within 500..2750 mm "
+         "(any person), got 5000 mm"),
+        (["--height", "10"], "--height: expected a standing height within 500..2750 mm"),
+        (["--height", "1e308"], "--height: expected a standing height within 500..2750 mm"),
+        (["--knee-width", "100", "5000"], "--knee-width: expected a distance between the femoral "
+         "epicondyles (right) within 30..300 mm (any person), got 5000 mm"),
+        (["--mass", "nan"], "--mass: expected a body mass within 2..650 kg (any person), got nan"),
+        (["--observable-mm", "0"], "argument --observable-mm: expected a number > 0, got '0'"),
+        (["--observable-mm", "-1"], "argument --observable-mm: expected a number > 0, got '-1'"),
+        (["--symmetric", "0"], "argument --symmetric: expected a number > 0, got '0'"),
+        (["--fraction", "2"], "argument --fraction: expected a number > 0 and <= 1, got '2'"),
+    ],
+)  # fmt: skip
+def test_values_no_person_has_are_refused_naming_the_flag_and_range(
+    synth_markers: Path, tmp_path: Path, flags: list[str], message: str
+) -> None:
+    code, _, err = _identify(synth_markers, tmp_path / "out", *flags)
+    assert code == 2, err
+    assert message in err and "Traceback" not in err
+    assert f"mocap-mj identify: error: {message}" in err.splitlines()[-1]
+    assert not (tmp_path / "out").exists()
+
+
+def test_subject_file_and_c3d_values_name_the_file_and_key(tmp_path: Path) -> None:
+    f = tmp_path / "s.yaml"
+    f.write_text("height: 1700\n")  # millimetres written where metres are meant
+    with pytest.raises(MocapError) as info:
+        from_yaml(f)
+    assert str(info.value) == (
+        f"{f}: height: expected a standing height within 500..2750 mm (any person), got "
+        "1.7e+06 mm (a number without a unit is in m or kg)"
+    )
+    c3d = ezc3d.c3d()
+    c3d["parameters"]["POINT"]["RATE"]["value"] = [100.0]
+    c3d["parameters"]["POINT"]["LABELS"]["value"] = ("LKNE",)
+    c3d["data"]["points"] = np.ones((4, 1, 3))
+    c3d.add_parameter("PROCESSING", "LKneeWidth", [1400.0])  # cm read as mm, or a typo
+    c3d.write(str(tmp_path / "s.c3d"))
+    with pytest.raises(MocapError, match=r"s\.c3d: PROCESSING:LKneeWidth: expected a distance "
+                       r"between the femoral epicondyles \(left\) within 30\.\.300 mm"):  # fmt: skip
+        from_c3d(tmp_path / "s.c3d")
+
+
+def test_broken_subject_file_is_one_line_naming_the_line(tmp_path: Path) -> None:
+    f = tmp_path / "s.yaml"
+    f.write_text("height: 1.7\nmass: [70\n")
+    with pytest.raises(MocapError) as info:
+        from_yaml(f)
+    assert str(info.value).startswith(f"{f}: expected a YAML subject file: line 3, column 1: ")
+    assert "\n" not in str(info.value)
+
+
+# ---------------------------------------------------------------- implausible fits
+
+
+def test_a_recording_in_centimetres_read_as_millimetres_exits_3(
+    synth_markers: Path, tmp_path: Path
+) -> None:
+    """A person 10 times too small fits as no person: the result is written for
+    inspection, the reasons are one line, the exit status is 3 and summary.json says so."""
+    lines = synth_markers.read_text().splitlines()
+    rows = [",".join([*r.split(",")[:2], *(f"{float(v) / 10:.4f}" for v in r.split(",")[2:])])
+            for r in lines[2:]]  # fmt: skip
+    small = tmp_path / "cm.csv"
+    small.write_text("\n".join([*lines[:2], *rows]) + "\n")  # the header still says mm
+    code, out, err = _identify(small, tmp_path / "out")
+    assert code == 3, err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith(
+        f"mocap-mj identify: implausible result (exit status 3; written to {tmp_path / 'out'} "
+        "for inspection): "
+    )
+    assert "stature 0.1" in last and "outside any person's 0.5..2.75 m" in last
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["exit_status"] == 3 and summary["implausible"]
+    assert (tmp_path / "out" / "model.xml").is_file() and "Traceback" not in err
+
+
+def test_implausible_reasons_thresholds() -> None:
+    assert implausible_reasons(0.004, 0, 34, 1.68) == []
+    assert implausible_reasons(0.029, 17, 34, 0.5) == []
+    (rmse,) = implausible_reasons(0.111, 0, 34, 1.7)
+    assert rmse.startswith("marker RMSE 111 mm, above the 30 mm")
+    (bound,) = implausible_reasons(0.01, 26, 34, None)
+    assert bound.startswith("26 of 34 kinematic parameters held at a bound")
+    assert len(implausible_reasons(float("nan"), 0, 34, 3.0)) == 2

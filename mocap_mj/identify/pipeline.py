@@ -25,7 +25,14 @@ from ..tables import write_joint_centres_csv
 from .anatomy import ASYMMETRY_SIGMA, landmark_prior, symmetric_prior
 from .consistency import pooled_correlation_time, trial_residuals
 from .identifiability import Identifiability
-from .initial import estimate_stature, place_markers, scaled_theta, segment_scales
+from .initial import (
+    ScaleEstimate,
+    estimate_stature,
+    marker_stature,
+    place_markers,
+    scaled_theta,
+    segment_scales,
+)
 from .lm import LMSettings, identify_lm, solver_joint_range
 from .long import Robust, Weigh, refine, result_at, robust_loss, scratch_array
 from .motion_out import write_every_frame_motion
@@ -123,7 +130,8 @@ def identify_to_folder(
     _check_inputs(trials, pset, init)
     init_used = "given" if theta0 is not None else init
     theta0, scales, pset = _initial_theta(trials, pset, theta0, init)
-    subject = _with_stature(subject or Subject(), trials, pset)
+    long_bones = segment_scales(pset, [t.markers for t in trials])
+    subject = _with_stature(subject or Subject(), long_bones)
     stature = subject.stature()
     t10 = t10_placement(pset, trials, subject) if anatomical else None  # stature estimated
     prior_options: dict[str, Any] = {
@@ -179,7 +187,7 @@ def identify_to_folder(
         result.marker_rmse,
         len(summary["kappa_at_bound"]),
         int(np.sum(~pset.frozen[: pset.n_kappa])),
-        stature[0] if stature else None,
+        marker_stature(long_bones),
     )
     fitted = [q[used] for q, used in zip(result.qpos, result.used, strict=True)]
     summary["joints_at_limit"] = joints_at_limit(
@@ -378,13 +386,13 @@ def _prior_fields(
     }
 
 
-def _with_stature(subject: Subject, trials: Sequence[TrialData], pset: ParameterSet) -> Subject:
-    """``subject`` with the stature estimated from the trials' markers
-    (:func:`~mocap_mj.identify.initial.estimate_stature`) when its height is not measured:
+def _with_stature(subject: Subject, scales: dict[str, ScaleEstimate]) -> Subject:
+    """``subject`` with the stature estimated from the trials' segment ``scales``
+    (:func:`~mocap_mj.identify.initial.segment_scales`,
+    :func:`~mocap_mj.identify.initial.estimate_stature`) when its height is not measured:
     the anatomical ranges and the stature-scaled priors are centred on it."""
     if subject.get("height") is not None:
         return subject
-    scales = segment_scales(pset, [t.markers for t in trials])
     return subject.with_stature_estimate(estimate_stature(scales))
 
 
@@ -395,7 +403,8 @@ def t10_check(
     when not measured (:func:`~mocap_mj.identify.trunk.t10_placement`): what
     :func:`identify_to_folder` finds and reports (``--strict`` refuses its finding before
     the fit)."""
-    return t10_placement(pset, trials, _with_stature(subject, trials, pset))
+    scales = segment_scales(pset, [t.markers for t in trials])
+    return t10_placement(pset, trials, _with_stature(subject, scales))
 
 
 def _initial_theta(

@@ -224,8 +224,9 @@ def implausible_reasons(
 
     rmse [m]: the fit's marker RMSE (non-finite: implausible); ``at_bound`` of the
     ``free_kappa`` free kinematic parameters ended at a bound of their range; stature [m]:
-    the subject's measured or estimated stature (None: unknown), which must lie within the
-    human height range (:data:`mocap_mj.subject.HUMAN_RANGES`): a marker cloud of a few
+    the stature the markers' long-bone distances imply
+    (:func:`mocap_mj.identify.initial.marker_stature`; None: unknown), which must lie within
+    the human height range (:data:`mocap_mj.subject.HUMAN_RANGES`): a person of a few
     decimetres is a recording in centimetres or inches read as millimetres.
     """
     out = []
