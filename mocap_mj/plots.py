@@ -7,8 +7,8 @@ backend switch), at 150 dpi; ``size`` is the image size in pixels.
 
 Errors are in millimetres, times in seconds.
 
-Ctrl-C and SIGTERM are held while a figure is drawn and act when it is written (then as
-anywhere else): matplotlib's objects run Python callbacks as they are freed (weak-reference
+Ctrl-C, SIGTERM and SIGALRM (``batch --timeout``) are held while a figure is drawn and act
+when it is written (then as anywhere else): matplotlib's objects run Python callbacks as they are freed (weak-reference
 callbacks of its transforms and callback registries), and an interrupt raised inside one
 cannot propagate: Python prints "Exception ignored in ... Traceback" and goes on.
 """
@@ -93,7 +93,7 @@ def _size(size: tuple[int, int]) -> tuple[int, int]:
 
 # --------------------------------------------------------------------------- output
 def held_interrupts(fn: F) -> F:
-    """Decorator: run ``fn`` (that draws a figure) with Ctrl-C and SIGTERM held, its
+    """Decorator: run ``fn`` (that draws a figure) with SIGINT, SIGTERM and SIGALRM held, its
     figure's objects freed before they are let go; a signal that came meanwhile is then
     raised again, to the handler in place before. Outside the main thread, ``fn`` as is."""
 
@@ -102,7 +102,7 @@ def held_interrupts(fn: F) -> F:
         if threading.current_thread() is not threading.main_thread():
             return fn(*args, **kwargs)
         came: list[int] = []
-        wanted = (signal.SIGINT, signal.SIGTERM)
+        wanted = (signal.SIGINT, signal.SIGTERM, signal.SIGALRM)  # SIGALRM: batch --timeout
         previous = {s: signal.signal(s, lambda signum, _: came.append(signum)) for s in wanted}
         try:
             out = fn(*args, **kwargs)
