@@ -8,9 +8,10 @@ backend switch), at 150 dpi; ``size`` is the image size in pixels.
 Errors are in millimetres, times in seconds.
 
 Ctrl-C, SIGTERM and SIGALRM (``batch --timeout``) are held while a figure is drawn and act
-when it is written (then as anywhere else): matplotlib's objects run Python callbacks as they are freed (weak-reference
-callbacks of its transforms and callback registries), and an interrupt raised inside one
-cannot propagate: Python prints "Exception ignored in ... Traceback" and goes on.
+when it is written (then as anywhere else): matplotlib's objects run Python callbacks as
+they are freed (weak-reference callbacks of its transforms and callback registries), and an
+interrupt raised inside one cannot propagate: Python prints "Exception ignored in ...
+Traceback" and goes on.
 """
 
 from __future__ import annotations

@@ -33,9 +33,7 @@ def _job(subject: Subject, folder: Path) -> dict[str, Any]:
     os.write(1, b"(raylet) a log line of a process the batch started\n")
     return {
         "identify": {"marker_rmse_mm": 1.0},
-        "rows": [
-            {"subject": subject.name, "trial": "walk.csv", "status": "ok", "error": ""}
-        ],
+        "rows": [{"subject": subject.name, "trial": "walk.csv", "status": "ok", "error": ""}],
     }
 
 

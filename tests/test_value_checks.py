@@ -169,8 +169,8 @@ def test_subject_file_and_c3d_values_name_the_file_and_key(tmp_path: Path) -> No
     c3d["data"]["points"] = np.ones((4, 1, 3))
     c3d.add_parameter("PROCESSING", "LKneeWidth", [1400.0])  # cm read as mm, or a typo
     c3d.write(str(tmp_path / "s.c3d"))
-    with pytest.raises(MocapError, match=r"s\.c3d: PROCESSING:LKneeWidth: expected a distance "
-                       r"between the femoral epicondyles \(left\) within 30\.\.300 mm"):  # fmt: skip
+    expected = r"s\.c3d: PROCESSING:LKneeWidth: expected a distance between the femoral "
+    with pytest.raises(MocapError, match=expected + r"epicondyles \(left\) within 30\.\.300 mm"):
         from_c3d(tmp_path / "s.c3d")
 
 
@@ -196,7 +196,7 @@ def test_a_recording_in_centimetres_read_as_millimetres_exits_3(
             for r in lines[2:]]  # fmt: skip
     small = tmp_path / "cm.csv"
     small.write_text("\n".join([*lines[:2], *rows]) + "\n")  # the header still says mm
-    code, out, err = _identify(small, tmp_path / "out")
+    code, _, err = _identify(small, tmp_path / "out")
     assert code == 3, err
     last = err.strip().splitlines()[-1]
     assert last.startswith(
