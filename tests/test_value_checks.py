@@ -217,3 +217,19 @@ def test_implausible_reasons_thresholds() -> None:
     (bound,) = implausible_reasons(0.01, 26, 34, None)
     assert bound.startswith("26 of 34 kinematic parameters held at a bound")
     assert len(implausible_reasons(float("nan"), 0, 34, 3.0)) == 2
+
+
+def test_an_overflowed_fit_reports_nothing_observable_instead_of_failing() -> None:
+    """A fit whose information overflowed (NaN) reports every direction unobservable: the
+    report is written (the fit's checks then call it implausible), no SVD error."""
+    from mocap_mj.identify.identifiability import Identifiability
+    from mocap_mj.parameters import ParameterSet
+
+    pset = ParameterSet()
+    info = np.eye(pset.size)
+    info[3, 5] = info[5, 3] = np.nan
+    idf = Identifiability(pset, info, 3e26)
+    data = idf.to_json()
+    assert data["observable_directions"] == 0
+    assert len(data["directions"]) == pset.size
+    assert idf.report_lines()[0] == "## Identifiability"
