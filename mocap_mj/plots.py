@@ -103,7 +103,9 @@ def held_interrupts(fn: F) -> F:
         if threading.current_thread() is not threading.main_thread():
             return fn(*args, **kwargs)
         came: list[int] = []
-        wanted = (signal.SIGINT, signal.SIGTERM, signal.SIGALRM)  # SIGALRM: batch --timeout
+        wanted = [signal.SIGINT, signal.SIGTERM]
+        if hasattr(signal, "SIGALRM"):  # batch --timeout; not on Windows
+            wanted.append(signal.SIGALRM)
         previous = {s: signal.signal(s, lambda signum, _: came.append(signum)) for s in wanted}
         try:
             out = fn(*args, **kwargs)

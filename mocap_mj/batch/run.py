@@ -81,8 +81,13 @@ TIMED_OUT = "timed out"
 @contextlib.contextmanager
 def time_limit(seconds: float | None) -> Iterator[None]:
     """Raise :class:`SubjectTimeout` in the block after ``seconds`` (None: no limit; outside
-    the main thread, where no signal can be set, none either)."""
-    if seconds is None or threading.current_thread() is not threading.main_thread():
+    the main thread, where no signal can be set, or without ``SIGALRM`` (Windows), none
+    either)."""
+    if (
+        seconds is None
+        or threading.current_thread() is not threading.main_thread()
+        or not hasattr(signal, "setitimer")
+    ):
         yield
         return
 
