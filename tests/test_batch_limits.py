@@ -88,3 +88,23 @@ def test_a_broken_yaml_manifest_is_one_line_naming_the_line(
         f"mocap-mj batch: error: {manifest}: expected a YAML manifest: line 4, column 9: "
         "expected ',' or ']', but got ':' (while parsing a flow sequence)\n"
     )
+
+
+def test_an_implausible_identification_makes_the_batch_exit_3(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capfd: pytest.CaptureFixture[str]
+) -> None:
+    def job(subject: Subject, folder: Path) -> dict[str, Any]:
+        record = _job(subject, folder)
+        if subject.name == "odd":
+            record["identify"]["implausible"] = ["marker RMSE 111 mm, above the 30 mm"]
+        return record
+
+    monkeypatch.setattr("mocap_mj.commands.batch.process_subject", job)
+    ds = _dataset(tmp_path / "ds", ("fine", "odd"))
+    code = main(["batch", str(ds), "--out", str(tmp_path / "out"), "--serial", "--json"])
+    assert code == 3
+    captured = capfd.readouterr()
+    summary = json.loads(captured.out)
+    assert summary["subjects_implausible"] == ["odd"] and summary["exit_status"] == 3
+    assert json.loads((tmp_path / "out" / "summary.json").read_text())["exit_status"] == 3
+    assert "mocap-mj batch: implausible identification of odd (exit status 3" in captured.err
