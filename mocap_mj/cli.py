@@ -264,7 +264,7 @@ def finish(
     else:
         print(text)
     status = int(summary.get("exit_status", 0))
-    if status == EXIT_IMPLAUSIBLE:
+    if status == EXIT_IMPLAUSIBLE and summary.get("implausible"):
         where = getattr(args, "out", None) or out
         print(
             f"mocap-mj {args.command}: implausible result (exit status {status}; written to "
