@@ -164,7 +164,9 @@ def run(args: argparse.Namespace) -> int:
 @contextlib.contextmanager
 def _stdout_to_stderr() -> Iterator[None]:
     """File descriptor 1 pointed at stderr in the block, for this process and every process
-    it starts (a local Ray's raylet and workers write their log lines there)."""
+    it starts: Ray's driver prints the raylet's error messages (a worker that died, memory
+    pressure) on stdout as ``(raylet) ...`` lines whatever ``log_to_driver`` says, and the
+    local Ray's processes inherit the descriptor."""
     sys.stdout.flush()
     saved = os.dup(1)
     try:
