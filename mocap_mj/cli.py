@@ -22,6 +22,7 @@ import argparse
 import atexit
 import contextlib
 import importlib
+import math
 import signal
 import sys
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -176,11 +177,9 @@ def number(
     """An argparse ``type=`` for a numeric flag with a domain: a finite number of ``kind``,
     greater than ``above``, at least ``least``, at most ``most``. Outside, argparse names the
     flag: ``argument --observable-mm: expected a number > 0, got '0'`` (exit status 2)."""
-    rules = [f"> {above:g}" if above is not None else "", f">= {least:g}" if least is not None
-             else "", f"<= {most:g}" if most is not None else ""]  # fmt: skip
-    what = ("a whole number" if kind is int else "a number") + "".join(
-        f" {r}" if i == 0 else f" and {r}" for i, r in enumerate(r for r in rules if r)
-    )
+    bounds = ((">", above), (">=", least), ("<=", most))
+    rules = " and ".join(f"{op} {bound:g}" for op, bound in bounds if bound is not None)
+    what = ("a whole number" if kind is int else "a number") + (f" {rules}" if rules else "")
 
     def parse(text: str) -> Any:
         try:
@@ -189,8 +188,7 @@ def number(
             value = None
         if (
             value is None
-            or value != value  # NaN
-            or abs(value) == float("inf")
+            or not math.isfinite(value)
             or (above is not None and not value > above)
             or (least is not None and not value >= least)
             or (most is not None and not value <= most)
