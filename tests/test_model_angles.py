@@ -16,7 +16,10 @@ from mocap_mj.cli import main
 from mocap_mj.clinical.angles import ANGLES
 from mocap_mj.clinical.compare import c3d_angles, compare, folder_angles
 from mocap_mj.clinical.from_model import model_angles
+from mocap_mj.export.result import load_result
+from mocap_mj.identify.clinical_out import write_model_angles
 from mocap_mj.model import load_model, model_path
+from mocap_mj.results import Motion
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 MOVEMENT = SHARED / "Movement_trial.c3d"
@@ -203,3 +206,12 @@ def test_movement_trial_keeps_nexus_signs(tmp_path: Path) -> None:
     report = (out / "report.md").read_text()
     assert "## Angles against Plug-in Gait" in report
     assert (out / "angles_vs_plug_in_gait.png").is_file()
+    # a part of the trial (identify --frames 100:300) is compared with Nexus' same frames
+    src = load_result(out)
+    m = src.motion
+    part = Motion(m.qpos[100:300], m.times[100:300], m.markers[100:300], m.marker_names)
+    (tmp_path / "part").mkdir()
+    lines, entry = write_model_angles(tmp_path / "part", src.model, [part], str(MOVEMENT), 100)
+    assert entry is not None and "200 frames in common" in "\n".join(lines)
+    knee = entry["components"]["LKneeAngles_X"]
+    assert knee["offset_deg"] == pytest.approx(rows["LKneeAngles_X"].offset, abs=3.0)

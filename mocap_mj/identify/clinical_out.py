@@ -5,6 +5,7 @@ comparison section of report.md and its figure (:mod:`mocap_mj.clinical.compare`
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -23,7 +24,8 @@ def write_model_angles(
     out: Path, model: mujoco.MjModel, motion: Sequence[Motion], source: str, first_frame: int
 ) -> tuple[list[str], dict[str, Any] | None]:
     """angles.csv of ``motion[0]`` (internal qpos of ``model``; frames from
-    ``first_frame``) into ``out``; returns (report lines, summary entry) of the comparison
+    ``first_frame``, the recording's frame number or the sample's index in the file) into
+    ``out``; returns (report lines, summary entry) of the comparison
     with the Nexus angles in ``source`` (a C3D), or ([], None) when it holds none."""
     if not motion:
         return [], None
@@ -38,6 +40,8 @@ def write_model_angles(
         ref = c3d_angles(path)
         if not ref.angles:
             return [], None
+        if np.mean(np.isin(frames, ref.frames)) < 0.5:  # our frames count the file's samples
+            ref = replace(ref, frames=np.arange(len(ref.frames)))
         lines, rows = comparison_section(out, frames, m.times, angles, ref)
     except MocapError as exc:
         return ["## Angles against Plug-in Gait", "", f"Not compared: {exc}", ""], None
