@@ -356,8 +356,8 @@ def test_unsolved_frames_are_empty_in_every_table(result: Path, tmp_path: Path) 
 
 
 def test_export_angles_compare_reports_offset_and_correlation(result: Path, tmp_path: Path) -> None:
-    """--compare against a plug-in-gait folder whose knee flexion is ours less 5 deg: RMS 5,
-    offset +5, correlation 1 for that column, 0 elsewhere."""
+    """--compare against a plug-in-gait folder (frames numbered from 694) whose knee flexion
+    is ours less 5 deg: RMS 5, offset +5, correlation 1 for that column, 0 elsewhere."""
     out = tmp_path / "a.csv"
     assert main(["export", str(result), "--to", "angles", "--out", str(out)]) == 0
     lines = out.read_text().splitlines()
@@ -365,7 +365,8 @@ def test_export_angles_compare_reports_offset_and_correlation(result: Path, tmp_
     assert header[:2] == ["frame", "time_s"] and header[2] == "LPelvisAngles_X"
     k = header.index("LKneeAngles_X")
     rows = [r.split(",") for r in lines[1:]]
-    for r in rows:
+    for r in rows:  # the recording's frame numbers, as plug-in-gait writes them
+        r[0] = str(int(r[0]) + 694)
         r[k] = f"{float(r[k]) - 5.0:.4f}" if r[k] else ""
     pig = tmp_path / "pig"
     pig.mkdir()

@@ -9,7 +9,7 @@ Angles are in radians inside, degrees in the tables and figures; a difference is
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import ezc3d
@@ -70,6 +70,14 @@ def folder_angles(folder: str | Path) -> Reference:
     names = [h[:-2] for h in header[2::3]]
     angles = {n: np.radians(table[:, 2 + 3 * k : 5 + 3 * k]) for k, n in enumerate(names)}
     return Reference(table[:, 0].astype(int), angles, str(path))
+
+
+def numbered_like(frames: np.ndarray, ref: Reference) -> Reference:
+    """``ref`` as is when most of our frames (T,) are among its frame numbers, else with its
+    rows counted from 0 (our frames then count the recording's samples from its first)."""
+    if np.mean(np.isin(frames, ref.frames)) >= 0.5:
+        return ref
+    return replace(ref, frames=np.arange(len(ref.frames)))
 
 
 def aligned(frames: np.ndarray, ref: Reference) -> np.ndarray:

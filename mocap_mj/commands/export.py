@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..cli import add_force_flag, add_json_flag, finish, output_folder, write_summary
-from ..clinical.compare import comparison_section, folder_angles
+from ..clinical.compare import comparison_section, folder_angles, numbered_like
 from ..errors import MocapError
 from ..export.c3d import write_c3d
 from ..export.clinical import clinical_angles
@@ -111,11 +111,21 @@ def _builtin(fmt: str) -> Callable[[argparse.Namespace], dict[str, Any]]:
     return run
 
 
+def _first_frame(summary: dict[str, Any]) -> int:
+    """The first frame of the result's motion in its recording (the summary's frame range
+    of identify or ik; 0 without one)."""
+    fitted = summary.get("frames_fitted_range") or [[None]]
+    first = fitted[0][0] if isinstance(fitted[0], list) else None
+    if first is None:
+        first = (summary.get("frames_range") or [0])[0]
+    return int(first) if isinstance(first, int) else 0
+
+
 def _compare(out: Path, src: ExportSource, folder: str) -> dict[str, Any]:
     """``--compare``: the angles of ``out`` beside a plug-in-gait folder's, into
     ``<out>_vs_plug_in_gait.md`` and ``.png`` next to ``out``; the summary's entries."""
-    ref = folder_angles(folder)
-    frames = np.arange(len(src.motion.times))
+    frames = _first_frame(src.summary) + np.arange(len(src.motion.times))
+    ref = numbered_like(frames, folder_angles(folder))
     ours = clinical_angles(src.model, src.motion.qpos)
     stem = out.with_suffix("").name + "_vs_plug_in_gait"
     lines, rows = comparison_section(
@@ -244,7 +254,7 @@ def register(sub: Any) -> None:
         help="with --to angles: a `mocap-mj plug-in-gait` output folder whose angles.csv is "
         "put beside ours (OUT_vs_plug_in_gait.md: RMS difference, offset and correlation per "
         "component; OUT_vs_plug_in_gait.png: both curves); frames matched by number, else "
-        "by position (default: no comparison)",
+        "counted from the recording's first (default: no comparison)",
     )
     add_force_flag(p)
     for exporter in table.values():

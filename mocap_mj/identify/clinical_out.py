@@ -5,14 +5,13 @@ comparison section of report.md and its figure (:mod:`mocap_mj.clinical.compare`
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import mujoco
 import numpy as np
 
-from ..clinical.compare import c3d_angles, comparison_section
+from ..clinical.compare import c3d_angles, comparison_section, numbered_like
 from ..clinical.from_model import model_angles
 from ..clinical.tables import series_table
 from ..errors import MocapError
@@ -40,8 +39,7 @@ def write_model_angles(
         ref = c3d_angles(path)
         if not ref.angles:
             return [], None
-        if np.mean(np.isin(frames, ref.frames)) < 0.5:  # our frames count the file's samples
-            ref = replace(ref, frames=np.arange(len(ref.frames)))
+        ref = numbered_like(frames, ref)
         lines, rows = comparison_section(out, frames, m.times, angles, ref)
     except MocapError as exc:
         return ["## Angles against Plug-in Gait", "", f"Not compared: {exc}", ""], None
