@@ -65,22 +65,25 @@ def _subject_mass(args: argparse.Namespace, src: ExportSource) -> float | None:
 
 def _write(fmt: str, path: Path, src: ExportSource, args: argparse.Namespace) -> None:
     model, motion = src.model, src.motion
+    first = motion.first_frame
     if fmt == "osim":
         write_osim(path, model, up=args.up, mass=_subject_mass(args, src))
     elif fmt == "mot":
         write_mot(path, model, motion.times, motion.qpos)
     elif fmt == "trc":
-        write_trc(path, motion.marker_names, motion.times, motion.markers, up=args.up)
+        write_trc(
+            path, motion.marker_names, motion.times, motion.markers, up=args.up, first_frame=first
+        )
     elif fmt == "trc-model":
         fitted, _ = marker_residuals(model, motion.qpos, motion.markers)
-        write_trc(path, motion.marker_names, motion.times, fitted, up=args.up)
+        write_trc(path, motion.marker_names, motion.times, fitted, up=args.up, first_frame=first)
     elif fmt == "c3d":
         write_c3d(path, src)
     elif fmt == "angles":
-        write_angles_csv(path, model, motion.times, motion.qpos)
+        write_angles_csv(path, model, motion.times, motion.qpos, first)
     elif fmt == "residuals":
         _, distance = marker_residuals(model, motion.qpos, motion.markers)
-        write_residuals_csv(path, motion.marker_names, motion.times, distance)
+        write_residuals_csv(path, motion.marker_names, motion.times, distance, first)
     elif fmt == "scale":
         nominal = load_model(args.nominal)  # the bundled humanoid without --nominal
         atomic_write_text(path, scale_table_text(model, nominal))
