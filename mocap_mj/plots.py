@@ -6,14 +6,24 @@ atomically. The figures are drawn on matplotlib's Agg canvas directly (no ``pypl
 backend switch), at 150 dpi; ``size`` is the image size in pixels.
 
 Errors are in millimetres, times in seconds.
+
+Ctrl-C, SIGTERM and SIGALRM (``batch --timeout``) are held while a figure is drawn and act
+when it is written (then as anywhere else): matplotlib's objects run Python callbacks as
+they are freed (weak-reference callbacks of its transforms and callback registries), and an
+interrupt raised inside one cannot propagate: Python prints "Exception ignored in ...
+Traceback" and goes on.
 """
 
 from __future__ import annotations
 
+import functools
+import gc
 import io
-from collections.abc import Mapping, Sequence
+import signal
+import threading
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -31,6 +41,8 @@ __all__ = [
     "plot_parameter_errors",
     "plot_residual_per_marker",
 ]
+
+F = TypeVar("F", bound=Callable[..., Any])
 
 #: Resolution of every figure [dots per inch].
 DPI = 150
@@ -81,6 +93,33 @@ def _size(size: tuple[int, int]) -> tuple[int, int]:
 
 
 # --------------------------------------------------------------------------- output
+def held_interrupts(fn: F) -> F:
+    """Decorator: run ``fn`` (that draws a figure) with SIGINT, SIGTERM and SIGALRM held, its
+    figure's objects freed before they are let go; a signal that came meanwhile is then
+    raised again, to the handler in place before. Outside the main thread, ``fn`` as is."""
+
+    @functools.wraps(fn)
+    def held(*args: Any, **kwargs: Any) -> Any:
+        if threading.current_thread() is not threading.main_thread():
+            return fn(*args, **kwargs)
+        came: list[int] = []
+        wanted = [signal.SIGINT, signal.SIGTERM]
+        if hasattr(signal, "SIGALRM"):  # batch --timeout; not on Windows
+            wanted.append(signal.SIGALRM)
+        previous = {s: signal.signal(s, lambda signum, _: came.append(signum)) for s in wanted}
+        try:
+            out = fn(*args, **kwargs)
+            gc.collect()  # the figure's reference cycles, with their callbacks, now
+        finally:
+            for wanted_signal, handler in previous.items():
+                signal.signal(wanted_signal, handler)
+            for signum in dict.fromkeys(came):
+                signal.raise_signal(signum)
+        return out
+
+    return held  # type: ignore[return-value]
+
+
 def _figure(size: tuple[int, int]) -> Figure:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -105,6 +144,7 @@ def _mean_text(values: np.ndarray) -> str:
 
 
 # --------------------------------------------------------------------------- figures
+@held_interrupts
 def plot_marker_error_per_frame(
     path: str | Path,
     times: ArrayLike,
@@ -146,6 +186,7 @@ def plot_marker_error_per_frame(
     return _save(fig, path)
 
 
+@held_interrupts
 def plot_error_accumulation(
     path: str | Path,
     times: ArrayLike,
@@ -184,6 +225,7 @@ def plot_error_accumulation(
     return _save(fig, path)
 
 
+@held_interrupts
 def plot_parameter_errors(
     path: str | Path,
     names: Sequence[str],
@@ -245,6 +287,7 @@ def plot_parameter_errors(
     return _save(fig, path)
 
 
+@held_interrupts
 def plot_residual_per_marker(
     path: str | Path,
     names: Sequence[str],

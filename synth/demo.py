@@ -156,6 +156,7 @@ def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str,
         "frames": n,
         "frames_held_out": s["frames_held_out"],
         "iterations": ident["iterations"],
+        "implausible": ident["implausible"],  # the fit's own checks: non-empty exits 3
         "marker_rmse_mm": ident["marker_rmse_mm"],
         "expected_rmse_mm": expected,
         "heldout_marker_rmse_mm": s.get("heldout_marker_rmse_mm"),

@@ -35,7 +35,7 @@ from typing import Any
 
 import yaml
 
-from ..errors import InputFileError
+from ..errors import InputFileError, yaml_problem
 
 #: Per-subject options a manifest (or the ``batch`` command line) may set, with their type.
 OPTION_KEYS: dict[str, type] = {
@@ -162,8 +162,10 @@ def _from_csv(path: Path, base: dict[str, Any]) -> list[Subject]:
 def _from_yaml(path: Path, base: dict[str, Any]) -> list[Subject]:
     try:
         data = yaml.safe_load(path.read_text())
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+    except (OSError, UnicodeDecodeError) as exc:
         raise InputFileError(f"{path}: cannot read the manifest ({exc})") from None
+    except yaml.YAMLError as exc:
+        raise InputFileError(f"{path}: expected a YAML manifest: {yaml_problem(exc)}") from None
     if not isinstance(data, dict) or not isinstance(data.get("subjects"), list):
         raise InputFileError(f"{path}: expected a mapping with a 'subjects' list")
     given = data.get("options") or {}

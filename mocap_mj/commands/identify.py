@@ -28,7 +28,7 @@ import numpy as np
 
 from .. import _numba_prewarm
 from ..checks import check_markers
-from ..cli import add_force_flag, add_json_flag, into_out_folder, output_folder
+from ..cli import add_force_flag, add_json_flag, into_out_folder, number, output_folder
 from ..errors import MocapError
 from ..identify.api import AUTO_SELECT_ABOVE, AUTO_SELECT_COUNT, identify, select_count
 from ..identify.output import frame_range, result_text, write_result
@@ -124,14 +124,14 @@ def _add_fit_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--robust", action="store_true", help="same as --loss cauchy")
     p.add_argument(
         "--max-iterations",
-        type=int,
+        type=number(int, least=1),
         default=100,
         metavar="N",
         help="LM iterations at most (lm solver; default: 100)",
     )
     p.add_argument(
         "--prior-mm",
-        type=float,
+        type=number(above=0),
         default=50.0,
         metavar="MM",
         help="width of the weak prior that holds each parameter near its initial value, in "
@@ -139,7 +139,7 @@ def _add_fit_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--observable-mm",
-        type=float,
+        type=number(above=0),
         default=5.0,
         metavar="MM",
         help="a parameter direction counts as observable when its standard deviation is "
@@ -156,29 +156,37 @@ def _add_paper_options(p: argparse.ArgumentParser) -> None:
         help="which frames each iteration uses (required with --solver paper; default: none)",
     )
     g.add_argument(
-        "--iterations", type=int, default=100, metavar="N", help="iterations (default: 100)"
+        "--iterations",
+        type=number(int, least=1),
+        default=100,
+        metavar="N",
+        help="iterations (default: 100)",
     )
     g.add_argument(
         "--step",
-        type=float,
+        type=number(above=0),
         metavar="ALPHA",
         help=f"gradient step alpha (default: {DEFAULT_STEP:g})",
     )
     g.add_argument(
         "--delta",
-        type=float,
+        type=number(above=0),
         metavar="M",
         help=f"finite-difference perturbation in m (default: {DEFAULT_DELTA:g})",
     )
     g.add_argument(
         "--fraction",
-        type=float,
+        type=number(above=0, most=1),
         default=0.1,
         metavar="F",
         help="fraction of the frames per iteration for random/stochastic sampling (default: 0.1)",
     )
     g.add_argument(
-        "--seed", type=int, default=0, metavar="N", help="seed of the frame sampling (default: 0)"
+        "--seed",
+        type=number(int, least=0),
+        default=0,
+        metavar="N",
+        help="seed of the frame sampling (default: 0)",
     )
 
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..angles import angle_columns, joint_angle_table
 from ..checks import check_markers
-from ..cli import add_force_flag, add_json_flag, into_out_folder
+from ..cli import add_force_flag, add_json_flag, into_out_folder, number
 from ..errors import MocapError
 from ..exported import Layout
 from ..identify.losses import LossName
@@ -90,14 +90,14 @@ def register(sub: Any) -> None:
     )
     p.add_argument(
         "--max-iterations",
-        type=int,
+        type=number(int, least=1),
         default=100,
         metavar="N",
         help="LM iterations per frame at most (default: 100)",
     )
     p.add_argument(
         "--min-markers",
-        type=int,
+        type=number(int, least=1),
         default=16,
         metavar="N",
         help="present markers a frame needs to be solved (default: 16)",

@@ -11,6 +11,7 @@ import numpy as np
 from ..cli import finish
 from ..errors import MocapError
 from ..identify.identifiability import Identifiability
+from ..identify.initial import marker_stature, segment_scales
 from ..identify.output import expected_rmse, write_files
 from ..identify.paper import (
     DEFAULT_DELTA,
@@ -20,6 +21,7 @@ from ..identify.paper import (
     identify_paper,
     trace_lines,
 )
+from ..identify.plausibility import implausible_reasons
 from ..identify.problem import TrialData
 from ..parameters import ParameterSet
 from .progress import progress_bar
@@ -53,6 +55,13 @@ def run_paper(
         theta=result.theta,
     )
     summary = paper_summary(pset, result, idf, trials, ranges)
+    k = pset.n_kappa
+    summary["implausible"] = implausible_reasons(  # the LM path's checks (exit status 3)
+        result.marker_rmse,
+        int(np.sum(result.at_bound[:k])),
+        int(np.sum(~pset.frozen[:k])),
+        marker_stature(segment_scales(pset, [t.markers for t in trials])),
+    )
     iterations = [
         "## Iterations (Algorithm 1 of Zou & Sugihara)",
         "",

@@ -467,6 +467,18 @@ def estimate_stature(scales: dict[str, ScaleEstimate]) -> StatureEstimate | None
     return StatureEstimate(value, rel * value, source)
 
 
+def marker_stature(scales: dict[str, ScaleEstimate]) -> float | None:
+    """The stature [m] the long-bone marker distances alone imply: ``NOMINAL_HEIGHT`` x the
+    median of their measured / nominal ratios, unclipped (a unit check: a recording in
+    centimetres read as millimetres gives a tenth of a person); None without a long bone."""
+    ratios = [
+        scales[n].measured / scales[n].nominal
+        for n in STATURE_SCALES
+        if n in scales and np.isfinite(scales[n].measured)
+    ]
+    return NOMINAL_HEIGHT * float(np.median(ratios)) if ratios else None
+
+
 def scaled_theta(
     pset: ParameterSet,
     markers: np.ndarray | Sequence[np.ndarray],
