@@ -16,8 +16,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from ..cli import add_force_flag, add_json_flag, finish, output_folder, write_summary
 from ..clinical.compare import comparison_section, folder_angles, numbered_like
 from ..errors import MocapError
@@ -70,22 +68,25 @@ def _subject_mass(args: argparse.Namespace, src: ExportSource) -> float | None:
 
 def _write(fmt: str, path: Path, src: ExportSource, args: argparse.Namespace) -> None:
     model, motion = src.model, src.motion
+    first = motion.first_frame
     if fmt == "osim":
         write_osim(path, model, up=args.up, mass=_subject_mass(args, src))
     elif fmt == "mot":
         write_mot(path, model, motion.times, motion.qpos)
     elif fmt == "trc":
-        write_trc(path, motion.marker_names, motion.times, motion.markers, up=args.up)
+        write_trc(
+            path, motion.marker_names, motion.times, motion.markers, up=args.up, first_frame=first
+        )
     elif fmt == "trc-model":
         fitted, _ = marker_residuals(model, motion.qpos, motion.markers)
-        write_trc(path, motion.marker_names, motion.times, fitted, up=args.up)
+        write_trc(path, motion.marker_names, motion.times, fitted, up=args.up, first_frame=first)
     elif fmt == "c3d":
         write_c3d(path, src)
     elif fmt == "angles":
-        write_angles_csv(path, model, motion.times, motion.qpos)
+        write_angles_csv(path, model, motion.times, motion.qpos, first)
     elif fmt == "residuals":
         _, distance = marker_residuals(model, motion.qpos, motion.markers)
-        write_residuals_csv(path, motion.marker_names, motion.times, distance)
+        write_residuals_csv(path, motion.marker_names, motion.times, distance, first)
     elif fmt == "scale":
         nominal = load_model(args.nominal)  # the bundled humanoid without --nominal
         atomic_write_text(path, scale_table_text(model, nominal))
@@ -111,20 +112,10 @@ def _builtin(fmt: str) -> Callable[[argparse.Namespace], dict[str, Any]]:
     return run
 
 
-def _first_frame(summary: dict[str, Any]) -> int:
-    """The first frame of the result's motion in its recording (the summary's frame range
-    of identify or ik; 0 without one)."""
-    fitted = summary.get("frames_fitted_range") or [[None]]
-    first = fitted[0][0] if isinstance(fitted[0], list) else None
-    if first is None:
-        first = (summary.get("frames_range") or [0])[0]
-    return int(first) if isinstance(first, int) else 0
-
-
 def _compare(out: Path, src: ExportSource, folder: str) -> dict[str, Any]:
     """``--compare``: the angles of ``out`` beside a plug-in-gait folder's, into
     ``<out>_vs_plug_in_gait.md`` and ``.png`` next to ``out``; the summary's entries."""
-    frames = _first_frame(src.summary) + np.arange(len(src.motion.times))
+    frames = src.motion.frames
     ref = numbered_like(frames, folder_angles(folder))
     ours = clinical_angles(src.model, src.motion.qpos)
     stem = out.with_suffix("").name + "_vs_plug_in_gait"

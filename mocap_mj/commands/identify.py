@@ -211,7 +211,8 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
         sl = frame_range(args.frames, len(t.markers), t.path)
         if sl.stop - sl.start < 1:
             raise MocapError(f"{t.path}: --frames {args.frames} selects no frame")
-        ranges.append([sl.start, sl.stop])
+        # each trial's frames in the recording's own numbering (tables, messages, summary)
+        ranges.append([t.first_frame + sl.start, t.first_frame + sl.stop])
         markers = drop_excluded(t.markers[sl], pset, excluded)
         trials.append(TrialData(t.path, markers, t.times[sl]))
         check_markers(t.path, pset.marker_names, trials[-1].markers, IKSettings().min_markers)

@@ -113,11 +113,11 @@ def register(sub: Any) -> None:
 def write_motion_csv(
     path: Path, model: Any, times: np.ndarray, qpos: np.ndarray, first_frame: int = 0
 ) -> None:
-    """Joint angles as CSV: frame (of the marker file, from ``first_frame``), time [s], then
+    """Joint angles as CSV: frame (the recording's number, from ``first_frame``), time_s [s], then
     named columns in mm and degrees, of ``model`` as written (qpos (T, nq) of its layout, the
     knees' slide joints included: :mod:`mocap_mj.exported`)."""
     table = joint_angle_table(model, qpos)
-    header = ",".join(["frame", "time", *angle_columns(model)])
+    header = ",".join(["frame", "time_s", *angle_columns(model)])
     lines = [header]
     for i, (t, row) in enumerate(zip(times, table, strict=True)):
         cells = ["" if not np.isfinite(v) else f"{v:.6f}" for v in row]
@@ -134,10 +134,14 @@ def run(args: argparse.Namespace) -> int:
     excluded = parse_marker_list(args.exclude_markers, pset.marker_names)
     trial = trial._replace(markers=drop_excluded(trial.markers, pset, excluded))
     check_markers(trial.path, pset.marker_names, trial.markers[sl], args.min_markers)
+    # frames in the recording's own numbering (tables, messages, summary)
+    first = trial.first_frame + sl.start
     found, quality = check_trials(
-        args, pset, [(trial.path, trial.markers[sl], trial.rate, sl.start)], excluded
+        args, pset, [(trial.path, trial.markers[sl], trial.rate, first)], excluded
     )
-    trial = trial._replace(markers=without_ghosts(trial.markers, pset, found, trial.path, 0))
+    trial = trial._replace(
+        markers=without_ghosts(trial.markers, pset, found, trial.path, trial.first_frame)
+    )
     return into_out_folder(args, lambda out: _solve_and_write(args, pset, trial, sl, out, quality))
 
 
@@ -150,6 +154,7 @@ def _solve_and_write(
     quality: dict[str, Any] | None = None,
 ) -> tuple[dict[str, Any], str]:
     markers, times = trial.markers[sl], trial.times[sl]
+    first = trial.first_frame + sl.start
     t0 = time.perf_counter()
     from .progress import frames_bar
 
@@ -168,12 +173,10 @@ def _solve_and_write(
     sliding = None if args.no_sliding_landmarks else recorded_sliding_model(model)
     pset.export_mjcf(out / "model.xml", pset.nominal)
     written = Layout.of(model).written(result.qpos)
-    save_motion(out / "motion.npz", replace(motion, qpos=written))
-    write_motion_csv(out / "motion.csv", load_written(out / "model.xml"), times, written, sl.start)
-    write_joint_centres_csv(
-        out / "joint_centres.csv", model, times, result.qpos, first_frame=sl.start
-    )
-    write_angles_csv(out / "angles.csv", model, times, result.qpos, first_frame=sl.start)
+    save_motion(out / "motion.npz", replace(motion, qpos=written, first_frame=first))
+    write_motion_csv(out / "motion.csv", load_written(out / "model.xml"), times, written, first)
+    write_joint_centres_csv(out / "joint_centres.csv", model, times, result.qpos, first_frame=first)
+    write_angles_csv(out / "angles.csv", model, times, result.qpos, first_frame=first)
     n = len(markers)
     skipped = np.flatnonzero(result.status == Status.TOO_FEW_MARKERS)
     seen = np.any(np.all(np.isfinite(markers), axis=2), axis=0)
@@ -182,9 +185,9 @@ def _solve_and_write(
         "markers_file": str(trial.path),
         "model": str(pset.path),
         "frames": n,
-        "frames_range": [sl.start, sl.stop],
+        "frames_range": [first, first + n],
         "frames_solved": int(n - skipped.size),
-        "frames_skipped": [int(i) for i in skipped],
+        "frames_skipped": [first + int(i) for i in skipped],
         "marker_rmse_mm": result.rmse() * 1e3,
         "frame_rmse_max_mm": float(np.nanmax(result.marker_rmse) * 1e3),
         "iterations_mean": float(result.iterations.mean()),

@@ -64,6 +64,7 @@ def write_c3d(path: str | Path, src: ExportSource) -> None:
         rate=src.rate,
         angle_labels=labels[n_markers * 2 + len(JOINT_CENTRE_NAMES) :],
         modeled=labels[n_markers : n_markers * 2 + len(JOINT_CENTRE_NAMES)],
+        first_frame=src.motion.first_frame,
     )
 
 
@@ -76,12 +77,12 @@ def write_points_c3d(
     rate: float,
     angle_labels: list[str],
     modeled: list[str],
-    first_frame: int = 0,
+    first_frame: int = 1,
 ) -> None:
     """Write points ``values`` (T, N, 3) (mm, degrees for ``angle_labels``) as a C3D,
-    atomically; NaN samples are written as invalid points. ``first_frame``: the first
-    frame's number as the readers report it (ezc3d's header, from 0; the file stores it
-    plus one, as does ``TRIAL:ACTUAL_START_FIELD``)."""
+    atomically; NaN samples are written as invalid points. ``first_frame``: the recording's
+    number of frame 0 as a C3D header numbers frames (from 1; also written as
+    ``TRIAL:ACTUAL_START_FIELD``); below 1, the file's frames are numbered from 1."""
     c3d = ezc3d.c3d()
     point = c3d["parameters"]["POINT"]
     point["RATE"]["value"] = np.array([rate])
@@ -95,9 +96,9 @@ def write_points_c3d(
     data = np.ones((4, len(labels), len(values)))
     data[:3] = np.transpose(values, (2, 1, 0))
     c3d["data"]["points"] = data
-    if first_frame:
-        c3d.add_parameter("TRIAL", "ACTUAL_START_FIELD", [int(first_frame) + 1, 0])
-        c3d["header"]["points"]["first_frame"] = int(first_frame)
+    if first_frame > 1:
+        c3d.add_parameter("TRIAL", "ACTUAL_START_FIELD", [int(first_frame), 0])
+        c3d["header"]["points"]["first_frame"] = int(first_frame) - 1  # ezc3d counts from 0
     missing = ~np.all(np.isfinite(values), axis=2).T  # (N, T)
     residuals = np.where(missing, -1.0, 0.0)[np.newaxis]
     c3d["data"]["meta_points"]["residuals"] = residuals

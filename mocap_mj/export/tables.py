@@ -1,9 +1,9 @@
 """CSV tables: clinical angles (Plug-in Gait's table), per-marker residuals, and segment
 scale factors.
 
-All files are comma-separated with one header row; frames are numbered from 0 (angles: from
-``first_frame``) with their time [s]; empty cells are missing values (a marker not measured,
-a frame not solved). The angle table has Plug-in Gait's header (``frame,time_s``, then
+All files are comma-separated with one header row; ``frame`` is the recording's own frame
+number and ``time_s`` its time [s]; empty cells are missing values (a marker not measured, a
+frame not solved). The angle table is Plug-in Gait's (``frame,time_s``, then
 ``LPelvisAngles_X``...).
 """
 
@@ -48,13 +48,16 @@ def _cell(value: float, fmt: str) -> str:
     return format(value, fmt) if np.isfinite(value) else ""
 
 
-def table_text(header: Sequence[str], times: np.ndarray, values: np.ndarray, fmt: str) -> str:
-    """CSV text: ``frame,time,<header>`` then one row per frame of values (T, C)."""
+def table_text(
+    header: Sequence[str], times: np.ndarray, values: np.ndarray, fmt: str, first_frame: int = 0
+) -> str:
+    """CSV text: ``frame,time_s,<header>`` then one row per frame of values (T, C); frame i is
+    numbered ``first_frame + i``."""
     values = np.asarray(values, dtype=float)
     check_shape("values", values, (len(times), len(header)))
-    lines = [",".join(["frame", "time", *header])]
+    lines = [",".join(["frame", "time_s", *header])]
     for i, (t, row) in enumerate(zip(times, values, strict=True)):
-        lines.append(f"{i},{t:.6f}," + ",".join(_cell(v, fmt) for v in row))
+        lines.append(f"{first_frame + i},{t:.6f}," + ",".join(_cell(v, fmt) for v in row))
     return "\n".join(lines) + "\n"
 
 
@@ -84,10 +87,15 @@ def marker_residuals(
 
 
 def write_residuals_csv(
-    path: str | Path, names: Sequence[str], times: np.ndarray, distance: np.ndarray
+    path: str | Path,
+    names: Sequence[str],
+    times: np.ndarray,
+    distance: np.ndarray,
+    first_frame: int = 0,
 ) -> None:
     """Per-marker residuals: distance (T, M) [m] written in millimetres, one column a marker."""
-    atomic_write_text(path, table_text([f"{n}_mm" for n in names], times, distance * 1e3, ".4f"))
+    header = [f"{n}_mm" for n in names]
+    atomic_write_text(path, table_text(header, times, distance * 1e3, ".4f", first_frame))
 
 
 def segment_lengths(model: mujoco.MjModel) -> np.ndarray:

@@ -159,8 +159,8 @@ def _described(
     rows = add_checks(report, pset, result, trials, settings, solved.ranges, info)
     report = jsonable(report)
     motion = tuple(
-        Motion(np.asarray(q), t.times, t.markers, pset.marker_names)
-        for t, q in zip(trials, result.qpos, strict=True)
+        Motion(np.asarray(q), t.times, t.markers, pset.marker_names, first_frame=f)
+        for t, q, f in zip(trials, result.qpos, firsts, strict=True)
     )
     return Fit(
         pset=pset,
@@ -213,8 +213,8 @@ def _with_every_frame(
         poses, done = every_frame_motion(pset, fit.theta, fit.settings, whole, **args)
         motion = tuple(
             Motion(q, np.asarray(t.times, dtype=float), np.asarray(t.markers, dtype=float),
-                   pset.marker_names)
-            for t, q in zip(whole, poses, strict=True)
+                   pset.marker_names, first_frame=f)
+            for t, q, f in zip(whole, poses, fit.first_frames, strict=True)
         )  # fmt: skip
     report["motion_marker_rmse_mm"] = done.rmse * 1e3
     report["motion_seconds"] = {"ik": done.ik_seconds, "all": done.seconds}

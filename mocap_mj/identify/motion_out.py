@@ -95,10 +95,12 @@ def write_motion_chunks(
     nq: int,
     poses: Iterator[np.ndarray],
     chunk: int = CHUNK,
+    first_frame: int = 0,
 ) -> None:
     """motion.npz of ``trial`` (its times (T,) [s] and markers (T, M, 3) [m], read ``chunk``
     frames at a time) with the poses (T, nq) that ``poses`` yields chunk by chunk, in the
-    member order of :func:`mocap_mj.results.save_motion`."""
+    member order of :func:`mocap_mj.results.save_motion`; ``first_frame``: the recording's
+    number of frame 0."""
     n = len(trial.markers)
     with atomic_path(path) as tmp, _zip(tmp) as zf:
         with npy_member(zf, "qpos", (n, nq), np.dtype(float)) as append:
@@ -113,6 +115,8 @@ def write_motion_chunks(
         labels = np.array(list(names))
         with npy_member(zf, "marker_names", labels.shape, labels.dtype) as append:
             append(labels)
+        with npy_member(zf, "first_frame", (), np.dtype(np.int64)) as append:
+            append(np.array(first_frame, dtype=np.int64))
 
 
 class _CentresTable:
@@ -180,6 +184,7 @@ def write_every_frame_motion(
                 layout.nq_written,
                 (layout.written(q) for q in poses),
                 chunk,
+                first,
             )
     return tally.fit._replace(seconds=time.perf_counter() - t0)
 

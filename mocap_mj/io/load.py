@@ -23,7 +23,7 @@ from mocap_mj.io.orientation import (
     normalize_up,
     rotation_to_z_up,
 )
-from mocap_mj.io.trajectory import MarkerTrajectory
+from mocap_mj.io.trajectory import MarkerTrajectory, first_frame
 from mocap_mj.io.units import (
     check_extent,
     frame_extents,
@@ -273,9 +273,10 @@ class Reading:
         )
 
     def _beyond(self, where: tuple[int, int, float], names: list[str], unit: str) -> InputFileError:
-        frame, marker, value = where
+        row, marker, value = where
+        frame = first_frame(self.raw.info) + row  # the recording's own number
         return InputFileError(
-            f"{self.file}: {names[marker]}: frame {frame} (t = {self.raw.times[frame]:.3f} s): "
+            f"{self.file}: {names[marker]}: frame {frame} (t = {self.raw.times[row]:.3f} s): "
             f"expected coordinates within {COORDINATE_LIMIT:g} m of the origin (no lab is "
             f"larger), got {value:.4g} m ({value / self.scale:.4g} {unit})"
         )

@@ -165,11 +165,14 @@ def _raw(path: Path, got: _Read, layout: C3DLayout | None, frames: int | None = 
             f"{path}: data section: the header declares {declared} frames, the file holds "
             f"{n_frames}: read the {n_frames} frames present"
         )
+    # The C3D header numbers frames from 1 (ezc3d reports it less 1): frame f is at
+    # (f - 1) / rate seconds of the recording, as the lab's own software counts it.
+    first = int(got.header["first_frame"]) + 1
     return RawMarkers(
         format="c3d",
         labels=labels,
         positions=positions,
-        times=np.arange(n_frames) / rate,
+        times=(first - 1 + np.arange(n_frames)) / rate,
         rate=rate,
         units=units,
         units_where=units_where,
@@ -177,7 +180,7 @@ def _raw(path: Path, got: _Read, layout: C3DLayout | None, frames: int | None = 
         up_hint=_up_hint(point),
         non_markers=_non_marker_names(point),
         subjects=subjects,
-        info={"first_frame": int(got.header["first_frame"]), "warnings": warnings},
+        info={"first_frame": first, "warnings": warnings},
     )
 
 
