@@ -205,6 +205,7 @@ def test_movement_trial_keeps_nexus_signs(tmp_path: Path) -> None:
             assert rows[f"{s}ThoraxAngles_{k}"].correlation >= 0.9
     report = (out / "report.md").read_text()
     assert "## Angles against Plug-in Gait" in report
+    assert "323 frames in common" in report  # matched by the recording's frame numbers
     assert (out / "angles_vs_plug_in_gait.png").is_file()
     # a part of the trial (identify --frames 100:300) is compared with Nexus' same frames
     src = load_result(out)

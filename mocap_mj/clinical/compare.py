@@ -16,7 +16,7 @@ import ezc3d
 import numpy as np
 
 from ..errors import InputFileError, MocapError
-from ..io.formats.c3d import _point_labels
+from ..io.formats.c3d import _point_labels, recording_first_frame
 
 #: The angle names both tables carry, side letter first (``LKneeAngles``).
 ANGLE_SUFFIX = "Angles"
@@ -34,7 +34,8 @@ class Reference:
 
 def c3d_angles(path: str | Path) -> Reference:
     """The angle points of a C3D (``LKneeAngles``...: Vicon Nexus' Plug-in Gait output),
-    frames numbered from the file's first frame; no angle points give an empty mapping."""
+    frames numbered as the marker reader numbers them; no angle points give an empty
+    mapping."""
     try:
         c = ezc3d.c3d(str(path))
     except (RuntimeError, OSError) as exc:
@@ -42,7 +43,7 @@ def c3d_angles(path: str | Path) -> Reference:
     labels = _point_labels(c["parameters"]["POINT"])
     xyz = np.transpose(c["data"]["points"][:3], (2, 1, 0)).astype(float)
     xyz[np.all(xyz == 0.0, axis=2)] = np.nan
-    first = int(c["header"]["points"]["first_frame"])
+    first = recording_first_frame(int(c["header"]["points"]["first_frame"]))
     angles = {
         name: np.radians(xyz[:, i])
         for i, name in enumerate(labels)
