@@ -21,7 +21,7 @@ from pathlib import Path
 import ezc3d
 import numpy as np
 
-from mocap_mj.clinical.compare import c3d_angles, compare, folder_angles
+from mocap_mj.clinical.compare import aligned, c3d_angles, compare, folder_angles, numbered_like
 
 MOVES = 10.0  # deg: components that move more than this in Nexus' output keep its sign
 CORRELATION = 0.9
@@ -52,11 +52,11 @@ def turned_copy(c3d: Path, out: Path, degrees: float, shift_mm: float) -> Path:
 
 
 def nexus_lines(c3d: Path, result: Path) -> list[str]:
-    ref = c3d_angles(c3d)
     ours = folder_angles(result)
-    n = min(len(ref.frames), len(ours.frames))
-    theirs = {k: v[:n] for k, v in ref.angles.items()}
-    rows = compare({k: v[:n] for k, v in ours.angles.items()}, theirs)
+    ref = numbered_like(ours.frames, c3d_angles(c3d))
+    idx = aligned(ours.frames, ref)
+    theirs = {k: np.where((idx >= 0)[:, None], v[idx], np.nan) for k, v in ref.angles.items()}
+    rows = compare(ours.angles, theirs)
     head = f"{'angle component':24s} {'RMS':>6s} {'offset':>7s} {'corr':>6s} {'Nexus range':>11s}"
     lines = [head]
     for r in rows:
