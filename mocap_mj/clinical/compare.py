@@ -44,11 +44,11 @@ def c3d_angles(path: str | Path) -> Reference:
     xyz = np.transpose(c["data"]["points"][:3], (2, 1, 0)).astype(float)
     xyz[np.all(xyz == 0.0, axis=2)] = np.nan
     first = recording_first_frame(int(c["header"]["points"]["first_frame"]))
-    angles = {
-        name: np.radians(xyz[:, i])
-        for i, name in enumerate(labels)
-        if name.endswith(ANGLE_SUFFIX) and name[:1] in "LR" and i < xyz.shape[1]
-    }
+    angles = {}
+    for i, label in enumerate(labels[: xyz.shape[1]]):
+        name = label.split(":")[-1]  # Nexus prefixes a subject's points with "Subject:"
+        if name.endswith(ANGLE_SUFFIX) and name[:1] in "LR" and name not in angles:
+            angles[name] = np.radians(xyz[:, i])
     return Reference(first + np.arange(xyz.shape[0]), angles, str(path))
 
 
