@@ -1,4 +1,6 @@
-"""Real-data skeleton checks of identified models (issue #14 targets); prints figures.
+"""Real-data skeleton checks of identified models; prints figures.
+
+See docs/validation.md#real-recordings.
 
     python benchmarks/anatomy.py OUT_DIR [OUT_DIR ...] [--pair A B [C ...]]
 
@@ -47,7 +49,7 @@ def report(folder: Path, pset: ParameterSet) -> str:
         )
     outside = kappa_outside_bounds(pset, theta, *kappa_ranges(pset, subject))
     lr = {k: v * 1e3 for k, v in left_right_differences(pset, theta).items()}
-    motion = load_motion(folder / "motion.npz")
+    motion = load_motion(folder / "motion.npz", pset.model)
     wid = {
         k: v * 1e3
         for k, v in width_errors(pset, theta, motion.qpos, motion.markers, subject).items()

@@ -54,7 +54,7 @@ DEFAULT_TRIALS = ("Movement_trial.c3d", "Test_func_rknee.c3d")
 #: 0.06 mm); 0.5 mm leaves a margin and is far below any heading- or unit-dependent start.
 EXACT_MM = 0.5
 #: What less or worse data of the same trial may change [mm]: the single-trial models of one
-#: subject and session differ by up to ~10 mm per joint-centre distance (docs/real-data.md).
+#: subject differ by up to ~10 mm per joint-centre distance (docs/validation.md#real-recordings).
 DEGRADED_MM = 10.0
 
 

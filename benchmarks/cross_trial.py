@@ -1,4 +1,4 @@
-"""Cross-trial consistency on two real trials of one subject (issue 8).
+"""Cross-trial consistency on two real trials of one subject.
 
 Identifies a model from trial A alone and one from trial B alone (``--init placed``, as
 ``mocap-mj identify``), then reports:
@@ -19,23 +19,22 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import tempfile
 import time
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from mocap_mj import Kinematics, ParameterSet
-from mocap_mj.identify import LMSettings, TrialData
+from mocap_mj.identify import LMSettings, Tolerances, TrialData
+from mocap_mj.identify.api import identify
 from mocap_mj.identify.consistency import (
     correlation_time,
     excited_lengths,
     joint_centre_lengths,
     length_std,
 )
-from mocap_mj.identify.pipeline import identify_to_folder
+from mocap_mj.identify.recipe import Recipe
 from mocap_mj.ik import IKSolver
 from mocap_mj.io import load_markers
 
@@ -65,26 +64,22 @@ def main() -> int:
         return 2
     pset = ParameterSet()
     trials = [load(p, pset) for p in paths]
-    st = LMSettings(loss=args.loss)
-    over: dict[str, Any] = {}
-    if args.prior_mm is not None:
-        over["prior_sigma"] = args.prior_mm * 1e-3
-    if args.mu0 is not None:
-        over["mu0"] = args.mu0
-    st = replace(st, **over)
+    st = LMSettings(
+        loss=args.loss,
+        prior_sigma=LMSettings.prior_sigma if args.prior_mm is None else args.prior_mm * 1e-3,
+        tolerances=Tolerances(**({} if args.mu0 is None else {"mu0": args.mu0})),
+    )
     print(f"settings: {st}")
     results = []
-    with tempfile.TemporaryDirectory() as tmp:
-        for t in trials:
-            t0 = time.perf_counter()
-            folder = Path(tmp) / t.name
-            folder.mkdir()
-            summary, res, _ = identify_to_folder([t], folder, pset=pset, settings=st, init="placed")
-            results.append(res)
-            print(
-                f"{t.name}: own RMSE {res.marker_rmse * 1e3:.3f} mm, {res.iterations} it, "
-                f"{time.perf_counter() - t0:.1f} s, {summary['observable_directions']} obs"
-            )
+    for t in trials:
+        t0 = time.perf_counter()
+        recipe = Recipe.of_settings(st, sliding_landmarks=False, select="all")
+        fit = identify([t], recipe, pset=pset, tolerances=st.tolerances)
+        results.append(res := fit.result)
+        print(
+            f"{t.name}: own RMSE {res.marker_rmse * 1e3:.3f} mm, {res.iterations} it, "
+            f"{time.perf_counter() - t0:.1f} s, {fit.identifiability.rank} obs"
+        )
     out: dict[str, Any] = {"settings": repr(st), "own_rmse_mm": {}, "cross": {}, "lengths": {}}
     for t, r in zip(trials, results, strict=True):
         out["own_rmse_mm"][t.name] = r.marker_rmse * 1e3

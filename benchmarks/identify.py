@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from mocap_mj import ParameterSet
-from mocap_mj.identify import LMSettings, TrialData, identify_lm
+from mocap_mj.identify import LMSettings, Tolerances, TrialData, identify_lm
 from mocap_mj.identify.identifiability import Identifiability
 from mocap_mj.score import align_truth
 from mocap_synth import SynthConfig, synthesize
@@ -147,7 +147,7 @@ def _scaling(pset: ParameterSet, sizes: list[int], baseline: bool) -> None:
     print("\n3. joint LM: frames vs time (linear?) and peak traced memory")
     paths = {"coarse": LMSettings()}
     if baseline:
-        paths["plain"] = LMSettings(coarse_frames=0)
+        paths["plain"] = LMSettings(tolerances=Tolerances(coarse_frames=0))
     for n in sizes:
         _, d = trial(n, seed=1)
         final = {}
@@ -181,7 +181,7 @@ def _compare_seeds(pset: ParameterSet, seeds: int, repeats: int, baseline: bool)
     (``baseline``) the LM without the coarse phase solved right after on the same data."""
     paths = {"coarse": LMSettings()}
     if baseline:
-        paths["plain"] = LMSettings(coarse_frames=0)
+        paths["plain"] = LMSettings(tolerances=Tolerances(coarse_frames=0))
     times: dict[str, list[float]] = {k: [] for k in paths}
     cpu: dict[str, list[float]] = {k: [] for k in paths}  # process CPU, both cores' threads
     print(f"   seeds 0-{seeds - 1}, median of {repeats} solves; error / bound on observable theta")

@@ -7,8 +7,7 @@ once each after the kernels loaded. CPU is `time.process_time` (both cores' thre
 is the figure to compare on a shared machine; "main" is the calling thread's CPU
 (`time.thread_time`): its own share of the parallel kernels plus everything serial, the floor
 of the wall time when the other core is free. Parts nest (the Schur blocks are inside
-`build_system`, which is inside the joint LM). Used for docs/identification.md ("Issue 18i",
-"Issue 18m").
+`build_system`, which is inside the joint LM). Used for docs/validation.md#speed.
 
 Run: python benchmarks/identify_parts.py [--seeds 0 6] [--kernels 30]
 """
@@ -27,7 +26,7 @@ import numpy as np
 from mocap_mj import ParameterSet, _schur
 from mocap_mj import ik as ik_module
 from mocap_mj._threads import one_blas_thread
-from mocap_mj.identify import LMSettings, TrialData, identify_lm
+from mocap_mj.identify import LMSettings, Tolerances, TrialData, identify_lm
 from mocap_mj.identify import lm as lm_module
 from mocap_mj.identify import problem as problem_module
 from mocap_mj.identify.coarse import coarse_rows
@@ -94,7 +93,7 @@ def kernels(repeats: int) -> None:
     numba.set_num_threads(threads)
     print(f"Schur pass, 500 frames, one thread: {wall * 1e3:.2f} ms (minimum of {repeats})")
     trials = [TrialData("rom", markers, np.asarray(exp.times))]
-    rows = coarse_rows(trials, pset, LMSettings().coarse_frames)
+    rows = coarse_rows(trials, pset, Tolerances().coarse_frames)
     assert rows is not None
     subset = markers[rows[0]]
     wall, cpu, main = _best(lambda: solver.solve_trial(subset), repeats)

@@ -7,10 +7,9 @@ with the compiled tree (`Kinematics.set_theta` + `tree`), the pose finish withou
 iterations (`lm.finish_poses`, 0 iterations: integrate and project) and with one, the
 prior (`IdentificationProblem.prior`) and a nested `single_blas_thread` call. With --runs R: the
 calling thread's CPU of whole identifications of seeds 0-9, the minimum of R per seed,
-summed over the seeds (iterations printed, to compare two versions' answers). Every
-function it calls exists on main before issue 18n too, so the same script times a `git
-archive` of it (``PYTHONPATH=ARCHIVE python benchmarks/identify_serial.py``). Used for
-docs/identification.md ("Issue 18n").
+summed over the seeds (iterations printed, to compare two versions' answers). It calls
+only long-standing functions, so the same script times a `git archive` of an older version
+(``PYTHONPATH=ARCHIVE python benchmarks/identify_serial.py``) to compare two versions.
 
 Run: python benchmarks/identify_serial.py [--repeats 30] [--runs 3]
 """

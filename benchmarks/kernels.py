@@ -6,7 +6,7 @@ and poses), with the joint LM's joint range. Each kernel is called --repeats tim
 same inputs and the minimum and median wall time are printed per frame, on one thread and
 on numba's thread count (one BLAS thread throughout, as the solvers run). A kernel alone is
 far less noisy than whole runs on a shared machine: this is how a change to a kernel is
-judged (docs/identification.md, "Issue 18q").
+judged (docs/validation.md#speed).
 
 Timed: the Schur pass (`_schur._schur_range` alone, and `frame_blocks`: the kernel with its
 Gram products), the pose finish (one and two IK iterations from the poses), the cold IK of

@@ -39,6 +39,7 @@ import numpy as np
 from mocap_mj import ParameterSet
 from mocap_mj.io import MarkerTrajectory, save_trc
 from mocap_mj.io.formats.c3d_write import write_markers_c3d
+from mocap_mj.results import load_motion
 
 sys.path.insert(0, str(Path(__file__).parent))
 from long import all_frames_bound, observable_error, rms, worst_markers
@@ -106,16 +107,15 @@ def main() -> None:
     peak_kib = (
         int(timed[-1][1]) if timed else resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
     )
-    # CPU seconds (user + system) of the child: less dependent on the shared machine's load
-    # than the wall time (the other engineers' jobs take cores, not this job's work).
+    # CPU seconds (user + system) of the child: less dependent on other processes' load than
+    # the wall time (they take cores, not this job's work).
     cpu = float(timed[-1][3]) + float(timed[-1][4]) if timed else float("nan")
     peak = peak_kib / 2**20  # GiB
     summary = json.loads(proc.stdout)
 
     theta = pset.load_json(out / "theta.json")
     clean = np.load(cache / "clean.npy", mmap_mode="r")
-    with np.load(out / "motion.npz") as motion:
-        qpos = motion["qpos"]
+    qpos = load_motion(out / "motion.npz", pset.model).qpos
     fit = SimpleNamespace(theta=theta, free=~pset.frozen, sigma=summary["sigma_mm"] * 1e-3)
     idf_all = all_frames_bound(pset, fit, markers, qpos, args.info_stride)  # type: ignore[arg-type]
     frames = np.array(summary["frames_selected"][0])

@@ -33,6 +33,7 @@ import numpy as np
 from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.identify.identifiability import Identifiability
 from mocap_mj.identify.problem import IdentificationProblem
+from mocap_mj.results import load_motion
 
 sys.path.insert(0, str(Path(__file__).parent))
 from long import observable_error, rms
@@ -73,8 +74,8 @@ def main() -> None:
             "--outlier-mm", str(args.outlier_mm), "--force")  # fmt: skip
     pset = ParameterSet()
     theta_true = np.array(json.loads((truth / "truth.json").read_text())["theta"])
-    with np.load(truth / "truth_motion.npz") as tm:
-        clean, qpos_true, times = tm["markers"], tm["qpos"], tm["times"]
+    tm = load_motion(truth / "truth_motion.npz", pset.model)
+    clean, qpos_true, times = tm.markers, tm.qpos, tm.times
     from mocap_mj.io import load_markers
 
     markers = load_markers(truth / "markers.trc").select(pset.marker_names)

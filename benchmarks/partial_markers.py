@@ -1,5 +1,6 @@
-"""Partial Plug-in Gait marker sets on the shared real trials (docs/real-data.md, "Partial
-marker sets").
+"""Partial Plug-in Gait marker sets on the shared real trials.
+
+See docs/recordings.md#partial-marker-sets.
 
 For each trial: ``mocap-mj identify`` with every marker, then with the lower-body set only
 (16 markers), the upper-body set only (head, trunk, arms: 23) and the trunk and lower body

@@ -1,9 +1,9 @@
 """A lower-body marker set on synthetic data: the legs at the Cramer-Rao bound of that problem,
-the rest held at the prior (docs/real-data.md, "Partial marker sets").
+the rest held at the prior (docs/recordings.md#partial-marker-sets).
 
 For each seed: the demo's experiment (range of motion, 1 mm noise, segment lengths +-10 %,
 offsets +-20 mm) with only the 16 Plug-in Gait lower-body markers kept (the others NaN in
-every frame), identified with ``identify_to_folder`` as ``mocap-mj demo`` does (anatomical
+every frame), identified with :func:`mocap_mj.identify` as ``mocap-mj demo`` does (anatomical
 priors and ranges on). Prints the noise estimate against the simulated noise, the error of the
 measured kinematic parameters (projected on the observable directions, as ``mocap_mj.score``
 does) against their Cramer-Rao bound from that fit's reduced information, the same for the
@@ -23,8 +23,10 @@ from pathlib import Path
 import numpy as np
 
 from mocap_mj import ParameterSet
-from mocap_mj.identify import LMSettings, TrialData
-from mocap_mj.identify.pipeline import identify_to_folder
+from mocap_mj.identify import TrialData
+from mocap_mj.identify.api import identify
+from mocap_mj.identify.output import write_result
+from mocap_mj.identify.recipe import Recipe
 from mocap_synth import SynthConfig, synthesize
 
 LOWER = "LASI RASI LPSI RPSI LTHI LKNE LTIB LANK LHEE LTOE RTHI RKNE RTIB RANK RHEE RTOE".split()
@@ -50,9 +52,10 @@ def main() -> None:
         trial = lower_body_trial(exp.markers, exp.times, base)
         with tempfile.TemporaryDirectory() as tmp:
             t0 = time.perf_counter()
-            summary, result, idf = identify_to_folder(
-                [trial], Path(tmp) / "result", pset=base, settings=LMSettings()
-            )
+            recipe = Recipe(init="nominal", sliding_landmarks=False, select="all")
+            fit = identify([trial], recipe, pset=base)
+            summary = write_result(fit, Path(tmp) / "result")
+            result, idf = fit.result, fit.identifiability
             seconds = time.perf_counter() - t0
         free = result.free
         k = base.n_kappa

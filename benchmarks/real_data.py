@@ -1,5 +1,5 @@
-"""The real-data skeleton check of docs/real-data.md, from the repository: identify and
-export on the shared Plug-in Gait trials, then the issue #14 figures.
+"""The real-data skeleton check of docs/validation.md#real-recordings: identify and export on
+the shared Plug-in Gait trials, then the agreement figures.
 
     python benchmarks/real_data.py --out DIR [--shared ../shared/data]
 

@@ -1,7 +1,7 @@
-"""Accuracy of the joint LM over synthetic seeds, per damping schedule (docs/identification.md).
+"""Accuracy of the joint LM over synthetic seeds, per damping schedule (docs/validation.md).
 
 For each seed: the demo's experiment (500-frame range-of-motion trial, 1 mm noise, segment
-lengths ±10 %, offsets ±20 mm), identified with `identify_to_folder` and scored against the
+lengths ±10 %, offsets ±20 mm), identified with `mocap_mj.identify` and scored against the
 truth (`mocap_mj.score`): fit RMSE, iterations, kappa / offset errors over the bound, joint
 centres, observable directions.
 
@@ -27,13 +27,39 @@ from typing import Any
 import numpy as np
 
 from mocap_mj import ParameterSet
-from mocap_mj.identify import LMSettings, TrialData
+from mocap_mj.identify import LMSettings, Performance, Tolerances, TrialData
 from mocap_mj.identify.anatomy import ASYMMETRY_SIGMA
-from mocap_mj.identify.pipeline import anatomical_priors, identify_to_folder, prior_information
+from mocap_mj.identify.api import identify
+from mocap_mj.identify.output import write_result
+from mocap_mj.identify.pipeline import anatomical_priors, prior_information
+from mocap_mj.identify.recipe import Recipe
 from mocap_mj.score import score
 from mocap_mj.subject import Subject
 from mocap_synth import SynthConfig, synthesize, write_experiment
 from mocap_synth.config import MARKER_PLACEMENTS
+
+
+def _fields(settings: Any) -> set[str]:
+    return {f.name for f in dataclasses.fields(settings)} - {"tolerances", "performance"}
+
+
+def _settings(items: list[str], parser: argparse.ArgumentParser) -> LMSettings:
+    """``--set NAME=VALUE``: fields of LMSettings, Tolerances or Performance."""
+    groups: dict[str, Any] = {"": LMSettings(), "tolerances": Tolerances(),
+                              "performance": Performance()}  # fmt: skip
+    extra: dict[str, dict[str, Any]] = {g: {} for g in groups}
+    for item in items:
+        name, _, value = item.partition("=")
+        group = next((g for g, v in groups.items() if name in _fields(v)), None)
+        if group is None:
+            parser.error(f"--set: LMSettings, Tolerances and Performance have no field {name!r}")
+        kind = type(getattr(groups[group], name))
+        extra[group][name] = value.lower() in ("1", "true", "yes") if kind is bool else kind(value)
+    return LMSettings(
+        **extra[""],
+        tolerances=Tolerances(**extra["tolerances"]),
+        performance=Performance(**extra["performance"]),
+    )
 
 
 def main() -> None:
@@ -50,15 +76,7 @@ def main() -> None:
     parser.add_argument("--marker-placement", choices=MARKER_PLACEMENTS, default="anatomical")
     args = parser.parse_args()
     pset = ParameterSet()
-    fields = {f.name for f in dataclasses.fields(LMSettings)}
-    extra: dict[str, Any] = {}
-    for item in args.set:
-        name, _, value = item.partition("=")
-        if name not in fields:
-            parser.error(f"--set: LMSettings has no field {name!r}")
-        kind = type(getattr(LMSettings(), name))
-        extra[name] = value.lower() in ("1", "true", "yes") if kind is bool else kind(value)
-    settings = LMSettings(**extra)
+    settings = _settings(args.set, parser)
     ratios: list[tuple[float, ...]] = []
     for seed in range(*args.seeds):
         with tempfile.TemporaryDirectory() as tmp:
@@ -69,11 +87,13 @@ def main() -> None:
             trial = TrialData("rom", np.asarray(exp.markers), np.asarray(exp.times))
             (d / "result").mkdir()
             t0 = time.perf_counter()
-            ident, _, idf = identify_to_folder(
-                [trial], d / "result", pset=pset, settings=settings,
-                extra={"frames_fitted_range": [[0, args.frames]]},
-                anatomical=not args.no_anatomy, asymmetry_prior=args.asymmetry_prior,
+            recipe = Recipe.of_settings(
+                settings, init="nominal", anatomy=not args.no_anatomy,
+                asymmetry_prior=args.asymmetry_prior, sliding_landmarks=False, select="all",
             )  # fmt: skip
+            fit = identify([trial], recipe, pset=pset, tolerances=settings.tolerances,
+                           performance=settings.performance)  # fmt: skip
+            ident, idf = write_result(fit, d / "result", force=True), fit.identifiability
             seconds = time.perf_counter() - t0
             s = score(d / "synth", d / "result", pset=pset, plot=False)
         priors = [] if args.no_anatomy else anatomical_priors(

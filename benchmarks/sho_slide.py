@@ -5,8 +5,8 @@
 For each seed: the demo's synthetic range-of-motion trial (``mocap_synth``), each SHO moved
 towards its sternoclavicular joint by ``rate`` [m/rad] x humerothoracic elevation (the
 upper arm's tilt from the thorax, :func:`mocap_mj.identify.tissue.slide_angles`; the
-direction of the slide on the shared Movement/Static trials, docs/real-data.md "Seventh
-round"), then ``solve_anatomical`` without a sliding model and with
+direction of the slide on the shared Movement/Static trials), then ``solve_anatomical``
+without a sliding model and with
 :data:`~mocap_mj.identify.tissue.SHOULDER_SLIDE`. Prints the clavicle lengths' errors (SC
 joint to glenohumeral centre) and the glenohumeral centres' RMS error over frames [mm].
 """

@@ -1,17 +1,17 @@
 """A static trial with soft tissue plus a movement, identified together: accuracy against the
-synthetic truth with and without the per-trial weights (docs/real-data.md, "Static and
-movement trials in one fit").
+synthetic truth with and without the per-trial weights
+(docs/method.md#weighing-priors-trials-and-sliding-markers).
 
 For each seed: one subject (``mocap_synth``: segment lengths +-10 %, offsets +-20 mm,
 landmarks placed anatomically), a range-of-motion or walking trial (1 mm white noise, and
 ``--sta-mm`` soft-tissue artefact per radian) and a quiet-standing trial of the same subject
 (1 mm white noise) whose every marker carries one constant soft-tissue offset (``--static-mm``
 RMS per axis, random per marker, the same in every frame). Both are identified together by
-``identify_to_folder`` as ``mocap-mj identify`` would (default priors, ``init="nominal"``),
-once with the per-trial weights (:func:`mocap_mj.identify.noise.trial_weights`) and once with
-every weight 1; printed: the weights, the kinematic parameters' and joint centres' RMS errors
-against the truth (:func:`mocap_mj.score.score`, on the movement trial) for both, and the
-movement alone for reference. With ``--static-mm 0 --sta-mm 0`` (white noise only) the
+:func:`mocap_mj.identify` with the default priors and ``init="nominal"``, once with the
+per-trial weights (:func:`mocap_mj.identify.noise.trial_weights`) and once with every weight 1
+(``Recipe(trial_weights=False)``); printed: the weights, the kinematic parameters' and joint
+centres' RMS errors against the truth (:func:`mocap_mj.score.score`, on the movement trial) for
+both, and the movement alone for reference. With ``--static-mm 0 --sta-mm 0`` (white noise only) the
 weights must all be 1.
 
 Run: python benchmarks/trial_weights.py [--seeds 0 3] [--motion rom|walk] [--static-mm 5]
@@ -23,20 +23,16 @@ from __future__ import annotations
 import argparse
 import tempfile
 from pathlib import Path
-from typing import Any
-from unittest import mock
 
 import numpy as np
 
 from mocap_mj import ParameterSet
-from mocap_mj.identify import LMSettings, TrialData, pipeline
-from mocap_mj.identify.pipeline import identify_to_folder
+from mocap_mj.identify import LMSettings, TrialData
+from mocap_mj.identify.api import identify
+from mocap_mj.identify.output import write_result
+from mocap_mj.identify.recipe import Recipe
 from mocap_mj.score import score
 from mocap_synth import SynthConfig, synthesize, write_experiment
-
-
-def _ones(taus: Any, frames: Any) -> list[float]:
-    return [1.0] * len(taus)
 
 
 def main() -> None:
@@ -67,18 +63,18 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as tmp:
             d = Path(tmp)
             write_experiment(move, d / "synth")
-            runs = (("weighed", trials, None), ("unweighed", trials, _ones),
-                    ("movement alone", trials[:1], None))  # fmt: skip
+            runs = (("weighed", trials, True), ("unweighed", trials, False),
+                    ("movement alone", trials[:1], True))  # fmt: skip
             text = []
-            for name, data, patch in runs:
+            for name, data, weigh in runs:
                 out = d / name.replace(" ", "_")
                 out.mkdir()
-                ranges = [[0, len(t.markers)] for t in data]
-                with mock.patch.object(pipeline, "trial_weights", patch or pipeline.trial_weights):
-                    summary, _, _ = identify_to_folder(
-                        data, out, pset=pset, settings=settings,
-                        extra={"frames_fitted_range": ranges},
-                    )  # fmt: skip
+                recipe = Recipe.of_settings(
+                    settings, init="nominal", sliding_landmarks=False, select="all",
+                    trial_weights=weigh,
+                )  # fmt: skip
+                fit = identify(data, recipe, pset=pset)
+                summary = write_result(fit, out, force=True)
                 s = score(d / "synth", out, pset=pset, plot=False)
                 w = summary["prior_weighting"]
                 weights = w.get("trial_weights", [1.0] * len(data))

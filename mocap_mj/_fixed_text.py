@@ -1,7 +1,7 @@
 """Numeric tables as CSV text, compiled: printf's ``%d`` and ``%.Nf`` cells, byte for byte.
 
 ``joint_centres.csv`` of an hour holds 360,000 rows of 59 numbers, which Python's ``%``
-formatting turns into text several times slower than this kernel (docs/long-recordings.md). Here
+formatting turns into text several times slower than this kernel. Here
 a compiled kernel writes the rows into a byte buffer: each number ``v`` with ``N`` decimals is
 rounded as printf rounds it (correctly, from the exact binary value) through
 ``y = |v| 10^N`` in floating point. The product's rounding error is below ``|y| 2^-52``, so

@@ -1,7 +1,7 @@
 """Compile the identification kernels in a second process while this one compiles the IK's.
 
 Numba compiles one kernel at a time per process (a global compiler lock), and the first run of
-an install spends most of its time compiling (docs/ik.md, "First run"). A command that will
+an install spends most of its time compiling (docs/validation.md#first-run). A command that will
 identify a model needs the IK kernel first and the Schur-complement and forward-kinematics
 kernels after it; :func:`start` launches a Python process running :func:`_compile`, which compiles
 the latter into the shared on-disk cache (:mod:`mocap_mj._kernel_cache`) on the other core,

@@ -276,7 +276,7 @@ RUN_GAP = 8
 
 def _runs(cols: np.ndarray, gap: int = RUN_GAP) -> np.ndarray:
     """Sorted column indices cols (k,) int as runs (r, 2) [first, last + 1) that cover them,
-    two runs merged where at most ``gap`` columns lie between them (default RUN_GAP; columns
+    two runs joined where at most ``gap`` columns lie between them (default RUN_GAP; columns
     outside a row's structure are zero in it; 0: runs of consecutive columns only)."""
     if cols.size == 0:
         return np.zeros((0, 2), dtype=np.int64)

@@ -145,9 +145,10 @@ def _jit(fn: Callable[..., Any]) -> Any:
     Numba gives every compiled function a wrapper that unboxes its arguments from Python
     objects (for a :class:`Tree` and a :class:`Work`, 38 arrays) and a C-callable one, and
     compiles and optimises them with the function; a helper never called from Python does not
-    need them, and leaving them out shortens the first run's compile (docs/ik.md, "First
-    run"). Without its wrapper a call from Python would crash the interpreter, so the
-    dispatcher raises :class:`TypeError` instead: use :func:`python_callable` (tests do).
+    need them, and leaving them out shortens the first run's compile
+    (docs/validation.md#first-run). Without its wrapper a call from Python would crash the
+    interpreter, so the dispatcher raises :class:`TypeError` instead: use
+    :func:`python_callable` (tests do).
     """
     disp = share_cache(nb.njit(**_INNER_OPTIONS)(fn))
     disp.__class__ = _KernelOnly
@@ -172,7 +173,7 @@ def python_callable(helper: Any) -> Any:
 
 #: Small helpers are compiled like any kernel and LLVM inlines them where it pays. Numba's
 #: ``inline="always"`` would copy their IR into every caller before type inference, which
-#: lengthens the first run's compile (docs/ik.md, "First run").
+#: lengthens the first run's compile (docs/validation.md#first-run).
 _inline = _jit
 
 
@@ -1205,10 +1206,25 @@ def forward(tr: Tree, qpos: np.ndarray) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ tables
-#: What the first run of an install spends compiling the kernels on a 2-core machine
-#: (``benchmarks/cold_start.py``), said once when the on-disk cache is empty.
+#: What the first run of an install spends compiling the kernels on an idle 2-core machine
+#: (``benchmarks/cold_start.py``), said once when the on-disk cache is empty; scaled by
+#: :func:`compile_estimate` when other work already keeps the cores busy.
 COMPILE_SECONDS = 15
 _notice_given = False
+
+
+def compile_estimate(base: float = COMPILE_SECONDS) -> tuple[int, str]:
+    """The compile's expected wall time [s] on this machine now, and why it differs from
+    ``base``: the compiler gets a share ``cores / (load + 1)`` of the cores when the 1-minute
+    load average already exceeds what leaves one core idle, so the time grows by the inverse."""
+    cores = os.cpu_count() or 1
+    try:
+        load = os.getloadavg()[0]
+    except OSError:  # not available on this platform: assume idle
+        return round(base), ""
+    if load < cores - 0.5:
+        return round(base), ""
+    return round(base * (load + 1) / cores), f", the machine is busy: load {load:.1f} on {cores}"
 
 
 def compile_notice() -> None:
@@ -1223,8 +1239,9 @@ def compile_notice() -> None:
     except AttributeError:  # a numba without this cache layout: say nothing
         return
     if not index.exists():
+        seconds, why = compile_estimate()
         print(
-            f"mocap-mj: compiling the numeric kernels (once per install, ~{COMPILE_SECONDS} s)",
+            f"mocap-mj: compiling the numeric kernels (once per install, ~{seconds} s{why})",
             file=sys.stderr,
             flush=True,
         )

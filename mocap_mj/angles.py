@@ -1,6 +1,7 @@
 """Readable joint coordinates: qpos as named columns in millimetres and degrees.
 
-Hinges become one column in degrees. Ball joints and the root orientation become intrinsic
+Hinges become one column in degrees, slide joints (the knees' rolling in a model as written,
+:mod:`mocap_mj.exported`) one in millimetres. Ball joints and the root orientation become intrinsic
 X-Y-Z Cardan angles in degrees (``hip_l_x``, ``hip_l_y``, ``hip_l_z``); the root position
 becomes ``root_x``, ``root_y``, ``root_z`` in millimetres.
 """
@@ -24,6 +25,8 @@ def angle_columns(model: mujoco.MjModel) -> list[str]:
             names += [f"{name}_rx_deg", f"{name}_ry_deg", f"{name}_rz_deg"]
         elif typ == int(mujoco.mjtJoint.mjJNT_BALL):
             names += [f"{name}_x_deg", f"{name}_y_deg", f"{name}_z_deg"]
+        elif typ == int(mujoco.mjtJoint.mjJNT_SLIDE):
+            names.append(f"{name}_mm")
         else:
             names.append(f"{name}_deg")
     return names
@@ -48,6 +51,8 @@ def joint_angle_table(model: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
                 rot = Rotation.from_quat(np.column_stack([wxyz[:, 1:], wxyz[:, :1]]))
                 euler[ok] = rot.as_euler("XYZ", degrees=True)
             cols.append(euler)
+        elif typ == int(mujoco.mjtJoint.mjJNT_SLIDE):
+            cols.append(qpos[:, adr : adr + 1] * 1e3)
         else:
             cols.append(np.degrees(qpos[:, adr : adr + 1]))
     return np.concatenate(cols, axis=1)

@@ -10,8 +10,8 @@ positions (T, M, 3) [m] and the model's segment (body) of each marker:
     The distance between two markers of one rigid segment varies over the trial by more
     than soft tissue allows: its p5-p95 range exceeds :data:`SPREAD_MAX` (50 mm). Skin
     sliding over a flexing knee moves THI-KNE by up to 31 mm on the shared Plug-in Gait
-    trials; the synthetic soft-tissue model by less (docs/real-data.md, "Marker data
-    quality").
+    trials; the synthetic soft-tissue model by less
+    (docs/recordings.md#what-each-warning-means).
 ``step``
     That distance changes for good at one frame by more than :data:`STEP_MIN` (20 mm)
     between the medians of the frames before and after it: a marker re-stuck elsewhere.
@@ -95,7 +95,7 @@ STEP_MIN = 0.020
 #: Difference [m] between two trials' medians of a same-segment distance above which a marker
 #: moved between the trials (``moved``): above what posture alone changes (the spine flexed
 #: in a jump against standing, a scapula marker with the arms raised: up to 20 mm on the
-#: shared trials of one session), below a re-attached marker's usual move of several cm.
+#: shared trials of one subject), below a re-attached marker's usual move of several cm.
 MOVED_MIN = 0.030
 #: Segments whose marker distances change with posture between trials, left out of
 #: ``moved``: the model's thorax carries markers on the spine (C7, T10), the sternum and the
@@ -284,7 +284,7 @@ def drop_ghosts(
     a jump to a new place for good, one sample of it: little lost), and a least-squares fit
     follows it: a knee marker 50-100 mm off in 1 % of the
     frames moved a joint-centre distance by 0.9-1.7 mm on the shared trials
-    (docs/real-data.md, "The same person, captured differently"). ``first_frame``: the file's
+    (docs/validation.md#real-recordings). ``first_frame``: the file's
     frame of row 0, as given to :func:`check_marker_quality`.
     """
     drop = {(f.markers[0], t) for f in findings if f.file == path for t in f.samples}
@@ -314,6 +314,38 @@ def suspects(findings: Sequence[Finding]) -> dict[str, int]:
     return dict(sorted(count.items(), key=lambda kv: (-kv[1], kv[0])))
 
 
+def check_trials_quality(
+    paths: Sequence[str],
+    names: Sequence[str],
+    markers: Sequence[np.ndarray],
+    rates: Sequence[float],
+    segments: Sequence[str],
+    first_frames: Sequence[int],
+    *,
+    between: bool = True,
+) -> list[Finding]:
+    """Every trial's findings (:func:`check_marker_quality`: ``paths``, markers (T_i, M, 3)
+    [m], rates [Hz] and first frames per trial) and, with ``between`` (one model for every
+    trial), those across trials (:func:`between_trials`)."""
+    found: list[Finding] = []
+    for path, x, rate, first in zip(paths, markers, rates, first_frames, strict=True):
+        found += check_marker_quality(path, names, x, rate, segments, first_frame=first)
+    if between:
+        found += between_trials(paths, names, markers, segments)
+    return found
+
+
+def quality_entry(found: Sequence[Finding], excluded: Sequence[str]) -> dict[str, Any]:
+    """summary.json's ``marker_quality`` entry: the findings, the markers they name
+    (:func:`suspects`), the ``excluded`` markers and the samples the findings drop."""
+    return {
+        "findings": [f.to_json() for f in found],
+        "suspects": suspects(found),
+        "excluded": list(excluded),
+        "samples_dropped": len({(f.file, f.markers[0], t) for f in found for t in f.samples}),
+    }
+
+
 def quality_lines(entry: Mapping[str, Any]) -> list[str]:
     """The report.md section on marker data quality from summary.json's ``marker_quality``
     entry (``findings`` as :meth:`Finding.to_json`, ``suspects``, ``excluded``, and
@@ -328,7 +360,7 @@ def quality_lines(entry: Mapping[str, Any]) -> list[str]:
             "dropped: their offsets are not identified, they stay at their prior)"
         )
     if not entry.get("findings"):
-        return [*lines, '- no finding (docs/real-data.md, "Marker data quality")', ""]
+        return [*lines, "- no finding (docs/recordings.md#marker-data-quality)", ""]
     lines += [f"- {f['message']}" for f in entry["findings"]]
     named = ", ".join(f"{n} ({c})" for n, c in entry["suspects"].items())
     return [*lines, f"- markers named: {named}; drop them with --exclude-markers NAME[,NAME]", ""]

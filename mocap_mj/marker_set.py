@@ -30,6 +30,7 @@ import numpy as np
 import yaml
 
 from .errors import InputFileError, UnknownNameError
+from .exported import internal_spec
 from .io.atomic import atomic_write_text
 from .model import load_model, model_path
 
@@ -187,7 +188,7 @@ def model_with_marker_set(
     """
     path = model_path() if base is None else Path(base)
     load_model(path)  # a clear error for a missing or invalid file
-    spec = mujoco.MjSpec.from_file(str(path))
+    spec = internal_spec(path)  # a written model's knee slides removed, as load_model does
     bodies = [b.name for b in spec.bodies]
     for marker in marker_set.markers:
         if marker.body not in bodies:

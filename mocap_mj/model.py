@@ -7,6 +7,7 @@ from pathlib import Path
 
 import mujoco
 
+from . import exported
 from .errors import MocapError
 
 #: File name of the bundled 22-body, 48-DOF humanoid with 39 Plug-in Gait marker sites.
@@ -29,14 +30,35 @@ def model_path(name: str = HUMANOID) -> Path:
 
 
 def load_model(path: str | Path | None = None) -> mujoco.MjModel:
-    """Compile an MJCF file (the bundled humanoid by default) into an ``MjModel``."""
+    """Compile an MJCF file (the bundled humanoid by default) into the ``MjModel`` the tool
+    works on: a model as the tool writes it carries the knee's rolling as slide joints for
+    plain MuJoCo, which are removed here (the exact coupling is its ``<custom>`` record,
+    :mod:`mocap_mj.exported`); a model without them (the bundled humanoid, or written before
+    they existed) compiles as it is."""
     path = model_path() if path is None else Path(path)
+    model = load_written(path)
+    if not exported.carried(model):
+        return model
+    try:
+        return exported.internal_spec(path).compile()
+    except ValueError as exc:
+        raise MocapError(f"{path}: not a valid MJCF model: {_one_line(exc)}") from None
+
+
+def load_written(path: str | Path) -> mujoco.MjModel:
+    """Compile an MJCF file as plain MuJoCo does (``MjModel.from_xml_path``): a model the tool
+    wrote keeps its knees' slide joints and equalities, its qpos is the written layout
+    (``motion.npz``'s, :mod:`mocap_mj.exported`)."""
+    path = Path(path)
     if not path.is_file():
         raise MocapError(f"{path}: model file not found")
     try:
         return mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:
-        # MuJoCo's message spans lines (error, then element and line): keep them all, on one.
-        lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
-        detail = "; ".join(lines) or "compile error"
-        raise MocapError(f"{path}: not a valid MJCF model: {detail}") from None
+        raise MocapError(f"{path}: not a valid MJCF model: {_one_line(exc)}") from None
+
+
+def _one_line(exc: ValueError) -> str:
+    """MuJoCo's message spans lines (error, then element and line): all of them, on one."""
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+    return "; ".join(lines) or "compile error"

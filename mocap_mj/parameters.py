@@ -24,10 +24,11 @@ from xml.etree import ElementTree
 import mujoco
 import numpy as np
 
-from . import rolling
-from .errors import MocapError, ShapeError, UnknownNameError, check_shape
+from . import exported, rolling
+from .errors import InputFileError, MocapError, ShapeError, UnknownNameError, check_shape
 from .io.atomic import atomic_write_text
 from .model import load_model, model_path
+from .strict_json import read_object
 
 _AXES = {"x": 0, "y": 1, "z": 2}
 
@@ -163,8 +164,11 @@ class ParameterSet:
                 try:
                     b = model.body(body_name).id
                 except KeyError:
-                    raise UnknownNameError(
-                        "body", body_name, [model.body(i).name for i in range(model.nbody)]
+                    bodies = ", ".join(model.body(i).name for i in range(1, model.nbody))
+                    raise InputFileError(
+                        f"{self.path}: no body {body_name!r}, which the parameter {par.name} "
+                        "needs (the model must have the bundled humanoid's bodies); its "
+                        f"bodies: {bodies}"
                     ) from None
                 pos = np.array(model.body_pos[b], dtype=float)
                 if spec == "along":
@@ -175,8 +179,9 @@ class ParameterSet:
                 direction[k, b] = d
                 values.append(float(pos @ d))
             if max(values) - min(values) > 1e-12:
-                raise MocapError(
-                    f"parameter {par.name}: its bodies disagree on the nominal value {values}"
+                raise InputFileError(
+                    f"{self.path}: the bodies of the parameter {par.name} disagree on its "
+                    f"nominal value {values}"
                 )
             kappa0[k] = values[0]
         self.direction = direction
@@ -348,10 +353,7 @@ class ParameterSet:
 
     def load_json(self, path: str | Path) -> np.ndarray:
         """Read theta from a JSON file written by :meth:`save_json`."""
-        try:
-            data = json.loads(Path(path).read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise MocapError(f"{path}: cannot read parameters JSON: {exc}") from None
+        data = read_object(path, "the parameters (a JSON object with kappa and offsets)")
         return self.from_dict(data, source=str(path))
 
     def to_spec(self, theta: np.ndarray, *, joint_range: np.ndarray | None = None) -> mujoco.MjSpec:
@@ -360,10 +362,10 @@ class ParameterSet:
         ``joint_range`` (njnt, 2) [rad or m], as ``MjModel.jnt_range``: the joint limits to
         write instead of the file's (only the joints whose range differs are rewritten, in
         the file's angle unit); default: the file's limits. An identification that solved
-        with other limits (``LMSettings.ball_limit_scale``) passes them so that the written
+        with other limits (``Tolerances.ball_limit_scale``) passes them so that the written
         model reproduces its fit.
         """
-        spec = mujoco.MjSpec.from_file(str(self.path))
+        spec = exported.internal_spec(self.path)
         if joint_range is not None:
             self._write_joint_range(spec, joint_range)
         body_pos = self.body_pos(theta)
@@ -395,7 +397,9 @@ class ParameterSet:
         with ``repr`` so that the file reloads to the same forward kinematics and limits (a
         cone rounded to 6 digits is narrower than the solver's by up to 5e-6 rad). The knee
         rolling is written as this set's model holds it (scaled by
-        :meth:`with_rolling_scaled`), so the file reproduces the solve's kinematics.
+        :meth:`with_rolling_scaled`), so the file reproduces the solve's kinematics: as its
+        ``<custom>`` record for this tool, and as slide joints coupled to the knee hinges by
+        equality constraints for plain MuJoCo (:func:`mocap_mj.exported.with_slides`).
         """
         spec = self.to_spec(theta, joint_range=joint_range)
         spec.compile()
@@ -414,7 +418,8 @@ class ParameterSet:
             if elem.tag == "joint" and elem.get("name", "") in ranges and elem.get("range"):
                 elem.set("range", " ".join(repr(float(v)) for v in ranges[elem.get("name", "")]))
         ElementTree.indent(root, space="  ")
-        return rolling.record(ElementTree.tostring(root, encoding="unicode") + "\n", self.model)
+        xml = rolling.record(ElementTree.tostring(root, encoding="unicode") + "\n", self.model)
+        return exported.with_slides(xml, self.model, joint_range)
 
     def export_mjcf(
         self, path: str | Path, theta: np.ndarray, *, joint_range: np.ndarray | None = None

@@ -6,8 +6,10 @@ A result folder (written by ``ik``, ``identify``, ``demo``; read by ``view``, ``
 ``model.xml``
     MJCF of the model the motion belongs to (the identified model for ``identify``).
 ``motion.npz``
-    ``qpos`` (T, nq) [m, unit quaternions, rad], ``times`` (T,) [s], ``markers`` (T, M, 3) [m]:
-    the measured markers in model site order with NaN where missing, ``marker_names`` (M,).
+    ``qpos`` (T, nq) [m, unit quaternions, rad] in the layout of ``model.xml`` as MuJoCo
+    compiles it (the knees' slide joints included, :mod:`mocap_mj.exported`), ``times`` (T,)
+    [s], ``markers`` (T, M, 3) [m]: the measured markers in model site order with NaN where
+    missing, ``marker_names`` (M,).
 ``theta.json``
     The model parameters (``ParameterSet.save_json``), when identified.
 ``summary.json``
@@ -24,11 +26,17 @@ import io
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
+import mujoco
 import numpy as np
 
 from .errors import InputFileError, check_shape
+from .exported import Layout
 from .io.atomic import atomic_write_bytes
+
+if TYPE_CHECKING:
+    from .ik import IKResult
 
 
 @dataclass(frozen=True)
@@ -41,12 +49,25 @@ class Motion:
     times : (T,) float [s]
     markers : (T, M, 3) float [m], NaN where missing (model site order)
     marker_names : tuple of str, (M,)
+    ik : IKResult or None
+        How each frame was solved (status, iterations, marker RMSE (T,) [m]) when the motion
+        was solved here (:func:`mocap_mj.identify.robust_ik.solve_motion`); not saved.
+    first_frame : int
+        The recording's own number of frame 0 (frame i is ``first_frame + i`` in every table;
+        :func:`mocap_mj.io.trajectory.first_frame`); 0 when the source numbers none.
     """
 
     qpos: np.ndarray
     times: np.ndarray
     markers: np.ndarray
     marker_names: tuple[str, ...]
+    ik: IKResult | None = None
+    first_frame: int = 0
+
+    @property
+    def frames(self) -> np.ndarray:
+        """The recording's frame number of each frame (T,) int."""
+        return self.first_frame + np.arange(len(self.times), dtype=np.int64)
 
     def __post_init__(self) -> None:
         n = len(self.qpos)
@@ -74,23 +95,35 @@ def save_motion(path: str | Path, motion: Motion) -> None:
         "times": motion.times,
         "markers": motion.markers,
         "marker_names": np.array(motion.marker_names),
+        "first_frame": np.array(motion.first_frame, dtype=np.int64),
     }
     atomic_write_bytes(path, npz_bytes(arrays))
 
 
-def load_motion(path: str | Path) -> Motion:
-    """Read a :class:`Motion` written by :func:`save_motion`."""
+def load_motion(path: str | Path, model: mujoco.MjModel | None = None) -> Motion:
+    """Read a :class:`Motion` written by :func:`save_motion`. With ``model`` (the tool's
+    model, :func:`mocap_mj.model.load_model`), qpos is converted to its layout
+    (:meth:`mocap_mj.exported.Layout.read`: the written slide columns dropped; a motion
+    written before them read as it is); without, it is the file's."""
     path = Path(path)
     try:
         with np.load(path) as data:
+            qpos = np.array(data["qpos"], dtype=float)
+            if model is not None:
+                qpos = Layout.of(model).read(qpos, str(path))
             return Motion(
-                qpos=np.array(data["qpos"], dtype=float),
+                qpos=qpos,
                 times=np.array(data["times"], dtype=float),
                 markers=np.array(data["markers"], dtype=float),
                 marker_names=tuple(str(n) for n in data["marker_names"]),
+                first_frame=int(data["first_frame"]) if "first_frame" in data else 0,
             )
-    except (OSError, KeyError, ValueError) as exc:
-        raise InputFileError(f"{path}: not a motion file (qpos, times, markers): {exc}") from None
+    except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        # A truncated or damaged .npz: BadZipFile (no zip directory), EOFError (a member cut
+        # short), ValueError (not a zip: NumPy declines to unpickle it).
+        raise InputFileError(
+            f"{path}: not a complete motion file (an .npz with qpos, times, markers): {exc}"
+        ) from None
 
 
 @dataclass(frozen=True)

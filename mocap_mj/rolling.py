@@ -18,10 +18,12 @@ parameters' Jacobian then stays ``R_parent d`` (docs/model.md, "The knee's rolli
 
 A model records it as MJCF ``<custom><numeric>`` entries ``mocap_mj_roll:BODY:JOINT`` with
 data ``(L, q_max, c1x, c1y, c1z, c2x, c2y, c2z, c3x, c3y, c3z)``; a model without them has
-fixed hinges (model files written before the coupling existed read as before). The joint must
-be the body's first joint and a hinge whose axis (in the parent frame) is normal to every
-coefficient vector, so that the coupling is a planar motion about an instantaneous centre
-(:func:`mocap_mj._tree.dof_axes`).
+fixed hinges (model files written before the coupling existed read as before). A model file
+the tool writes also carries each coupling as two slide joints for plain MuJoCo
+(:mod:`mocap_mj.exported`); compiled as it is, such a model's couplings are its joints and
+:func:`read` skips them. The joint must be the body's first joint and a hinge whose axis (in
+the parent frame) is normal to every coefficient vector, so that the coupling is a planar
+motion about an instantaneous centre (:func:`mocap_mj._tree.dof_axes`).
 """
 
 from __future__ import annotations
@@ -37,6 +39,10 @@ from .errors import MocapError
 
 #: Prefix of the ``<custom><numeric>`` entries that record a coupling.
 RECORD_PREFIX = "mocap_mj_roll"
+
+#: Suffixes of the slide joints that carry a coupling in a model as written (``JOINT_t1``,
+#: ``JOINT_t2``; :mod:`mocap_mj.exported`).
+SLIDE_SUFFIXES = ("_t1", "_t2")
 
 #: gait2392's femur length at full extension [m]: minus its ``knee_r`` ``translation2`` spline
 #: at knee_angle 0, the length its translations are relative to (the unit of the coefficients).
@@ -123,7 +129,12 @@ def read(model: mujoco.MjModel) -> Rolling | None:
             raise MocapError(
                 f"model numeric {name}: no body {parts[1]} or joint {parts[2]}"
             ) from None
-        if model.body_jntadr[body] != joint or model.jnt_type[joint] != mujoco.mjtJoint.mjJNT_HINGE:
+        first = model.body_jntadr[body]
+        if joint == first + 2 and np.all(
+            model.jnt_type[first:joint] == mujoco.mjtJoint.mjJNT_SLIDE
+        ):
+            continue  # carried by two slide joints: a model as written (mocap_mj.exported)
+        if first != joint or model.jnt_type[joint] != mujoco.mjtJoint.mjJNT_HINGE:
             raise MocapError(f"model numeric {name}: {parts[2]} is not {parts[1]}'s first hinge")
         coef = data[2:].reshape(3, 3)
         q = model.body_quat[body]
@@ -171,14 +182,27 @@ def record(xml: str, model: mujoco.MjModel) -> str:
     return ElementTree.tostring(root, encoding="unicode") + "\n"
 
 
+def slide_names(joint: str) -> tuple[str, str]:
+    """The names of the two slide joints that carry ``joint``'s coupling in a model as
+    written (:mod:`mocap_mj.exported`)."""
+    return (f"{joint}{SLIDE_SUFFIXES[0]}", f"{joint}{SLIDE_SUFFIXES[1]}")
+
+
 def without(xml: str) -> str:
-    """MJCF text ``xml`` without its couplings' entries: the same model with fixed hinges
-    (e.g. for a solver that knows only MuJoCo's joints, as ``benchmarks/ik.py``'s mink)."""
+    """MJCF text ``xml`` without its couplings' entries (and, in a model as written, their
+    slide joints and equalities): the same model with fixed hinges (e.g. for a solver that
+    knows only MuJoCo's joints, as ``benchmarks/ik.py``'s mink)."""
     root = ElementTree.fromstring(xml)
+    slides: set[str] = set()
     for custom in root.iter("custom"):
         for elem in list(custom):
             if elem.tag == "numeric" and elem.get("name", "").startswith(f"{RECORD_PREFIX}:"):
+                slides.update(slide_names(elem.get("name", "").split(":")[-1]))
                 custom.remove(elem)
+    for parent in root.iter():
+        for elem in list(parent):
+            if elem.tag == "joint" and {elem.get("name"), elem.get("joint1")} & slides:
+                parent.remove(elem)
     return ElementTree.tostring(root, encoding="unicode") + "\n"
 
 
@@ -250,11 +274,13 @@ def posed(
 __all__ = [
     "GAIT2392_FEMUR_LENGTH",
     "RECORD_PREFIX",
+    "SLIDE_SUFFIXES",
     "Rolling",
     "kinematics",
     "posed",
     "read",
     "record",
     "set_lengths",
+    "slide_names",
     "without",
 ]

@@ -15,7 +15,6 @@ aligned truth is from the nominal truth (the unobservable part) is reported sepa
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -32,23 +31,24 @@ from .kinematics import Kinematics
 from .marker_set import marked_bodies
 from .parameters import ParameterSet
 from .results import Motion, load_motion
+from .strict_json import read_object
 
 if TYPE_CHECKING:
     from .identify.lm import LMResult
-
-
-def _read_json(path: Path) -> dict[str, Any]:
-    try:
-        data: dict[str, Any] = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise InputFileError(f"{path}: cannot read JSON: {exc}") from None
-    return data
 
 
 #: Median distance [m] between a result's fitted markers and the truth's noise-free markers
 #: above which the result was not fitted to this truth (another subject or trial): the
 #: synthetic noise, soft-tissue artefact and outliers stay well below it.
 SAME_TRIAL_MEDIAN = 0.02
+
+
+def fitted_start(truth: Motion, result: Motion) -> int:
+    """The truth's frame at which ``result``'s first frame lies: the one nearest in time (the
+    synth folder's marker files carry the truth's times, whatever their frame numbering)."""
+    if not len(result.times) or not len(truth.times):
+        return 0
+    return int(np.argmin(np.abs(np.asarray(truth.times) - float(result.times[0]))))
 
 
 def check_same_trial(
@@ -93,15 +93,19 @@ def score(
     truth_dir, result_dir = Path(truth_dir), Path(result_dir)
     pset = pset or ParameterSet()
     theta_true = pset.load_json(truth_dir / "truth.json")
-    truth_info = _read_json(truth_dir / "truth.json")
-    truth_motion = load_motion(truth_dir / "truth_motion.npz")
+    truth_info = read_object(truth_dir / "truth.json", "the synthetic truth (a JSON object)")
+    truth_motion = load_motion(truth_dir / "truth_motion.npz", pset.model)
     theta_hat = pset.load_json(result_dir / "theta.json")
-    summary = _read_json(result_dir / "summary.json")
-    motion = load_motion(result_dir / "motion.npz")
-    idf = Identifiability.from_json(pset, _read_json(result_dir / "identifiability.json"))
+    # a result folder is whole only with its summary (a damaged one is named, not scored)
+    read_object(result_dir / "summary.json", "the result's summary (a JSON object)")
+    motion = load_motion(result_dir / "motion.npz", pset.model)
+    idf = Identifiability.from_json(
+        pset,
+        read_object(result_dir / "identifiability.json", "the identifiability (a JSON object)"),
+    )
 
-    ranges = summary.get("frames_fitted_range") or [[0, len(motion.qpos)]]
-    a, b = ranges[0]
+    a = fitted_start(truth_motion, motion)
+    b = a + len(motion.qpos)
     check_same_trial(truth_dir, result_dir, truth_motion, motion, a, b)
     # The hand's and the forearms' zeros are free (align_gauge_free): an estimate whose zeros
     # differ from the truth's is the same model, and the alignment must not be stopped by the
@@ -265,10 +269,10 @@ def _align(
     pset: ParameterSet, theta_hat: np.ndarray, clean: np.ndarray, times: np.ndarray
 ) -> LMResult:
     """The LM of :func:`align_truth`: its theta (P,) [m] and its fit (``marker_rmse`` [m])."""
-    from .identify.lm import LMSettings, TrialData, identify_lm
+    from .identify.lm import LMSettings, Tolerances, TrialData, identify_lm
 
-    # From the estimate, near the truth's class: no coarse approach (LMSettings.coarse_frames).
-    settings = LMSettings(max_iterations=40, tol_noise=1e-3, coarse_frames=0)
+    # From the estimate, near the truth's class: no coarse approach (Tolerances.coarse_frames).
+    settings = LMSettings(max_iterations=40, tolerances=Tolerances(tol_noise=1e-3, coarse_frames=0))
     return identify_lm(
         [TrialData("truth", clean, times)], pset=pset, theta0=theta_hat, settings=settings
     )
@@ -290,7 +294,7 @@ def gauge_free(pset: ParameterSet, margin: float = GAUGE_MARGIN) -> ParameterSet
     limit. Aligning within the limits turns the zero until they do not, and the curved part
     of that turn (FIN 8 cm from the wrist, turned 3 degrees: 0.1 mm along its lever) counts
     as an error in the observable directions that the estimate does not have
-    (docs/long-recordings.md)."""
+    (docs/method.md#scoring-against-a-synthetic-truth)."""
     out = ParameterSet(pset.path)
     for j in _gauge_joints(out.model):
         out.model.jnt_range[j] += (-margin, margin)
@@ -326,8 +330,9 @@ def align_gauge_free(
     zero's path is curved: its direction at the estimate is not the truth's). A wider margin
     is no cure either: the LM may then walk further along that path before it settles. The
     nearest exact alignment is the definition of :func:`align_truth`'s
-    (docs/long-recordings.md). The forearms' zeros and FIN's direction are then moved to the
-    members nearest theta_hat in closed form (:func:`nearest_forearm_gauge`)."""
+    (docs/method.md#scoring-against-a-synthetic-truth). The forearms' zeros and FIN's direction
+    are then moved to the members nearest theta_hat in closed form
+    (:func:`nearest_forearm_gauge`)."""
     fits = []
     for margin in GAUGE_MARGINS:
         wide = gauge_free(pset, margin)
@@ -346,7 +351,7 @@ def align_gauge_free(
 #: radius's zero about the pronation axis (its markers turned back, every pronation angle
 #: shifted; the wrist's angles re-solved for FIN) and FIN's offset about the wrist (the hand's
 #: zero). Only the radius markers' places relative to the axis and FIN's distance from the
-#: wrist are determined by the markers (docs/long-recordings.md).
+#: wrist are determined by the markers (docs/method.md#scoring-against-a-synthetic-truth).
 FOREARM_GAUGES = (("pronation_l", "hand_l"), ("pronation_r", "hand_r"))
 
 

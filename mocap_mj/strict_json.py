@@ -10,11 +10,12 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["dumps", "jsonable"]
+__all__ = ["dumps", "jsonable", "read_object"]
 
 
 def jsonable(obj: Any) -> Any:
@@ -38,3 +39,25 @@ def jsonable(obj: Any) -> Any:
 def dumps(obj: Any, *, indent: int | None = None) -> str:
     """``json.dumps`` of :func:`jsonable` (``obj``), refusing anything that is not strict JSON."""
     return json.dumps(jsonable(obj), indent=indent, allow_nan=False)
+
+
+def read_object(path: str | Path, what: str) -> dict[str, Any]:
+    """The JSON object in the file ``path`` (``what`` it should hold, for the message).
+
+    Raises
+    ------
+    InputFileError
+        One line naming the file and what was expected: it cannot be read, is not JSON
+        (truncated, garbage, not UTF-8) or holds another JSON value than an object.
+    """
+    from .errors import InputFileError
+
+    try:
+        data = json.loads(Path(path).read_bytes())
+    except OSError as exc:
+        raise InputFileError(f"{path}: cannot read {what}: {exc.strerror or exc}") from None
+    except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError
+        raise InputFileError(f"{path}: not JSON, expected {what} ({exc})") from None
+    if not isinstance(data, dict):
+        raise InputFileError(f"{path}: expected {what}, got a JSON {type(data).__name__}")
+    return data

@@ -22,14 +22,14 @@ Inside, every length is in metres and the mass in kilograms.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .errors import InputFileError, MocapError
+from .errors import InputFileError, MocapError, yaml_problem
 
 #: Measurement name -> (unit inside, description). ``_l``/``_r`` are the sides.
 MEASUREMENTS: dict[str, tuple[str, str]] = {
@@ -47,6 +47,36 @@ MEASUREMENTS: dict[str, tuple[str, str]] = {
             ("wrist_width", "m", "wrist width where the wrist bar sits"),
             ("hand_thickness", "m", "hand thickness at the metacarpal heads"),
             ("shoulder_offset", "m", "acromion marker to glenohumeral centre, vertical"),
+        )
+        for side in ("l", "r")
+    },
+}
+
+#: The range of each measurement a person can have [m or kg]; a value outside is refused,
+#: naming where it came from (a unit slip such as millimetres typed as metres, or a typo).
+#: Generous on purpose: the height spans the shortest and the tallest adults on record
+#: (0.55 m, Chandra Bahadur Dangi; 2.72 m, Robert Wadlow; Guinness World Records), which also
+#: covers every child old enough to walk (about 0.75 m at one year); the mass, a walking
+#: infant (about 9 kg) to the heaviest person on record (about 635 kg, Jon Brower Minnoch).
+#: The other lengths are bounded at about half a toddler's and twice a large adult's value
+#: (an adult's knee width is some 90-150 mm, ankle and elbow widths 60-100 mm, the
+#: inter-ASIS distance 200-320 mm, the Plug-in Gait leg length 0.75-1.05 m); the marker
+#: diameter spans the marker sizes sold (3-40 mm).
+HUMAN_RANGES: dict[str, tuple[float, float]] = {
+    "height": (0.5, 2.75),
+    "mass": (2.0, 650.0),
+    "asis_distance": (0.05, 0.6),
+    "marker_diameter": (0.002, 0.05),
+    **{
+        f"{base}_{side}": bounds
+        for base, bounds in (
+            ("leg_length", (0.2, 1.6)),
+            ("knee_width", (0.03, 0.3)),
+            ("ankle_width", (0.02, 0.2)),
+            ("elbow_width", (0.02, 0.2)),
+            ("wrist_width", (0.01, 0.15)),
+            ("hand_thickness", (0.005, 0.08)),
+            ("shoulder_offset", (0.005, 0.15)),
         )
         for side in ("l", "r")
     },
@@ -116,10 +146,16 @@ class Subject:
         return None if m is None else m.value
 
     def set(self, name: str, value: float, source: str) -> None:
-        """Record ``name`` = ``value`` [SI]; a non-positive or non-finite value is an error."""
+        """Record ``name`` = ``value`` [SI]; a value outside :data:`HUMAN_RANGES` (NaN
+        included) is an error naming ``source`` and the range."""
         _check_name(name, source)
-        if not np.isfinite(value) or value <= 0:
-            raise MocapError(f"{source}: {name} must be a positive number, got {value}")
+        low, high = HUMAN_RANGES[name]
+        if not low <= value <= high:  # NaN included
+            unit, per = ("kg", 1.0) if MEASUREMENTS[name][0] == "kg" else ("mm", 1e3)
+            raise MocapError(
+                f"{source}: expected a {MEASUREMENTS[name][1]} within {low * per:g}.."
+                f"{high * per:g} {unit} (any person), got {value * per:.4g} {unit}"
+            )
         self.values[name] = Measurement(float(value), source)
 
     def update(self, other: Subject) -> Subject:
@@ -168,59 +204,82 @@ def from_c3d(path: str | Path) -> Subject:
     PROCESSING wins over SUBJECTS where both hold a value; zeros (Nexus' "not entered") and
     names that are not measurements (model outputs such as ``UpperLegLength``) are ignored.
     """
+    subject = Subject()
+    for group, key, value in c3d_numbers(path):
+        spec = _C3D_NAMES.get(key.upper())
+        if spec is not None and value > 0:
+            subject.set(spec[0], value * spec[1], f"{path}: {group}:{key}")
+    return subject
+
+
+def c3d_numbers(path: str | Path) -> Iterator[tuple[str, str, float]]:
+    """(group, name, value) of every finite number in a C3D file's SUBJECTS, then
+    PROCESSING group (the first value of each parameter), so that PROCESSING comes last."""
     from .io.formats.c3d import read_parameters
 
     try:
         params = read_parameters(Path(path))
     except Exception as exc:  # ezc3d raises plain RuntimeError/IOError
         raise InputFileError(f"{path}: cannot read the C3D parameters: {exc}") from None
-    subject = Subject()
     for group in ("SUBJECTS", "PROCESSING"):
-        if group not in params:
-            continue
-        for key, entry in params[group].items():
-            spec = _C3D_NAMES.get(str(key).upper())
-            if spec is None or not isinstance(entry, dict) or "value" not in entry:
+        for key, entry in params.get(group, {}).items():
+            if not isinstance(entry, dict) or "value" not in entry:
                 continue
             try:
                 value = float(np.asarray(entry["value"], dtype=float).ravel()[0])
             except (ValueError, IndexError, TypeError):
                 continue
-            if np.isfinite(value) and value > 0:
-                subject.set(spec[0], value * spec[1], f"{path}: {group}:{key}")
-    return subject
+            if np.isfinite(value):
+                yield group, str(key), value
 
 
-def _parse_value(raw: Any, name: str, source: str) -> float:
+def parse_value(raw: Any, name: str, source: str, units: Mapping[str, float] = _UNITS) -> float:
+    """A number, or a string ``"<number> <unit>"`` with a unit of ``units`` (unit -> factor
+    to SI), in SI units; a clear error otherwise."""
     if isinstance(raw, bool):
         raise MocapError(f"{source}: {name}: expected a number, got {raw!r}")
     if isinstance(raw, int | float):
         return float(raw)
     m = re.fullmatch(r"\s*([-+0-9.eE]+)\s*([a-z]+)\s*", str(raw))
-    if m is None or m.group(2) not in _UNITS:
+    if m is None or m.group(2) not in units:
         raise MocapError(
-            f"{source}: {name}: expected a number in SI units or '<number> mm|cm|m|kg', got {raw!r}"
+            f"{source}: {name}: expected a number in SI units or "
+            f"'<number> {'|'.join(units)}', got {raw!r}"
         )
     try:
-        return float(m.group(1)) * _UNITS[m.group(2)]
+        return float(m.group(1)) * units[m.group(2)]
     except ValueError:
         raise MocapError(f"{source}: {name}: {m.group(1)!r} is not a number") from None
 
 
-def from_yaml(path: str | Path) -> Subject:
-    """Measurements of a YAML mapping ``name: value`` (:data:`MEASUREMENTS`, SI or with unit)."""
+def read_mapping(path: str | Path) -> Mapping[Any, Any]:
+    """A YAML file's top-level mapping; one-line errors for an unreadable file or another
+    shape."""
     import yaml
 
     try:
         data = yaml.safe_load(Path(path).read_text())
-    except (OSError, yaml.YAMLError) as exc:
+    except OSError as exc:
         raise InputFileError(f"{path}: cannot read the subject file: {exc}") from None
+    except yaml.YAMLError as exc:
+        raise InputFileError(f"{path}: expected a YAML subject file: {yaml_problem(exc)}") from None
     if not isinstance(data, Mapping):
         raise InputFileError(f"{path}: expected a mapping of measurement names to values")
+    return data
+
+
+def from_yaml(path: str | Path) -> Subject:
+    """Measurements of a YAML mapping ``name: value`` (:data:`MEASUREMENTS`, SI or with unit)."""
     subject = Subject()
-    for name, raw in data.items():
+    for name, raw in read_mapping(path).items():
         _check_name(str(name), str(path))
-        subject.set(str(name), _parse_value(raw, str(name), str(path)), f"{path}: {name}")
+        value = parse_value(raw, str(name), str(path))
+        try:
+            subject.set(str(name), value, f"{path}: {name}")
+        except MocapError as exc:
+            if not isinstance(raw, int | float):
+                raise
+            raise MocapError(f"{exc} (a number without a unit is in m or kg)") from None
     return subject
 
 

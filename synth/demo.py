@@ -23,9 +23,12 @@ import numpy as np
 from mocap_mj import _numba_prewarm
 from mocap_mj.cli import add_force_flag, add_json_flag, into_out_folder, prepare_out
 from mocap_mj.commands.progress import progress_bar
-from mocap_mj.identify.lm import LMSettings, TrialData
-from mocap_mj.identify.output import expected_rmse
-from mocap_mj.identify.pipeline import anatomical_priors, identify_to_folder, prior_information
+from mocap_mj.identify.api import identify
+from mocap_mj.identify.fit import Fit
+from mocap_mj.identify.output import expected_rmse, write_result
+from mocap_mj.identify.pipeline import anatomical_priors, prior_information
+from mocap_mj.identify.problem import TrialData
+from mocap_mj.identify.recipe import Recipe
 from mocap_mj.ik import IKSolver
 from mocap_mj.kinematics import Kinematics
 from mocap_mj.parameters import ParameterSet
@@ -89,6 +92,40 @@ def run(args: argparse.Namespace) -> int:
     return into_out_folder(args, lambda staging: _demo(args, staging, Path(args.out)))
 
 
+def _identify(exp: Any, pset: ParameterSet, staging: Path, out: Path, quiet: bool) -> Fit:
+    """The range-of-motion trial of ``exp`` identified, written into ``staging``/result."""
+    trial = TrialData("rom", np.asarray(exp.markers), np.asarray(exp.times))
+    # The synthetic truth perturbs left and right lengths independently (by up to 20 % apart):
+    # not a subject of the population the asymmetry prior describes; the nominal model is its
+    # best prior mean, and its white noise shows no soft tissue to slide.
+    recipe = Recipe(init="nominal", asymmetry_prior=False, sliding_landmarks=False, select="all")
+    with progress_bar("identify (LM)", enabled=not quiet) as progress:
+        fit = identify([trial], recipe, pset=pset, progress=progress)
+    write_result(
+        fit,
+        prepare_out(staging / "result", force=True),
+        inputs={"markers_files": [str(out / "synth" / "markers.csv")]},
+        force=True,
+    )
+    return fit
+
+
+def _held_out(pset: ParameterSet, theta: np.ndarray, walk: Any) -> dict[str, Any]:
+    """The held-out walk tracked by IK with the identified model theta (P,) [m]: its marker
+    RMSE, what the noise alone leaves (mm) and its frames."""
+    kin = Kinematics(pset)
+    kin.set_theta(theta)
+    held = IKSolver(kin).solve_trial(np.asarray(walk.markers))
+    nv, m = kin.nv, pset.n_markers
+    return {
+        "heldout_marker_rmse_mm": held.rmse() * 1e3,
+        "heldout_expected_rmse_mm": float(
+            np.sqrt(3) * walk.sigma * np.sqrt(1 - nv / (3 * m)) * 1e3
+        ),
+        "frames_held_out": len(walk.markers),
+    }
+
+
 def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str, Any], str]:
     """Run the demo writing into ``staging``; messages and paths name ``out``."""
     t0 = time.perf_counter()
@@ -101,34 +138,13 @@ def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str,
     walk = synthesize(replace(cfg, frames=max(args.holdout, 2), motion="walk"), pset)
     write_experiment(walk, staging / "walk", force=True)
     n = args.frames
-    trial = TrialData("rom", np.asarray(exp.markers), np.asarray(exp.times))
-    settings = LMSettings()
-    with progress_bar("identify (LM)", enabled=not args.json) as progress:
-        ident, _, idf = identify_to_folder(
-            [trial],
-            prepare_out(staging / "result", force=True),
-            pset=pset,
-            settings=settings,
-            # The synthetic truth perturbs left and right lengths independently (by up to 20 %
-            # apart): not a subject of the population the asymmetry prior describes.
-            asymmetry_prior=False,
-            progress=progress,
-            extra={
-                "markers_files": [str(out / "synth" / "markers.csv")],
-                "frames_fitted_range": [[0, n]],
-            },
-        )
+    fit = _identify(exp, pset, staging, out, quiet=args.json)
+    ident, settings, idf = fit.summary(), fit.settings, fit.identifiability
     s = score(staging / "synth", staging / "result", pset=pset)
     # The bound with the landmark priors' information added (the score's is the data's own).
     info = prior_information(anatomical_priors(pset, Subject()), settings, pset.size)
     pk, po = (b * 1e3 for b in idf.bound_rms_with_prior(info))
-    kin = Kinematics(pset)
-    kin.set_theta(pset.load_json(staging / "result" / "theta.json"))
-    held = IKSolver(kin).solve_trial(np.asarray(walk.markers))
-    s["heldout_marker_rmse_mm"] = held.rmse() * 1e3
-    nv, m = kin.nv, pset.n_markers
-    s["heldout_expected_rmse_mm"] = float(np.sqrt(3) * walk.sigma * np.sqrt(1 - nv / (3 * m)) * 1e3)
-    s["frames_held_out"] = len(walk.markers)
+    s.update(_held_out(pset, fit.theta, walk))
     seconds = time.perf_counter() - t0
     k = pset.n_kappa
     # What the noise alone leaves after the fit: sqrt(3) sigma sqrt(1 - p / n).
@@ -140,6 +156,7 @@ def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str,
         "frames": n,
         "frames_held_out": s["frames_held_out"],
         "iterations": ident["iterations"],
+        "implausible": ident["implausible"],  # the fit's own checks: non-empty exits 3
         "marker_rmse_mm": ident["marker_rmse_mm"],
         "expected_rmse_mm": expected,
         "heldout_marker_rmse_mm": s.get("heldout_marker_rmse_mm"),
@@ -163,9 +180,16 @@ def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str,
         "result": str(out / "result"),
         "truth": str(out / "synth"),
     }
-    text = "\n".join(
+    return summary, _text(args, summary, s, out)
+
+
+def _text(args: argparse.Namespace, summary: dict[str, Any], s: dict[str, Any], out: Path) -> str:
+    """The demo's stdout: the before/after table of the score ``s`` and its figures."""
+    pk, po = summary["kappa_crlb_with_priors_mm"], summary["offset_crlb_with_priors_mm"]
+    return "\n".join(
         [
-            f"mocap-mj demo: {n} frames of a synthetic range-of-motion trial, noise "
+            f"mocap-mj demo: {summary['frames']} frames of a synthetic range-of-motion trial, "
+            "noise "
             f"{args.noise_mm:g} mm, truth = nominal humanoid perturbed, landmark markers "
             f"placed on it (seed {args.seed}); a {args.holdout}-frame walk of the same subject "
             "held out",
@@ -178,8 +202,8 @@ def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str,
             f"{s['offset_crlb_ratio']:>8.2f}",
             f"{'joint centres (mm)':<26}{'':>9}{s['joint_centre_rmse_mm']:>9.3f}"
             f"{s['joint_centre_crlb_mm']:>9.3f}{s['joint_centre_crlb_ratio']:>8.2f}",
-            f"{'marker RMSE fit (mm)':<26}{'':>9}{ident['marker_rmse_mm']:>9.3f}"
-            f"   (noise alone: {expected:.3f})",
+            f"{'marker RMSE fit (mm)':<26}{'':>9}{summary['marker_rmse_mm']:>9.3f}"
+            f"   (noise alone: {summary['expected_rmse_mm']:.3f})",
             f"{'marker RMSE walk (mm)':<26}{'':>9}"
             f"{s.get('heldout_marker_rmse_mm', float('nan')):>9.3f}"
             f"   (noise alone: {s.get('heldout_expected_rmse_mm', float('nan')):.3f})",
@@ -187,10 +211,10 @@ def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str,
             f"CRLB above: the data's alone; with the landmark priors' information added: "
             f"kinematic {pk:.3f} mm (ratio {s['kappa_rmse_mm'] / pk:.2f}), offsets "
             f"{po:.3f} mm (ratio {s['offset_rmse_mm'] / po:.2f})",
-            f"identification: {ident['seconds']:.2f} s, {ident['iterations']} iterations; "
-            f"whole demo {seconds:.1f} s",
+            f"identification: {summary['identify_seconds']:.2f} s, "
+            f"{summary['iterations']} iterations; "
+            f"whole demo {summary['seconds']:.1f} s",
             s["exclusion"] + ".",
             f"wrote {out}/synth (truth), {out}/result (open with: mocap-mj view {out}/result)",
         ]
     )
-    return summary, text

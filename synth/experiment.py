@@ -5,6 +5,7 @@ Symbols: T frames, M markers (39), nq = 55, P = 151 model parameters.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -12,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from mocap_mj.exported import Layout
 from mocap_mj.io import MarkerTrajectory, atomic_write_text, save_csv, save_trc
 from mocap_mj.io.atomic import atomic_folder
 from mocap_mj.kinematics import Kinematics
@@ -265,6 +267,8 @@ def write_experiment(exp: Experiment, out_dir: str | Path, force: bool = False) 
             },
         )
         pset.export_mjcf(out / "truth_model.xml", exp.theta_true)
-        save_motion(out / "truth_motion.npz", exp.truth_motion())
+        truth = exp.truth_motion()
+        written = Layout.of(pset.model).written(truth.qpos)
+        save_motion(out / "truth_motion.npz", dataclasses.replace(truth, qpos=written))
         atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     return summary

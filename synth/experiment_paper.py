@@ -46,6 +46,7 @@ from mocap_mj.identify.paper import (
 from mocap_mj.ik import IKSolver
 from mocap_mj.io.atomic import atomic_write_text
 from mocap_mj.kinematics import Kinematics
+from mocap_mj.plots import held_interrupts
 
 from .config import SynthConfig
 from .experiment import Experiment, synthesize
@@ -494,6 +495,7 @@ def _figure() -> Any:
     return fig
 
 
+@held_interrupts
 def _plot_series(
     path: Path, times: np.ndarray, errors: Mapping[str, np.ndarray], *, cumulative: bool
 ) -> None:
@@ -510,6 +512,7 @@ def _plot_series(
     fig.savefig(path, format="png")
 
 
+@held_interrupts
 def plot_convergence(path: Path, traces: Mapping[str, Any]) -> None:
     """Marker RMSE of the frames each run uses [mm] against its time [s] (log scales)."""
     fig = _figure()

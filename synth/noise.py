@@ -125,7 +125,7 @@ def occlusion_gaps(
 
     Runs of 0.05-0.5 s (at least one frame, at most the trial), at a random marker and start,
     are added until exactly ``round(fraction * T * M)`` samples are missing (a run that would
-    overshoot is cut short; overlapping runs merge into longer ones).
+    overshoot is cut short; overlapping runs join into longer ones).
 
     Parameters
     ----------

@@ -116,12 +116,13 @@ def test_stale_temporaries_are_removed_and_ignored(tmp_path: Path) -> None:
 def test_failed_block_leaves_the_old_folder(tmp_path: Path) -> None:
     out = tmp_path / "out"
     out.mkdir()
+    (out / "summary.json").write_text("{}")  # a result, which --force may replace
     (out / "old.txt").write_text("old")
     with pytest.raises(KeyboardInterrupt), atomic_folder(out, force=True) as staging:
         (staging / "new.txt").write_text("new")
         raise KeyboardInterrupt
     assert [p.name for p in tmp_path.iterdir()] == ["out"]
-    assert [p.name for p in out.iterdir()] == ["old.txt"]
+    assert sorted(p.name for p in out.iterdir()) == ["old.txt", "summary.json"]
     with pytest.raises(OutputFolderError, match="not empty"), atomic_folder(out):
         pass
 

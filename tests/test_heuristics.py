@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from mocap_mj import Kinematics, ParameterSet
-from mocap_mj.identify import LMSettings, TrialData, identify_lm
+from mocap_mj.identify import LMSettings, Tolerances, TrialData, identify_lm
 from mocap_mj.identify.heuristics import RefitSchedule, StallMonitor, frame_rmse, refit_frames
 from mocap_mj.ik import IKSolver
 from mocap_synth import SynthConfig, synthesize
@@ -85,7 +85,7 @@ def test_lm_stays_in_the_box_and_reports_the_bounds_it_ends_on(exp) -> None:  # 
         pset=pset,
         lower=lower,
         upper=upper,
-        settings=LMSettings(max_iterations=4, max_refits=0),
+        settings=LMSettings(max_iterations=4, tolerances=Tolerances(max_refits=0)),
     )
     assert np.all(r.theta >= lower) and np.all(r.theta <= upper)
     assert r.at_bound.any()

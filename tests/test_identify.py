@@ -64,7 +64,7 @@ def test_reaches_the_bound_on_the_observable_subspace(clean) -> None:  # type: i
     k_ratio, o_ratio, jc = errors(pset, result, exp, idf, FRAMES)
     # The target of `mocap-mj demo` (within 1.3x the bound) is a property of the estimator,
     # i.e. of the ratio's distribution over seeds, not of one draw: over seeds 0-31
-    # (benchmarks/seeds.py, main and with Reed's L5/S1, docs/real-data.md "Fourth round") the
+    # (benchmarks/seeds.py, with Reed's L5/S1; docs/validation.md) the
     # RMS ratio is 0.97-0.98 but one seed's ratio has sd 0.34 (kappa) / 0.26 (offsets), and 4
     # and 3 of the 32 seeds exceed 1.3. This seed is held to the 95th percentile of those 64
     # draws (kappa 1.45, offsets 1.33): beyond it, it is outside an efficient estimator's
@@ -80,7 +80,7 @@ def test_reaches_the_bound_on_the_observable_subspace(clean) -> None:  # type: i
     assert 0.9 * bk < pk <= bk and 0.9 * bo < po <= bo, (pk / bk, po / bo)
     # Against the bound with the priors (3-6 % below the data's since the 3 mm convention
     # rows): the same seeds' 95th percentiles are 1.51 (kappa) and 1.38 (offsets), RMS 1.01-1.03
-    # / 1.00-1.02 (benchmarks/seeds.py, docs/real-data.md).
+    # / 1.00-1.02 (benchmarks/seeds.py, docs/validation.md).
     assert k_ratio * bk / pk <= 1.55 and o_ratio * bo / po <= 1.4
     # A prior that says nothing leaves the data's bound.
     assert np.allclose(idf.bound_rms_with_prior(np.eye(pset.size) * 1e-6), (bk, bo), rtol=1e-3)
@@ -181,6 +181,7 @@ def test_cli_identify_score_demo(tmp_path: Path) -> None:
         "model.xml",
         "theta.json",
         "motion.npz",
+        "angles.csv",
         "identifiability.json",
         "report.md",
         "summary.json",
@@ -212,7 +213,7 @@ def test_cli_identify_score_demo(tmp_path: Path) -> None:
 
 def test_score_of_truth_against_itself_is_zero(tmp_path: Path) -> None:
     """A result folder made from the truth itself scores zero parameter error."""
-    from mocap_mj.identify.output import write_result
+    from mocap_mj.identify.output import write_files
     from mocap_synth import write_experiment
 
     pset = ParameterSet()
@@ -239,7 +240,7 @@ def test_score_of_truth_against_itself_is_zero(tmp_path: Path) -> None:
         "seconds": 0.0,
         "expected_rmse_mm": 0.0,
     }
-    write_result(out, pset, result, idf, [trial], summary)
+    write_files(out, pset, result, idf, [trial], summary)
     (out / "summary.json").write_text(json.dumps(summary))
     from mocap_mj.score import score
 

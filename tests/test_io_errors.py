@@ -183,7 +183,7 @@ def test_c3d_corrupt_parameter_offset(tmp_path: Path) -> None:
 def test_missing_file_and_directory(tmp_path: Path) -> None:
     with pytest.raises(InputFileError, match=r"no such file"):
         load_markers(tmp_path / "none.c3d")
-    with pytest.raises(InputFileError, match=r"no such file"):
+    with pytest.raises(InputFileError, match=r"is a folder, expected a marker file"):
         load_markers(tmp_path)
 
 

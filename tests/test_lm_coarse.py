@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from mocap_mj import ParameterSet
-from mocap_mj.identify import LMSettings, TrialData, identify_lm
+from mocap_mj.identify import LMSettings, Tolerances, TrialData, identify_lm
 from mocap_mj.identify.coarse import coarse_rows
 from mocap_mj.identify.identifiability import Identifiability
 from mocap_mj.identify.selection import PELVIS
@@ -19,8 +19,12 @@ def test_coarse_phase_reaches_the_plain_lms_minimum() -> None:
     pset = ParameterSet()
     exp = synthesize(SynthConfig(frames=FRAMES, seed=1), pset)
     trial = TrialData("rom", np.asarray(exp.markers), np.asarray(exp.times))
-    plain = identify_lm([trial], pset=pset, settings=LMSettings(coarse_frames=0))
-    coarse = identify_lm([trial], pset=pset, settings=LMSettings(coarse_frames=SUBSET))
+    plain = identify_lm(
+        [trial], pset=pset, settings=LMSettings(tolerances=Tolerances(coarse_frames=0))
+    )
+    coarse = identify_lm(
+        [trial], pset=pset, settings=LMSettings(tolerances=Tolerances(coarse_frames=SUBSET))
+    )
     # The coarse phase ran on the subset, the fine phase on every frame, numbered on.
     frames = [log.frames for log in coarse.trace]
     k = frames.count(SUBSET)

@@ -94,7 +94,8 @@ def test_identify_select_fits_a_subset_and_moves_every_frame(tmp_path: Path) -> 
     assert len(kept) == 90 and np.all(np.diff(kept) > 0) and kept[-1] < 300
     assert summary["motion_frames"] == [300]
     with np.load(out / "motion.npz") as motion:
-        assert motion["qpos"].shape == (300, 55) and np.all(np.isfinite(motion["qpos"]))
+        # nq 55 and the knees' 4 slide joints (mocap_mj.exported)
+        assert motion["qpos"].shape == (300, 59) and np.all(np.isfinite(motion["qpos"]))
     # 1 mm per-axis noise: about sqrt(3 (1 - 48/117)) = 1.33 mm after every frame's IK
     assert 1.2 < summary["motion_marker_rmse_mm"] < 1.5
     score = _cli("score", "--truth", str(truth), "--result", str(out), "--json")
@@ -168,7 +169,7 @@ def hand_zero(pset: ParameterSet) -> HandZero:
 
 
 def test_an_equivalent_hand_zero_scores_no_error(pset: ParameterSet, hand_zero: HandZero) -> None:
-    """The cause of the hour's offsets reading 3x their bound (docs/long-recordings.md): a
+    """The cause of the hour's offsets reading 3x their bound (docs/method.md#long-recordings): a
     model equivalent to the truth, its right hand's zero turned 8 degrees about the wrist's
     deviation axis and FIN's offset turned back, has no error; aligned within the wrist's
     limits (which the truth's ROM poses, in the turned zero, cross) it seemed to have one."""
@@ -189,7 +190,7 @@ def test_a_hand_zero_beyond_the_margin_scores_no_error(
 ) -> None:
     """One widening of the wrist's hinges does not align every estimate: the hour through
     ``mocap-mj identify`` read 3.90x its offsets' bound because the 10-degree alignment
-    stopped short of the truth's model (docs/long-recordings.md), and an exact fit can
+    stopped short of the truth's model (docs/method.md#long-recordings), and an exact fit can
     still have turned the zero. Turned 18 degrees, a model equivalent to the truth reads a
     millimetre of RFIN error aligned with the 10-degree margin, none with
     ``align_gauge_free`` (the nearest exact alignment over wider margins)."""
@@ -251,7 +252,7 @@ def test_an_equivalent_forearm_zero_scores_no_error(
     """The hour's offsets read 1.30x their bound (LWRA, RWRA, LFIN, LFRM 9-11 sd): the
     estimate's radius markers were turned 10.8 and -8.4 degrees about the pronation axis
     against the truth's, and with one marker on the hand that turn is a gauge
-    (docs/long-recordings.md). A model equivalent to the truth, its forearms' zeros turned
+    (docs/method.md#long-recordings). A model equivalent to the truth, its forearms' zeros turned
     12 degrees (beyond the 5.5 degrees the truth's poses keep from the pronation limits)
     and its FINs turned, aligns exactly but with the turns cut short at the limit, which
     reads as error; ``align_gauge_free`` turns the rest in closed form and reads none."""
@@ -316,12 +317,12 @@ def test_refinement_minimises_the_weighted_cost_of_the_sliding_landmarks(
 ) -> None:
     """With ``weigh`` (the knee markers' soft-tissue sliding, by pose), ``refine`` on every
     frame ends where the joint LM with those weights ends: the same weighted problem, as
-    ``identify --select`` now solves the plain identification's (docs/long-recordings.md).
+    ``identify --select`` now solves the plain identification's (docs/method.md#long-recordings).
     The knee markers here slide 8 mm per radian of knee flexion (20 mm at the ROM's 145
     degrees), so the unweighted and the weighted optimum lie centimetres apart."""
     from functools import partial
 
-    from mocap_mj.identify.lm import LMSettings, TrialData, identify_lm
+    from mocap_mj.identify.lm import LMSettings, Tolerances, TrialData, identify_lm
     from mocap_mj.identify.tissue import SLIDES, SlidingModel
 
     exp, m = hand_zero.exp, pset.model  # 300 ROM frames; their information at the truth
@@ -340,7 +341,7 @@ def test_refinement_minimises_the_weighted_cost_of_the_sliding_landmarks(
     # a gain below sigma^2, may end a standard deviation short of it along a flat direction:
     # 4.3 mm here).
     trial = TrialData("rom", markers, exp.times, weights=weigh(qpos))
-    st = LMSettings(coarse_frames=0, tol_noise=1e-3)
+    st = LMSettings(tolerances=Tolerances(coarse_frames=0, tol_noise=1e-3))
     lm = identify_lm([trial], pset=pset, theta0=theta0, settings=st)
 
     def apart(theta: np.ndarray) -> float:
@@ -446,13 +447,13 @@ def test_auto_selection_with_a_robust_loss_refines_with_it(
     selected frames and refines on every frame with the robust loss (once refused with an
     explicit number of frames, and auto fitted every frame instead)."""
     from mocap_mj import cli
-    from mocap_mj.commands import identify as identify_command
+    from mocap_mj.identify import api
 
     truth, out = tmp_path / "truth", tmp_path / "robust"
     proc = _cli("synth", "--out", str(truth), "--frames", "120", "--motion", "rom", "--seed", "6")
     assert proc.returncode == 0, proc.stderr
-    monkeypatch.setattr(identify_command, "AUTO_SELECT_ABOVE", 100)  # 120 frames count as long
-    monkeypatch.setattr(identify_command, "AUTO_SELECT_COUNT", 60)
+    monkeypatch.setattr(api, "AUTO_SELECT_ABOVE", 100)  # 120 frames count as long
+    monkeypatch.setattr(api, "AUTO_SELECT_COUNT", 60)
     markers = str(truth / "markers.trc")
     assert cli.main(["identify", "--markers", markers, "--robust", "--out", str(out)]) == 0
     summary = json.loads((out / "summary.json").read_text())
@@ -466,7 +467,7 @@ def test_refinement_minimises_the_robust_cost(pset: ParameterSet, hand_zero: Han
     """With ``robust`` (the Cauchy loss and the threshold of the fit), ``refine`` on every
     frame ends where the joint LM with that loss ends, and outliers (3 % of the samples
     displaced 50 mm) do not move it as they move the least-squares refinement."""
-    from mocap_mj.identify.lm import LMSettings, identify_lm
+    from mocap_mj.identify.lm import LMSettings, Tolerances, identify_lm
     from mocap_mj.identify.long import robust_loss
 
     exp = hand_zero.exp  # 300 ROM frames; their information at the truth
@@ -484,7 +485,7 @@ def test_refinement_minimises_the_robust_cost(pset: ParameterSet, hand_zero: Han
         qpos = np.full((len(markers), pset.model.nq), np.nan)
         runs[name] = refine(markers, pset, exp.theta_true, qpos, 1e-3, robust=r, steps=12,
                             tol_std=0.01).theta  # fmt: skip
-    settings = LMSettings(loss="cauchy", coarse_frames=0)
+    settings = LMSettings(loss="cauchy", tolerances=Tolerances(coarse_frames=0))
     lm = identify_lm([TrialData("rom", markers, exp.times)], pset=pset, theta0=exp.theta_true,
                      settings=settings)  # fmt: skip
 

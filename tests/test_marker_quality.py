@@ -105,7 +105,7 @@ def test_mislabel_for_the_whole_trial_names_the_marker(pset: ParameterSet) -> No
 def test_marker_restuck_30mm_away_halfway(pset: ParameterSet) -> None:
     # LFRM re-stuck 30 mm further from the wrist markers from frame 300 on, fixed on the
     # forearm afterwards. (Distances alone cannot see a move around the line through the two
-    # wrist markers: docs/real-data.md.)
+    # wrist markers: docs/recordings.md.)
     exp = _trial(pset, "rom")
     names = pset.marker_names
     i, j, k = (names.index(n) for n in ("LFRM", "LWRA", "LWRB"))

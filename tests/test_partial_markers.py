@@ -24,6 +24,7 @@ from mocap_mj.cli import main
 from mocap_mj.errors import SolverError
 from mocap_mj.identify.identifiability import Identifiability
 from mocap_mj.identify.partial import NOT_MEASURED
+from mocap_mj.results import load_motion
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
 LOWER = "LASI RASI LPSI RPSI LTHI LKNE LTIB LANK LHEE LTOE RTHI RKNE RTIB RANK RHEE RTOE".split()
@@ -134,7 +135,7 @@ def test_lower_body_holds_unmarked_dofs_and_ik_reproduces_the_fit(
     pset, root = lower_body["pset"], lower_body["root"]
     model = pset.model
     for folder in ("result", "ik"):
-        qpos = np.load(root / folder / "motion.npz")["qpos"]
+        qpos = load_motion(root / folder / "motion.npz", model).qpos
         for name in ("lumbar_flex", "thorax", "shoulder_l", "wrist_flex_r"):
             j = model.joint(name)
             a = int(j.qposadr[0])

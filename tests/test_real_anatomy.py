@@ -30,7 +30,7 @@ SKIP = "../shared/data/real not present: real-data checks need the shared folder
 
 #: Static_trial's first 300 frames: with the nominal proportions' L5/S1 row the lumbar rows
 #: conflicted there and a knee centre sat 5.9 mm off its width (6.3 on the whole trial); the
-#: first 150 frames did not show it (docs/real-data.md, "Fourth round").
+#: first 150 frames did not show it (docs/model.md#prior-rows).
 @pytest.mark.parametrize(("name", "frames"), [("Static_trial.c3d", "0:300"),
                                               ("anatomical_posture.c3d", "0:122")])  # fmt: skip
 def test_real_skeleton_targets(tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str,
@@ -44,9 +44,7 @@ def test_real_skeleton_targets(tmp_path: Path, capsys: pytest.CaptureFixture[str
     if not subject.values:  # no measurements in the file: give some by YAML file and flag
         (tmp_path / "s.yaml").write_text("knee_width_l: 100 mm\nknee_width_r: 0.1\n")
         args += ["--subject-file", str(tmp_path / "s.yaml"), "--height", "1750"]
-        subject = from_yaml(tmp_path / "s.yaml").update(
-            from_values([("height", 1.75)], "command line")
-        )
+        subject = from_yaml(tmp_path / "s.yaml").update(from_values([("height", 1.75)], "--height"))
     assert main([*args, "--json", "--force"]) == 0
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     pset = ParameterSet()
@@ -59,7 +57,7 @@ def test_real_skeleton_targets(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert {n: m["source"] for n, m in summary["measurements"].items()} == {
         n: m.source for n, m in subject.values.items()
     }
-    motion = load_motion(out / "motion.npz")
+    motion = load_motion(out / "motion.npz", pset.model)
     widths = width_errors(pset, theta, motion.qpos, motion.markers, subject)
     assert len(widths) == sum(
         subject.get(f"{w}_{s}") is not None
@@ -70,7 +68,7 @@ def test_real_skeleton_targets(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert np.isfinite(summary["prior_weighting"]["noise_mm"])
     # The hip centres where Harrington's rows put them, within 1 sd (8 mm): a knee without
     # frontal-plane alignment pulled them 18-22 mm medially on Static_trial (2.3 / 2.7 sd;
-    # docs/real-data.md, fifth round).
+    # docs/model.md#frontal-plane-alignment-26-29).
     prior = landmark_prior(pset, subject)
     hjc = [i for i, lab in enumerate(prior.labels) if lab.endswith("(Harrington 2007)")]
     assert len(hjc) == 6
@@ -117,7 +115,7 @@ def test_multi_trial_wrist_and_elbow_centres_at_width(tmp_path: Path) -> None:
     the model's range (-160..30 degrees) allows. The elbow centres sit elbow_width/2 + r
     from ELB within 5 mm: ELB's level and depth define the elbow (a convention joint), so
     the jump's elbow at 15-25 degrees and the pose's at 90 do not move it off ELB (at 10 mm
-    they did: 4.6-7.7 mm off the width, docs/real-data.md "Seventh round")."""
+    they did: 4.6-7.7 mm off the width, docs/model.md#convention-joints)."""
     paths = [REAL / "Movement_trial.c3d", REAL / "Static_trial.c3d"]
     if not all(p.is_file() for p in paths):
         pytest.skip(SKIP)
@@ -126,7 +124,7 @@ def test_multi_trial_wrist_and_elbow_centres_at_width(tmp_path: Path) -> None:
     theta = pset.load_json(out / "theta.json")
     subject = from_c3d(paths[0])
     for motion_file in ("motion.npz", "motion_1.npz"):
-        motion = load_motion(out / motion_file)
+        motion = load_motion(out / motion_file, pset.model)
         widths = width_errors(pset, theta, motion.qpos, motion.markers, subject)
         arms = {k: v for k, v in widths.items() if k.startswith(("wrist", "elbow"))}
         assert len(arms) == 4 and all(abs(v) <= 0.005 for v in arms.values()), widths

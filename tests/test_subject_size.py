@@ -14,11 +14,12 @@ from test_ranges import subject_markers
 
 from mocap_mj import ParameterSet
 from mocap_mj.cli import main
+from mocap_mj.identify.api import identify
 from mocap_mj.identify.consistency import joint_centre_lengths
-from mocap_mj.identify.lm import LMSettings
-from mocap_mj.identify.pipeline import identify_to_folder
+from mocap_mj.identify.output import write_result
 from mocap_mj.identify.problem import TrialData
 from mocap_mj.identify.ranges import NOMINAL_HEIGHT
+from mocap_mj.identify.recipe import Recipe
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 SKIP = "../shared/data/real not present: the child-scaled copy needs the shared folder"
@@ -40,11 +41,9 @@ OTHER_TOLERANCE = 0.10
 
 def _identify(markers: np.ndarray, out: Path, pset: ParameterSet) -> dict:
     times = np.arange(len(markers)) / 100.0
-    summary, _, _ = identify_to_folder(
-        [TrialData("synthetic", markers, times)], out, pset=pset, settings=LMSettings(),
-        init="placed",
-    )  # fmt: skip
-    return summary
+    recipe = Recipe(init="placed", sliding_landmarks=False, select="all")
+    fit = identify([TrialData("synthetic", markers, times)], recipe, pset=pset)
+    return write_result(fit, out)
 
 
 def test_synthetic_child_without_height(tmp_path: Path) -> None:

@@ -8,6 +8,7 @@ import json
 import math
 from pathlib import Path
 
+import ezc3d
 import mujoco
 import numpy as np
 import pytest
@@ -21,9 +22,10 @@ from mocap_mj.identify.ranges import kappa_ranges
 from mocap_mj.identify.robust_ik import solve_trial_loss
 from mocap_mj.identify.segments import COLUMNS, parameter_flag
 from mocap_mj.ik import IKSolver
-from mocap_mj.io import MarkerTrajectory, save_csv
+from mocap_mj.io import MarkerTrajectory, load_markers, save_csv
 from mocap_mj.joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
 from mocap_mj.kinematics import Kinematics
+from mocap_mj.results import load_motion
 from mocap_mj.subject import StatureEstimate, Subject
 from mocap_mj.tables import joint_centre_columns
 from mocap_synth import SynthConfig, synthesize
@@ -45,7 +47,10 @@ def test_exported_joint_ranges_reload_exactly() -> None:
     for rng in (None, widened):
         model = mujoco.MjModel.from_xml_string(pset.to_xml(pset.nominal, joint_range=rng))
         expected = pset.model.jnt_range if rng is None else rng
-        np.testing.assert_array_equal(model.jnt_range, expected)  # not rounded to 6 digits
+        # by name: the written model has the knees' slide joints too (mocap_mj.exported)
+        names = [pset.model.joint(j).name for j in range(pset.model.njnt)]
+        ranges = np.array([model.joint(n).range for n in names])
+        np.testing.assert_array_equal(ranges, expected)  # not rounded to 6 digits
 
 
 def test_parameter_flags() -> None:
@@ -108,13 +113,13 @@ def test_exported_model_reproduces_the_fit(
     # The fit did use the widened cone, so the model's own limits could not reproduce it.
     pset = ParameterSet()
     theta = pset.load_json(out / "theta.json")
-    motion = np.load(out / "motion.npz")
+    motion = load_motion(out / "motion.npz", pset.model)
     adr = int(pset.model.jnt_qposadr[pset.model.joint("thorax").id])
-    turn = 2 * np.arccos(np.clip(np.abs(motion["qpos"][:, adr]), 0.0, 1.0))
+    turn = 2 * np.arccos(np.clip(np.abs(motion.qpos[:, adr]), 0.0, 1.0))
     assert np.median(np.degrees(turn)) > 50.0
     own = Kinematics(pset)  # the file's limits (45 degree thorax cone), identified theta
     own.set_theta(theta)
-    markers = motion["markers"]
+    markers = motion.markers
     own_rmse = IKSolver(own).solve_trial(markers).rmse() * 1e3
     assert own_rmse > 1.2 * summary["marker_rmse_mm"]
     # ik writes the joint centres of its model too.
@@ -125,16 +130,16 @@ def test_exported_model_reproduces_the_fit(
 def test_joint_centres_csv(identified: tuple[Path, dict]) -> None:
     out, _ = identified
     columns = joint_centre_columns()
-    assert columns[:2] == ["frame", "time"]
+    assert columns[:2] == ["frame", "time_s"]
     assert columns[2:5] == [f"{JOINT_CENTRE_NAMES[0]}_{a}_mm" for a in "xyz"]
     assert "knee_l_x_mm" in columns and len(columns) == 2 + 3 * len(JOINT_CENTRE_NAMES)
     table = np.genfromtxt(out / "joint_centres.csv", delimiter=",", names=True)
-    motion = np.load(out / "motion.npz")
     exported = ParameterSet(out / "model.xml")
-    expected = joint_centre_trajectories(exported.model, motion["qpos"]) * 1e3  # (T, J, 3) mm
-    assert len(table) == len(motion["qpos"])
+    motion = load_motion(out / "motion.npz", exported.model)
+    expected = joint_centre_trajectories(exported.model, motion.qpos) * 1e3  # (T, J, 3) mm
+    assert len(table) == len(motion.qpos)
     np.testing.assert_array_equal(table["frame"], np.arange(len(table)))
-    np.testing.assert_allclose(table["time"], motion["times"], atol=1e-6)
+    np.testing.assert_allclose(table["time_s"], motion.times, atol=1e-6)
     j = JOINT_CENTRE_NAMES.index("knee_r")
     for k, a in enumerate("xyz"):
         np.testing.assert_allclose(table[f"knee_r_{a}_mm"], expected[:, j, k], atol=1e-4)
@@ -219,11 +224,27 @@ def test_exported_model_reproduces_a_real_fit(
     alike = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert alike["sliding_landmarks"] is None
     assert alike["marker_rmse_mm"] < 0.98 * fit["marker_rmse_mm"]
-    # Rows are numbered by the frame of the marker file.
+    # Rows carry the recording's own frame numbers and times (the C3D header's first frame,
+    # here 695, plus the --frames start).
+    first = load_markers(path).first_frame
+    assert first == 695
     for table in (tmp_path / "r" / "joint_centres.csv", tmp_path / "ik" / "joint_centres.csv",
                   tmp_path / "ik" / "motion.csv"):  # fmt: skip
         frame = np.genfromtxt(table, delimiter=",", names=True)["frame"]
-        np.testing.assert_array_equal(frame, np.arange(10, 130))
+        np.testing.assert_array_equal(frame, first + np.arange(10, 130))
+        times = np.genfromtxt(table, delimiter=",", names=True)["time_s"]
+        np.testing.assert_allclose(times, (frame - 1) / 120.0, atol=1e-6)
+    # ... and so does every export of the result.
+    assert main(["export", str(tmp_path / "r"), "--to", "all", "--out", str(tmp_path / "x")]) == 0
+    for name in ("angles.csv", "residuals.csv"):
+        rows = np.genfromtxt(tmp_path / "x" / name, delimiter=",", names=True)
+        np.testing.assert_array_equal(rows["frame"], first + np.arange(10, 130))
+        np.testing.assert_allclose(rows["time_s"], (rows["frame"] - 1) / 120.0, atol=1e-6)
+    trc = (tmp_path / "x" / "markers.trc").read_text().splitlines()
+    assert trc[2].split("\t")[6] == str(first + 10)  # OrigDataStartFrame
+    assert trc[6].split("\t")[:2] == [str(first + 10), f"{(first + 9) / 120.0:.9f}"]
+    c3d = ezc3d.c3d(str(tmp_path / "x" / "result.c3d"))
+    assert int(c3d["header"]["points"]["first_frame"]) + 1 == first + 10  # ezc3d counts from 0
 
 
 def test_ik_under_a_robust_loss_resists_outliers() -> None:

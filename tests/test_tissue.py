@@ -195,8 +195,8 @@ def test_knee_centre_recovered_better_when_kne_slides(pset: ParameterSet, experi
     e0 = _knee_centre_error_along_femur(pset, without, kin, qpos)
     e1 = _knee_centre_error_along_femur(pset, with_model, kin, qpos)
     # RMS over both knees. Measured on this seed: 3.0 mm without the model, 0.9 mm with it;
-    # with the knee alignment parameters of issue 14f (their truth drawn from their prior)
-    # 2.9 and 1.7 mm. Over seeds 0-3 the gain varies (docs/real-data.md "Soft-tissue sliding").
+    # with the knee alignment parameters (their truth drawn from their prior) 2.9 and 1.7 mm.
+    # Over seeds 0-3 the gain varies (docs/method.md#weighing-priors-trials-and-sliding-markers).
     both0, both1 = float(np.sqrt(np.mean(e0**2))), float(np.sqrt(np.mean(e1**2)))
     assert both1 <= 0.75 * both0, (e0, e1)
     assert both1 <= 0.0025 and np.all(e1 <= e0), (e0, e1)

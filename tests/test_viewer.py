@@ -137,7 +137,7 @@ def test_playback_errors(result: Path, tmp_path: Path) -> None:
     (tmp_path / "small.xml").write_text(
         '<mujoco><worldbody><body><freejoint/><geom size=".1"/></body></worldbody></mujoco>'
     )
-    with pytest.raises(ShapeError, match="nq"):
+    with pytest.raises(MocapError, match=r"motion\.npz: qpos has 55 columns, the model has nq = 7"):
         load_playback(model=tmp_path / "small.xml", motion=result / "motion.npz")
 
 

@@ -213,7 +213,8 @@ def load_playback(
             raise MocapError("give either a result folder or --model/--motion/--markers")
         res = ResultDir.open(result_dir)
         mj_model = load_model(res.model)
-        return _from_motion(mj_model, res.model, load_motion(res.motion), str(res.root), True)
+        motion_ = load_motion(res.motion, mj_model)
+        return _from_motion(mj_model, res.model, motion_, str(res.root), True)
     if motion is None and markers is None:
         raise MocapError("nothing to show: give a result folder, --motion or --markers")
     path = Path(model) if model is not None else model_path()
@@ -232,7 +233,7 @@ def load_playback(
         )
         traj_times = np.asarray(traj.times, dtype=float)
     if motion is not None:
-        pb = _from_motion(mj_model, path, load_motion(motion), str(motion), True)
+        pb = _from_motion(mj_model, path, load_motion(motion, mj_model), str(motion), True)
         if traj_pos is None:
             return pb
         if len(traj_pos) != pb.n_frames:
@@ -327,7 +328,8 @@ def parse_frame(text: str, playback: Playback) -> int:
 def parse_frames(text: str, n: int) -> list[int]:
     """Frame indices from a Python-style slice ``"A:B[:S]"`` over ``n`` frames (B exclusive).
 
-    Empty parts take the slice defaults (``":"`` is every frame, ``"::2"`` every other one).
+    Empty parts take the slice defaults (``":"`` is every frame, ``"::2"`` every other one);
+    a bound past the ``n`` frames is refused.
     """
     parts = text.split(":")
     if len(parts) not in (2, 3):
@@ -339,6 +341,8 @@ def parse_frames(text: str, n: int) -> list[int]:
     step = s[0] if s else None
     if step is not None and step <= 0:
         raise MocapError(f"--frames: the step must be positive, got {step}")
+    if any(v is not None and not -n <= v <= n for v in (a, b)):  # not silently shortened
+        raise MocapError(f"--frames {text}: past the end, the result has {n} frames (0 to {n - 1})")
     frames = list(range(n))[slice(a, b, step)]
     if not frames:
         raise MocapError(f"--frames {text}: selects no frame of the {n}")

@@ -17,7 +17,8 @@ all its rows. Manifest YAML::
         options: {loss: cauchy}          # optional, overrides the defaults
 
 Relative paths are relative to the manifest's folder. The options are those of ``identify``
-that make sense per subject; ``up``, ``marker_map``, ``file_subject`` and ``exclude_markers``
+that make sense per subject (``recipe``: a recipe file, ``identify --recipe``); ``up``,
+``marker_map``, ``file_subject`` and ``exclude_markers``
 (``RELB,RUPA``: markers whose data are dropped) also apply to the IK.
 """
 
@@ -34,7 +35,7 @@ from typing import Any
 
 import yaml
 
-from ..errors import InputFileError
+from ..errors import InputFileError, yaml_problem
 
 #: Per-subject options a manifest (or the ``batch`` command line) may set, with their type.
 OPTION_KEYS: dict[str, type] = {
@@ -48,12 +49,13 @@ OPTION_KEYS: dict[str, type] = {
     "file_subject": str,
     "model": str,
     "exclude_markers": str,
+    "recipe": str,
 }
 #: Command-line flag of each option (``file_subject``: which subject of a multi-subject file,
 #: ``--subject`` of identify and ik; named apart from the dataset's subject).
 FLAGS = {k: "--" + k.replace("_", "-") for k in OPTION_KEYS} | {"file_subject": "--subject"}
 #: Options naming a file: resolved against the manifest's folder; their content is hashed.
-PATH_OPTIONS = ("marker_map", "model")
+PATH_OPTIONS = ("marker_map", "model", "recipe")
 #: Trial file suffixes of a folder-tree dataset.
 TRIAL_SUFFIXES = (".c3d", ".trc", ".csv")
 SUBJECT_FILES = ("subject.yaml", "subject.yml")
@@ -160,8 +162,10 @@ def _from_csv(path: Path, base: dict[str, Any]) -> list[Subject]:
 def _from_yaml(path: Path, base: dict[str, Any]) -> list[Subject]:
     try:
         data = yaml.safe_load(path.read_text())
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+    except (OSError, UnicodeDecodeError) as exc:
         raise InputFileError(f"{path}: cannot read the manifest ({exc})") from None
+    except yaml.YAMLError as exc:
+        raise InputFileError(f"{path}: expected a YAML manifest: {yaml_problem(exc)}") from None
     if not isinstance(data, dict) or not isinstance(data.get("subjects"), list):
         raise InputFileError(f"{path}: expected a mapping with a 'subjects' list")
     given = data.get("options") or {}

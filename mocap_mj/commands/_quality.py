@@ -28,11 +28,11 @@ from ..errors import MocapError
 from ..kinematics import Kinematics
 from ..marker_quality import (
     Finding,
-    between_trials,
-    check_marker_quality,
+    check_trials_quality,
     drop_ghosts,
     exclude_markers,
     marker_segments,
+    quality_entry,
     suspects,
 )
 from ..marker_quality import parse_marker_list as parse_marker_list
@@ -41,7 +41,7 @@ from ..relabel import Relabel, apply_relabels, find_label_errors, reference_thet
 
 
 def add_quality_options(parser: argparse.ArgumentParser) -> None:
-    g = parser.add_argument_group("marker data quality (docs/real-data.md)")
+    g = parser.add_argument_group("marker data quality (docs/recordings.md#marker-data-quality)")
     g.add_argument(
         "--exclude-markers",
         metavar="NAMES",
@@ -75,23 +75,18 @@ def check_trials(
     ``excluded`` markers already dropped; raise under ``--strict``, else print the findings
     on stderr; return them and the summary's ``marker_quality`` entry."""
     relabelled = relabel(args, pset, trials)
-    segments = marker_segments(pset.model)
-    found: list[Finding] = []
-    for path, markers, rate, first in trials:
-        mine = check_marker_quality(
-            path, pset.marker_names, markers, rate, segments, first_frame=first
+    found = _findings(args, pset, trials)
+    swaps = [
+        r
+        for path, markers, _, first in trials
+        for r in act_on(
+            args, pset, path, markers, first,
+            track_swaps(path, pset.marker_names, markers, found, first_frame=first),
         )
-        swaps = track_swaps(path, pset.marker_names, markers, mine, first_frame=first)
-        relabelled += act_on(args, pset, path, markers, first, swaps)
-        if swaps and not args.no_relabel:  # the corrected tracks checked again
-            mine = check_marker_quality(
-                path, pset.marker_names, markers, rate, segments, first_frame=first
-            )
-        found += mine
-    if args.command == "identify":  # one model for every trial: their markers must agree
-        found += between_trials(
-            [t[0] for t in trials], pset.marker_names, [t[1] for t in trials], segments
-        )
+    ]  # fmt: skip
+    if any(r.applied for r in swaps):  # the corrected tracks checked again
+        found = _findings(args, pset, trials)
+    relabelled += swaps
     named = suspects(found)
     if found and args.strict:
         raise MocapError(
@@ -106,18 +101,28 @@ def check_trials(
         print(
             f"mocap-mj {args.command}: warning: markers named by the data-quality check "
             f"(times named): {', '.join(f'{n} ({c})' for n, c in named.items())}; the most "
-            f"named first: --exclude-markers {','.join(top)} drops its data (docs/real-data.md,"
-            ' "Marker data quality")',
+            f"named first: --exclude-markers {','.join(top)} drops its data "
+            "(docs/recordings.md#what-each-warning-means)",
             file=sys.stderr,
         )
-    entry = {
-        "relabelled": [r.to_json() for r in relabelled],
-        "findings": [f.to_json() for f in found],
-        "suspects": named,
-        "excluded": list(excluded),
-        "samples_dropped": len({(f.file, f.markers[0], t) for f in found for t in f.samples}),
-    }
+    entry = {"relabelled": [r.to_json() for r in relabelled], **quality_entry(found, excluded)}
     return found, entry
+
+
+def _findings(
+    args: argparse.Namespace,
+    pset: ParameterSet,
+    trials: Sequence[tuple[str, np.ndarray, float, int]],
+) -> list[Finding]:
+    return check_trials_quality(
+        [t[0] for t in trials],
+        pset.marker_names,
+        [t[1] for t in trials],
+        [t[2] for t in trials],
+        marker_segments(pset.model),
+        [t[3] for t in trials],
+        between=args.command == "identify",  # one model for every trial: markers must agree
+    )
 
 
 def relabel(

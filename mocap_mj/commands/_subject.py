@@ -6,6 +6,7 @@ import argparse
 from collections.abc import Sequence
 from typing import Any
 
+from ..cli import number
 from ..errors import MocapError
 from ..subject import Subject, from_c3d, from_values, from_yaml
 
@@ -64,7 +65,7 @@ def add_subject_options(p: Any) -> None:
         )
     g.add_argument(
         "--symmetric",
-        type=float,
+        type=number(above=0),
         nargs="?",
         const=2.0,
         metavar="WIDTH_MM",
@@ -83,7 +84,7 @@ def add_subject_options(p: Any) -> None:
         help="weigh the knee epicondyle markers (KNE) alike at every knee angle (default: "
         "weigh them down as the knee flexes, their skin sliding on the femur, 10 mm per rad "
         "per axis, where the residuals show soft tissue; recorded in model.xml for ik; "
-        "docs/real-data.md)",
+        "docs/method.md#weighing-priors-trials-and-sliding-markers)",
     )
     g.add_argument(
         "--no-anatomy",
@@ -101,11 +102,11 @@ def subject_from_args(args: argparse.Namespace, c3d_paths: Sequence[str]) -> Sub
             subject = found.update(subject)  # earlier files win
     if args.subject_file:
         subject = subject.update(from_yaml(args.subject_file))
-    pairs: list[tuple[str, float | None]] = [
-        ("height", None if args.height is None else args.height * 1e-3),
-        ("mass", args.mass),
-        ("asis_distance", None if args.asis_distance is None else args.asis_distance * 1e-3),
-        ("marker_diameter", None if args.marker_diameter is None else args.marker_diameter * 1e-3),
+    flags: list[tuple[str, str, float | None]] = [
+        ("--height", "height", None if args.height is None else args.height * 1e-3),
+        ("--mass", "mass", args.mass),
+        ("--asis-distance", "asis_distance", _metres(args.asis_distance)),
+        ("--marker-diameter", "marker_diameter", _metres(args.marker_diameter)),
     ]
     for flag, name in _SIDED.items():
         values = getattr(args, flag.replace("-", "_"))
@@ -114,5 +115,11 @@ def subject_from_args(args: argparse.Namespace, c3d_paths: Sequence[str]) -> Sub
         if len(values) > 2:
             raise MocapError(f"--{flag}: expected one value or LEFT RIGHT, got {len(values)}")
         left, right = values[0], values[-1]
-        pairs += [(f"{name}_l", left * 1e-3), (f"{name}_r", right * 1e-3)]
-    return subject.update(from_values(pairs, "command line"))
+        flags += [(f"--{flag}", f"{name}_l", left * 1e-3), (f"--{flag}", f"{name}_r", right * 1e-3)]
+    for flag, name, value in flags:  # each checked against its human range, named by its flag
+        subject = subject.update(from_values([(name, value)], flag))
+    return subject
+
+
+def _metres(mm: float | None) -> float | None:
+    return None if mm is None else mm * 1e-3

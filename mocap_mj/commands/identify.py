@@ -4,8 +4,10 @@ Identify the subject's model from one or more marker trials: the segment lengths
 positions (kinematic parameters) and every marker's offset on its segment, together with the
 joint motion of every frame, by one Levenberg-Marquardt fit over all frames (the --solver paper
 alternative is Zou & Sugihara's Algorithm 1). Writes OUT/model.xml (the identified MJCF),
-theta.json, motion.npz (first trial; motion_<i>.npz for the others), identifiability.json,
-report.md, plots and summary.json; docs/reading-results.md explains them. The folder appears
+theta.json, motion.npz (first trial; motion_<i>.npz for the others), angles.csv (the model's
+angles in Plug-in Gait's conventions; report.md compares them with the Nexus angles a C3D
+holds), identifiability.json, report.md, plots and summary.json; docs/outputs.md explains
+them. The folder appears
 only when the fit is complete; a fit that cannot be determined by the data is refused.
 Before the fit the marker data are checked for markers that do not move with their segment
 (mislabels, label swaps, re-stuck markers, impossible distances): each finding is a warning
@@ -20,6 +22,7 @@ import argparse
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -27,17 +30,15 @@ import numpy as np
 
 from .. import _numba_prewarm
 from ..checks import check_markers
-from ..cli import add_force_flag, add_json_flag, into_out_folder, output_folder
+from ..cli import add_force_flag, add_json_flag, into_out_folder, number, output_folder
 from ..errors import MocapError
-from ..identify.lm import LMSettings
-from ..identify.losses import LossName
-from ..identify.output import frame_range
+from ..identify.api import AUTO_SELECT_ABOVE, AUTO_SELECT_COUNT, identify, select_count
+from ..identify.output import frame_range, result_text, write_result
 from ..identify.paper import DEFAULT_DELTA, DEFAULT_STEP
-from ..identify.pipeline import INITS, identify_to_folder, result_text, t10_check
+from ..identify.pipeline import t10_check
 from ..identify.plausibility import plausibility_text
 from ..identify.problem import TrialData
-from ..identify.selection import select_in_trials
-from ..identify.tissue import SLIDES
+from ..identify.recipe import INITS, Recipe
 from ..ik import IKSettings
 from ..marker_quality import Finding
 from ..parameters import ParameterSet
@@ -52,13 +53,6 @@ from ._quality import (
     without_ghosts,
 )
 from ._subject import add_subject_options, subject_from_args
-
-#: ``--select auto``: above this many frames in all the trials, identify on a pose-diverse
-#: subset. The cost of an LM iteration grows with the frames while an hour of motion repeats
-#: a few thousand poses (docs/long-recordings.md).
-AUTO_SELECT_ABOVE = 20_000
-#: ``--select auto``: the subset's size (the long-recording benchmark's, 1000 frames).
-AUTO_SELECT_COUNT = 1000
 
 
 def register(sub: Any) -> None:
@@ -85,6 +79,13 @@ def register(sub: Any) -> None:
 
 def _add_fit_options(p: argparse.ArgumentParser) -> None:
     """The solver, initial model, frames, loss and LM options of ``identify``."""
+    p.add_argument(
+        "--recipe",
+        metavar="FILE",
+        help="YAML recipe: the identification's choices (every result folder holds the "
+        "recipe.yaml it was made with, so --recipe DIR/recipe.yaml re-runs it); a flag below "
+        "given a value other than its default overrides the recipe's (default: the flags)",
+    )
     p.add_argument(
         "--solver",
         choices=["lm", "paper"],
@@ -125,14 +126,14 @@ def _add_fit_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--robust", action="store_true", help="same as --loss cauchy")
     p.add_argument(
         "--max-iterations",
-        type=int,
+        type=number(int, least=1),
         default=100,
         metavar="N",
         help="LM iterations at most (lm solver; default: 100)",
     )
     p.add_argument(
         "--prior-mm",
-        type=float,
+        type=number(above=0),
         default=50.0,
         metavar="MM",
         help="width of the weak prior that holds each parameter near its initial value, in "
@@ -140,7 +141,7 @@ def _add_fit_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--observable-mm",
-        type=float,
+        type=number(above=0),
         default=5.0,
         metavar="MM",
         help="a parameter direction counts as observable when its standard deviation is "
@@ -157,29 +158,37 @@ def _add_paper_options(p: argparse.ArgumentParser) -> None:
         help="which frames each iteration uses (required with --solver paper; default: none)",
     )
     g.add_argument(
-        "--iterations", type=int, default=100, metavar="N", help="iterations (default: 100)"
+        "--iterations",
+        type=number(int, least=1),
+        default=100,
+        metavar="N",
+        help="iterations (default: 100)",
     )
     g.add_argument(
         "--step",
-        type=float,
+        type=number(above=0),
         metavar="ALPHA",
         help=f"gradient step alpha (default: {DEFAULT_STEP:g})",
     )
     g.add_argument(
         "--delta",
-        type=float,
+        type=number(above=0),
         metavar="M",
         help=f"finite-difference perturbation in m (default: {DEFAULT_DELTA:g})",
     )
     g.add_argument(
         "--fraction",
-        type=float,
+        type=number(above=0, most=1),
         default=0.1,
         metavar="F",
         help="fraction of the frames per iteration for random/stochastic sampling (default: 0.1)",
     )
     g.add_argument(
-        "--seed", type=int, default=0, metavar="N", help="seed of the frame sampling (default: 0)"
+        "--seed",
+        type=number(int, least=0),
+        default=0,
+        metavar="N",
+        help="seed of the frame sampling (default: 0)",
     )
 
 
@@ -199,10 +208,11 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
     trials = []
     ranges = []
     for t in loaded:
-        sl = frame_range(args.frames, len(t.markers))
+        sl = frame_range(args.frames, len(t.markers), t.path)
         if sl.stop - sl.start < 1:
             raise MocapError(f"{t.path}: --frames {args.frames} selects no frame")
-        ranges.append([sl.start, sl.stop])
+        # each trial's frames in the recording's own numbering (tables, messages, summary)
+        ranges.append([t.first_frame + sl.start, t.first_frame + sl.stop])
         markers = drop_excluded(t.markers[sl], pset, excluded)
         trials.append(TrialData(t.path, markers, t.times[sl]))
         check_markers(t.path, pset.marker_names, trials[-1].markers, IKSettings().min_markers)
@@ -219,15 +229,16 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
         with output_folder(args.out, force=args.force) as out:
             return run_paper(args, pset, trials, ranges, out)
     subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
-    count = _select_count(args.select, sum(len(t.markers) for t in trials), len(trials))
+    recipe = recipe_from_args(args)
+    count = select_count(recipe.select, sum(len(t.markers) for t in trials), len(trials))
     found, quality = check_trials(args, pset, to_check, excluded)  # after every bad-input error
     trials = _without_ghosts(pset, trials, ranges, found)
-    if args.strict and not args.no_anatomy:
+    if args.strict and recipe.anatomy:
         _refuse_misplaced_t10(pset, trials, subject)
     return into_out_folder(
         args,
         lambda out: _identify(
-            args, pset, loaded, trials, ranges, subject, out, count, read_seconds, quality
+            args, recipe, pset, loaded, trials, ranges, subject, out, count, read_seconds, quality
         ),
     )
 
@@ -255,38 +266,41 @@ def _refuse_misplaced_t10(pset: ParameterSet, trials: list[TrialData], subject: 
         )
 
 
-def _select_count(text: str, frames: int, n_trials: int) -> int | None:
-    """Frames to identify on for ``--select`` (None: every frame)."""
-    if text == "all":
-        return None
-    if text == "auto":
-        return AUTO_SELECT_COUNT if frames > AUTO_SELECT_ABOVE else None
+def recipe_from_args(args: argparse.Namespace) -> Recipe:
+    """The recipe of ``identify``'s flags, over ``--recipe``'s file when given: a flag whose
+    value differs from its default overrides the file's choice."""
+    flags: dict[str, Any] = {
+        "init": args.init,
+        "anatomy": not args.no_anatomy,
+        "symmetric": None if args.symmetric is None else args.symmetric * 1e-3,
+        "asymmetry_prior": not args.no_asymmetry_prior,
+        "sliding_landmarks": not args.no_sliding_landmarks,
+        "loss": "cauchy" if args.robust else args.loss,
+        "select": _select_value(args.select),
+        "max_iterations": args.max_iterations,
+        "prior_sigma": args.prior_mm * 1e-3,
+        "observable_std": args.observable_mm * 1e-3,
+    }
+    base = Recipe.load(args.recipe) if getattr(args, "recipe", None) else Recipe()
+    default = Recipe()
+    return replace(base, **{k: v for k, v in flags.items() if v != getattr(default, k)})
+
+
+def _select_value(text: str) -> int | str:
+    """``--select`` text: a number of frames, auto or all."""
+    if text in ("auto", "all"):
+        return text
     try:
-        count = int(text)
+        return int(text)
     except ValueError:
         raise MocapError(
             f"--select: expected a number of frames, auto or all, got {text!r}"
         ) from None
-    if count < n_trials:
-        raise MocapError(
-            f"--select: expected at least one frame per trial ({n_trials}), got {count}"
-        )
-    return count if count < frames else None
-
-
-def _selected(
-    trials: list[TrialData], names: tuple[str, ...], count: int
-) -> tuple[list[TrialData], list[list[int]]]:
-    """The trials' pose-diverse frames (:func:`select_in_trials`) and their indices."""
-    kept = select_in_trials([t.markers for t in trials], names, count)
-    subsets = [
-        TrialData(t.name, t.markers[k], t.times[k]) for t, k in zip(trials, kept, strict=True)
-    ]
-    return subsets, [k.tolist() for k in kept]
 
 
 def _identify(
     args: argparse.Namespace,
+    recipe: Recipe,
     pset: ParameterSet,
     loaded: list[Any],
     trials: list[TrialData],
@@ -298,52 +312,31 @@ def _identify(
     quality: dict[str, Any] | None = None,
 ) -> tuple[dict[str, Any], str]:
     _numba_prewarm.start()  # the identification kernels compile on the other core meanwhile
-    extra: dict[str, Any] = {
-        "markers_files": [t.path for t in loaded],
-        "frames_fitted_range": ranges,
-        "read_seconds": read_seconds,
-        "marker_quality": quality,
-    }
-    fitted, motion_trials = trials, None
-    if count is not None:
-        t0 = time.perf_counter()
-        fitted, kept = _selected(trials, pset.marker_names, count)
-        extra["select_seconds"] = time.perf_counter() - t0
-        motion_trials = trials
-        extra["frames_selected"] = kept
-    loss: LossName = "cauchy" if args.robust else args.loss
-    settings = LMSettings(
-        max_iterations=args.max_iterations,
-        loss=loss,
-        prior_sigma=args.prior_mm * 1e-3,
-        observable_std=args.observable_mm * 1e-3,
-    )
     from .progress import frames_bar, progress_bar
 
     total = sum(len(t.markers) for t in trials) if count is not None else 0
+    # Every frame's motion of a long recording is written chunk by chunk into a folder beside
+    # the output (one file system: write_result moves the files in).
     with (
+        tempfile.TemporaryDirectory(dir=out.parent, prefix=".mocap-mj-motion-") as sink,
         progress_bar("identify (LM)", enabled=not args.json) as progress,
         frames_bar(
             "IK of every frame", total, enabled=count is not None and not args.json
         ) as motion_progress,
     ):
-        summary, _, _ = identify_to_folder(
-            fitted,
-            out,
+        fit = identify(
+            trials,
+            recipe,
+            subject,
             pset=pset,
-            settings=settings,
-            init=args.init,
-            subject=subject,
-            anatomical=not args.no_anatomy,
-            symmetric=None if args.symmetric is None else args.symmetric * 1e-3,
-            asymmetry_prior=not args.no_asymmetry_prior,
-            slides=None if args.no_sliding_landmarks else SLIDES,
+            first_frames=[r[0] for r in ranges],
+            quality=quality,
             progress=progress,
-            extra=extra,
-            motion_trials=motion_trials,
             motion_progress=motion_progress,
-            refine=True,
+            motion_sink=Path(sink),
         )
+        inputs = {"markers_files": [t.path for t in loaded], "read_seconds": read_seconds}
+        summary = write_result(fit, out, inputs=inputs, force=True)
     for f in (summary.get("marker_quality") or {}).get("findings", []):
         if f["kind"] == "placement":  # found in the identification, after the stature
             print(f"mocap-mj {args.command}: warning: {f['message']}", file=sys.stderr)

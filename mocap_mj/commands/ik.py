@@ -3,9 +3,10 @@
 Inverse kinematics of one marker file with a given model (the bundled humanoid unless
 --model): each frame's joint angles minimise the distance between the model's marker sites and
 the measured markers (Levenberg-Marquardt, frames solved in chains warm-started from their
-neighbours). Writes OUT/motion.csv (joint angles, mm and degrees), motion.npz (qpos, times,
-markers; opened by `mocap-mj view`), model.xml and summary.json. Frames with fewer than
---min-markers present markers are left unsolved (empty in motion.csv). A model written by
+neighbours). Writes OUT/motion.csv (joint angles, mm and degrees), angles.csv (the model's
+angles in Plug-in Gait's conventions, the table `mocap-mj plug-in-gait` writes), motion.npz
+(qpos, times, markers; opened by `mocap-mj view`), model.xml and summary.json. Frames with
+fewer than --min-markers present markers are left unsolved (empty in motion.csv). A model written by
 identify with the landmarks' soft-tissue sliding model (recorded in its model.xml) weighs
 them as identify did, so that its RMSE reproduces the fit (--no-sliding-landmarks: every
 marker alike). The marker data are checked first, as by identify (warnings; --strict,
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -23,17 +25,21 @@ import numpy as np
 
 from ..angles import angle_columns, joint_angle_table
 from ..checks import check_markers
-from ..cli import add_force_flag, add_json_flag, into_out_folder
+from ..cli import add_force_flag, add_json_flag, into_out_folder, number
 from ..errors import MocapError
+from ..export.tables import write_angles_csv
+from ..exported import Layout
+from ..identify.losses import LossName
 from ..identify.output import frame_range
 from ..identify.plausibility import AT_LIMIT_PRINT, joints_at_limit, limits_text
-from ..identify.robust_ik import solve_trial_loss
+from ..identify.problem import TrialData
+from ..identify.robust_ik import solve_motion
 from ..identify.tissue import recorded_sliding_model
-from ..ik import IKSettings, IKSolver, Status
+from ..ik import IKSettings, Status
 from ..io.atomic import atomic_write_text
-from ..kinematics import Kinematics
+from ..model import load_written
 from ..parameters import ParameterSet
-from ..results import Motion, save_motion
+from ..results import save_motion
 from ..tables import write_joint_centres_csv
 from ._markers import add_marker_options, load_trial, model_for
 from ._quality import (
@@ -86,14 +92,14 @@ def register(sub: Any) -> None:
     )
     p.add_argument(
         "--max-iterations",
-        type=int,
+        type=number(int, least=1),
         default=100,
         metavar="N",
         help="LM iterations per frame at most (default: 100)",
     )
     p.add_argument(
         "--min-markers",
-        type=int,
+        type=number(int, least=1),
         default=16,
         metavar="N",
         help="present markers a frame needs to be solved (default: 16)",
@@ -107,10 +113,11 @@ def register(sub: Any) -> None:
 def write_motion_csv(
     path: Path, model: Any, times: np.ndarray, qpos: np.ndarray, first_frame: int = 0
 ) -> None:
-    """Joint angles as CSV: frame (of the marker file, from ``first_frame``), time [s], then
-    named columns in mm and degrees."""
+    """Joint angles as CSV: frame (the recording's number, from ``first_frame``), time_s [s], then
+    named columns in mm and degrees, of ``model`` as written (qpos (T, nq) of its layout, the
+    knees' slide joints included: :mod:`mocap_mj.exported`)."""
     table = joint_angle_table(model, qpos)
-    header = ",".join(["frame", "time", *angle_columns(model)])
+    header = ",".join(["frame", "time_s", *angle_columns(model)])
     lines = [header]
     for i, (t, row) in enumerate(zip(times, table, strict=True)):
         cells = ["" if not np.isfinite(v) else f"{v:.6f}" for v in row]
@@ -121,16 +128,20 @@ def write_motion_csv(
 def run(args: argparse.Namespace) -> int:
     pset = ParameterSet(model_for(args))
     trial = load_trial(args.markers, pset.marker_names, args)
-    sl = frame_range(args.frames, len(trial.markers))
+    sl = frame_range(args.frames, len(trial.markers), trial.path)
     if sl.stop - sl.start < 1:
         raise MocapError(f"{trial.path}: --frames {args.frames} selects no frame")
     excluded = parse_marker_list(args.exclude_markers, pset.marker_names)
     trial = trial._replace(markers=drop_excluded(trial.markers, pset, excluded))
     check_markers(trial.path, pset.marker_names, trial.markers[sl], args.min_markers)
+    # frames in the recording's own numbering (tables, messages, summary)
+    first = trial.first_frame + sl.start
     found, quality = check_trials(
-        args, pset, [(trial.path, trial.markers[sl], trial.rate, sl.start)], excluded
+        args, pset, [(trial.path, trial.markers[sl], trial.rate, first)], excluded
     )
-    trial = trial._replace(markers=without_ghosts(trial.markers, pset, found, trial.path, 0))
+    trial = trial._replace(
+        markers=without_ghosts(trial.markers, pset, found, trial.path, trial.first_frame)
+    )
     return into_out_folder(args, lambda out: _solve_and_write(args, pset, trial, sl, out, quality))
 
 
@@ -143,27 +154,29 @@ def _solve_and_write(
     quality: dict[str, Any] | None = None,
 ) -> tuple[dict[str, Any], str]:
     markers, times = trial.markers[sl], trial.times[sl]
-    kin = Kinematics(pset)
-    solver = IKSolver(
-        kin,
-        IKSettings(
-            damping=args.damping, max_iterations=args.max_iterations, min_markers=args.min_markers
-        ),
-    )
+    first = trial.first_frame + sl.start
     t0 = time.perf_counter()
     from .progress import frames_bar
 
-    loss = "cauchy" if args.robust else args.loss
-    sliding = None if args.no_sliding_landmarks else recorded_sliding_model(pset.model)
-    with frames_bar("IK", len(markers), enabled=not args.json) as progress:
-        result = solve_trial_loss(solver, markers, loss, progress=progress, sliding=sliding)
-    seconds = time.perf_counter() - t0
-    pset.export_mjcf(out / "model.xml", pset.nominal)
-    save_motion(out / "motion.npz", Motion(result.qpos, times, markers, pset.marker_names))
-    write_motion_csv(out / "motion.csv", kin.model, times, result.qpos, sl.start)
-    write_joint_centres_csv(
-        out / "joint_centres.csv", kin.model, times, result.qpos, first_frame=sl.start
+    loss: LossName = "cauchy" if args.robust else args.loss
+    settings = IKSettings(
+        damping=args.damping, max_iterations=args.max_iterations, min_markers=args.min_markers
     )
+    with frames_bar("IK", len(markers), enabled=not args.json) as progress:
+        motion = solve_motion(
+            pset, TrialData(str(trial.path), markers, times), loss=loss, settings=settings,
+            sliding=not args.no_sliding_landmarks, progress=progress,
+        )  # fmt: skip
+    seconds = time.perf_counter() - t0
+    result, model = motion.ik, pset.model
+    assert result is not None  # solve_motion's motion carries its IK
+    sliding = None if args.no_sliding_landmarks else recorded_sliding_model(model)
+    pset.export_mjcf(out / "model.xml", pset.nominal)
+    written = Layout.of(model).written(result.qpos)
+    save_motion(out / "motion.npz", replace(motion, qpos=written, first_frame=first))
+    write_motion_csv(out / "motion.csv", load_written(out / "model.xml"), times, written, first)
+    write_joint_centres_csv(out / "joint_centres.csv", model, times, result.qpos, first_frame=first)
+    write_angles_csv(out / "angles.csv", model, times, result.qpos, first_frame=first)
     n = len(markers)
     skipped = np.flatnonzero(result.status == Status.TOO_FEW_MARKERS)
     seen = np.any(np.all(np.isfinite(markers), axis=2), axis=0)
@@ -172,9 +185,9 @@ def _solve_and_write(
         "markers_file": str(trial.path),
         "model": str(pset.path),
         "frames": n,
-        "frames_range": [sl.start, sl.stop],
+        "frames_range": [first, first + n],
         "frames_solved": int(n - skipped.size),
-        "frames_skipped": [int(i) for i in skipped],
+        "frames_skipped": [first + int(i) for i in skipped],
         "marker_rmse_mm": result.rmse() * 1e3,
         "frame_rmse_max_mm": float(np.nanmax(result.marker_rmse) * 1e3),
         "iterations_mean": float(result.iterations.mean()),
@@ -187,7 +200,7 @@ def _solve_and_write(
         "markers_missing": list(trial.report.missing),
         "markers_without_data": never,
         "marker_quality": quality,
-        "joints_at_limit": joints_at_limit(kin.model, kin.model.jnt_range, [result.qpos]),
+        "joints_at_limit": joints_at_limit(model, model.jnt_range, [result.qpos]),
     }
     held = limits_text(summary["joints_at_limit"], AT_LIMIT_PRINT)
     text = (
@@ -205,6 +218,7 @@ def _solve_and_write(
         + (f"\nmarkers in the file without a valid sample: {', '.join(never)}" if never else "")
         + ("" if quality is None else f"\n{quality_text(quality)}")
         + (f"\njoints held at a limit of their range: {held}" if held else "")
-        + f"\nwrote {args.out}/motion.csv, joint_centres.csv, motion.npz, model.xml, summary.json"
+        + f"\nwrote {args.out}/motion.csv, joint_centres.csv, angles.csv, motion.npz, "
+        "model.xml, summary.json"
     )
     return summary, text

@@ -11,7 +11,8 @@ import numpy as np
 from ..cli import finish
 from ..errors import MocapError
 from ..identify.identifiability import Identifiability
-from ..identify.output import expected_rmse, write_result
+from ..identify.initial import marker_stature, segment_scales
+from ..identify.output import expected_rmse, write_files
 from ..identify.paper import (
     DEFAULT_DELTA,
     DEFAULT_STEP,
@@ -20,6 +21,7 @@ from ..identify.paper import (
     identify_paper,
     trace_lines,
 )
+from ..identify.plausibility import implausible_reasons
 from ..identify.problem import TrialData
 from ..parameters import ParameterSet
 from .progress import progress_bar
@@ -53,6 +55,13 @@ def run_paper(
         theta=result.theta,
     )
     summary = paper_summary(pset, result, idf, trials, ranges)
+    k = pset.n_kappa
+    summary["implausible"] = implausible_reasons(  # the LM path's checks (exit status 3)
+        result.marker_rmse,
+        int(np.sum(result.at_bound[:k])),
+        int(np.sum(~pset.frozen[:k])),
+        marker_stature(segment_scales(pset, [t.markers for t in trials])),
+    )
     iterations = [
         "## Iterations (Algorithm 1 of Zou & Sugihara)",
         "",
@@ -62,7 +71,7 @@ def run_paper(
         *trace_lines(result),
         "",
     ]
-    write_result(out, pset, result, idf, trials, summary, iterations)
+    write_files(out, pset, result, idf, trials, summary, iterations)
     text = (
         f"identified {pset.size} parameters from {summary['frames_used']} frames in "
         f"{result.seconds:.2f} s (Algorithm 1, {settings.sampling} sampling, "

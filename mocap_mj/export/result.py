@@ -8,7 +8,6 @@ when present.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,6 +20,7 @@ from .. import rolling
 from ..errors import InputFileError
 from ..model import load_model
 from ..results import Motion, ResultDir, load_motion
+from ..strict_json import read_object
 
 
 @dataclass(frozen=True)
@@ -78,18 +78,11 @@ def load_result(path: str | Path, motion_path: str | Path | None = None) -> Expo
     if motion_path is not None:
         rd = ResultDir(rd.root, rd.model, Path(motion_path))
     model = load_model(rd.model)
-    motion = load_motion(rd.motion)
-    if motion.qpos.shape[1] != model.nq:
-        raise InputFileError(
-            f"{rd.motion}: qpos has {motion.qpos.shape[1]} columns, {rd.model} has nq = {model.nq}"
-        )
+    motion = load_motion(rd.motion, model)
     sites = tuple(model.site(i).name for i in range(model.nsite))
     if motion.marker_names != sites:
         raise InputFileError(f"{rd.motion}: marker names differ from the sites of {rd.model}")
     summary: dict[str, Any] = {}
     if (rd.root / "summary.json").is_file():
-        try:
-            summary = json.loads((rd.root / "summary.json").read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise InputFileError(f"{rd.root / 'summary.json'}: not JSON: {exc}") from None
+        summary = read_object(rd.root / "summary.json", "the result's summary (a JSON object)")
     return ExportSource(rd.root, rd.model, model, motion, summary)

@@ -29,7 +29,7 @@ Widths (standard deviations, per row) and their sources:
   the rows written in those frames mean the same on every trial;
 * :data:`SIGMA_MEASURED` = 1.5 mm: a lateral offset from a caliper-measured width (caliper
   precision 1-2 mm). Plug-in Gait takes the measurement as exact; at 3 mm the jump of the
-  pyCGM files pulled the knee centres 10-11 mm toward KNE (docs/real-data.md);
+  pyCGM files pulled the knee centres 10-11 mm toward KNE;
 * :data:`SIGMA_REGRESSED` = 12 mm: the same offset from a width regressed on a segment
   length (:data:`WIDTH_RATIO`; joint widths vary with body mass at a given length);
 * :data:`SIGMA_HJC` = 8 mm: Harrington et al. (2007) hip centre per axis (their regression
@@ -51,8 +51,8 @@ Widths (standard deviations, per row) and their sources:
   and above mid-ASIS in proportion to the ASIS width, in the pelvis frame (whose tilt the
   pelvis-tilt row fixes, as for Harrington's hip centres; Reed's frame is the anterior pelvic
   plane, which Plug-in Gait's markers do not give): not along the ASIS-PSIS line, which
-  moves L5/S1 with the PSIS markers' placement (the most variable of the pelvis's,
-  docs/real-data.md); the nominal model's L5/S1 is Reed's, so these rows are centred on the
+  moves L5/S1 with the PSIS markers' placement (the most variable of the pelvis's);
+  the nominal model's L5/S1 is Reed's, so these rows are centred on the
   synthetic truth; the SC joints
   beside and level with CLAV; the ankle centre on the transmalleolar axis at ANK's level
   and depth (ANK's x and z rows; its lateral row stays the width's): the model's ankle is
@@ -73,7 +73,7 @@ Widths (standard deviations, per row) and their sources:
   trial turns the humerus depends on that trial's arm motion; Plug-in Gait defines the
   shoulder centre from SHO and the shoulder offset alone.
   At 10 mm the data moved these joints 30-60 mm between trials of one
-  subject, at 3 mm they hold within a few mm (docs/real-data.md);
+  subject, at 3 mm they hold within a few mm (docs/model.md#convention-joints);
 * :data:`SIGMA_T10_LEVEL` = 15 mm (x stature / 1.75 m): T12/L1's height above or below the
   T10 marker (the thorax frame's z row of :func:`_spine_joint_rows`; its antero-posterior
   row stays a convention row). T10's spinous process is found by counting ten spinous
@@ -82,8 +82,7 @@ Widths (standard deviations, per row) and their sources:
   Vicon trials, whose C7-T10 distance is 267-287 mm (0.16-0.17 of the 1.68 m height, the
   nominal model's 0.12), it held ``lumbar_length`` at its lower bound (the markers wanted
   84-97 mm, about 0.05 of stature); at 25 mm one subject's lumbar:thorax distance moved
-  7 mm between its trials, at 15 mm 6 mm (3.5 at 3 mm; docs/real-data.md "Subjects of
-  every size");
+  7 mm between its trials, at 15 mm 6 mm (3.5 at 3 mm);
 * :data:`LUMBAR_SPREAD` = 8 % of the stature-scaled nominal: ``lumbar_length`` (T12/L1 to
   L5/S1: the five lumbar vertebrae and their discs, about a tenth of stature; the nominal
   180 mm of 1.75 m) between adults of one stature, :func:`_trunk_rows`: with the loose
@@ -181,8 +180,8 @@ WIDTH_RATIO: dict[str, tuple[str, float]] = {
 #: centre (tibia): healthy adults' mechanical lateral distal femoral and medial proximal
 #: tibial angles are 87-88 +- 2-3 degrees (Paley 2002, normal range 85-90; Bellemans et al.
 #: 2012: constitutional varus in a quarter of healthy adults), here 0 +- 3 about the
-#: perpendicular (docs/model.md; the elbow's carrying angle was tried the same way and not
-#: kept, docs/real-data.md).
+#: perpendicular (docs/model.md#the-parameters-theta-151; the elbow has no carrying-angle
+#: parameter: on the shared trials it moved no figure).
 ALIGNMENT: dict[str, tuple[str, float, float]] = {
     "knee_lateral": ("thigh_length", 0.0, 3.0),
     "ankle_lateral": ("shank_length", 0.0, 3.0),
@@ -414,7 +413,7 @@ def _spine_joint_rows(rows: _Rows, s: float, t10: T10Placement | None = None) ->
     joint by the guess; the stature rows ``thorax_length`` and ``lumbar_length`` and, with
     the pelvis marked, L5/S1 place the height instead); for the depth (x row), whose only
     other hold is the thorax's own markers, the one the shift's uncertainty ``t10.spread``
-    carries. Measured on the shared trials (docs/real-data.md, "The trunk's landmarks"):
+    carries (docs/model.md#a-misplaced-t10). Measured on the shared trials:
     the depth widened by the whole shift let the thorax slide backwards (sc_depth at its
     lower bound, Static), its mean moved by the shift's forward growth put neck_depth at its
     upper bound in the upper-body fits and was 3.5-4.3 of its widths from the full fits.

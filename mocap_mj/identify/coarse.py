@@ -2,7 +2,7 @@
 
 From the initial model the joint LM spends most of its iterations on the approach (steps of
 hundreds, then tens of standard deviations) and only the last one or two near the minimum.
-The approach does not need every frame: a subset of ``LMSettings.coarse_frames`` frames
+The approach does not need every frame: a subset of ``Tolerances.coarse_frames`` frames
 spread over the recording's poses (:func:`mocap_mj.identify.selection.select_in_trials`)
 determines the same directions of theta, at a fraction of the cost per iteration.
 :func:`mocap_mj.identify.lm.identify_lm` therefore
@@ -16,7 +16,7 @@ determines the same directions of theta, at a fraction of the cost per iteration
    with (the approach is done: the first steps need not be damped again).
 
 Only step 3 decides the answer: it stops by the same rules as the LM on every frame
-alone, at the same minimum (docs/identification.md, "Speed").
+alone, at the same minimum (docs/method.md#the-joint-levenbergmarquardt-solver).
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from .problem import TrialData
 from .result import IterationLog, TraceEntry
 from .selection import select_in_trials
 
-#: Refits (``LMSettings.max_refits``) in a subset's LM: the first catches the frames the
+#: Refits (``Tolerances.max_refits``) in a subset's LM: the first catches the frames the
 #: initial model put in a wrong configuration; later ones cost a fresh IK of the subset each
 #: (chains do not help on pose-diverse frames) and are superseded by the IK of every frame
 #: under the subset's model. With none, seed 7 of the 500-frame benchmark took 4 more

@@ -23,7 +23,7 @@ and, for up to ``cache_frames`` frames, the per-frame A_t^-1 [B_t, g_t] kept for
 substitution; longer trials recompute them in a second pass).
 
 Damping: Marquardt-scaled (``mu * diag``) on both blocks, mu0 = 1e-2, divided by 3 after an
-accepted step and raised after a rejected one (``LMSettings.mu_decrease``). After each step
+accepted step and raised after a rejected one (``Tolerances.mu_decrease``). After each step
 every frame finishes its own pose by per-frame LM under the new theta (``refine_iterations``).
 Bounds: a parameter at a bound whose step points outward is held for that step (the reduced
 system is solved without it), and the step is then projected onto the box.
@@ -50,8 +50,8 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
-from typing import Literal, NamedTuple
+from dataclasses import replace
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -59,7 +59,7 @@ import scipy.linalg
 
 from .. import _tree
 from .._threads import single_blas_thread
-from ..errors import MocapError, SolverError, check_shape
+from ..errors import SolverError, check_shape
 from ..ik import IKResult, IKSettings, IKSolver
 from ..ik import Status as IKStatus
 from ..kinematics import Kinematics
@@ -73,8 +73,8 @@ from .coarse import (
     subset_trials,
 )
 from .heuristics import RefitSchedule, StallMonitor, frame_rmse, refit_frames
-from .losses import LossName, loss_named
-from .priors import LinearGaussianPrior, Prior, weak_prior
+from .losses import loss_named
+from .priors import Prior
 from .problem import (
     CHI3_MEDIAN,
     IdentificationProblem,
@@ -86,144 +86,18 @@ from .problem import (
 )
 from .result import IdentificationResult, IterationLog, ProgressCallback, Status, TraceEntry
 
+# The settings live in .settings; imported from here too, where the solver is.
+from .settings import LMSettings as LMSettings
+from .settings import MuDecrease as MuDecrease
+from .settings import Performance as Performance
+from .settings import Tolerances as Tolerances
+
 logger = logging.getLogger(__name__)
 
 #: The joint LM's stop reasons (the name its result used; :class:`Status`).
 Termination = Status
 #: The joint LM's result (the name it used; :class:`IdentificationResult`).
 LMResult = IdentificationResult
-
-MuDecrease = Literal["nielsen", "third"]
-
-
-@dataclass(frozen=True)
-class LMSettings:
-    """Settings of the joint LM (the reasons for the defaults: ``docs/identification.md``).
-
-    Attributes
-    ----------
-    max_iterations : int
-    tol_noise : float
-        An accepted step that lowers F by less than ``tol_noise * sigma^2`` ends the solve
-        (sigma: per-axis noise estimated from the fit, each sample weighed by its weight when
-        the trials carry sample weights, :meth:`IdentificationProblem.weighted_sigma`). Near
-        the minimum a step that lowers F by delta moves theta by sqrt(2 delta) / sigma
-        standard deviations (Mahalanobis, in the reduced information): with 1.0, at most 1.4
-        standard deviations along a single direction.
-    tol_cost : float
-        Relative decrease of F below which an accepted step ends the solve.
-    tol_theta : float [m]
-    tol_q : float [rad or m]
-    mu0 : float
-        Initial Marquardt damping (dimensionless).
-    prior_sigma : float [m]
-        Width of the default weak prior toward the initial model, stated for a marker noise
-        of ``prior_noise`` (so lambda_p = (prior_noise / prior_sigma)^2).
-    prior_noise : float [m]
-    loss : "l2", "huber" or "cauchy"
-    loss_scale : float
-        Robust threshold in units of the estimated per-axis noise sigma.
-    observable_std : float [m]
-        Reporting threshold: a direction of theta is observable when its standard deviation
-        (reduced information and the noise estimated from the fit) is at most this.
-    settle_gain : float
-        Once an accepted step lowers F by less than this fraction, progress has stalled: a
-        refit is tried (``refit_factor``) before the iterations go on.
-    prior_ratio : float
-        Every step is restricted to the eigen-directions of the reduced information (at the
-        current iterate) whose information exceeds ``prior_ratio`` times the weak prior's
-        weight lambda_p. In the others the data hardly constrain theta and Gauss-Newton would
-        wander or crawl: they keep their value.
-    chunk : int
-        Frames per chunk when accumulating the reduced system.
-    cache_frames : int
-        Keep per-frame back-substitution data up to this many frames (else recompute).
-    refit_factor : float
-        Every trial's IK is solved afresh with the current model
-        (:func:`~mocap_mj.identify.heuristics.refit_frames`) each time the marker RMSE has
-        fallen by this factor since the last such refit, when progress stalls
-        (``settle_gain``) and at convergence; at most ``max_refits`` times.
-    refine_iterations : int
-        Per-frame IK iterations applied to every frame after each step, from ``q + dq`` with
-        the new theta (0 disables). Given theta the frames are independent, and the joint
-        step's dq is a poor guess for frames at or near their joint limits; each frame's own
-        damped iterations finish its step.
-    stall_window, stall_rel : int, float
-        Once settled, stop when sqrt(F) (the objective in the marker RMSE's units: with sample
-        weights or priors the unweighted RMSE may rise while F falls) fell by less than
-        ``stall_rel`` (relative) over the last ``stall_window`` accepted steps.
-    max_refits : int
-    mu_decrease : "nielsen" or "third"
-        Damping after an accepted step: Nielsen's ``mu *= max(1/3, 1 - (2 rho - 1)^3)``, or
-        ``mu /= 3`` whatever the gain ratio ("delayed gratification", Transtrum & Sethna
-        2012). With ``mu0 = 1e-2`` and "third" (the default) the first steps are damped, so
-        that a weakly observable direction is not carried into a neighbouring minimum.
-    ball_limit_scale : float
-        During identification the cone limit of every ball joint is widened by this factor
-        (at most pi). A joint limit is not a measurement, and at a ball's cone the null
-        directions of theta become "determined" by the inequality: a kinked valley in which
-        the LM converges linearly. Hinge limits are kept (they keep the IK out of flipped
-        configurations). The identified poses may turn a ball beyond the model's cone (by up
-        to the factor), so the written model.xml carries the widened cones
-        (:func:`solver_joint_range`): an IK with it reproduces the fit. 1.0 keeps the model's
-        limits.
-    coarse_frames : int
-        Coarse to fine (:mod:`mocap_mj.identify.coarse`): with more than twice this many
-        frames, the LM first converges on a pose-diverse subset of this many frames (or a
-        tenth of all, whichever is more; itself approached the same way), then continues on
-        every frame from there (default 100: at 500 frames the approach then costs about a
-        fifth per iteration, and every frame's IK is solved once, under a model near the
-        answer; 0 disables). Only when :func:`identify_lm` solves the initial IK itself (no
-        ``initial_qpos``).
-    """
-
-    max_iterations: int = 100
-    tol_noise: float = 1.0
-    tol_cost: float = 1e-10
-    tol_theta: float = 1e-9
-    tol_q: float = 1e-8
-    mu0: float = 1e-2
-    prior_sigma: float = 0.05
-    prior_noise: float = 0.001
-    loss: LossName = "l2"
-    loss_scale: float = 3.0
-    observable_std: float = 0.005
-    settle_gain: float = 1e-2
-    prior_ratio: float = 100.0
-    chunk: int = 1000
-    cache_frames: int = 5000
-    max_refits: int = 6
-    stall_window: int = 5
-    stall_rel: float = 1e-4
-    refit_factor: float = 1.5
-    refine_iterations: int = 30
-    mu_decrease: MuDecrease = "third"
-    ball_limit_scale: float = 1.5
-    coarse_frames: int = 100
-
-    def __post_init__(self) -> None:
-        if self.mu_decrease not in ("nielsen", "third"):
-            raise MocapError(f"mu_decrease must be 'nielsen' or 'third', got {self.mu_decrease!r}")
-        loss_named(self.loss)  # raises for an unknown loss, listing the valid ones
-        if self.prior_sigma <= 0 or self.prior_noise <= 0:
-            raise MocapError("prior_sigma and prior_noise must be positive")
-        if self.ball_limit_scale < 1.0:
-            raise MocapError(f"ball_limit_scale must be >= 1, got {self.ball_limit_scale}")
-        if self.max_iterations < 1 or self.chunk < 1:
-            raise MocapError("max_iterations and chunk must be at least 1")
-        if self.coarse_frames < 0:
-            raise MocapError(f"coarse_frames must be >= 0, got {self.coarse_frames}")
-
-    @property
-    def prior_weight(self) -> float:
-        """lambda_p = (prior_noise / prior_sigma)^2 [1], the weak prior's weight."""
-        return (self.prior_noise / self.prior_sigma) ** 2
-
-    def weak_prior(self, theta0: np.ndarray) -> LinearGaussianPrior:
-        """The weak prior toward theta0 (P,) [m]: ``prior_sigma`` wide against
-        ``prior_noise``. :func:`identify_lm` uses it when given no priors; callers that pass
-        their own priors add it themselves."""
-        return weak_prior(theta0, self.prior_sigma, self.prior_noise)
 
 
 # ------------------------------------------------------------------ one damped step
@@ -269,7 +143,7 @@ def informed_solve(
     work between the parallel passes); x is the solution of the equality-constrained system
     [s_damped U; U^T 0] [x; l] = [rhs; 0] by one Cholesky factor of s_damped (positive
     definite: the damping and the priors), which is the solve in the complement's basis
-    (the eigenbasis solve when s_damped has no Cholesky factor). Figures: docs/identification.md.
+    (the eigenbasis solve when s_damped has no Cholesky factor).
     """
     sym = 0.5 * (s_mat + s_mat.T)
     _, low = scipy.linalg.eigh(
@@ -348,7 +222,7 @@ def propose(
 ) -> Trial:
     """One damped Gauss-Newton step from theta and the problem's poses (not yet accepted:
     the kinematics is left at the candidate theta)."""
-    f, cache = problem.free, problem.n <= st.cache_frames
+    f, cache = problem.free, problem.n <= st.performance.cache_frames
     system = build_system(problem, w, mu, chunks, cache)
     _, g_prior, h_prior = problem.prior(theta)
     d_prior = np.diag(h_prior)
@@ -363,12 +237,12 @@ def propose(
         theta[f],
         problem.lower[f],
         problem.upper[f],
-        st.prior_ratio * st.prior_weight,
+        st.tolerances.prior_ratio * st.prior_weight,
     )
     dq = system.step(dth)
     theta_new = theta.copy()
     theta_new[f] = np.clip(theta[f] + dth, problem.lower[f], problem.upper[f])  # exactly inside
-    q_new = finish_poses(problem, theta_new, dq, w, st.refine_iterations)
+    q_new = finish_poses(problem, theta_new, dq, w, st.tolerances.refine_iterations)
     dist_new = problem.residuals(q_new)
     # Decrease predicted by the damped quadratic model: 1/2 h^T (mu D h + g) (Nielsen).
     h_g = float(np.einsum("ni,ni->", dq, system.g_q) + dth @ (system.g_theta - g_prior))
@@ -431,11 +305,11 @@ def stop_reason(
     mu: float,
 ) -> Status | None:
     """The convergence test after iteration ``it`` (gain: F decrease [m^2], sigma [m])."""
-    if accepted and it > 1 and gain <= st.tol_noise * sigma**2:
+    if accepted and it > 1 and gain <= st.tolerances.tol_noise * sigma**2:
         return Status.NOISE
-    if accepted and gain <= st.tol_cost * cost:
+    if accepted and gain <= st.tolerances.tol_cost * cost:
         return Status.COST
-    if accepted and step.step_theta < st.tol_theta and step.step_q < st.tol_q:
+    if accepted and step.step_theta < st.tolerances.tol_theta and step.step_q < st.tolerances.tol_q:
         return Status.STEP
     if mu > 1e12:
         return Status.NO_DESCENT
@@ -479,12 +353,20 @@ def solve_lm(
     t_start = time.perf_counter()
     theta = np.clip(problem.kin.theta.copy(), problem.lower, problem.upper)
     problem.kin.set_theta(theta)
-    state = _State(problem, theta, st.mu0 if continued is None else continued)
-    chunks = [slice(s, min(s + st.chunk, problem.n)) for s in range(0, problem.n, st.chunk)]
-    schedule = RefitSchedule(st.refit_factor, st.settle_gain, st.max_refits, state.rmse(problem))
+    state = _State(problem, theta, st.tolerances.mu0 if continued is None else continued)
+    chunks = [
+        slice(s, min(s + st.performance.chunk, problem.n))
+        for s in range(0, problem.n, st.performance.chunk)
+    ]
+    schedule = RefitSchedule(
+        st.tolerances.refit_factor,
+        st.tolerances.settle_gain,
+        st.tolerances.max_refits,
+        state.rmse(problem),
+    )
     if continued is not None:
         schedule.settled, schedule.last_iteration = True, 0
-    stall = StallMonitor(st.stall_window, st.stall_rel)
+    stall = StallMonitor(st.tolerances.stall_window, st.tolerances.stall_rel)
     trace: list[IterationLog] = []
     status, it = Status.MAX_ITERATIONS, 0
     while it < st.max_iterations:
@@ -524,7 +406,7 @@ def _iterate(
     else:
         problem.kin.set_theta(state.theta)
     rho = (cost - step.cost) / step.predicted
-    state.mu, state.nu = next_damping(state.mu, state.nu, accepted, rho, st.mu_decrease)
+    state.mu, state.nu = next_damping(state.mu, state.nu, accepted, rho, st.tolerances.mu_decrease)
     stats = problem.statistics(state.dist)
     trace.append(
         IterationLog(
@@ -591,7 +473,7 @@ def _repair(
     if len(fixed) == 0:
         return False
     state.dist = problem.residuals(problem.qpos)
-    state.mu, state.nu = st.mu0, 2.0
+    state.mu, state.nu = st.tolerances.mu0, 2.0
     schedule.settled = False
     logger.info("repaired %d frames caught in local minima; continuing", len(fixed))
     return True
@@ -623,7 +505,7 @@ def _result(
         marker_rmse=stats.rmse,
         frame_rmse=unpool(frame_rmse(state.dist, problem.present), problem.used),
         reduced_information=(
-            problem.information(w_final, st.chunk)
+            problem.information(w_final, st.performance.chunk)
             if information
             else np.zeros((problem.kin.pset.size,) * 2)
         ),
@@ -644,11 +526,11 @@ def _result(
 def solver_joint_range(model: mujoco.MjModel, settings: LMSettings) -> np.ndarray:
     """The joint limits (njnt, 2) [rad or m] the joint LM solves with, as ``jnt_range``:
     the model's, with the cone of every limited ball joint widened by
-    ``settings.ball_limit_scale`` (at most pi). ``identify`` writes these into model.xml so
-    that an IK with the written model reproduces the fit."""
+    ``settings.tolerances.ball_limit_scale`` (at most pi). ``identify`` writes these into
+    model.xml so that an IK with the written model reproduces the fit."""
     rng = np.array(model.jnt_range, dtype=float)
     ball = (model.jnt_type == mujoco.mjtJoint.mjJNT_BALL) & (model.jnt_limited > 0)
-    rng[ball, 1] = np.minimum(rng[ball, 1] * settings.ball_limit_scale, np.pi)
+    rng[ball, 1] = np.minimum(rng[ball, 1] * settings.tolerances.ball_limit_scale, np.pi)
     return rng
 
 
@@ -744,10 +626,19 @@ def _solve_levels(
     :func:`~mocap_mj.identify.coarse.coarse_rows`), then the IK of every frame and the LM on
     all of them."""
     coarse: IdentificationResult | None = None
-    rows = None if initial_qpos is not None else coarse_rows(trials, kin.pset, st.coarse_frames)
+    rows = (
+        None
+        if initial_qpos is not None
+        else coarse_rows(trials, kin.pset, st.tolerances.coarse_frames)
+    )
     if rows is not None:
         start, sub = kin.theta.copy(), subset_trials(trials, rows)
-        sub_st = replace(st, max_refits=min(st.max_refits, COARSE_REFITS))
+        sub_st = replace(
+            st,
+            tolerances=replace(
+                st.tolerances, max_refits=min(st.tolerances.max_refits, COARSE_REFITS)
+            ),
+        )
         try:
             coarse = _solve_levels(
                 kin, sub, free, options, sub_st, ik_settings, None, progress, information=False
@@ -781,7 +672,7 @@ def _solve_levels(
         fine_st = replace(st, max_iterations=max(1, st.max_iterations - k))
         renumbered = None if progress is None else _shifted(progress, k)
         last = coarse.trace[-1]
-        mu = last.mu if isinstance(last, IterationLog) else st.mu0
+        mu = last.mu if isinstance(last, IterationLog) else st.tolerances.mu0
         result = solve_lm(
             problem, fine_st, progress=renumbered, continued=mu, information=information
         )

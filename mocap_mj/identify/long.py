@@ -26,7 +26,7 @@ that of a thousand frames, not of the hour. :func:`identify_long` therefore
    cost are scaled to every frame, so that priors (``identify``'s landmark rows, its box)
    weigh against the whole recording; a sample step that raises that cost is taken back and
    the next one damped (Levenberg-Marquardt): on a real trial with its priors the undamped
-   steps did not converge (docs/long-recordings.md). The pass over every frame solves
+   steps did not converge (docs/method.md#long-recordings). The pass over every frame solves
    each frame's IK as a chain from the nearest earlier frame of the sample, whose pose
    under the same model the sample's last step has
    (:meth:`~mocap_mj.ik.IKSolver.solve_from_heads`): no chain starts cold,
@@ -391,7 +391,7 @@ class _Solver:
         mu: float = 0.0,
     ) -> None:
         self.free, self.priors, self.box = free, priors, box
-        self.floor = st.prior_ratio * st.prior_weight
+        self.floor = st.tolerances.prior_ratio * st.prior_weight
         hess = sum((p.hessian() for p in priors), np.zeros_like(info))
         self.s_mat = info[np.ix_(free, free)] + hess[np.ix_(free, free)]
         lam, vec = np.linalg.eigh(0.5 * (self.s_mat + self.s_mat.T))
@@ -457,7 +457,7 @@ def refine(
         of its parameter's standard deviation (default 0.1): the step on every frame follows
         from the last accepted point, and a start 0.1 standard deviations closer to the
         sample's optimum changes that step's outcome by about the square of it (Gauss-Newton
-        converges quadratically there; docs/long-recordings.md)
+        converges quadratically there)
     sample : every k-th frame of each trial, k = ceil(T / sample) with T the frames of all
         trials, is the sample (default 20,000 frames)
     info_frames : the information is summed over at most this many evenly spaced frames of
@@ -601,7 +601,7 @@ def identify_long(
     times : (T,) float [s]
     pset : the model's parameter set
     qpos_out : (T, nq) float, written: every frame's pose (NaN rows where too few markers)
-    count : frames identified on (default 1000: see docs/long-recordings.md)
+    count : frames identified on (default 1000: see docs/method.md#long-recordings)
     settings : LM settings (default ``LMSettings()``)
     chunk : frames per IK chunk
     refine_on_all : refine the model on every frame (:func:`refine`; default on: without,

@@ -25,6 +25,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from ..exported import Layout
 from ..ik import IKSolver
 from ..io.atomic import atomic_path
 from ..kinematics import Kinematics
@@ -37,7 +38,7 @@ from .problem import TrialData
 #: LM iterations of each frame started from the refinement's poses (``start``): those are
 #: the converged IK under a model a fraction of a millimetre from the written one, and one
 #: Gauss-Newton step from there lands where the converged solve would stop, within its own
-#: tolerance (docs/long-recordings.md, "Issue 18h"), at a fraction of its time.
+#: tolerance (docs/method.md#long-recordings), at a fraction of its time.
 WARM_ITERATIONS = 1
 
 
@@ -94,10 +95,12 @@ def write_motion_chunks(
     nq: int,
     poses: Iterator[np.ndarray],
     chunk: int = CHUNK,
+    first_frame: int = 0,
 ) -> None:
     """motion.npz of ``trial`` (its times (T,) [s] and markers (T, M, 3) [m], read ``chunk``
     frames at a time) with the poses (T, nq) that ``poses`` yields chunk by chunk, in the
-    member order of :func:`mocap_mj.results.save_motion`."""
+    member order of :func:`mocap_mj.results.save_motion`; ``first_frame``: the recording's
+    number of frame 0."""
     n = len(trial.markers)
     with atomic_path(path) as tmp, _zip(tmp) as zf:
         with npy_member(zf, "qpos", (n, nq), np.dtype(float)) as append:
@@ -112,6 +115,8 @@ def write_motion_chunks(
         labels = np.array(list(names))
         with npy_member(zf, "marker_names", labels.shape, labels.dtype) as append:
             append(labels)
+        with npy_member(zf, "first_frame", (), np.dtype(np.int64)) as append:
+            append(np.array(first_frame, dtype=np.int64))
 
 
 class _CentresTable:
@@ -143,8 +148,9 @@ def write_every_frame_motion(
 ) -> MotionFit:
     """IK of every frame of ``trials`` with the model as ``identify`` writes it (parameters
     theta (P,) [m], the joint limits the solver used), written chunk by chunk into
-    ``out``/motion.npz and joint_centres.csv (``motion_<i>.npz``, ``joint_centres_<i>.csv``
-    for the other trials); returns the fit over every frame.
+    ``out``/motion.npz (in model.xml's layout, :class:`mocap_mj.exported.Layout`) and
+    joint_centres.csv (``motion_<i>.npz``, ``joint_centres_<i>.csv`` for the other trials);
+    returns the fit over every frame.
 
     ``start`` (per trial (T_i, nq)): poses the chunk's frames start from (finite rows, e.g.
     the refinement's: warm, ``WARM_ITERATIONS`` LM iterations each); default and NaN chunks: solved
@@ -156,11 +162,8 @@ def write_every_frame_motion(
     weighed its fit (its soft-tissue sliding model); ``robust``: a robust loss and its
     threshold (default None: least squares), the warm frames weighed by its IRLS weights at
     their start poses, as the identification's robust fit weighed its samples."""
-    with tempfile.TemporaryDirectory(prefix="mocap-mj-") as tmp:
-        path = Path(tmp) / "model.xml"
-        pset.export_mjcf(path, theta, joint_range=solver_joint_range(pset.model, settings))
-        written = ParameterSet(path)
-    solver = IKSolver(Kinematics(written))
+    solver = _written_solver(pset, theta, settings)
+    layout = Layout.of(solver.kin.model)
     model = pset.model_for(theta)
     t0 = time.perf_counter()
     firsts = list(first_frames) if first_frames is not None else [0] * len(trials)
@@ -178,11 +181,47 @@ def write_every_frame_motion(
                 out / f"motion{suffix}.npz",
                 trial,
                 pset.marker_names,
-                written.model.nq,
-                poses,
+                layout.nq_written,
+                (layout.written(q) for q in poses),
                 chunk,
+                first,
             )
     return tally.fit._replace(seconds=time.perf_counter() - t0)
+
+
+def every_frame_motion(
+    pset: ParameterSet,
+    theta: np.ndarray,
+    settings: LMSettings,
+    trials: Sequence[TrialData],
+    *,
+    start: Sequence[NDArray[np.floating]] | None = None,
+    progress: Callable[[int], None] | None = None,
+    chunk: int = CHUNK,
+    weigh: Weigh | None = None,
+    robust: Robust | None = None,
+) -> tuple[list[np.ndarray], MotionFit]:
+    """:func:`write_every_frame_motion` held in memory: every frame's pose (T_i, nq) per
+    trial (the same poses, solved chunk by chunk alike) and the fit over every frame."""
+    solver = _written_solver(pset, theta, settings)
+    t0 = time.perf_counter()
+    tally = _Tally(progress)
+    poses = []
+    for i, trial in enumerate(trials):
+        q0 = start[i] if start is not None else None
+        chunks = _solved(solver, trial, q0, None, tally, chunk, weigh, robust)
+        poses.append(np.concatenate([np.zeros((0, solver.kin.nq)), *chunks]))
+    return poses, tally.fit._replace(seconds=time.perf_counter() - t0)
+
+
+def _written_solver(pset: ParameterSet, theta: np.ndarray, settings: LMSettings) -> IKSolver:
+    """The IK of the model as ``identify`` writes it: parameters theta (P,) [m], the joint
+    limits the solver used (:func:`solver_joint_range`), read back from its MJCF."""
+    with tempfile.TemporaryDirectory(prefix="mocap-mj-") as tmp:
+        path = Path(tmp) / "model.xml"
+        pset.export_mjcf(path, theta, joint_range=solver_joint_range(pset.model, settings))
+        written = ParameterSet(path)
+    return IKSolver(Kinematics(written))
 
 
 class _Tally:
@@ -207,14 +246,15 @@ def _solved(
     solver: IKSolver,
     trial: TrialData,
     q0: NDArray[np.floating] | None,
-    table: _CentresTable,
+    table: _CentresTable | None,
     tally: _Tally,
     chunk: int,
     weigh: Weigh | None = None,
     robust: Robust | None = None,
 ) -> Iterator[np.ndarray]:
     """The trial's poses (n, nq) chunk by chunk (:func:`mocap_mj.identify.long.solve_chunk`:
-    warm from q0's finite rows, else chained), each also appended to the centres table."""
+    warm from q0's finite rows, else chained), each also appended to the centres table
+    (when given)."""
     nq = solver.kin.nq
     for s in range(0, len(trial.markers), chunk):
         m = np.asarray(trial.markers[s : s + chunk], dtype=float)
@@ -223,5 +263,6 @@ def _solved(
         t0 = time.perf_counter()
         f = solve_chunk(solver, m, q, WARM_ITERATIONS, weigh, robust)
         tally.add(f, len(m), time.perf_counter() - t0)
-        table.append(np.asarray(trial.times[s : s + chunk], dtype=float), q)
+        if table is not None:
+            table.append(np.asarray(trial.times[s : s + chunk], dtype=float), q)
         yield q

@@ -3,26 +3,103 @@
 from __future__ import annotations
 
 import json
+import shutil
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..io.atomic import atomic_write_text
+from ..exported import Layout
+from ..io.atomic import atomic_folder, atomic_write_text
 from ..kinematics import Kinematics
 from ..marker_quality import quality_lines
 from ..parameters import ParameterSet
 from ..results import Motion, save_motion
+from ..strict_json import dumps, jsonable
+from ..tables import write_joint_centres_csv
+from .clinical_out import write_model_angles
+from .fit import Fit
 from .identifiability import Identifiability
+from .lm import solver_joint_range
 from .plausibility import limits_text
 from .problem import TrialData
 from .result import IdentificationResult, IterationLog
-from .segments import uncertainty_lines
+from .segments import SegmentRow, uncertainty_lines, write_segments_csv
 from .tissue import SlidingModel, with_sliding_model
 
 
 def write_result(
+    fit: Fit,
+    folder: str | Path,
+    *,
+    inputs: Mapping[str, Any] | None = None,
+    force: bool = False,
+) -> dict[str, Any]:
+    """Write ``fit`` as a result folder (:mod:`mocap_mj.results`): model.xml, theta.json,
+    recipe.yaml (:meth:`Recipe.save`: ``mocap-mj identify --recipe`` re-runs it),
+    motion.npz and joint_centres.csv (``_<i>`` for the other trials), angles.csv (Plug-in
+    Gait's angles of the model, first trial; compared in report.md with the Nexus angles its
+    C3D holds), segments.csv,
+    identifiability.json, report.md, plots and summary.json (``inputs``, e.g. the marker
+    files read, then :meth:`Fit.summary`). The folder is replaced whole at the end
+    (:func:`~mocap_mj.io.atomic.atomic_folder`; a non-empty ``folder`` only with ``force``);
+    a motion streamed to files (``Fit.motion_files``) is moved into it. Returns the summary
+    written."""
+    summary = jsonable({**(inputs or {}), **fit.summary()})
+    motion = list(fit.motion) if fit.motion is not None else []
+    with atomic_folder(folder, force=force) as staging:
+        for path in fit.motion_files:
+            shutil.move(path, staging / path.name)
+        write_files(
+            staging,
+            fit.pset,
+            fit.result,
+            fit.identifiability,
+            fit.trials,
+            summary,
+            joint_range=solver_joint_range(fit.pset.model, fit.settings),
+            motion=motion,
+            sliding=fit.sliding,
+        )
+        _write_tables(staging, fit.pset, fit.theta, motion, fit.segments, fit.first_frames)
+        lines, compared = write_model_angles(
+            staging,
+            fit.pset.model_for(fit.theta),
+            motion,
+            str(fit.trials[0].name) if fit.trials else "",
+            fit.first_frames[0] if fit.first_frames else 0,
+        )
+        if compared is not None:
+            summary["angles_vs_plug_in_gait"] = compared
+        if lines:
+            report = staging / "report.md"
+            atomic_write_text(report, report.read_text() + "\n" + "\n".join(lines))
+        fit.recipe.save(staging / "recipe.yaml")
+        atomic_write_text(staging / "summary.json", dumps(summary, indent=2) + "\n")
+    return summary
+
+
+def _write_tables(
+    out: Path,
+    pset: ParameterSet,
+    theta: np.ndarray,
+    motion: Sequence[Motion],
+    rows: Sequence[SegmentRow],
+    first_frames: Sequence[int],
+) -> None:
+    """segments.csv, and joint_centres.csv per trial of ``motion`` (``joint_centres_<i>.csv``
+    for the others, like motion.npz) of the model theta (P,) [m]; ``first_frames``: each
+    trial's first frame in its file."""
+    write_segments_csv(out / "segments.csv", rows)
+    model = pset.model_for(theta)
+    for i, (m, first) in enumerate(zip(motion, first_frames, strict=False)):
+        name = "joint_centres.csv" if i == 0 else f"joint_centres_{i}.csv"
+        write_joint_centres_csv(out / name, model, m.times, m.qpos, first_frame=first)
+
+
+def write_files(
     out: Path,
     pset: ParameterSet,
     result: IdentificationResult,
@@ -32,15 +109,16 @@ def write_result(
     iterations: Sequence[str] | None = None,
     *,
     joint_range: np.ndarray | None = None,
-    motion: tuple[Sequence[TrialData], Sequence[np.ndarray]] | None = None,
+    motion: Sequence[Motion] | None = None,
     sliding: SlidingModel | None = None,
 ) -> None:
     """model.xml, theta.json, motion.npz (first trial; ``motion_<i>.npz`` for the others),
     identifiability.json and report.md (its iterations section: ``iterations``, default
     :func:`iteration_lines`). ``joint_range`` (njnt, 2): the limits the solver used, written
-    into model.xml (see :meth:`ParameterSet.to_spec`). ``motion`` (trials, poses (T_i, nq)):
-    what motion.npz holds (default: ``trials`` and the fit's poses). ``sliding``: the
-    landmarks' sliding model the fit was weighed with, recorded in model.xml for ``ik``
+    into model.xml (see :meth:`ParameterSet.to_spec`). ``motion``: what motion.npz holds
+    (default: ``trials`` and the fit's poses; internal qpos (T_i, nq), written in model.xml's
+    layout, :class:`mocap_mj.exported.Layout`). ``sliding``: the landmarks' sliding model the
+    fit was weighed with, recorded in model.xml for ``ik``
     (:func:`~mocap_mj.identify.tissue.with_sliding_model`; default None: not recorded)."""
     xml = pset.to_xml(result.theta, joint_range=joint_range)
     atomic_write_text(
@@ -57,10 +135,15 @@ def write_result(
             },
         },
     )
-    moved, poses = motion or (trials, result.qpos)
-    for i, (trial, qpos) in enumerate(zip(moved, poses, strict=True)):
+    if motion is None:
+        motion = [
+            Motion(q, t.times, t.markers, pset.marker_names)
+            for t, q in zip(trials, result.qpos, strict=True)
+        ]
+    layout = Layout.of(pset.model)
+    for i, m in enumerate(motion):
         name = "motion.npz" if i == 0 else f"motion_{i}.npz"
-        save_motion(out / name, Motion(qpos, trial.times, trial.markers, pset.marker_names))
+        save_motion(out / name, replace(m, qpos=layout.written(m.qpos), ik=None))
     atomic_write_text(out / "identifiability.json", json.dumps(idf.to_json()) + "\n")
     write_plots(out, pset, result, trials)
     lines = report_lines(pset, result, idf, summary, iterations)
@@ -217,19 +300,53 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
     return lines
 
 
-def frame_range(text: str | None, n: int) -> slice:
-    """``"A:B"`` (Python slice of frames) -> slice; None -> all frames."""
+def frame_range(text: str | None, n: int, source: str = "the recording") -> slice:
+    """``"A:B"`` (Python slice of frames, negative from the end) -> slice; None -> all frames.
+
+    A bound past the ``n`` frames of ``source`` is refused, naming its frame count: a range
+    silently shortened would fit other frames than the ones asked for.
+    """
+    from ..errors import MocapError
+
     if not text:
         return slice(0, n)
     try:
         a, b = (int(x) if x else None for x in text.split(":"))
     except ValueError:
-        from ..errors import MocapError
-
         raise MocapError(f"--frames: expected A:B (e.g. 0:500), got {text!r}") from None
+    if any(v is not None and not -n <= v <= n for v in (a, b)):
+        raise MocapError(
+            f"{source}: --frames {text}: past the end, the recording has {n} frames (0 to {n - 1})"
+        )
     return slice(*slice(a, b).indices(n)[:2])
 
 
 def expected_rmse(sigma: float, n_unknowns: int, n_residuals: int) -> float:
     """sqrt(3) sigma sqrt(1 - p / n) [m]: the fit RMSE that noise alone leaves."""
     return float(np.sqrt(3) * sigma * np.sqrt(max(1 - n_unknowns / n_residuals, 0.0)))
+
+
+def result_text(summary: dict[str, Any], pset: ParameterSet, out: Path) -> str:
+    held = summary.get("parameters_not_measured") or []
+    measured = (
+        f"{pset.size - len(held)} of {pset.size} parameters" if held else f"{pset.size} parameters"
+    )
+    why = []
+    if summary.get("unmeasured_bodies"):
+        why.append(f"no marker on {' '.join(summary['unmeasured_bodies'])}")
+    if summary.get("markers_without_data"):
+        why.append(f"no data for {' '.join(summary['markers_without_data'])}")
+    note = f"{len(held)} held at the prior ({'; '.join(why)})\n" if held else ""
+    return (
+        f"identified {measured} from {summary['frames_used']} frames in "
+        f"{summary['seconds']:.2f} s ({summary['iterations']} LM iterations, "
+        f"{summary['termination']})\n"
+        f"{note}"
+        f"marker RMSE {summary['marker_rmse_mm']:.3f} mm, i.e. a per-axis noise sigma of "
+        f"{summary['sigma_mm']:.3f} mm given {summary['n_unknowns']} unknowns and "
+        f"{summary['n_residuals']} residuals; {summary['observable_directions']} of {pset.size} "
+        f"directions observable, CRLB {summary['kappa_crlb_rms_mm']:.3f} mm (kinematic) / "
+        f"{summary['offset_crlb_rms_mm']:.3f} mm (offsets)\n"
+        f"wrote {out}/model.xml, theta.json, motion.npz, joint_centres.csv, segments.csv, "
+        "identifiability.json, report.md"
+    )

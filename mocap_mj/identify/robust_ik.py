@@ -19,14 +19,42 @@ distances, as :class:`~mocap_mj.identify.losses.Weighted`).
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
-from ..ik import IKResult, IKSolver
-from .lm import LMSettings
-from .losses import Weighted, loss_named
-from .problem import loss_threshold
-from .tissue import SlidingModel
+from ..ik import IKResult, IKSettings, IKSolver
+from ..kinematics import Kinematics
+from ..parameters import ParameterSet
+from ..results import Motion
+from .lm import LMSettings, Tolerances
+from .losses import LossName, Weighted, loss_named
+from .problem import TrialData, loss_threshold
+from .tissue import SlidingModel, recorded_sliding_model
+
+
+def solve_motion(
+    model: ParameterSet | str | Path,
+    trial: TrialData,
+    *,
+    loss: LossName = "l2",
+    settings: IKSettings | None = None,
+    sliding: bool = True,
+    progress: Callable[[int], None] | None = None,
+) -> Motion:
+    """The motion of ``trial`` (markers (T, M, 3) [m] in the model's marker order, NaN where
+    missing; times (T,) [s]) with ``model`` (a parameter set, or an MJCF file such as an
+    identified model.xml): what ``mocap-mj ik`` computes. Each frame's pose minimises
+    ``loss`` of the marker distances (:func:`solve_trial_loss`); a model that records the
+    landmarks' sliding model weighs them as its identification did unless ``sliding`` is
+    False. ``settings``: the per-frame IK's (default :class:`IKSettings`); ``progress`` is
+    called with the frames done. Returns poses (T, nq), the trial's times and markers, and
+    ``Motion.ik``: each frame's status, iterations and marker RMSE."""
+    pset = model if isinstance(model, ParameterSet) else ParameterSet(model)
+    solver = IKSolver(Kinematics(pset), settings or IKSettings())
+    slid = recorded_sliding_model(pset.model) if sliding else None
+    result = solve_trial_loss(solver, trial.markers, loss, progress=progress, sliding=slid)
+    return Motion(result.qpos, trial.times, trial.markers, pset.marker_names, ik=result)
 
 
 def solve_trial_loss(
@@ -36,7 +64,7 @@ def solve_trial_loss(
     *,
     loss_scale: float = LMSettings.loss_scale,
     max_rounds: int = 30,
-    tol_noise: float = LMSettings.tol_noise,
+    tol_noise: float = Tolerances.tol_noise,
     progress: Callable[[int], None] | None = None,
     sliding: SlidingModel | None = None,
 ) -> IKResult:

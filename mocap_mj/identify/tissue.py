@@ -5,8 +5,8 @@ axis) is placed, and its prior rows (:mod:`mocap_mj.identify.anatomy`) are writt
 that defines it: the static standing pose, the model's zero angles. As the joint turns away
 from that pose, the skin under the marker slides over the bone: the marker moves against its
 segment by an amount that grows with the angle and that no rigid offset can follow, and the
-fit bends the skeleton (joint centres, segment lengths) to follow it (measured:
-docs/real-data.md "Soft-tissue sliding").
+fit bends the skeleton (joint centres, segment lengths) to follow it
+(docs/method.md#weighing-priors-trials-and-sliding-markers).
 
 The model here is heteroscedastic noise: a landmark's sample at joint angle q has, beyond the
 artefact every marker carries (per-axis standard deviation ``base``), a slide of per-axis
@@ -34,17 +34,17 @@ it; :class:`Slide`'s ``reference``), 10 mm/rad. It is not in :data:`SLIDES`: SHO
 only marker on the clavicle, so weighing it down in the raised-arm frames leaves the
 girdle's pose there to the arm markers: on synthetic range-of-motion trials with SHO slid
 that way it brings the glenohumeral centres closer but not the clavicle lengths, and on the
-shared trials it moved no target (docs/real-data.md "Seventh round",
-``benchmarks/sho_slide.py``). The library's ``slides=`` takes it.
+shared trials it moved no agreement figure (``benchmarks/sho_slide.py``). The library's
+``slides=`` takes it.
 
 The ankle (ANK) and elbow (ELB) markers sit on bone under thin skin: their sliding is not
-modelled (weighting them alike helped no real-data figure, docs/real-data.md; the ankle and
+modelled (weighting them alike helped no real-data figure; the ankle and
 the elbow are convention joints instead, :mod:`mocap_mj.identify.anatomy`).
 
 ``mocap-mj identify`` weighs with :data:`SLIDES` by default (``--no-sliding-landmarks``: off)
 and records the model it weighed with in model.xml (:func:`with_sliding_model`); ``mocap-mj
 ik`` reads it back (:func:`recorded_sliding_model`) and weighs its own poses alike, so that
-the exported model reproduces the fit (docs/ik.md).
+the exported model reproduces the fit (docs/outputs.md#modelxml-reproduces-the-fit).
 """
 
 from __future__ import annotations
@@ -159,8 +159,8 @@ def slide_angles(pset: ParameterSet, qpos: np.ndarray, slides: dict[str, Slide])
 
 #: Humerothoracic elevation [rad] above which the arm counts as raised for
 #: :func:`raised_arms_note`: SHO's distance to CLAV held within 2 mm between trials at 13-29
-#: degrees and was 13-20 mm shorter at 72-79 degrees on the shared trials (docs/real-data.md,
-#: "Seventh round"); 45 degrees lies between.
+#: degrees and was 13-20 mm shorter at 72-79 degrees on the shared trials
+#: (docs/validation.md#real-recordings); 45 degrees lies between.
 RAISED_ARMS = np.radians(45.0)
 #: Frames (evenly spaced) over which :func:`arm_elevation` takes its percentiles.
 _ELEVATION_FRAMES = 2000
@@ -210,8 +210,8 @@ def raised_arms_note(elevation: dict[str, tuple[float, float, float]]) -> str | 
         f"the arms are raised from the trunk in every frame ({sides}, p5-p95): the shoulder "
         "centres are placed from SHO, which the skin over the acromion carries toward the "
         "sternum as the arm rises, so the clavicles come out short and the upper arms long; "
-        "identify with a trial where the arms hang or move as well (docs/real-data.md, "
-        '"The shoulder as a convention joint")'
+        "identify with a trial where the arms hang or move as well "
+        "(docs/recordings.md#other-lines-on-stderr)"
     )
 
 
@@ -245,7 +245,7 @@ class SlidingModel:
     :class:`Slide`) against a per-axis artefact ``base`` [m]. ``identify`` records it in
     model.xml (:func:`with_sliding_model`) and ``ik --model`` reads it back
     (:func:`recorded_sliding_model`) to weigh its poses alike: the exported model then
-    reproduces the fit (docs/ik.md)."""
+    reproduces the fit (docs/outputs.md#modelxml-reproduces-the-fit)."""
 
     slides: dict[str, Slide]
     base: float

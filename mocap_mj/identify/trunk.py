@@ -16,8 +16,7 @@ deviation when it is estimated from the markers, added in quadrature. Found, the
 hang on T10 are widened by the displacement they would carry
 (:func:`mocap_mj.identify.anatomy.landmark_prior`'s ``t10``), and a one-line
 ``placement`` finding joins the marker-data quality findings (stderr, summary.json's
-``marker_quality``, report.md). Figures on the shared trials: docs/real-data.md, "The trunk's
-landmarks".
+``marker_quality``, report.md; docs/model.md#a-misplaced-t10).
 """
 
 from __future__ import annotations

@@ -17,6 +17,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 __all__ = [
+    "RESULT_MARKER",
     "atomic_folder",
     "atomic_path",
     "atomic_write_bytes",
@@ -69,6 +70,8 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     ------
     FileNotFoundError
         If the block finished without creating the temporary file.
+    OSError
+        From the block or the rename (a full disk), naming ``path``, not the temporary file.
     """
     final = _destination(path)
     tmp = final.with_name(f".{final.stem}.tmp-{os.getpid()}-{secrets.token_hex(4)}{final.suffix}")
@@ -81,9 +84,11 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
             with contextlib.suppress(OSError):
                 shutil.copymode(final, tmp)
         os.replace(tmp, final)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(OSError):
             tmp.unlink()
+        if isinstance(exc, OSError):
+            _name_final(exc, tmp, os.fspath(final))
         raise
     _fsync_dir(final.parent)
 
@@ -153,6 +158,97 @@ def _is_empty(folder: Path) -> bool:
     return not any(entry not in stale for entry in folder.iterdir())
 
 
+#: The file every mocap-mj command writes into its result folder: a folder holding it is a
+#: result, which ``force`` may replace; any other non-empty folder is never deleted.
+RESULT_MARKER = "summary.json"
+
+
+def _check_replaceable(final: Path, path: str | os.PathLike[str]) -> None:
+    """``force``: refuse unless ``final`` is empty or a result folder (holds RESULT_MARKER)."""
+    from ..errors import OutputFolderError
+
+    if (final / RESULT_MARKER).is_file() or _is_empty(final):
+        return
+    first = min(entry.name for entry in final.iterdir())
+    raise OutputFolderError(
+        f"{path}: not a mocap-mj result folder (no {RESULT_MARKER}; holds {first!r}, ...); "
+        "--force replaces only an empty folder or a result, so choose another --out"
+    )
+
+
+def _check_out(final: Path, path: str | os.PathLike[str], force: bool) -> None:
+    """Everything that can make the final rename fail, checked before the work."""
+    from ..errors import OutputFolderError
+
+    if final.exists() and not final.is_dir():
+        raise OutputFolderError(f"{path}: exists and is not a folder; choose another --out")
+    if final.is_dir():
+        if not os.access(final, os.W_OK | os.X_OK):
+            raise OutputFolderError(f"{path}: folder is read-only; choose another --out")
+        if force:
+            _check_replaceable(final, path)
+        elif not _is_empty(final):
+            raise OutputFolderError(f"{path}: folder is not empty (use --force to replace it)")
+
+
+def _rename_new(staging: Path, final: Path, path: str | os.PathLike[str]) -> None:
+    """Rename ``staging`` to ``final``, which must be absent or an empty folder.
+
+    The kernel makes the check and the rename one step: :func:`os.rename` of a folder onto a
+    non-empty folder fails (POSIX; on Windows onto any existing name, so an empty folder is
+    removed first, and :func:`os.rmdir` refuses a non-empty one). A result another run put
+    at ``final`` after this run's checks is therefore never replaced.
+    """
+    from ..errors import OutputFolderError
+
+    try:
+        os.rename(staging, final)
+        return
+    except OSError:
+        if not os.path.lexists(final):
+            raise
+    try:
+        os.rmdir(final)
+        os.rename(staging, final)
+    except OSError:
+        raise OutputFolderError(
+            f"{path}: written by another run meanwhile; kept as it is, this run's result "
+            "is discarded (use --force to replace it)"
+        ) from None
+
+
+def _rename_over(staging: Path, final: Path, path: str | os.PathLike[str], tag: str) -> None:
+    """``force``: move the folder at ``final`` (if any, still empty or a result) aside,
+    rename ``staging`` to ``final``, then delete the old folder; put it back on failure."""
+    old = final.parent / f".{final.name}.old-{tag}"
+    if final.is_symlink() or not final.is_dir():  # nothing of ours to replace
+        _rename_new(staging, final, path)
+        return
+    _check_replaceable(final, path)
+    try:
+        os.rename(final, old)
+    except FileNotFoundError:
+        _rename_new(staging, final, path)
+        return
+    try:
+        _rename_new(staging, final, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.rename(old, final)
+        raise
+    _remove(old)
+
+
+def _name_final(exc: OSError, staging: Path, final: str) -> None:
+    """Name the file of an OS error by its final path (``final/...``), not the temporary
+    ``staging`` one; name ``final`` when it names none (a full disk: ``[Errno 28]`` alone)."""
+    name = exc.filename
+    if name is None:
+        exc.filename = final
+    elif isinstance(name, str) and name.startswith(str(staging)):
+        exc.filename = final + name[len(str(staging)) :]
+
+
 @contextlib.contextmanager
 def atomic_folder(path: str | os.PathLike[str], *, force: bool = False) -> Iterator[Path]:
     """Yield an empty hidden folder beside ``path``; rename it to ``path`` if the block succeeds.
@@ -162,24 +258,24 @@ def atomic_folder(path: str | os.PathLike[str], *, force: bool = False) -> Itera
     folder is deleted, and one left by a killed process is deleted by the next call for the
     same ``path``. Everything that can make the final rename fail is checked before the
     block runs (before the work): ``path`` is a file, a non-empty folder without ``force``,
-    a read-only folder, or its parent cannot be written.
+    a read-only folder, or its parent cannot be written. ``force`` replaces only an empty
+    folder or a result folder (one holding :data:`RESULT_MARKER`); a folder with other files
+    is refused, so that nothing but a result is ever deleted. Without ``force`` a result
+    that another run renamed into place meanwhile is kept and this one is refused. A
+    symlink ``path`` stays a link: the folder is written where it points.
 
     Raises
     ------
     OutputFolderError
         One of the above, naming ``path`` and what to do.
+    OSError
+        From the block, naming the file by its final path.
     """
     from ..errors import OutputFolderError
 
-    final = Path(os.path.abspath(os.fspath(path)))
+    final = Path(os.path.realpath(os.fspath(path)))
     parent = final.parent
-    if final.exists() and not final.is_dir():
-        raise OutputFolderError(f"{path}: exists and is not a folder; choose another --out")
-    if final.is_dir():
-        if not os.access(final, os.W_OK | os.X_OK):
-            raise OutputFolderError(f"{path}: folder is read-only; choose another --out")
-        if not force and not _is_empty(final):
-            raise OutputFolderError(f"{path}: folder is not empty (use --force to replace it)")
+    _check_out(final, path, force)
     for stale in stale_temporaries(parent, final.name):
         _remove(stale)
     tag = f"{os.getpid()}-{secrets.token_hex(4)}"
@@ -194,17 +290,13 @@ def atomic_folder(path: str | os.PathLike[str], *, force: bool = False) -> Itera
         ) from None
     try:
         yield staging
-        old = parent / f".{final.name}.old-{tag}"
-        if final.is_dir():
-            os.replace(final, old)
-        try:
-            os.replace(staging, final)
-        except BaseException:
-            if old.exists():
-                os.replace(old, final)
-            raise
-        _remove(old)
-    except BaseException:
+        if force:
+            _rename_over(staging, final, path, tag)
+        else:
+            _rename_new(staging, final, path)
+    except BaseException as exc:
         _remove(staging)
+        if isinstance(exc, OSError):
+            _name_final(exc, staging, os.fspath(path))
         raise
     _fsync_dir(parent)

@@ -1,0 +1,194 @@
+"""``plug_in_gait``: Plug-in Gait (the Conventional Gait Model 1.0) on a marker trajectory.
+
+Steps: the subject values (the static trial's offsets and measurements when one is given),
+the lower body (pelvis, Davis hip centres, chord knee and ankle centres, tibia, foot with the
+static offsets), the trunk and upper limbs when their markers are present, the angles in
+Vicon's conventions and the bone points. A trial that is itself static (the pelvis and leg
+markers still) uses the static model's foot, from the heel marker, as Nexus does.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import MocapError
+from ..io.trajectory import MarkerTrajectory
+from . import static as static_mod
+from .angles import all_angles, progression_frame
+from .bones import bone_points
+from .segments import SIDES, Markers, lower_body, static_foot, trunk, upper_limbs
+from .subject import UPPER, PigSubject
+
+_log = logging.getLogger(__name__)
+
+#: Markers the lower body needs; the trunk and upper limbs are computed when theirs exist.
+LOWER_MARKERS = ("LASI", "RASI", "LTHI", "LKNE", "LTIB", "LANK", "LTOE",
+                 "RTHI", "RKNE", "RTIB", "RANK", "RTOE")  # fmt: skip
+UPPER_MARKERS = ("C7", "T10", "CLAV", "STRN", "LFHD", "RFHD", "LBHD", "RBHD", "LSHO", "LELB",
+                 "LWRA", "LWRB", "LFIN", "RSHO", "RELB", "RWRA", "RWRB", "RFIN")  # fmt: skip
+
+
+@dataclass
+class PigResult:
+    """Plug-in Gait's outputs for one trial.
+
+    ``angles``: Vicon name (``LKneeAngles``...) -> (T, 3) [rad]; ``points``: Vicon bone
+    point name (``LFEO``...) -> (T, 3) [m] in the recording's lab frame; ``times`` (T,) [s];
+    ``frames`` (T,) the recording's own frame numbers; ``progression`` (3,) the direction
+    of progression in the lab; ``static``: whether the trial was processed as a static one
+    (its own offsets and the static model's foot).
+    """
+
+    times: np.ndarray
+    frames: np.ndarray
+    angles: dict[str, np.ndarray]
+    points: dict[str, np.ndarray]
+    subject: PigSubject
+    progression: np.ndarray
+    static: bool
+    notes: list[str] = field(default_factory=list)
+
+    def summary(self) -> dict[str, Any]:
+        return {
+            "frames": len(self.times),
+            "first_frame": int(self.frames[0]) if len(self.frames) else None,
+            "static_trial": self.static,
+            "progression_axis_lab": [float(v) for v in self.progression],
+            "angles": sorted(self.angles),
+            "points": sorted(self.points),
+            "subject": self.subject.to_dict(),
+            "notes": list(self.notes),
+        }
+
+
+def _markers(traj: MarkerTrajectory) -> Markers:
+    return Markers({n: traj.positions[:, i] for i, n in enumerate(traj.names)}, traj.n_frames)
+
+
+def _require(m: Markers, names: tuple[str, ...], where: str) -> None:
+    missing = [n for n in names if n not in m]
+    if "SACR" not in m and ("LPSI" not in m or "RPSI" not in m):
+        missing.append("SACR (or LPSI and RPSI)")
+    if missing:
+        raise MocapError(f"{where}: Plug-in Gait needs the markers {', '.join(missing)}")
+
+
+def _as_static(m: Markers, trial_type: str, has_static: bool, where: str) -> bool:
+    if trial_type not in ("auto", "static", "dynamic"):
+        raise MocapError(f"trial type {trial_type!r}: expected auto, static or dynamic")
+    heels = all(n in m for n in ("LHEE", "RHEE"))
+    if trial_type == "static" and not heels:
+        raise MocapError(f"{where}: a static trial needs the LHEE and RHEE markers")
+    if trial_type == "auto":
+        return not has_static and heels and static_mod.is_static(m)
+    return trial_type == "static"
+
+
+def calibrate(static: MarkerTrajectory, subject: PigSubject) -> PigSubject:
+    """The subject with the offsets, inter-ASIS distance and leg lengths a static trial
+    gives (measured values are kept; the offsets always come from the static trial)."""
+    m = _markers(static)
+    where = str(static.source.get("path", "static trial"))
+    _require(m, (*LOWER_MARKERS, "LHEE", "RHEE"), where)
+    subject = _with_marker_measures(m, subject, where)
+    segs, _ = lower_body(m, subject, _inter_asis(m, subject))
+    values = {}
+    for s in SIDES:
+        tibia = segs[f"tibia_torsioned_{s}"].axes
+        foot = static_foot(m, s, tibia)
+        try:
+            flex, rot = static_mod.foot_offsets(segs[f"foot_raw_{s}"].axes, foot, s)
+        except ValueError as exc:
+            raise MocapError(f"{where}: {exc}") from None
+        values[f"static_plantar_flex_{s}"] = flex
+        values[f"static_rot_off_{s}"] = rot
+    return subject.with_values(values, f"{where}: static trial")
+
+
+def _with_marker_measures(m: Markers, subject: PigSubject, where: str) -> PigSubject:
+    """Leg lengths from the markers where the subject values give none."""
+    from ..subject import from_values
+
+    missing = [s for s in SIDES if subject.measured(f"leg_length_{s}") is None]
+    if not missing:
+        return subject
+    est = from_values(
+        [(f"leg_length_{s}", static_mod.leg_length(m, s)) for s in missing],
+        f"{where}: markers (ASIS-KNE-ANK)",
+    )
+    return PigSubject(subject.measurements.update(est), subject.values, subject.sources)
+
+
+def _inter_asis(m: Markers, subject: PigSubject) -> float:
+    given = subject.measured("asis_distance")
+    return given if given is not None else static_mod.inter_asis(m)
+
+
+def plug_in_gait(
+    trajectory: MarkerTrajectory,
+    subject: PigSubject,
+    static: MarkerTrajectory | None = None,
+    *,
+    frames: np.ndarray | None = None,
+    to_lab: np.ndarray | None = None,
+    override: PigSubject | None = None,
+    trial_type: str = "auto",
+) -> PigResult:
+    """Plug-in Gait on ``trajectory`` (metres, Z up) with ``subject``'s values.
+
+    ``static``: a static trial whose offsets replace the subject's; ``frames`` (T,) the
+    recording's frame numbers (default: the trajectory's, ``first_frame + i``); ``to_lab``
+    (3, 3) the rotation from the trajectory's Z-up frame back to the recording's lab frame
+    for the points (default identity); ``override``: values that win over the static
+    trial's (a subject file); ``trial_type``: "static" (the trial gives its own offsets and
+    the static model's foot, as Nexus' static pipeline), "dynamic", or "auto" (static when
+    no ``static`` is given and the pelvis and leg markers stay still). Missing markers give
+    NaN in every output that depends on them.
+    """
+    where = str(trajectory.source.get("path", "trajectory"))
+    m = _markers(trajectory)
+    _require(m, LOWER_MARKERS, where)
+    if override is not None:  # the measurements first, for the calibrations
+        subject = subject.update(override)
+    if static is not None:
+        subject = calibrate(static, subject)
+    notes = []
+    as_static = _as_static(m, trial_type, static is not None, where)
+    if as_static:
+        subject = calibrate(trajectory, subject)
+        notes.append("static trial: its own offsets; the foot is the static model's (toe to heel)")
+    if override is not None:  # and its offsets over the calibrations'
+        subject = subject.update(override)
+    subject = _with_marker_measures(m, subject, where)
+    segs, jc = lower_body(m, subject, _inter_asis(m, subject), heel_foot=as_static)
+    upper = all(n in m for n in UPPER_MARKERS) and all(
+        subject.measured(f"{b}_{s}") is not None for b in UPPER for s in SIDES
+    )
+    if upper:
+        segs |= trunk(m, subject)
+        limbs, ujc = upper_limbs(m, subject, segs["thorax"])
+        segs |= limbs
+        jc |= ujc
+    else:
+        notes.append("no trunk or upper-limb outputs: markers or measurements missing")
+    prog = progression_frame(segs["pelvis"].axes, segs["pelvis"].origin)
+    widths = {s: subject.require(f"knee_width_{s}") for s in SIDES}
+    feet = {s: static_mod.foot_length(m, s, subject.marker_radius) for s in SIDES}
+    rot = np.eye(3) if to_lab is None else np.asarray(to_lab)
+    points = bone_points(segs, jc, widths, feet, upper=upper)
+    n = trajectory.n_frames
+    numbers = trajectory.first_frame + np.arange(n) if frames is None else np.asarray(frames)
+    return PigResult(
+        times=np.asarray(trajectory.times),
+        frames=numbers,
+        angles=all_angles(segs, prog),
+        points={k: v @ rot.T for k, v in points.items()},
+        subject=subject,
+        progression=rot @ prog[:, 0],
+        static=as_static,
+        notes=notes,
+    )

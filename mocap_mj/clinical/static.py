@@ -1,0 +1,67 @@
+"""What a static trial gives Plug-in Gait: whether a trial is static, the static
+plantar-flexion and rotation offsets, and the inter-ASIS distance, leg lengths and foot
+length measured from the markers.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .geometry import cardan_yxz, relative
+from .segments import Markers
+
+#: Markers whose stillness makes a trial static (pelvis and legs).
+STILL_MARKERS = ("LASI", "RASI", "LKNE", "RKNE", "LANK", "RANK", "LTOE", "RTOE")
+#: A trial is static when these markers stay within this distance [m] of their median
+#: positions in 99 % of the frames.
+STILL_RADIUS = 0.1
+
+
+def is_static(m: Markers) -> bool:
+    """True when the pelvis and leg markers barely move (a standing calibration trial)."""
+    spread = []
+    for name in STILL_MARKERS:
+        p = m[name]
+        ok = np.all(np.isfinite(p), axis=1)
+        if ok.sum() < 1:
+            return False
+        d = np.linalg.norm(p[ok] - np.median(p[ok], axis=0), axis=1)
+        spread.append(np.percentile(d, 99))
+    return bool(max(spread) < STILL_RADIUS)
+
+
+def foot_offsets(raw: np.ndarray, static: np.ndarray, side: str) -> tuple[float, float]:
+    """(static plantar flexion, static rotation offset) [rad]: the mean over frames of the
+    static foot in the uncorrected foot (``raw``, z from the toe to the ankle centre), as
+    Plug-in Gait stores them (plantar flexion about the foot's y, then rotation about its
+    x; the rotation offset's sign mirrored on the right)."""
+    ang = cardan_yxz(relative(raw, static))
+    mean = np.nanmean(ang, axis=0)
+    if not np.all(np.isfinite(mean[:2])):
+        raise ValueError(f"no frame shows the {side} foot's TOE, HEE and ankle")
+    rot = -mean[1] if side == "l" else mean[1]
+    return float(-mean[0]), float(rot)
+
+
+def inter_asis(m: Markers) -> float:
+    """Median LASI-RASI distance [m] over the frames that show both."""
+    d = np.linalg.norm(m["LASI"] - m["RASI"], axis=1)
+    return float(np.nanmedian(d))
+
+
+def leg_length(m: Markers, side: str) -> float:
+    """Leg length estimate [m]: median over frames of ASIS-KNE plus KNE-ANK (the path from
+    the ASIS to the malleolus through the knee that the tape measure follows)."""
+    p = side.upper()
+    d = np.linalg.norm(m[p + "ASI"] - m[p + "KNE"], axis=1) + np.linalg.norm(
+        m[p + "KNE"] - m[p + "ANK"], axis=1
+    )
+    return float(np.nanmedian(d))
+
+
+def foot_length(m: Markers, side: str, radius: float) -> float:
+    """The foot bone's length [m]: the mean heel-toe marker distance over the trial less a
+    marker radius (NaN without HEE or TOE)."""
+    p = side.upper()
+    d = np.linalg.norm(m[p + "HEE"] - m[p + "TOE"], axis=1)
+    return float(np.nanmean(d)) - radius if np.any(np.isfinite(d)) else float("nan")

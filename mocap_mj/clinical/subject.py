@@ -1,0 +1,170 @@
+"""The Plug-in Gait subject values: measurements, static offsets and where each came from.
+
+Sources, later ones overriding earlier ones:
+
+1. the C3D file's ``PROCESSING`` group, as Vicon Nexus writes it: the body measurements
+   through :func:`mocap_mj.subject.from_c3d` (``LLegLength``, ``LKneeWidth``, ...) and the
+   Plug-in Gait values that are not body measurements (``LAsisTrocanterDistance``,
+   ``LStaticPlantFlex``, ``LStaticRotOff``, ``LTibialTorsion``; radians for the angles,
+   as Nexus stores them);
+2. a YAML file: ``name: value``, the names of :data:`mocap_mj.subject.MEASUREMENTS` (SI or
+   with a unit, ``"877 mm"``) and of :data:`PIG_VALUES` (metres or radians, or with a unit,
+   ``"14.5 deg"``, ``"64 mm"``);
+3. the static trial (:mod:`mocap_mj.clinical.static`): the static plantar-flexion and
+   rotation offsets, and the inter-ASIS distance when none is given.
+
+What is still missing takes Plug-in Gait's rule: the ASIS-trochanter distance from the leg
+length (0.1288 leg length - 48.56 mm), offsets and torsion 0, the marker diameter 14 mm.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from ..errors import InputFileError, MocapError
+from ..subject import (
+    MEASUREMENTS,
+    Subject,
+    c3d_numbers,
+    from_c3d,
+    from_values,
+    parse_value,
+    read_mapping,
+)
+
+#: Plug-in Gait values that are not body measurements: name -> (unit inside, description).
+PIG_VALUES: dict[str, tuple[str, str]] = {
+    **{
+        f"{base}_{side}": (unit, f"{text} ({'left' if side == 'l' else 'right'})")
+        for base, unit, text in (
+            ("asis_trochanter", "m", "ASIS to greater trochanter, along the pelvis"),
+            ("static_plantar_flex", "rad", "foot plantar-flexion offset from the static trial"),
+            ("static_rot_off", "rad", "foot rotation offset from the static trial"),
+            ("tibial_torsion", "rad", "tibial torsion"),
+        )
+        for side in ("l", "r")
+    },
+    "head_offset": ("rad", "head pitch offset (0: the head markers' own frame)"),
+}
+
+#: Required measurements of the lower body (both sides) and of the upper body.
+LOWER = ("leg_length", "knee_width", "ankle_width")
+UPPER = ("shoulder_offset", "elbow_width", "wrist_width", "hand_thickness")
+
+_C3D_PIG = {
+    "ASISTROCANTERDISTANCE": ("asis_trochanter", 1e-3),
+    "STATICPLANTFLEX": ("static_plantar_flex", 1.0),
+    "STATICROTOFF": ("static_rot_off", 1.0),
+    "TIBIALTORSION": ("tibial_torsion", 1.0),
+}
+#: Units of the Plug-in Gait values in a subject file.
+_UNITS = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "rad": 1.0, "deg": math.pi / 180.0}
+
+
+@dataclass
+class PigSubject:
+    """Measurements (:class:`mocap_mj.subject.Subject`, metres) and the Plug-in Gait values
+    (``values``: name -> value in m or rad; ``sources``: name -> where it came from)."""
+
+    measurements: Subject = field(default_factory=Subject)
+    values: dict[str, float] = field(default_factory=dict)
+    sources: dict[str, str] = field(default_factory=dict)
+
+    def measured(self, name: str) -> float | None:
+        """A body measurement [m], None when not given."""
+        return self.measurements.get(name)
+
+    def require(self, name: str) -> float:
+        """A body measurement [m]; a clear error when missing."""
+        v = self.measured(name)
+        if v is None:
+            raise MocapError(
+                f"Plug-in Gait needs the subject's {name} ({MEASUREMENTS[name][1]}): "
+                "give it in the C3D PROCESSING group or --subject-file"
+            )
+        return v
+
+    def pig(self, name: str, default: float = 0.0) -> float:
+        """A Plug-in Gait value [m or rad], ``default`` when not given."""
+        return self.values.get(name, default)
+
+    def with_values(self, values: Mapping[str, float], source: str) -> PigSubject:
+        """A copy with ``values`` set (Plug-in Gait values) from ``source``."""
+        return replace(
+            self,
+            values={**self.values, **values},
+            sources={**self.sources, **{k: source for k in values}},
+        )
+
+    def update(self, other: PigSubject) -> PigSubject:
+        """A copy with ``other``'s measurements and values overriding these."""
+        return PigSubject(
+            self.measurements.update(other.measurements),
+            {**self.values, **other.values},
+            {**self.sources, **other.sources},
+        )
+
+    @property
+    def marker_radius(self) -> float:
+        """Half the marker diameter [m]."""
+        return self.measurements.marker_radius
+
+    def leg_length(self) -> float:
+        """The mean of the two leg lengths [m] (Davis' regression takes the mean)."""
+        return 0.5 * (self.require("leg_length_l") + self.require("leg_length_r"))
+
+    def asis_trochanter(self, side: str) -> float:
+        """ASIS-trochanter distance [m]: given, else 0.1288 leg length - 48.56 mm."""
+        given = self.values.get(f"asis_trochanter_{side}")
+        if given is not None:
+            return given
+        return 0.1288 * self.require(f"leg_length_{side}") - 0.04856
+
+    def to_dict(self) -> dict[str, Any]:
+        """Every value with its unit and source, for summary.json."""
+        out: dict[str, Any] = dict(self.measurements.to_dict())
+        for name, value in sorted(self.values.items()):
+            out[name] = {"value": value, "unit": PIG_VALUES[name][0], "source": self.sources[name]}
+        return out
+
+
+def pig_from_c3d(path: str | Path) -> PigSubject:
+    """The Plug-in Gait subject values stored in a C3D file (PROCESSING, then SUBJECTS)."""
+    values: dict[str, float] = {}
+    sources: dict[str, str] = {}
+    for group, key, value in c3d_numbers(path):
+        spec = _pig_name(key)
+        if spec is None or (spec[0].startswith("asis_trochanter") and value <= 0):
+            continue  # not a Plug-in Gait value, or 0: "not entered"
+        values[spec[0]], sources[spec[0]] = value * spec[1], f"{path}: {group}:{key}"
+    return PigSubject(from_c3d(path), values, sources)
+
+
+def _pig_name(key: str) -> tuple[str, float] | None:
+    up = key.upper()
+    for prefix, side in (("LEFT", "l"), ("RIGHT", "r"), ("L", "l"), ("R", "r")):
+        spec = _C3D_PIG.get(up[len(prefix) :]) if up.startswith(prefix) else None
+        if spec is not None:
+            return f"{spec[0]}_{side}", spec[1]
+    return None
+
+
+def pig_from_yaml(path: str | Path) -> PigSubject:
+    """Measurements and Plug-in Gait values of a YAML mapping ``name: value``."""
+    measures: list[tuple[str, float | None]] = []
+    values: dict[str, float] = {}
+    for raw_name, raw in read_mapping(path).items():
+        name = str(raw_name)
+        if name in PIG_VALUES:
+            values[name] = parse_value(raw, name, str(path), _UNITS)
+        elif name in MEASUREMENTS:
+            measures.append((name, parse_value(raw, name, str(path))))
+        else:
+            known = ", ".join([*MEASUREMENTS, *PIG_VALUES])
+            raise InputFileError(f"{path}: unknown subject value {name!r}; known: {known}")
+    subject = from_values(measures, str(path))
+    return PigSubject(subject, values, {k: f"{path}: {k}" for k in values})
