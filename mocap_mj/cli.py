@@ -30,6 +30,7 @@ from typing import Any
 
 from ._threads import one_blas_thread
 from .commands._inputs import refuse_out_holding_inputs
+from .commands._removed import add_removed_flags as add_removed_flags
 from .errors import MocapError
 from .strict_json import dumps
 

@@ -27,6 +27,7 @@ from ..errors import MocapError
 from ..parameters import ParameterSet
 from ._inputs import refuse_out_holding_inputs
 from ._markers import load_trial
+from ._removed import add_removed_flags
 
 #: Options that also apply to the IK of each trial (how the marker files are read).
 MARKER_OPTIONS = ("up", "marker_map", "file_subject", "exclude_markers")
@@ -70,6 +71,7 @@ def register(sub: Any) -> None:
             help=f"as {FLAGS[key]} of identify (default: identify's default)",
         )
     add_json_flag(p)
+    add_removed_flags(p, "batch")
     p.set_defaults(func=run)
 
 
