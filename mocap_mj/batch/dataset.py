@@ -142,9 +142,12 @@ def _from_csv(path: Path, base: dict[str, Any]) -> list[Subject]:
         trial = (row.get("trial") or "").strip()
         if not trial:
             raise InputFileError(f"{where}: empty 'trial'")
-        given = {k: v.strip() for k, v in row.items() if k and v and v.strip()}
-        raw = {k: v for k, v in given.items() if k in OPTION_KEYS or k in RECIPE_OPTIONS}
-        unknown = set(row) - {"subject", "trial", "subject_file", *OPTION_KEYS}
+        raw = {
+            k: v.strip()
+            for k, v in row.items()
+            if (k in OPTION_KEYS or k in RECIPE_OPTIONS) and v and v.strip()
+        }
+        unknown = set(row) - {"subject", "trial", "subject_file", *OPTION_KEYS, *RECIPE_OPTIONS}
         if unknown:
             raise InputFileError(
                 f"{where}: unknown column(s) {', '.join(sorted(unknown))}; "
