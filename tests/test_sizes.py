@@ -92,7 +92,9 @@ def test_no_module_over_the_limit() -> None:
 def test_a_long_function_is_measured(tmp_path: Path) -> None:
     """The measure counts a long plain function and exempts a numba kernel of the same size."""
     body = "\n".join(f"    x{i} = {i}" for i in range(MAX_FUNCTION_LINES))
-    src = f"import numba\n\ndef plain():\n{body}\n\n@numba.njit(cache=True)\ndef kernel():\n{body}\n"
+    src = (
+        f"import numba\n\ndef plain():\n{body}\n\n@numba.njit(cache=True)\ndef kernel():\n{body}\n"
+    )
     tree = ast.parse(src)
     fns = [n for n in tree.body if isinstance(n, ast.FunctionDef)]
     assert [_is_numba(f) for f in fns] == [False, True]

@@ -31,6 +31,9 @@ from ._removed import add_removed_flags
 
 #: Options that also apply to the IK of each trial (how the marker files are read).
 MARKER_OPTIONS = ("up", "marker_map", "file_subject", "exclude_markers")
+#: The placeholder of each option's flag, as identify shows it.
+METAVARS = {"frames": "A:B", "up": "AXIS", "marker_map": "FILE", "file_subject": "NAME",
+            "model": "MJCF", "exclude_markers": "NAMES", "recipe": "FILE"}  # fmt: skip
 
 
 def register(sub: Any) -> None:
@@ -67,7 +70,7 @@ def register(sub: Any) -> None:
             FLAGS[key],
             dest=key,
             type=kind,
-            metavar=key.upper(),
+            metavar=METAVARS[key],
             help=f"as {FLAGS[key]} of identify (default: identify's default)",
         )
     add_json_flag(p)
