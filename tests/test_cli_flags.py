@@ -128,7 +128,11 @@ def test_recipe_and_subject_file_give_the_theta_of_the_removed_flags(
         sliding_landmarks=False,
     )
     widths = [("knee_width", 105, 105), ("ankle_width", 70, 68)]
-    pairs = [(f"{n}_{s}", v * 1e-3) for n, left, right in widths for s, v in (("l", left), ("r", right))]  # fmt: skip
+    pairs = [
+        (f"{name}_{side}", mm * 1e-3)
+        for name, left, right in widths
+        for side, mm in (("l", left), ("r", right))
+    ]
     flags_subject = from_values([("height", 1750 * 1e-3), *pairs], "command line")
     pset = mocap_mj.ParameterSet()
     traj = load_markers(str(synthetic), model_names=pset.marker_names)

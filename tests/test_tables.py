@@ -88,9 +88,10 @@ def beyond_cone(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def identified(beyond_cone: Path) -> tuple[Path, dict]:
     out = beyond_cone / "result"
-    (beyond_cone / "nominal.yaml").write_text("init: nominal\n")
+    recipe = beyond_cone / "nominal.yaml"
+    recipe.write_text("init: nominal\n")
     code = main(["identify", "--markers", str(beyond_cone / "markers.csv"),
-                 "--recipe", str(beyond_cone / "nominal.yaml"), "--out", str(out), "--json"])  # fmt: skip
+                 "--recipe", str(recipe), "--out", str(out), "--json"])  # fmt: skip
     assert code == 0
     summary = json.loads((out / "summary.json").read_text(), parse_constant=_reject_constant)
     return out, summary
