@@ -12,8 +12,8 @@ OpenSim TRC file (``save_trc``). Then it times, in a child process,
 
     mocap-mj identify --markers hour.c3d --out DIR --force --json
 
-with the defaults a user gets (the recipe's ``select: auto``: 1000 pose-diverse frames, the anatomical
-priors and ranges, the refinement on every frame, the IK of every frame written chunk by
+with the defaults a user gets (the recipe's ``select: auto``: 1000 pose-diverse frames, the
+anatomical priors and ranges, the refinement on every frame, the IK of every frame written chunk by
 chunk): wall time, the child's peak RSS (``/usr/bin/time``), and its stages from
 summary.json. Untimed, the accuracy: the identified theta (theta.json) against the cached
 truth, aligned and restricted to the observable directions as ``benchmarks/long.py`` does

@@ -1,4 +1,5 @@
-"""Benchmark: a robust loss with a selection (the recipe's ``select``), against the robust fit of every frame.
+"""Benchmark: a robust loss on selected frames (the recipe's ``select``), against the robust
+fit of every frame.
 
     python benchmarks/long_robust.py --frames 30000 --select 1000 --work /tmp/w/robust
 

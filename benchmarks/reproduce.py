@@ -7,8 +7,8 @@ the IK RMSE and their ratio (target: within 2 %).
 
 Run: python benchmarks/reproduce.py [TRIAL.c3d ...] [--robust] [--ik-loss l2|huber|cauchy]
      [--out DIR] [--json F]
-(default trials: the five of ../shared/data/real). ``--robust`` passes ``--loss cauchy`` to identify; the IK
-uses ``--ik-loss`` (default: the identification's loss).
+(default trials: the five of ../shared/data/real). ``--robust`` passes ``--loss cauchy`` to
+identify; the IK uses ``--ik-loss`` (default: the identification's loss).
 """
 
 from __future__ import annotations
