@@ -265,7 +265,7 @@ def select_count(select: int | str, frames: int, n_trials: int) -> int | None:
     count = int(select)
     if count < n_trials:
         raise MocapError(
-            f"--select: expected at least one frame per trial ({n_trials}), got {count}"
+            f"select: expected at least one frame per trial ({n_trials}), got {count}"
         )
     return count if count < frames else None
 

@@ -1,6 +1,6 @@
 """Every frame's motion written chunk by chunk: motion.npz and joint_centres.csv of a long trial.
 
-``identify --select`` solves the IK of every frame of a recording that may hold an hour
+``identify`` with a selection (the recipe's ``select``) solves the IK of every frame of a recording that may hold an hour
 (360,000 frames): its poses, markers and joint-centre table would take about a gigabyte in
 memory at once. Here the IK runs ``chunk`` frames at a time and each chunk goes straight into
 the files: motion.npz is a zip of ``.npy`` members (as :func:`mocap_mj.results.save_motion`
