@@ -71,7 +71,8 @@ def register(sub: Any) -> None:
             dest=key,
             type=kind,
             metavar=METAVARS[key],
-            help=f"as {FLAGS[key]} of identify (default: identify's default)",
+            help=f"as {FLAGS[key]} of identify (default: identify's default)"
+            + (": frames A up to but excluding B" if key == "frames" else ""),
         )
     add_json_flag(p)
     add_removed_flags(p, "batch")
