@@ -255,7 +255,11 @@ def register(sub: Any) -> None:
     )
     add_json_flag(p)
     p.set_defaults(func=_run_view)
+    _register_render(sub)
 
+
+def _register_render(sub: Any) -> None:
+    """The ``render`` subcommand."""
     p = sub.add_parser(
         "render",
         help="render a result offscreen to PNG, MP4 or GIF",
