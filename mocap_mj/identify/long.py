@@ -549,9 +549,8 @@ def _steps_of(
 
 
 def _sample_of(parts: list[np.ndarray], stride: int, n: int, nq: int, info_frames: int) -> _Sample:
-    """Every ``stride``-th frame of each trial of ``parts`` ((T, M, 3) [m] each, ``n``
-    frames in all), its poses (n', nq) to be written, and the rows of at most
-    ``info_frames`` its information is summed over."""
+    """Every ``stride``-th frame of each trial of ``parts`` ((T, M, 3) [m] each, ``n`` in all),
+    its poses (n', nq) to be written, the rows (<= ``info_frames``) its information sums."""
     m_s = np.concatenate([np.asarray(m[::stride], dtype=float) for m in parts])
     q_s = np.full((len(m_s), nq), np.nan)
     weight = n / len(m_s)  # the sample's gradient, information and cost stand for every frame
@@ -570,23 +569,17 @@ def _step_on_every_frame(
     sizes: list[float],
     robust: Robust | None,
 ) -> np.ndarray:
-    """The one step on every frame, from the sample's estimate ``best``, its information
-    scaled; the frames' IK chained from the sample's poses at that estimate (written into
-    ``qpos``). Appends the step's size to ``sizes``; returns the gradient (P,) on every
-    frame."""
+    """The one step on every frame from the sample's estimate ``best`` (its information
+    scaled), the frames' IK (into ``qpos``) chained from the sample's poses at it; the step's
+    size appended to ``sizes``; returns the gradient (P,) on every frame."""
     kin, theta = problem.kin, best.theta
     kin.set_theta(theta)
     offsets = np.cumsum([0] + [len(range(0, len(m), stride)) for m in parts[:-1]])
     heads = Heads(best.qpos, stride, tuple(int(o) for o in offsets))
-    _, grad = _ik_pass(
-        parts, kin, qpos, problem.chunk, gradient=True, heads=heads, weigh=problem.weigh,
-        robust=robust,
-    )  # fmt: skip
-    solver = _Solver(
-        best.info, problem.priors, problem.box, problem.free, problem.sigma,
-        problem.settings, mu,
-    )  # fmt: skip
-    sizes.append(solver.step(theta, grad))
+    _, grad = _ik_pass(parts, kin, qpos, problem.chunk, gradient=True, heads=heads,
+                       weigh=problem.weigh, robust=robust)  # fmt: skip
+    _, priors, box, free, sigma, st, _, _ = problem
+    sizes.append(_Solver(best.info, priors, box, free, sigma, st, mu).step(theta, grad))
     return grad
 
 
