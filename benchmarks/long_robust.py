@@ -72,7 +72,7 @@ def main() -> None:
     work = Path(args.work)
     truth = work / f"rom-{args.frames}-{args.seed}-{args.outliers:g}-{args.outlier_mm:g}"
     if not (truth / "truth.json").exists():
-        cli("synth", "--out", str(truth), "--frames", str(args.frames), "--motion", "rom",
+        cli("synth", "--out", str(truth), "--frame-count", str(args.frames), "--movement", "rom",
             "--seed", str(args.seed), "--outliers", str(args.outliers),
             "--outlier-mm", str(args.outlier_mm), "--force")  # fmt: skip
     pset = ParameterSet()

@@ -57,8 +57,8 @@ def test_every_command_lists_few_flags(command: str) -> None:
 def test_a_flag_name_keeps_one_meaning_across_commands() -> None:
     """``--height`` is a subject's height in millimetres only (render's image size is
     ``--size WxH``); a unit placeholder (MM, KG, PX, M) is the same wherever a flag appears;
-    ``--frames`` is a range ``A:B`` (``A:B[:S]`` where a stride makes sense) except in the
-    synthesising commands, where it is a number of frames to make."""
+    ``--frames`` is a range ``A:B`` everywhere (``A:B[:S]`` where a stride makes sense; a
+    number of frames to make is ``--frame-count``); ``--motion`` is a motion file."""
     seen: dict[str, dict[str, str]] = {}
     for command, parser in _commands().items():
         for a in parser._actions:
@@ -68,8 +68,8 @@ def test_a_flag_name_keeps_one_meaning_across_commands() -> None:
     units = {"MM", "KG", "PX", "M", "WxH"}
     for flag, by in seen.items():
         assert len({m for m in by.values() if m in units}) <= 1, (flag, by)
-    ranges = {c for c, m in seen["--frames"].items() if m in ("A:B", "A:B[:S]")}
-    assert set(seen["--frames"]) - ranges == {"demo", "synth"}, seen["--frames"]
+    assert set(seen["--frames"].values()) == {"A:B", "A:B[:S]"}, seen["--frames"]
+    assert set(seen["--motion"].values()) == {"FILE"}, seen["--motion"]
 
 
 @pytest.mark.parametrize(
@@ -83,6 +83,8 @@ def test_a_removed_flag_is_one_line_naming_the_new_spelling(
         "ik": ["ik", "--markers", "m.c3d", "--out", str(tmp_path / "o")],
         "batch": ["batch", str(tmp_path), "--out", str(tmp_path / "o")],
         "render": ["render", str(tmp_path), "--out", str(tmp_path / "o.png")],
+        "synth": ["synth", "--out", str(tmp_path / "o")],
+        "demo": ["demo", "--out", str(tmp_path / "o")],
     }[command]
     for values in ([], ["2"], ["paper"]):
         with pytest.raises(SystemExit) as stop:

@@ -84,7 +84,9 @@ def _cli(*args: str) -> subprocess.CompletedProcess[str]:
 def test_identify_select_fits_a_subset_and_moves_every_frame(tmp_path: Path) -> None:
     """A recipe's ``select: N``: the model from N pose-diverse frames, the motion of all."""
     truth, out = tmp_path / "truth", tmp_path / "sel"
-    proc = _cli("synth", "--out", str(truth), "--frames", "300", "--motion", "rom", "--seed", "5")
+    proc = _cli(
+        "synth", "--out", str(truth), "--frame-count", "300", "--movement", "rom", "--seed", "5"
+    )
     assert proc.returncode == 0, proc.stderr
     markers = str(truth / "markers.trc")
     (tmp_path / "select.yaml").write_text("select: 90\n")
@@ -454,7 +456,9 @@ def test_auto_selection_with_a_robust_loss_refines_with_it(
     from mocap_mj.identify import api
 
     truth, out = tmp_path / "truth", tmp_path / "robust"
-    proc = _cli("synth", "--out", str(truth), "--frames", "120", "--motion", "rom", "--seed", "6")
+    proc = _cli(
+        "synth", "--out", str(truth), "--frame-count", "120", "--movement", "rom", "--seed", "6"
+    )
     assert proc.returncode == 0, proc.stderr
     monkeypatch.setattr(api, "AUTO_SELECT_ABOVE", 100)  # 120 frames count as long
     monkeypatch.setattr(api, "AUTO_SELECT_COUNT", 60)

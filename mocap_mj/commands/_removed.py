@@ -60,6 +60,11 @@ REMOVED: dict[str, dict[str, str]] = {
         "--max-iterations": _RECIPE.format(field="max_iterations", value="N"),
         "--prior-mm": _RECIPE.format(field="prior_sigma", value="M (in metres: 50 mm is 0.05)"),
     },
+    "synth": {
+        "--frames": "use --frame-count N (--frames is a range A:B in the other commands)",
+        "--motion": "use --movement rom|walk|static (--motion is a motion file elsewhere)",
+    },
+    "demo": {"--frames": "use --frame-count N (--frames is a range A:B in the other commands)"},
     "render": {
         "--width": "use --size WxH (e.g. --size 640x480)",
         "--height": "use --size WxH (e.g. --size 640x480); --height is the subject's in identify",
