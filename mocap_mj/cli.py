@@ -31,6 +31,7 @@ from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import Any
 
+from .commands._removed import add_removed_flags as add_removed_flags
 from .errors import MocapError
 
 #: Exit status of a command whose result its own checks call implausible (see

@@ -89,8 +89,10 @@ def beyond_cone(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def identified(beyond_cone: Path) -> tuple[Path, dict]:
     out = beyond_cone / "result"
-    code = main(["identify", "--markers", str(beyond_cone / "markers.csv"), "--init", "nominal",
-                 "--out", str(out), "--json"])  # fmt: skip
+    recipe = beyond_cone / "nominal.yaml"
+    recipe.write_text("init: nominal\n")
+    code = main(["identify", "--markers", str(beyond_cone / "markers.csv"),
+                 "--recipe", str(recipe), "--out", str(out), "--json"])  # fmt: skip
     assert code == 0
     summary = json.loads((out / "summary.json").read_text(), parse_constant=_reject_constant)
     return out, summary
@@ -248,7 +250,7 @@ def test_exported_model_reproduces_a_real_fit(
 
 
 def test_ik_under_a_robust_loss_resists_outliers() -> None:
-    """``ik --loss cauchy`` (the loss of ``identify --robust``): with the true model and 3 %
+    """``ik --loss cauchy`` (the loss of ``identify --loss cauchy``): with the true model and 3 %
     of the samples displaced by 50 mm, the poses put the model markers nearer their clean
     positions than least squares does, and the reported RMSE is the unweighted one."""
     pset = ParameterSet()

@@ -141,18 +141,29 @@ def _identify(markers: Path, out: Path, *flags: str) -> tuple[int, str, str]:
          "(any person), got 5000 mm"),
         (["--height", "10"], "--height: expected a standing height within 500..2750 mm"),
         (["--height", "1e308"], "--height: expected a standing height within 500..2750 mm"),
-        (["--knee-width", "100", "5000"], "--knee-width: expected a distance between the femoral "
+        (["--subject-file", "{s}"], "{s}: knee_width_r: expected a distance between the femoral "
          "epicondyles (right) within 30..300 mm (any person), got 5000 mm"),
         (["--mass", "nan"], "--mass: expected a body mass within 2..650 kg (any person), got nan"),
-        (["--observable-mm", "0"], "argument --observable-mm: expected a number > 0, got '0'"),
-        (["--observable-mm", "-1"], "argument --observable-mm: expected a number > 0, got '-1'"),
-        (["--symmetric", "0"], "argument --symmetric: expected a number > 0, got '0'"),
-        (["--fraction", "2"], "argument --fraction: expected a number > 0 and <= 1, got '2'"),
+        (["--recipe", "{r0}"], "{r0}: observable_std: expected a number > 0, got 0"),
+        (["--recipe", "{r1}"], "{r1}: observable_std: expected a number > 0, got -0.001"),
+        (["--recipe", "{r2}"], "{r2}: symmetric: expected a width > 0 m, got 0"),
     ],
 )  # fmt: skip
 def test_values_no_person_has_are_refused_naming_the_flag_and_range(
     synth_markers: Path, tmp_path: Path, flags: list[str], message: str
 ) -> None:
+    files = {
+        "s": ("s.yaml", "knee_width_l: 100 mm\nknee_width_r: 5000 mm\n"),
+        "r0": ("r0.yaml", "observable_std: 0\n"),
+        "r1": ("r1.yaml", "observable_std: -0.001\n"),
+        "r2": ("r2.yaml", "symmetric: 0\n"),
+    }
+    paths = {}
+    for key, (name, text) in files.items():
+        paths[key] = tmp_path / name
+        paths[key].write_text(text)
+    flags = [f.format(**paths) for f in flags]
+    message = message.format(**paths)
     code, _, err = _identify(synth_markers, tmp_path / "out", *flags)
     assert code == 2, err
     assert message in err and "Traceback" not in err

@@ -29,12 +29,16 @@ from ..errors import MocapError
 from ..parameters import ParameterSet
 from ._inputs import refuse_out_holding_inputs
 from ._markers import load_trial
+from ._removed import add_removed_flags
 
 #: ``--timeout``: seconds one subject may take [s]. Generous: identifying a subject from a
 #: few trials and tracking them takes a few minutes on one core.
 DEFAULT_TIMEOUT = 3600.0
 #: Options that also apply to the IK of each trial (how the marker files are read).
 MARKER_OPTIONS = ("up", "marker_map", "file_subject", "exclude_markers")
+#: The placeholder of each option's flag, as identify shows it.
+METAVARS = {"frames": "A:B", "up": "AXIS", "marker_map": "FILE", "file_subject": "NAME",
+            "model": "MJCF", "exclude_markers": "NAMES", "recipe": "FILE"}  # fmt: skip
 
 
 def register(sub: Any) -> None:
@@ -85,10 +89,12 @@ def register(sub: Any) -> None:
             FLAGS[key],
             dest=key,
             type=kind,
-            metavar=key.upper(),
-            help=f"as {FLAGS[key]} of identify (default: identify's default)",
+            metavar=METAVARS[key],
+            help=f"as {FLAGS[key]} of identify (default: identify's default)"
+            + (": frames A up to but excluding B" if key == "frames" else ""),
         )
     add_json_flag(p)
+    add_removed_flags(p, "batch")
     p.set_defaults(func=run)
 
 

@@ -50,6 +50,7 @@ from ._quality import (
     quality_text,
     without_ghosts,
 )
+from ._removed import add_removed_flags
 
 
 def register(sub: Any) -> None:
@@ -83,7 +84,6 @@ def register(sub: Any) -> None:
         help="per-frame loss of the marker distances, as identify's --loss; use the loss of "
         "the fit to reproduce it (default: l2)",
     )
-    p.add_argument("--robust", action="store_true", help="same as --loss cauchy (default: off)")
     p.add_argument(
         "--no-sliding-landmarks",
         action="store_true",
@@ -107,6 +107,7 @@ def register(sub: Any) -> None:
     add_quality_options(p)
     add_force_flag(p)
     add_json_flag(p)
+    add_removed_flags(p, "ik")
     p.set_defaults(func=run)
 
 
@@ -158,7 +159,7 @@ def _solve_and_write(
     t0 = time.perf_counter()
     from .progress import frames_bar
 
-    loss: LossName = "cauchy" if args.robust else args.loss
+    loss: LossName = args.loss
     settings = IKSettings(
         damping=args.damping, max_iterations=args.max_iterations, min_markers=args.min_markers
     )

@@ -264,9 +264,7 @@ def select_count(select: int | str, frames: int, n_trials: int) -> int | None:
         return AUTO_SELECT_COUNT if frames > AUTO_SELECT_ABOVE else None
     count = int(select)
     if count < n_trials:
-        raise MocapError(
-            f"--select: expected at least one frame per trial ({n_trials}), got {count}"
-        )
+        raise MocapError(f"select: expected at least one frame per trial ({n_trials}), got {count}")
     return count if count < frames else None
 
 

@@ -76,7 +76,7 @@ adult's skeleton.
 Scaling fixes the skeleton, not where an operator put the markers (the thigh and tibia wands
 can sit anywhere along their segment): :func:`place_markers` then places every marker offset
 where the trials' IK with the scaled skeleton puts it. ``mocap-mj identify`` starts from both
-(``--init placed``; docs/method.md#the-initial-model).
+(the recipe's ``init: placed``; docs/method.md#the-initial-model).
 """
 
 from __future__ import annotations

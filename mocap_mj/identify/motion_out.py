@@ -1,15 +1,14 @@
 """Every frame's motion written chunk by chunk: motion.npz and joint_centres.csv of a long trial.
 
-``identify --select`` solves the IK of every frame of a recording that may hold an hour
-(360,000 frames): its poses, markers and joint-centre table would take about a gigabyte in
-memory at once. Here the IK runs ``chunk`` frames at a time and each chunk goes straight into
-the files: motion.npz is a zip of ``.npy`` members (as :func:`mocap_mj.results.save_motion`
-writes it, byte for byte: uncompressed, fixed timestamps), each member's header written by
-numpy's ``.npy`` header writer and its rows appended as they come; joint_centres.csv is
-appended chunk by chunk (:func:`mocap_mj.tables.joint_centre_text`, the whole table's
-formatting). Both are written under a temporary name and renamed when complete
-(:func:`mocap_mj.io.atomic.atomic_path`).
-"""
+``identify`` with a selection (the recipe's ``select``) solves the IK of every frame of a
+recording that may hold an hour (360,000 frames): its poses, markers and joint-centre table
+would take about a gigabyte in memory at once. Here the IK runs ``chunk`` frames at a time and
+each chunk goes straight into the files: motion.npz is a zip of ``.npy`` members (as
+:func:`mocap_mj.results.save_motion` writes it, byte for byte: uncompressed, fixed timestamps),
+each member's header written by numpy's ``.npy`` header writer and its rows appended as they
+come; joint_centres.csv is appended chunk by chunk (:func:`mocap_mj.tables.joint_centre_text`,
+the whole table's formatting). Both are written under a temporary name and renamed when complete
+(:func:`mocap_mj.io.atomic.atomic_path`)."""
 
 from __future__ import annotations
 

@@ -300,25 +300,39 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
     return lines
 
 
-def frame_range(text: str | None, n: int, source: str = "the recording") -> slice:
-    """``"A:B"`` (Python slice of frames, negative from the end) -> slice; None -> all frames.
+def frame_range(
+    text: str | None, n: int, source: str = "the recording", *, stride: bool = False
+) -> slice:
+    """The frames of a ``--frames`` text over ``n`` frames: the one parser of every command.
 
-    A bound past the ``n`` frames of ``source`` is refused, naming its frame count: a range
-    silently shortened would fit other frames than the ones asked for.
+    ``"A:B"`` is a Python slice of frames, B exclusive, negative from the end, an empty part
+    the slice's default (``":"`` every frame); with ``stride``, ``"A:B:S"`` also takes every
+    S-th frame (S positive). None or "" -> every frame. Returns the slice with its bounds
+    resolved (0 <= start <= stop <= n). A bound past the ``n`` frames of ``source`` is
+    refused, naming its frame count: a range silently shortened would use other frames than
+    the ones asked for.
     """
     from ..errors import MocapError
 
     if not text:
         return slice(0, n)
+    form = "A:B or A:B:S" if stride else "A:B"
+    parts = text.split(":")
     try:
-        a, b = (int(x) if x else None for x in text.split(":"))
+        if len(parts) not in ((2, 3) if stride else (2,)):
+            raise ValueError
+        a, b, *s = (int(p) if p.strip() else None for p in parts)
     except ValueError:
-        raise MocapError(f"--frames: expected A:B (e.g. 0:500), got {text!r}") from None
+        raise MocapError(f"--frames: expected {form} (e.g. 0:500), got {text!r}") from None
+    step = s[0] if s else None
+    if step is not None and step <= 0:
+        raise MocapError(f"--frames {text}: the step S must be positive, got {step}")
     if any(v is not None and not -n <= v <= n for v in (a, b)):
         raise MocapError(
             f"{source}: --frames {text}: past the end, the recording has {n} frames (0 to {n - 1})"
         )
-    return slice(*slice(a, b).indices(n)[:2])
+    start, stop, _ = slice(a, b).indices(n)
+    return slice(start, max(start, stop), step)
 
 
 def expected_rmse(sigma: float, n_unknowns: int, n_residuals: int) -> float:

@@ -1,4 +1,15 @@
-"""``load_markers``: any supported marker file -> a :class:`MarkerTrajectory` in metres, Z up."""
+"""``load_markers``: any supported marker file -> a :class:`MarkerTrajectory` in metres, Z up.
+
+One missing-data rule holds in every format: a sample is missing when any coordinate is NaN
+or an empty cell, when all three coordinates are exactly 0 (how many tools write a gap; a real
+marker is never exactly at the lab origin to every decimal), or when its C3D residual is
+negative. ``source["missing_samples"]`` counts them per marker (all causes),
+``source["zero_samples"]`` those written as zeros.
+
+The units check: the median per-frame extent of the marker cloud must lie within 0.05..10 m
+once converted; otherwise the error names the unit that would fit and the ``--units`` flag (a
+wrong unit would otherwise give a "fit" of a 1,700 m person).
+"""
 
 from __future__ import annotations
 
@@ -73,15 +84,7 @@ def load_markers(
     left-handed export or every left/right label swapped) is refused
     (:mod:`mocap_mj.io.handedness`).
 
-    One missing-data rule holds in every format: a sample is missing when any coordinate is
-    NaN or an empty cell, when all three coordinates are exactly 0 (how many tools write a
-    gap; a real marker is never exactly at the lab origin to every decimal), or when its C3D
-    residual is negative. ``source["missing_samples"]`` counts them per marker (all causes),
-    ``source["zero_samples"]`` those written as zeros.
-
-    The units check: the median per-frame extent of the marker cloud must lie within
-    0.05..10 m once converted; otherwise the error names the unit that would fit and the
-    ``--units`` flag (a wrong unit would otherwise give a "fit" of a 1,700 m person).
+    Missing samples and the units check: the module docstring.
 
     Parameters
     ----------
