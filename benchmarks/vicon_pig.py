@@ -53,13 +53,27 @@ def compare(c3d: Path, result: Path) -> list[str]:
     def ours(joint: str, side: str) -> np.ndarray:
         return np.array([[float(r[f"{joint}_{side}_{a}_mm"]) for a in "xyz"] for r in rows])
 
-    gaps, shoulder, lengths = [], [], []
+    def frame_of(code: str) -> np.ndarray | None:
+        """Vicon's segment axes (T, 3, 3) (columns anterior, lateral, proximal) at ``code``'s
+        segment (its O, A, L, P points), None when absent."""
+        seg = code[:-1]
+        if not all(seg + k in labels for k in "OALP"):
+            return None
+        axes = [at(seg + k) - at(seg + "O") for k in "ALP"]
+        return np.stack([a / np.linalg.norm(a, axis=1, keepdims=True) for a in axes], axis=2)
+
+    gaps, shoulder, lengths, parts = [], [], [], []
     for p, side in (("L", "l"), ("R", "r")):
         for joint, codes in POINTS.items():
             code = next((p + k for k in codes if p + k in labels), None)
             if code is not None:
                 d = _median_distance(ours(joint, side), at(code))
                 gaps.append(f"{joint}_{side} {d:.1f}")
+                axes = frame_of(code)
+                if axes is not None:
+                    local = np.einsum("tji,tj->ti", axes, ours(joint, side) - at(code))
+                    a, lat, prox = np.nanmedian(local, axis=0)
+                    parts.append(f"{joint}_{side} {a:+.0f}/{lat:+.0f}/{prox:+.0f}")
         if p + "CLO" in labels:
             for ref in ("CLAV", "C7"):
                 us = _median_distance(ours("shoulder", side), at(ref))
@@ -69,6 +83,9 @@ def compare(c3d: Path, result: Path) -> list[str]:
             if p + a in labels and p + b in labels:
                 lengths.append(f"{name}_{side} {_median_distance(at(p + a), at(p + b)):.1f}")
     lines = [f"{c3d.stem}: median |ours - Vicon's| mm: {', '.join(gaps) or 'no Vicon output'}"]
+    if parts:
+        lines.append(f"  ours - Vicon's in Vicon's segment frame (anterior/lateral-y/"
+                     f"proximal), mm: {', '.join(parts)}")  # fmt: skip
     if shoulder:
         lines.append(f"  shoulder centre, ours / Vicon's, mm: {'; '.join(shoulder)}")
     if lengths:

@@ -41,6 +41,7 @@ MEASUREMENTS: dict[str, tuple[str, str]] = {
         f"{base}_{side}": (unit, f"{text} ({'left' if side == 'l' else 'right'})")
         for base, unit, text in (
             ("leg_length", "m", "ASIS to medial malleolus, through the knee"),
+            ("asis_trochanter", "m", "ASIS to greater trochanter (Davis hip centre)"),
             ("knee_width", "m", "distance between the femoral epicondyles"),
             ("ankle_width", "m", "distance between the malleoli"),
             ("elbow_width", "m", "distance between the humeral epicondyles"),
@@ -64,6 +65,7 @@ _C3D_NAMES: dict[str, tuple[str, float]] = {
 }
 for _base, _nexus in (
     ("leg_length", "LegLength"),
+    ("asis_trochanter", "AsisTrocanterDistance"),
     ("knee_width", "KneeWidth"),
     ("ankle_width", "AnkleWidth"),
     ("elbow_width", "ElbowWidth"),

@@ -78,6 +78,14 @@ def add_subject_options(p: Any) -> None:
         "with a known asymmetry, e.g. a limb-length discrepancy; default: the prior is on)",
     )
     g.add_argument(
+        "--hip-centre",
+        choices=("harrington", "davis"),
+        default="harrington",
+        help="hip centres from the pelvis markers: harrington (Harrington et al. 2007, "
+        "closer to imaging; default) or davis (Davis et al. 1991 from the leg lengths, "
+        "as Plug-in Gait places them)",
+    )
+    g.add_argument(
         "--no-sliding-landmarks",
         action="store_true",
         help="weigh the knee epicondyle markers (KNE) alike at every knee angle (default: "

@@ -263,6 +263,7 @@ def recipe_from_args(args: argparse.Namespace) -> Recipe:
         "anatomy": not args.no_anatomy,
         "symmetric": None if args.symmetric is None else args.symmetric * 1e-3,
         "asymmetry_prior": not args.no_asymmetry_prior,
+        "hip_centre": getattr(args, "hip_centre", "harrington"),
         "sliding_landmarks": not args.no_sliding_landmarks,
         "loss": "cauchy" if args.robust else args.loss,
         "select": _select_value(args.select),

@@ -114,10 +114,12 @@ the artefact's per-axis size (at least the fit's sigma, at least
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from ..clinical.centres import DAVIS_BETA, DAVIS_THETA
+from ..errors import MocapError
 from ..parameters import ParameterSet
 from ..subject import Subject
 from .priors import LinearGaussianPrior
@@ -163,6 +165,16 @@ TOE_ABOVE_MTP = 0.02
 #: the heel, ANSUR II) and ``foot_height`` (the ankle centre 0.039 H above the sole, the
 #: metatarsal head's centre 20-25 mm above it: the head's radius and the plantar pad).
 SIGMA_FOOT_LENGTH, SIGMA_FOOT_HEIGHT = 0.007, 0.008
+
+#: Wand marker -> the lateral joint marker whose joint's flexion axis Plug-in Gait places
+#: in the plane of the wand (:func:`_pig_axis_row`): the thigh wand and the knee, the tibia
+#: wand and the ankle.
+PIG_AXIS_WANDS: dict[str, str] = {"THI": "KNE", "TIB": "ANK"}
+#: Standard deviation [deg] of a wand's turn about its segment's long axis against the
+#: flexion axis, where the chord rows place the axis: a wand misplaced by 5 degrees turns
+#: Plug-in Gait's hip rotation by as much, the between-session spread of that angle
+#: (McGinley et al. 2009: hip and knee rotation errors of 4-6 degrees and more).
+SIGMA_WAND_ANGLE = 5.0
 
 #: Joint width (measurement, side removed) -> (kinematic parameter, width / parameter): the
 #: regression used when the width is not measured, from the nominal model (Plug-in Gait
@@ -280,6 +292,8 @@ def landmark_prior(
     size: float = 1.0,
     noise: float = 0.001,
     t10: T10Placement | None = None,
+    hip_centre: str = "harrington",
+    axis_widths: Mapping[str, float | None] | None = None,
 ) -> LinearGaussianPrior:
     """The landmark rows of every Plug-in Gait marker the model has (module docstring).
 
@@ -290,24 +304,29 @@ def landmark_prior(
     ``t10``: the T10 marker found misplaced by :mod:`mocap_mj.identify.trunk` (its
     ``shift`` and ``spread`` [m]; default None: T10 trusted): the T12/L1 rows on T10 are
     widened by the displacement it carries into them (:func:`_spine_joint_rows`).
+    ``hip_centre``: "harrington" (default) or "davis" (Plug-in Gait's, :func:`_davis_rows`).
+    ``axis_widths``: wand marker (``LTHI``...) -> the width [m] of its chord-plane row
+    (:func:`_pig_axis_row`), None to leave the row out (the axis functional); wands not
+    named keep :data:`SIGMA_WAND_ANGLE` (:mod:`mocap_mj.identify.axes` decides).
     """
     subject = subject or Subject()
     stature = subject.stature()
     s = stature[0] / NOMINAL_HEIGHT if stature is not None else size
     rows = _Rows(pset)
-    _pelvis_rows(rows, subject, s)
+    _pelvis_rows(rows, subject, s, hip_centre)
     _trunk_rows(rows, s, t10)
     for side, p in (("l", "L"), ("r", "R")):
         _shoulder_rows(rows, pset, subject, side, p, s)
-        _limb_rows(rows, subject, side, p, s)
+        _limb_rows(rows, subject, side, p, s, axis_widths or {})
         _alignment_rows(rows, side, s)
         _hand_rows(rows, subject, side, p, s)
         _foot_rows(rows, side, p, s)
     return rows.prior(noise)
 
 
-def _pelvis_rows(rows: _Rows, subject: Subject, s: float) -> None:
-    """The pelvis rows: ASIS markers and the hip joint centres (Harrington 2007)."""
+def _pelvis_rows(rows: _Rows, subject: Subject, s: float, hip_centre: str = "harrington") -> None:
+    """The pelvis rows: ASIS markers and the hip joint centres (Harrington 2007, or with
+    ``hip_centre`` "davis" Plug-in Gait's, :func:`_davis_rows`)."""
     mid = SIGMA_MIDLINE
     # Pelvis: origin at mid-ASIS, ASIS on its y axis (the pelvis frame is defined by them).
     for m in ("LASI", "RASI"):
@@ -332,6 +351,9 @@ def _pelvis_rows(rows: _Rows, subject: Subject, s: float) -> None:
     mid_z = {"LASI.z": 0.5, "RASI.z": 0.5}
     for side in ("l", "r"):
         sign = 1.0 if side == "l" else -1.0
+        if hip_centre == "davis":
+            _davis_rows(rows, subject, side, pw)
+            continue
         rows.add(
             _add({f"hip_depth_{side}": 1}, mid_x, _scaled(pd, -0.24)),
             0.0099,
@@ -352,6 +374,40 @@ def _pelvis_rows(rows: _Rows, subject: Subject, s: float) -> None:
              SIGMA_CONVENTION, f"L5/S1.x = mid-ASIS.x - {L5S1_BEHIND} PW (Reed 1999)")  # fmt: skip
     rows.add(_add({"lumbar_height": 1.0}, _scaled(mid_z, -1.0), _scaled(pw, -L5S1_ABOVE)), 0.0,
              SIGMA_CONVENTION, f"L5/S1.z = mid-ASIS.z + {L5S1_ABOVE} PW (Reed 1999)")  # fmt: skip
+
+
+def _davis_rows(rows: _Rows, subject: Subject, side: str, pw: dict[str, float]) -> None:
+    """One hip centre as Plug-in Gait places it (Davis et al. 1991,
+    :func:`mocap_mj.clinical.centres.davis_hip`): from the mean leg length, the
+    ASIS-trochanter distance (measured, else Plug-in Gait's regression on the leg length)
+    and the ASIS width ``pw`` (the markers' distance, linear in theta), in Plug-in Gait's
+    pelvis frame, whose x axis runs from mid-PSIS to mid-ASIS: tilted by the pelvis-tilt
+    row's angle (mid-PSIS :data:`PSIS_ABOVE_ASIS` above mid-ASIS) against this model's.
+    Raises :class:`MocapError` without both leg lengths."""
+    legs = [subject.get(f"leg_length_{x}") for x in ("l", "r")]
+    if legs[0] is None or legs[1] is None:
+        raise MocapError("--hip-centre davis: Davis's hip centre needs both leg lengths "
+                         "(LegLength in the C3D file, --leg-length or --subject-file)")  # fmt: skip
+    leg = 0.5 * (legs[0] + legs[1])
+    atd = subject.get(f"asis_trochanter_{side}")
+    atd = 0.1288 * leg - 0.04856 if atd is None else atd
+    c, d = 0.115 * leg - 0.0153, atd + subject.marker_radius
+    theta, beta = DAVIS_THETA, DAVIS_BETA
+    x = c * np.cos(theta) * np.sin(beta) - d * np.cos(beta)
+    z = -c * np.cos(theta) * np.cos(beta) - d * np.sin(beta)
+    sign = 1.0 if side == "l" else -1.0
+    kappa0 = dict(zip(rows.pset.names, rows.pset.nominal, strict=False))
+    depth0 = 0.5 * sum(kappa0.get(f"{m}ASI.x", 0.0) - kappa0.get(f"{m}PSI.x", 0.0) for m in "LR")
+    tilt = np.arctan2(PSIS_ABOVE_ASIS, depth0) if depth0 > 0 else 0.0
+    x, z = x * np.cos(tilt) + z * np.sin(tilt), -x * np.sin(tilt) + z * np.cos(tilt)
+    mid = {f"{m}ASI.{c_}": 0.5 for m in "LR" for c_ in "xz"}
+    rows.add({f"hip_depth_{side}": 1, **{k: v for k, v in mid.items() if k.endswith("x")}},
+             -x, SIGMA_HJC, f"hip_depth_{side} (Davis 1991)")  # fmt: skip
+    rows.add({f"hip_height_{side}": 1, **{k: v for k, v in mid.items() if k.endswith("z")}},
+             -z, SIGMA_HJC, f"hip_height_{side} (Davis 1991)")  # fmt: skip
+    rows.add(_add({f"hip_width_{side}": 1, "LASI.y": -0.5 * sign, "RASI.y": -0.5 * sign},
+                  _scaled(pw, -0.5)),
+             -c * np.sin(theta), SIGMA_HJC, f"hip_width_{side} (Davis 1991)")  # fmt: skip
 
 
 def _trunk_rows(rows: _Rows, s: float, t10: T10Placement | None = None) -> None:
@@ -530,7 +586,14 @@ def _shoulder_rows(
             rows.add(terms, mean, SIGMA_CONVENTION, f"{p}SHO.{c} = GH.{c} {mean * 1e3:+.0f} mm")
 
 
-def _limb_rows(rows: _Rows, subject: Subject, side: str, p: str, s: float) -> None:
+def _limb_rows(
+    rows: _Rows,
+    subject: Subject,
+    side: str,
+    p: str,
+    s: float,
+    axis_widths: Mapping[str, float | None],
+) -> None:
     """The rows of one side's joint-axis markers (knee, ankle, elbow), wrist bar and leg length."""
     lm = SIGMA_LANDMARK
     # Epicondyles, malleolus and styloids on their joint's axis, at the joint's level.
@@ -546,6 +609,12 @@ def _limb_rows(rows: _Rows, subject: Subject, side: str, p: str, s: float) -> No
         rows.add({f"{m}.x": 1}, 0.0, sig, f"{m}.x = 0 (on the joint axis)")
         rows.add({f"{m}.z": 1, f"{length}_{side}": 1}, 0.0, sig, f"{m}.z = -{length}")
         _width_rows(rows, subject, side, m, width)
+    for wand, marker in PIG_AXIS_WANDS.items():
+        if p + wand not in rows.pset.marker_names or p + marker not in rows.pset.marker_names:
+            continue
+        width = axis_widths.get(p + wand, wand_width(rows.pset, p + wand))
+        if width is not None:
+            _pig_axis_row(rows, p + wand, p + marker, width)
     # Wrist bar on the dorsum: Plug-in Gait puts the wrist centre wrist_width/2 + r
     # anterior (palm side) of the WRA-WRB midpoint, perpendicular to the bar.
     wra, wrb = p + "WRA", p + "WRB"
@@ -563,6 +632,32 @@ def _limb_rows(rows: _Rows, subject: Subject, side: str, p: str, s: float) -> No
     leg = subject.get(f"leg_length_{side}")
     if leg is not None:
         _leg_length_row(rows, subject, side, p, leg, s)
+
+
+def wand_width(pset: ParameterSet, wand: str, angle: float = SIGMA_WAND_ANGLE) -> float:
+    """The width [m] of ``wand``'s chord-plane row for a turn of ``angle`` [deg] about its
+    segment's axis: ``tan(angle)`` x the wand's nominal distance from that axis (its y)."""
+    return float(np.tan(np.radians(angle)) * abs(_nominal_offset(pset, wand)[1]))
+
+
+def _pig_axis_row(rows: _Rows, wand: str, marker: str, sigma: float) -> None:
+    """Plug-in Gait's chord plane: the joint centre in the plane of the proximal joint
+    centre, the wand and the joint's lateral marker (THI and KNE for the knee, TIB and ANK
+    for the ankle), so that the flexion axis (the segment frame's y) lies in the plane of
+    the wand and the marker about the segment's long axis.
+
+    In the segment frame (origin the proximal joint centre, the joint centre on its z axis)
+    the condition ``centre . (marker x wand) = 0`` is ``wand.x marker.y = marker.x
+    wand.y``, linearised at the nominal offsets' y (``wand.x - (wand.y0 / marker.y0)
+    marker.x = 0``), width ``tan(SIGMA_WAND_ANGLE) |wand.y0|``: the wand's turn about the
+    segment's axis (:data:`SIGMA_WAND_ANGLE`). Where the motion determines the axis better
+    than that, the data outweigh the row (:mod:`mocap_mj.identify.axes` reports which).
+    """
+    wy, my = (_nominal_offset(rows.pset, m)[1] for m in (wand, marker))
+    if abs(my) < 1e-6:
+        return
+    rows.add({f"{wand}.x": 1.0, f"{marker}.x": -wy / my}, 0.0, sigma,
+             f"{wand} in the plane of the joint centre and {marker} (Plug-in Gait's chord)")  # fmt: skip
 
 
 def _leg_length_row(rows: _Rows, subject: Subject, side: str, p: str, leg: float, s: float) -> None:

@@ -30,6 +30,7 @@ from ..results import Motion
 from ..strict_json import jsonable
 from ..subject import Subject
 from .fit import Fit
+from .axes import widths
 from .identifiability import Identifiability
 from .lm import LMSettings, Performance, Tolerances
 from .motion_out import every_frame_motion, write_every_frame_motion
@@ -151,7 +152,8 @@ def _described(
         add_finding(report, solved.t10_prior.finding)
     priors = (
         anatomical_priors(pset, solved.subject, size=solved.size, symmetric=solved.symmetric,
-                          t10=solved.t10_prior)
+                          t10=solved.t10_prior, hip_centre=recipe.hip_centre,
+                          axes=widths(pset, solved.weighting.get("joint_axes")))
         if recipe.anatomy
         else []
     )  # fmt: skip

@@ -1,0 +1,159 @@
+"""Knee and ankle flexion axes: the motion's where it determines them, Plug-in Gait's elsewhere.
+
+A flexion axis's turn about its segment's long axis is what a recording determines least: a
+static trial or a joint that barely moves leaves it to the priors. Plug-in Gait places it
+with the chord construction (:func:`mocap_mj.clinical.geometry.chord`): the joint centre in
+the plane of the proximal joint centre, the wand (THI, TIB) and the lateral marker (KNE,
+ANK). The landmark prior holds that plane as a row of width
+:data:`~mocap_mj.identify.anatomy.SIGMA_WAND_ANGLE` (5 degrees of the wand's turn,
+:func:`~mocap_mj.identify.anatomy._pig_axis_row`).
+
+After the first solve, :func:`axis_decisions` measures what the data hold about each row's
+direction: the standard deviation of ``a_r . theta`` from the reduced information of the
+markers and every other prior (the row's own information taken out), with the markers
+weighed at the artefact's noise as the priors are (:mod:`mocap_mj.identify.pipeline`). Where
+it exceeds the row's width the recording cannot determine the axis: the axis is Plug-in
+Gait's, the row then held at :data:`SIGMA_PIG_AXIS` (the construction itself); otherwise the
+axis is functional and the row is left out, so the motion alone places it. Each decision is
+reported (summary.json ``joint_axes``, report.md) with both standard deviations in degrees
+and, for a functional axis, its angle to Plug-in Gait's chord-plane axis in the identified
+model (:func:`pig_angle`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from ..clinical.geometry import chord, unit
+from ..parameters import ParameterSet
+from .anatomy import PIG_AXIS_WANDS, wand_width
+from .priors import LinearGaussianPrior
+
+#: Width [deg] of the chord-plane row where Plug-in Gait's construction places the axis:
+#: the construction itself (the wand's own placement is the subject's, as in Plug-in Gait).
+SIGMA_PIG_AXIS = 0.5
+#: Wand prefix -> the joint its chord plane places, and that joint's child body.
+JOINT_OF = {"THI": ("knee", "shank"), "TIB": ("ankle", "foot")}
+
+
+def wands(pset: ParameterSet) -> list[tuple[str, str, str, str]]:
+    """(wand, lateral marker, joint, side) of every chord plane ``pset`` has markers for."""
+    out = []
+    for side, p in (("l", "L"), ("r", "R")):
+        for wand, marker in PIG_AXIS_WANDS.items():
+            if p + wand in pset.marker_names and p + marker in pset.marker_names:
+                out.append((p + wand, p + marker, f"{JOINT_OF[wand][0]}_{side}", side))
+    return out
+
+
+def _row(priors: Sequence[LinearGaussianPrior], wand: str) -> tuple[np.ndarray, float] | None:
+    """The chord-plane row of ``wand`` (its ``a`` (P,) and width [m]), None when absent."""
+    for p in priors:
+        for r, label in enumerate(p.labels):
+            if label.startswith(f"{wand} in the plane"):
+                return np.asarray(p.a[r], dtype=float), float(p.sigma[r])
+    return None
+
+
+def _degrees(width: float, pset: ParameterSet, wand: str) -> float:
+    """A width [m] of the row as the wand's turn [deg] about its segment's axis."""
+    y = abs(pset.split(pset.nominal)[1][pset.marker_index(wand)][1])
+    return float(np.degrees(np.arctan2(width, y)))
+
+
+def axis_decisions(
+    pset: ParameterSet,
+    information: np.ndarray,
+    theta: np.ndarray,
+    priors: Sequence[LinearGaussianPrior],
+    weak: LinearGaussianPrior,
+    noise: float,
+) -> dict[str, dict[str, Any]]:
+    """Per joint (``knee_l``...): where its flexion axis comes from (module docstring).
+
+    ``information`` (P, P): the markers' reduced information (unit weights) at ``theta``
+    (P,) [m]; ``priors``: the landmark priors with their chord-plane rows, ``weak`` the weak
+    prior toward the initial model; ``noise`` [m]: the marker noise the priors are weighed
+    against. Returns ``source`` ("plug-in-gait" or "functional"), ``data_sd_deg`` (the
+    direction's standard deviation without the row), ``row_sd_deg`` and
+    ``angle_to_pig_deg`` (:func:`pig_angle` at ``theta``).
+    """
+    weighed = [p.with_noise(noise) for p in priors]
+    hess = np.asarray(information, dtype=float) + weak.hessian()
+    for p in weighed:
+        hess = hess + p.hessian()
+    free = ~np.asarray(pset.frozen, dtype=bool)
+    out: dict[str, dict[str, Any]] = {}
+    for wand, marker, joint, _ in wands(pset):
+        row = _row(weighed, wand)
+        if row is None:
+            continue
+        a, sigma = row
+        without = hess - (noise / sigma) ** 2 * np.outer(a, a)
+        sub = without[np.ix_(free, free)]
+        var = float(a[free] @ np.linalg.lstsq(sub, a[free], rcond=None)[0]) * noise**2
+        sd = float(np.sqrt(max(var, 0.0)))
+        out[joint] = {
+            "joint": joint,
+            "wand": wand,
+            "marker": marker,
+            "source": "plug-in-gait" if sd > sigma else "functional",
+            "data_sd_deg": _degrees(sd, pset, wand),
+            "row_sd_deg": _degrees(sigma, pset, wand),
+            "angle_to_pig_deg": pig_angle(pset, theta, wand, marker, joint),
+        }
+    return out
+
+
+def widths(
+    pset: ParameterSet, decisions: Mapping[str, Mapping[str, Any]] | None
+) -> dict[str, float | None]:
+    """The chord-plane rows' widths [m] after ``decisions`` (:func:`axis_decisions`): a
+    Plug-in Gait axis's row at :data:`SIGMA_PIG_AXIS`, a functional axis's left out."""
+    out: dict[str, float | None] = {}
+    for d in (decisions or {}).values():
+        pig = d["source"] == "plug-in-gait"
+        out[d["wand"]] = wand_width(pset, d["wand"], SIGMA_PIG_AXIS) if pig else None
+    return out
+
+
+def pig_angle(pset: ParameterSet, theta: np.ndarray, wand: str, marker: str, joint: str) -> float:
+    """Angle [deg] between the identified model's flexion axis of ``joint`` and Plug-in
+    Gait's chord-plane axis built from the same model: in the parent segment's frame, the
+    chord construction (:func:`~mocap_mj.clinical.geometry.chord`) from the wand's and the
+    lateral marker's offsets and the proximal joint centre (the frame's origin), at the
+    marker's distance from the identified joint centre; both axes taken normal to the
+    segment's long axis (origin to joint centre)."""
+    side = joint[-2:]
+    body = {"knee": "shank", "ankle": "foot"}[joint[:-2]] + side
+    centre = pset.body_pos(theta)[pset.model.body(body).id]
+    offsets = pset.split(theta)[1]
+    w, m = (offsets[pset.marker_index(n)] for n in (wand, marker))
+    delta = float(np.linalg.norm(m - centre))
+    origin = np.zeros(3)
+    pig = chord(w[None], origin[None], m[None], delta)[0]
+    long_axis = unit(centre - origin)
+    ours_dir, pig_dir = (unit(v - np.dot(v, long_axis) * long_axis) for v in (m - centre, m - pig))
+    cos = float(np.clip(np.dot(ours_dir, pig_dir), -1.0, 1.0))
+    sign = np.sign(np.dot(np.cross(pig_dir, ours_dir), long_axis)) or 1.0
+    return float(sign * np.degrees(np.arccos(cos)))
+
+
+def report_lines(decisions: Mapping[str, Mapping[str, Any]]) -> list[str]:
+    """report.md's lines on the flexion axes (empty without decisions)."""
+    if not decisions:
+        return []
+    lines = [
+        "| joint | axis from | data sd (deg) | row sd (deg) | angle to Plug-in Gait's (deg) |",
+        "|---|---|---|---|---|",
+    ]
+    for joint, d in decisions.items():
+        src = "Plug-in Gait (chord plane)" if d["source"] == "plug-in-gait" else "the motion"
+        lines.append(
+            f"| {joint} | {src} | {d['data_sd_deg']:.1f} | {d['row_sd_deg']:.1f} | "
+            f"{d['angle_to_pig_deg']:+.1f} |"
+        )
+    return lines
