@@ -612,9 +612,9 @@ def _limb_rows(
     for wand, marker in PIG_AXIS_WANDS.items():
         if p + wand not in rows.pset.marker_names or p + marker not in rows.pset.marker_names:
             continue
-        width = axis_widths.get(p + wand, wand_width(rows.pset, p + wand))
-        if width is not None:
-            _pig_axis_row(rows, p + wand, p + marker, width)
+        sigma = axis_widths.get(p + wand, wand_width(rows.pset, p + wand))
+        if sigma is not None:
+            _pig_axis_row(rows, p + wand, p + marker, sigma)
     # Wrist bar on the dorsum: Plug-in Gait puts the wrist centre wrist_width/2 + r
     # anterior (palm side) of the WRA-WRB midpoint, perpendicular to the bar.
     wra, wrb = p + "WRA", p + "WRB"
@@ -649,15 +649,15 @@ def _pig_axis_row(rows: _Rows, wand: str, marker: str, sigma: float) -> None:
     In the segment frame (origin the proximal joint centre, the joint centre on its z axis)
     the condition ``centre . (marker x wand) = 0`` is ``wand.x marker.y = marker.x
     wand.y``, linearised at the nominal offsets' y (``wand.x - (wand.y0 / marker.y0)
-    marker.x = 0``), width ``tan(SIGMA_WAND_ANGLE) |wand.y0|``: the wand's turn about the
-    segment's axis (:data:`SIGMA_WAND_ANGLE`). Where the motion determines the axis better
-    than that, the data outweigh the row (:mod:`mocap_mj.identify.axes` reports which).
+    marker.x = 0``), width ``sigma`` [m] (:func:`wand_width`: the wand's turn about the
+    segment's axis, :data:`SIGMA_WAND_ANGLE` before :mod:`mocap_mj.identify.axes` decides
+    whether the motion or this row places the axis).
     """
     wy, my = (_nominal_offset(rows.pset, m)[1] for m in (wand, marker))
     if abs(my) < 1e-6:
         return
-    rows.add({f"{wand}.x": 1.0, f"{marker}.x": -wy / my}, 0.0, sigma,
-             f"{wand} in the plane of the joint centre and {marker} (Plug-in Gait's chord)")  # fmt: skip
+    label = f"{wand} in the plane of the joint centre and {marker} (Plug-in Gait's chord)"
+    rows.add({f"{wand}.x": 1.0, f"{marker}.x": -wy / my}, 0.0, sigma, label)
 
 
 def _leg_length_row(rows: _Rows, subject: Subject, side: str, p: str, leg: float, s: float) -> None:

@@ -29,8 +29,8 @@ from ..parameters import ParameterSet
 from ..results import Motion
 from ..strict_json import jsonable
 from ..subject import Subject
-from .fit import Fit
 from .axes import widths
+from .fit import Fit
 from .identifiability import Identifiability
 from .lm import LMSettings, Performance, Tolerances
 from .motion_out import every_frame_motion, write_every_frame_motion

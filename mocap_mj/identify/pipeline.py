@@ -463,8 +463,9 @@ def solve_anatomical(
     tau = weighting["tau_frames"]
     taus, per_trial = weighting["trial_tau_frames"], weighting["trial_weights"]
     soft = noise > REWEIGHT_RATIO * settings.prior_noise
-    axes = axis_decisions(pset, result.reduced_information, result.theta, priors,
-                          settings.weak_prior(start), noise if soft else settings.prior_noise)  # fmt: skip
+    weak = settings.weak_prior(start)
+    axes = axis_decisions(pset, result.reduced_information, result.theta, priors, weak,
+                          noise if soft else settings.prior_noise)  # fmt: skip
     if axes:
         weighting["joint_axes"] = axes
         priors = anatomical_priors(
