@@ -118,10 +118,9 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ..clinical.centres import DAVIS_BETA, DAVIS_THETA
-from ..errors import MocapError
 from ..parameters import ParameterSet
 from ..subject import Subject
+from .hips import davis_rows
 from .priors import LinearGaussianPrior
 from .ranges import NOMINAL_HEIGHT
 from .trunk import T10Placement
@@ -304,7 +303,7 @@ def landmark_prior(
     ``t10``: the T10 marker found misplaced by :mod:`mocap_mj.identify.trunk` (its
     ``shift`` and ``spread`` [m]; default None: T10 trusted): the T12/L1 rows on T10 are
     widened by the displacement it carries into them (:func:`_spine_joint_rows`).
-    ``hip_centre``: "harrington" (default) or "davis" (Plug-in Gait's, :func:`_davis_rows`).
+    ``hip_centre``: "harrington" (default) or "davis" (Plug-in Gait's, :mod:`.hips`).
     ``axis_widths``: wand marker (``LTHI``...) -> the width [m] of its chord-plane row
     (:func:`_pig_axis_row`), None to leave the row out (the axis functional); wands not
     named keep :data:`SIGMA_WAND_ANGLE` (:mod:`mocap_mj.identify.axes` decides).
@@ -326,7 +325,7 @@ def landmark_prior(
 
 def _pelvis_rows(rows: _Rows, subject: Subject, s: float, hip_centre: str = "harrington") -> None:
     """The pelvis rows: ASIS markers and the hip joint centres (Harrington 2007, or with
-    ``hip_centre`` "davis" Plug-in Gait's, :func:`_davis_rows`)."""
+    ``hip_centre`` "davis" Plug-in Gait's, :func:`~mocap_mj.identify.hips.davis_rows`)."""
     mid = SIGMA_MIDLINE
     # Pelvis: origin at mid-ASIS, ASIS on its y axis (the pelvis frame is defined by them).
     for m in ("LASI", "RASI"):
@@ -352,7 +351,9 @@ def _pelvis_rows(rows: _Rows, subject: Subject, s: float, hip_centre: str = "har
     for side in ("l", "r"):
         sign = 1.0 if side == "l" else -1.0
         if hip_centre == "davis":
-            _davis_rows(rows, subject, side, pw)
+            kappa0 = dict(zip(rows.pset.names, rows.pset.nominal, strict=False))
+            for terms, b, label in davis_rows(subject, side, kappa0, PSIS_ABOVE_ASIS):
+                rows.add(terms, b, SIGMA_HJC, label)
             continue
         rows.add(
             _add({f"hip_depth_{side}": 1}, mid_x, _scaled(pd, -0.24)),
@@ -374,40 +375,6 @@ def _pelvis_rows(rows: _Rows, subject: Subject, s: float, hip_centre: str = "har
              SIGMA_CONVENTION, f"L5/S1.x = mid-ASIS.x - {L5S1_BEHIND} PW (Reed 1999)")  # fmt: skip
     rows.add(_add({"lumbar_height": 1.0}, _scaled(mid_z, -1.0), _scaled(pw, -L5S1_ABOVE)), 0.0,
              SIGMA_CONVENTION, f"L5/S1.z = mid-ASIS.z + {L5S1_ABOVE} PW (Reed 1999)")  # fmt: skip
-
-
-def _davis_rows(rows: _Rows, subject: Subject, side: str, pw: dict[str, float]) -> None:
-    """One hip centre as Plug-in Gait places it (Davis et al. 1991,
-    :func:`mocap_mj.clinical.centres.davis_hip`): from the mean leg length, the
-    ASIS-trochanter distance (measured, else Plug-in Gait's regression on the leg length)
-    and the ASIS width ``pw`` (the markers' distance, linear in theta), in Plug-in Gait's
-    pelvis frame, whose x axis runs from mid-PSIS to mid-ASIS: tilted by the pelvis-tilt
-    row's angle (mid-PSIS :data:`PSIS_ABOVE_ASIS` above mid-ASIS) against this model's.
-    Raises :class:`MocapError` without both leg lengths."""
-    legs = [subject.get(f"leg_length_{x}") for x in ("l", "r")]
-    if legs[0] is None or legs[1] is None:
-        raise MocapError("--hip-centre davis: Davis's hip centre needs both leg lengths "
-                         "(LegLength in the C3D file, --leg-length or --subject-file)")  # fmt: skip
-    leg = 0.5 * (legs[0] + legs[1])
-    atd = subject.get(f"asis_trochanter_{side}")
-    atd = 0.1288 * leg - 0.04856 if atd is None else atd
-    c, d = 0.115 * leg - 0.0153, atd + subject.marker_radius
-    theta, beta = DAVIS_THETA, DAVIS_BETA
-    x = c * np.cos(theta) * np.sin(beta) - d * np.cos(beta)
-    z = -c * np.cos(theta) * np.cos(beta) - d * np.sin(beta)
-    sign = 1.0 if side == "l" else -1.0
-    kappa0 = dict(zip(rows.pset.names, rows.pset.nominal, strict=False))
-    depth0 = 0.5 * sum(kappa0.get(f"{m}ASI.x", 0.0) - kappa0.get(f"{m}PSI.x", 0.0) for m in "LR")
-    tilt = np.arctan2(PSIS_ABOVE_ASIS, depth0) if depth0 > 0 else 0.0
-    x, z = x * np.cos(tilt) + z * np.sin(tilt), -x * np.sin(tilt) + z * np.cos(tilt)
-    mid = {f"{m}ASI.{c_}": 0.5 for m in "LR" for c_ in "xz"}
-    rows.add({f"hip_depth_{side}": 1, **{k: v for k, v in mid.items() if k.endswith("x")}},
-             -x, SIGMA_HJC, f"hip_depth_{side} (Davis 1991)")  # fmt: skip
-    rows.add({f"hip_height_{side}": 1, **{k: v for k, v in mid.items() if k.endswith("z")}},
-             -z, SIGMA_HJC, f"hip_height_{side} (Davis 1991)")  # fmt: skip
-    rows.add(_add({f"hip_width_{side}": 1, "LASI.y": -0.5 * sign, "RASI.y": -0.5 * sign},
-                  _scaled(pw, -0.5)),
-             -c * np.sin(theta), SIGMA_HJC, f"hip_width_{side} (Davis 1991)")  # fmt: skip
 
 
 def _trunk_rows(rows: _Rows, s: float, t10: T10Placement | None = None) -> None:
