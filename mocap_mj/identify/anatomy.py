@@ -169,10 +169,11 @@ SIGMA_FOOT_LENGTH, SIGMA_FOOT_HEIGHT = 0.007, 0.008
 #: in the plane of the wand (:func:`_pig_axis_row`): the thigh wand and the knee, the tibia
 #: wand and the ankle.
 PIG_AXIS_WANDS: dict[str, str] = {"THI": "KNE", "TIB": "ANK"}
-#: Standard deviation [deg] of a wand's turn about its segment's long axis against the
-#: flexion axis, where the chord rows place the axis: a wand misplaced by 5 degrees turns
-#: Plug-in Gait's hip rotation by as much, the between-session spread of that angle
-#: (McGinley et al. 2009: hip and knee rotation errors of 4-6 degrees and more).
+#: Standard deviation [deg] of the flexion axis's turn about its segment's long axis where
+#: the chord plane places it (:func:`_pig_axis_row`): the plane turns with the wand, and a
+#: wand misplaced by a few degrees turns Plug-in Gait's axis by more (knee rotation and
+#: varus-valgus are the least repeatable of its angles between sessions, errors of 4-6
+#: degrees and more: McGinley et al. 2009).
 SIGMA_WAND_ANGLE = 5.0
 
 #: Joint width (measurement, side removed) -> (kinematic parameter, width / parameter): the
@@ -579,7 +580,7 @@ def _limb_rows(
     for wand, marker in PIG_AXIS_WANDS.items():
         if p + wand not in rows.pset.marker_names or p + marker not in rows.pset.marker_names:
             continue
-        sigma = axis_widths.get(p + wand, wand_width(rows.pset, p + wand))
+        sigma = axis_widths.get(p + wand, wand_width(rows.pset, p + wand, p + marker))
         if sigma is not None:
             _pig_axis_row(rows, p + wand, p + marker, sigma)
     # Wrist bar on the dorsum: Plug-in Gait puts the wrist centre wrist_width/2 + r
@@ -601,10 +602,15 @@ def _limb_rows(
         _leg_length_row(rows, subject, side, p, leg, s)
 
 
-def wand_width(pset: ParameterSet, wand: str, angle: float = SIGMA_WAND_ANGLE) -> float:
-    """The width [m] of ``wand``'s chord-plane row for a turn of ``angle`` [deg] about its
-    segment's axis: ``tan(angle)`` x the wand's nominal distance from that axis (its y)."""
-    return float(np.tan(np.radians(angle)) * abs(_nominal_offset(pset, wand)[1]))
+def wand_width(
+    pset: ParameterSet, wand: str, marker: str, angle: float = SIGMA_WAND_ANGLE
+) -> float:
+    """The width [m] of ``wand``'s chord-plane row for a turn of the flexion axis by
+    ``angle`` [deg] about the segment's long axis: the plane through the origin, the marker
+    ``k`` and the wand ``t`` (nominal offsets) turns its horizontal line by ``dx |k.z| /
+    |k.y t.z - k.z t.y|`` [rad] for a wand moved by ``dx`` (the row's residual)."""
+    k, t = _nominal_offset(pset, marker), _nominal_offset(pset, wand)
+    return float(np.tan(np.radians(angle)) * abs(k[1] * t[2] - k[2] * t[1]) / abs(k[2]))
 
 
 def _pig_axis_row(rows: _Rows, wand: str, marker: str, sigma: float) -> None:

@@ -5,7 +5,7 @@ static trial or a joint that barely moves leaves it to the priors. Plug-in Gait 
 with the chord construction (:func:`mocap_mj.clinical.geometry.chord`): the joint centre in
 the plane of the proximal joint centre, the wand (THI, TIB) and the lateral marker (KNE,
 ANK). The landmark prior holds that plane as a row of width
-:data:`~mocap_mj.identify.anatomy.SIGMA_WAND_ANGLE` (5 degrees of the wand's turn,
+:data:`~mocap_mj.identify.anatomy.SIGMA_WAND_ANGLE` (5 degrees of the axis's turn,
 :func:`~mocap_mj.identify.anatomy._pig_axis_row`).
 
 After the first solve, :func:`axis_decisions` measures what the data hold about each row's
@@ -58,10 +58,9 @@ def _row(priors: Sequence[LinearGaussianPrior], wand: str) -> tuple[np.ndarray, 
     return None
 
 
-def _degrees(width: float, pset: ParameterSet, wand: str) -> float:
-    """A width [m] of the row as the wand's turn [deg] about its segment's axis."""
-    y = abs(pset.split(pset.nominal)[1][pset.marker_index(wand)][1])
-    return float(np.degrees(np.arctan2(width, y)))
+def _degrees(width: float, pset: ParameterSet, wand: str, marker: str) -> float:
+    """A width [m] of the row as the flexion axis's turn [deg] (:func:`wand_width`)."""
+    return float(np.degrees(np.arctan(width / wand_width(pset, wand, marker, 45.0))))
 
 
 def axis_decisions(
@@ -101,8 +100,8 @@ def axis_decisions(
             "wand": wand,
             "marker": marker,
             "source": "plug-in-gait" if sd > sigma else "functional",
-            "data_sd_deg": _degrees(sd, pset, wand),
-            "row_sd_deg": _degrees(sigma, pset, wand),
+            "data_sd_deg": _degrees(sd, pset, wand, marker),
+            "row_sd_deg": _degrees(sigma, pset, wand, marker),
             "angle_to_pig_deg": pig_angle(pset, theta, wand, marker, joint),
         }
     return out
@@ -116,7 +115,7 @@ def widths(
     out: dict[str, float | None] = {}
     for d in (decisions or {}).values():
         pig = d["source"] == "plug-in-gait"
-        out[d["wand"]] = wand_width(pset, d["wand"], SIGMA_PIG_AXIS) if pig else None
+        out[d["wand"]] = wand_width(pset, d["wand"], d["marker"], SIGMA_PIG_AXIS) if pig else None
     return out
 
 
