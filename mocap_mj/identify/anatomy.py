@@ -172,7 +172,7 @@ PIG_AXIS_WANDS: dict[str, str] = {"THI": "KNE", "TIB": "ANK"}
 #: Standard deviation [deg] of the flexion axis's turn about its segment's long axis where
 #: the chord plane places it (:func:`_pig_axis_row`): the plane turns with the wand, and a
 #: wand misplaced by a few degrees turns Plug-in Gait's axis by more (knee rotation and
-#: varus-valgus are the least repeatable of its angles between sessions: McGinley et al.
+#: varus-valgus are the least repeatable of its angles on retest: McGinley et al.
 #: 2009). On the shared Vicon trials the data placed the knee axis to 10-11 degrees in a
 #: static trial and 6 in a jump (where imposing the chord plane raised the RMSE by half).
 SIGMA_WAND_ANGLE = 8.0
