@@ -354,7 +354,7 @@ def _pelvis_rows(rows: _Rows, subject: Subject, s: float, hip_centre: str = "har
         sign = 1.0 if side == "l" else -1.0
         if hip_centre == "davis":
             kappa0 = dict(zip(rows.pset.names, rows.pset.nominal, strict=False))
-            for terms, b, label in davis_rows(subject, side, kappa0, PSIS_ABOVE_ASIS):
+            for terms, b, label in davis_rows(subject, side, kappa0):
                 rows.add(terms, b, SIGMA_HJC, label)
             continue
         rows.add(
