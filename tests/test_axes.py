@@ -10,7 +10,7 @@ from _motion import smooth_motion
 from mocap_mj import Kinematics, MocapError, ParameterSet
 from mocap_mj.identify import LMSettings, TrialData
 from mocap_mj.identify.anatomy import landmark_prior, wand_width
-from mocap_mj.identify.axes import pig_angle
+from mocap_mj.identify.axes import knee_crosstalk, pig_angle
 from mocap_mj.identify.pipeline import solve_anatomical
 from mocap_mj.identify.recipe import Recipe
 from mocap_mj.subject import Measurement, Subject
@@ -101,3 +101,21 @@ def test_davis_hip_rows(pset: ParameterSet) -> None:
     assert "hip_centre: davis" in Recipe(hip_centre="davis").to_yaml()
     with pytest.raises(MocapError):
         Recipe(hip_centre="pelvis")  # type: ignore[arg-type]
+
+
+def test_crosstalk_shows_a_turned_wand(pset: ParameterSet) -> None:
+    """Knee varus-valgus on flexion over a moving trial of a subject whose thigh wands are
+    turned 15 degrees: the chord plane's axis (Plug-in Gait's) produces a slope of at
+    least 0.08 degree per degree of flexion (correlation above 0.7), the subject's own axis
+    less than 0.01; with the wands in the plane both show less than 0.01."""
+    kin = Kinematics(pset)
+    qpos = smooth_motion(kin, 300, seed=4)
+    for turn, pig_min, pig_max in ((15.0, 0.08, np.inf), (0.0, 0.0, 0.01)):
+        truth = _wand_turned(pset, pset.nominal, turn)
+        kin.set_theta(truth)
+        decisions = {j: {"wand": w, "marker": m} for w, m, j in KNEES}
+        knee_crosstalk(pset, truth, [qpos], [kin.marker_positions(qpos)], decisions)
+        for joint, d in decisions.items():
+            assert abs(d["crosstalk_model"]["slope"]) < 0.01, (turn, joint, d)
+            assert pig_min <= abs(d["crosstalk_pig"]["slope"]) < pig_max, (turn, joint, d)
+            assert turn == 0.0 or abs(d["crosstalk_pig"]["corr"]) > 0.7

@@ -29,7 +29,7 @@ from ..parameters import ParameterSet
 from ..results import Motion
 from ..strict_json import jsonable
 from ..subject import Subject
-from .axes import widths
+from .axes import knee_crosstalk, widths
 from .fit import Fit
 from .identifiability import Identifiability
 from .lm import LMSettings, Performance, Tolerances
@@ -147,6 +147,8 @@ def _described(
         observable_std=settings.observable_std,
         theta=result.theta,
     )
+    knee_crosstalk(pset, result.theta, result.qpos, [t.markers for t in trials],
+                   solved.weighting.get("joint_axes") or {})  # fmt: skip
     report.update(fit_report(solved, trials, settings, recipe, idf))
     if solved.t10_prior is not None and solved.t10_prior.finding is not None:
         add_finding(report, solved.t10_prior.finding)

@@ -27,7 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from ..clinical.geometry import chord, unit
+from .. import rolling
+from ..clinical.geometry import cardan_yxz, chord, frame_zy, relative, unit
 from ..parameters import ParameterSet
 from .anatomy import PIG_AXIS_WANDS, wand_width
 from .priors import LinearGaussianPrior
@@ -141,18 +142,80 @@ def pig_angle(pset: ParameterSet, theta: np.ndarray, wand: str, marker: str, joi
     return float(sign * np.degrees(np.arccos(cos)))
 
 
+#: Knee flexion range [deg] (5th to 95th percentile) below which no crosstalk is reported.
+CROSSTALK_MIN_RANGE = 20.0
+
+
+def knee_crosstalk(
+    pset: ParameterSet,
+    theta: np.ndarray,
+    qpos: Sequence[np.ndarray],
+    markers: Sequence[np.ndarray],
+    decisions: Mapping[str, dict[str, Any]],
+) -> None:
+    """Add each knee's varus-valgus / flexion crosstalk to ``decisions`` (in place): the
+    Pearson correlation and the regression slope [deg/deg] of varus-valgus on flexion over
+    the frames (qpos (T_i, nq) and markers (T_i, M, 3) [m] per trial, pooled), for the
+    identified axis (``crosstalk_model``) and for Plug-in Gait's (``crosstalk_pig``: the
+    chord construction in every frame from the measured wand and knee markers and the
+    identified hip centre), the femur's frame from that axis and the hip and knee centres,
+    the tibia's from the identified knee and ankle centres and shank (Plug-in Gait's Cardan
+    sequence, :func:`~mocap_mj.clinical.geometry.cardan_yxz`). A well-placed flexion axis
+    shows little. Knees that flex less than :data:`CROSSTALK_MIN_RANGE` get None."""
+    knees = {j: d for j, d in decisions.items() if j.startswith("knee")}
+    if not knees:
+        return
+    model = pset.model_for(theta)
+    q = np.concatenate([np.asarray(x, dtype=float) for x in qpos])
+    mk = np.concatenate([np.asarray(x, dtype=float) for x in markers])
+    xpos = np.full((len(q), model.nbody, 3), np.nan)
+    xmat = np.full((len(q), model.nbody, 3, 3), np.nan)
+    for t, data in rolling.posed(model, q):
+        xpos[t], xmat[t] = data.xpos, data.xmat.reshape(-1, 3, 3)
+    offsets = pset.split(theta)[1]
+    for joint, d in knees.items():
+        side = joint[-2:]
+        thigh, shank, foot = (model.body(b + side).id for b in ("thigh", "shank", "foot"))
+        hip, knee, ankle = xpos[:, thigh], xpos[:, shank], xpos[:, foot]
+        centre = pset.body_pos(theta)[shank]
+        delta = float(np.linalg.norm(offsets[pset.marker_index(d["marker"])] - centre))
+        wand, kne = (mk[:, pset.marker_index(n)] for n in (d["wand"], d["marker"]))
+        lat = 1.0 if side == "_l" else -1.0
+        pig_y = lat * unit(kne - chord(wand, hip, kne, delta))
+        tibia = frame_zy(knee - ankle, xmat[:, shank, :, 1])
+        for key, y in (("crosstalk_model", xmat[:, thigh, :, 1]), ("crosstalk_pig", pig_y)):
+            angles = np.degrees(cardan_yxz(relative(frame_zy(hip - knee, y), tibia)))
+            d[key] = _slope(angles[:, 0], angles[:, 1])
+
+
+def _slope(flexion: np.ndarray, varus: np.ndarray) -> dict[str, float] | None:
+    """Correlation and slope [deg/deg] of ``varus`` on ``flexion`` (T,) [deg] over finite
+    frames; None when flexion spans less than :data:`CROSSTALK_MIN_RANGE`."""
+    ok = np.isfinite(flexion) & np.isfinite(varus)
+    f, v = flexion[ok], varus[ok]
+    if len(f) < 3 or np.ptp(np.percentile(f, [5, 95])) < CROSSTALK_MIN_RANGE:
+        return None
+    return {"corr": float(np.corrcoef(f, v)[0, 1]), "slope": float(np.polyfit(f, v, 1)[0])}
+
+
 def report_lines(decisions: Mapping[str, Mapping[str, Any]]) -> list[str]:
     """report.md's lines on the flexion axes (empty without decisions)."""
     if not decisions:
         return []
     lines = [
-        "| joint | axis from | data sd (deg) | row sd (deg) | angle to Plug-in Gait's (deg) |",
-        "|---|---|---|---|---|",
+        "| joint | axis from | data sd (deg) | row sd (deg) | angle to Plug-in Gait's (deg) "
+        "| varus on flexion: this axis | Plug-in Gait's |",
+        "|---|---|---|---|---|---|---|",
     ]
     for joint, d in decisions.items():
         src = "Plug-in Gait (chord plane)" if d["source"] == "plug-in-gait" else "the motion"
         lines.append(
             f"| {joint} | {src} | {d['data_sd_deg']:.1f} | {d['row_sd_deg']:.1f} | "
-            f"{d['angle_to_pig_deg']:+.1f} |"
+            f"{d['angle_to_pig_deg']:+.1f} | {_crosstalk_text(d.get('crosstalk_model'))} | "
+            f"{_crosstalk_text(d.get('crosstalk_pig'))} |"
         )
     return lines
+
+
+def _crosstalk_text(c: Mapping[str, float] | None) -> str:
+    return "-" if not c else f"r {c['corr']:+.2f}, slope {c['slope']:+.2f}"
