@@ -6,7 +6,9 @@ RESULTS holds one ``mocap-mj identify`` folder per trial, named as the trial
 (``benchmarks/real_data.py --out RESULTS`` writes them). For each trial whose file carries
 Vicon's Plug-in Gait segment points (LFEP/LFEO hip and knee, LTIO ankle, LCLO shoulder,
 LHUO elbow, LRAO wrist, and the right side's): the median over frames of the distance
-between our centre (``joint_centres.csv``) and Vicon's; the distances from each shoulder
+between our centre (``joint_centres.csv``) and Vicon's, and its components in Vicon's
+segment frame; our flexion axes (summary.json ``joint_axes``) with their varus-valgus /
+flexion crosstalk beside Nexus's own (its KneeAngles); the distances from each shoulder
 centre to CLAV and C7, ours and Vicon's; Vicon's own segment lengths (median over frames).
 Prints mm; reads the files only.
 """
@@ -15,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 from pathlib import Path
 
 import ezc3d
@@ -83,6 +86,7 @@ def compare(c3d: Path, result: Path) -> list[str]:
             if p + a in labels and p + b in labels:
                 lengths.append(f"{name}_{side} {_median_distance(at(p + a), at(p + b)):.1f}")
     lines = [f"{c3d.stem}: median |ours - Vicon's| mm: {', '.join(gaps) or 'no Vicon output'}"]
+    lines += _axis_lines(result, labels, xyz)
     if parts:
         lines.append(f"  ours - Vicon's in Vicon's segment frame (anterior/lateral-y/"
                      f"proximal), mm: {', '.join(parts)}")  # fmt: skip
@@ -91,6 +95,32 @@ def compare(c3d: Path, result: Path) -> list[str]:
     if lengths:
         lines.append(f"  Vicon's segment lengths, mm: {', '.join(lengths)}")
     return lines
+
+
+def _axis_lines(result: Path, labels: list[str], xyz: np.ndarray) -> list[str]:
+    """Our flexion axes (summary.json ``joint_axes``: source, angle to Plug-in Gait's axis,
+    varus-valgus on flexion with ours and with the chord plane's) and Nexus's own knee
+    crosstalk (its ``LKneeAngles`` varus on flexion over the file's frames)."""
+    axes = json.loads((result / "summary.json").read_text()).get("joint_axes") or {}
+    out = []
+    for joint, d in axes.items():
+        text = (
+            f"  {joint}: axis from {d['source']}, {d['angle_to_pig_deg']:+.1f} deg to the chord's"
+        )
+        for key, who in (("crosstalk_model", "ours"), ("crosstalk_pig", "chord")):
+            c = d.get(key)
+            if c:
+                text += f"; varus on flexion ({who}) r {c['corr']:+.2f} slope {c['slope']:+.2f}"
+        code = f"{joint[-1].upper()}KneeAngles"
+        if joint.startswith("knee") and code in labels:
+            a = xyz[:, labels.index(code)]
+            ok = np.all(np.isfinite(a[:, :2]), axis=1)
+            if np.ptp(a[ok, 0]) > 20:
+                r = np.corrcoef(a[ok, 0], a[ok, 1])[0, 1]
+                slope = np.polyfit(a[ok, 0], a[ok, 1], 1)[0]
+                text += f"; Nexus's {code} r {r:+.2f} slope {slope:+.2f}"
+        out.append(text)
+    return out
 
 
 def main() -> None:
