@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Sequence
 from typing import Any
 
 from ..errors import MocapError
+from ..landmarks import disagreements, measured_widths
+from ..marker_set import load_marker_set
 from ..subject import Subject, from_c3d, from_values, from_yaml
 
 #: Flag -> measurement base name; sided ones take one value (both sides) or two (left right).
@@ -124,3 +127,28 @@ def subject_from_args(args: argparse.Namespace, c3d_paths: Sequence[str]) -> Sub
         left, right = values[0], values[-1]
         pairs += [(f"{name}_l", left * 1e-3), (f"{name}_r", right * 1e-3)]
     return subject.update(from_values(pairs, "command line"))
+
+
+def with_measured_widths(
+    args: argparse.Namespace, names: Sequence[str], trials: Sequence[Any], subject: Subject
+) -> Subject:
+    """``subject`` with the joint widths that ``--marker-set``'s landmark pairs measure in
+    ``trials`` (each with ``markers`` (T, M, 3) [m] in the order ``names``) where none is
+    given (:func:`mocap_mj.landmarks.measured_widths`); a given width that differs by more
+    than 10 mm is kept and warned about on stderr."""
+    path = getattr(args, "marker_set", None)
+    if not path:
+        return subject
+    marker_set = load_marker_set(path)
+    landmarks = {m.name: m.landmark for m in marker_set.markers if m.landmark}
+    bodies = {m.name: m.body for m in marker_set.markers}
+    found = measured_widths(
+        landmarks, bodies, list(names), [t.markers for t in trials], 2 * subject.marker_radius
+    )
+    given = {m.name: v for m in found if (v := subject.get(m.name)) is not None}
+    for line in disagreements(found, given):
+        print(f"mocap-mj {args.command}: warning: {line}", file=sys.stderr)
+    for m in found:
+        if m.name not in given:
+            subject.set(m.name, m.value, m.source)
+    return subject

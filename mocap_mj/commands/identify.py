@@ -50,7 +50,7 @@ from ._quality import (
     quality_text,
     without_ghosts,
 )
-from ._subject import add_subject_options, subject_from_args
+from ._subject import add_subject_options, subject_from_args, with_measured_widths
 
 
 def register(sub: Any) -> None:
@@ -218,6 +218,7 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
         with output_folder(args.out, force=args.force) as out:
             return run_paper(args, pset, trials, ranges, out)
     subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
+    subject = with_measured_widths(args, pset.marker_names, trials, subject)
     recipe = recipe_from_args(args)
     count = select_count(recipe.select, sum(len(t.markers) for t in trials), len(trials))
     found, quality = check_trials(args, pset, to_check, excluded)  # after every bad-input error
