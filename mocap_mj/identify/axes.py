@@ -13,7 +13,7 @@ direction: the standard deviation of ``a_r . theta`` from the reduced informatio
 markers and every other prior (the row's own information taken out), with the markers
 weighed at the artefact's noise as the priors are (:mod:`mocap_mj.identify.pipeline`). Where
 it exceeds the row's width the recording cannot determine the axis: the axis is Plug-in
-Gait's, the row then held at :data:`SIGMA_PIG_AXIS` (the construction itself); otherwise the
+Gait's, the row then held at :data:`SIGMA_PIG_AXIS` (the construction's own spread); otherwise the
 axis is functional and the row is left out, so the motion alone places it. Each decision is
 reported (summary.json ``joint_axes``, report.md) with both standard deviations in degrees
 and, for a functional axis, its angle to Plug-in Gait's chord-plane axis in the identified
@@ -33,9 +33,11 @@ from ..parameters import ParameterSet
 from .anatomy import PIG_AXIS_WANDS, wand_width
 from .priors import LinearGaussianPrior
 
-#: Width [deg] of the chord-plane row where Plug-in Gait's construction places the axis:
-#: the construction itself (the wand's own placement is the subject's, as in Plug-in Gait).
-SIGMA_PIG_AXIS = 0.5
+#: Width [deg] of the chord-plane row where Plug-in Gait's construction places the axis: the
+#: construction's own spread for a given wand (the wand and lateral markers fitted to about
+#: 1 mm over the 50-60 mm between the wand and the hip-to-marker line). At 3 degrees the other
+#: priors turned a synthetic static subject's axis 6 degrees off its chord plane.
+SIGMA_PIG_AXIS = 1.0
 #: Wand prefix -> the joint its chord plane places, and that joint's child body.
 JOINT_OF = {"THI": ("knee", "shank"), "TIB": ("ankle", "foot")}
 
