@@ -41,8 +41,13 @@ def _solve(pset: ParameterSet, truth: np.ndarray, qpos: np.ndarray, seed: int) -
     rng = np.random.default_rng(seed)
     markers = kin.marker_positions(qpos) + rng.normal(0.0, 1e-3, (len(qpos), pset.n_markers, 3))
     trial = TrialData("axes", markers, np.arange(len(qpos)) / 100.0)
+    subject = Subject()
+    subject.set("height", 1.75, "test")  # the nominal model's: every prior centred on it
+    for side in "lr":  # the nominal model's widths (KNE 50 mm, ANK 40 mm lateral, r 7 mm)
+        subject.set(f"knee_width_{side}", 0.086, "test")
+        subject.set(f"ankle_width_{side}", 0.066, "test")
     return solve_anatomical([trial], pset=pset, theta0=None, settings=LMSettings(),
-                            subject=Subject())  # fmt: skip
+                            subject=subject)  # fmt: skip
 
 
 def test_pig_angle_follows_the_chord_plane(pset: ParameterSet) -> None:
@@ -59,8 +64,8 @@ def test_pig_angle_follows_the_chord_plane(pset: ParameterSet) -> None:
 
 def test_static_trial_takes_plug_in_gaits_axis(pset: ParameterSet) -> None:
     """A static trial (one pose, knees flexed 10 degrees) of a subject whose wands sit in
-    the chord plane: the data cannot place the knee axes, so the chord plane does (within
-    1 degree of the truth's axis), and the report says so."""
+    the chord plane: the data cannot place the knee axes, so the chord-plane row does
+    (within its width of the truth's axis), and the report says so."""
     kin = Kinematics(pset)
     q = smooth_motion(kin, 1, seed=2)[0]
     for j in ("knee_flex_l", "knee_flex_r"):
@@ -71,7 +76,7 @@ def test_static_trial_takes_plug_in_gaits_axis(pset: ParameterSet) -> None:
         d = weighting["joint_axes"][joint]
         assert d["source"] == "plug-in-gait", d
         assert d["data_sd_deg"] > d["row_sd_deg"]
-        assert abs(pig_angle(pset, result.theta, wand, marker, joint)) < 1.0
+        assert abs(pig_angle(pset, result.theta, wand, marker, joint)) < d["row_sd_deg"]
 
 
 def test_moving_trial_keeps_its_functional_axis(pset: ParameterSet) -> None:

@@ -166,9 +166,13 @@ TOE_ABOVE_MTP = 0.02
 SIGMA_FOOT_LENGTH, SIGMA_FOOT_HEIGHT = 0.007, 0.008
 
 #: Wand marker -> the lateral joint marker whose joint's flexion axis Plug-in Gait places
-#: in the plane of the wand (:func:`_pig_axis_row`): the thigh wand and the knee, the tibia
-#: wand and the ankle.
-PIG_AXIS_WANDS: dict[str, str] = {"THI": "KNE", "TIB": "ANK"}
+#: in the plane of the wand (:func:`_pig_axis_row`) and the measured width the construction
+#: needs (without it the row is left out: no Plug-in Gait axis without its width): the thigh
+#: wand and the knee, the tibia wand and the ankle.
+PIG_AXIS_WANDS: dict[str, tuple[str, str]] = {
+    "THI": ("KNE", "knee_width_"),
+    "TIB": ("ANK", "ankle_width_"),
+}
 #: Standard deviation [deg] of the flexion axis's turn about its segment's long axis where
 #: the chord plane places it (:func:`_pig_axis_row`): the plane turns with the wand, and a
 #: wand misplaced by a few degrees turns Plug-in Gait's axis by more (knee rotation and
@@ -578,9 +582,10 @@ def _limb_rows(
         rows.add({f"{m}.x": 1}, 0.0, sig, f"{m}.x = 0 (on the joint axis)")
         rows.add({f"{m}.z": 1, f"{length}_{side}": 1}, 0.0, sig, f"{m}.z = -{length}")
         _width_rows(rows, subject, side, m, width)
-    for wand, marker in PIG_AXIS_WANDS.items():
-        if p + wand not in rows.pset.marker_names or p + marker not in rows.pset.marker_names:
-            continue
+    for wand, (marker, width) in PIG_AXIS_WANDS.items():
+        names = rows.pset.marker_names
+        if p + wand not in names or p + marker not in names or subject.get(width + side) is None:
+            continue  # Plug-in Gait's chord needs the joint's measured width
         sigma = axis_widths.get(p + wand, wand_width(rows.pset, p + wand, p + marker))
         if sigma is not None:
             _pig_axis_row(rows, p + wand, p + marker, sigma)

@@ -13,8 +13,10 @@ direction: the standard deviation of ``a_r . theta`` from the reduced informatio
 markers and every other prior (the row's own information taken out), with the markers
 weighed at the artefact's noise as the priors are (:mod:`mocap_mj.identify.pipeline`). Where
 it exceeds the row's width the recording cannot determine the axis: the axis is Plug-in
-Gait's, the row then held at :data:`SIGMA_PIG_AXIS` (the construction's own spread); otherwise the
-axis is functional and the row is left out, so the motion alone places it. Each decision is
+Gait's, the row kept at :data:`SIGMA_PIG_AXIS`; otherwise the axis is functional and the row
+is left out, so the motion alone places it. A chord plane that the markers' own estimate
+contradicts (beyond :data:`CONFLICT_K` standard deviations of both) is taken for a misplaced
+wand and left out too. Each decision is
 reported (summary.json ``joint_axes``, report.md) with both standard deviations in degrees
 and, for a functional axis, its angle to Plug-in Gait's chord-plane axis in the identified
 model (:func:`pig_angle`).
@@ -30,14 +32,20 @@ import numpy as np
 from .. import rolling
 from ..clinical.geometry import cardan_yxz, chord, frame_zy, relative, unit
 from ..parameters import ParameterSet
-from .anatomy import PIG_AXIS_WANDS, wand_width
+from .anatomy import PIG_AXIS_WANDS, SIGMA_WAND_ANGLE, wand_width
 from .priors import LinearGaussianPrior
 
 #: Width [deg] of the chord-plane row where Plug-in Gait's construction places the axis: the
-#: construction's own spread for a given wand (the wand and lateral markers fitted to about
-#: 1 mm over the 50-60 mm between the wand and the hip-to-marker line). At 3 degrees the other
-#: priors turned a synthetic static subject's axis 6 degrees off its chord plane.
-SIGMA_PIG_AXIS = 1.0
+#: wand's own (:data:`~mocap_mj.identify.anatomy.SIGMA_WAND_ANGLE`). Held tighter (1-3
+#: degrees) it turned the shared static trials' knees to their extension and rotation limits
+#: (Nexus's own knee angles there: 4-6 degrees of hyperextension, 8-25 of rotation) and moved
+#: a hip centre 1.2 standard deviations from Harrington's row.
+SIGMA_PIG_AXIS = SIGMA_WAND_ANGLE
+#: The markers and the chord plane conflict when the markers' own estimate of the row's
+#: residual lies beyond this many standard deviations of the two combined: the wand is then
+#: taken as misplaced and the axis left to the markers (a functional axis, reported with
+#: ``conflict``).
+CONFLICT_K = 2.0
 #: Wand prefix -> the joint its chord plane places, and that joint's child body.
 JOINT_OF = {"THI": ("knee", "shank"), "TIB": ("ankle", "foot")}
 
@@ -46,7 +54,7 @@ def wands(pset: ParameterSet) -> list[tuple[str, str, str, str]]:
     """(wand, lateral marker, joint, side) of every chord plane ``pset`` has markers for."""
     out = []
     for side, p in (("l", "L"), ("r", "R")):
-        for wand, marker in PIG_AXIS_WANDS.items():
+        for wand, (marker, _) in PIG_AXIS_WANDS.items():
             if p + wand in pset.marker_names and p + marker in pset.marker_names:
                 out.append((p + wand, p + marker, f"{JOINT_OF[wand][0]}_{side}", side))
     return out
@@ -98,13 +106,19 @@ def axis_decisions(
         sub = without[np.ix_(free, free)]
         var = float(a[free] @ np.linalg.lstsq(sub, a[free], rcond=None)[0]) * noise**2
         sd = float(np.sqrt(max(var, 0.0)))
+        # The markers' own estimate of the row's residual, from the solve with the row:
+        # a precision-weighted mean of it and the row's 0.
+        data = float(a @ theta) * (1.0 + (sd / sigma) ** 2)
+        conflict = abs(data) > CONFLICT_K * float(np.hypot(sd, sigma))
         out[joint] = {
             "joint": joint,
             "wand": wand,
             "marker": marker,
-            "source": "plug-in-gait" if sd > sigma else "functional",
+            "source": "plug-in-gait" if sd > sigma and not conflict else "functional",
+            "conflict": conflict,
             "data_sd_deg": _degrees(sd, pset, wand, marker),
             "row_sd_deg": _degrees(sigma, pset, wand, marker),
+            "data_angle_deg": _degrees(data, pset, wand, marker),
             "angle_to_pig_deg": pig_angle(pset, theta, wand, marker, joint),
         }
     return out
