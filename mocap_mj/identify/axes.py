@@ -87,9 +87,10 @@ def axis_decisions(
     ``information`` (P, P): the markers' reduced information (unit weights) at ``theta``
     (P,) [m]; ``priors``: the landmark priors with their chord-plane rows, ``weak`` the weak
     prior toward the initial model; ``noise`` [m]: the marker noise the priors are weighed
-    against. Returns ``source`` ("plug-in-gait" or "functional"), ``data_sd_deg`` (the
-    direction's standard deviation without the row), ``row_sd_deg`` and
-    ``angle_to_pig_deg`` (:func:`pig_angle` at ``theta``).
+    against. Returns ``source`` ("plug-in-gait" or "functional"), ``conflict`` (the markers
+    contradict the chord plane, :data:`CONFLICT_K`), ``data_sd_deg`` (the direction's
+    standard deviation without the row), ``row_sd_deg`` and ``angle_to_pig_deg``
+    (:func:`pig_angle` at ``theta``).
     """
     weighed = [p.with_noise(noise) for p in priors]
     hess = np.asarray(information, dtype=float) + weak.hessian()
@@ -118,7 +119,6 @@ def axis_decisions(
             "conflict": conflict,
             "data_sd_deg": _degrees(sd, pset, wand, marker),
             "row_sd_deg": _degrees(sigma, pset, wand, marker),
-            "data_angle_deg": _degrees(data, pset, wand, marker),
             "angle_to_pig_deg": pig_angle(pset, theta, wand, marker, joint),
         }
     return out
@@ -224,7 +224,9 @@ def report_lines(decisions: Mapping[str, Mapping[str, Any]]) -> list[str]:
         "|---|---|---|---|---|---|---|",
     ]
     for joint, d in decisions.items():
-        src = "Plug-in Gait (chord plane)" if d["source"] == "plug-in-gait" else "the motion"
+        src = "Plug-in Gait (chord plane)" if d["source"] == "plug-in-gait" else "the markers"
+        if d.get("conflict"):
+            src += " (they contradict the chord plane)"
         lines.append(
             f"| {joint} | {src} | {d['data_sd_deg']:.1f} | {d['row_sd_deg']:.1f} | "
             f"{d['angle_to_pig_deg']:+.1f} | {_crosstalk_text(d.get('crosstalk_model'))} | "

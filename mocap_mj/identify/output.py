@@ -283,7 +283,9 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
     if axes:
         lines += ["", "Flexion axes (docs/model.md#flexion-axes): Plug-in Gait's chord plane "
                   "where the data determine the axis less well than the wand does (data sd "
-                  "above the row's), else the motion's:", "", *axis_lines(axes), ""]  # fmt: skip
+                  "above the row's) and do not contradict it, else the markers'; varus-valgus "
+                  "on flexion over the frames as correlation and slope (deg/deg):", "",
+                  *axis_lines(axes), ""]  # fmt: skip
     bound = summary.get("kappa_at_bound", {})
     lines.append(
         "- parameters at a bound of their anatomical range: "
