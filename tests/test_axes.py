@@ -9,8 +9,9 @@ from _motion import smooth_motion
 
 from mocap_mj import Kinematics, MocapError, ParameterSet
 from mocap_mj.identify import LMSettings, TrialData
-from mocap_mj.identify.anatomy import landmark_prior, wand_width
+from mocap_mj.identify.anatomy import landmark_prior
 from mocap_mj.identify.axes import knee_crosstalk, pig_angle
+from mocap_mj.identify.axis_rows import wand_width
 from mocap_mj.identify.pipeline import solve_anatomical
 from mocap_mj.identify.recipe import Recipe
 from mocap_mj.subject import Measurement, Subject

@@ -99,3 +99,25 @@ def test_measured_width_puts_the_knee_centre_between_the_epicondyles(medial: tup
         ])  # fmt: skip
     assert max(gaps[0]) < 0.001, gaps
     assert max(gaps[1]) > max(0.002, 3 * max(gaps[0])), gaps
+
+
+def test_epicondyle_pair_places_the_knee_centre_at_its_midpoint(medial: tuple) -> None:
+    """With the set's landmarks (the pair's rows: the centre at the epicondyles' midpoint,
+    in place of Plug-in Gait's chord plane, which the measured widths would otherwise
+    build), a wide-kneed subject's static trial puts each knee centre within 1.5 mm of the
+    midpoint of its fitted epicondyle markers, in every direction."""
+    pset, landmarks, _ = medial
+    _, trial = _subject_trial(pset, static=True)
+    subject = Subject()
+    for side in "lr":
+        subject.set(f"knee_width_{side}", 2 * HALF - 0.014, "test")
+        subject.set(f"ankle_width_{side}", 0.08 - 0.014, "test")
+    result, weighting = solve_anatomical([trial], pset=pset, theta0=None,
+                                         settings=LMSettings(), subject=subject,
+                                         landmarks=landmarks)  # fmt: skip
+    assert not weighting.get("joint_axes")  # the pairs give the knee and ankle axes
+    offsets, centres = pset.split(result.theta)[1], pset.body_pos(result.theta)
+    for side, p in (("l", "L"), ("r", "R")):
+        mid = 0.5 * sum(offsets[pset.marker_index(p + n)] for n in ("KNE", "KNEM"))
+        gap = np.linalg.norm(centres[pset.model.body(f"shank_{side}").id] - mid)
+        assert gap < 0.0015, (side, gap)

@@ -136,12 +136,9 @@ def with_measured_widths(
     ``trials`` (each with ``markers`` (T, M, 3) [m] in the order ``names``) where none is
     given (:func:`mocap_mj.landmarks.measured_widths`); a given width that differs by more
     than 10 mm is kept and warned about on stderr."""
-    path = getattr(args, "marker_set", None)
-    if not path:
+    landmarks, bodies = set_landmarks(args)
+    if not landmarks:
         return subject
-    marker_set = load_marker_set(path)
-    landmarks = {m.name: m.landmark for m in marker_set.markers if m.landmark}
-    bodies = {m.name: m.body for m in marker_set.markers}
     found = measured_widths(
         landmarks, bodies, list(names), [t.markers for t in trials], 2 * subject.marker_radius
     )
@@ -152,3 +149,14 @@ def with_measured_widths(
         if m.name not in given:
             subject.set(m.name, m.value, m.source)
     return subject
+
+
+def set_landmarks(args: argparse.Namespace) -> tuple[dict[str, str], dict[str, str]]:
+    """``--marker-set``'s landmarks (marker -> landmark) and bodies (marker -> body); empty
+    without the flag."""
+    path = getattr(args, "marker_set", None)
+    if not path:
+        return {}, {}
+    marker_set = load_marker_set(path)
+    landmarks = {m.name: m.landmark for m in marker_set.markers if m.landmark}
+    return landmarks, {m.name: m.body for m in marker_set.markers}

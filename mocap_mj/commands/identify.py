@@ -50,7 +50,12 @@ from ._quality import (
     quality_text,
     without_ghosts,
 )
-from ._subject import add_subject_options, subject_from_args, with_measured_widths
+from ._subject import (
+    add_subject_options,
+    set_landmarks,
+    subject_from_args,
+    with_measured_widths,
+)
 
 
 def register(sub: Any) -> None:
@@ -325,6 +330,7 @@ def _identify(
             progress=progress,
             motion_progress=motion_progress,
             motion_sink=Path(sink),
+            landmarks=set_landmarks(args)[0],
         )
         inputs = {"markers_files": [t.path for t in loaded], "read_seconds": read_seconds}
         summary = write_result(fit, out, inputs=inputs, force=True)

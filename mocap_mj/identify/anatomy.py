@@ -120,6 +120,14 @@ import numpy as np
 
 from ..parameters import ParameterSet
 from ..subject import Subject
+from .axis_rows import (
+    PIG_AXIS_WANDS,
+    medial_pairs,
+    medial_rows,
+    nominal_offset,
+    pig_axis_row,
+    wand_width,
+)
 from .hips import davis_rows
 from .priors import LinearGaussianPrior
 from .ranges import NOMINAL_HEIGHT
@@ -164,22 +172,6 @@ TOE_ABOVE_MTP = 0.02
 #: the heel, ANSUR II) and ``foot_height`` (the ankle centre 0.039 H above the sole, the
 #: metatarsal head's centre 20-25 mm above it: the head's radius and the plantar pad).
 SIGMA_FOOT_LENGTH, SIGMA_FOOT_HEIGHT = 0.007, 0.008
-
-#: Wand marker -> the lateral joint marker whose joint's flexion axis Plug-in Gait places
-#: in the plane of the wand (:func:`_pig_axis_row`) and the measured width the construction
-#: needs (without it the row is left out: no Plug-in Gait axis without its width): the thigh
-#: wand and the knee, the tibia wand and the ankle.
-PIG_AXIS_WANDS: dict[str, tuple[str, str]] = {
-    "THI": ("KNE", "knee_width_"),
-    "TIB": ("ANK", "ankle_width_"),
-}
-#: Standard deviation [deg] of the flexion axis's turn about its segment's long axis where
-#: the chord plane places it (:func:`_pig_axis_row`): the plane turns with the wand, and a
-#: wand misplaced by a few degrees turns Plug-in Gait's axis by more (knee rotation and
-#: varus-valgus are the least repeatable of its angles on retest: McGinley et al.
-#: 2009). On the shared Vicon trials the data placed the knee axis to 10-11 degrees in a
-#: static trial and 6 in a jump (where imposing the chord plane raised the RMSE by half).
-SIGMA_WAND_ANGLE = 8.0
 
 #: Joint width (measurement, side removed) -> (kinematic parameter, width / parameter): the
 #: regression used when the width is not measured, from the nominal model (Plug-in Gait
@@ -299,6 +291,7 @@ def landmark_prior(
     t10: T10Placement | None = None,
     hip_centre: str = "harrington",
     axis_widths: Mapping[str, float | None] | None = None,
+    landmarks: Mapping[str, str] | None = None,
 ) -> LinearGaussianPrior:
     """The landmark rows of every Plug-in Gait marker the model has (module docstring).
 
@@ -313,6 +306,8 @@ def landmark_prior(
     ``axis_widths``: wand marker (``LTHI``...) -> the width [m] of its chord-plane row
     (:func:`_pig_axis_row`), None to leave the row out (the axis functional); wands not
     named keep :data:`SIGMA_WAND_ANGLE` (:mod:`mocap_mj.identify.axes` decides).
+    ``landmarks``: marker -> landmark (:mod:`mocap_mj.landmarks`): a medial epicondyle or
+    malleolus gets :func:`_medial_rows`, and its joint no chord-plane row.
     """
     subject = subject or Subject()
     stature = subject.stature()
@@ -322,7 +317,14 @@ def landmark_prior(
     _trunk_rows(rows, s, t10)
     for side, p in (("l", "L"), ("r", "R")):
         _shoulder_rows(rows, pset, subject, side, p, s)
-        _limb_rows(rows, subject, side, p, s, axis_widths or {})
+        pairs = medial_pairs(rows.pset, landmarks or {}, p)
+        widths = dict(axis_widths or {})
+        for lateral in pairs:  # the pair gives the axis: no chord plane
+            widths.update({p + w: None for w, (m, _) in PIG_AXIS_WANDS.items() if p + m == lateral})
+        _limb_rows(rows, subject, side, p, s, widths)
+        for lateral, medial in pairs.items():
+            for row in medial_rows(side, lateral, medial, SIGMA_CONVENTION, SIGMA_MEASURED):
+                rows.add(*row)
         _alignment_rows(rows, side, s)
         _hand_rows(rows, subject, side, p, s)
         _foot_rows(rows, side, p, s)
@@ -502,15 +504,10 @@ def _depth_without_t10(rows: _Rows, s: float) -> None:
                  f"thorax tilt (no T10): neck_depth = {ratio:.3f} thorax_length")  # fmt: skip
 
 
-def _nominal_offset(pset: ParameterSet, marker: str) -> np.ndarray:
-    """The nominal model's offset (3,) [m] of ``marker`` in its body's frame."""
-    return pset.split(pset.nominal)[1][pset.marker_index(marker)]
-
-
 def _nominal_fractions(pset: ParameterSet, v_from: str, v_to: str) -> tuple[float, float, float]:
     """(along, up, length [m]): the nominal thorax origin as ``v_from + along d + up R90 d``,
     d = ``v_to - v_from`` in the sagittal (x, z) plane (:func:`_rotated`), and |d|."""
-    a, b = (_nominal_offset(pset, m) for m in (v_from, v_to))
+    a, b = (nominal_offset(pset, m) for m in (v_from, v_to))
     dx, dz = b[0] - a[0], b[2] - a[2]
     # origin - a = along (dx, dz) + up (-dz, dx)
     along, up = np.linalg.solve(np.array([[dx, -dz], [dz, dx]]), -np.array([a[0], a[2]]))
@@ -524,7 +521,7 @@ def _t10_carried(pset: ParameterSet, shift: float) -> dict[str, float]:
     names = pset.marker_names
     if not shift or "C7" not in names or "T10" not in names:
         return {"x": 0.0, "z": 0.0}
-    c7, t10 = (_nominal_offset(pset, m) for m in ("C7", "T10"))
+    c7, t10 = (nominal_offset(pset, m) for m in ("C7", "T10"))
     u = (t10 - c7) / np.linalg.norm(t10 - c7)
     # _rotated(C7, T10, along, up): x = along dx - up dz, z = along dz + up dx; plus T10 itself.
     return {
@@ -588,7 +585,7 @@ def _limb_rows(
             continue  # Plug-in Gait's chord needs the joint's measured width
         sigma = axis_widths.get(p + wand, wand_width(rows.pset, p + wand, p + marker))
         if sigma is not None:
-            _pig_axis_row(rows, p + wand, p + marker, sigma)
+            rows.add(*pig_axis_row(rows.pset, p + wand, p + marker, sigma))
     # Wrist bar on the dorsum: Plug-in Gait puts the wrist centre wrist_width/2 + r
     # anterior (palm side) of the WRA-WRB midpoint, perpendicular to the bar.
     wra, wrb = p + "WRA", p + "WRB"
@@ -606,37 +603,6 @@ def _limb_rows(
     leg = subject.get(f"leg_length_{side}")
     if leg is not None:
         _leg_length_row(rows, subject, side, p, leg, s)
-
-
-def wand_width(
-    pset: ParameterSet, wand: str, marker: str, angle: float = SIGMA_WAND_ANGLE
-) -> float:
-    """The width [m] of ``wand``'s chord-plane row for a turn of the flexion axis by
-    ``angle`` [deg] about the segment's long axis: the plane through the origin, the marker
-    ``k`` and the wand ``t`` (nominal offsets) turns its horizontal line by ``dx |k.z| /
-    |k.y t.z - k.z t.y|`` [rad] for a wand moved by ``dx`` (the row's residual)."""
-    k, t = _nominal_offset(pset, marker), _nominal_offset(pset, wand)
-    return float(np.tan(np.radians(angle)) * abs(k[1] * t[2] - k[2] * t[1]) / abs(k[2]))
-
-
-def _pig_axis_row(rows: _Rows, wand: str, marker: str, sigma: float) -> None:
-    """Plug-in Gait's chord plane: the joint centre in the plane of the proximal joint
-    centre, the wand and the joint's lateral marker (THI and KNE for the knee, TIB and ANK
-    for the ankle), so that the flexion axis (the segment frame's y) lies in the plane of
-    the wand and the marker about the segment's long axis.
-
-    In the segment frame (origin the proximal joint centre, the joint centre on its z axis)
-    the condition ``centre . (marker x wand) = 0`` is ``wand.x marker.y = marker.x
-    wand.y``, linearised at the nominal offsets' y (``wand.x - (wand.y0 / marker.y0)
-    marker.x = 0``), width ``sigma`` [m] (:func:`wand_width`: the wand's turn about the
-    segment's axis, :data:`SIGMA_WAND_ANGLE` before :mod:`mocap_mj.identify.axes` decides
-    whether the motion or this row places the axis).
-    """
-    wy, my = (_nominal_offset(rows.pset, m)[1] for m in (wand, marker))
-    if abs(my) < 1e-6:
-        return
-    label = f"{wand} in the plane of the joint centre and {marker} (Plug-in Gait's chord)"
-    rows.add({f"{wand}.x": 1.0, f"{marker}.x": -wy / my}, 0.0, sigma, label)
 
 
 def _leg_length_row(rows: _Rows, subject: Subject, side: str, p: str, leg: float, s: float) -> None:

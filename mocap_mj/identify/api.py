@@ -11,7 +11,7 @@ written: :func:`mocap_mj.identify.output.write_result` writes a fit as a result 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -73,6 +73,7 @@ def identify(
     progress: ProgressCallback | None = None,
     motion_progress: Callable[[int], None] | None = None,
     motion_sink: Path | None = None,
+    landmarks: Mapping[str, str] | None = None,
 ) -> Fit:
     """Identify the subject's model and motion from ``trials`` (markers (T_i, M, 3) [m] in
     ``pset``'s marker order, NaN where missing; times (T_i,) [s]) as ``recipe`` says.
@@ -97,6 +98,9 @@ def identify(
         joint_centres*.csv; the memory then does not grow with the recording) and
         ``Fit.motion`` is None (``Fit.motion_files`` names the files). Default None: the
         motion is held in memory (poses (T, nq) per trial).
+    landmarks : marker -> the anatomical landmark it sits on (:mod:`mocap_mj.landmarks`, a
+        marker set's ``landmark:`` entries): epicondyle and malleolus pairs give their joint's
+        axis and centre (:func:`~mocap_mj.identify.anatomy.landmark_prior`). Default none.
 
     Returns
     -------
@@ -122,7 +126,9 @@ def identify(
         report["select_seconds"] = time.perf_counter() - t0
         report["frames_selected"] = kept
         whole = trials
-    solved = solve_trials(fitted, pset, settings, recipe, subject, theta0, progress, whole)
+    solved = solve_trials(
+        fitted, pset, settings, recipe, subject, theta0, progress, whole, landmarks=landmarks
+    )
     fit = _described(solved, fitted, settings, recipe, report, firsts)
     if whole is None:
         return fit
@@ -155,7 +161,8 @@ def _described(
     priors = (
         anatomical_priors(pset, solved.subject, size=solved.size, symmetric=solved.symmetric,
                           t10=solved.t10_prior, hip_centre=recipe.hip_centre,
-                          axes=widths(pset, solved.weighting.get("joint_axes")))
+                          axes=widths(pset, solved.weighting.get("joint_axes")),
+                          landmarks=solved.landmarks)
         if recipe.anatomy
         else []
     )  # fmt: skip

@@ -5,8 +5,8 @@ static trial or a joint that barely moves leaves it to the priors. Plug-in Gait 
 with the chord construction (:func:`mocap_mj.clinical.geometry.chord`): the joint centre in
 the plane of the proximal joint centre, the wand (THI, TIB) and the lateral marker (KNE,
 ANK). The landmark prior holds that plane as a row of width
-:data:`~mocap_mj.identify.anatomy.SIGMA_WAND_ANGLE` (5 degrees of the axis's turn,
-:func:`~mocap_mj.identify.anatomy._pig_axis_row`).
+:data:`~mocap_mj.identify.axis_rows.SIGMA_WAND_ANGLE` (5 degrees of the axis's turn,
+:func:`~mocap_mj.identify.axis_rows.pig_axis_row`).
 
 After the first solve, :func:`axis_decisions` measures what the data hold about each row's
 direction: the standard deviation of ``a_r . theta`` from the reduced information of the
@@ -32,11 +32,11 @@ import numpy as np
 from .. import rolling
 from ..clinical.geometry import cardan_yxz, chord, frame_zy, relative, unit
 from ..parameters import ParameterSet
-from .anatomy import PIG_AXIS_WANDS, SIGMA_WAND_ANGLE, wand_width
+from .axis_rows import PIG_AXIS_WANDS, SIGMA_WAND_ANGLE, wand_width
 from .priors import LinearGaussianPrior
 
 #: Width [deg] of the chord-plane row where Plug-in Gait's construction places the axis: the
-#: wand's own (:data:`~mocap_mj.identify.anatomy.SIGMA_WAND_ANGLE`). Held tighter (1-3
+#: wand's own (:data:`~mocap_mj.identify.axis_rows.SIGMA_WAND_ANGLE`). Held tighter (1-3
 #: degrees) it turned the shared static trials' knees to their extension and rotation limits
 #: (Nexus's own knee angles there: 4-6 degrees of hyperextension, 8-25 of rotation) and moved
 #: a hip centre 1.2 standard deviations from Harrington's row.

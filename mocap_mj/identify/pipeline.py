@@ -7,7 +7,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from functools import partial
 from typing import Any, NamedTuple
 
@@ -67,6 +67,7 @@ class Solved(NamedTuple):
     missing: Unmeasured
     seconds: float
     log: list[str]
+    landmarks: Mapping[str, str] | None = None
 
     @property
     def t10_prior(self) -> T10Placement | None:
@@ -83,6 +84,7 @@ def solve_trials(
     theta0: np.ndarray | None,
     progress: ProgressCallback | None,
     whole: Sequence[TrialData] | None = None,
+    landmarks: Mapping[str, str] | None = None,
 ) -> Solved:
     """The joint LM on ``trials`` as ``recipe`` says: the parameters the data do not measure
     frozen (:func:`~mocap_mj.identify.partial.freeze_unmeasured`), trials with fewer marker
@@ -110,6 +112,7 @@ def solve_trials(
         "symmetric": ASYMMETRY_SIGMA if symmetric is None and recipe.asymmetry_prior else symmetric,
         "t10": t10 if t10 is not None and t10.finding is not None else None,
         "hip_centre": recipe.hip_centre,
+        "landmarks": landmarks,
     }
     with captured_log() as log:
         result, weighting = _solve(
@@ -132,7 +135,7 @@ def solve_trials(
     return Solved(
         pset, result, weighting, refined, sliding, slides, subject, options["size"],
         options["symmetric"], t10, ranges, init_used, scales, missing,
-        time.perf_counter() - t0, log,
+        time.perf_counter() - t0, log, landmarks,
     )  # fmt: skip
 
 
@@ -151,6 +154,7 @@ def refine_on_every_frame(
     slides: dict[str, Slide] | None = None,
     t10: T10Placement | None = None,
     hip_centre: str = "harrington",
+    landmarks: Mapping[str, str] | None = None,
 ) -> tuple[IdentificationResult, dict[str, Any]]:
     """The identification on ``trials`` (frames selected from ``motion_trials``) refined on
     every frame of ``motion_trials`` (:func:`mocap_mj.identify.long.refine`) with the priors
@@ -174,7 +178,8 @@ def refine_on_every_frame(
     if anatomical:
         priors += anatomical_priors(
             pset, subject, size=size, symmetric=symmetric, noise=noise, t10=t10,
-            hip_centre=hip_centre, axes=widths(pset, weighting.get("joint_axes")),
+            hip_centre=hip_centre, landmarks=landmarks,
+            axes=widths(pset, weighting.get("joint_axes")),
         )  # fmt: skip
         box = theta_bounds(pset, subject)
     qpos = [scratch_array((len(t.markers), pset.model.nq)) for t in motion_trials]
@@ -306,6 +311,7 @@ def _solve(
     t10: T10Placement | None = None,
     trial_weights: bool = True,
     hip_centre: str = "harrington",
+    landmarks: Mapping[str, str] | None = None,
 ) -> tuple[IdentificationResult, dict[str, Any]]:
     """The joint LM of :func:`solve_trials`: with ``anatomical`` through
     :func:`solve_anatomical` (ranges and landmark priors; ``symmetric`` [m] the left/right
@@ -326,6 +332,7 @@ def _solve(
             t10=t10,
             trial_weights=trial_weights,
             hip_centre=hip_centre,
+            landmarks=landmarks,
         )
     result = identify_lm(trials, pset=pset, theta0=theta0, settings=settings, progress=progress)
     return result, {}
@@ -375,17 +382,19 @@ def anatomical_priors(
     noise: float = 0.001,
     t10: T10Placement | None = None,
     hip_centre: str = "harrington",
+    landmarks: Mapping[str, str] | None = None,
     axes: dict[str, float | None] | None = None,
 ) -> list[LinearGaussianPrior]:
     """Landmark priors and, with ``symmetric`` [m], the left/right length prior; without the
     rows on ``pset``'s frozen parameters (:func:`~mocap_mj.identify.partial.on_measured`).
     ``t10``: a T10 found misplaced (:mod:`mocap_mj.identify.trunk`; default None: trusted),
-    widening the rows that hang on it; ``hip_centre`` and ``axes`` (the chord-plane rows'
-    widths, :func:`~mocap_mj.identify.axes.widths`): see
+    widening the rows that hang on it; ``hip_centre``, ``landmarks`` (marker -> landmark,
+    :mod:`mocap_mj.landmarks`) and ``axes`` (the chord-plane rows' widths,
+    :func:`~mocap_mj.identify.axes.widths`): see
     :func:`~mocap_mj.identify.anatomy.landmark_prior`."""
     priors = [
         landmark_prior(pset, subject, size=size, noise=noise, t10=t10, hip_centre=hip_centre,
-                       axis_widths=axes)
+                       axis_widths=axes, landmarks=landmarks)
     ]  # fmt: skip
     if symmetric is not None:
         priors.append(symmetric_prior(pset, symmetric, noise=noise))
@@ -420,6 +429,7 @@ def solve_anatomical(
     t10: T10Placement | None = None,
     trial_weights: bool = True,
     hip_centre: str = "harrington",
+    landmarks: Mapping[str, str] | None = None,
 ) -> tuple[IdentificationResult, dict[str, Any]]:
     """The joint LM with anatomical ranges as bounds and the anatomical priors
     (``t10``: see :func:`anatomical_priors`; ``trial_weights``: False weighs every trial 1).
@@ -446,7 +456,7 @@ def solve_anatomical(
     lower, upper = theta_bounds(pset, subject)
     priors = anatomical_priors(
         pset, subject, size=size, symmetric=symmetric, noise=settings.prior_noise,
-        t10=t10, hip_centre=hip_centre,
+        t10=t10, hip_centre=hip_centre, landmarks=landmarks,
     )  # fmt: skip
     start = pset.nominal if theta0 is None else theta0
     result = identify_lm(
@@ -470,7 +480,7 @@ def solve_anatomical(
         weighting["joint_axes"] = axes
         priors = anatomical_priors(
             pset, subject, size=size, symmetric=symmetric, noise=settings.prior_noise,
-            t10=t10, hip_centre=hip_centre, axes=widths(pset, axes),
+            t10=t10, hip_centre=hip_centre, landmarks=landmarks, axes=widths(pset, axes),
         )  # fmt: skip
     if not soft and all(w == 1.0 for w in per_trial) and not axes:
         weighting["noise_mm"] = settings.prior_noise * 1e3
