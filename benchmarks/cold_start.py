@@ -67,7 +67,7 @@ def run_demo(
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
     if prewarm is not None:
         env["MOCAP_MJ_PREWARM"] = prewarm
-    demo = ["demo", "--out", str(out), "--frames", str(frames), "--json"]
+    demo = ["demo", "--out", str(out), "--frame-count", str(frames), "--json"]
     cmd = [python, "-c", _LISTEN, *demo] if kernels else [python, "-m", "mocap_mj", *demo]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()

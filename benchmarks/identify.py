@@ -9,7 +9,7 @@ In one process on the synthetic ROM trial (`mocap_synth`, seed 0, 1 mm noise, se
    back to back in the same process: times (and the median process CPU time, the figure to
    compare under load), iterations, errors against the bound, and the
    difference of the final F in sigma^2 (the same minimum: well below 1);
-2. Algorithm 1 (this project's faithful implementation, `--solver paper`) with stochastic
+2. Algorithm 1 (this project's faithful implementation, `mocap_mj.identify.paper`) with stochastic
    and batch sampling on the same data, run for a time budget: the time it needs to reach
    the LM's parameter error (or how far it got), and the speed ratio;
 3. the LM at 500, 5,000 (and, with --large, 50,000; or --sizes) frames: seconds and peak

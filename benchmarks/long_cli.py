@@ -12,8 +12,8 @@ OpenSim TRC file (``save_trc``). Then it times, in a child process,
 
     mocap-mj identify --markers hour.c3d --out DIR --force --json
 
-with the defaults a user gets (``--select auto``: 1000 pose-diverse frames, the anatomical
-priors and ranges, the refinement on every frame, the IK of every frame written chunk by
+with the defaults a user gets (the recipe's ``select: auto``: 1000 pose-diverse frames, the
+anatomical priors and ranges, the refinement on every frame, the IK of every frame written chunk by
 chunk): wall time, the child's peak RSS (``/usr/bin/time``), and its stages from
 summary.json. Untimed, the accuracy: the identified theta (theta.json) against the cached
 truth, aligned and restricted to the observable directions as ``benchmarks/long.py`` does
@@ -94,9 +94,11 @@ def main() -> None:
     timer = (
         ["/usr/bin/time", "-f", "peak_kib %M cpu %U %S"] if Path("/usr/bin/time").exists() else []
     )
+    recipe = out.parent / f"{out.name}-recipe.yaml"  # the recipe's select: --select's value
+    recipe.write_text(f"select: {args.select}\n")
     t0 = time.perf_counter()
     proc = subprocess.run(
-        [*timer, *cmd, "--select", args.select, *args.identify_args, "--force", "--json"],
+        [*timer, *cmd, "--recipe", str(recipe), *args.identify_args, "--force", "--json"],
         capture_output=True,
         text=True,
     )

@@ -1,4 +1,5 @@
-"""Benchmark: a robust loss with ``identify --select``, against the robust fit of every frame.
+"""Benchmark: a robust loss on selected frames (the recipe's ``select``), against the robust
+fit of every frame.
 
     python benchmarks/long_robust.py --frames 30000 --select 1000 --work /tmp/w/robust
 
@@ -6,9 +7,11 @@ Synthesizes (``mocap-mj synth``, once) a ROM of ``--frames`` frames with 1 mm no
 ``--outliers`` of the samples displaced ``--outlier-mm`` (default 3 %, 50 mm), then times, in
 child processes (wall and CPU, ``/usr/bin/time``),
 
-    mocap-mj identify --markers markers.trc --select N --loss cauchy   (the subset, refined)
-    mocap-mj identify --markers markers.trc --select all --loss cauchy (every frame)
-    mocap-mj identify --markers markers.trc --select N --loss l2       (no robust loss)
+    mocap-mj identify --markers markers.trc --recipe select-N.yaml --loss cauchy   (the subset)
+    mocap-mj identify --markers markers.trc --recipe select-all.yaml --loss cauchy (every frame)
+    mocap-mj identify --markers markers.trc --recipe select-N.yaml --loss l2       (no robust)
+
+(each recipe holds ``select: N`` or ``select: all``)
 
 and scores each model against the truth in the observable directions (standard deviation at
 most 5 mm) of the Cramer-Rao bound of every frame (the information of every
@@ -69,7 +72,7 @@ def main() -> None:
     work = Path(args.work)
     truth = work / f"rom-{args.frames}-{args.seed}-{args.outliers:g}-{args.outlier_mm:g}"
     if not (truth / "truth.json").exists():
-        cli("synth", "--out", str(truth), "--frames", str(args.frames), "--motion", "rom",
+        cli("synth", "--out", str(truth), "--frame-count", str(args.frames), "--movement", "rom",
             "--seed", str(args.seed), "--outliers", str(args.outliers),
             "--outlier-mm", str(args.outlier_mm), "--force")  # fmt: skip
     pset = ParameterSet()
@@ -99,8 +102,10 @@ def main() -> None:
             wall, cpu = float("nan"), float("nan")
             summary = json.loads((out / "summary.json").read_text())
         else:
+            recipe = work / f"select-{select}.yaml"
+            recipe.write_text(f"select: {select}\n")
             wall, cpu, summary = cli("identify", "--markers", str(truth / "markers.trc"),
-                                     "--select", select, "--loss", loss, "--out", str(out),
+                                     "--recipe", str(recipe), "--loss", loss, "--out", str(out),
                                      *args.identify_args, "--force")  # fmt: skip
         theta = pset.load_json(out / "theta.json")
         if run == "all-cauchy":

@@ -7,8 +7,8 @@ the IK RMSE and their ratio (target: within 2 %).
 
 Run: python benchmarks/reproduce.py [TRIAL.c3d ...] [--robust] [--ik-loss l2|huber|cauchy]
      [--out DIR] [--json F]
-(default trials: the five of ../shared/data/real). ``--robust`` is passed to identify; the IK
-uses ``--ik-loss`` (default: the identification's loss).
+(default trials: the five of ../shared/data/real). ``--robust`` passes ``--loss cauchy`` to
+identify; the IK uses ``--ik-loss`` (default: the identification's loss).
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ def cli(*args: str) -> dict[str, Any]:
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("trials", nargs="*", help="marker files (default: the shared real trials)")
-    p.add_argument("--robust", action="store_true", help="identify with --robust")
+    p.add_argument("--robust", action="store_true", help="identify with --loss cauchy")
     p.add_argument("--ik-loss", choices=["l2", "huber", "cauchy"], help="loss of the IK")
     p.add_argument("--out", help="result folders (default: a temporary folder)")
     p.add_argument("--json", help="write the rows as JSON here")
@@ -55,7 +55,7 @@ def main() -> int:
         print("|---|---:|---:|---:|---:|---:|")
         for path in paths:
             res = root / path.stem
-            flags = ["--robust"] if args.robust else []
+            flags = ["--loss", "cauchy"] if args.robust else []
             fit = cli("identify", "--markers", str(path), "--out", str(res), *flags)
             ik = cli("ik", "--markers", str(path), "--model", str(res / "model.xml"),
                      "--out", str(root / f"{path.stem}-ik"), "--loss", loss)  # fmt: skip

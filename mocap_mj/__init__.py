@@ -10,7 +10,7 @@ radians, seconds; conversion happens only at the file boundary (``mocap_mj.io``)
 from __future__ import annotations
 
 import importlib
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .errors import (
     InputFileError,
@@ -19,32 +19,53 @@ from .errors import (
     SolverError,
     UnknownNameError,
 )
-from .kinematics import Frames, Kinematics
-from .markers import MARKER_NAMES
-from .model import load_model, model_path
-from .parameters import KINEMATIC_PARAMETERS, KinematicParameter, ParameterSet
+
+if TYPE_CHECKING:
+    from .identify.fit import Fit
+    from .identify.output import write_result
+    from .identify.problem import TrialData
+    from .identify.recipe import Recipe
+    from .identify.robust_ik import solve_motion
+    from .kinematics import Frames, Kinematics
+    from .markers import MARKER_NAMES
+    from .model import load_model, model_path
+    from .parameters import KINEMATIC_PARAMETERS, KinematicParameter, ParameterSet
+    from .results import Motion
 
 __version__ = "0.1.0"
 
-#: The identification API, imported on first use (``import mocap_mj`` stays light):
+#: The names imported on first use (PEP 562), so that ``import mocap_mj`` (and the command
+#: line's start, which must answer Ctrl-C from its first moment) does not load MuJoCo and
+#: the compiled kernels before they are needed. The identification API among them:
 #: ``mocap_mj.identify(trials, recipe, subject) -> Fit`` (the package :mod:`mocap_mj.identify`
 #: is callable), ``write_result(fit, folder)``, ``solve_motion(model, trial) -> Motion``.
 _LAZY = {
-    "Fit": "mocap_mj.identify.fit",
-    "Motion": "mocap_mj.results",
-    "Recipe": "mocap_mj.identify.recipe",
-    "TrialData": "mocap_mj.identify.problem",
-    "solve_motion": "mocap_mj.identify.robust_ik",
-    "write_result": "mocap_mj.identify.output",
+    "Frames": ".kinematics",
+    "Kinematics": ".kinematics",
+    "MARKER_NAMES": ".markers",
+    "load_model": ".model",
+    "model_path": ".model",
+    "KINEMATIC_PARAMETERS": ".parameters",
+    "KinematicParameter": ".parameters",
+    "ParameterSet": ".parameters",
+    "Fit": ".identify.fit",
+    "Motion": ".results",
+    "Recipe": ".identify.recipe",
+    "TrialData": ".identify.problem",
+    "solve_motion": ".identify.robust_ik",
+    "write_result": ".identify.output",
 }
 
 
 def __getattr__(name: str) -> Any:
     if name == "identify":
-        return importlib.import_module("mocap_mj.identify")
-    if name in _LAZY:
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module 'mocap_mj' has no attribute {name!r}")
+        return importlib.import_module(".identify", __name__)
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
 
 
 __all__ = [

@@ -2,6 +2,10 @@
 
 import sys
 
-from .cli import main
+try:
+    from .cli import main
+except KeyboardInterrupt:  # Ctrl-C in the first milliseconds: as main answers it later
+    print("mocap-mj: interrupted", file=sys.stderr)
+    sys.exit(130)
 
 sys.exit(main())

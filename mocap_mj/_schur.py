@@ -28,18 +28,14 @@ from typing import NamedTuple
 import numpy as np
 
 from . import _numba_prewarm
+from ._jit import _jit, _kernel
 from ._tree import (
     HINGE,
-    KappaTables,
     Tree,
     _floats,
-    _jit,
-    _kernel,
-    blocked_dofs,
     blocks,
     factor,
     fk,
-    hold_blocked,
     lower_copy,
     normal_equations,
     run_blocks,
@@ -47,6 +43,8 @@ from ._tree import (
     solve,
     work_arrays,
 )
+from ._tree_ik import blocked_dofs, hold_blocked
+from ._tree_tables import KappaTables
 
 
 @_jit

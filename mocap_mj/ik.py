@@ -45,7 +45,7 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from . import _tree
+from . import _tree, _tree_ik
 from ._threads import single_blas_thread
 from .errors import MocapError, ShapeError, SolverError, check_shape
 from .kinematics import Kinematics
@@ -256,7 +256,7 @@ class IKSolver:
         check_shape("qpos0", qpos, (n, kin.nq))
         limit = st.max_iterations if max_iterations is None else max_iterations
         n_present = np.count_nonzero(w > 0, axis=1)
-        rmse, iterations, status = _tree.solve_batch(
+        rmse, iterations, status = _tree_ik.solve_batch(
             kin.tree() if tree is None else tree,
             target,
             w,
@@ -409,7 +409,7 @@ class IKSolver:
         for b in range(0, starts.size, block):
             s0, s1 = starts[b], ends[min(b + block, starts.size) - 1]
             rows = slice(s0, s1)
-            q, r, it, stat = _tree.solve_chains(
+            q, r, it, stat = _tree_ik.solve_chains(
                 tree,
                 target[rows],
                 w[rows],
@@ -442,7 +442,7 @@ class IKSolver:
         ``heads`` (T, nq): finite rows are poses to start chains at (e.g. every k-th frame
         solved under the same model, as ``identify``'s refinement has them); each chain runs
         from its head to the frame before the next one, every later frame starting from the
-        constant-velocity prediction (:func:`mocap_mj._tree.solve_chains`). The trial's first
+        constant-velocity prediction (:func:`mocap_mj._tree_ik.solve_chains`). The trial's first
         frame always heads a chain; a head without a pose (NaN row) and a frame after an
         unsolved one start from the pelvis's rigid fit (:meth:`root_from_pelvis`). Frames
         that then fit clearly worse than the trial are re-solved as :meth:`solve_trial`
@@ -470,7 +470,7 @@ class IKSolver:
         needs[1:] |= few[:-1]
         if needs.any():
             cold[needs] = self.root_from_pelvis(markers[needs])
-        q, rmse, iters, status = _tree.solve_chains(
+        q, rmse, iters, status = _tree_ik.solve_chains(
             kin.tree(),
             target,
             w,
@@ -550,10 +550,10 @@ class IKSolver:
         lasts: np.ndarray,
         seams: bool,
     ) -> None:
-        """:func:`mocap_mj._tree.walk` with this solver's settings: frames firsts -> lasts
+        """:func:`mocap_mj._tree_ik.walk` with this solver's settings: frames firsts -> lasts
         re-solved from seeds (k, nq), into out = (qpos, rmse, iters, status)."""
         st = self.settings
-        _tree.walk(
+        _tree_ik.walk(
             self.kin.tree(),
             target,
             w,

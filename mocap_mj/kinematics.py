@@ -15,8 +15,8 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
-from . import _tree, rolling
-from ._tree import KappaTables, kappa_tables
+from . import _tree, _tree_tables, rolling
+from ._tree_tables import KappaTables, kappa_tables
 from .errors import MocapError, check_shape
 from .parameters import ParameterSet
 
@@ -132,7 +132,7 @@ class Kinematics:
         self.theta = self.pset.check(theta).copy()
         self.pset.apply(self.model, self.theta)
         if self._tree is not None:  # theta moves bodies and sites only: the rest is kept
-            self._tree = _tree.moved(self._tree, self.model)
+            self._tree = _tree_tables.moved(self._tree, self.model)
 
     def kappa_tables(self) -> KappaTables:
         """The kinematic parameters' (parameter, body) pairs for the compiled LM blocks."""
@@ -152,7 +152,7 @@ class Kinematics:
     def tree(self) -> _tree.Tree:
         """Flat tables of the model at the current theta for the compiled kernels."""
         if self._tree is None:
-            self._tree = _tree.build_tree(self.model)
+            self._tree = _tree_tables.build_tree(self.model)
         return self._tree
 
     # --------------------------------------------------------------- forward

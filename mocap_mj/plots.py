@@ -6,14 +6,24 @@ atomically. The figures are drawn on matplotlib's Agg canvas directly (no ``pypl
 backend switch), at 150 dpi; ``size`` is the image size in pixels.
 
 Errors are in millimetres, times in seconds.
+
+Ctrl-C, SIGTERM and SIGALRM (``batch --timeout``) are held while a figure is drawn and act
+when it is written (then as anywhere else): matplotlib's objects run Python callbacks as
+they are freed (weak-reference callbacks of its transforms and callback registries), and an
+interrupt raised inside one cannot propagate: Python prints "Exception ignored in ...
+Traceback" and goes on.
 """
 
 from __future__ import annotations
 
+import functools
+import gc
 import io
-from collections.abc import Mapping, Sequence
+import signal
+import threading
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -26,11 +36,14 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DPI",
+    "plot_angle_comparison",
     "plot_error_accumulation",
     "plot_marker_error_per_frame",
     "plot_parameter_errors",
     "plot_residual_per_marker",
 ]
+
+F = TypeVar("F", bound=Callable[..., Any])
 
 #: Resolution of every figure [dots per inch].
 DPI = 150
@@ -81,6 +94,33 @@ def _size(size: tuple[int, int]) -> tuple[int, int]:
 
 
 # --------------------------------------------------------------------------- output
+def held_interrupts(fn: F) -> F:
+    """Decorator: run ``fn`` (that draws a figure) with SIGINT, SIGTERM and SIGALRM held, its
+    figure's objects freed before they are let go; a signal that came meanwhile is then
+    raised again, to the handler in place before. Outside the main thread, ``fn`` as is."""
+
+    @functools.wraps(fn)
+    def held(*args: Any, **kwargs: Any) -> Any:
+        if threading.current_thread() is not threading.main_thread():
+            return fn(*args, **kwargs)
+        came: list[int] = []
+        wanted = [signal.SIGINT, signal.SIGTERM]
+        if hasattr(signal, "SIGALRM"):  # batch --timeout; not on Windows
+            wanted.append(signal.SIGALRM)
+        previous = {s: signal.signal(s, lambda signum, _: came.append(signum)) for s in wanted}
+        try:
+            out = fn(*args, **kwargs)
+            gc.collect()  # the figure's reference cycles, with their callbacks, now
+        finally:
+            for wanted_signal, handler in previous.items():
+                signal.signal(wanted_signal, handler)
+            for signum in dict.fromkeys(came):
+                signal.raise_signal(signum)
+        return out
+
+    return held  # type: ignore[return-value]
+
+
 def _figure(size: tuple[int, int]) -> Figure:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -105,6 +145,7 @@ def _mean_text(values: np.ndarray) -> str:
 
 
 # --------------------------------------------------------------------------- figures
+@held_interrupts
 def plot_marker_error_per_frame(
     path: str | Path,
     times: ArrayLike,
@@ -146,6 +187,7 @@ def plot_marker_error_per_frame(
     return _save(fig, path)
 
 
+@held_interrupts
 def plot_error_accumulation(
     path: str | Path,
     times: ArrayLike,
@@ -184,6 +226,7 @@ def plot_error_accumulation(
     return _save(fig, path)
 
 
+@held_interrupts
 def plot_parameter_errors(
     path: str | Path,
     names: Sequence[str],
@@ -245,6 +288,7 @@ def plot_parameter_errors(
     return _save(fig, path)
 
 
+@held_interrupts
 def plot_residual_per_marker(
     path: str | Path,
     names: Sequence[str],
@@ -285,4 +329,54 @@ def plot_residual_per_marker(
     ax.set_ylabel("RMSE [mm]")
     ax.set_title(title)
     ax.grid(axis="y", alpha=0.3)
+    return _save(fig, path)
+
+
+def plot_angle_comparison(
+    path: str | Path,
+    times: ArrayLike,
+    ours: Mapping[str, np.ndarray],
+    theirs: Mapping[str, np.ndarray],
+    *,
+    labels: tuple[str, str] = ("ours", "Plug-in Gait"),
+) -> Path:
+    """Each angle's three components, ours and the reference's in one panel per component
+    (rows: the angles without the side letter; left side blue, right red; ours solid, the
+    reference dashed).
+
+    Parameters
+    ----------
+    path : path
+        PNG file to write.
+    times : (T,) array [s]
+    ours, theirs : mapping of Vicon name (``LKneeAngles``) -> (T, 3) array [deg]
+        Only the names both hold are drawn.
+    labels : (str, str)
+        Legend names of ours and the reference.
+    """
+    t = _times(times)
+    names = [n for n in ours if n in theirs]
+    for n in names:
+        for what, a in (("ours", ours[n]), ("reference", theirs[n])):
+            if np.shape(a) != (len(t), 3):
+                raise ShapeError(f"{what} {n}: expected shape ({len(t)}, 3)")
+    joints = list(dict.fromkeys(n[1:] for n in names))
+    if not joints:
+        raise MocapError("no angle in both tables to plot")
+    fig = _figure((1800, 260 * len(joints) + 120))
+    axes = fig.subplots(len(joints), 3, squeeze=False, sharex=True)
+    for row, joint in enumerate(joints):
+        for k, axis in enumerate("XYZ"):
+            ax = axes[row][k]
+            for side, color in (("L", "tab:blue"), ("R", "tab:red")):
+                name = side + joint
+                if name in names:
+                    ax.plot(t, ours[name][:, k], color=color, lw=1.0, label=f"{side} {labels[0]}")
+                    ax.plot(t, theirs[name][:, k], color=color, lw=1.0, ls="--",
+                            label=f"{side} {labels[1]}")  # fmt: skip
+            ax.set_title(f"{joint} {axis} (deg)", fontsize=8)
+            ax.tick_params(labelsize=6)
+    axes[0][0].legend(fontsize=6)
+    for ax in axes[-1]:
+        ax.set_xlabel("time (s)", fontsize=7)
     return _save(fig, path)

@@ -52,6 +52,9 @@ class Motion:
     ik : IKResult or None
         How each frame was solved (status, iterations, marker RMSE (T,) [m]) when the motion
         was solved here (:func:`mocap_mj.identify.robust_ik.solve_motion`); not saved.
+    first_frame : int
+        The recording's own number of frame 0 (frame i is ``first_frame + i`` in every table;
+        :func:`mocap_mj.io.trajectory.first_frame`); 0 when the source numbers none.
     """
 
     qpos: np.ndarray
@@ -59,6 +62,12 @@ class Motion:
     markers: np.ndarray
     marker_names: tuple[str, ...]
     ik: IKResult | None = None
+    first_frame: int = 0
+
+    @property
+    def frames(self) -> np.ndarray:
+        """The recording's frame number of each frame (T,) int."""
+        return self.first_frame + np.arange(len(self.times), dtype=np.int64)
 
     def __post_init__(self) -> None:
         n = len(self.qpos)
@@ -86,6 +95,7 @@ def save_motion(path: str | Path, motion: Motion) -> None:
         "times": motion.times,
         "markers": motion.markers,
         "marker_names": np.array(motion.marker_names),
+        "first_frame": np.array(motion.first_frame, dtype=np.int64),
     }
     atomic_write_bytes(path, npz_bytes(arrays))
 
@@ -106,6 +116,7 @@ def load_motion(path: str | Path, model: mujoco.MjModel | None = None) -> Motion
                 times=np.array(data["times"], dtype=float),
                 markers=np.array(data["markers"], dtype=float),
                 marker_names=tuple(str(n) for n in data["marker_names"]),
+                first_frame=int(data["first_frame"]) if "first_frame" in data else 0,
             )
     except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile) as exc:
         # A truncated or damaged .npz: BadZipFile (no zip directory), EOFError (a member cut

@@ -43,6 +43,14 @@ if TYPE_CHECKING:
 SAME_TRIAL_MEDIAN = 0.02
 
 
+def fitted_start(truth: Motion, result: Motion) -> int:
+    """The truth's frame at which ``result``'s first frame lies: the one nearest in time (the
+    synth folder's marker files carry the truth's times, whatever their frame numbering)."""
+    if not len(result.times) or not len(truth.times):
+        return 0
+    return int(np.argmin(np.abs(np.asarray(truth.times) - float(result.times[0]))))
+
+
 def check_same_trial(
     truth_dir: Path, result_dir: Path, truth: Motion, result: Motion, a: int, b: int
 ) -> None:
@@ -88,15 +96,16 @@ def score(
     truth_info = read_object(truth_dir / "truth.json", "the synthetic truth (a JSON object)")
     truth_motion = load_motion(truth_dir / "truth_motion.npz", pset.model)
     theta_hat = pset.load_json(result_dir / "theta.json")
-    summary = read_object(result_dir / "summary.json", "the result's summary (a JSON object)")
+    # a result folder is whole only with its summary (a damaged one is named, not scored)
+    read_object(result_dir / "summary.json", "the result's summary (a JSON object)")
     motion = load_motion(result_dir / "motion.npz", pset.model)
     idf = Identifiability.from_json(
         pset,
         read_object(result_dir / "identifiability.json", "the identifiability (a JSON object)"),
     )
 
-    ranges = summary.get("frames_fitted_range") or [[0, len(motion.qpos)]]
-    a, b = ranges[0]
+    a = fitted_start(truth_motion, motion)
+    b = a + len(motion.qpos)
     check_same_trial(truth_dir, result_dir, truth_motion, motion, a, b)
     # The hand's and the forearms' zeros are free (align_gauge_free): an estimate whose zeros
     # differ from the truth's is the same model, and the alignment must not be stopped by the

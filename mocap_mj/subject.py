@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import InputFileError, MocapError
+from .errors import InputFileError, MocapError, yaml_problem
 
 #: Measurement name -> (unit inside, description). ``_l``/``_r`` are the sides.
 MEASUREMENTS: dict[str, tuple[str, str]] = {
@@ -48,6 +48,36 @@ MEASUREMENTS: dict[str, tuple[str, str]] = {
             ("wrist_width", "m", "wrist width where the wrist bar sits"),
             ("hand_thickness", "m", "hand thickness at the metacarpal heads"),
             ("shoulder_offset", "m", "acromion marker to glenohumeral centre, vertical"),
+        )
+        for side in ("l", "r")
+    },
+}
+
+#: The range of each measurement a person can have [m or kg]; a value outside is refused,
+#: naming where it came from (a unit slip such as millimetres typed as metres, or a typo).
+#: Generous on purpose: the height spans the shortest and the tallest adults on record
+#: (0.55 m, Chandra Bahadur Dangi; 2.72 m, Robert Wadlow; Guinness World Records), which also
+#: covers every child old enough to walk (about 0.75 m at one year); the mass, a walking
+#: infant (about 9 kg) to the heaviest person on record (about 635 kg, Jon Brower Minnoch).
+#: The other lengths are bounded at about half a toddler's and twice a large adult's value
+#: (an adult's knee width is some 90-150 mm, ankle and elbow widths 60-100 mm, the
+#: inter-ASIS distance 200-320 mm, the Plug-in Gait leg length 0.75-1.05 m); the marker
+#: diameter spans the marker sizes sold (3-40 mm).
+HUMAN_RANGES: dict[str, tuple[float, float]] = {
+    "height": (0.5, 2.75),
+    "mass": (2.0, 650.0),
+    "asis_distance": (0.05, 0.6),
+    "marker_diameter": (0.002, 0.05),
+    **{
+        f"{base}_{side}": bounds
+        for base, bounds in (
+            ("leg_length", (0.2, 1.6)),
+            ("knee_width", (0.03, 0.3)),
+            ("ankle_width", (0.02, 0.2)),
+            ("elbow_width", (0.02, 0.2)),
+            ("wrist_width", (0.01, 0.15)),
+            ("hand_thickness", (0.005, 0.08)),
+            ("shoulder_offset", (0.005, 0.15)),
         )
         for side in ("l", "r")
     },
@@ -118,10 +148,16 @@ class Subject:
         return None if m is None else m.value
 
     def set(self, name: str, value: float, source: str) -> None:
-        """Record ``name`` = ``value`` [SI]; a non-positive or non-finite value is an error."""
+        """Record ``name`` = ``value`` [SI]; a value outside :data:`HUMAN_RANGES` (NaN
+        included) is an error naming ``source`` and the range."""
         _check_name(name, source)
-        if not np.isfinite(value) or value <= 0:
-            raise MocapError(f"{source}: {name} must be a positive number, got {value}")
+        low, high = HUMAN_RANGES[name]
+        if not low <= value <= high:  # NaN included
+            unit, per = ("kg", 1.0) if MEASUREMENTS[name][0] == "kg" else ("mm", 1e3)
+            raise MocapError(
+                f"{source}: expected a {MEASUREMENTS[name][1]} within {low * per:g}.."
+                f"{high * per:g} {unit} (any person), got {value * per:.4g} {unit}"
+            )
         self.values[name] = Measurement(float(value), source)
 
     def update(self, other: Subject) -> Subject:
@@ -225,8 +261,10 @@ def read_mapping(path: str | Path) -> Mapping[Any, Any]:
 
     try:
         data = yaml.safe_load(Path(path).read_text())
-    except (OSError, yaml.YAMLError) as exc:
+    except OSError as exc:
         raise InputFileError(f"{path}: cannot read the subject file: {exc}") from None
+    except yaml.YAMLError as exc:
+        raise InputFileError(f"{path}: expected a YAML subject file: {yaml_problem(exc)}") from None
     if not isinstance(data, Mapping):
         raise InputFileError(f"{path}: expected a mapping of measurement names to values")
     return data
@@ -237,7 +275,13 @@ def from_yaml(path: str | Path) -> Subject:
     subject = Subject()
     for name, raw in read_mapping(path).items():
         _check_name(str(name), str(path))
-        subject.set(str(name), parse_value(raw, str(name), str(path)), f"{path}: {name}")
+        value = parse_value(raw, str(name), str(path))
+        try:
+            subject.set(str(name), value, f"{path}: {name}")
+        except MocapError as exc:
+            if not isinstance(raw, int | float):
+                raise
+            raise MocapError(f"{exc} (a number without a unit is in m or kg)") from None
     return subject
 
 

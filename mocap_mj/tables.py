@@ -3,10 +3,10 @@
 Layout (one row per frame, comma-separated, header in the first line):
 
 ``frame``
-    Frame index in the marker file (0-based; with ``identify --frames A:B`` the first row is
-    frame A).
-``time``
-    Time [s].
+    The recording's own frame number (the C3D header's, a TRC's or CSV's frame column; with
+    ``--frames A:B`` the first row is the file's row A; from 0 for data that numbers none).
+``time_s``
+    Time [s] in the recording (frame f of a C3D at (f - 1) / rate).
 ``<centre>_x_mm``, ``<centre>_y_mm``, ``<centre>_z_mm``
     World position [mm] of each joint centre of :data:`mocap_mj.joint_centres.JOINT_CENTRES`
     (``lumbosacral``, ..., ``knee_l``, ..., ``wrist_r``), in that order: the origin of the
@@ -31,8 +31,8 @@ from .joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
 
 
 def joint_centre_columns() -> list[str]:
-    """Header of ``joint_centres.csv``: ``frame``, ``time``, then 3 columns per centre."""
-    return ["frame", "time", *(f"{c}_{a}_mm" for c in JOINT_CENTRE_NAMES for a in "xyz")]
+    """Header of ``joint_centres.csv``: ``frame``, ``time_s``, then 3 columns per centre."""
+    return ["frame", "time_s", *(f"{c}_{a}_mm" for c in JOINT_CENTRE_NAMES for a in "xyz")]
 
 
 def write_joint_centres_csv(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from mocap_mj.cli import add_force_flag, add_json_flag, finish
+from mocap_mj.cli import add_force_flag, add_json_flag, add_removed_flags, finish
 
 from .config import MOTIONS, ConfigError, SynthConfig
 from .experiment import synthesize, write_experiment
@@ -13,9 +13,9 @@ from .experiment import synthesize, write_experiment
 #: Options taking a value: flag, SynthConfig field, type, help. Values are parsed here rather
 #: than by argparse, so that a bad value is one line on stderr (exit 2) like every other error.
 _OPTIONS: tuple[tuple[str, str, type, str], ...] = (
-    ("--frames", "frames", int, "number of frames (default: 500)"),
+    ("--frame-count", "frames", int, "number of frames to make (default: 500)"),
     ("--rate", "rate", float, "frame rate in Hz (default: 100)"),
-    ("--motion", "motion", str, f"truth motion: {', '.join(MOTIONS)} (default: rom)"),
+    ("--movement", "motion", str, f"truth motion: {', '.join(MOTIONS)} (default: rom)"),
     ("--noise-mm", "noise_mm", float, "white noise standard deviation per axis, mm (default: 1)"),
     (
         "--sta-mm",
@@ -65,13 +65,15 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
     )
-    for flag, _, _, text in _OPTIONS:
-        p.add_argument(flag, metavar=flag.lstrip("-").split("-")[0].upper(), help=text)
+    for flag, field, _, text in _OPTIONS:
+        metavar = "N" if flag == "--frame-count" else flag.lstrip("-").split("-")[0].upper()
+        p.add_argument(flag, dest=field, metavar=metavar, help=text)
     p.add_argument(
         "--symmetric", action="store_true", help="perturb left and right alike (mirror images)"
     )
     add_force_flag(p)
     add_json_flag(p)
+    add_removed_flags(p, "synth")
     p.set_defaults(func=run)
 
 

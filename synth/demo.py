@@ -1,6 +1,6 @@
 """``mocap-mj demo``: synthesize a trial, identify the model, score it against the truth.
 
-The README's main job: a range-of-motion trial (``--frames``, 100 Hz) of a perturbed copy of
+The README's main job: a range-of-motion trial (``--frame-count``, 100 Hz) of a perturbed copy of
 the bundled humanoid (kinematic parameters within +-10 %, landmark markers placed on the
 perturbed skeleton as the marker set defines them, the others within +-20 mm of their
 nominal offsets; 1 mm noise), identified with the joint Levenberg-Marquardt solver
@@ -21,7 +21,13 @@ from typing import Any
 import numpy as np
 
 from mocap_mj import _numba_prewarm
-from mocap_mj.cli import add_force_flag, add_json_flag, into_out_folder, prepare_out
+from mocap_mj.cli import (
+    add_force_flag,
+    add_json_flag,
+    add_removed_flags,
+    into_out_folder,
+    prepare_out,
+)
 from mocap_mj.commands.progress import progress_bar
 from mocap_mj.identify.api import identify
 from mocap_mj.identify.fit import Fit
@@ -52,7 +58,8 @@ def register(sub: Any) -> None:
         help="output folder, must be new or empty (default: demo-result)",
     )
     p.add_argument(
-        "--frames",
+        "--frame-count",
+        dest="frames",
         type=int,
         default=500,
         metavar="N",
@@ -81,6 +88,7 @@ def register(sub: Any) -> None:
     )
     add_force_flag(p)
     add_json_flag(p)
+    add_removed_flags(p, "demo")
     p.set_defaults(func=run)
 
 
@@ -156,6 +164,7 @@ def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str,
         "frames": n,
         "frames_held_out": s["frames_held_out"],
         "iterations": ident["iterations"],
+        "implausible": ident["implausible"],  # the fit's own checks: non-empty exits 3
         "marker_rmse_mm": ident["marker_rmse_mm"],
         "expected_rmse_mm": expected,
         "heldout_marker_rmse_mm": s.get("heldout_marker_rmse_mm"),

@@ -24,7 +24,7 @@ import argparse
 import csv
 import json
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -46,6 +46,8 @@ from mocap_mj.identify.paper import (
 from mocap_mj.ik import IKSolver
 from mocap_mj.io.atomic import atomic_write_text
 from mocap_mj.kinematics import Kinematics
+from mocap_mj.parameters import ParameterSet
+from mocap_mj.plots import held_interrupts
 
 from .config import SynthConfig
 from .experiment import Experiment, synthesize
@@ -218,30 +220,9 @@ def run_experiment(
                         len(r.trace[0].frames), cfg.iterations, r.seconds - r.init_seconds,
                         r.seconds - r.init_seconds, r.theta,
                         _refit_note(r.refits).lstrip("; ")))  # fmt: skip
-    rs = paper("stochastic", max(cfg.stochastic))
-    for k in cfg.stochastic:
-        it = rs.trace[k - 1]
-        sec = it.seconds - rs.init_seconds
-        note = (
-            ""
-            if k == len(rs.trace)
-            else (f"first {k} iterations of the {len(rs.trace)}-iteration run")
-        )
-        note += _refit_note([i for i in rs.refits if i <= k])
-        rows.append(Row("stochastic", f"stochastic {k}", 1, k, sec, sec, it.theta,
-                        note.lstrip("; ")))  # fmt: skip
-    t0 = time.perf_counter()
-    with progress_bar("joint LM", progress) as bar:
-        lm = identify_lm(trials, pset=pset, settings=LMSettings(max_iterations=cfg.lm_iterations),
-                         progress=bar)  # fmt: skip
-    lm_seconds = time.perf_counter() - t0
-    rows.append(Row("lm", "joint LM (this project)", n, lm.iterations, lm_seconds, lm_seconds,
-                    lm.theta, f"initial IK {lm.init_seconds:.1f} s included"))  # fmt: skip
-    elapsed = lm.init_seconds + np.cumsum([t.seconds for t in lm.trace])  # from its start
-    traces["lm"] = [
-        {"iteration": t.iteration, "seconds": float(e), "cost": t.cost, "rmse_mm": t.rmse * 1e3}
-        for t, e in zip(lm.trace, elapsed, strict=True)
-    ]
+    rows += _stochastic_rows(paper("stochastic", max(cfg.stochastic)), cfg.stochastic)
+    lm, row, traces["lm"] = _joint_lm(trials, pset, cfg, progress)
+    rows.append(row)
     init_ik = rb.init_seconds
 
     # Common yardstick: the observable subspace of the LM's reduced information.
@@ -258,18 +239,7 @@ def run_experiment(
     summary: dict[str, Any] = {
         "experiment": "paper",
         "quick": quick,
-        "settings": {
-            "frames": cfg.frames,
-            "rate_hz": 100.0,
-            "iterations": cfg.iterations,
-            "batch_iterations": cfg.batch_iterations,
-            "stochastic": list(cfg.stochastic),
-            "step": cfg.step,
-            "delta_m": cfg.delta,
-            "fraction": cfg.fraction,
-            "seed": cfg.seed,
-            "synth": exp.config.to_dict(),
-        },
+        "settings": _settings_entry(cfg, exp),
         "initial_ik_seconds": init_ik,
         "table": table,
         "observable_directions": idf.rank,
@@ -285,6 +255,59 @@ def run_experiment(
     _write_files(out, exp, table, frame_err, traces, summary)
     summary["seconds_total"] = time.perf_counter() - t_all
     return summary
+
+
+def _stochastic_rows(rs: PaperResult, counts: Sequence[int]) -> list[Row]:
+    """The stochastic run's rows: its first k iterations for each k of ``counts``."""
+    rows = []
+    for k in counts:
+        it = rs.trace[k - 1]
+        sec = it.seconds - rs.init_seconds
+        note = (
+            ""
+            if k == len(rs.trace)
+            else (f"first {k} iterations of the {len(rs.trace)}-iteration run")
+        )
+        note += _refit_note([i for i in rs.refits if i <= k])
+        rows.append(Row("stochastic", f"stochastic {k}", 1, k, sec, sec, it.theta,
+                        note.lstrip("; ")))  # fmt: skip
+    return rows
+
+
+def _joint_lm(
+    trials: list[TrialData], pset: ParameterSet, cfg: PaperExperiment, progress: bool
+) -> tuple[Any, Row, list[dict[str, Any]]]:
+    """The joint LM on the experiment's trial: its result, its row (initial IK included in
+    the time) and its trace (iteration, seconds from its start, cost, RMSE [mm])."""
+    t0 = time.perf_counter()
+    with progress_bar("joint LM", progress) as bar:
+        lm = identify_lm(trials, pset=pset, settings=LMSettings(max_iterations=cfg.lm_iterations),
+                         progress=bar)  # fmt: skip
+    lm_seconds = time.perf_counter() - t0
+    row = Row("lm", "joint LM (this project)", cfg.frames, lm.iterations, lm_seconds,
+              lm_seconds, lm.theta, f"initial IK {lm.init_seconds:.1f} s included")  # fmt: skip
+    elapsed = lm.init_seconds + np.cumsum([t.seconds for t in lm.trace])  # from its start
+    trace = [
+        {"iteration": t.iteration, "seconds": float(e), "cost": t.cost, "rmse_mm": t.rmse * 1e3}
+        for t, e in zip(lm.trace, elapsed, strict=True)
+    ]
+    return lm, row, trace
+
+
+def _settings_entry(cfg: PaperExperiment, exp: Any) -> dict[str, Any]:
+    """summary.json's ``settings``: the experiment's and the synthetic data's."""
+    return {
+        "frames": cfg.frames,
+        "rate_hz": 100.0,
+        "iterations": cfg.iterations,
+        "batch_iterations": cfg.batch_iterations,
+        "stochastic": list(cfg.stochastic),
+        "step": cfg.step,
+        "delta_m": cfg.delta,
+        "fraction": cfg.fraction,
+        "seed": cfg.seed,
+        "synth": exp.config.to_dict(),
+    }
 
 
 def _refit_note(refits: list[int]) -> str:
@@ -494,6 +517,7 @@ def _figure() -> Any:
     return fig
 
 
+@held_interrupts
 def _plot_series(
     path: Path, times: np.ndarray, errors: Mapping[str, np.ndarray], *, cumulative: bool
 ) -> None:
@@ -510,6 +534,7 @@ def _plot_series(
     fig.savefig(path, format="png")
 
 
+@held_interrupts
 def plot_convergence(path: Path, traces: Mapping[str, Any]) -> None:
     """Marker RMSE of the frames each run uses [mm] against its time [s] (log scales)."""
     fig = _figure()

@@ -539,23 +539,33 @@ def walk(model: mujoco.MjModel, frames: int, rate: float, rng: np.random.Generat
     hinge = {n: v for n, v in hinge.items() if n in names}
     ball = {n: v for n, v in ball.items() if n in names}
 
-    free = _free(model)
-    root_pos = root_rv = None
-    if free is not None:
-        p0 = np.array(model.qpos0[free.qadr : free.qadr + 3], dtype=float)
-        speed = stride / period
-        root_pos = np.stack(
-            [
-                p0[0] + speed * (t - t[-1] / 2) + 0.01 * np.sin(2 * cyc),
-                p0[1] + 0.02 * np.sin(cyc),
-                p0[2] - 0.03 - 0.015 * np.cos(2 * cyc),
-            ],
-            axis=-1,
-        )
-        root_rv = np.stack(
-            [4 * d * np.sin(cyc), 2 * d * np.cos(2 * cyc), -5 * d * np.cos(cyc)], axis=-1
-        )
+    root_pos, root_rv = _walk_root(model, t, cyc, stride / period)
     return assemble(model, frames, hinge, ball, root_pos, root_rv)
+
+
+def _walk_root(
+    model: mujoco.MjModel, t: np.ndarray, cyc: np.ndarray, speed: float
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The walk's root: position (T, 3) [m] along +x at ``speed`` [m/s] with the stride's
+    sway and bounce, and rotation vector (T, 3) [rad], over the times ``t`` (T,) [s] and
+    stride phase ``cyc`` (T,) [rad]; (None, None) for a model without a free joint."""
+    free = _free(model)
+    if free is None:
+        return None, None
+    d = _DEG
+    p0 = np.array(model.qpos0[free.qadr : free.qadr + 3], dtype=float)
+    root_pos = np.stack(
+        [
+            p0[0] + speed * (t - t[-1] / 2) + 0.01 * np.sin(2 * cyc),
+            p0[1] + 0.02 * np.sin(cyc),
+            p0[2] - 0.03 - 0.015 * np.cos(2 * cyc),
+        ],
+        axis=-1,
+    )
+    root_rv = np.stack(
+        [4 * d * np.sin(cyc), 2 * d * np.cos(2 * cyc), -5 * d * np.cos(cyc)], axis=-1
+    )
+    return root_pos, root_rv
 
 
 # ------------------------------------------------------------------------------ static

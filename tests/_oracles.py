@@ -118,7 +118,7 @@ def numpy_solve_frames(
     res = target[active] - x
     wa = w[active]
     cost = 0.5 * np.einsum("bm,bmi,bmi->b", wa, res, res)
-    mu = np.full(active.size, st.tolerances.mu0)
+    mu = np.full(active.size, st.mu0)
     nu = np.full(active.size, 2.0)
     sqrt_w = np.sqrt(wa)
     idx = np.arange(active.size)  # positions (into active) still iterating
@@ -152,7 +152,7 @@ def numpy_solve_frames(
         else:
             accept = np.ones(idx.size, dtype=bool)
         small_step = np.max(np.abs(dv), axis=1) < st.tol_step
-        small_gain = accept & (cost[idx] - cost_new <= st.tolerances.tol_cost * cost[idx])
+        small_gain = accept & (cost[idx] - cost_new <= st.tol_cost * cost[idx])
         n_i = np.maximum(n_present[active[idx]], 1)
         rmse_new = np.sqrt(2 * np.maximum(cost_new, 0) / n_i)
         d_rmse = np.sqrt(2 * cost[idx] / n_i) - rmse_new

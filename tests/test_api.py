@@ -83,7 +83,8 @@ def test_api_and_command_give_the_same_theta_on_a_synthetic_trial(
     synthetic: Path, tmp_path: Path
 ) -> None:
     recipe = mocap_mj.Recipe(loss="huber", max_iterations=30, sliding_landmarks=False)
-    flags = ["--loss", "huber", "--max-iterations", "30", "--no-sliding-landmarks"]
+    mocap_mj.Recipe(max_iterations=30, sliding_landmarks=False).save(tmp_path / "r.yaml")
+    flags = ["--loss", "huber", "--recipe", str(tmp_path / "r.yaml")]
     by_command = _command(tmp_path / "cli", "--markers", str(synthetic), *flags)
     fit = _api_fit(synthetic, None, recipe)
     assert np.array_equal(fit.theta, by_command)
@@ -145,7 +146,8 @@ def test_selection_in_memory_equals_the_streamed_motion(synthetic: Path, tmp_pat
     """A selected (long-recording) identification: the API's motion of every frame in memory
     is the command's motion.npz, solved chunk by chunk into files."""
     recipe = mocap_mj.Recipe(select=40, sliding_landmarks=False, max_iterations=20)
-    flags = ["--select", "40", "--no-sliding-landmarks", "--max-iterations", "20"]
+    recipe.save(tmp_path / "r.yaml")
+    flags = ["--recipe", str(tmp_path / "r.yaml")]
     by_command = _command(tmp_path / "cli", "--markers", str(synthetic), *flags)
     fit = _api_fit(synthetic, None, recipe)
     assert np.array_equal(fit.theta, by_command)

@@ -52,33 +52,33 @@ def test_manifests_and_tree_give_the_same_subjects(tmp_path: Path) -> None:
             (tmp_path / "tree" / name / trial).write_bytes(name.encode() + trial.encode())
     (tmp_path / "tree" / "A" / "subject.yaml").write_text("height: 1.8\n")
     (tmp_path / "tree" / ".hidden").mkdir()
-    tree = load_dataset(tmp_path / "tree", {"loss": "cauchy"})
+    tree = load_dataset(tmp_path / "tree", {"frames": "0:50"})
     assert [s.name for s in tree] == ["A", "B"]
     assert [Path(t).name for t in tree[0].trials] == ["t1.c3d", "t2.trc"]
     assert tree[0].height == 1.8 and tree[1].height is None
-    assert tree[0].options == {"loss": "cauchy"}
+    assert tree[0].options == {"frames": "0:50"}
 
-    rows = ["subject,trial,subject_file,init"]
+    rows = ["subject,trial,subject_file,up"]
     for s in tree:
         for t in s.trials:
             sfile = "tree/A/subject.yaml" if s.name == "A" else ""
-            rows.append(f"{s.name},{os.path.relpath(t, tmp_path)},{sfile},placed")
+            rows.append(f"{s.name},{os.path.relpath(t, tmp_path)},{sfile},z")
     (tmp_path / "m.csv").write_text("\n".join(rows) + "\n")
-    from_csv = load_dataset(tmp_path / "m.csv", {"loss": "cauchy"})
+    from_csv = load_dataset(tmp_path / "m.csv", {"frames": "0:50"})
     assert [(s.name, s.trials, s.subject_file) for s in from_csv] == [
         (s.name, s.trials, s.subject_file) for s in tree
     ]
-    assert from_csv[0].options == {"loss": "cauchy", "init": "placed"}
+    assert from_csv[0].options == {"frames": "0:50", "up": "z"}
 
     (tmp_path / "m.yaml").write_text(
-        "options: {init: placed}\nsubjects:\n"
+        "options: {up: z}\nsubjects:\n"
         "  - {name: A, trials: [tree/A/t1.c3d, tree/A/t2.trc], subject_file: tree/A/subject.yaml,"
-        " options: {max_iterations: 7}}\n"
+        " options: {frames: '0:7'}}\n"
         "  - {name: B, trials: [tree/B/t1.c3d, tree/B/t2.trc]}\n"
     )
     from_yaml = load_dataset(tmp_path / "m.yaml")
     assert [s.trials for s in from_yaml] == [s.trials for s in tree]
-    assert from_yaml[0].options == {"init": "placed", "max_iterations": 7}
+    assert from_yaml[0].options == {"up": "z", "frames": "0:7"}
 
 
 @pytest.mark.parametrize(
@@ -86,8 +86,8 @@ def test_manifests_and_tree_give_the_same_subjects(tmp_path: Path) -> None:
     [
         ("subject,trial,colour\nA,a.c3d,red\n", "row 2: unknown column(s) colour"),
         ("subject,trial\nA,a.c3d\nb/c,b.c3d\n", "row 3: subject name 'b/c'"),
-        ("subject,trial,loss\nA,a.c3d,l2\nA,b.c3d,cauchy\n", "row 3: options of subject 'A'"),
-        ("subject,trial,max_iterations\nA,a.c3d,many\n", "option 'max_iterations' expects int"),
+        ("subject,trial,up\nA,a.c3d,z\nA,b.c3d,y\n", "row 3: options of subject 'A'"),
+        ("subject,trial,init\nA,a.c3d,placed\n", "option 'init' removed; put init in a recipe"),
         ("name,file\nA,a.c3d\n", "expected a header with 'subject' and 'trial'"),
     ],
 )
@@ -104,7 +104,7 @@ def test_content_hash_follows_bytes_and_options_not_paths(tmp_path: Path) -> Non
     [a1] = load_dataset(tmp_path / "one")
     [a2] = load_dataset(tmp_path / "two")
     assert content_hash(a1) == content_hash(a2)  # moved dataset: still resumes
-    [a3] = load_dataset(tmp_path / "one", {"loss": "cauchy"})
+    [a3] = load_dataset(tmp_path / "one", {"frames": "0:50"})
     assert content_hash(a3) != content_hash(a1)
     assert content_hash(a1, {"v": 1}) != content_hash(a1, {"v": 2})
     (tmp_path / "two" / "A" / "t.c3d").write_bytes(b"other bytes")

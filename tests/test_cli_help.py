@@ -1,6 +1,7 @@
 """Every subcommand has a description, and every option a help text that states its default.
 
-Placeholders share one style: upper case (``FOLDER``, ``N``, ``A:B``), or the choices.
+Placeholders share one style: upper case (``FOLDER``, ``N``, ``A:B``; ``WxH`` for an image
+size), or the choices. Removed flags (hidden from ``--help``) are not options.
 """
 
 from __future__ import annotations
@@ -36,6 +37,8 @@ def test_every_option_states_its_default() -> None:
         for action in sub._actions:
             if isinstance(action, FLAGS) or isinstance(action, argparse._SubParsersAction):
                 continue
+            if action.help == argparse.SUPPRESS:  # a removed flag (mocap_mj.commands._removed)
+                continue
             text = action.help or ""
             if not text:
                 missing.append(f"{name} {action.option_strings or action.dest}: no help")
@@ -50,10 +53,10 @@ def test_one_placeholder_style() -> None:
         for action in sub._actions:
             if isinstance(action, FLAGS) or action.choices is not None or not action.nargs != 0:
                 continue
-            if not action.option_strings:
+            if not action.option_strings or action.help == argparse.SUPPRESS:
                 continue
             metavar = action.metavar
-            if metavar is None or not re.fullmatch(r"[A-Z][A-Z0-9_.:\[\]]*", str(metavar)):
+            if metavar is None or not re.fullmatch(r"[A-Z][A-Z0-9_.:\[\]]*|WxH", str(metavar)):
                 bad.append(f"{name} {action.option_strings[0]}: {metavar!r}")
     assert bad == []
 

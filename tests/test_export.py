@@ -17,8 +17,8 @@ import pytest
 
 from mocap_mj import rolling
 from mocap_mj.cli import main
+from mocap_mj.clinical.angles import ANGLES
 from mocap_mj.export.c3d import c3d_points, write_c3d
-from mocap_mj.export.clinical import CLINICAL_JOINTS, clinical_angles
 from mocap_mj.export.coordinates import (
     coordinate_values,
     model_coordinates,
@@ -31,7 +31,6 @@ from mocap_mj.export.tables import marker_residuals, scale_table_text
 from mocap_mj.export.trc import write_trc
 from mocap_mj.io import load_markers
 from mocap_mj.kinematics import Kinematics
-from mocap_mj.model import load_model
 from mocap_mj.parameters import ParameterSet
 from mocap_mj.results import Motion, save_motion
 
@@ -213,80 +212,13 @@ def test_c3d_reads_back_with_the_same_values(result: Path, tmp_path: Path) -> No
     assert point["RATE"]["value"][0] == pytest.approx(100.0)
     assert point["UNITS"]["value"] == ["mm"]
     assert point["ANGLE_UNITS"]["value"] == ["deg"]
-    assert point["ANGLES"]["value"] == [j.c3d_label for j in CLINICAL_JOINTS]
+    assert point["ANGLES"]["value"] == [s + n for n in ANGLES for s in "LR"]
     got = np.transpose(c3d["data"]["points"][:3], (2, 1, 0))
     np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-3, equal_nan=True)  # float32
     assert np.isnan(got[4, 7]).all() and np.isfinite(got[4, 8]).all()
     # Our reader takes the measured markers only (model markers, centres, angles are not).
     traj = load_markers(tmp_path / "r.c3d")
     assert traj.names == src.motion.marker_names
-
-
-# ------------------------------------------------------------------ clinical angles
-def _pose(model: mujoco.MjModel, **joints: tuple[float, ...] | float) -> np.ndarray:
-    """qpos0 with hinges at a degree value, or balls turned by (axis x, y, z, degrees)."""
-    q = model.qpos0.copy()
-    for name, value in joints.items():
-        j = model.joint(name).id
-        adr = int(model.jnt_qposadr[j])
-        if isinstance(value, tuple):
-            axis = np.array(value[:3], dtype=float)
-            mujoco.mju_axisAngle2Quat(q[adr : adr + 4], axis, np.radians(value[3]))
-        else:
-            q[adr] = np.radians(value)
-    return q
-
-
-KNOWN_POSES = [
-    # (joints, {clinical column: degrees}) -- every other angle reads 0
-    ({"knee_flex_l": 30.0, "knee_flex_r": 30.0}, {"knee_l_flexion": 30, "knee_r_flexion": 30}),
-    (
-        {"hip_l": (0, -1, 0, 30), "hip_r": (0, -1, 0, 30)},
-        {"hip_l_flexion": 30, "hip_r_flexion": 30},
-    ),
-    (
-        {"hip_l": (1, 0, 0, 20), "hip_r": (-1, 0, 0, 20)},  # legs out to the side
-        {"hip_l_adduction": -20, "hip_r_adduction": -20},
-    ),
-    (
-        {"hip_l": (0, 0, -1, 15), "hip_r": (0, 0, 1, 15)},  # toes turned in
-        {"hip_l_internal_rotation": 15, "hip_r_internal_rotation": 15},
-    ),
-    (
-        {"ankle_l": 10.0, "ankle_r": -25.0},
-        {"ankle_l_dorsiflexion": 10, "ankle_r_dorsiflexion": -25},
-    ),
-    ({"elbow_l": 90.0}, {"elbow_l_flexion": 90}),
-    ({"shoulder_r": (0, -1, 0, 40)}, {"shoulder_r_flexion": 40}),
-    ({"shoulder_l": (-1, 0, 0, 30)}, {"shoulder_l_adduction": 30}),  # arm across the body
-    ({"wrist_flex_r": 20.0}, {"wrist_r_flexion": 20}),
-    ({"thorax": (0, 1, 0, 25)}, {"trunk_flexion": 25}),
-    ({"root": (0, 1, 0, 12)}, {"pelvis_tilt": 12}),
-]
-
-
-@pytest.mark.parametrize(("joints", "expected"), KNOWN_POSES)
-def test_clinical_angles_of_known_poses(joints: dict, expected: dict[str, float]) -> None:
-    model = load_model()
-    q = _pose(model, **{k: v for k, v in joints.items() if k != "root"})
-    if "root" in joints:
-        axis = np.array(joints["root"][:3], dtype=float)
-        mujoco.mju_axisAngle2Quat(q[3:7], axis, np.radians(joints["root"][3]))
-    angles = np.degrees(clinical_angles(model, q[None]))[0].ravel()
-    columns = [c for j in CLINICAL_JOINTS for c in j.columns]
-    want = np.array([expected.get(c, 0.0) for c in columns])
-    np.testing.assert_allclose(angles, want, atol=1e-9, err_msg=str(expected))
-
-
-def test_clinical_angles_follow_the_segments_when_the_pelvis_moves() -> None:
-    """Relative angles do not change when the whole body turns; the lab-frame pelvis does."""
-    model = load_model()
-    q = _pose(model, knee_flex_l=40.0, hip_r=(0, -1, 0, 25))
-    turned = q.copy()
-    mujoco.mju_axisAngle2Quat(turned[3:7], np.array([0.0, 0.0, 1.0]), np.radians(-70))
-    a, b = np.degrees(clinical_angles(model, np.array([q, turned])))
-    np.testing.assert_allclose(a[1:], b[1:], atol=1e-9)
-    assert b[0, 2] == pytest.approx(70.0)  # left side forward: pelvic rotation +70
 
 
 # ------------------------------------------------------------------ tables and CLI
@@ -421,3 +353,41 @@ def test_unsolved_frames_are_empty_in_every_table(result: Path, tmp_path: Path) 
     points = c3d["data"]["points"][:3, :, 2]
     n = len(m.marker_names)
     assert np.isfinite(points[:, :n]).all() and np.isnan(points[:, n:]).all()
+
+
+def test_export_angles_compare_reports_offset_and_correlation(result: Path, tmp_path: Path) -> None:
+    """--compare against a plug-in-gait folder (frames numbered from 694) whose knee flexion
+    is ours less 5 deg: RMS 5, offset +5, correlation 1 for that column, 0 elsewhere."""
+    out = tmp_path / "a.csv"
+    assert main(["export", str(result), "--to", "angles", "--out", str(out)]) == 0
+    lines = out.read_text().splitlines()
+    header = lines[0].split(",")
+    assert header[:2] == ["frame", "time_s"] and header[2] == "LPelvisAngles_X"
+    k = header.index("LKneeAngles_X")
+    rows = [r.split(",") for r in lines[1:]]
+    for r in rows:  # the recording's frame numbers, as plug-in-gait writes them
+        r[0] = str(int(r[0]) + 694)
+        r[k] = f"{float(r[k]) - 5.0:.4f}" if r[k] else ""
+    pig = tmp_path / "pig"
+    pig.mkdir()
+    (pig / "angles.csv").write_text("\n".join(",".join(r) for r in [header, *rows]) + "\n")
+    cmd = ["export", str(result), "--to", "angles", "--out", str(tmp_path / "b.csv")]
+    assert main([*cmd, "--compare", str(pig), "--json"]) == 0
+    table = (tmp_path / "b_vs_plug_in_gait.md").read_text()
+    assert (tmp_path / "b_vs_plug_in_gait.png").is_file()
+    cells = {r.split("|")[1].strip(): r.split("|")[2:5] for r in table.splitlines()[6:]}
+    rms, offset, corr = (float(v) for v in cells["LKneeAngles_X"])
+    assert (rms, offset, corr) == (pytest.approx(5.0), pytest.approx(5.0), pytest.approx(1.0))
+    rms, offset, corr = (float(v) for v in cells["LHipAngles_X"])
+    assert abs(rms) < 0.05 and abs(offset) < 0.05 and corr == pytest.approx(1.0)
+
+
+def test_export_compare_errors_are_one_line(
+    result: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = str(tmp_path / "a.csv")
+    assert main(["export", str(result), "--to", "angles", "--out", out, "--compare", "/nope"]) != 0
+    err = capsys.readouterr().err.strip()
+    assert "--compare /nope: no angles.csv" in err and len(err.splitlines()) == 1
+    assert main(["export", str(result), "--to", "mot", "--out", out, "--compare", "/nope"]) != 0
+    assert "--compare: only for --to angles" in capsys.readouterr().err

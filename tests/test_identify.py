@@ -162,7 +162,9 @@ def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
 
 def test_cli_identify_score_demo(tmp_path: Path) -> None:
     synth = tmp_path / "synth"
-    assert run_cli("synth", "--out", str(synth), "--frames", "160", "--seed", "2").returncode == 0
+    assert (
+        run_cli("synth", "--out", str(synth), "--frame-count", "160", "--seed", "2").returncode == 0
+    )
     res = tmp_path / "res"
     out = run_cli(
         "identify",
@@ -181,6 +183,7 @@ def test_cli_identify_score_demo(tmp_path: Path) -> None:
         "model.xml",
         "theta.json",
         "motion.npz",
+        "angles.csv",
         "identifiability.json",
         "report.md",
         "summary.json",

@@ -270,7 +270,8 @@ def test_nexus_csv_skips_devices_and_strips_prefix(tmp_path: Path) -> None:
     assert traj.names == MARKER_NAMES and traj.rate == 100.0
     assert traj.source["dropped"] == ["Derrick:*7"]
     assert traj.source["first_frame"] == 101
-    np.testing.assert_allclose(traj.times, np.arange(4) / 100.0)
+    # frame f of the recording at (f - 1) / rate, as its own software counts it
+    np.testing.assert_allclose(traj.times, (101 + np.arange(4) - 1) / 100.0)
     np.testing.assert_allclose(traj.positions, truth, atol=1e-6)
 
 

@@ -9,13 +9,13 @@ from pathlib import Path
 import pytest
 from numba.core import config
 
-from mocap_mj import _schur, _tree
+from mocap_mj import _schur, _tree_ik
 from mocap_mj._kernel_cache import cache_root
 
 
 @pytest.mark.skipif(bool(config.CACHE_DIR), reason="NUMBA_CACHE_DIR set: numba's own locator")
 def test_kernels_cache_under_the_user_folder_by_content() -> None:
-    for module, kernel in ((_tree, _tree.solve_frame), (_schur, _schur._schur_range)):
+    for module, kernel in ((_tree_ik, _tree_ik.solve_frame), (_schur, _schur._schur_range)):
         source = Path(module.__file__ or "")
         digest = hashlib.sha256(source.read_bytes()).hexdigest()[:16]
         folder = Path(kernel._cache._cache_path)
@@ -27,7 +27,7 @@ def test_compile_notice_scales_with_the_load(monkeypatch: pytest.MonkeyPatch) ->
     one when other work already keeps the cores busy."""
     monkeypatch.setattr(os, "cpu_count", lambda: 2)
     monkeypatch.setattr(os, "getloadavg", lambda: (0.2, 0.2, 0.2))
-    assert _tree.compile_estimate(15) == (15, "")
+    assert _tree_ik.compile_estimate(15) == (15, "")
     monkeypatch.setattr(os, "getloadavg", lambda: (3.0, 3.0, 3.0))
-    seconds, why = _tree.compile_estimate(15)
+    seconds, why = _tree_ik.compile_estimate(15)
     assert seconds == 30 and "load 3.0 on 2" in why

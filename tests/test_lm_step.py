@@ -8,7 +8,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from mocap_mj import Kinematics, ParameterSet, _tree
+from mocap_mj import Kinematics, ParameterSet, _tree, _tree_tables
 from mocap_mj.identify.lm import informed_solve
 
 
@@ -54,7 +54,7 @@ def test_tree_moved_with_theta_equals_a_new_tree() -> None:
     kin.tree()  # built at the nominal theta, then moved
     theta = pset.nominal + np.random.default_rng(4).normal(0.0, 0.01, pset.size)
     kin.set_theta(theta)
-    moved, built = kin.tree(), _tree.build_tree(kin.model)
+    moved, built = kin.tree(), _tree_tables.build_tree(kin.model)
     for name in built._fields:
         assert np.array_equal(getattr(moved, name), getattr(built, name)), name
 

@@ -82,12 +82,16 @@ def _cli(*args: str) -> subprocess.CompletedProcess[str]:
 
 
 def test_identify_select_fits_a_subset_and_moves_every_frame(tmp_path: Path) -> None:
-    """``identify --select N``: the model from N pose-diverse frames, the motion of all."""
+    """A recipe's ``select: N``: the model from N pose-diverse frames, the motion of all."""
     truth, out = tmp_path / "truth", tmp_path / "sel"
-    proc = _cli("synth", "--out", str(truth), "--frames", "300", "--motion", "rom", "--seed", "5")
+    proc = _cli(
+        "synth", "--out", str(truth), "--frame-count", "300", "--movement", "rom", "--seed", "5"
+    )
     assert proc.returncode == 0, proc.stderr
     markers = str(truth / "markers.trc")
-    proc = _cli("identify", "--markers", markers, "--select", "90", "--out", str(out), "--json")
+    (tmp_path / "select.yaml").write_text("select: 90\n")
+    recipe = ["--recipe", str(tmp_path / "select.yaml")]
+    proc = _cli("identify", "--markers", markers, *recipe, "--out", str(out), "--json")
     assert proc.returncode == 0, proc.stderr
     summary = json.loads(proc.stdout)
     kept = np.array(summary["frames_selected"][0])
@@ -103,9 +107,11 @@ def test_identify_select_fits_a_subset_and_moves_every_frame(tmp_path: Path) -> 
     ratios = json.loads(score.stdout)
     # Within 1.5x the Cramer-Rao bound of the 90 frames identified on.
     assert ratios["kappa_crlb_ratio"] < 1.5 and ratios["offset_crlb_ratio"] < 1.5
-    bad = _cli("identify", "--markers", markers, "--select", "many", "--out", str(tmp_path / "b"))
+    (tmp_path / "many.yaml").write_text("select: many\n")
+    recipe = ["--recipe", str(tmp_path / "many.yaml")]
+    bad = _cli("identify", "--markers", markers, *recipe, "--out", str(tmp_path / "b"))
     lines = bad.stderr.strip().splitlines()
-    assert bad.returncode != 0 and len(lines) == 1 and "--select" in lines[0]
+    assert bad.returncode != 0 and len(lines) == 1 and "select" in lines[0], lines
     assert not (tmp_path / "b").exists()
 
 
@@ -443,19 +449,21 @@ def test_refinement_on_every_frame_keeps_the_poses_of_its_model(pset: ParameterS
 def test_auto_selection_with_a_robust_loss_refines_with_it(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """``--select auto`` (the default) on a long trial with ``--robust`` identifies on the
+    """``select: auto`` (the default) on a long trial with ``--loss cauchy`` identifies on the
     selected frames and refines on every frame with the robust loss (once refused with an
     explicit number of frames, and auto fitted every frame instead)."""
     from mocap_mj import cli
     from mocap_mj.identify import api
 
     truth, out = tmp_path / "truth", tmp_path / "robust"
-    proc = _cli("synth", "--out", str(truth), "--frames", "120", "--motion", "rom", "--seed", "6")
+    proc = _cli(
+        "synth", "--out", str(truth), "--frame-count", "120", "--movement", "rom", "--seed", "6"
+    )
     assert proc.returncode == 0, proc.stderr
     monkeypatch.setattr(api, "AUTO_SELECT_ABOVE", 100)  # 120 frames count as long
     monkeypatch.setattr(api, "AUTO_SELECT_COUNT", 60)
     markers = str(truth / "markers.trc")
-    assert cli.main(["identify", "--markers", markers, "--robust", "--out", str(out)]) == 0
+    assert cli.main(["identify", "--markers", markers, "--loss", "cauchy", "--out", str(out)]) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["loss"] == "cauchy" and len(summary["frames_selected"][0]) == 60
     assert len(summary["refinement"]["steps_std"]) >= 1

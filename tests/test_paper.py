@@ -1,4 +1,5 @@
-"""Algorithm 1 of Zou & Sugihara (``mocap_mj.identify.paper``) and ``--solver paper``."""
+"""Algorithm 1 of Zou & Sugihara (``mocap_mj.identify.paper``), the baseline of
+``mocap-mj experiment paper``."""
 
 from __future__ import annotations
 
@@ -10,7 +11,6 @@ import numpy as np
 import pytest
 
 from mocap_mj import _tree
-from mocap_mj.cli import main
 from mocap_mj.errors import MocapError
 from mocap_mj.identify.identifiability import Identifiability
 from mocap_mj.identify.lm import TrialData
@@ -146,52 +146,6 @@ def test_frame_sampler() -> None:
         PaperSettings(sampling="all")
     with pytest.raises(MocapError, match="alpha"):
         PaperSettings(step=0.0)
-
-
-def test_cli_paper_result_is_scored(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    synth, res = tmp_path / "synth", tmp_path / "result"
-    write_experiment(synthesize(SynthConfig(frames=20, seed=1)), synth)
-    argv = [
-        "identify",
-        "--markers",
-        str(synth / "markers.csv"),
-        "--out",
-        str(res),
-        "--json",
-        "--solver",
-        "paper",
-        "--sampling",
-        "stochastic",
-        "--iterations",
-        "4",
-    ]
-    assert main(argv) == 0
-    summary = json.loads(capsys.readouterr().out)
-    assert summary["solver"] == "paper" and summary["iterations"] == 4
-    assert summary["frames_per_iteration"] == 1
-    for name in ("model.xml", "theta.json", "motion.npz", "identifiability.json", "report.md"):
-        assert (res / name).is_file(), name
-    assert "Algorithm 1" in (res / "report.md").read_text()
-    assert main(["score", "--truth", str(synth), "--result", str(res), "--json"]) == 0
-    s = json.loads(capsys.readouterr().out)
-    for key in ("kappa_rmse_mm", "offset_rmse_mm", "marker_rmse_mm", "joint_rmse_deg"):
-        assert np.isfinite(s[key]), key
-    # --sampling is required with --solver paper: a one-line error.
-    assert (
-        main(
-            [
-                "identify",
-                "--markers",
-                str(synth / "markers.csv"),
-                "--out",
-                str(tmp_path / "r2"),
-                "--solver",
-                "paper",
-            ]
-        )
-        == 2
-    )
-    assert "--sampling" in capsys.readouterr().err
 
 
 def test_score_of_the_truth_is_zero(tmp_path: Path) -> None:

@@ -312,11 +312,12 @@ def test_command_keeps_the_recordings_frames(tmp_path):
     assert main(["plug-in-gait", "--markers", str(path), "--out", str(out)]) == 0
     rows = np.genfromtxt(out / "angles.csv", delimiter=",", names=True)
     given = ezc3d.c3d(str(path))
-    first = int(given["header"]["points"]["first_frame"])
+    first = int(given["header"]["points"]["first_frame"]) + 1  # ezc3d counts from 0
+    assert first == 695  # the C3D header's first frame
     np.testing.assert_array_equal(rows["frame"], first + np.arange(len(rows)))
-    np.testing.assert_allclose(rows["time_s"], rows["frame"] / 120.0, atol=1e-6)
+    np.testing.assert_allclose(rows["time_s"], (rows["frame"] - 1) / 120.0, atol=1e-6)
     written = ezc3d.c3d(str(out / "result.c3d"))
-    assert int(written["header"]["points"]["first_frame"]) == first
+    assert int(written["header"]["points"]["first_frame"]) + 1 == first
     labels = list(written["parameters"]["POINT"]["LABELS"]["value"])
     ours = written["data"]["points"][:3, labels.index("LKneeAngles")]
     nexus = given["data"]["points"][

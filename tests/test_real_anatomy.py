@@ -44,9 +44,7 @@ def test_real_skeleton_targets(tmp_path: Path, capsys: pytest.CaptureFixture[str
     if not subject.values:  # no measurements in the file: give some by YAML file and flag
         (tmp_path / "s.yaml").write_text("knee_width_l: 100 mm\nknee_width_r: 0.1\n")
         args += ["--subject-file", str(tmp_path / "s.yaml"), "--height", "1750"]
-        subject = from_yaml(tmp_path / "s.yaml").update(
-            from_values([("height", 1.75)], "command line")
-        )
+        subject = from_yaml(tmp_path / "s.yaml").update(from_values([("height", 1.75)], "--height"))
     assert main([*args, "--json", "--force"]) == 0
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     pset = ParameterSet()

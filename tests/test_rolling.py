@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from _motion import random_poses
 
-from mocap_mj import Kinematics, rolling
+from mocap_mj import Kinematics, _tree_tables, rolling
 from mocap_mj import _tree as tree_kernels
 from mocap_mj.errors import MocapError
 from mocap_mj.model import model_path
@@ -144,7 +144,7 @@ def test_model_without_the_entries_is_a_fixed_hinge(tmp_path) -> None:  # type: 
     plain.write_text(rolling.without(model_path().read_text()))
     model = mujoco.MjModel.from_xml_path(str(plain))
     assert rolling.read(model) is None
-    tr = tree_kernels.build_tree(model)
+    tr = _tree_tables.build_tree(model)
     assert np.all(tr.body_rolladr == -1)
     k = Kinematics()
     from mocap_mj.parameters import ParameterSet

@@ -28,7 +28,7 @@ def error_lines(stderr: str) -> list[str]:
 
 def test_cli_writes_folder_and_json(tmp_path: Path) -> None:
     out = tmp_path / "s"
-    proc = run("--out", str(out), "--frames", "60", "--motion", "walk", "--gaps", "0.05",
+    proc = run("--out", str(out), "--frame-count", "60", "--movement", "walk", "--gaps", "0.05",
                "--swaps", "2", "--seed", "4", "--json")  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     summary = json.loads(proc.stdout)
@@ -37,20 +37,20 @@ def test_cli_writes_folder_and_json(tmp_path: Path) -> None:
     assert summary["frames"] == 60 and summary["motion"] == "walk" and summary["seed"] == 4
     assert len(summary["swapped"]) == 2 and summary["gap_fraction"] == pytest.approx(0.05, abs=1e-3)
     # Refused the second time (not empty), accepted with --force.
-    again = run("--out", str(out), "--frames", "60")
+    again = run("--out", str(out), "--frame-count", "60")
     assert again.returncode == 2 and "not empty" in again.stderr
-    assert run("--out", str(out), "--frames", "60", "--force").returncode == 0
+    assert run("--out", str(out), "--frame-count", "60", "--force").returncode == 0
 
 
 @pytest.mark.parametrize(
     ("args", "flag"),
     [
         (["--noise-mm", "-1"], "--noise-mm"),
-        (["--frames", "0"], "--frames"),
-        (["--frames", "ten"], "--frames"),
+        (["--frame-count", "0"], "--frame-count"),
+        (["--frame-count", "ten"], "--frame-count"),
         (["--gaps", "1"], "--gaps"),
         (["--outliers", "-0.2"], "--outliers"),
-        (["--motion", "dance"], "--motion"),
+        (["--movement", "dance"], "--movement"),
         (["--rate", "0"], "--rate"),
         (["--swaps", "40"], "swaps"),
     ],

@@ -8,6 +8,7 @@ import json
 import math
 from pathlib import Path
 
+import ezc3d
 import mujoco
 import numpy as np
 import pytest
@@ -21,7 +22,7 @@ from mocap_mj.identify.ranges import kappa_ranges
 from mocap_mj.identify.robust_ik import solve_trial_loss
 from mocap_mj.identify.segments import COLUMNS, parameter_flag
 from mocap_mj.ik import IKSolver
-from mocap_mj.io import MarkerTrajectory, save_csv
+from mocap_mj.io import MarkerTrajectory, load_markers, save_csv
 from mocap_mj.joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
 from mocap_mj.kinematics import Kinematics
 from mocap_mj.results import load_motion
@@ -88,8 +89,10 @@ def beyond_cone(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def identified(beyond_cone: Path) -> tuple[Path, dict]:
     out = beyond_cone / "result"
-    code = main(["identify", "--markers", str(beyond_cone / "markers.csv"), "--init", "nominal",
-                 "--out", str(out), "--json"])  # fmt: skip
+    recipe = beyond_cone / "nominal.yaml"
+    recipe.write_text("init: nominal\n")
+    code = main(["identify", "--markers", str(beyond_cone / "markers.csv"),
+                 "--recipe", str(recipe), "--out", str(out), "--json"])  # fmt: skip
     assert code == 0
     summary = json.loads((out / "summary.json").read_text(), parse_constant=_reject_constant)
     return out, summary
@@ -129,7 +132,7 @@ def test_exported_model_reproduces_the_fit(
 def test_joint_centres_csv(identified: tuple[Path, dict]) -> None:
     out, _ = identified
     columns = joint_centre_columns()
-    assert columns[:2] == ["frame", "time"]
+    assert columns[:2] == ["frame", "time_s"]
     assert columns[2:5] == [f"{JOINT_CENTRE_NAMES[0]}_{a}_mm" for a in "xyz"]
     assert "knee_l_x_mm" in columns and len(columns) == 2 + 3 * len(JOINT_CENTRE_NAMES)
     table = np.genfromtxt(out / "joint_centres.csv", delimiter=",", names=True)
@@ -138,7 +141,7 @@ def test_joint_centres_csv(identified: tuple[Path, dict]) -> None:
     expected = joint_centre_trajectories(exported.model, motion.qpos) * 1e3  # (T, J, 3) mm
     assert len(table) == len(motion.qpos)
     np.testing.assert_array_equal(table["frame"], np.arange(len(table)))
-    np.testing.assert_allclose(table["time"], motion.times, atol=1e-6)
+    np.testing.assert_allclose(table["time_s"], motion.times, atol=1e-6)
     j = JOINT_CENTRE_NAMES.index("knee_r")
     for k, a in enumerate("xyz"):
         np.testing.assert_allclose(table[f"knee_r_{a}_mm"], expected[:, j, k], atol=1e-4)
@@ -223,15 +226,31 @@ def test_exported_model_reproduces_a_real_fit(
     alike = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert alike["sliding_landmarks"] is None
     assert alike["marker_rmse_mm"] < 0.98 * fit["marker_rmse_mm"]
-    # Rows are numbered by the frame of the marker file.
+    # Rows carry the recording's own frame numbers and times (the C3D header's first frame,
+    # here 695, plus the --frames start).
+    first = load_markers(path).first_frame
+    assert first == 695
     for table in (tmp_path / "r" / "joint_centres.csv", tmp_path / "ik" / "joint_centres.csv",
                   tmp_path / "ik" / "motion.csv"):  # fmt: skip
         frame = np.genfromtxt(table, delimiter=",", names=True)["frame"]
-        np.testing.assert_array_equal(frame, np.arange(10, 130))
+        np.testing.assert_array_equal(frame, first + np.arange(10, 130))
+        times = np.genfromtxt(table, delimiter=",", names=True)["time_s"]
+        np.testing.assert_allclose(times, (frame - 1) / 120.0, atol=1e-6)
+    # ... and so does every export of the result.
+    assert main(["export", str(tmp_path / "r"), "--to", "all", "--out", str(tmp_path / "x")]) == 0
+    for name in ("angles.csv", "residuals.csv"):
+        rows = np.genfromtxt(tmp_path / "x" / name, delimiter=",", names=True)
+        np.testing.assert_array_equal(rows["frame"], first + np.arange(10, 130))
+        np.testing.assert_allclose(rows["time_s"], (rows["frame"] - 1) / 120.0, atol=1e-6)
+    trc = (tmp_path / "x" / "markers.trc").read_text().splitlines()
+    assert trc[2].split("\t")[6] == str(first + 10)  # OrigDataStartFrame
+    assert trc[6].split("\t")[:2] == [str(first + 10), f"{(first + 9) / 120.0:.9f}"]
+    c3d = ezc3d.c3d(str(tmp_path / "x" / "result.c3d"))
+    assert int(c3d["header"]["points"]["first_frame"]) + 1 == first + 10  # ezc3d counts from 0
 
 
 def test_ik_under_a_robust_loss_resists_outliers() -> None:
-    """``ik --loss cauchy`` (the loss of ``identify --robust``): with the true model and 3 %
+    """``ik --loss cauchy`` (the loss of ``identify --loss cauchy``): with the true model and 3 %
     of the samples displaced by 50 mm, the poses put the model markers nearer their clean
     positions than least squares does, and the reported RMSE is the unweighted one."""
     pset = ParameterSet()

@@ -9,7 +9,7 @@ import pytest
 from _motion import random_poses, smooth_motion
 from _oracles import mj_site_jacobian, numpy_solve_frames
 
-from mocap_mj import Kinematics, rolling
+from mocap_mj import Kinematics, _tree_ik, rolling
 from mocap_mj import _tree as tree_kernels
 from mocap_mj.ik import IKSettings, IKSolver
 
@@ -207,4 +207,4 @@ def test_ball_at_its_limit_slides_along_it(kin: Kinematics) -> None:
 def test_kernel_only_helper_refuses_a_python_call() -> None:
     """A helper compiled without a Python entry raises TypeError from Python, never crashes."""
     with pytest.raises(TypeError, match="python_callable"):
-        tree_kernels.hold_blocked(None, None, None, None)
+        _tree_ik.hold_blocked(None, None, None, None)

@@ -382,7 +382,7 @@ def _check_frame(rgb: np.ndarray, width: int, height: int, body: bool = True) ->
 @pytest.mark.parametrize("backend", ["mujoco", "pyrender"])
 def test_render_png_shows_the_posed_body(result: Path, tmp_path: Path, backend: str) -> None:
     first, second = tmp_path / "a.png", tmp_path / "b.png"
-    common = ["--width", "320", "--height", "240", "--no-text", "--backend", backend]
+    common = ["--size", "320x240", "--no-text", "--backend", backend]
     _render([str(result), "--out", str(first), "--frame", "0", *common])
     _render([str(result), "--out", str(second), "--frame", "18", *common, "--ghost", "nominal"])
     a, b = _read_png(first), _read_png(second)
@@ -397,7 +397,7 @@ def test_render_mp4_reads_back(result: Path, tmp_path: Path) -> None:
 
     out = tmp_path / "clip.mp4"
     proc = _render([str(result), "--out", str(out), "--frames", "2:14", "--fast",
-                    "--width", "161", "--height", "120", "--json"])  # fmt: skip
+                    "--size", "161x120", "--json"])  # fmt: skip
     assert '"frames": 12' in proc.stdout
     reader: Any = imageio.get_reader(out)
     try:
@@ -415,7 +415,7 @@ def test_render_gif_reads_back(result: Path, tmp_path: Path) -> None:
 
     out = tmp_path / "clip.gif"
     _render([str(result), "--out", str(out), "--frames", "0:20:2", "--fast",
-             "--width", "160", "--height", "120"])  # fmt: skip
+             "--size", "160x120"])  # fmt: skip
     with Image.open(out) as im:
         assert getattr(im, "n_frames", 1) == 10 and im.size == (160, 120)
         assert im.info["duration"] == 70  # 15 fps (every other frame of 30 Hz), in 10 ms units

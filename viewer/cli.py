@@ -13,7 +13,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from mocap_mj.cli import add_json_flag, finish
+from mocap_mj.cli import add_json_flag, add_removed_flags, finish
 from mocap_mj.errors import MocapError
 from mocap_mj.export.registry import Exporter
 
@@ -93,6 +93,19 @@ def _frames(args: argparse.Namespace, playback: Playback, default_all: bool) -> 
     return list(range(playback.n_frames)) if default_all else [0]
 
 
+def _image_size(text: str) -> tuple[int, int]:
+    """``"WxH"`` -> (width, height) in pixels, both positive."""
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected WxH in pixels, e.g. 640x480, got {text!r}"
+        ) from None
+    if width < 1 or height < 1:
+        raise argparse.ArgumentTypeError(f"expected positive pixels, got {text!r}")
+    return width, height
+
+
 def _positive(kind: type) -> Any:
     def parse(text: str) -> Any:
         try:
@@ -142,8 +155,8 @@ def _run_render(args: argparse.Namespace) -> int:
         out,
         frames,
         backend=args.backend,
-        width=args.width,
-        height=args.height,
+        width=args.size[0],
+        height=args.size[1],
         camera=args.camera,
         ghost=ghost,
         layers=layers,
@@ -242,7 +255,11 @@ def register(sub: Any) -> None:
     )
     add_json_flag(p)
     p.set_defaults(func=_run_view)
+    _register_render(sub)
 
+
+def _register_render(sub: Any) -> None:
+    """The ``render`` subcommand."""
     p = sub.add_parser(
         "render",
         help="render a result offscreen to PNG, MP4 or GIF",
@@ -258,14 +275,11 @@ def register(sub: Any) -> None:
     )
     _add_frames(p)
     p.add_argument(
-        "--width", type=_positive(int), default=640, metavar="PX", help="image width (default: 640)"
-    )
-    p.add_argument(
-        "--height",
-        type=_positive(int),
-        default=480,
-        metavar="PX",
-        help="image height (default: 480)",
+        "--size",
+        type=_image_size,
+        default=(640, 480),
+        metavar="WxH",
+        help="image width and height in pixels, e.g. 1280x720 (default: 640x480)",
     )
     p.add_argument(
         "--camera",
@@ -293,4 +307,5 @@ def register(sub: Any) -> None:
         help="no antialiasing, shadows or reflections (much faster on software OpenGL)",
     )
     add_json_flag(p)
+    add_removed_flags(p, "render")
     p.set_defaults(func=_run_render)

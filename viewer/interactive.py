@@ -215,6 +215,69 @@ def _set_camera(handle: Any, model: mujoco.MjModel, camera: str | None) -> None:
     cam.elevation = -15.0
 
 
+def _viewer_module(playback: Playback, camera: str | None) -> Any:
+    """``mujoco.viewer``, after refusing no display and an unknown ``camera`` (before a
+    window opens)."""
+    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+        raise MocapError(
+            "no display for the viewer: run it on a desktop, under xvfb-run, "
+            "or render a file with 'mocap-mj render'"
+        )
+    if camera is not None:
+        camera_id(playback.model, camera)  # unknown names fail before a window opens
+    try:
+        from mujoco import viewer as mj_viewer
+    except Exception as exc:  # glfw missing or without its library
+        raise MocapError(f"the MuJoCo viewer is unavailable: {exc}") from None
+    return mj_viewer
+
+
+def _controls(
+    playback: Playback, start: int, speed: float, paused: bool, ghost: Ghost | None
+) -> Controls:
+    """The keyboard's state at the start: frame ``start``, ``speed``, playing unless
+    ``paused`` or a single frame, the ghost layer off without a ghost."""
+    controls = Controls(playback.times, playback.worst_frame, frame=start, speed=speed)
+    controls.playing = not paused and playback.n_frames > 1
+    if ghost is None:
+        controls.layers.ghost = False
+    return controls
+
+
+def _launch(
+    mj_viewer: Any, model: mujoco.MjModel, data: mujoco.MjData, controls: Controls
+) -> tuple[Any, list[threading.Thread]]:
+    """Open the passive viewer window; its handle and the threads it started (joined when
+    it closes)."""
+    before = set(threading.enumerate())
+    try:
+        handle = mj_viewer.launch_passive(
+            model, data, key_callback=controls.on_key, show_left_ui=False, show_right_ui=False
+        )
+    except Exception as exc:
+        raise MocapError(f"cannot open the viewer window: {exc}") from None
+    return handle, [t for t in threading.enumerate() if t not in before]
+
+
+def _pose(
+    handle: Any,
+    data: mujoco.MjData,
+    playback: Playback,
+    frame: int,
+    layers: Any,
+    style: Style,
+    ghost: Ghost | None,
+) -> None:
+    """Pose the viewer's model at ``frame`` and draw its markers, residuals and ghost (the
+    caller holds the viewer's lock)."""
+    data.qpos[:] = playback.qpos[frame]
+    data.time = float(playback.times[frame])
+    rolling.kinematics(playback.model, data, mujoco.mj_forward)
+    scn = handle.user_scn
+    scn.ngeom = 0
+    decorate(scn, playback, frame, layers, style, ghost if layers.ghost else None)
+
+
 def run_viewer(
     playback: Playback,
     *,
@@ -256,33 +319,13 @@ def run_viewer(
         Without a display (use ``xvfb-run``, or ``mocap-mj render``), or if the window cannot
         be opened.
     """
-    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
-        raise MocapError(
-            "no display for the viewer: run it on a desktop, under xvfb-run, "
-            "or render a file with 'mocap-mj render'"
-        )
-    if camera is not None:
-        camera_id(playback.model, camera)  # unknown names fail before a window opens
-    try:
-        from mujoco import viewer as mj_viewer
-    except Exception as exc:  # glfw missing or without its library
-        raise MocapError(f"the MuJoCo viewer is unavailable: {exc}") from None
+    mj_viewer = _viewer_module(playback, camera)
     style = style or Style()
     model = playback.model
     data = mujoco.MjData(model)
-    controls = Controls(playback.times, playback.worst_frame, frame=start, speed=speed)
-    controls.playing = not paused and playback.n_frames > 1
-    if ghost is None:
-        controls.layers.ghost = False
+    controls = _controls(playback, start, speed, paused, ghost)
 
-    before = set(threading.enumerate())
-    try:
-        handle = mj_viewer.launch_passive(
-            model, data, key_callback=controls.on_key, show_left_ui=False, show_right_ui=False
-        )
-    except Exception as exc:
-        raise MocapError(f"cannot open the viewer window: {exc}") from None
-    threads = [t for t in threading.enumerate() if t not in before]
+    handle, threads = _launch(mj_viewer, model, data, controls)
     updates = 0
     opened = time.monotonic()
     last = opened
@@ -302,12 +345,7 @@ def run_viewer(
             with handle.lock():
                 guard.pressed(handle, pressed)
                 guard.update(handle)
-                data.qpos[:] = playback.qpos[frame]
-                data.time = float(playback.times[frame])
-                rolling.kinematics(model, data, mujoco.mj_forward)
-                scn = handle.user_scn
-                scn.ngeom = 0
-                decorate(scn, playback, frame, layers, style, ghost if layers.ghost else None)
+                _pose(handle, data, playback, frame, layers, style, ghost)
             handle.set_texts(_overlay(playback, frame, playing, spd, ghost is not None))
             handle.sync()
             updates += 1

@@ -105,6 +105,36 @@ def _progress(items: Sequence[int], label: str) -> Iterator[int]:
     yield from tqdm(items, desc=label, unit="frame", leave=False, disable=None)
 
 
+def _write(out: Path, images: Iterator[np.ndarray], fps: float) -> int:
+    """Write ``images`` (each (H, W, 3) uint8) to ``out`` by its suffix (a PNG: the first
+    only), the video at ``fps`` [Hz]; the number of images written."""
+    suffix = out.suffix.lower()
+    if suffix == ".png":
+        write_png(out, next(images))
+        return 1
+    if suffix == ".mp4":
+        return write_mp4(out, images, fps)
+    return write_gif(out, images, fps)
+
+
+def _checked_request(out: Path, frames: Sequence[int], rate: float, fps: float | None) -> float:
+    """Refuse an unknown format, no frame, or several frames for a PNG; the video's frame
+    rate [Hz]: ``fps``, by default real time (``rate`` / the frame step)."""
+    suffix = out.suffix.lower()
+    if suffix not in FORMATS:
+        raise MocapError(f"{out}: unknown output format; expected one of {', '.join(FORMATS)}")
+    if not frames:
+        raise MocapError("no frame to render")
+    if suffix == ".png" and len(frames) != 1:
+        raise MocapError(f"{out}: a PNG holds one frame; use --frame K, or .mp4/.gif for a range")
+    if fps is None:
+        step = abs(frames[1] - frames[0]) if len(frames) > 1 else 1
+        fps = rate / max(step, 1)
+    if not fps > 0:
+        raise MocapError(f"--fps must be positive, got {fps}")
+    return fps
+
+
 def render_to_file(
     playback: Playback,
     out: str | Path,
@@ -154,19 +184,9 @@ def render_to_file(
     """
     out = Path(out)
     suffix = out.suffix.lower()
-    if suffix not in FORMATS:
-        raise MocapError(f"{out}: unknown output format; expected one of {', '.join(FORMATS)}")
-    if not frames:
-        raise MocapError("no frame to render")
-    if suffix == ".png" and len(frames) != 1:
-        raise MocapError(f"{out}: a PNG holds one frame; use --frame K, or .mp4/.gif for a range")
+    fps = _checked_request(out, frames, playback.rate, fps)
     if suffix == ".mp4":
         width, height = width + width % 2, height + height % 2
-    if fps is None:
-        step = abs(frames[1] - frames[0]) if len(frames) > 1 else 1
-        fps = playback.rate / max(step, 1)
-    if not fps > 0:
-        raise MocapError(f"--fps must be positive, got {fps}")
     out.parent.mkdir(parents=True, exist_ok=True)
     renderer = open_renderer(backend, playback, width, height, camera, ghost, layers, style, fast)
 
@@ -176,13 +196,7 @@ def render_to_file(
             yield annotate(rgb, frame_label(playback, k)) if text else rgb
 
     try:
-        if suffix == ".png":
-            write_png(out, next(images()))
-            count = 1
-        elif suffix == ".mp4":
-            count = write_mp4(out, images(), fps)
-        else:
-            count = write_gif(out, images(), fps)
+        count = _write(out, images(), fps)
     finally:
         renderer.close()
     summary: dict[str, Any] = {

@@ -16,6 +16,7 @@ import numpy as np
 
 from mocap_mj import rolling
 from mocap_mj.errors import InputFileError, MocapError, ShapeError
+from mocap_mj.identify.output import frame_range
 from mocap_mj.model import load_model, model_path
 from mocap_mj.results import Motion, ResultDir, load_motion
 
@@ -326,24 +327,9 @@ def parse_frame(text: str, playback: Playback) -> int:
 
 
 def parse_frames(text: str, n: int) -> list[int]:
-    """Frame indices from a Python-style slice ``"A:B[:S]"`` over ``n`` frames (B exclusive).
-
-    Empty parts take the slice defaults (``":"`` is every frame, ``"::2"`` every other one);
-    a bound past the ``n`` frames is refused.
-    """
-    parts = text.split(":")
-    if len(parts) not in (2, 3):
-        raise MocapError(f"--frames: expected A:B or A:B:S, got {text!r}")
-    try:
-        a, b, *s = (int(p) if p.strip() else None for p in parts)
-    except ValueError:
-        raise MocapError(f"--frames: expected integers in A:B[:S], got {text!r}") from None
-    step = s[0] if s else None
-    if step is not None and step <= 0:
-        raise MocapError(f"--frames: the step must be positive, got {step}")
-    if any(v is not None and not -n <= v <= n for v in (a, b)):  # not silently shortened
-        raise MocapError(f"--frames {text}: past the end, the result has {n} frames (0 to {n - 1})")
-    frames = list(range(n))[slice(a, b, step)]
+    """Frame indices of a ``--frames`` text ``"A:B[:S]"`` over ``n`` frames (B exclusive;
+    :func:`mocap_mj.identify.output.frame_range`, the parser of every command)."""
+    frames = list(range(n))[frame_range(text, n, "the result", stride=True)]
     if not frames:
         raise MocapError(f"--frames {text}: selects no frame of the {n}")
     return frames

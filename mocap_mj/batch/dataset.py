@@ -9,15 +9,16 @@ Manifest CSV: a header with ``subject`` and ``trial`` columns, one row per trial
 ``subject_file`` and option columns (:data:`OPTION_KEYS`); a subject's options must agree on
 all its rows. Manifest YAML::
 
-    options: {init: placed}          # defaults of every subject (optional)
+    options: {recipe: recipe.yaml}   # defaults of every subject (optional)
     subjects:
       - name: S01
         trials: [S01/walk.c3d, S01/rom.c3d]
         subject_file: S01/subject.yaml   # optional
-        options: {loss: cauchy}          # optional, overrides the defaults
+        options: {recipe: robust.yaml}   # optional, overrides the defaults
 
 Relative paths are relative to the manifest's folder. The options are those of ``identify``
-that make sense per subject (``recipe``: a recipe file, ``identify --recipe``); ``up``,
+that make sense per subject (``recipe``: a recipe file, ``identify --recipe``, which holds
+the identification's choices: initial model, loss, iterations, priors); ``up``,
 ``marker_map``, ``file_subject`` and ``exclude_markers``
 (``RELB,RUPA``: markers whose data are dropped) also apply to the IK.
 """
@@ -35,14 +36,10 @@ from typing import Any
 
 import yaml
 
-from ..errors import InputFileError
+from ..errors import InputFileError, yaml_problem
 
 #: Per-subject options a manifest (or the ``batch`` command line) may set, with their type.
 OPTION_KEYS: dict[str, type] = {
-    "init": str,
-    "loss": str,
-    "max_iterations": int,
-    "prior_mm": float,
     "frames": str,
     "up": str,
     "marker_map": str,
@@ -56,6 +53,9 @@ OPTION_KEYS: dict[str, type] = {
 FLAGS = {k: "--" + k.replace("_", "-") for k in OPTION_KEYS} | {"file_subject": "--subject"}
 #: Options naming a file: resolved against the manifest's folder; their content is hashed.
 PATH_OPTIONS = ("marker_map", "model", "recipe")
+#: Options that are now a recipe's fields (option -> recipe field): refused, naming it.
+RECIPE_OPTIONS = {"init": "init", "loss": "loss", "max_iterations": "max_iterations",
+                  "prior_mm": "prior_sigma (in metres)"}  # fmt: skip
 #: Trial file suffixes of a folder-tree dataset.
 TRIAL_SUFFIXES = (".c3d", ".trc", ".csv")
 SUBJECT_FILES = ("subject.yaml", "subject.yml")
@@ -142,8 +142,12 @@ def _from_csv(path: Path, base: dict[str, Any]) -> list[Subject]:
         trial = (row.get("trial") or "").strip()
         if not trial:
             raise InputFileError(f"{where}: empty 'trial'")
-        raw = {k: v.strip() for k, v in row.items() if k in OPTION_KEYS and v and v.strip()}
-        unknown = set(row) - {"subject", "trial", "subject_file", *OPTION_KEYS}
+        raw = {
+            k: v.strip()
+            for k, v in row.items()
+            if (k in OPTION_KEYS or k in RECIPE_OPTIONS) and v and v.strip()
+        }
+        unknown = set(row) - {"subject", "trial", "subject_file", *OPTION_KEYS, *RECIPE_OPTIONS}
         if unknown:
             raise InputFileError(
                 f"{where}: unknown column(s) {', '.join(sorted(unknown))}; "
@@ -162,8 +166,10 @@ def _from_csv(path: Path, base: dict[str, Any]) -> list[Subject]:
 def _from_yaml(path: Path, base: dict[str, Any]) -> list[Subject]:
     try:
         data = yaml.safe_load(path.read_text())
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+    except (OSError, UnicodeDecodeError) as exc:
         raise InputFileError(f"{path}: cannot read the manifest ({exc})") from None
+    except yaml.YAMLError as exc:
+        raise InputFileError(f"{path}: expected a YAML manifest: {yaml_problem(exc)}") from None
     if not isinstance(data, dict) or not isinstance(data.get("subjects"), list):
         raise InputFileError(f"{path}: expected a mapping with a 'subjects' list")
     given = data.get("options") or {}
@@ -209,6 +215,11 @@ def _checked_options(where: str, options: Mapping[str, Any], base: Path) -> dict
         raise InputFileError(f"{where}: options must be a mapping")
     out: dict[str, Any] = {}
     for key, value in options.items():
+        if key in RECIPE_OPTIONS:
+            raise InputFileError(
+                f"{where}: option {key!r} removed; put {RECIPE_OPTIONS[key]} in a recipe file "
+                "and name it with the option 'recipe'"
+            )
         if key not in OPTION_KEYS:
             raise InputFileError(
                 f"{where}: unknown option {key!r}; expected one of {', '.join(OPTION_KEYS)}"

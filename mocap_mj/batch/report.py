@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from ..io.atomic import atomic_write_text
-from ..plots import _figure, _save
+from ..plots import _figure, _save, held_interrupts
 from .run import Outcome
 
 #: Columns of summary.csv. RMSE in mm, times in s; ``parameters_at_bounds`` names the
@@ -114,6 +114,7 @@ def _num(value: Any) -> str:
     return f"{value:.2f}" if isinstance(value, float | int) else ""
 
 
+@held_interrupts
 def _plot_segments(path: Path, outcomes: Sequence[Outcome]) -> Path:
     heights = [o.record.get("height_m") for o in outcomes]
     by_height = all(isinstance(h, float | int) for h in heights)
@@ -134,6 +135,7 @@ def _plot_segments(path: Path, outcomes: Sequence[Outcome]) -> Path:
     return _save(fig, path)
 
 
+@held_interrupts
 def _plot_rmse(path: Path, rows: Sequence[dict[str, Any]]) -> Path:
     done = [r for r in rows if isinstance(r.get("ik_rmse_mm"), float)]
     fig = _figure((1200, 700))

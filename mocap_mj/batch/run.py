@@ -9,6 +9,10 @@ folder to ``OUT/<subject>``: a subject folder is complete or absent, never half-
   subject's failure (its one-line message); a worker process that dies (killed, out of memory)
   is retried by Ray (``max_retries``) and, if it keeps dying, recorded as failed. The other
   subjects go on in every case.
+* Time limit: a job running longer than ``timeout`` seconds is stopped (``SIGALRM`` in the
+  process that runs it: this one, serially, or the Ray worker) and recorded as failed, its
+  trials ``timed out``; the batch goes on. A job inside compiled code is stopped when it
+  returns to Python.
 * Resume: each ``subject.json`` carries the content hash of the subject's inputs and options
   (:func:`mocap_mj.batch.dataset.content_hash`); a subject whose folder holds a record with the
   same hash and status ``ok`` is not run again.
@@ -25,7 +29,9 @@ import json
 import os
 import secrets
 import shutil
+import signal
 import sys
+import threading
 import time
 import traceback
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -64,9 +70,45 @@ def one_line(exc: BaseException) -> str:
     return lines[0] if lines else type(exc).__name__
 
 
-def failed_record(subject: Subject, digest: str, error: str, seconds: float) -> dict[str, Any]:
+class SubjectTimeout(MocapError):
+    """A subject's job ran longer than the batch's time limit."""
+
+
+#: The status of the trials of a subject whose job ran out of time.
+TIMED_OUT = "timed out"
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float | None) -> Iterator[None]:
+    """Raise :class:`SubjectTimeout` in the block after ``seconds`` (None: no limit; outside
+    the main thread, where no signal can be set, or without ``SIGALRM`` (Windows), none
+    either)."""
+    if (
+        seconds is None
+        or threading.current_thread() is not threading.main_thread()
+        or not hasattr(signal, "setitimer")
+    ):
+        yield
+        return
+
+    def expire(signum: int, frame: object) -> None:
+        raise SubjectTimeout(f"timed out after {seconds:g} s (batch --timeout)")
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def failed_record(
+    subject: Subject, digest: str, error: str, seconds: float, status: str = "failed"
+) -> dict[str, Any]:
+    """The record of a subject whose job failed; its trials' rows have ``status``."""
     rows = [
-        {"subject": subject.name, "trial": Path(t).name, "status": "failed", "error": error}
+        {"subject": subject.name, "trial": Path(t).name, "status": status, "error": error}
         for t in subject.trials
     ]
     return {
@@ -79,18 +121,22 @@ def failed_record(subject: Subject, digest: str, error: str, seconds: float) -> 
     }
 
 
-def execute(job: Job, subject: Subject, out: str, digest: str) -> dict[str, Any]:
+def execute(
+    job: Job, subject: Subject, out: str, digest: str, timeout: float | None = None
+) -> dict[str, Any]:
     """Run ``job`` for one subject into a temporary folder of ``out`` and commit it.
 
-    Returns the record; an exception of the job becomes a failed record (nothing committed).
-    Runs in a Ray worker (or in the caller, serially).
+    Returns the record; an exception of the job, or its running longer than ``timeout``
+    seconds (None: no limit), becomes a failed record (nothing committed). Runs in a Ray
+    worker (or in the caller, serially).
     """
     t0 = time.perf_counter()
     root = Path(out)
     tmp = root / f"{_TMP}{subject.name}-{secrets.token_hex(4)}"
     try:
         tmp.mkdir()
-        record = dict(job(subject, tmp))
+        with time_limit(timeout):
+            record = dict(job(subject, tmp))
         record.update(
             subject=subject.name,
             hash=digest,
@@ -105,7 +151,8 @@ def execute(job: Job, subject: Subject, out: str, digest: str) -> dict[str, Any]
         error = one_line(exc)
         if not isinstance(exc, MocapError):
             print(f"{subject.name}: {traceback.format_exc()}", file=sys.stderr)
-        return failed_record(subject, digest, error, time.perf_counter() - t0)
+        status = TIMED_OUT if isinstance(exc, SubjectTimeout) else "failed"
+        return failed_record(subject, digest, error, time.perf_counter() - t0, status)
 
 
 def _commit(tmp: Path, final: Path) -> None:
@@ -163,12 +210,14 @@ def run_batch(
     workers: int | None = None,
     progress: bool = True,
     on_outcome: Callable[[Outcome], None] | None = None,
+    timeout: float | None = None,
 ) -> list[Outcome]:
     """Run ``job`` for every subject not already complete in ``out``; outcomes by subject.
 
     ``settings`` enter every subject's content hash (what else the results depend on).
     ``use_ray=False`` runs the jobs serially in this process. ``workers`` limits the local
     Ray's CPUs (default: all). ``on_outcome`` is called as each subject finishes.
+    ``timeout``: seconds a subject's job may run (None: no limit; see :func:`execute`).
     """
     out.mkdir(parents=True, exist_ok=True)
     clean_leftovers(out)
@@ -195,11 +244,11 @@ def run_batch(
             todo.append((s, digest))
     try:
         if todo and use_ray:
-            for o in _ray_outcomes(todo, out, job, address, workers):
+            for o in _ray_outcomes(todo, out, job, address, workers, timeout):
                 done(o)
         else:
             for s, digest in todo:
-                rec = execute(job, s, str(out), digest)
+                rec = execute(job, s, str(out), digest, timeout)
                 done(Outcome(s.name, rec["status"], rec))
     finally:
         bar.close()
@@ -213,6 +262,7 @@ def _ray_outcomes(
     job: Job,
     address: str | None,
     workers: int | None,
+    timeout: float | None = None,
 ) -> Iterator[Outcome]:
     import ray
     from ray.exceptions import RayError
@@ -220,7 +270,8 @@ def _ray_outcomes(
     with _ray_session(address, workers):
         task = ray.remote(num_cpus=1, max_retries=MAX_RETRIES, retry_exceptions=False)(execute)
         pending = {
-            task.remote(job, s, str(out.resolve()), digest): (s, digest) for s, digest in todo
+            task.remote(job, s, str(out.resolve()), digest, timeout): (s, digest)
+            for s, digest in todo
         }
         while pending:
             ready, _ = ray.wait(list(pending), num_returns=1)

@@ -141,7 +141,7 @@ def plug_in_gait(
     """Plug-in Gait on ``trajectory`` (metres, Z up) with ``subject``'s values.
 
     ``static``: a static trial whose offsets replace the subject's; ``frames`` (T,) the
-    recording's frame numbers (default 0..T-1; the times count from frame 0); ``to_lab``
+    recording's frame numbers (default: the trajectory's, ``first_frame + i``); ``to_lab``
     (3, 3) the rotation from the trajectory's Z-up frame back to the recording's lab frame
     for the points (default identity); ``override``: values that win over the static
     trial's (a subject file); ``trial_type``: "static" (the trial gives its own offsets and
@@ -181,9 +181,9 @@ def plug_in_gait(
     rot = np.eye(3) if to_lab is None else np.asarray(to_lab)
     points = bone_points(segs, jc, widths, feet, upper=upper)
     n = trajectory.n_frames
-    numbers = np.arange(n) if frames is None else np.asarray(frames)
+    numbers = trajectory.first_frame + np.arange(n) if frames is None else np.asarray(frames)
     return PigResult(
-        times=np.asarray(trajectory.times) + (numbers[0] / trajectory.rate if n else 0.0),
+        times=np.asarray(trajectory.times),
         frames=numbers,
         angles=all_angles(segs, prog),
         points={k: v @ rot.T for k, v in points.items()},

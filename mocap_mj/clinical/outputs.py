@@ -15,6 +15,7 @@ import numpy as np
 from ..export.c3d import write_points_c3d
 from ..io.atomic import atomic_write_text
 from .model import PigResult
+from .tables import series_table
 
 #: The points of joint_centres.csv: bone origins, then the proximal points.
 CENTRE_POINTS = (
@@ -24,28 +25,15 @@ CENTRE_POINTS = (
 )  # fmt: skip
 
 
-def _table(result: PigResult, series: dict[str, np.ndarray], scale: float) -> str:
-    names = list(series)
-    header = ["frame", "time_s"] + [f"{n}_{a}" for n in names for a in "XYZ"]
-    cols = np.concatenate([series[n] * scale for n in names], axis=1) if names else None
-    lines = [",".join(header)]
-    for i, (f, t) in enumerate(zip(result.frames, result.times, strict=True)):
-        row = [str(int(f)), f"{t:.6f}"]
-        if cols is not None:
-            row += ["" if not np.isfinite(v) else f"{v:.4f}" for v in cols[i]]
-        lines.append(",".join(row))
-    return "\n".join(lines) + "\n"
-
-
 def angles_csv(result: PigResult) -> str:
     """angles.csv text: every angle in degrees."""
-    return _table(result, result.angles, 180.0 / np.pi)
+    return series_table(result.frames, result.times, result.angles, 180.0 / np.pi)
 
 
 def centres_csv(result: PigResult) -> str:
     """joint_centres.csv text: the bone origins and proximal points in mm."""
     pts = {n: result.points[n] for n in CENTRE_POINTS if n in result.points}
-    return _table(result, pts, 1e3)
+    return series_table(result.frames, result.times, pts, 1e3)
 
 
 def write_result_c3d(path: Path, result: PigResult, rate: float) -> None:

@@ -63,6 +63,11 @@ def static_foot(m: Markers, side: str, tibia: np.ndarray) -> np.ndarray:
     return frame_zy(m[p + "HEE"] - m[p + "TOE"], tibia[..., 1])
 
 
+def pelvis_frame(m: Markers) -> np.ndarray:
+    """The pelvis (T, 3, 3): y from RASI to LASI, x towards the mid-ASIS from the sacrum."""
+    return frame(1, m["LASI"] - m["RASI"], 0, m.mid("LASI", "RASI") - m.sacrum())
+
+
 def lower_body(
     m: Markers, subject: PigSubject, inter_asis: float, *, heel_foot: bool = False
 ) -> tuple[dict[str, Segment], dict[str, np.ndarray]]:
@@ -75,7 +80,7 @@ def lower_body(
     axis, back about its z to the untorsioned tibia of the knee angles."""
     r = subject.marker_radius
     mid = m.mid("LASI", "RASI")
-    pelvis = frame(1, m["LASI"] - m["RASI"], 0, mid - m.sacrum())
+    pelvis = pelvis_frame(m)
     segs = {"pelvis": Segment(mid, pelvis)}
     jc: dict[str, np.ndarray] = {}
     leg = subject.leg_length()
@@ -118,15 +123,21 @@ def lower_body(
 
 
 def trunk(m: Markers, subject: PigSubject) -> dict[str, Segment]:
-    """Thorax (origin at CLAV moved a marker radius posterior) and head (origin at the
-    mid-point of the front head markers, pitched by the head offset)."""
+    """Thorax and head of :func:`trunk_frames` with the subject's marker radius and head
+    offset."""
+    return trunk_frames(m, subject.marker_radius, subject.pig("head_offset"))
+
+
+def trunk_frames(m: Markers, marker_radius: float, head_offset: float) -> dict[str, Segment]:
+    """Thorax (origin at CLAV moved ``marker_radius`` [m] posterior) and head (origin at the
+    mid-point of the front head markers, pitched by ``head_offset`` [rad])."""
     upper, lower = m.mid("CLAV", "C7"), m.mid("STRN", "T10")
     front, back = m.mid("CLAV", "STRN"), m.mid("C7", "T10")
     thorax = frame_zx(lower - upper, front - back)
-    origin = m["CLAV"] - subject.marker_radius * thorax[..., 0]
+    origin = m["CLAV"] - marker_radius * thorax[..., 0]
     hfront, hback = m.mid("LFHD", "RFHD"), m.mid("LBHD", "RBHD")
     head = frame(0, hfront - hback, 1, m.mid("LFHD", "LBHD") - m.mid("RFHD", "RBHD"))
-    head = rotate_about(head, 1, subject.pig("head_offset"))
+    head = rotate_about(head, 1, head_offset)
     return {"thorax": Segment(origin, thorax), "head": Segment(hfront, head)}
 
 

@@ -65,7 +65,7 @@ class Trial(NamedTuple):
 
     Fields: path; times (T,) [s]; markers (T, M, 3) [m], NaN where missing; rate [Hz];
     report (which model markers were found, missing, extra, and which model segments none
-    of the found markers determines).
+    of the found markers determines); first_frame, the recording's own number of row 0.
     """
 
     path: str
@@ -73,6 +73,7 @@ class Trial(NamedTuple):
     markers: np.ndarray
     rate: float
     report: MarkerReport
+    first_frame: int = 0
 
 
 def load_trial(
@@ -94,9 +95,11 @@ def load_trial(
         traj = load_markers(path, **options)
         markers, file_names = traj.select(names), traj.names
         report, times, rate = traj.marker_report(names), traj.times, traj.rate
+        first = traj.first_frame
     else:
         stream = open_markers(path, **options)
         file_names, times, rate = stream.names, stream.times, stream.rate
+        first = stream.first_frame
         report = stream.marker_report(names)
         if stream.how == "in chunks" and stream.n_frames > STREAM_ABOVE:
             digest = hashlib.sha256(str(Path(path).resolve()).encode()).hexdigest()[:16]
@@ -115,7 +118,7 @@ def load_trial(
             f"{path}: none of the markers of {which} found ({len(names)} marker sites: "
             f"{list(names[:8])}...; the file's names: {list(file_names[:8])}...)"
         )
-    return Trial(path, np.asarray(times), markers, float(rate), report)
+    return Trial(path, np.asarray(times), markers, float(rate), report, first)
 
 
 def model_for(args: argparse.Namespace) -> str | None:

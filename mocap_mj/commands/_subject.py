@@ -1,4 +1,6 @@
-"""Command-line options for the subject's measurements (:mod:`mocap_mj.subject`)."""
+"""Command-line options for the subject's measurements (:mod:`mocap_mj.subject`): a YAML
+``--subject-file`` holding any of them, and the two that a person knows by heart,
+``--height`` and ``--mass``."""
 
 from __future__ import annotations
 
@@ -7,25 +9,13 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from ..errors import MocapError
 from ..landmarks import disagreements, measured_widths
 from ..marker_set import load_marker_set
 from ..subject import Subject, from_c3d, from_values, from_yaml
 
-#: Flag -> measurement base name; sided ones take one value (both sides) or two (left right).
-_SIDED = {
-    "leg-length": "leg_length",
-    "knee-width": "knee_width",
-    "ankle-width": "ankle_width",
-    "elbow-width": "elbow_width",
-    "wrist-width": "wrist_width",
-    "hand-thickness": "hand_thickness",
-    "shoulder-offset": "shoulder_offset",
-}
-
 
 def add_subject_options(p: Any) -> None:
-    """``--subject-file``, measurement flags, ``--symmetric`` and ``--no-anatomy``."""
+    """``--subject-file``, ``--height`` and ``--mass``."""
     g = p.add_argument_group(
         "subject measurements (override those in the C3D files' PROCESSING/SUBJECTS groups)"
     )
@@ -33,73 +23,20 @@ def add_subject_options(p: Any) -> None:
         "--subject-file",
         metavar="FILE",
         help="YAML file of measurements, name: value in SI units or with a unit "
-        "('144 mm'); names as in summary.json's 'measurements' (default: none)",
+        "('knee_width_l: 105 mm'); names as in summary.json's 'measurements' and "
+        "docs/cli.md#subject-file (default: none)",
     )
     g.add_argument(
         "--height",
         type=float,
         metavar="MM",
-        help="standing height [mm] (default: from the C3D, else none)",
+        help="standing height [mm] (default: from the subject file or the C3D, else none)",
     )
     g.add_argument(
-        "--mass", type=float, metavar="KG", help="body mass [kg] (default: from the C3D, else none)"
-    )
-    g.add_argument(
-        "--asis-distance",
+        "--mass",
         type=float,
-        metavar="MM",
-        help="inter-ASIS distance [mm] (default: from the C3D, else the markers)",
-    )
-    g.add_argument(
-        "--marker-diameter",
-        type=float,
-        metavar="MM",
-        help="marker diameter [mm] (default: from the C3D, else 14)",
-    )
-    for flag, name in _SIDED.items():
-        g.add_argument(
-            f"--{flag}",
-            type=float,
-            nargs="+",
-            metavar="MM",
-            help=f"{name.replace('_', ' ')} [mm]: one value for both sides, or LEFT RIGHT "
-            "(default: from the C3D, else regressed from the markers)",
-        )
-    g.add_argument(
-        "--symmetric",
-        type=float,
-        nargs="?",
-        const=2.0,
-        metavar="WIDTH_MM",
-        help="tie every left segment length to the right one with this standard deviation "
-        "[mm] (default: off; 2 when given without a value)",
-    )
-    g.add_argument(
-        "--no-asymmetry-prior",
-        action="store_true",
-        help="no population prior on left/right length differences (5 mm; for subjects "
-        "with a known asymmetry, e.g. a limb-length discrepancy; default: the prior is on)",
-    )
-    g.add_argument(
-        "--hip-centre",
-        choices=("harrington", "davis"),
-        default="harrington",
-        help="hip centres from the pelvis markers: harrington (Harrington et al. 2007, "
-        "closer to imaging; default) or davis (Davis et al. 1991 from the leg lengths, "
-        "as Plug-in Gait places them)",
-    )
-    g.add_argument(
-        "--no-sliding-landmarks",
-        action="store_true",
-        help="weigh the knee epicondyle markers (KNE) alike at every knee angle (default: "
-        "weigh them down as the knee flexes, their skin sliding on the femur, 10 mm per rad "
-        "per axis, where the residuals show soft tissue; recorded in model.xml for ik; "
-        "docs/method.md#weighing-priors-trials-and-sliding-markers)",
-    )
-    g.add_argument(
-        "--no-anatomy",
-        action="store_true",
-        help="no anatomical priors and ranges: the plain joint LM (default: priors and ranges on)",
+        metavar="KG",
+        help="body mass [kg] (default: from the subject file or the C3D, else none)",
     )
 
 
@@ -112,21 +49,13 @@ def subject_from_args(args: argparse.Namespace, c3d_paths: Sequence[str]) -> Sub
             subject = found.update(subject)  # earlier files win
     if args.subject_file:
         subject = subject.update(from_yaml(args.subject_file))
-    pairs: list[tuple[str, float | None]] = [
-        ("height", None if args.height is None else args.height * 1e-3),
-        ("mass", args.mass),
-        ("asis_distance", None if args.asis_distance is None else args.asis_distance * 1e-3),
-        ("marker_diameter", None if args.marker_diameter is None else args.marker_diameter * 1e-3),
+    flags: list[tuple[str, str, float | None]] = [
+        ("--height", "height", None if args.height is None else args.height * 1e-3),
+        ("--mass", "mass", args.mass),
     ]
-    for flag, name in _SIDED.items():
-        values = getattr(args, flag.replace("-", "_"))
-        if values is None:
-            continue
-        if len(values) > 2:
-            raise MocapError(f"--{flag}: expected one value or LEFT RIGHT, got {len(values)}")
-        left, right = values[0], values[-1]
-        pairs += [(f"{name}_l", left * 1e-3), (f"{name}_r", right * 1e-3)]
-    return subject.update(from_values(pairs, "command line"))
+    for flag, name, value in flags:  # each checked against its human range, named by its flag
+        subject = subject.update(from_values([(name, value)], flag))
+    return subject
 
 
 def with_measured_widths(

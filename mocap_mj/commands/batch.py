@@ -13,8 +13,10 @@ import contextlib
 import functools
 import io
 import json
+import os
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -22,14 +24,21 @@ from .._threads import one_blas_thread
 from ..batch.dataset import FLAGS, OPTION_KEYS, Subject, load_dataset
 from ..batch.report import write_report, write_summary_csv
 from ..batch.run import have_ray, one_line, run_batch
-from ..cli import add_json_flag, build_parser, finish
+from ..cli import EXIT_IMPLAUSIBLE, add_json_flag, build_parser, finish, number
 from ..errors import MocapError
 from ..parameters import ParameterSet
 from ._inputs import refuse_out_holding_inputs
 from ._markers import load_trial
+from ._removed import add_removed_flags
 
+#: ``--timeout``: seconds one subject may take [s]. Generous: identifying a subject from a
+#: few trials and tracking them takes a few minutes on one core.
+DEFAULT_TIMEOUT = 3600.0
 #: Options that also apply to the IK of each trial (how the marker files are read).
 MARKER_OPTIONS = ("up", "marker_map", "file_subject", "exclude_markers")
+#: The placeholder of each option's flag, as identify shows it.
+METAVARS = {"frames": "A:B", "up": "AXIS", "marker_map": "FILE", "file_subject": "NAME",
+            "model": "MJCF", "exclude_markers": "NAMES", "recipe": "FILE"}  # fmt: skip
 
 
 def register(sub: Any) -> None:
@@ -54,7 +63,21 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--address", metavar="HOST:PORT", help="join this Ray cluster (default: start a local Ray)"
     )
-    p.add_argument("--workers", type=int, metavar="N", help="CPUs of the local Ray (default: all)")
+    p.add_argument(
+        "--workers",
+        type=number(int, least=1),
+        metavar="N",
+        help="CPUs of the local Ray (default: all)",
+    )
+    p.add_argument(
+        "--timeout",
+        type=number(above=0),
+        default=DEFAULT_TIMEOUT,
+        metavar="SECONDS",
+        help="time one subject may take; a subject past it is recorded as timed out and the "
+        f"batch goes on (default: {DEFAULT_TIMEOUT:g}, an hour: a subject's identification "
+        "and IK take minutes)",
+    )
     p.add_argument(
         "--serial",
         action="store_true",
@@ -66,18 +89,18 @@ def register(sub: Any) -> None:
             FLAGS[key],
             dest=key,
             type=kind,
-            metavar=key.upper(),
-            help=f"as {FLAGS[key]} of identify (default: identify's default)",
+            metavar=METAVARS[key],
+            help=f"as {FLAGS[key]} of identify (default: identify's default)"
+            + (": frames A up to but excluding B" if key == "frames" else ""),
         )
     add_json_flag(p)
+    add_removed_flags(p, "batch")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     defaults = {k: getattr(args, k) for k in OPTION_KEYS if getattr(args, k) is not None}
     subjects = load_dataset(args.dataset, defaults)
-    if args.workers is not None and args.workers < 1:
-        raise MocapError(f"--workers: expected at least 1, got {args.workers}")
     if args.serial and args.address:
         raise MocapError("--serial and --address exclude each other")
     use_ray = not args.serial
@@ -96,16 +119,18 @@ def run(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise MocapError(f"{out}: exists and is not a folder")
     t0 = time.perf_counter()
-    outcomes = run_batch(
-        subjects,
-        out,
-        process_subject,
-        settings={"mocap_mj": __version__},
-        use_ray=use_ray,
-        address=args.address,
-        workers=args.workers,
-        progress=not args.json,
-    )
+    with _stdout_to_stderr():  # Ray's processes and log lines: stdout is the summary alone
+        outcomes = run_batch(
+            subjects,
+            out,
+            process_subject,
+            settings={"mocap_mj": __version__},
+            use_ray=use_ray,
+            address=args.address,
+            workers=args.workers,
+            progress=not args.json,
+            timeout=args.timeout,
+        )
     seconds = time.perf_counter() - t0
     rows = write_summary_csv(out / "summary.csv", outcomes)
     write_report(out, outcomes, seconds)
@@ -130,8 +155,34 @@ def run(args: argparse.Namespace) -> int:
         + "".join(f"failed: {r['subject']}/{r['trial']}: {r['error']}\n" for r in bad_rows)
         + f"wrote {out}/summary.csv, report.md, <subject>/identify, <subject>/ik/<trial>"
     )
+    implausible = [o.name for o in outcomes if o.record.get("identify", {}).get("implausible")]
+    status = 1 if failed or bad else EXIT_IMPLAUSIBLE if implausible else 0
+    summary.update(subjects_implausible=implausible, exit_status=status)
     finish(args, summary, text, out)
-    return 1 if failed or bad else 0
+    if status == EXIT_IMPLAUSIBLE:
+        print(
+            f"mocap-mj batch: implausible identification of {', '.join(implausible)} (exit "
+            f"status {status}; see their identify/summary.json)",
+            file=sys.stderr,
+        )
+    return status
+
+
+@contextlib.contextmanager
+def _stdout_to_stderr() -> Iterator[None]:
+    """File descriptor 1 pointed at stderr in the block, for this process and every process
+    it starts: Ray's driver prints the raylet's error messages (a worker that died, memory
+    pressure) on stdout as ``(raylet) ...`` lines whatever ``log_to_driver`` says, and the
+    local Ray's processes inherit the descriptor."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        os.dup2(2, 1)
+        yield
+    finally:
+        sys.stdout.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
 
 
 # --------------------------------------------------------------------------- the adapter
@@ -193,7 +244,14 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
         "subject_file_passed_to_identify": passed,
         "identify": {
             k: ident.get(k)
-            for k in ("marker_rmse_mm", "seconds", "iterations", "termination", "kappa_mm")
+            for k in (
+                "marker_rmse_mm",
+                "seconds",
+                "iterations",
+                "termination",
+                "kappa_mm",
+                "implausible",
+            )
         },
         "rows": [{"subject": subject.name, **rows[p]} for p in subject.trials],
     }

@@ -1,11 +1,12 @@
 """``mocap-mj export RESULT --to FORMAT --out PATH``: a result in the formats others read.
 
 Formats: OpenSim model (``osim``), motion (``mot``), TRC of the measured markers (``trc``) or
-of the model markers (``trc-model``), C3D with markers, joint centres and clinical angles
-(``c3d``), clinical angles (``angles``), per-marker residuals (``residuals``) and segment scale
-factors (``scale``) as CSV, everything in one folder (``all``), and the formats other packages
-register (:mod:`mocap_mj.export.registry`; the viewer adds ``glb``). Without ``--to`` the
-format follows the suffix of ``--out``.
+of the model markers (``trc-model``), C3D with markers, joint centres and angles (``c3d``),
+the model's angles in Plug-in Gait's conventions (``angles``, beside a ``plug-in-gait``
+folder's with ``--compare``), per-marker residuals (``residuals``) and segment scale factors
+(``scale``) as CSV, everything in one folder (``all``), and the
+formats other packages register (:mod:`mocap_mj.export.registry`; the viewer adds ``glb``).
+Without ``--to`` the format follows the suffix of ``--out``.
 """
 
 from __future__ import annotations
@@ -16,8 +17,10 @@ from pathlib import Path
 from typing import Any
 
 from ..cli import add_force_flag, add_json_flag, finish, output_folder, write_summary
+from ..clinical.compare import comparison_section, folder_angles, numbered_like
 from ..errors import MocapError
 from ..export.c3d import write_c3d
+from ..export.clinical import clinical_angles
 from ..export.ik_setup import write_ik_setup
 from ..export.mot import write_mot
 from ..export.osim import UP_ORIENTATION, write_osim
@@ -65,22 +68,25 @@ def _subject_mass(args: argparse.Namespace, src: ExportSource) -> float | None:
 
 def _write(fmt: str, path: Path, src: ExportSource, args: argparse.Namespace) -> None:
     model, motion = src.model, src.motion
+    first = motion.first_frame
     if fmt == "osim":
         write_osim(path, model, up=args.up, mass=_subject_mass(args, src))
     elif fmt == "mot":
         write_mot(path, model, motion.times, motion.qpos)
     elif fmt == "trc":
-        write_trc(path, motion.marker_names, motion.times, motion.markers, up=args.up)
+        write_trc(
+            path, motion.marker_names, motion.times, motion.markers, up=args.up, first_frame=first
+        )
     elif fmt == "trc-model":
         fitted, _ = marker_residuals(model, motion.qpos, motion.markers)
-        write_trc(path, motion.marker_names, motion.times, fitted, up=args.up)
+        write_trc(path, motion.marker_names, motion.times, fitted, up=args.up, first_frame=first)
     elif fmt == "c3d":
         write_c3d(path, src)
     elif fmt == "angles":
-        write_angles_csv(path, model, motion.times, motion.qpos)
+        write_angles_csv(path, model, motion.times, motion.qpos, first)
     elif fmt == "residuals":
         _, distance = marker_residuals(model, motion.qpos, motion.markers)
-        write_residuals_csv(path, motion.marker_names, motion.times, distance)
+        write_residuals_csv(path, motion.marker_names, motion.times, distance, first)
     elif fmt == "scale":
         nominal = load_model(args.nominal)  # the bundled humanoid without --nominal
         atomic_write_text(path, scale_table_text(model, nominal))
@@ -95,7 +101,8 @@ def _builtin(fmt: str) -> Callable[[argparse.Namespace], dict[str, Any]]:
         if out.is_dir():
             raise MocapError(f"--out {out}: is a folder, expected a file")
         _write(fmt, out, src, args)
-        return {
+        compared = _compare(out, src, args.compare) if args.compare else {}
+        return compared | {
             "result": str(src.root),
             "format": fmt,
             "out": str(out),
@@ -103,6 +110,28 @@ def _builtin(fmt: str) -> Callable[[argparse.Namespace], dict[str, Any]]:
         }
 
     return run
+
+
+def _compare(out: Path, src: ExportSource, folder: str) -> dict[str, Any]:
+    """``--compare``: the angles of ``out`` beside a plug-in-gait folder's, into
+    ``<out>_vs_plug_in_gait.md`` and ``.png`` next to ``out``; the summary's entries."""
+    frames = src.motion.frames
+    ref = numbered_like(frames, folder_angles(folder))
+    ours = clinical_angles(src.model, src.motion.qpos)
+    stem = out.with_suffix("").name + "_vs_plug_in_gait"
+    lines, rows = comparison_section(
+        out.parent, frames, src.motion.times, ours, ref, figure=stem + ".png"
+    )
+    report = out.parent / (stem + ".md")
+    atomic_write_text(report, "\n".join(lines))
+    return {
+        "compared_with": ref.source,
+        "comparison": str(report),
+        "angles_vs_plug_in_gait": {
+            r.name: {"rms_deg": r.rms, "offset_deg": r.offset, "correlation": r.correlation}
+            for r in rows
+        },
+    }
 
 
 def _run_all(args: argparse.Namespace) -> dict[str, Any]:
@@ -138,6 +167,8 @@ def _source(args: argparse.Namespace) -> ExportSource:
     for flag in ("model", "markers", "ghost"):
         if getattr(args, flag, None):
             raise MocapError(f"--{flag}: only for --to glb")
+    if getattr(args, "compare", None) and args.to != "angles":
+        raise MocapError("--compare: only for --to angles")
     return load_result(args.result, getattr(args, "motion", None))
 
 
@@ -147,7 +178,12 @@ BUILTIN: tuple[Exporter, ...] = (
     Exporter("trc", ".trc", "TRC of the measured markers", _builtin("trc")),
     Exporter("trc-model", "", "TRC of the model markers (fitted)", _builtin("trc-model")),
     Exporter("c3d", ".c3d", "C3D: markers, model markers, joint centres, angles", _builtin("c3d")),
-    Exporter("angles", "", "CSV of clinical joint angles [deg]", _builtin("angles")),
+    Exporter(
+        "angles",
+        "",
+        "CSV of the model's angles in Plug-in Gait's conventions [deg]",
+        _builtin("angles"),
+    ),
     Exporter("residuals", "", "CSV of per-marker, per-frame residuals [mm]", _builtin("residuals")),
     Exporter("scale", "", "CSV of segment lengths and scale factors", _builtin("scale")),
     Exporter(
@@ -202,6 +238,14 @@ def register(sub: Any) -> None:
         "--nominal",
         metavar="MJCF",
         help="MJCF the scale factors are relative to (default: the bundled humanoid)",
+    )
+    p.add_argument(
+        "--compare",
+        metavar="PIG_DIR",
+        help="with --to angles: a `mocap-mj plug-in-gait` output folder whose angles.csv is "
+        "put beside ours (OUT_vs_plug_in_gait.md: RMS difference, offset and correlation per "
+        "component; OUT_vs_plug_in_gait.png: both curves); frames matched by number, else "
+        "counted from the recording's first (default: no comparison)",
     )
     add_force_flag(p)
     for exporter in table.values():

@@ -2,10 +2,13 @@
 
 Identify the subject's model from one or more marker trials: the segment lengths and joint
 positions (kinematic parameters) and every marker's offset on its segment, together with the
-joint motion of every frame, by one Levenberg-Marquardt fit over all frames (the --solver paper
-alternative is Zou & Sugihara's Algorithm 1). Writes OUT/model.xml (the identified MJCF),
-theta.json, motion.npz (first trial; motion_<i>.npz for the others), identifiability.json,
-report.md, plots and summary.json; docs/outputs.md explains them. The folder appears
+joint motion of every frame, by one Levenberg-Marquardt fit over all frames; the choices of
+the identification come from a YAML --recipe, the subject's measurements from the C3D files,
+a --subject-file, --height and --mass (docs/cli.md). Writes OUT/model.xml (the identified MJCF),
+theta.json, motion.npz (first trial; motion_<i>.npz for the others), angles.csv (the model's
+angles in Plug-in Gait's conventions; report.md compares them with the Nexus angles a C3D
+holds), identifiability.json, report.md, plots and summary.json; docs/outputs.md explains
+them. The folder appears
 only when the fit is complete; a fit that cannot be determined by the data is refused.
 Before the fit the marker data are checked for markers that do not move with their segment
 (mislabels, label swaps, re-stuck markers, impossible distances): each finding is a warning
@@ -22,21 +25,21 @@ import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, get_args
 
 import numpy as np
 
 from .. import _numba_prewarm
 from ..checks import check_markers
-from ..cli import add_force_flag, add_json_flag, into_out_folder, output_folder
+from ..cli import add_force_flag, add_json_flag, into_out_folder
 from ..errors import MocapError
-from ..identify.api import AUTO_SELECT_ABOVE, AUTO_SELECT_COUNT, identify, select_count
+from ..identify.api import identify, select_count
+from ..identify.losses import LossName
 from ..identify.output import frame_range, result_text, write_result
-from ..identify.paper import DEFAULT_DELTA, DEFAULT_STEP
 from ..identify.pipeline import t10_check
 from ..identify.plausibility import plausibility_text
 from ..identify.problem import TrialData
-from ..identify.recipe import INITS, Recipe
+from ..identify.recipe import Recipe
 from ..ik import IKSettings
 from ..marker_quality import Finding
 from ..parameters import ParameterSet
@@ -50,6 +53,7 @@ from ._quality import (
     quality_text,
     without_ghosts,
 )
+from ._removed import add_removed_flags
 from ._subject import (
     add_subject_options,
     set_landmarks,
@@ -74,35 +78,21 @@ def register(sub: Any) -> None:
     _add_fit_options(p)
     add_quality_options(p)
     add_subject_options(p)
-    _add_paper_options(p)
+    add_removed_flags(p, "identify")
     add_force_flag(p)
     add_json_flag(p)
     p.set_defaults(func=run)
 
 
 def _add_fit_options(p: argparse.ArgumentParser) -> None:
-    """The solver, initial model, frames, loss and LM options of ``identify``."""
+    """The recipe, the frames and the loss of ``identify``."""
     p.add_argument(
         "--recipe",
         metavar="FILE",
-        help="YAML recipe: the identification's choices (every result folder holds the "
-        "recipe.yaml it was made with, so --recipe DIR/recipe.yaml re-runs it); a flag below "
-        "given a value other than its default overrides the recipe's (default: the flags)",
-    )
-    p.add_argument(
-        "--solver",
-        choices=["lm", "paper"],
-        default="lm",
-        help="lm: joint Levenberg-Marquardt over all frames; paper: Algorithm 1 of Zou & "
-        "Sugihara (default: lm)",
-    )
-    p.add_argument(
-        "--init",
-        choices=list(INITS),
-        default="placed",
-        help="initial model and prior mean (lm solver): placed = the nominal model scaled to "
-        "the subject from marker distances, marker offsets then placed by IK (default); "
-        "scaled = scaled only; nominal = the bundled model as it is",
+        help="YAML recipe: the identification's choices (initial model, anatomical priors "
+        "and ranges, left/right prior, frame selection, iterations, weak prior; "
+        "docs/cli.md#recipe); every result folder holds the recipe.yaml it was made with, so "
+        "--recipe DIR/recipe.yaml re-runs it (default: the defaults listed there)",
     )
     p.add_argument(
         "--frames",
@@ -111,79 +101,10 @@ def _add_fit_options(p: argparse.ArgumentParser) -> None:
         "(default: all)",
     )
     p.add_argument(
-        "--select",
-        default="auto",
-        metavar="N",
-        help="N, auto or all: identify on N frames chosen for pose diversity (shared among the "
-        "trials by their length), refine the model on every frame with the same loss and "
-        "priors, then solve every frame's IK with it for motion.npz and joint_centres.csv; "
-        f"auto: {AUTO_SELECT_COUNT} frames when the trials hold more than {AUTO_SELECT_ABOVE} "
-        "in all, else every frame; all: every frame (default: auto)",
-    )
-    p.add_argument(
         "--loss",
-        choices=["l2", "huber", "cauchy"],
-        default="l2",
-        help="loss on each marker distance; huber and cauchy down-weight outliers (default: l2)",
-    )
-    p.add_argument("--robust", action="store_true", help="same as --loss cauchy")
-    p.add_argument(
-        "--max-iterations",
-        type=int,
-        default=100,
-        metavar="N",
-        help="LM iterations at most (lm solver; default: 100)",
-    )
-    p.add_argument(
-        "--prior-mm",
-        type=float,
-        default=50.0,
-        metavar="MM",
-        help="width of the weak prior that holds each parameter near its initial value, in "
-        "mm; it only matters in directions the markers do not inform (default: 50)",
-    )
-    p.add_argument(
-        "--observable-mm",
-        type=float,
-        default=5.0,
-        metavar="MM",
-        help="a parameter direction counts as observable when its standard deviation is "
-        "below this, in mm (default: 5)",
-    )
-
-
-def _add_paper_options(p: argparse.ArgumentParser) -> None:
-    """The options of the paper solver (Algorithm 1 of Zou & Sugihara), in their own group."""
-    g = p.add_argument_group("paper solver (Algorithm 1 of Zou & Sugihara)")
-    g.add_argument(
-        "--sampling",
-        choices=["batch", "even", "random", "stochastic"],
-        help="which frames each iteration uses (required with --solver paper; default: none)",
-    )
-    g.add_argument(
-        "--iterations", type=int, default=100, metavar="N", help="iterations (default: 100)"
-    )
-    g.add_argument(
-        "--step",
-        type=float,
-        metavar="ALPHA",
-        help=f"gradient step alpha (default: {DEFAULT_STEP:g})",
-    )
-    g.add_argument(
-        "--delta",
-        type=float,
-        metavar="M",
-        help=f"finite-difference perturbation in m (default: {DEFAULT_DELTA:g})",
-    )
-    g.add_argument(
-        "--fraction",
-        type=float,
-        default=0.1,
-        metavar="F",
-        help="fraction of the frames per iteration for random/stochastic sampling (default: 0.1)",
-    )
-    g.add_argument(
-        "--seed", type=int, default=0, metavar="N", help="seed of the frame sampling (default: 0)"
+        choices=list(get_args(LossName)),
+        help="loss on each marker distance; huber and cauchy down-weight outliers; overrides "
+        "the recipe's loss (default: the recipe's, l2)",
     )
 
 
@@ -206,22 +127,14 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
         sl = frame_range(args.frames, len(t.markers), t.path)
         if sl.stop - sl.start < 1:
             raise MocapError(f"{t.path}: --frames {args.frames} selects no frame")
-        ranges.append([sl.start, sl.stop])
+        # each trial's frames in the recording's own numbering (tables, messages, summary)
+        ranges.append([t.first_frame + sl.start, t.first_frame + sl.stop])
         markers = drop_excluded(t.markers[sl], pset, excluded)
         trials.append(TrialData(t.path, markers, t.times[sl]))
         check_markers(t.path, pset.marker_names, trials[-1].markers, IKSettings().min_markers)
     to_check = [
         (t.path, d.markers, t.rate, r[0]) for t, d, r in zip(loaded, trials, ranges, strict=True)
     ]
-    if args.solver == "paper":
-        if args.select not in ("auto", "all"):
-            raise MocapError("--select: the paper's solver samples its own frames (--sampling)")
-        from .paper import run_paper
-
-        found, _ = check_trials(args, pset, to_check, excluded)
-        trials = _without_ghosts(pset, trials, ranges, found)
-        with output_folder(args.out, force=args.force) as out:
-            return run_paper(args, pset, trials, ranges, out)
     subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
     subject = with_measured_widths(args, pset.marker_names, trials, subject)
     recipe = recipe_from_args(args)
@@ -262,36 +175,10 @@ def _refuse_misplaced_t10(pset: ParameterSet, trials: list[TrialData], subject: 
 
 
 def recipe_from_args(args: argparse.Namespace) -> Recipe:
-    """The recipe of ``identify``'s flags, over ``--recipe``'s file when given: a flag whose
-    value differs from its default overrides the file's choice."""
-    flags: dict[str, Any] = {
-        "init": args.init,
-        "anatomy": not args.no_anatomy,
-        "symmetric": None if args.symmetric is None else args.symmetric * 1e-3,
-        "asymmetry_prior": not args.no_asymmetry_prior,
-        "hip_centre": getattr(args, "hip_centre", "harrington"),
-        "sliding_landmarks": not args.no_sliding_landmarks,
-        "loss": "cauchy" if args.robust else args.loss,
-        "select": _select_value(args.select),
-        "max_iterations": args.max_iterations,
-        "prior_sigma": args.prior_mm * 1e-3,
-        "observable_std": args.observable_mm * 1e-3,
-    }
-    base = Recipe.load(args.recipe) if getattr(args, "recipe", None) else Recipe()
-    default = Recipe()
-    return replace(base, **{k: v for k, v in flags.items() if v != getattr(default, k)})
-
-
-def _select_value(text: str) -> int | str:
-    """``--select`` text: a number of frames, auto or all."""
-    if text in ("auto", "all"):
-        return text
-    try:
-        return int(text)
-    except ValueError:
-        raise MocapError(
-            f"--select: expected a number of frames, auto or all, got {text!r}"
-        ) from None
+    """The recipe of ``--recipe`` (default: :class:`Recipe`'s defaults), its loss replaced
+    by ``--loss`` when given."""
+    recipe = Recipe.load(args.recipe) if args.recipe else Recipe()
+    return recipe if args.loss is None else replace(recipe, loss=args.loss)
 
 
 def _identify(

@@ -3,9 +3,10 @@
 Inverse kinematics of one marker file with a given model (the bundled humanoid unless
 --model): each frame's joint angles minimise the distance between the model's marker sites and
 the measured markers (Levenberg-Marquardt, frames solved in chains warm-started from their
-neighbours). Writes OUT/motion.csv (joint angles, mm and degrees), motion.npz (qpos, times,
-markers; opened by `mocap-mj view`), model.xml and summary.json. Frames with fewer than
---min-markers present markers are left unsolved (empty in motion.csv). A model written by
+neighbours). Writes OUT/motion.csv (joint angles, mm and degrees), angles.csv (the model's
+angles in Plug-in Gait's conventions, the table `mocap-mj plug-in-gait` writes), motion.npz
+(qpos, times, markers; opened by `mocap-mj view`), model.xml and summary.json. Frames with
+fewer than --min-markers present markers are left unsolved (empty in motion.csv). A model written by
 identify with the landmarks' soft-tissue sliding model (recorded in its model.xml) weighs
 them as identify did, so that its RMSE reproduces the fit (--no-sliding-landmarks: every
 marker alike). The marker data are checked first, as by identify (warnings; --strict,
@@ -24,8 +25,9 @@ import numpy as np
 
 from ..angles import angle_columns, joint_angle_table
 from ..checks import check_markers
-from ..cli import add_force_flag, add_json_flag, into_out_folder
+from ..cli import add_force_flag, add_json_flag, into_out_folder, number
 from ..errors import MocapError
+from ..export.tables import write_angles_csv
 from ..exported import Layout
 from ..identify.losses import LossName
 from ..identify.output import frame_range
@@ -48,6 +50,7 @@ from ._quality import (
     quality_text,
     without_ghosts,
 )
+from ._removed import add_removed_flags
 
 
 def register(sub: Any) -> None:
@@ -81,7 +84,6 @@ def register(sub: Any) -> None:
         help="per-frame loss of the marker distances, as identify's --loss; use the loss of "
         "the fit to reproduce it (default: l2)",
     )
-    p.add_argument("--robust", action="store_true", help="same as --loss cauchy (default: off)")
     p.add_argument(
         "--no-sliding-landmarks",
         action="store_true",
@@ -90,14 +92,14 @@ def register(sub: Any) -> None:
     )
     p.add_argument(
         "--max-iterations",
-        type=int,
+        type=number(int, least=1),
         default=100,
         metavar="N",
         help="LM iterations per frame at most (default: 100)",
     )
     p.add_argument(
         "--min-markers",
-        type=int,
+        type=number(int, least=1),
         default=16,
         metavar="N",
         help="present markers a frame needs to be solved (default: 16)",
@@ -105,17 +107,18 @@ def register(sub: Any) -> None:
     add_quality_options(p)
     add_force_flag(p)
     add_json_flag(p)
+    add_removed_flags(p, "ik")
     p.set_defaults(func=run)
 
 
 def write_motion_csv(
     path: Path, model: Any, times: np.ndarray, qpos: np.ndarray, first_frame: int = 0
 ) -> None:
-    """Joint angles as CSV: frame (of the marker file, from ``first_frame``), time [s], then
+    """Joint angles as CSV: frame (the recording's number, from ``first_frame``), time_s [s], then
     named columns in mm and degrees, of ``model`` as written (qpos (T, nq) of its layout, the
     knees' slide joints included: :mod:`mocap_mj.exported`)."""
     table = joint_angle_table(model, qpos)
-    header = ",".join(["frame", "time", *angle_columns(model)])
+    header = ",".join(["frame", "time_s", *angle_columns(model)])
     lines = [header]
     for i, (t, row) in enumerate(zip(times, table, strict=True)):
         cells = ["" if not np.isfinite(v) else f"{v:.6f}" for v in row]
@@ -132,10 +135,14 @@ def run(args: argparse.Namespace) -> int:
     excluded = parse_marker_list(args.exclude_markers, pset.marker_names)
     trial = trial._replace(markers=drop_excluded(trial.markers, pset, excluded))
     check_markers(trial.path, pset.marker_names, trial.markers[sl], args.min_markers)
+    # frames in the recording's own numbering (tables, messages, summary)
+    first = trial.first_frame + sl.start
     found, quality = check_trials(
-        args, pset, [(trial.path, trial.markers[sl], trial.rate, sl.start)], excluded
+        args, pset, [(trial.path, trial.markers[sl], trial.rate, first)], excluded
     )
-    trial = trial._replace(markers=without_ghosts(trial.markers, pset, found, trial.path, 0))
+    trial = trial._replace(
+        markers=without_ghosts(trial.markers, pset, found, trial.path, trial.first_frame)
+    )
     return into_out_folder(args, lambda out: _solve_and_write(args, pset, trial, sl, out, quality))
 
 
@@ -148,10 +155,11 @@ def _solve_and_write(
     quality: dict[str, Any] | None = None,
 ) -> tuple[dict[str, Any], str]:
     markers, times = trial.markers[sl], trial.times[sl]
+    first = trial.first_frame + sl.start
     t0 = time.perf_counter()
     from .progress import frames_bar
 
-    loss: LossName = "cauchy" if args.robust else args.loss
+    loss: LossName = args.loss
     settings = IKSettings(
         damping=args.damping, max_iterations=args.max_iterations, min_markers=args.min_markers
     )
@@ -166,11 +174,10 @@ def _solve_and_write(
     sliding = None if args.no_sliding_landmarks else recorded_sliding_model(model)
     pset.export_mjcf(out / "model.xml", pset.nominal)
     written = Layout.of(model).written(result.qpos)
-    save_motion(out / "motion.npz", replace(motion, qpos=written))
-    write_motion_csv(out / "motion.csv", load_written(out / "model.xml"), times, written, sl.start)
-    write_joint_centres_csv(
-        out / "joint_centres.csv", model, times, result.qpos, first_frame=sl.start
-    )
+    save_motion(out / "motion.npz", replace(motion, qpos=written, first_frame=first))
+    write_motion_csv(out / "motion.csv", load_written(out / "model.xml"), times, written, first)
+    write_joint_centres_csv(out / "joint_centres.csv", model, times, result.qpos, first_frame=first)
+    write_angles_csv(out / "angles.csv", model, times, result.qpos, first_frame=first)
     n = len(markers)
     skipped = np.flatnonzero(result.status == Status.TOO_FEW_MARKERS)
     seen = np.any(np.all(np.isfinite(markers), axis=2), axis=0)
@@ -179,9 +186,9 @@ def _solve_and_write(
         "markers_file": str(trial.path),
         "model": str(pset.path),
         "frames": n,
-        "frames_range": [sl.start, sl.stop],
+        "frames_range": [first, first + n],
         "frames_solved": int(n - skipped.size),
-        "frames_skipped": [int(i) for i in skipped],
+        "frames_skipped": [first + int(i) for i in skipped],
         "marker_rmse_mm": result.rmse() * 1e3,
         "frame_rmse_max_mm": float(np.nanmax(result.marker_rmse) * 1e3),
         "iterations_mean": float(result.iterations.mean()),
@@ -212,6 +219,7 @@ def _solve_and_write(
         + (f"\nmarkers in the file without a valid sample: {', '.join(never)}" if never else "")
         + ("" if quality is None else f"\n{quality_text(quality)}")
         + (f"\njoints held at a limit of their range: {held}" if held else "")
-        + f"\nwrote {args.out}/motion.csv, joint_centres.csv, motion.npz, model.xml, summary.json"
+        + f"\nwrote {args.out}/motion.csv, joint_centres.csv, angles.csv, motion.npz, "
+        "model.xml, summary.json"
     )
     return summary, text

@@ -68,8 +68,7 @@ def run(args: argparse.Namespace) -> int:
         subject = _file_subject(args.static).update(subject)
     extra = pig_from_yaml(args.subject_file) if args.subject_file else None
     rotation = np.asarray(trial.source.get("rotation", np.eye(3)), dtype=float)
-    first = int(trial.source.get("first_frame", 0) or 0)
-    frames = first + np.arange(trial.n_frames)
+    frames = trial.first_frame + np.arange(trial.n_frames)
     result = plug_in_gait(
         trial,
         subject,

@@ -5,6 +5,8 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Callable, Iterator
 
+import numpy as np
+
 from ..identify.result import ProgressCallback, TraceEntry
 
 
@@ -26,8 +28,10 @@ def progress_bar(desc: str, enabled: bool = True) -> Iterator[ProgressCallback |
     def update(entry: TraceEntry) -> None:
         # F sums over the frames solved: it jumps when the coarse phase hands over to every
         # frame, so the bar says over how many.
+        # The LM's entries count the frames, Algorithm 1's list the sampled ones (N_F,).
         frames = getattr(entry, "frames", 0)
-        on = f" on {frames} frames" if frames else ""
+        count = len(frames) if isinstance(frames, np.ndarray) else int(frames)
+        on = f" on {count} frames" if count else ""
         bar.set_postfix_str(
             f"F {entry.cost:.4e} m^2{on}, RMSE {entry.rmse * 1e3:.3f} mm", refresh=False
         )

@@ -1,14 +1,14 @@
 """Exports of a result for other tools: OpenSim model and motion, TRC, C3D, CSV tables.
 
 One module per format (``osim``, ``mot``, ``trc``, ``c3d``, ``tables``, ``ik_setup``), the
-OpenSim coordinates of the MJCF joints (``coordinates``), clinical joint angles
+OpenSim coordinates of the MJCF joints (``coordinates``), Plug-in Gait's angles of the model
 (``clinical``), the result loader (``result``), the exporter registry of ``mocap-mj export``
 (``registry``), and running OpenSim's IK on an export (``opensim_ik``, needs the ``[opensim]``
 extra). The writers need no OpenSim. Conventions: docs/opensim.md.
 """
 
 from .c3d import write_c3d
-from .clinical import CLINICAL_JOINTS, ClinicalJoint, clinical_angles, clinical_columns
+from .clinical import angles_table_text, clinical_angles
 from .coordinates import Coordinate, coordinate_values, model_coordinates, qpos_from_coordinates
 from .ik_setup import ik_setup_xml, write_ik_setup
 from .mot import read_mot, write_mot
@@ -24,13 +24,11 @@ from .tables import (
 from .trc import write_trc
 
 __all__ = [
-    "CLINICAL_JOINTS",
-    "ClinicalJoint",
     "Coordinate",
     "ExportSource",
     "Exporter",
+    "angles_table_text",
     "clinical_angles",
-    "clinical_columns",
     "coordinate_values",
     "ik_setup_xml",
     "load_result",

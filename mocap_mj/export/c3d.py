@@ -1,12 +1,12 @@
-"""C3D write-back (ezc3d): measured markers, model markers, joint centres and clinical angles.
+"""C3D write-back (ezc3d): measured markers, model markers, joint centres and the angles.
 
 Points, in this order, all in the MJCF world frame (z up, as the lab of the input file):
 
 - the measured markers, under their names (``LASI`` ...), in millimetres;
 - the model's markers, ``<name>_model`` (``LASI_model``), in millimetres;
 - the joint centres of :mod:`mocap_mj.joint_centres` (``hip_l`` ...), in millimetres;
-- the clinical angles of :mod:`mocap_mj.export.clinical` as Plug-in Gait-style points
-  (``LHipAngles``: x flexion, y adduction, z internal rotation), in degrees.
+- Plug-in Gait's angles of the model (:mod:`mocap_mj.export.clinical`) under Vicon's names
+  and components (``LHipAngles``: x flexion, y adduction, z internal rotation), in degrees.
 
 Parameters a reader expects: ``POINT:RATE``, ``POINT:UNITS`` = mm, ``POINT:ANGLES`` with
 ``POINT:ANGLE_UNITS`` = deg, ``POINT:MODELED_MARKERS`` (model markers and joint centres),
@@ -23,7 +23,7 @@ import numpy as np
 
 from ..io.atomic import atomic_write_bytes
 from ..joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
-from .clinical import CLINICAL_JOINTS, clinical_angles
+from .clinical import clinical_angles
 from .result import ExportSource
 from .tables import marker_residuals
 
@@ -34,21 +34,19 @@ def c3d_points(src: ExportSource) -> tuple[list[str], list[str], np.ndarray]:
     names = list(motion.marker_names)
     fitted, _ = marker_residuals(model, motion.qpos, motion.markers)
     centres = joint_centre_trajectories(model, motion.qpos)
-    angles = np.degrees(clinical_angles(model, motion.qpos))
+    by_name = clinical_angles(model, motion.qpos)
+    angles = np.degrees(np.stack(list(by_name.values()), axis=1))
     labels = [
         *names,
         *(f"{n}_model" for n in names),
         *JOINT_CENTRE_NAMES,
-        *(j.c3d_label for j in CLINICAL_JOINTS),
+        *by_name,
     ]
     desc = [
         *("measured marker" for _ in names),
         *("model marker (fitted)" for _ in names),
         *("joint centre" for _ in JOINT_CENTRE_NAMES),
-        *(
-            f"{j.distal} rel. {j.proximal or 'lab'}: " + ", ".join(j.components)
-            for j in CLINICAL_JOINTS
-        ),
+        *("Plug-in Gait angle of the model" for _ in by_name),
     ]
     values = np.concatenate([motion.markers * 1e3, fitted * 1e3, centres * 1e3, angles], axis=1)
     return labels, desc, values
@@ -64,8 +62,9 @@ def write_c3d(path: str | Path, src: ExportSource) -> None:
         descriptions=desc,
         values=values,
         rate=src.rate,
-        angle_labels=[j.c3d_label for j in CLINICAL_JOINTS],
+        angle_labels=labels[n_markers * 2 + len(JOINT_CENTRE_NAMES) :],
         modeled=labels[n_markers : n_markers * 2 + len(JOINT_CENTRE_NAMES)],
+        first_frame=src.motion.first_frame,
     )
 
 
@@ -78,12 +77,12 @@ def write_points_c3d(
     rate: float,
     angle_labels: list[str],
     modeled: list[str],
-    first_frame: int = 0,
+    first_frame: int = 1,
 ) -> None:
     """Write points ``values`` (T, N, 3) (mm, degrees for ``angle_labels``) as a C3D,
-    atomically; NaN samples are written as invalid points. ``first_frame``: the first
-    frame's number as the readers report it (ezc3d's header, from 0; the file stores it
-    plus one, as does ``TRIAL:ACTUAL_START_FIELD``)."""
+    atomically; NaN samples are written as invalid points. ``first_frame``: the recording's
+    number of frame 0 as a C3D header numbers frames (from 1; also written as
+    ``TRIAL:ACTUAL_START_FIELD``); below 1, the file's frames are numbered from 1."""
     c3d = ezc3d.c3d()
     point = c3d["parameters"]["POINT"]
     point["RATE"]["value"] = np.array([rate])
@@ -97,9 +96,9 @@ def write_points_c3d(
     data = np.ones((4, len(labels), len(values)))
     data[:3] = np.transpose(values, (2, 1, 0))
     c3d["data"]["points"] = data
-    if first_frame:
-        c3d.add_parameter("TRIAL", "ACTUAL_START_FIELD", [int(first_frame) + 1, 0])
-        c3d["header"]["points"]["first_frame"] = int(first_frame)
+    if first_frame > 1:
+        c3d.add_parameter("TRIAL", "ACTUAL_START_FIELD", [int(first_frame), 0])
+        c3d["header"]["points"]["first_frame"] = int(first_frame) - 1  # ezc3d counts from 0
     missing = ~np.all(np.isfinite(values), axis=2).T  # (N, T)
     residuals = np.where(missing, -1.0, 0.0)[np.newaxis]
     c3d["data"]["meta_points"]["residuals"] = residuals

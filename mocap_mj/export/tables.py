@@ -1,7 +1,10 @@
-"""CSV tables: clinical angles, per-marker residuals, and segment scale factors.
+"""CSV tables: clinical angles (Plug-in Gait's table), per-marker residuals, and segment
+scale factors.
 
-All files are comma-separated with one header row; frames are numbered from 0 with their time
-[s]; empty cells are missing values (a marker not measured, a frame not solved).
+All files are comma-separated with one header row; ``frame`` is the recording's own frame
+number and ``time_s`` its time [s]; empty cells are missing values (a marker not measured, a
+frame not solved). The angle table is Plug-in Gait's (``frame,time_s``, then
+``LPelvisAngles_X``...).
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ from .. import rolling
 from ..errors import check_shape
 from ..io.atomic import atomic_write_text
 from ..joint_centres import JOINT_CENTRES
-from .clinical import clinical_angles, clinical_columns
+from .clinical import angles_table_text
 from .result import posed_frames
 
 #: Segments of the scale table: (segment, proximal joint centre, distal joint centre). The
@@ -45,22 +48,29 @@ def _cell(value: float, fmt: str) -> str:
     return format(value, fmt) if np.isfinite(value) else ""
 
 
-def table_text(header: Sequence[str], times: np.ndarray, values: np.ndarray, fmt: str) -> str:
-    """CSV text: ``frame,time,<header>`` then one row per frame of values (T, C)."""
+def table_text(
+    header: Sequence[str], times: np.ndarray, values: np.ndarray, fmt: str, first_frame: int = 0
+) -> str:
+    """CSV text: ``frame,time_s,<header>`` then one row per frame of values (T, C); frame i is
+    numbered ``first_frame + i``."""
     values = np.asarray(values, dtype=float)
     check_shape("values", values, (len(times), len(header)))
-    lines = [",".join(["frame", "time", *header])]
+    lines = [",".join(["frame", "time_s", *header])]
     for i, (t, row) in enumerate(zip(times, values, strict=True)):
-        lines.append(f"{i},{t:.6f}," + ",".join(_cell(v, fmt) for v in row))
+        lines.append(f"{first_frame + i},{t:.6f}," + ",".join(_cell(v, fmt) for v in row))
     return "\n".join(lines) + "\n"
 
 
 def write_angles_csv(
-    path: str | Path, model: mujoco.MjModel, times: np.ndarray, qpos: np.ndarray
+    path: str | Path,
+    model: mujoco.MjModel,
+    times: np.ndarray,
+    qpos: np.ndarray,
+    first_frame: int = 0,
 ) -> None:
-    """Clinical angles (:mod:`mocap_mj.export.clinical`) in degrees, one column per angle."""
-    angles = np.degrees(clinical_angles(model, qpos)).reshape(len(qpos), -1)
-    atomic_write_text(path, table_text(clinical_columns(), times, angles, ".4f"))
+    """Plug-in Gait's angles of the model (:mod:`mocap_mj.export.clinical`) in degrees, the
+    table ``mocap-mj plug-in-gait`` writes (``frame,time_s``, then ``<Name>_X,_Y,_Z``)."""
+    atomic_write_text(path, angles_table_text(model, times, qpos, first_frame))
 
 
 def marker_residuals(
@@ -77,10 +87,15 @@ def marker_residuals(
 
 
 def write_residuals_csv(
-    path: str | Path, names: Sequence[str], times: np.ndarray, distance: np.ndarray
+    path: str | Path,
+    names: Sequence[str],
+    times: np.ndarray,
+    distance: np.ndarray,
+    first_frame: int = 0,
 ) -> None:
     """Per-marker residuals: distance (T, M) [m] written in millimetres, one column a marker."""
-    atomic_write_text(path, table_text([f"{n}_mm" for n in names], times, distance * 1e3, ".4f"))
+    header = [f"{n}_mm" for n in names]
+    atomic_write_text(path, table_text(header, times, distance * 1e3, ".4f", first_frame))
 
 
 def segment_lengths(model: mujoco.MjModel) -> np.ndarray:

@@ -26,13 +26,16 @@ def write_trc(
     positions: np.ndarray,
     *,
     up: str = "y",
+    first_frame: int | None = None,
 ) -> None:
-    """Write positions (T, M, 3) [m, MJCF world, NaN = missing] at times (T,) [s] as TRC."""
+    """Write positions (T, M, 3) [m, MJCF world, NaN = missing] at times (T,) [s] as TRC;
+    ``first_frame``: the recording's number of frame 0 (None: frames numbered from 1)."""
     rotated = np.asarray(positions, dtype=float) @ up_rotation(up).T
     traj = MarkerTrajectory(
         times=np.asarray(times, dtype=float),
         positions=rotated,
         names=tuple(names),
         rate=frame_rate(times),
+        source={"first_frame": first_frame},
     )
     save_trc(path, traj)

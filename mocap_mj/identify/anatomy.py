@@ -8,7 +8,8 @@ standard deviation ``sigma_r`` [m]. A row may tie a marker offset to a kinematic
 (KNE's offset along the thigh equals minus the thigh length: Plug-in Gait puts KNE on the
 lateral epicondyle, on the knee flexion axis), a marker's lateral offset to a subject
 measurement (KNE lateral of the knee centre by KneeWidth/2 + marker radius), a hip centre to
-the pelvis markers (Harrington et al. 2007), or a left length to a right one (``--symmetric``).
+the pelvis markers (Harrington et al. 2007), or a left length to a right one (the recipe's
+``symmetric``).
 
 Marker classes (:func:`mocap_mj.marker_set.marker_class`, from the marker-set file):
 *landmark* markers sit on a palpated bony landmark

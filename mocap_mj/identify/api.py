@@ -170,8 +170,8 @@ def _described(
     rows = add_checks(report, pset, result, trials, settings, solved.ranges, info)
     report = jsonable(report)
     motion = tuple(
-        Motion(np.asarray(q), t.times, t.markers, pset.marker_names)
-        for t, q in zip(trials, result.qpos, strict=True)
+        Motion(np.asarray(q), t.times, t.markers, pset.marker_names, first_frame=f)
+        for t, q, f in zip(trials, result.qpos, firsts, strict=True)
     )
     return Fit(
         pset=pset,
@@ -224,8 +224,8 @@ def _with_every_frame(
         poses, done = every_frame_motion(pset, fit.theta, fit.settings, whole, **args)
         motion = tuple(
             Motion(q, np.asarray(t.times, dtype=float), np.asarray(t.markers, dtype=float),
-                   pset.marker_names)
-            for t, q in zip(whole, poses, strict=True)
+                   pset.marker_names, first_frame=f)
+            for t, q, f in zip(whole, poses, fit.first_frames, strict=True)
         )  # fmt: skip
     report["motion_marker_rmse_mm"] = done.rmse * 1e3
     report["motion_seconds"] = {"ik": done.ik_seconds, "all": done.seconds}
@@ -275,9 +275,7 @@ def select_count(select: int | str, frames: int, n_trials: int) -> int | None:
         return AUTO_SELECT_COUNT if frames > AUTO_SELECT_ABOVE else None
     count = int(select)
     if count < n_trials:
-        raise MocapError(
-            f"--select: expected at least one frame per trial ({n_trials}), got {count}"
-        )
+        raise MocapError(f"select: expected at least one frame per trial ({n_trials}), got {count}")
     return count if count < frames else None
 
 

@@ -1,6 +1,6 @@
 """Plug-in Gait's hip centres (Davis et al. 1991) as prior rows on theta.
 
-``mocap-mj identify --hip-centre davis`` places the hip centres as Plug-in Gait does
+A recipe's ``hip_centre: davis`` places the hip centres as Plug-in Gait does
 (:func:`mocap_mj.clinical.centres.davis_hip`), in place of Harrington et al. (2007)
 (:mod:`mocap_mj.identify.anatomy`): from the mean leg length, the ASIS-trochanter distance
 (measured, else Plug-in Gait's regression on the leg length) and the ASIS markers' distance.
@@ -32,8 +32,8 @@ def davis_rows(subject: Subject, side: str, nominal: Mapping[str, float]) -> lis
     legs = [subject.get(f"leg_length_{x}") for x in ("l", "r")]
     if legs[0] is None or legs[1] is None:
         raise MocapError(
-            "--hip-centre davis: Davis's hip centre needs both leg lengths (LegLength in "
-            "the C3D file, --leg-length or --subject-file)"
+            "hip_centre davis: Davis's hip centre needs both leg lengths (LegLength in the "
+            "C3D file, or leg_length_l and leg_length_r in --subject-file)"
         )
     leg = 0.5 * (legs[0] + legs[1])
     atd = subject.get(f"asis_trochanter_{side}")
@@ -43,7 +43,7 @@ def davis_rows(subject: Subject, side: str, nominal: Mapping[str, float]) -> lis
     z = -c * np.cos(DAVIS_THETA) * np.cos(DAVIS_BETA) - d * np.sin(DAVIS_BETA)
     depth = 0.5 * sum(nominal.get(f"{m}ASI.x", 0.0) - nominal.get(f"{m}PSI.x", 0.0) for m in "LR")
     if depth <= 0:
-        raise MocapError("--hip-centre davis: the model has no ASIS and PSIS markers")
+        raise MocapError("hip_centre davis: the model has no ASIS and PSIS markers")
     # Plug-in Gait's x axis, mid-PSIS to mid-ASIS, is this frame's x turned down by t,
     # sin t = (mid-PSIS.z - mid-ASIS.z) / depth: linear in the offsets at the nominal depth,
     # so the rows follow the markers whatever the frame's own tilt (cos t ~ 1).

@@ -17,6 +17,7 @@ in the other directions are reported separately.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from typing import Any
 
@@ -27,6 +28,8 @@ from .._threads import one_blas_thread
 from ..errors import check_shape
 from ..marker_set import marked_bodies
 from ..parameters import ParameterSet
+
+_log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -77,6 +80,11 @@ class Identifiability:
         self.weak_std = weak_std
         self.theta = pset.nominal if theta is None else pset.check(theta)
         sym = 0.5 * (information + information.T)
+        if not np.all(np.isfinite(sym)):
+            # A fit that overflowed informs nothing: every direction is reported unobservable
+            # (and the fit's own checks call it implausible) rather than failing to report.
+            _log.warning("the reduced information is not finite: no direction is observable")
+            sym = np.zeros_like(sym)
         with one_blas_thread():
             lam, vec = np.linalg.eigh(sym)
         self.eigenvalues = lam
@@ -224,13 +232,16 @@ class Identifiability:
 def _varimax(basis: np.ndarray, iterations: int = 100, tol: float = 1e-8) -> np.ndarray:
     """Orthogonal rotation of the columns of basis (P, r) to simple structure (Kaiser 1958)."""
     p, r = basis.shape
-    if r < 2:
+    if r < 2 or not np.all(np.isfinite(basis)):
         return basis
     rot = np.eye(r)
     last = 0.0
     for _ in range(iterations):
         lam = basis @ rot
-        u, s, vt = np.linalg.svd(basis.T @ (lam**3 - lam @ np.diag(np.sum(lam**2, axis=0)) / p))
+        try:
+            u, s, vt = np.linalg.svd(basis.T @ (lam**3 - lam @ np.diag(np.sum(lam**2, axis=0)) / p))
+        except np.linalg.LinAlgError:  # the rotation so far: still an orthonormal basis
+            break
         rot = u @ vt
         if s.sum() < last * (1 + tol):
             break

@@ -76,7 +76,7 @@ adult's skeleton.
 Scaling fixes the skeleton, not where an operator put the markers (the thigh and tibia wands
 can sit anywhere along their segment): :func:`place_markers` then places every marker offset
 where the trials' IK with the scaled skeleton puts it. ``mocap-mj identify`` starts from both
-(``--init placed``; docs/method.md#the-initial-model).
+(the recipe's ``init: placed``; docs/method.md#the-initial-model).
 """
 
 from __future__ import annotations
@@ -465,6 +465,18 @@ def estimate_stature(scales: dict[str, ScaleEstimate]) -> StatureEstimate | None
         "of stature"
     )
     return StatureEstimate(value, rel * value, source)
+
+
+def marker_stature(scales: dict[str, ScaleEstimate]) -> float | None:
+    """The stature [m] the long-bone marker distances alone imply: ``NOMINAL_HEIGHT`` x the
+    median of their measured / nominal ratios, unclipped (a unit check: a recording in
+    centimetres read as millimetres gives a tenth of a person); None without a long bone."""
+    ratios = [
+        scales[n].measured / scales[n].nominal
+        for n in STATURE_SCALES
+        if n in scales and np.isfinite(scales[n].measured)
+    ]
+    return NOMINAL_HEIGHT * float(np.median(ratios)) if ratios else None
 
 
 def scaled_theta(

@@ -473,51 +473,14 @@ def refine(
     t0 = time.perf_counter()
     parts = _parts(markers)
     n = sum(len(m) for m in parts)
-    kin = Kinematics(pset)
-    # The IK with the joint LM's limits (ball cones widened), as the identification and the
-    # written model solve it: the motion then starts from poses under the same limits.
-    kin.model.jnt_range[:] = solver_joint_range(kin.model, st)
-    kin.set_theta(theta0)
-    free = np.flatnonzero(~pset.frozen)
-    prior_list = list(priors) if priors is not None else [st.weak_prior(theta0)]
-    box = (
-        np.full(pset.size, -np.inf) if lower is None else np.asarray(lower, dtype=float),
-        np.full(pset.size, np.inf) if upper is None else np.asarray(upper, dtype=float),
-    )
+    problem = _steps_of(pset, theta0, st, priors, (lower, upper), sigma, chunk, weigh)
+    kin, box = problem.kin, problem.box
     stride = max(1, -(-n // max(sample, 1)))
-    m_s = np.concatenate([np.asarray(m[::stride], dtype=float) for m in parts])
-    q_s = np.full((len(m_s), kin.nq), np.nan)
-    weight = n / len(m_s)  # the sample's gradient, information and cost stand for every frame
-    info_rows = slice(None, None, max(1, -(-len(m_s) // max(info_frames, 1))))
-    scale = weight * len(m_s) / len(m_s[info_rows])
+    sample_set = _sample_of(parts, stride, n, kin.nq, info_frames)
     theta = np.clip(np.array(theta0, dtype=float), *box)
-    sizes: list[float] = []
-    best: _Point | None = None
-    mu = 0.0
-    for _ in range(steps):
-        kin.set_theta(theta)
-        fit, grad = _ik_pass(m_s, kin, q_s, chunk, gradient=True, weigh=weigh, robust=robust)
-        cost = weight * 0.5 * fit.sq + sum(p.cost(theta) for p in prior_list)
-        if best is not None and cost > best.cost:
-            # The step raised the cost (real data: frames at joint limits, soft tissue): back
-            # to the last point, with more damping (Levenberg-Marquardt, as the LM's steps).
-            theta, mu = best.theta.copy(), max(10.0 * mu, 1e-3)
-        else:
-            # The information at every accepted point: kept from the start, the steps diverged.
-            info = scale * _information(kin, m_s[info_rows], q_s[info_rows], weigh, robust)
-            if robust is not None:
-                # The threshold from the sample's distances at every accepted point, as the
-                # LM's from its frames' at every iterate; the next step's cost is compared
-                # with this point's under it.
-                robust = robust_loss(robust.loss.name, kin, m_s, q_s, st.loss_scale)
-                data = sample_weights(kin, m_s, q_s, weigh, robust)[1]
-                cost = weight * data + sum(p.cost(theta) for p in prior_list)
-            best = _Point(theta.copy(), cost, weight * grad, info, q_s.copy())
-            mu /= 10.0
-        solver = _Solver(best.info, prior_list, box, free, sigma, st, mu)
-        sizes.append(solver.step(theta, best.grad))
-        if sizes[-1] < tol_std:
-            break
+    theta, best, sizes, mu, robust = _sample_steps(
+        problem, sample_set, theta, steps, tol_std, robust
+    )
     t1 = time.perf_counter()
     if best is None:  # no step asked for
         return Refinement(theta, np.zeros((pset.size,) * 2), np.zeros(pset.size), sizes, {}, robust)
@@ -527,17 +490,142 @@ def refine(
         # poses (not those of a step taken back after it).
         _fill(qpos, best.qpos)
     else:
-        # The one step on every frame, from the sample's estimate, its information scaled;
-        # the frames' IK chained from the sample's poses at that estimate.
-        kin.set_theta(theta)
-        offsets = np.cumsum([0] + [len(range(0, len(m), stride)) for m in parts[:-1]])
-        heads = Heads(best.qpos, stride, tuple(int(o) for o in offsets))
-        _, grad = _ik_pass(
-            parts, kin, qpos, chunk, gradient=True, heads=heads, weigh=weigh, robust=robust
-        )
-        sizes.append(_Solver(best.info, prior_list, box, free, sigma, st, mu).step(theta, grad))
+        grad = _step_on_every_frame(problem, parts, qpos, stride, best, mu, sizes, robust)
     seconds = {"sample": t1 - t0, "pass": time.perf_counter() - t1}
     return Refinement(theta, best.info, grad, sizes, seconds, robust)
+
+
+class _Sample(NamedTuple):
+    """The sample of :func:`refine`: markers (n, M, 3) [m], poses (n, nq) (written), the
+    weight of one of its frames (the frames it stands for), the rows its information is
+    summed over and that information's scale."""
+
+    markers: np.ndarray
+    qpos: np.ndarray
+    weight: float
+    info_rows: slice
+    scale: float
+
+
+class _Steps(NamedTuple):
+    """What every step of :func:`refine` solves with: the kinematics, priors, box (lower,
+    upper) [m], free parameters, noise sigma [m], settings, IK chunk and weighing."""
+
+    kin: Kinematics
+    priors: list[Prior]
+    box: tuple[np.ndarray, np.ndarray]
+    free: np.ndarray
+    sigma: float
+    settings: LMSettings
+    chunk: int
+    weigh: Weigh | None
+
+
+def _steps_of(
+    pset: ParameterSet,
+    theta0: np.ndarray,
+    st: LMSettings,
+    priors: Sequence[Prior] | None,
+    bounds: tuple[np.ndarray | None, np.ndarray | None],
+    sigma: float,
+    chunk: int,
+    weigh: Weigh | None,
+) -> _Steps:
+    """:func:`refine`'s kinematics (at ``theta0``), priors (default: the weak prior toward
+    theta0) and box (default: none) for its arguments."""
+    kin = Kinematics(pset)
+    # The IK with the joint LM's limits (ball cones widened), as the identification and the
+    # written model solve it: the motion then starts from poses under the same limits.
+    kin.model.jnt_range[:] = solver_joint_range(kin.model, st)
+    kin.set_theta(theta0)
+    free = np.flatnonzero(~pset.frozen)
+    prior_list: list[Prior] = list(priors) if priors is not None else [st.weak_prior(theta0)]
+    lower, upper = bounds
+    box = (
+        np.full(pset.size, -np.inf) if lower is None else np.asarray(lower, dtype=float),
+        np.full(pset.size, np.inf) if upper is None else np.asarray(upper, dtype=float),
+    )
+    return _Steps(kin, prior_list, box, free, sigma, st, chunk, weigh)
+
+
+def _sample_of(parts: list[np.ndarray], stride: int, n: int, nq: int, info_frames: int) -> _Sample:
+    """Every ``stride``-th frame of each trial of ``parts`` ((T, M, 3) [m] each, ``n`` in all),
+    its poses (n', nq) to be written, the rows (<= ``info_frames``) its information sums."""
+    m_s = np.concatenate([np.asarray(m[::stride], dtype=float) for m in parts])
+    q_s = np.full((len(m_s), nq), np.nan)
+    weight = n / len(m_s)  # the sample's gradient, information and cost stand for every frame
+    info_rows = slice(None, None, max(1, -(-len(m_s) // max(info_frames, 1))))
+    scale = weight * len(m_s) / len(m_s[info_rows])
+    return _Sample(m_s, q_s, weight, info_rows, scale)
+
+
+def _step_on_every_frame(
+    problem: _Steps,
+    parts: list[np.ndarray],
+    qpos: Parts,
+    stride: int,
+    best: _Point,
+    mu: float,
+    sizes: list[float],
+    robust: Robust | None,
+) -> np.ndarray:
+    """The one step on every frame from the sample's estimate ``best`` (its information
+    scaled), the frames' IK (into ``qpos``) chained from the sample's poses at it; the step's
+    size appended to ``sizes``; returns the gradient (P,) on every frame."""
+    kin, theta = problem.kin, best.theta
+    kin.set_theta(theta)
+    offsets = np.cumsum([0] + [len(range(0, len(m), stride)) for m in parts[:-1]])
+    heads = Heads(best.qpos, stride, tuple(int(o) for o in offsets))
+    _, grad = _ik_pass(parts, kin, qpos, problem.chunk, gradient=True, heads=heads,
+                       weigh=problem.weigh, robust=robust)  # fmt: skip
+    _, priors, box, free, sigma, st, _, _ = problem
+    sizes.append(_Solver(best.info, priors, box, free, sigma, st, mu).step(theta, grad))
+    return grad
+
+
+def _sample_steps(
+    problem: _Steps,
+    sample: _Sample,
+    theta: np.ndarray,
+    steps: int,
+    tol_std: float,
+    robust: Robust | None,
+) -> tuple[np.ndarray, _Point | None, list[float], float, Robust | None]:
+    """:func:`refine`'s damped Gauss-Newton steps on the sample, from ``theta`` (P,) [m]:
+    the last theta, the last accepted point (None: no step), the steps' sizes (in standard
+    deviations), the damping and the robust loss at the last accepted point."""
+    kin, prior_list, st, weigh = problem.kin, problem.priors, problem.settings, problem.weigh
+    m_s, q_s, weight, info_rows = sample.markers, sample.qpos, sample.weight, sample.info_rows
+    sizes: list[float] = []
+    best: _Point | None = None
+    mu = 0.0
+    for _ in range(steps):
+        kin.set_theta(theta)
+        fit, grad = _ik_pass(
+            m_s, kin, q_s, problem.chunk, gradient=True, weigh=weigh, robust=robust
+        )
+        cost = weight * 0.5 * fit.sq + sum(p.cost(theta) for p in prior_list)
+        if best is not None and cost > best.cost:
+            # The step raised the cost (real data: frames at joint limits, soft tissue): back
+            # to the last point, with more damping (Levenberg-Marquardt, as the LM's steps).
+            theta, mu = best.theta.copy(), max(10.0 * mu, 1e-3)
+        else:
+            # The information at every accepted point: kept from the start, the steps diverged.
+            info = sample.scale * _information(kin, m_s[info_rows], q_s[info_rows], weigh, robust)
+            if robust is not None:
+                # The threshold from the sample's distances at every accepted point, as the
+                # LM's from its frames' at every iterate; the next step's cost is compared
+                # with this point's under it.
+                robust = robust_loss(robust.loss.name, kin, m_s, q_s, st.loss_scale)
+                data = sample_weights(kin, m_s, q_s, weigh, robust)[1]
+                cost = weight * data + sum(p.cost(theta) for p in prior_list)
+            best = _Point(theta.copy(), cost, weight * grad, info, q_s.copy())
+            mu /= 10.0
+        solver = _Solver(best.info, prior_list, problem.box, problem.free, problem.sigma, st, mu)
+        sizes.append(solver.step(theta, best.grad))
+        if sizes[-1] < tol_std:
+            break
+    return theta, best, sizes, mu, robust
 
 
 class _Point(NamedTuple):

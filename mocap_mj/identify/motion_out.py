@@ -1,15 +1,14 @@
 """Every frame's motion written chunk by chunk: motion.npz and joint_centres.csv of a long trial.
 
-``identify --select`` solves the IK of every frame of a recording that may hold an hour
-(360,000 frames): its poses, markers and joint-centre table would take about a gigabyte in
-memory at once. Here the IK runs ``chunk`` frames at a time and each chunk goes straight into
-the files: motion.npz is a zip of ``.npy`` members (as :func:`mocap_mj.results.save_motion`
-writes it, byte for byte: uncompressed, fixed timestamps), each member's header written by
-numpy's ``.npy`` header writer and its rows appended as they come; joint_centres.csv is
-appended chunk by chunk (:func:`mocap_mj.tables.joint_centre_text`, the whole table's
-formatting). Both are written under a temporary name and renamed when complete
-(:func:`mocap_mj.io.atomic.atomic_path`).
-"""
+``identify`` with a selection (the recipe's ``select``) solves the IK of every frame of a
+recording that may hold an hour (360,000 frames): its poses, markers and joint-centre table
+would take about a gigabyte in memory at once. Here the IK runs ``chunk`` frames at a time and
+each chunk goes straight into the files: motion.npz is a zip of ``.npy`` members (as
+:func:`mocap_mj.results.save_motion` writes it, byte for byte: uncompressed, fixed timestamps),
+each member's header written by numpy's ``.npy`` header writer and its rows appended as they
+come; joint_centres.csv is appended chunk by chunk (:func:`mocap_mj.tables.joint_centre_text`,
+the whole table's formatting). Both are written under a temporary name and renamed when complete
+(:func:`mocap_mj.io.atomic.atomic_path`)."""
 
 from __future__ import annotations
 
@@ -95,10 +94,12 @@ def write_motion_chunks(
     nq: int,
     poses: Iterator[np.ndarray],
     chunk: int = CHUNK,
+    first_frame: int = 0,
 ) -> None:
     """motion.npz of ``trial`` (its times (T,) [s] and markers (T, M, 3) [m], read ``chunk``
     frames at a time) with the poses (T, nq) that ``poses`` yields chunk by chunk, in the
-    member order of :func:`mocap_mj.results.save_motion`."""
+    member order of :func:`mocap_mj.results.save_motion`; ``first_frame``: the recording's
+    number of frame 0."""
     n = len(trial.markers)
     with atomic_path(path) as tmp, _zip(tmp) as zf:
         with npy_member(zf, "qpos", (n, nq), np.dtype(float)) as append:
@@ -113,6 +114,8 @@ def write_motion_chunks(
         labels = np.array(list(names))
         with npy_member(zf, "marker_names", labels.shape, labels.dtype) as append:
             append(labels)
+        with npy_member(zf, "first_frame", (), np.dtype(np.int64)) as append:
+            append(np.array(first_frame, dtype=np.int64))
 
 
 class _CentresTable:
@@ -180,6 +183,7 @@ def write_every_frame_motion(
                 layout.nq_written,
                 (layout.written(q) for q in poses),
                 chunk,
+                first,
             )
     return tally.fit._replace(seconds=time.perf_counter() - t0)
 

@@ -20,6 +20,7 @@ from ..results import Motion, save_motion
 from ..strict_json import dumps, jsonable
 from ..tables import write_joint_centres_csv
 from .axes import report_lines as axis_lines
+from .clinical_out import write_model_angles
 from .fit import Fit
 from .identifiability import Identifiability
 from .lm import solver_joint_range
@@ -39,7 +40,9 @@ def write_result(
 ) -> dict[str, Any]:
     """Write ``fit`` as a result folder (:mod:`mocap_mj.results`): model.xml, theta.json,
     recipe.yaml (:meth:`Recipe.save`: ``mocap-mj identify --recipe`` re-runs it),
-    motion.npz and joint_centres.csv (``_<i>`` for the other trials), segments.csv,
+    motion.npz and joint_centres.csv (``_<i>`` for the other trials), angles.csv (Plug-in
+    Gait's angles of the model, first trial; compared in report.md with the Nexus angles its
+    C3D holds), segments.csv,
     identifiability.json, report.md, plots and summary.json (``inputs``, e.g. the marker
     files read, then :meth:`Fit.summary`). The folder is replaced whole at the end
     (:func:`~mocap_mj.io.atomic.atomic_folder`; a non-empty ``folder`` only with ``force``);
@@ -62,6 +65,18 @@ def write_result(
             sliding=fit.sliding,
         )
         _write_tables(staging, fit.pset, fit.theta, motion, fit.segments, fit.first_frames)
+        lines, compared = write_model_angles(
+            staging,
+            fit.pset.model_for(fit.theta),
+            motion,
+            str(fit.trials[0].name) if fit.trials else "",
+            fit.first_frames[0] if fit.first_frames else 0,
+        )
+        if compared is not None:
+            summary["angles_vs_plug_in_gait"] = compared
+        if lines:
+            report = staging / "report.md"
+            atomic_write_text(report, report.read_text() + "\n" + "\n".join(lines))
         fit.recipe.save(staging / "recipe.yaml")
         atomic_write_text(staging / "summary.json", dumps(summary, indent=2) + "\n")
     return summary
@@ -301,25 +316,39 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
     return lines
 
 
-def frame_range(text: str | None, n: int, source: str = "the recording") -> slice:
-    """``"A:B"`` (Python slice of frames, negative from the end) -> slice; None -> all frames.
+def frame_range(
+    text: str | None, n: int, source: str = "the recording", *, stride: bool = False
+) -> slice:
+    """The frames of a ``--frames`` text over ``n`` frames: the one parser of every command.
 
-    A bound past the ``n`` frames of ``source`` is refused, naming its frame count: a range
-    silently shortened would fit other frames than the ones asked for.
+    ``"A:B"`` is a Python slice of frames, B exclusive, negative from the end, an empty part
+    the slice's default (``":"`` every frame); with ``stride``, ``"A:B:S"`` also takes every
+    S-th frame (S positive). None or "" -> every frame. Returns the slice with its bounds
+    resolved (0 <= start <= stop <= n). A bound past the ``n`` frames of ``source`` is
+    refused, naming its frame count: a range silently shortened would use other frames than
+    the ones asked for.
     """
     from ..errors import MocapError
 
     if not text:
         return slice(0, n)
+    form = "A:B or A:B:S" if stride else "A:B"
+    parts = text.split(":")
     try:
-        a, b = (int(x) if x else None for x in text.split(":"))
+        if len(parts) not in ((2, 3) if stride else (2,)):
+            raise ValueError
+        a, b, *s = (int(p) if p.strip() else None for p in parts)
     except ValueError:
-        raise MocapError(f"--frames: expected A:B (e.g. 0:500), got {text!r}") from None
+        raise MocapError(f"--frames: expected {form} (e.g. 0:500), got {text!r}") from None
+    step = s[0] if s else None
+    if step is not None and step <= 0:
+        raise MocapError(f"--frames {text}: the step S must be positive, got {step}")
     if any(v is not None and not -n <= v <= n for v in (a, b)):
         raise MocapError(
             f"{source}: --frames {text}: past the end, the recording has {n} frames (0 to {n - 1})"
         )
-    return slice(*slice(a, b).indices(n)[:2])
+    start, stop, _ = slice(a, b).indices(n)
+    return slice(start, max(start, stop), step)
 
 
 def expected_rmse(sigma: float, n_unknowns: int, n_residuals: int) -> float:

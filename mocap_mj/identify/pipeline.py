@@ -543,8 +543,9 @@ def _slid(
     angle (:mod:`mocap_mj.identify.tissue`) by the ``first`` solve's poses, against a
     per-axis artefact of ``max(sigma, SOFT_TISSUE_SIGMA)`` (recorded in ``weighting``:
     ``slide_weight_min``, the smallest weight, and ``slide_base_mm``, the artefact).
-    ``mocap-mj identify`` slides :data:`~mocap_mj.identify.tissue.SLIDES` unless
-    ``--no-sliding-landmarks`` (docs/method.md#weighing-priors-trials-and-sliding-markers)."""
+    ``mocap-mj identify`` slides :data:`~mocap_mj.identify.tissue.SLIDES` unless the
+    recipe's ``sliding_landmarks`` is false
+    (docs/method.md#weighing-priors-trials-and-sliding-markers)."""
     base = max(first.sigma, SOFT_TISSUE_SIGMA)
     weights = [sliding_weights(pset, q, base, slides) for q in first.qpos]
     weighting["slide_weight_min"] = float(min(w.min() for w in weights))

@@ -5,7 +5,9 @@ absorb soft-tissue artefact into parameters the motion hardly excites (a foot le
 millimetres, a forearm of 40 cm). These checks name the markers that fit worst, the
 kinematic parameters outside a range (the anatomical ranges of
 :mod:`mocap_mj.identify.ranges`, which the solver enforces, so none unless the solve ran
-without them) and those that ended at a bound of the range.
+without them) and those that ended at a bound of the range; and :func:`implausible_reasons`
+says when the fit as a whole cannot describe a person (the command line then exits with a
+status of its own, the result written for inspection).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import numpy as np
 from ..joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
 from ..kinematics import Kinematics
 from ..parameters import ParameterSet
-from ..subject import Subject
+from ..subject import HUMAN_RANGES, Subject
 from .lm import LMResult, TrialData
 
 
@@ -201,4 +203,47 @@ def width_errors(
             j = JOINT_CENTRE_NAMES.index(f"{joint}_{side}")
             d = np.nanmedian(np.linalg.norm(jc[:, j] - m, axis=1))
             out[f"{joint}_{side}"] = float(d - (w / 2 + subject.marker_radius))
+    return out
+
+
+#: Marker RMSE [m] above which a fit is implausible. Real recordings fit to 0.5-5 mm (camera
+#: noise about 1 mm, soft-tissue artefact of some 5-15 mm on the worst markers); a marker
+#: placed or labelled wrong in every frame raises the RMSE over 39 markers by some 15 mm.
+#: Beyond 30 mm the model is not the subject: wrong units or measurements, or not a person.
+IMPLAUSIBLE_RMSE = 0.030
+#: Share of the free kinematic parameters held at a bound of their anatomical range above
+#: which a fit is implausible: the markers then pull most of the skeleton outside any
+#: person's proportions (real recordings leave none or a few at a bound).
+IMPLAUSIBLE_AT_BOUND = 0.5
+
+
+def implausible_reasons(
+    rmse: float, at_bound: int, free_kappa: int, stature: float | None
+) -> list[str]:
+    """Why a fit cannot describe a person, one line each (empty: plausible).
+
+    rmse [m]: the fit's marker RMSE (non-finite: implausible); ``at_bound`` of the
+    ``free_kappa`` free kinematic parameters ended at a bound of their range; stature [m]:
+    the stature the markers' long-bone distances imply
+    (:func:`mocap_mj.identify.initial.marker_stature`; None: unknown), which must lie within
+    the human height range (:data:`mocap_mj.subject.HUMAN_RANGES`): a person of a few
+    decimetres is a recording in centimetres or inches read as millimetres.
+    """
+    out = []
+    if not np.isfinite(rmse) or rmse > IMPLAUSIBLE_RMSE:
+        out.append(
+            f"marker RMSE {rmse * 1e3:.4g} mm, above the {IMPLAUSIBLE_RMSE * 1e3:.0f} mm any "
+            "person fits to (units, measurements or marker names wrong?)"
+        )
+    if free_kappa and at_bound > IMPLAUSIBLE_AT_BOUND * free_kappa:
+        out.append(
+            f"{at_bound} of {free_kappa} kinematic parameters held at a bound of their "
+            "anatomical range (measurements or units wrong?)"
+        )
+    low, high = HUMAN_RANGES["height"]
+    if stature is not None and not low <= stature <= high:
+        out.append(
+            f"stature {stature:.3g} m from the markers, outside any person's "
+            f"{low:g}..{high:g} m (the file's length unit wrong? --units)"
+        )
     return out

@@ -15,6 +15,7 @@ Lengths are in metres in the file as in the code.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, get_args
@@ -116,8 +117,12 @@ class Recipe:
             raise MocapError(
                 f"hip_centre must be one of {', '.join(HIP_CENTRES)}; got {self.hip_centre!r}"
             )
-        if self.symmetric is not None and self.symmetric <= 0:
-            raise MocapError(f"symmetric must be positive, got {self.symmetric}")
+        if self.symmetric is not None and not 0 < self.symmetric < math.inf:
+            raise MocapError(f"symmetric: expected a width > 0 m, got {self.symmetric}")
+        for name in ("observable_std", "loss_scale"):
+            value = getattr(self, name)
+            if not 0 < value < math.inf:  # NaN fails too
+                raise MocapError(f"{name}: expected a number > 0, got {value}")
         self.settings()  # the solver's own checks (loss, prior widths, iterations)
 
     def settings(

@@ -1,6 +1,6 @@
 """IK of a trial under the identification's loss (``ik --loss``), to reproduce a robust fit.
 
-``identify --robust`` finds the poses that minimise a Cauchy (or Huber) cost of the marker
+``identify --loss cauchy`` finds the poses that minimise a Cauchy (or Huber) cost of the marker
 distances, with the threshold c = ``loss_scale`` sigma re-estimated from the current
 distances (sigma = median distance / the chi-3 median; :mod:`mocap_mj.identify.lm`). A
 least-squares IK with the identified model finds other poses (lower RMSE, outliers pulled

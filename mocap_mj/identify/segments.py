@@ -28,8 +28,8 @@ Columns:
     the uncertainty of the estimate itself. Where it is much smaller than ``std_mm`` the
     priors, not the motion, place the length (e.g. a joint centre set by its landmark's
     convention rows); where the two agree, the data do. Equal to ``std_mm`` without priors
-    (``--no-anatomy``). The data are weighed as the fit weighed them against the priors
-    (:func:`mocap_mj.identify.noise.artefact_noise`): on correlated residuals (tau of
+    (the recipe's ``anatomy: false``). The data are weighed as the fit weighed them against
+    the priors (:func:`mocap_mj.identify.noise.artefact_noise`): on correlated residuals (tau of
     ``CORRELATED_TAU`` frames or more) at the soft-tissue artefact's per-axis size, at least
     ``SOFT_TISSUE_SIGMA`` (5 mm), not at the fit's smaller residual: the part of the artefact
     the skeleton absorbed never shows in the residual, and a length placed by the rows

@@ -13,10 +13,16 @@ from ..parameters import ParameterSet
 from ..subject import Subject
 from .anatomy import ASYMMETRY_SIGMA
 from .identifiability import Identifiability
+from .initial import marker_stature, segment_scales
 from .lm import LMSettings, solver_joint_range
 from .partial import Unmeasured
 from .pipeline import Solved
-from .plausibility import joints_at_limit, kappa_outside_bounds, marker_rmse_by_marker
+from .plausibility import (
+    implausible_reasons,
+    joints_at_limit,
+    kappa_outside_bounds,
+    marker_rmse_by_marker,
+)
 from .problem import TrialData
 from .recipe import Recipe
 from .result import IdentificationResult
@@ -49,6 +55,12 @@ def fit_report(
     summary.update(_measured_fields(pset, solved.missing))
     summary["sliding_landmarks"] = None if solved.sliding is None else sorted(solved.sliding.slides)
     summary["kappa_at_bound"] = _kappa_at_bound(pset, result)
+    summary["implausible"] = implausible_reasons(
+        result.marker_rmse,
+        len(summary["kappa_at_bound"]),
+        int(np.sum(~pset.frozen[: pset.n_kappa])),
+        marker_stature(segment_scales(pset, [t.markers for t in trials])),
+    )
     fitted = [q[used] for q, used in zip(result.qpos, result.used, strict=True)]
     summary["joints_at_limit"] = joints_at_limit(
         pset.model, solver_joint_range(pset.model, settings), fitted

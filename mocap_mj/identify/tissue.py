@@ -41,7 +41,7 @@ The ankle (ANK) and elbow (ELB) markers sit on bone under thin skin: their slidi
 modelled (weighting them alike helped no real-data figure; the ankle and
 the elbow are convention joints instead, :mod:`mocap_mj.identify.anatomy`).
 
-``mocap-mj identify`` weighs with :data:`SLIDES` by default (``--no-sliding-landmarks``: off)
+``mocap-mj identify`` weighs with :data:`SLIDES` by default (the recipe's ``sliding_landmarks``)
 and records the model it weighed with in model.xml (:func:`with_sliding_model`); ``mocap-mj
 ik`` reads it back (:func:`recorded_sliding_model`) and weighs its own poses alike, so that
 the exported model reproduces the fit (docs/outputs.md#modelxml-reproduces-the-fit).

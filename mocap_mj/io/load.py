@@ -1,4 +1,15 @@
-"""``load_markers``: any supported marker file -> a :class:`MarkerTrajectory` in metres, Z up."""
+"""``load_markers``: any supported marker file -> a :class:`MarkerTrajectory` in metres, Z up.
+
+One missing-data rule holds in every format: a sample is missing when any coordinate is NaN
+or an empty cell, when all three coordinates are exactly 0 (how many tools write a gap; a real
+marker is never exactly at the lab origin to every decimal), or when its C3D residual is
+negative. ``source["missing_samples"]`` counts them per marker (all causes),
+``source["zero_samples"]`` those written as zeros.
+
+The units check: the median per-frame extent of the marker cloud must lie within 0.05..10 m
+once converted; otherwise the error names the unit that would fit and the ``--units`` flag (a
+wrong unit would otherwise give a "fit" of a 1,700 m person).
+"""
 
 from __future__ import annotations
 
@@ -23,13 +34,27 @@ from mocap_mj.io.orientation import (
     normalize_up,
     rotation_to_z_up,
 )
-from mocap_mj.io.trajectory import MarkerTrajectory
-from mocap_mj.io.units import check_extent, frame_extents, median_extent, metres_per_unit
+from mocap_mj.io.trajectory import MarkerTrajectory, first_frame
+from mocap_mj.io.units import (
+    check_extent,
+    frame_extents,
+    likely_unit,
+    median_extent,
+    metres_per_unit,
+)
 from mocap_mj.markers import MARKER_NAMES
 
-__all__ = ["load_markers"]
+__all__ = ["COORDINATE_LIMIT", "load_markers"]
 
 _log = logging.getLogger(__name__)
+
+#: The largest distance from the lab origin a marker coordinate may state [m], after unit
+#: conversion. The largest motion-capture volumes (outdoor and stadium systems) span some
+#: 100 m, so a coordinate beyond 1 km is a corrupt or placeholder number (1e30, a float's
+#: maximum), not a position; read on, it would overflow the fit's sums of squares. A file
+#: whose every number is 1,000 times too large (metres stated for millimetres) is the units
+#: check's to name, with the unit that fits (``check_extent``).
+COORDINATE_LIMIT = 1000.0
 
 
 def load_markers(
@@ -53,19 +78,13 @@ def load_markers(
     ``marker_map`` lists; ``marker_map`` renames; other names that spell a Plug-in Gait marker
     (``lasi``, ``L_IAS``, ``LFRA``: :func:`~mocap_mj.io.names.builtin_alias`) take its name
     when that is unambiguous; units become metres; missing samples become NaN; the marker
-    cloud's size is checked against the unit; the vertical axis is rotated onto +Z; a
-    mirrored recording (left markers on the subject's right: a left-handed export or every
-    left/right label swapped) is refused (:mod:`mocap_mj.io.handedness`).
+    cloud's size is checked against the unit; a coordinate beyond :data:`COORDINATE_LIMIT`
+    (1 km) from the origin is refused, naming the marker and frame; the vertical axis is
+    rotated onto +Z; a mirrored recording (left markers on the subject's right: a
+    left-handed export or every left/right label swapped) is refused
+    (:mod:`mocap_mj.io.handedness`).
 
-    One missing-data rule holds in every format: a sample is missing when any coordinate is
-    NaN or an empty cell, when all three coordinates are exactly 0 (how many tools write a
-    gap; a real marker is never exactly at the lab origin to every decimal), or when its C3D
-    residual is negative. ``source["missing_samples"]`` counts them per marker (all causes),
-    ``source["zero_samples"]`` those written as zeros.
-
-    The units check: the median per-frame extent of the marker cloud must lie within
-    0.05..10 m once converted; otherwise the error names the unit that would fit and the
-    ``--units`` flag (a wrong unit would otherwise give a "fit" of a 1,700 m person).
+    Missing samples and the units check: the module docstring.
 
     Parameters
     ----------
@@ -215,7 +234,12 @@ class Reading:
         survey = _Survey(names)
         for chunk in chunks():
             survey.add(*self._metres(chunk))
-        check_extent(file, median_extent(np.concatenate(survey.extents)), unit, units_note)
+        extent = median_extent(np.concatenate(survey.extents))
+        if survey.beyond is not None and (extent is None or likely_unit(extent, unit) is None):
+            raise self._beyond(survey.beyond, names, unit)
+        check_extent(file, extent, unit, units_note)
+        if survey.beyond is not None:
+            raise self._beyond(survey.beyond, names, unit)
         surveyed = survey.up_positions()
         up_axis, up_how, detected = _vertical(raw, surveyed, survey.up_names, wanted_up)
         self.rotation = rotation_to_z_up(up_axis)
@@ -251,6 +275,15 @@ class Reading:
             "infinity"
         )
 
+    def _beyond(self, where: tuple[int, int, float], names: list[str], unit: str) -> InputFileError:
+        row, marker, value = where
+        frame = first_frame(self.raw.info) + row  # the recording's own number
+        return InputFileError(
+            f"{self.file}: {names[marker]}: frame {frame} (t = {self.raw.times[row]:.3f} s): "
+            f"expected coordinates within {COORDINATE_LIMIT:g} m of the origin (no lab is "
+            f"larger), got {value:.4g} m ({value / self.scale:.4g} {unit})"
+        )
+
     def _metres(self, chunk: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The selected markers of ``chunk`` (n, M_file, 3) in metres, missing samples NaN
         (all-zero samples included), unrotated; and which samples were zeros (n, M)."""
@@ -282,9 +315,18 @@ class _Survey:
         self.up_columns = [i for i, name in enumerate(names) if name in wanted]
         self.up_names = [names[i] for i in self.up_columns]
         self._up: list[np.ndarray] = []
+        self._frames = 0
+        #: The first sample beyond :data:`COORDINATE_LIMIT`: (frame, marker, coordinate [m]).
+        self.beyond: tuple[int, int, float] | None = None
 
     def add(self, positions: np.ndarray, zeros: np.ndarray) -> None:
         """Count a chunk's positions (n, M, 3) [m] (NaN missing) and zero samples (n, M)."""
+        if self.beyond is None:
+            far = np.abs(positions) > COORDINATE_LIMIT  # NaN compares False
+            if far.any():
+                t, m, axis = (int(i) for i in np.argwhere(far)[0])
+                self.beyond = (self._frames + t, m, float(positions[t, m, axis]))
+        self._frames += len(positions)
         self.missing += np.isnan(positions).any(axis=2).sum(axis=0)
         self.zeros += zeros.sum(axis=0)
         self.extents.append(frame_extents(positions))

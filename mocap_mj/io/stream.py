@@ -24,7 +24,7 @@ from numpy.lib.format import open_memmap
 
 from mocap_mj.io.formats import c3d, detect_format, mocap_csv, motive_csv, nexus_csv, trc
 from mocap_mj.io.load import Reading, _arguments, _selection, load_markers
-from mocap_mj.io.trajectory import MarkerReport, marker_report
+from mocap_mj.io.trajectory import MarkerReport, first_frame, marker_report
 from mocap_mj.markers import MARKER_NAMES
 
 __all__ = ["CHUNK", "MarkerStream", "open_markers"]
@@ -61,6 +61,11 @@ class MarkerStream:
     @property
     def n_frames(self) -> int:
         return len(self.times)
+
+    @property
+    def first_frame(self) -> int:
+        """The recording's own number of frame 0 (:func:`~mocap_mj.io.trajectory.first_frame`)."""
+        return first_frame(self.source)
 
     def positions(self, start: int, stop: int) -> np.ndarray:
         """Frames [start, stop) (n, M, 3) [m], NaN where missing."""

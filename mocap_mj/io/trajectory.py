@@ -12,7 +12,14 @@ import numpy as np
 from mocap_mj.errors import ShapeError, check_shape
 from mocap_mj.markers import MARKER_NAMES
 
-__all__ = ["MarkerReport", "MarkerTrajectory"]
+__all__ = ["MarkerReport", "MarkerTrajectory", "first_frame"]
+
+
+def first_frame(source: Mapping[str, Any]) -> int:
+    """The recording's own number of its first frame, from a reader's ``source`` record
+    (``first_frame``: the C3D header's, a TRC's or CSV's first frame number), or 0 when the
+    source numbers none."""
+    return int(source.get("first_frame") or 0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -76,6 +83,13 @@ class MarkerTrajectory:
         )
 
     @property
+    def first_frame(self) -> int:
+        """The recording's own number of frame 0 (the C3D header's first frame, a TRC's or
+        CSV's first frame number; 0 when the source numbers none): frame i is
+        ``first_frame + i`` in every table the tool writes."""
+        return first_frame(self.source)
+
+    @property
     def n_frames(self) -> int:
         """Number of frames T."""
         return int(self.positions.shape[0])
@@ -113,6 +127,7 @@ class MarkerTrajectory:
         lo, hi = frames.start, frames.stop
         source = dict(self.source)
         source["frames"] = (lo, max(lo, hi))
+        source["first_frame"] = self.first_frame + lo
         return MarkerTrajectory(
             times=self.times[lo:hi],
             positions=self.positions[lo:hi],

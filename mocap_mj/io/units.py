@@ -67,15 +67,23 @@ def check_extent(path: Path, extent: float | None, unit: str, where: str) -> Non
     low, high = CLOUD_EXTENT
     if extent is None or low <= extent <= high or extent == 0.0:
         return
-    used = metres_per_unit(unit) or 1e-3
-    sizes = {name: extent / used * _METRES_PER_UNIT[name] for name in ("mm", "cm", "m")}
-    # of the units that fit, the one giving the size nearest 1 m (a person's typical cloud)
-    fits = sorted(
-        (name for name, size in sizes.items() if low <= size <= high),
-        key=lambda name: abs(math.log(sizes[name])),
-    )
-    hint = f"the file is likely in {fits[0]}: pass --units {fits[0]}" if fits else "pass --units"
+    likely = likely_unit(extent, unit)
+    hint = f"the file is likely in {likely}: pass --units {likely}" if likely else "pass --units"
     raise InputFileError(
         f"{path}: units: expected a marker cloud {low:g}..{high:g} m across in {unit} "
         f"({where}), got {extent:.4g} m; {hint}"
     )
+
+
+def likely_unit(extent: float, unit: str) -> str | None:
+    """The unit (mm, cm or m) that gives a cloud measuring ``extent`` [m] in ``unit`` a size
+    within :data:`CLOUD_EXTENT`, the one nearest 1 m (a person's typical cloud) when several
+    do; None when none does."""
+    low, high = CLOUD_EXTENT
+    used = metres_per_unit(unit) or 1e-3
+    sizes = {name: extent / used * _METRES_PER_UNIT[name] for name in ("mm", "cm", "m")}
+    fits = sorted(
+        (name for name, size in sizes.items() if low <= size <= high),
+        key=lambda name: abs(math.log(sizes[name])),
+    )
+    return fits[0] if fits else None

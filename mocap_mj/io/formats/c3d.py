@@ -37,6 +37,13 @@ NON_MARKER_GROUPS = (
 )  # fmt: skip
 
 
+def recording_first_frame(ezc3d_first_frame: int) -> int:
+    """The recording's number of its first frame from ezc3d's header value: the C3D header
+    numbers frames from 1 (ezc3d reports it less 1), so frame f is at (f - 1) / rate seconds
+    of the recording, as the lab's own software counts it."""
+    return ezc3d_first_frame + 1
+
+
 def looks_like(head: bytes) -> bool:
     """True if a file starting with ``head`` has the C3D key byte."""
     return len(head) >= 2 and head[1] == 0x50 and head[0] >= 1
@@ -165,11 +172,12 @@ def _raw(path: Path, got: _Read, layout: C3DLayout | None, frames: int | None = 
             f"{path}: data section: the header declares {declared} frames, the file holds "
             f"{n_frames}: read the {n_frames} frames present"
         )
+    first = recording_first_frame(int(got.header["first_frame"]))
     return RawMarkers(
         format="c3d",
         labels=labels,
         positions=positions,
-        times=np.arange(n_frames) / rate,
+        times=(first - 1 + np.arange(n_frames)) / rate,
         rate=rate,
         units=units,
         units_where=units_where,
@@ -177,7 +185,7 @@ def _raw(path: Path, got: _Read, layout: C3DLayout | None, frames: int | None = 
         up_hint=_up_hint(point),
         non_markers=_non_marker_names(point),
         subjects=subjects,
-        info={"first_frame": int(got.header["first_frame"]), "warnings": warnings},
+        info={"first_frame": first, "warnings": warnings},
     )
 
 

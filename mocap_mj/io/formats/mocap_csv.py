@@ -139,7 +139,7 @@ class _Header(NamedTuple):
             units_where=f"line {meta_line}" if "units" in meta else "mocap-mj csv default (mm)",
             labels_where=f"line {self.line}",
             up_hint=up.lower() if up else None,
-            info={"up_stated": up is not None},
+            info={"up_stated": up is not None, "first_frame": int(frames[0])},
         )
 
 

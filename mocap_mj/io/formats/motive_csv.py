@@ -73,7 +73,8 @@ def read(path: Path) -> RawMarkers:
         rows.append([cells[j] for j in h.keep])
     row_lines = list(range(h.start + 1, h.start + 1 + len(rows)))
     block = parse_numbers(path, rows, row_lines, h.column_names)
-    return h.raw(path, xyz_positions(block, 2, len(h.labels)), block[:, 1].copy())
+    positions = xyz_positions(block, 2, len(h.labels))
+    return h.raw(path, positions, block[:, 1].copy(), float(block[0, 0]))
 
 
 def open_chunks(path: Path, chunk: int = ROWS) -> TextChunks:
@@ -96,7 +97,9 @@ def open_chunks(path: Path, chunk: int = ROWS) -> TextChunks:
         return [row[j] for j in h.keep]
 
     positions, first_two = parse_rows(path, encoding, h.start, n_rows, cells, h.column_names, chunk)
-    return chunks_of(h.raw(path, positions, first_two[:, 1].copy()), positions)
+    return chunks_of(
+        h.raw(path, positions, first_two[:, 1].copy(), float(first_two[0, 0])), positions
+    )
 
 
 class _Header(NamedTuple):
@@ -128,9 +131,9 @@ class _Header(NamedTuple):
     def column_names(self) -> list[str]:
         return self.axes[:2] + [f"{n}.{a}" for n in self.labels for a in "XYZ"]
 
-    def raw(self, path: Path, positions: np.ndarray, times: np.ndarray) -> RawMarkers:
+    def raw(self, path: Path, positions: np.ndarray, times: np.ndarray, first: float) -> RawMarkers:
         """The RawMarkers of the positions (T, M, 3) [file units] and times (T,) [s], after
-        the times' check and the rate's."""
+        the times' check and the rate's; ``first``: the Frame of the first row (NaN: none)."""
         check_times(path, times, range(self.start + 1, self.start + 1 + len(times)),
                     "Time (Seconds)")  # fmt: skip
         meta = self.meta
@@ -151,7 +154,12 @@ class _Header(NamedTuple):
             up_hint="y",
             dropped=self.dropped,
             info={
-                k: meta[k] for k in ("Format Version", "Take Name", "Coordinate Space") if k in meta
+                **{
+                    k: meta[k]
+                    for k in ("Format Version", "Take Name", "Coordinate Space")
+                    if k in meta
+                },
+                "first_frame": int(first) if np.isfinite(first) else None,
             },
         )
 

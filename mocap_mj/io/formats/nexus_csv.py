@@ -152,7 +152,7 @@ class _Header(NamedTuple):
             format="vicon nexus csv",
             labels=self.labels,
             positions=positions,
-            times=(frames - frames[0]) / self.rate,
+            times=(frames - 1) / self.rate,
             rate=self.rate,
             units=self.units,
             units_where=f"line {self.units_no}",

@@ -103,7 +103,8 @@ def read(path: Path) -> RawMarkers:
     row_lines = list(range(start + 1, start + 1 + len(rows)))
     block = parse_numbers(path, rows, row_lines, head.columns)
     check_times(path, block[:, 1], row_lines, "Time")
-    return head.raw(path, xyz_positions(block, 2, head.n_markers), block[:, 1].copy(), ignored)
+    positions = xyz_positions(block, 2, head.n_markers)
+    return head.raw(path, positions, block[:, 1].copy(), ignored, float(block[0, 0]))
 
 
 class _Header(NamedTuple):
@@ -128,8 +129,11 @@ class _Header(NamedTuple):
     def columns(self) -> list[str]:
         return ["Frame#", "Time"] + [f"{n}.{a}" for n in self.names for a in "XYZ"]
 
-    def raw(self, path: Path, positions: np.ndarray, times: np.ndarray, ignored: int) -> RawMarkers:
-        """The RawMarkers of the file's positions (T, M, 3) and times (T,) [s]."""
+    def raw(
+        self, path: Path, positions: np.ndarray, times: np.ndarray, ignored: int, first: float
+    ) -> RawMarkers:
+        """The RawMarkers of the file's positions (T, M, 3) and times (T,) [s]; ``first``: the
+        Frame# of the first row (NaN: not given)."""
         rate = self.rate
         if rate is None:
             rate = rate_from_times(path, times, self.start + 1, "DataRate or two rows of Time")
@@ -148,7 +152,11 @@ class _Header(NamedTuple):
             units=self.units,
             units_where="line 3",
             labels_where="line 4",
-            info={"warnings": warnings, "ignored_columns": ignored},
+            info={
+                "warnings": warnings,
+                "ignored_columns": ignored,
+                "first_frame": int(first) if np.isfinite(first) else None,
+            },
         )
 
 
@@ -247,7 +255,9 @@ def save_trc(path: str | os.PathLike[str], traj: MarkerTrajectory) -> None:
     """Write ``traj`` as an OpenSim TRC file in millimetres, atomically.
 
     Coordinates are written with 6 decimals in mm (1e-9 m steps), in the trajectory's own
-    Z-up axes; missing samples as empty cells. Frames are numbered from 1.
+    Z-up axes; missing samples as empty cells. Frames keep the recording's own numbers
+    (``traj.source["first_frame"]``, also written as OrigDataStartFrame), from 1 when it
+    numbers none.
 
     Parameters
     ----------
@@ -259,17 +269,19 @@ def save_trc(path: str | os.PathLike[str], traj: MarkerTrajectory) -> None:
     target = Path(path)
     _check_writable_names(target, traj.names, "\t\n\r ")
     rate = repr(traj.rate)
+    given = traj.source.get("first_frame")
+    first = 1 if given is None else int(given)
     names = "\t".join(f"{n}\t\t" for n in traj.names)
     axes = "\t".join(f"X{k}\tY{k}\tZ{k}" for k in range(1, traj.n_markers + 1))
     lines = [
         f"PathFileType\t4\t(X/Y/Z)\t{target.name}",
         "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame"
         "\tOrigNumFrames",
-        f"{rate}\t{rate}\t{traj.n_frames}\t{traj.n_markers}\tmm\t{rate}\t1\t{traj.n_frames}",
+        f"{rate}\t{rate}\t{traj.n_frames}\t{traj.n_markers}\tmm\t{rate}\t{first}\t{traj.n_frames}",
         f"Frame#\tTime\t{names}",
         f"\t\t{axes}",
         "",
-        *_format_rows(traj, "\t", 1),
+        *_format_rows(traj, "\t", first),
     ]
     atomic_write_text(target, "\n".join(lines) + "\n")
 
@@ -303,7 +315,7 @@ def open_chunks(path: Path, chunk: int = ROWS) -> TextChunks | str:
     positions, first_two = parse_rows(path, encoding, h.start, n, cells, h.columns, chunk)
     times = first_two[:, 1].copy()
     check_times(path, times, range(h.start + 1, h.start + 1 + n), "Time")
-    return chunks_of(h.raw(path, positions, times, 0), positions)
+    return chunks_of(h.raw(path, positions, times, 0, float(first_two[0, 0])), positions)
 
 
 def _layout(path: Path, encoding: str, h: _Header) -> tuple[bool, int] | str:

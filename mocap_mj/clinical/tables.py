@@ -1,0 +1,26 @@
+"""The angle and point tables of the clinical outputs (CSV text), in degrees or mm.
+
+``frame`` (the recording's frame number), ``time_s``, then ``<Name>_X``, ``_Y``, ``_Z``
+per angle or point; an empty cell where a value could not be computed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def series_table(
+    frames: np.ndarray, times: np.ndarray, series: dict[str, np.ndarray], scale: float
+) -> str:
+    """CSV text: ``frame,time_s``, then ``<name>_X,_Y,_Z`` of each series (T, 3) times
+    ``scale`` (frames (T,), times (T,) [s]); an empty cell for a NaN."""
+    names = list(series)
+    header = ["frame", "time_s"] + [f"{n}_{a}" for n in names for a in "XYZ"]
+    cols = np.concatenate([series[n] * scale for n in names], axis=1) if names else None
+    lines = [",".join(header)]
+    for i, (f, t) in enumerate(zip(frames, times, strict=True)):
+        row = [str(int(f)), f"{t:.6f}"]
+        if cols is not None:
+            row += ["" if not np.isfinite(v) else f"{v:.4f}" for v in cols[i]]
+        lines.append(",".join(row))
+    return "\n".join(lines) + "\n"
