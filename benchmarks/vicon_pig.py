@@ -31,13 +31,14 @@ LENGTHS = (("thigh", "FEP", "FEO"), ("shank", "FEO", "TIO"), ("upper arm", "HUP"
            ("forearm", "HUO", "RAO"))  # fmt: skip
 
 
-def _points(path: Path) -> tuple[list[str], np.ndarray]:
-    """The file's point labels and positions (T, N, 3) [mm], NaN where a point is missing."""
+def _points(path: Path) -> tuple[list[str], np.ndarray, int]:
+    """The file's point labels, positions (T, N, 3) [mm] (NaN where a point is missing) and
+    the number of its first frame (the C3D header's, counted from 1 as the tool writes it)."""
     c = ezc3d.c3d(str(path))
     labels = list(c["parameters"]["POINT"]["LABELS"]["value"])
     xyz = np.transpose(c["data"]["points"][:3], (2, 1, 0)).astype(float)
     xyz[np.all(xyz == 0.0, axis=2)] = np.nan
-    return labels, xyz
+    return labels, xyz, int(c["header"]["points"]["first_frame"]) + 1
 
 
 def _median_distance(a: np.ndarray, b: np.ndarray) -> float:
@@ -46,9 +47,9 @@ def _median_distance(a: np.ndarray, b: np.ndarray) -> float:
 
 def compare(c3d: Path, result: Path) -> list[str]:
     """The printed lines for one trial's file and its ``identify`` folder."""
-    labels, xyz = _points(c3d)
+    labels, xyz, first = _points(c3d)
     rows = list(csv.DictReader((result / "joint_centres.csv").open()))
-    vicon = xyz[np.array([int(r["frame"]) for r in rows])]
+    vicon = xyz[np.array([int(r["frame"]) - first for r in rows])]
 
     def at(name: str) -> np.ndarray:
         return vicon[:, labels.index(name)]
