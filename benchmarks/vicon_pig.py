@@ -106,7 +106,9 @@ def _axis_lines(result: Path, labels: list[str], xyz: np.ndarray) -> list[str]:
     out = []
     for joint, d in axes.items():
         text = (
-            f"  {joint}: axis from {d['source']}, {d['angle_to_pig_deg']:+.1f} deg to the chord's"
+            f"  {joint}: axis from {d['source']}"
+            f"{' (markers contradict the chord)' if d.get('conflict') else ''}, "
+            f"{d['angle_to_pig_deg']:+.1f} deg to the chord's"
         )
         for key, who in (("crosstalk_model", "ours"), ("crosstalk_pig", "chord")):
             c = d.get(key)
