@@ -6,11 +6,15 @@ A marker-set file is YAML::
     markers:
       - {name: LASI, body: pelvis, offset: [0.0, 0.125, 0.0], class: landmark}
       - {name: LTHI, body: thigh_l, offset: [0.0, 0.08, -0.25], class: cluster}
+      - {name: LKNM, body: thigh_l, offset: [0.0, -0.05, -0.43], class: free,
+         landmark: medial_femoral_epicondyle}
 
 ``offset`` is the marker's initial position [m] in the frame of ``body`` (a body of the
 model); ``class`` is its prior class: ``landmark`` (placed on a palpated bony landmark, so its
 offset is known to a few millimetres), ``cluster`` (on a wand or plate whose placement is
-arbitrary: its offset is for identification to find) or ``free`` (no prior at all). The
+arbitrary: its offset is for identification to find) or ``free`` (no prior at all);
+``landmark`` (optional) names the bony landmark it sits on (:mod:`mocap_mj.landmarks`: two
+landmarks of a joint width measure it from the data). The
 bundled Plug-in Gait set (``models/plug_in_gait.yaml``) is the model's own sites in this
 format. :func:`model_with_marker_set` builds a model whose sites are a set's markers (via
 MjSpec), so that :class:`~mocap_mj.parameters.ParameterSet` works on any marker set.
@@ -32,6 +36,7 @@ import yaml
 from .errors import InputFileError, UnknownNameError
 from .exported import internal_spec
 from .io.atomic import atomic_write_text
+from .landmarks import LANDMARKS
 from .model import load_model, model_path
 
 __all__ = [
@@ -60,12 +65,15 @@ PLUG_IN_GAIT = "plug_in_gait.yaml"
 @dataclass(frozen=True)
 class SetMarker:
     """One marker of a set: ``name``, the ``body`` carrying it, ``offset`` (3,) [m] in that
-    body's frame, and its prior class ``kind`` (one of :data:`MARKER_CLASSES`)."""
+    body's frame, its prior class ``kind`` (one of :data:`MARKER_CLASSES`) and the
+    anatomical ``landmark`` it sits on (:data:`mocap_mj.landmarks.LANDMARKS`; None: not
+    said)."""
 
     name: str
     body: str
     offset: tuple[float, float, float]
     kind: MarkerClass
+    landmark: str | None = None
 
 
 @dataclass(frozen=True)
@@ -149,8 +157,14 @@ def _marker(file: Path, k: int, entry: Any) -> SetMarker:
     kind = entry.get("class", "free")
     if kind not in MARKER_CLASSES:
         raise InputFileError(f"{where}: expected class {' / '.join(MARKER_CLASSES)}, got {kind!r}")
+    landmark = entry.get("landmark")
+    if landmark is not None and landmark not in LANDMARKS:
+        raise InputFileError(
+            f"{where}: expected a landmark of docs/model.md#landmarks ({', '.join(LANDMARKS)}), "
+            f"got {landmark!r}"
+        )
     x, y, z = (float(v) for v in offset)
-    return SetMarker(name.strip(), body.strip(), (x, y, z), kind)
+    return SetMarker(name.strip(), body.strip(), (x, y, z), kind, landmark)
 
 
 def save_marker_set(path: str | os.PathLike[str], marker_set: MarkerSet) -> None:
@@ -158,7 +172,10 @@ def save_marker_set(path: str | os.PathLike[str], marker_set: MarkerSet) -> None
     lines = [f"name: {yaml.safe_dump(marker_set.name).splitlines()[0]}", "markers:"]
     for m in marker_set.markers:
         offset = ", ".join(repr(float(v)) for v in m.offset)
-        lines.append(f"  - {{name: {m.name}, body: {m.body}, offset: [{offset}], class: {m.kind}}}")
+        landmark = "" if m.landmark is None else f", landmark: {m.landmark}"
+        lines.append(
+            f"  - {{name: {m.name}, body: {m.body}, offset: [{offset}], class: {m.kind}{landmark}}}"
+        )
     atomic_write_text(Path(path), "\n".join(lines) + "\n")
 
 

@@ -41,6 +41,7 @@ MEASUREMENTS: dict[str, tuple[str, str]] = {
         f"{base}_{side}": (unit, f"{text} ({'left' if side == 'l' else 'right'})")
         for base, unit, text in (
             ("leg_length", "m", "ASIS to medial malleolus, through the knee"),
+            ("asis_trochanter", "m", "ASIS to greater trochanter (Davis hip centre)"),
             ("knee_width", "m", "distance between the femoral epicondyles"),
             ("ankle_width", "m", "distance between the malleoli"),
             ("elbow_width", "m", "distance between the humeral epicondyles"),
@@ -60,7 +61,8 @@ MEASUREMENTS: dict[str, tuple[str, str]] = {
 #: infant (about 9 kg) to the heaviest person on record (about 635 kg, Jon Brower Minnoch).
 #: The other lengths are bounded at about half a toddler's and twice a large adult's value
 #: (an adult's knee width is some 90-150 mm, ankle and elbow widths 60-100 mm, the
-#: inter-ASIS distance 200-320 mm, the Plug-in Gait leg length 0.75-1.05 m); the marker
+#: inter-ASIS distance 200-320 mm, the Plug-in Gait leg length 0.75-1.05 m, the ASIS to
+#: trochanter distance 40-100 mm); the marker
 #: diameter spans the marker sizes sold (3-40 mm).
 HUMAN_RANGES: dict[str, tuple[float, float]] = {
     "height": (0.5, 2.75),
@@ -71,6 +73,7 @@ HUMAN_RANGES: dict[str, tuple[float, float]] = {
         f"{base}_{side}": bounds
         for base, bounds in (
             ("leg_length", (0.2, 1.6)),
+            ("asis_trochanter", (0.01, 0.2)),
             ("knee_width", (0.03, 0.3)),
             ("ankle_width", (0.02, 0.2)),
             ("elbow_width", (0.02, 0.2)),
@@ -94,6 +97,7 @@ _C3D_NAMES: dict[str, tuple[str, float]] = {
 }
 for _base, _nexus in (
     ("leg_length", "LegLength"),
+    ("asis_trochanter", "AsisTrocanterDistance"),
     ("knee_width", "KneeWidth"),
     ("ankle_width", "AnkleWidth"),
     ("elbow_width", "ElbowWidth"),

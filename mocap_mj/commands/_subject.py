@@ -5,9 +5,12 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Sequence
 from typing import Any
 
+from ..landmarks import disagreements, measured_widths
+from ..marker_set import load_marker_set
 from ..subject import Subject, from_c3d, from_values, from_yaml
 
 
@@ -53,3 +56,36 @@ def subject_from_args(args: argparse.Namespace, c3d_paths: Sequence[str]) -> Sub
     for flag, name, value in flags:  # each checked against its human range, named by its flag
         subject = subject.update(from_values([(name, value)], flag))
     return subject
+
+
+def with_measured_widths(
+    args: argparse.Namespace, names: Sequence[str], trials: Sequence[Any], subject: Subject
+) -> Subject:
+    """``subject`` with the joint widths that ``--marker-set``'s landmark pairs measure in
+    ``trials`` (each with ``markers`` (T, M, 3) [m] in the order ``names``) where none is
+    given (:func:`mocap_mj.landmarks.measured_widths`); a given width that differs by more
+    than 10 mm is kept and warned about on stderr."""
+    landmarks, bodies = set_landmarks(args)
+    if not landmarks:
+        return subject
+    found = measured_widths(
+        landmarks, bodies, list(names), [t.markers for t in trials], 2 * subject.marker_radius
+    )
+    given = {m.name: v for m in found if (v := subject.get(m.name)) is not None}
+    for line in disagreements(found, given):
+        print(f"mocap-mj {args.command}: warning: {line}", file=sys.stderr)
+    for m in found:
+        if m.name not in given:
+            subject.set(m.name, m.value, m.source)
+    return subject
+
+
+def set_landmarks(args: argparse.Namespace) -> tuple[dict[str, str], dict[str, str]]:
+    """``--marker-set``'s landmarks (marker -> landmark) and bodies (marker -> body); empty
+    without the flag."""
+    path = getattr(args, "marker_set", None)
+    if not path:
+        return {}, {}
+    marker_set = load_marker_set(path)
+    landmarks = {m.name: m.landmark for m in marker_set.markers if m.landmark}
+    return landmarks, {m.name: m.body for m in marker_set.markers}

@@ -54,7 +54,12 @@ from ._quality import (
     without_ghosts,
 )
 from ._removed import add_removed_flags
-from ._subject import add_subject_options, subject_from_args
+from ._subject import (
+    add_subject_options,
+    set_landmarks,
+    subject_from_args,
+    with_measured_widths,
+)
 
 
 def register(sub: Any) -> None:
@@ -131,6 +136,7 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
         (t.path, d.markers, t.rate, r[0]) for t, d, r in zip(loaded, trials, ranges, strict=True)
     ]
     subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
+    subject = with_measured_widths(args, pset.marker_names, trials, subject)
     recipe = recipe_from_args(args)
     count = select_count(recipe.select, sum(len(t.markers) for t in trials), len(trials))
     found, quality = check_trials(args, pset, to_check, excluded)  # after every bad-input error
@@ -211,6 +217,7 @@ def _identify(
             progress=progress,
             motion_progress=motion_progress,
             motion_sink=Path(sink),
+            landmarks=set_landmarks(args)[0],
         )
         inputs = {"markers_files": [t.path for t in loaded], "read_seconds": read_seconds}
         summary = write_result(fit, out, inputs=inputs, force=True)

@@ -115,12 +115,21 @@ the artefact's per-axis size (at least the fit's sigma, at least
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from ..parameters import ParameterSet
 from ..subject import Subject
+from .axis_rows import (
+    PIG_AXIS_WANDS,
+    medial_pairs,
+    medial_rows,
+    nominal_offset,
+    pig_axis_row,
+    wand_width,
+)
+from .hips import davis_rows
 from .priors import LinearGaussianPrior
 from .ranges import NOMINAL_HEIGHT
 from .trunk import T10Placement
@@ -281,6 +290,9 @@ def landmark_prior(
     size: float = 1.0,
     noise: float = 0.001,
     t10: T10Placement | None = None,
+    hip_centre: str = "harrington",
+    axis_widths: Mapping[str, float | None] | None = None,
+    landmarks: Mapping[str, str] | None = None,
 ) -> LinearGaussianPrior:
     """The landmark rows of every Plug-in Gait marker the model has (module docstring).
 
@@ -291,24 +303,38 @@ def landmark_prior(
     ``t10``: the T10 marker found misplaced by :mod:`mocap_mj.identify.trunk` (its
     ``shift`` and ``spread`` [m]; default None: T10 trusted): the T12/L1 rows on T10 are
     widened by the displacement it carries into them (:func:`_spine_joint_rows`).
+    ``hip_centre``: "harrington" (default) or "davis" (Plug-in Gait's, :mod:`.hips`).
+    ``axis_widths``: wand marker (``LTHI``...) -> the width [m] of its chord-plane row
+    (:func:`_pig_axis_row`), None to leave the row out (the axis functional); wands not
+    named keep :data:`SIGMA_WAND_ANGLE` (:mod:`mocap_mj.identify.axes` decides).
+    ``landmarks``: marker -> landmark (:mod:`mocap_mj.landmarks`): a medial epicondyle or
+    malleolus gets :func:`_medial_rows`, and its joint no chord-plane row.
     """
     subject = subject or Subject()
     stature = subject.stature()
     s = stature[0] / NOMINAL_HEIGHT if stature is not None else size
     rows = _Rows(pset)
-    _pelvis_rows(rows, subject, s)
+    _pelvis_rows(rows, subject, s, hip_centre)
     _trunk_rows(rows, s, t10)
     for side, p in (("l", "L"), ("r", "R")):
         _shoulder_rows(rows, pset, subject, side, p, s)
-        _limb_rows(rows, subject, side, p, s)
+        pairs = medial_pairs(rows.pset, landmarks or {}, p)
+        widths = dict(axis_widths or {})
+        for lateral in pairs:  # the pair gives the axis: no chord plane
+            widths.update({p + w: None for w, (m, _) in PIG_AXIS_WANDS.items() if p + m == lateral})
+        _limb_rows(rows, subject, side, p, s, widths)
+        for lateral, medial in pairs.items():
+            for row in medial_rows(side, lateral, medial, SIGMA_CONVENTION, SIGMA_MEASURED):
+                rows.add(*row)
         _alignment_rows(rows, side, s)
         _hand_rows(rows, subject, side, p, s)
         _foot_rows(rows, side, p, s)
     return rows.prior(noise)
 
 
-def _pelvis_rows(rows: _Rows, subject: Subject, s: float) -> None:
-    """The pelvis rows: ASIS markers and the hip joint centres (Harrington 2007)."""
+def _pelvis_rows(rows: _Rows, subject: Subject, s: float, hip_centre: str = "harrington") -> None:
+    """The pelvis rows: ASIS markers and the hip joint centres (Harrington 2007, or with
+    ``hip_centre`` "davis" Plug-in Gait's, :func:`~mocap_mj.identify.hips.davis_rows`)."""
     mid = SIGMA_MIDLINE
     # Pelvis: origin at mid-ASIS, ASIS on its y axis (the pelvis frame is defined by them).
     for m in ("LASI", "RASI"):
@@ -333,6 +359,11 @@ def _pelvis_rows(rows: _Rows, subject: Subject, s: float) -> None:
     mid_z = {"LASI.z": 0.5, "RASI.z": 0.5}
     for side in ("l", "r"):
         sign = 1.0 if side == "l" else -1.0
+        if hip_centre == "davis":
+            kappa0 = dict(zip(rows.pset.names, rows.pset.nominal, strict=False))
+            for terms, b, label in davis_rows(subject, side, kappa0):
+                rows.add(terms, b, SIGMA_HJC, label)
+            continue
         rows.add(
             _add({f"hip_depth_{side}": 1}, mid_x, _scaled(pd, -0.24)),
             0.0099,
@@ -474,15 +505,10 @@ def _depth_without_t10(rows: _Rows, s: float) -> None:
                  f"thorax tilt (no T10): neck_depth = {ratio:.3f} thorax_length")  # fmt: skip
 
 
-def _nominal_offset(pset: ParameterSet, marker: str) -> np.ndarray:
-    """The nominal model's offset (3,) [m] of ``marker`` in its body's frame."""
-    return pset.split(pset.nominal)[1][pset.marker_index(marker)]
-
-
 def _nominal_fractions(pset: ParameterSet, v_from: str, v_to: str) -> tuple[float, float, float]:
     """(along, up, length [m]): the nominal thorax origin as ``v_from + along d + up R90 d``,
     d = ``v_to - v_from`` in the sagittal (x, z) plane (:func:`_rotated`), and |d|."""
-    a, b = (_nominal_offset(pset, m) for m in (v_from, v_to))
+    a, b = (nominal_offset(pset, m) for m in (v_from, v_to))
     dx, dz = b[0] - a[0], b[2] - a[2]
     # origin - a = along (dx, dz) + up (-dz, dx)
     along, up = np.linalg.solve(np.array([[dx, -dz], [dz, dx]]), -np.array([a[0], a[2]]))
@@ -496,7 +522,7 @@ def _t10_carried(pset: ParameterSet, shift: float) -> dict[str, float]:
     names = pset.marker_names
     if not shift or "C7" not in names or "T10" not in names:
         return {"x": 0.0, "z": 0.0}
-    c7, t10 = (_nominal_offset(pset, m) for m in ("C7", "T10"))
+    c7, t10 = (nominal_offset(pset, m) for m in ("C7", "T10"))
     u = (t10 - c7) / np.linalg.norm(t10 - c7)
     # _rotated(C7, T10, along, up): x = along dx - up dz, z = along dz + up dx; plus T10 itself.
     return {
@@ -531,7 +557,14 @@ def _shoulder_rows(
             rows.add(terms, mean, SIGMA_CONVENTION, f"{p}SHO.{c} = GH.{c} {mean * 1e3:+.0f} mm")
 
 
-def _limb_rows(rows: _Rows, subject: Subject, side: str, p: str, s: float) -> None:
+def _limb_rows(
+    rows: _Rows,
+    subject: Subject,
+    side: str,
+    p: str,
+    s: float,
+    axis_widths: Mapping[str, float | None],
+) -> None:
     """The rows of one side's joint-axis markers (knee, ankle, elbow), wrist bar and leg length."""
     lm = SIGMA_LANDMARK
     # Epicondyles, malleolus and styloids on their joint's axis, at the joint's level.
@@ -547,6 +580,13 @@ def _limb_rows(rows: _Rows, subject: Subject, side: str, p: str, s: float) -> No
         rows.add({f"{m}.x": 1}, 0.0, sig, f"{m}.x = 0 (on the joint axis)")
         rows.add({f"{m}.z": 1, f"{length}_{side}": 1}, 0.0, sig, f"{m}.z = -{length}")
         _width_rows(rows, subject, side, m, width)
+    for wand, (marker, width) in PIG_AXIS_WANDS.items():
+        names = rows.pset.marker_names
+        if p + wand not in names or p + marker not in names or subject.get(width + side) is None:
+            continue  # Plug-in Gait's chord needs the joint's measured width
+        sigma = axis_widths.get(p + wand, wand_width(rows.pset, p + wand, p + marker))
+        if sigma is not None:
+            rows.add(*pig_axis_row(rows.pset, p + wand, p + marker, sigma))
     # Wrist bar on the dorsum: Plug-in Gait puts the wrist centre wrist_width/2 + r
     # anterior (palm side) of the WRA-WRB midpoint, perpendicular to the bar.
     wra, wrb = p + "WRA", p + "WRB"

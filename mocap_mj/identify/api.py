@@ -11,7 +11,7 @@ written: :func:`mocap_mj.identify.output.write_result` writes a fit as a result 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -29,6 +29,7 @@ from ..parameters import ParameterSet
 from ..results import Motion
 from ..strict_json import jsonable
 from ..subject import Subject
+from .axes import knee_crosstalk, widths
 from .fit import Fit
 from .identifiability import Identifiability
 from .lm import LMSettings, Performance, Tolerances
@@ -72,6 +73,7 @@ def identify(
     progress: ProgressCallback | None = None,
     motion_progress: Callable[[int], None] | None = None,
     motion_sink: Path | None = None,
+    landmarks: Mapping[str, str] | None = None,
 ) -> Fit:
     """Identify the subject's model and motion from ``trials`` (markers (T_i, M, 3) [m] in
     ``pset``'s marker order, NaN where missing; times (T_i,) [s]) as ``recipe`` says.
@@ -96,6 +98,9 @@ def identify(
         joint_centres*.csv; the memory then does not grow with the recording) and
         ``Fit.motion`` is None (``Fit.motion_files`` names the files). Default None: the
         motion is held in memory (poses (T, nq) per trial).
+    landmarks : marker -> the anatomical landmark it sits on (:mod:`mocap_mj.landmarks`, a
+        marker set's ``landmark:`` entries): epicondyle and malleolus pairs give their joint's
+        axis and centre (:func:`~mocap_mj.identify.anatomy.landmark_prior`). Default none.
 
     Returns
     -------
@@ -121,7 +126,9 @@ def identify(
         report["select_seconds"] = time.perf_counter() - t0
         report["frames_selected"] = kept
         whole = trials
-    solved = solve_trials(fitted, pset, settings, recipe, subject, theta0, progress, whole)
+    solved = solve_trials(
+        fitted, pset, settings, recipe, subject, theta0, progress, whole, landmarks=landmarks
+    )
     fit = _described(solved, fitted, settings, recipe, report, firsts)
     if whole is None:
         return fit
@@ -146,12 +153,16 @@ def _described(
         observable_std=settings.observable_std,
         theta=result.theta,
     )
+    knee_crosstalk(pset, result.theta, result.qpos, [t.markers for t in trials],
+                   solved.weighting.get("joint_axes") or {})  # fmt: skip
     report.update(fit_report(solved, trials, settings, recipe, idf))
     if solved.t10_prior is not None and solved.t10_prior.finding is not None:
         add_finding(report, solved.t10_prior.finding)
     priors = (
         anatomical_priors(pset, solved.subject, size=solved.size, symmetric=solved.symmetric,
-                          t10=solved.t10_prior)
+                          t10=solved.t10_prior, hip_centre=recipe.hip_centre,
+                          axes=widths(pset, solved.weighting.get("joint_axes")),
+                          landmarks=solved.landmarks)
         if recipe.anatomy
         else []
     )  # fmt: skip

@@ -19,6 +19,7 @@ from ..parameters import ParameterSet
 from ..results import Motion, save_motion
 from ..strict_json import dumps, jsonable
 from ..tables import write_joint_centres_csv
+from .axes import report_lines as axis_lines
 from .clinical_out import write_model_angles
 from .fit import Fit
 from .identifiability import Identifiability
@@ -249,6 +250,11 @@ def iteration_lines(result: IdentificationResult) -> list[str]:
     return [*lines, "```", ""]
 
 
+#: report.md's words for each hip-centre regression.
+HIP_SOURCES = {"harrington": "Harrington et al. 2007 (pelvis width and depth)",
+               "davis": "Davis et al. 1991 (leg length, as Plug-in Gait)"}  # fmt: skip
+
+
 def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
     """The subject measurements used (value, source), prior weighting, parameters at a
     bound of their anatomical range."""
@@ -285,6 +291,16 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
             + ", ".join(f"{n} {v:.2f} ({t:.0f} frames)" for n, v, t in
                         zip(names, per_trial, taus, strict=True))
         )  # fmt: skip
+    hip = summary.get("hip_centre")
+    if hip:
+        lines.append(f"- hip centres: {HIP_SOURCES.get(hip, hip)}")
+    axes = summary.get("joint_axes") or {}
+    if axes:
+        lines += ["", "Flexion axes (docs/model.md#flexion-axes): Plug-in Gait's chord plane "
+                  "where the data determine the axis less well than the wand does (data sd "
+                  "above the row's) and do not contradict it, else the markers'; varus-valgus "
+                  "on flexion over the frames as correlation and slope (deg/deg):", "",
+                  *axis_lines(axes), ""]  # fmt: skip
     bound = summary.get("kappa_at_bound", {})
     lines.append(
         "- parameters at a bound of their anatomical range: "

@@ -7,7 +7,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from functools import partial
 from typing import Any, NamedTuple
 
@@ -19,6 +19,7 @@ from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..subject import Subject
 from .anatomy import ASYMMETRY_SIGMA, landmark_prior, symmetric_prior
+from .axes import axis_decisions, pig_angle, widths
 from .consistency import pooled_correlation_time, trial_residuals
 from .initial import estimate_stature, place_markers, scaled_theta, segment_scales
 from .lm import LMSettings, identify_lm
@@ -66,6 +67,7 @@ class Solved(NamedTuple):
     missing: Unmeasured
     seconds: float
     log: list[str]
+    landmarks: Mapping[str, str] | None = None
 
     @property
     def t10_prior(self) -> T10Placement | None:
@@ -82,6 +84,7 @@ def solve_trials(
     theta0: np.ndarray | None,
     progress: ProgressCallback | None,
     whole: Sequence[TrialData] | None = None,
+    landmarks: Mapping[str, str] | None = None,
 ) -> Solved:
     """The joint LM on ``trials`` as ``recipe`` says: the parameters the data do not measure
     frozen (:func:`~mocap_mj.identify.partial.freeze_unmeasured`), trials with fewer marker
@@ -108,6 +111,8 @@ def solve_trials(
         "anatomical": recipe.anatomy,
         "symmetric": ASYMMETRY_SIGMA if symmetric is None and recipe.asymmetry_prior else symmetric,
         "t10": t10 if t10 is not None and t10.finding is not None else None,
+        "hip_centre": recipe.hip_centre,
+        "landmarks": landmarks,
     }
     with captured_log() as log:
         result, weighting = _solve(
@@ -120,6 +125,8 @@ def solve_trials(
             result, trials, whole, pset=pset, settings=settings, weighting=weighting,
             slides=slides, **options,
         )  # fmt: skip
+    for d in (weighting.get("joint_axes") or {}).values():  # at the final model
+        d["angle_to_pig_deg"] = pig_angle(pset, result.theta, d["wand"], d["marker"], d["joint"])
     sliding = None
     if slides and "slide_base_mm" in weighting:
         # The fit (and the refinement on every frame, and the motion's IK) weighed with it.
@@ -128,7 +135,7 @@ def solve_trials(
     return Solved(
         pset, result, weighting, refined, sliding, slides, subject, options["size"],
         options["symmetric"], t10, ranges, init_used, scales, missing,
-        time.perf_counter() - t0, log,
+        time.perf_counter() - t0, log, landmarks,
     )  # fmt: skip
 
 
@@ -146,6 +153,8 @@ def refine_on_every_frame(
     symmetric: float | None,
     slides: dict[str, Slide] | None = None,
     t10: T10Placement | None = None,
+    hip_centre: str = "harrington",
+    landmarks: Mapping[str, str] | None = None,
 ) -> tuple[IdentificationResult, dict[str, Any]]:
     """The identification on ``trials`` (frames selected from ``motion_trials``) refined on
     every frame of ``motion_trials`` (:func:`mocap_mj.identify.long.refine`) with the priors
@@ -168,8 +177,10 @@ def refine_on_every_frame(
     box = None
     if anatomical:
         priors += anatomical_priors(
-            pset, subject, size=size, symmetric=symmetric, noise=noise, t10=t10
-        )
+            pset, subject, size=size, symmetric=symmetric, noise=noise, t10=t10,
+            hip_centre=hip_centre, landmarks=landmarks,
+            axes=widths(pset, weighting.get("joint_axes")),
+        )  # fmt: skip
         box = theta_bounds(pset, subject)
     qpos = [scratch_array((len(t.markers), pset.model.nq)) for t in motion_trials]
     robust = robust_for(pset, result, trials, settings)
@@ -299,6 +310,8 @@ def _solve(
     slides: dict[str, Slide] | None = None,
     t10: T10Placement | None = None,
     trial_weights: bool = True,
+    hip_centre: str = "harrington",
+    landmarks: Mapping[str, str] | None = None,
 ) -> tuple[IdentificationResult, dict[str, Any]]:
     """The joint LM of :func:`solve_trials`: with ``anatomical`` through
     :func:`solve_anatomical` (ranges and landmark priors; ``symmetric`` [m] the left/right
@@ -318,6 +331,8 @@ def _solve(
             slides=slides,
             t10=t10,
             trial_weights=trial_weights,
+            hip_centre=hip_centre,
+            landmarks=landmarks,
         )
     result = identify_lm(trials, pset=pset, theta0=theta0, settings=settings, progress=progress)
     return result, {}
@@ -366,12 +381,21 @@ def anatomical_priors(
     symmetric: float | None = None,
     noise: float = 0.001,
     t10: T10Placement | None = None,
+    hip_centre: str = "harrington",
+    landmarks: Mapping[str, str] | None = None,
+    axes: dict[str, float | None] | None = None,
 ) -> list[LinearGaussianPrior]:
     """Landmark priors and, with ``symmetric`` [m], the left/right length prior; without the
     rows on ``pset``'s frozen parameters (:func:`~mocap_mj.identify.partial.on_measured`).
     ``t10``: a T10 found misplaced (:mod:`mocap_mj.identify.trunk`; default None: trusted),
-    widening the rows that hang on it."""
-    priors = [landmark_prior(pset, subject, size=size, noise=noise, t10=t10)]
+    widening the rows that hang on it; ``hip_centre``, ``landmarks`` (marker -> landmark,
+    :mod:`mocap_mj.landmarks`) and ``axes`` (the chord-plane rows' widths,
+    :func:`~mocap_mj.identify.axes.widths`): see
+    :func:`~mocap_mj.identify.anatomy.landmark_prior`."""
+    priors = [
+        landmark_prior(pset, subject, size=size, noise=noise, t10=t10, hip_centre=hip_centre,
+                       axis_widths=axes, landmarks=landmarks)
+    ]  # fmt: skip
     if symmetric is not None:
         priors.append(symmetric_prior(pset, symmetric, noise=noise))
     return [on_measured(p, pset.frozen) for p in priors]
@@ -404,6 +428,8 @@ def solve_anatomical(
     slides: dict[str, Slide] | None = None,
     t10: T10Placement | None = None,
     trial_weights: bool = True,
+    hip_centre: str = "harrington",
+    landmarks: Mapping[str, str] | None = None,
 ) -> tuple[IdentificationResult, dict[str, Any]]:
     """The joint LM with anatomical ranges as bounds and the anatomical priors
     (``t10``: see :func:`anatomical_priors`; ``trial_weights``: False weighs every trial 1).
@@ -430,7 +456,7 @@ def solve_anatomical(
     lower, upper = theta_bounds(pset, subject)
     priors = anatomical_priors(
         pset, subject, size=size, symmetric=symmetric, noise=settings.prior_noise,
-        t10=t10,
+        t10=t10, hip_centre=hip_centre, landmarks=landmarks,
     )  # fmt: skip
     start = pset.nominal if theta0 is None else theta0
     result = identify_lm(
@@ -447,7 +473,16 @@ def solve_anatomical(
     tau = weighting["tau_frames"]
     taus, per_trial = weighting["trial_tau_frames"], weighting["trial_weights"]
     soft = noise > REWEIGHT_RATIO * settings.prior_noise
-    if not soft and all(w == 1.0 for w in per_trial):
+    weak = settings.weak_prior(start)
+    axes = axis_decisions(pset, result.reduced_information, result.theta, priors, weak,
+                          noise if soft else settings.prior_noise)  # fmt: skip
+    if axes:
+        weighting["joint_axes"] = axes
+        priors = anatomical_priors(
+            pset, subject, size=size, symmetric=symmetric, noise=settings.prior_noise,
+            t10=t10, hip_centre=hip_centre, landmarks=landmarks, axes=widths(pset, axes),
+        )  # fmt: skip
+    if not soft and all(w == 1.0 for w in per_trial) and not axes:
         weighting["noise_mm"] = settings.prior_noise * 1e3
         return result, weighting
     if soft:

@@ -30,6 +30,9 @@ from .losses import LossName
 Init = Literal["placed", "scaled", "nominal"]
 #: Initial models (:attr:`Recipe.init`).
 INITS: tuple[str, ...] = get_args(Init)
+HipCentre = Literal["harrington", "davis"]
+#: Hip-centre regressions (:attr:`Recipe.hip_centre`).
+HIP_CENTRES: tuple[str, ...] = get_args(HipCentre)
 #: The choices :class:`LMSettings` holds (the solver's share of a recipe).
 _SETTINGS_CHOICES = (
     "max_iterations", "prior_sigma", "prior_noise", "loss", "loss_scale", "observable_std"
@@ -80,6 +83,9 @@ class Recipe:
     observable_std : float [m]
         A direction of theta counts as observable when its standard deviation is below this
         (reporting only).
+    hip_centre : "harrington" or "davis"
+        With anatomy: the hip centres' regression, Harrington et al. 2007 (closer to
+        imaging) or Davis et al. 1991 (Plug-in Gait's; needs both leg lengths).
     """
 
     init: Init = "placed"
@@ -96,6 +102,7 @@ class Recipe:
     prior_sigma: float = 0.05
     prior_noise: float = 0.001
     observable_std: float = 0.005
+    hip_centre: HipCentre = "harrington"
 
     def __post_init__(self) -> None:
         if self.init not in INITS:
@@ -106,6 +113,10 @@ class Recipe:
             )
         if not isinstance(self.select, str) and (isinstance(self.select, bool) or self.select < 1):
             raise MocapError(f"select: expected at least 1 frame, got {self.select!r}")
+        if self.hip_centre not in HIP_CENTRES:
+            raise MocapError(
+                f"hip_centre must be one of {', '.join(HIP_CENTRES)}; got {self.hip_centre!r}"
+            )
         if self.symmetric is not None and not 0 < self.symmetric < math.inf:
             raise MocapError(f"symmetric: expected a width > 0 m, got {self.symmetric}")
         for name in ("observable_std", "loss_scale"):

@@ -51,6 +51,7 @@ def fit_report(
         _prior_fields(recipe.anatomy, solved.weighting, recipe.symmetric,
                       recipe.asymmetry_prior, solved.subject)
     )  # fmt: skip
+    summary["hip_centre"] = recipe.hip_centre if recipe.anatomy else None
     summary.update(_measured_fields(pset, solved.missing))
     summary["sliding_landmarks"] = None if solved.sliding is None else sorted(solved.sliding.slides)
     summary["kappa_at_bound"] = _kappa_at_bound(pset, result)
@@ -95,7 +96,8 @@ def _prior_fields(
     """The priors part of the summary (standard deviations in millimetres)."""
     return {
         "anatomical_priors": anatomical,
-        "prior_weighting": weighting,
+        "prior_weighting": {k: v for k, v in weighting.items() if k != "joint_axes"},
+        "joint_axes": weighting.get("joint_axes") or {},
         "symmetric_mm": None if symmetric is None else symmetric * 1e3,
         "asymmetry_prior_mm": (
             ASYMMETRY_SIGMA * 1e3 if anatomical and asymmetry_prior and symmetric is None else None
