@@ -83,12 +83,13 @@ from typing import Any
 
 import numpy as np
 
-from .identify.initial import segment_scales
+from .identify.initial import marker_stature, segment_scales
 from .ik import IKSolver
 from .kinematics import Kinematics
 from .marker_quality import ACCEL_MAX, JUMP_MIN, Finding
 from .parameters import ParameterSet
 from .rigid import rigid_fit
+from .subject import HUMAN_RANGES
 
 __all__ = [
     "CHUNK",
@@ -256,6 +257,17 @@ def reference_theta(pset: ParameterSet, markers: np.ndarray | Sequence[np.ndarra
     return np.asarray(pset.nominal, dtype=float) * (overall if np.isfinite(overall) else 1.0)
 
 
+def _person_sized(pset: ParameterSet, markers: np.ndarray) -> bool:
+    """Whether the markers (T, M, 3) [m] imply a person's stature (the human height range of
+    :data:`mocap_mj.subject.HUMAN_RANGES`): a recording whose length unit is wrong fits no
+    reference model, and an exchange of labels would then be judged on residuals that no
+    labeling explains (the fit's own checks name the unit)."""
+    few = np.asarray(markers[:: max(1, -(-len(markers) // MAX_FRAMES))], dtype=float)
+    stature = marker_stature(segment_scales(pset, [few]))
+    low, high = HUMAN_RANGES["height"]
+    return stature is None or low <= stature <= high
+
+
 # --------------------------------------------------------------------------- the search
 def find_label_errors(
     path: str,
@@ -270,9 +282,9 @@ def find_label_errors(
     rate [Hz]; ``first_frame``: the file's frame of row 0. Each :class:`Relabel` is
     ``applied=True``; :func:`apply_relabels` makes the corrected copy."""
     x = np.asarray(markers, dtype=float)
-    if len(x) < MIN_FRAMES:
-        return []
     pset = kin.pset
+    if len(x) < MIN_FRAMES or not _person_sized(pset, x):
+        return []
     cands = candidates(pset)
     breaks = _breakpoints(x, rate)
     sample = _sample(len(x), breaks)

@@ -89,6 +89,14 @@ def test_no_correction_on_clean_trials(pset: ParameterSet, motion: str, seed: in
     assert _find(pset, _markers(pset, motion, seed)) == []
 
 
+def test_no_correction_when_the_recording_is_no_person_sized(pset: ParameterSet) -> None:
+    """Millimetres read as centimetres' worth (a tenth of a person) fit no reference model: no
+    labeling is judged, even with a real exchange in the data (the fit's checks name the
+    unit instead)."""
+    x = _exchange(pset, _markers(pset), [("RKNE", "RTIB")]) / 10.0
+    assert _find(pset, x) == []
+
+
 def test_no_correction_with_occlusion_gaps(pset: ParameterSet) -> None:
     # 5 % of the samples in gaps: every gap edge is a breakpoint, no span is mislabelled.
     assert _find(pset, _markers(pset, "walk", 4, gaps=0.05)) == []
