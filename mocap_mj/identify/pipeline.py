@@ -439,11 +439,9 @@ def solve_anatomical(
     independent observation (:func:`artefact_noise`: the per-axis noise sigma, at least
     ``SOFT_TISSUE_SIGMA`` when the residuals are correlated, times the square root of the
     residuals' correlation time tau [frames]) exceeds that by ``REWEIGHT_RATIO``, a second
-    solve starts from the first one's result with the priors' noise set to it: soft-tissue
-    residuals correlated over tau frames hold about 1 / tau of the information white noise
-    would, and the prior keeps its weight against them. On synthetic white noise (tau about
-    1, sigma the simulated noise) one solve is kept. The weak prior toward the initial model
-    is unchanged (its mean becomes the first solve's model in the second solve).
+    solve starts from the first one's result with the priors' noise set to it (residuals
+    correlated over tau frames hold about 1 / tau of white noise's information). On white
+    noise one solve is kept. The flexion axes' rows are decided after the first solve.
 
     Several trials are weighed in the second solve by the independent observations each
     holds (:func:`_reweighed`); with ``slides`` (e.g. :data:`~mocap_mj.identify.tissue.SLIDES`;
@@ -454,10 +452,11 @@ def solve_anatomical(
     ``slide_weight_min`` and ``slide_base_mm``, see :func:`_slid`).
     """
     lower, upper = theta_bounds(pset, subject)
-    priors = anatomical_priors(
-        pset, subject, size=size, symmetric=symmetric, noise=settings.prior_noise,
-        t10=t10, hip_centre=hip_centre, landmarks=landmarks,
-    )  # fmt: skip
+    options: dict[str, Any] = {
+        "size": size, "symmetric": symmetric, "noise": settings.prior_noise, "t10": t10,
+        "hip_centre": hip_centre, "landmarks": landmarks,
+    }  # fmt: skip
+    priors = anatomical_priors(pset, subject, **options)
     start = pset.nominal if theta0 is None else theta0
     result = identify_lm(
         trials,
@@ -473,28 +472,18 @@ def solve_anatomical(
     tau = weighting["tau_frames"]
     taus, per_trial = weighting["trial_tau_frames"], weighting["trial_weights"]
     soft = noise > REWEIGHT_RATIO * settings.prior_noise
-    weak = settings.weak_prior(start)
-    axes = axis_decisions(pset, result.reduced_information, result.theta, priors, weak,
-                          noise if soft else settings.prior_noise)  # fmt: skip
-    if axes:
+    weak, axis_noise = settings.weak_prior(start), noise if soft else settings.prior_noise
+    axes = axis_decisions(pset, result.reduced_information, result.theta, priors, weak, axis_noise)
+    if axes:  # the flexion axes' rows as decided (:mod:`~mocap_mj.identify.axes`)
         weighting["joint_axes"] = axes
-        priors = anatomical_priors(
-            pset, subject, size=size, symmetric=symmetric, noise=settings.prior_noise,
-            t10=t10, hip_centre=hip_centre, landmarks=landmarks, axes=widths(pset, axes),
-        )  # fmt: skip
+        priors = anatomical_priors(pset, subject, **options, axes=widths(pset, axes))
     if not soft and all(w == 1.0 for w in per_trial) and not axes:
         weighting["noise_mm"] = settings.prior_noise * 1e3
         return result, weighting
-    if soft:
-        logger.info("priors reweighted: noise %.2f mm (sigma x sqrt(tau %.1f))", noise * 1e3, tau)
-    else:
+    if not soft:
         noise = settings.prior_noise
         weighting["noise_mm"] = noise * 1e3
-    if any(w != 1.0 for w in per_trial):
-        logger.info(
-            "trials weighed by their independent frames: %s",
-            ", ".join(f"{w:.2f} (tau {t:.0f})" for w, t in zip(per_trial, taus, strict=True)),
-        )
+    _log_weighting(soft, noise, tau, per_trial, taus)
     weighted = _slid(trials, result, pset, slides, weighting) if slides and soft else list(trials)
     solve = partial(
         identify_lm,
@@ -506,6 +495,20 @@ def solve_anatomical(
         upper=upper,
     )
     return _reweighed(solve, result, trials, weighted, weighting, pset, trial_weights), weighting
+
+
+def _log_weighting(
+    soft: bool, noise: float, tau: float, per_trial: Sequence[float], taus: Sequence[float]
+) -> None:
+    """Log how the second solve weighs the priors (noise [m], correlation time tau [frames])
+    and the trials (their weights and correlation times)."""
+    if soft:
+        logger.info("priors reweighted: noise %.2f mm (sigma x sqrt(tau %.1f))", noise * 1e3, tau)
+    if any(w != 1.0 for w in per_trial):
+        logger.info(
+            "trials weighed by their independent frames: %s",
+            ", ".join(f"{w:.2f} (tau {t:.0f})" for w, t in zip(per_trial, taus, strict=True)),
+        )
 
 
 def _weighting(
