@@ -450,7 +450,7 @@ def walk(
 #: What the first run of an install spends compiling the kernels on an idle 2-core machine
 #: (``benchmarks/cold_start.py``), said once when the on-disk cache is empty; scaled by
 #: :func:`compile_estimate` when other work already keeps the cores busy.
-COMPILE_SECONDS = 15
+COMPILE_SECONDS = 10
 _notice_given = False
 
 
