@@ -142,11 +142,17 @@ def test_ctrl_c_while_a_figure_is_drawn_acts_after_it(
         signal.raise_signal(signal.SIGINT)  # Ctrl-C in the middle of the drawing
         plot_residual_per_marker(path, names, np.linspace(1.0, 5.0, 39))
 
-    with pytest.raises(KeyboardInterrupt):
-        draw()
-    assert path.is_file()  # the figure was completed first
-    with pytest.raises(KeyboardInterrupt):
-        with_interrupt = held_interrupts(lambda: signal.raise_signal(signal.SIGINT))
-        with_interrupt()
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    # Python's own Ctrl-C handler, whatever this process inherited (a shell starts a
+    # background job with SIGINT ignored).
+    inherited = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            draw()
+        assert path.is_file()  # the figure was completed first
+        with pytest.raises(KeyboardInterrupt):
+            with_interrupt = held_interrupts(lambda: signal.raise_signal(signal.SIGINT))
+            with_interrupt()
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, inherited)
     assert "Exception ignored" not in capfd.readouterr().err
