@@ -22,7 +22,7 @@ Inside, every length is in metres and the mass in kilograms.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,15 +31,25 @@ import numpy as np
 
 from .errors import InputFileError, MocapError, yaml_problem
 
+
+def sided(rows: Sequence[tuple[str, str, str]]) -> dict[str, tuple[str, str]]:
+    """``name_l`` and ``name_r`` -> (unit, description with the side) of each (name, unit,
+    description) row: the table layout of :data:`MEASUREMENTS`."""
+    return {
+        f"{base}_{side}": (unit, f"{text} ({word})")
+        for base, unit, text in rows
+        for side, word in (("l", "left"), ("r", "right"))
+    }
+
+
 #: Measurement name -> (unit inside, description). ``_l``/``_r`` are the sides.
 MEASUREMENTS: dict[str, tuple[str, str]] = {
     "height": ("m", "standing height"),
     "mass": ("kg", "body mass"),
     "asis_distance": ("m", "distance between the anterior superior iliac spines"),
     "marker_diameter": ("m", "diameter of the reflective markers"),
-    **{
-        f"{base}_{side}": (unit, f"{text} ({'left' if side == 'l' else 'right'})")
-        for base, unit, text in (
+    **sided(
+        (
             ("leg_length", "m", "ASIS to medial malleolus, through the knee"),
             ("asis_trochanter", "m", "ASIS to greater trochanter (Davis hip centre)"),
             ("knee_width", "m", "distance between the femoral epicondyles"),
@@ -49,8 +59,7 @@ MEASUREMENTS: dict[str, tuple[str, str]] = {
             ("hand_thickness", "m", "hand thickness at the metacarpal heads"),
             ("shoulder_offset", "m", "acromion marker to glenohumeral centre, vertical"),
         )
-        for side in ("l", "r")
-    },
+    ),
 }
 
 #: The range of each measurement a person can have [m or kg]; a value outside is refused,

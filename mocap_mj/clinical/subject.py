@@ -34,20 +34,19 @@ from ..subject import (
     from_values,
     parse_value,
     read_mapping,
+    sided,
 )
 
 #: Plug-in Gait values that are not body measurements: name -> (unit inside, description).
 PIG_VALUES: dict[str, tuple[str, str]] = {
-    **{
-        f"{base}_{side}": (unit, f"{text} ({'left' if side == 'l' else 'right'})")
-        for base, unit, text in (
+    **sided(
+        (
             ("asis_trochanter", "m", "ASIS to greater trochanter, along the pelvis"),
             ("static_plantar_flex", "rad", "foot plantar-flexion offset from the static trial"),
             ("static_rot_off", "rad", "foot rotation offset from the static trial"),
             ("tibial_torsion", "rad", "tibial torsion"),
         )
-        for side in ("l", "r")
-    },
+    ),
     "head_offset": ("rad", "head pitch offset (0: the head markers' own frame)"),
 }
 
