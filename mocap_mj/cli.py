@@ -216,10 +216,10 @@ def add_force_flag(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--force",
         action="store_true",
-        help="replace an existing --out folder if it is a mocap-mj result (holds summary.json) "
-        "or empty; any other folder is refused, so that nothing but a result is deleted, and "
-        "an --out that is or holds an input is always refused (default: refuse a non-empty "
-        "folder)",
+        help="replace an existing --out: a file, or a folder if it is a mocap-mj result "
+        "(holds summary.json) or empty; any other folder is refused, so that nothing but a "
+        "result is deleted, and an --out that is or holds an input is always refused "
+        "(default: refuse an existing file or a non-empty folder)",
     )
 
 

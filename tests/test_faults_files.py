@@ -189,6 +189,20 @@ def test_force_replaces_only_an_empty_folder_or_a_result(
     assert staging_left(out) == []
 
 
+@pytest.mark.parametrize("fmt", ["trc", "angles"])
+def test_an_existing_output_file_is_replaced_only_with_force(
+    data: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str], fmt: str
+) -> None:
+    result = data["result"]
+    mine = tmp_path / "mine.txt"  # a file of the user's, named as --out by mistake
+    mine.write_text("the user's own table")
+    code, lines = cli(capsys, "export", result, "--to", fmt, "--out", mine)
+    refused(code, lines, 2, mine, "exists", "--force")
+    assert mine.read_text() == "the user's own table"
+    assert cli(capsys, "export", result, "--to", fmt, "--out", mine, "--force")[0] == 0
+    assert mine.read_text() != "the user's own table"
+
+
 # ------------------------------------------------------------ a result written meanwhile
 @pytest.mark.parametrize("existing", ["absent", "empty"])
 def test_a_result_renamed_into_place_meanwhile_is_kept(tmp_path: Path, existing: str) -> None:

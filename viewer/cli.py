@@ -13,7 +13,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from mocap_mj.cli import add_json_flag, add_removed_flags, finish
+from mocap_mj.cli import add_force_flag, add_json_flag, add_removed_flags, finish
+from mocap_mj.commands._inputs import refuse_replacing_file
 from mocap_mj.errors import MocapError
 from mocap_mj.export.registry import Exporter
 
@@ -147,6 +148,7 @@ def _run_render(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.suffix.lower() not in FORMATS:
         raise MocapError(f"--out {out}: expected a {', '.join(FORMATS)} file")
+    refuse_replacing_file(out, force=args.force)
     playback, ghost = _load(args)
     frames = _frames(args, playback, default_all=out.suffix.lower() != ".png")
     layers = Layers(markers=not args.no_markers, residuals=not args.no_residuals)
@@ -306,6 +308,7 @@ def _register_render(sub: Any) -> None:
         action="store_true",
         help="no antialiasing, shadows or reflections (much faster on software OpenGL)",
     )
+    add_force_flag(p)
     add_json_flag(p)
     add_removed_flags(p, "render")
     p.set_defaults(func=_run_render)

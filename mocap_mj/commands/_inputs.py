@@ -1,5 +1,8 @@
 """An ``--out`` that holds an input is refused before any work: an input is never touched.
 
+An output *file* that exists already (``export --to trc --out F.trc``, ``render --out F.png``)
+is replaced only with ``--force``: a command never replaces a file it was not asked to.
+
 Every command writes its ``--out`` whole (a result folder replaced with ``--force``, a file
 replaced atomically), so an ``--out`` that is an input, or a folder containing one, would
 replace or delete it. The inputs are every value of the command line (but ``--out``) that
@@ -79,3 +82,19 @@ def refuse_overwriting(out: str | Path, sources: list[Path]) -> None:
                 f"--out {out} is the input {source}; an input is never replaced, "
                 "so choose another --out"
             )
+
+
+def refuse_replacing_file(out: str | Path, *, force: bool) -> None:
+    """Raise :class:`OutputFolderError` if the output file ``out`` exists and ``force`` is not
+    set, or if it is a folder where a file is expected.
+
+    A file written with ``force`` is still replaced atomically (whole or not at all).
+    """
+    path = Path(out)
+    if path.is_dir():
+        raise OutputFolderError(f"--out {out}: is a folder, expected a file")
+    if (path.exists() or path.is_symlink()) and not force:
+        raise OutputFolderError(
+            f"--out {out}: exists; use --force to replace it (an existing file is never "
+            "replaced unasked)"
+        )

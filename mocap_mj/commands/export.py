@@ -36,7 +36,7 @@ from ..export.trc import write_trc
 from ..io.atomic import atomic_write_text
 from ..model import load_model
 from ..results import ResultDir
-from ._inputs import refuse_overwriting
+from ._inputs import refuse_overwriting, refuse_replacing_file
 
 #: File names of ``--to all``, per format.
 ALL_FILES: dict[str, str] = {
@@ -98,8 +98,8 @@ def _builtin(fmt: str) -> Callable[[argparse.Namespace], dict[str, Any]]:
     def run(args: argparse.Namespace) -> dict[str, Any]:
         src = _source(args)
         out = Path(args.out)
-        if out.is_dir():
-            raise MocapError(f"--out {out}: is a folder, expected a file")
+        for path in (out, *(_compare_files(out) if args.compare else ())):
+            refuse_replacing_file(path, force=args.force)
         _write(fmt, out, src, args)
         compared = _compare(out, src, args.compare) if args.compare else {}
         return compared | {
@@ -112,17 +112,22 @@ def _builtin(fmt: str) -> Callable[[argparse.Namespace], dict[str, Any]]:
     return run
 
 
+def _compare_files(out: Path) -> tuple[Path, Path]:
+    """The report and figure ``--compare`` writes beside ``out``."""
+    stem = out.parent / (out.with_suffix("").name + "_vs_plug_in_gait")
+    return stem.with_suffix(".md"), stem.with_suffix(".png")
+
+
 def _compare(out: Path, src: ExportSource, folder: str) -> dict[str, Any]:
     """``--compare``: the angles of ``out`` beside a plug-in-gait folder's, into
     ``<out>_vs_plug_in_gait.md`` and ``.png`` next to ``out``; the summary's entries."""
     frames = src.motion.frames
     ref = numbered_like(frames, folder_angles(folder))
     ours = clinical_angles(src.model, src.motion.qpos)
-    stem = out.with_suffix("").name + "_vs_plug_in_gait"
+    report, figure = _compare_files(out)
     lines, rows = comparison_section(
-        out.parent, frames, src.motion.times, ours, ref, figure=stem + ".png"
+        out.parent, frames, src.motion.times, ours, ref, figure=figure.name
     )
-    report = out.parent / (stem + ".md")
     atomic_write_text(report, "\n".join(lines))
     return {
         "compared_with": ref.source,
