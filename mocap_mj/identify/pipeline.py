@@ -485,14 +485,7 @@ def solve_anatomical(
     soft = noise > REWEIGHT_RATIO * settings.prior_noise
     weak, axis_noise = settings.weak_prior(start), noise if soft else settings.prior_noise
     axes = axis_decisions(pset, result.reduced_information, result.theta, priors, weak, axis_noise)
-    if axes:  # the flexion axes' rows as decided (:mod:`~mocap_mj.identify.axes`)
-        weighting["joint_axes"] = axes
-        priors = anatomical_priors(pset, subject, **options, axes=widths(pset, axes))
-    if soft:  # the ball-joint centres' regressions against the data honestly counted
-        factors = _centre_factors(pset, result, priors, settings.weak_prior(result.theta), noise)
-        weighting["centre_widths"] = factors
-        priors = anatomical_priors(pset, subject, **options, axes=widths(pset, axes),
-                                   centres=factors)  # fmt: skip
+    priors = _decided(pset, subject, options, result, priors, axes, weighting, soft, settings)
     if not soft and all(w == 1.0 for w in per_trial) and not axes:
         weighting["noise_mm"] = settings.prior_noise * 1e3
         return result, weighting
@@ -511,6 +504,34 @@ def solve_anatomical(
         upper=upper,
     )
     return _reweighed(solve, result, trials, weighted, weighting, pset, trial_weights), weighting
+
+
+def _decided(
+    pset: ParameterSet,
+    subject: Subject,
+    options: dict[str, Any],
+    first: IdentificationResult,
+    priors: list[LinearGaussianPrior],
+    axes: dict[str, Any],
+    weighting: dict[str, Any],
+    soft: bool,
+    settings: LMSettings,
+) -> list[LinearGaussianPrior]:
+    """The priors of :func:`solve_anatomical`'s weighted solves: the flexion axes' rows as
+    decided (``axes``, :mod:`~mocap_mj.identify.axes`) and, where the residuals show soft
+    tissue (``soft``), the ball-joint centres' regression rows weighed against the data
+    honestly counted (:func:`_centre_factors` at the ``first`` solve); both recorded in
+    ``weighting`` (``joint_axes``, ``centre_widths``)."""
+    if axes:
+        weighting["joint_axes"] = axes
+    if soft:
+        noise = weighting["noise_mm"] * 1e-3
+        weak = settings.weak_prior(first.theta)
+        weighting["centre_widths"] = _centre_factors(pset, first, priors, weak, noise)
+    if not axes and not soft:
+        return priors
+    return anatomical_priors(pset, subject, **options, axes=widths(pset, axes),
+                             centres=weighting.get("centre_widths"))  # fmt: skip
 
 
 def _centre_factors(
