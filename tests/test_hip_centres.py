@@ -11,6 +11,8 @@ import numpy as np
 import pytest
 
 import mocap_mj
+from mocap_mj.identify.anatomy import landmark_prior
+from mocap_mj.identify.ball_centres import RowSpread, centre_rows, rotation_spread
 from mocap_synth import SynthConfig, synthesize
 from mocap_synth.centres import at_regression
 
@@ -46,6 +48,7 @@ def test_functional_trial_moves_hips_to_a_truth_off_the_regression() -> None:
     their reported standard deviations, and are flagged as moved by the data."""
     _, fit = _fit("rom", 0.0, 0, shift=0.015)
     pset = fit.pset
+    assert "centre_widths" not in fit.report["prior_weighting"]  # white noise: rows as they are
     report = fit.report["joint_centres_vs_regression"]
     ident = pset.body_pos(fit.theta)
     for hip, body in zip(HIPS, ("thigh_l", "thigh_r"), strict=True):
@@ -79,3 +82,32 @@ def test_report_fields_agree_with_theta() -> None:
 
     lines = centre_lines(report)
     assert sum(line.startswith("| hip_") for line in lines) == 2
+
+
+def test_centre_rows_are_the_hip_regressions() -> None:
+    """The Harrington rows of both hips, one per pelvis-frame axis."""
+    pset = mocap_mj.ParameterSet()
+    rows = centre_rows(pset, landmark_prior(pset))
+    assert sorted({c.joint for c in rows}) == ["hip_l", "hip_r"]
+    for joint in HIPS:
+        axes = np.array([np.abs(c.axis) for c in rows if c.joint == joint])
+        np.testing.assert_allclose(axes[np.argsort(np.argmax(axes, axis=1))], np.eye(3))
+
+
+def test_rotation_spread_of_a_turn_about_one_axis() -> None:
+    """A hip turning +-0.3 rad about the pelvis x axis: K = 0.045 (I - x x^T) rad^2 (the
+    mean square angle 0.3^2 / 2), so a centre shift along x moves no marker; the floor
+    sigma^2 u^T K^-1 u is 5 mm / 0.21 rad = 24 mm along y."""
+    pset = mocap_mj.ParameterSet()
+    t = np.linspace(0.0, 2 * np.pi, 401)[:-1]
+    angle = 0.3 * np.sin(t)
+    q = np.tile(pset.model.qpos0, (len(t), 1))
+    adr = int(pset.model.jnt_qposadr[pset.model.joint("hip_l").id])
+    q[:, adr : adr + 4] = np.stack([np.cos(angle / 2), np.sin(angle / 2), 0 * t, 0 * t], 1)
+    k = rotation_spread(pset, [q], "hip_l")
+    np.testing.assert_allclose(k, 0.045 * np.diag([0.0, 1.0, 1.0]), atol=1e-5)
+    floor = 0.005 * np.sqrt(np.linalg.solve(k, np.array([0.0, 1.0, 0.0]))[1])
+    assert floor == pytest.approx(0.005 / np.sqrt(0.045), rel=1e-4)
+    s = RowSpread(data_m=0.004, floor_m=floor, prior_m=0.008)
+    assert s.factor == pytest.approx(np.sqrt(0.004**2 / (0.004**2 + floor**2)))
+    assert s.posterior_m == pytest.approx((1 / 0.008**2 + 1 / (0.004**2 + floor**2)) ** -0.5)
