@@ -8,10 +8,12 @@ about the centre than they do: soft-tissue artefact that grows with the joint's 
 displaces the thigh markers by ``[w]x d``-like amounts, the signature of a centre moved by
 ``d`` (``w`` the joint's rotation), so it does not average out over frames or cycles. Its
 effect on the centre is about ``sigma_sta / angle`` per direction, whatever the number of
-frames: a walk turns the hip by 5-6 degrees RMS in abduction and rotation, so 5 mm of
-artefact moves the lateral centre by some 50 mm of its own; a functional trial turning it
+frames: a walk turns the hip by a few degrees in abduction and rotation, so 5 mm of
+artefact can move the lateral centre by several centimetres; a functional trial turning it
 30 degrees every way, by about 10 mm (Camomilla et al. 2006 and Ehrig et al. 2006: the
-functional centre's error grows as the range shrinks).
+functional centre's error grows as the range shrinks). The shoulders' centres are
+convention rows (:data:`~mocap_mj.identify.anatomy.SIGMA_CONVENTION`), not regressions:
+they already outweigh the data and get no floor.
 
 So each regression row of a ball-joint centre (a row whose label names a regression of
 :data:`REGRESSION_TAGS` and whose kinematic terms move one ball joint's child body along one
