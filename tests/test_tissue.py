@@ -195,11 +195,16 @@ def test_knee_centre_recovered_better_when_kne_slides(pset: ParameterSet, experi
     e0 = _knee_centre_error_along_femur(pset, without, kin, qpos)
     e1 = _knee_centre_error_along_femur(pset, with_model, kin, qpos)
     # RMS over both knees. Measured on this seed: 3.0 mm without the model, 0.9 mm with it;
-    # with the knee alignment parameters (their truth drawn from their prior) 2.9 and 1.7 mm.
+    # with the knee alignment parameters (their truth drawn from their prior) 2.9 and 1.7 mm;
+    # with the hip centres' soft-tissue floor as well 2.6 and 1.9 mm.
     # Over seeds 0-3 the gain varies (docs/method.md#weighing-priors-trials-and-sliding-markers).
+    # Each knee within 0.5 mm of its error without the model or better: both solves hold the
+    # hip centres near their regression (the soft-tissue floor, docs/model.md#hip-centres-
+    # regression-and-data) while this truth's hips are drawn 8 mm per axis off it, which
+    # moves the thigh's length by a fraction of a millimetre between them (left 2.2 -> 2.3).
     both0, both1 = float(np.sqrt(np.mean(e0**2))), float(np.sqrt(np.mean(e1**2)))
     assert both1 <= 0.75 * both0, (e0, e1)
-    assert both1 <= 0.0025 and np.all(e1 <= e0), (e0, e1)
+    assert both1 <= 0.0025 and np.all(e1 <= e0 + 0.0005), (e0, e1)
 
 
 def test_without_slide_the_model_changes_nothing(pset: ParameterSet, experiment) -> None:  # type: ignore[no-untyped-def]

@@ -46,7 +46,7 @@ from .problem import TrialData
 from .recipe import Recipe
 from .result import ProgressCallback
 from .selection import select_in_trials
-from .summary import add_checks, add_finding, fit_report
+from .summary import add_checks, add_finding, centre_fields, fit_report
 
 #: ``select="auto"``: above this many frames in all the trials, identify on a pose-diverse
 #: subset. The cost of an LM iteration grows with the frames while an hour of motion repeats
@@ -162,12 +162,14 @@ def _described(
         anatomical_priors(pset, solved.subject, size=solved.size, symmetric=solved.symmetric,
                           t10=solved.t10_prior, hip_centre=recipe.hip_centre,
                           axes=widths(pset, solved.weighting.get("joint_axes")),
-                          landmarks=solved.landmarks)
+                          landmarks=solved.landmarks,
+                          centres=solved.weighting.get("centre_widths"))
         if recipe.anatomy
         else []
     )  # fmt: skip
     info = prior_information(priors, settings, pset.size)
     rows = add_checks(report, pset, result, trials, settings, solved.ranges, info)
+    report["joint_centres_vs_regression"] = centre_fields(solved, settings, recipe)
     report = jsonable(report)
     motion = tuple(
         Motion(np.asarray(q), t.times, t.markers, pset.marker_names, first_frame=f)

@@ -198,6 +198,7 @@ def report_lines(
         f"unknowns, n = {result.n_residuals} residuals)",
         *_measured_lines(pset, summary),
         *_anatomy_lines(summary),
+        *centre_lines(summary.get("joint_centres_vs_regression") or {}),
         "",
         *(quality_lines(summary["marker_quality"]) if summary.get("marker_quality") else []),
         "## Kinematic parameters",
@@ -248,6 +249,31 @@ def iteration_lines(result: IdentificationResult) -> list[str]:
                 text += f"  {log.frames} frames"
         lines.append(text)
     return [*lines, "```", ""]
+
+
+def centre_lines(centres: Mapping[str, Any]) -> list[str]:
+    """report.md's table of the ball-joint centres against their regression (summary.json's
+    ``joint_centres_vs_regression``): centres in the parent body's frame [mm]."""
+    if not centres:
+        return []
+    lines = ["", "Ball-joint centres against their regression (parent frame, x y z mm; "
+             "docs/model.md#hip-centres-regression-and-data):", "",
+             "| joint | regression | regression centre | identified centre | distance (mm) "
+             "| sd (mm) | moved by the data | other regression |",
+             "|---|---|---|---|---|---|---|---|"]  # fmt: skip
+
+    def xyz(v: Sequence[float] | None) -> str:
+        return "n/a" if v is None else " ".join(f"{x:.1f}" for x in v)
+
+    for joint, c in centres.items():
+        other = next(((k[:-3], c[k]) for k in ("davis_mm", "harrington_mm") if k in c), None)
+        alt = "" if other is None else f"{other[0]}: {xyz(other[1])}"
+        lines.append(
+            f"| {joint} | {c['regression']} | {xyz(c['regression_mm'])} | "
+            f"{xyz(c['identified_mm'])} | {c['distance_mm']:.1f} | {c['distance_sd_mm']:.1f} | "
+            f"{'yes' if c['moved_by_data'] else 'no'} | {alt} |"
+        )
+    return lines
 
 
 #: report.md's words for each hip-centre regression.

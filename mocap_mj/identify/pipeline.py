@@ -20,6 +20,7 @@ from ..parameters import ParameterSet
 from ..subject import Subject
 from .anatomy import ASYMMETRY_SIGMA, landmark_prior, symmetric_prior
 from .axes import axis_decisions, pig_angle, widths
+from .ball_centres import centre_widths, row_spreads
 from .consistency import pooled_correlation_time, trial_residuals
 from .initial import estimate_stature, place_markers, scaled_theta, segment_scales
 from .lm import LMSettings, identify_lm
@@ -179,7 +180,7 @@ def refine_on_every_frame(
         priors += anatomical_priors(
             pset, subject, size=size, symmetric=symmetric, noise=noise, t10=t10,
             hip_centre=hip_centre, landmarks=landmarks,
-            axes=widths(pset, weighting.get("joint_axes")),
+            axes=widths(pset, weighting.get("joint_axes")), centres=weighting.get("centre_widths"),
         )  # fmt: skip
         box = theta_bounds(pset, subject)
     qpos = [scratch_array((len(t.markers), pset.model.nq)) for t in motion_trials]
@@ -384,6 +385,7 @@ def anatomical_priors(
     hip_centre: str = "harrington",
     landmarks: Mapping[str, str] | None = None,
     axes: dict[str, float | None] | None = None,
+    centres: Mapping[str, float] | None = None,
 ) -> list[LinearGaussianPrior]:
     """Landmark priors and, with ``symmetric`` [m], the left/right length prior; without the
     rows on ``pset``'s frozen parameters (:func:`~mocap_mj.identify.partial.on_measured`).
@@ -391,11 +393,20 @@ def anatomical_priors(
     widening the rows that hang on it; ``hip_centre``, ``landmarks`` (marker -> landmark,
     :mod:`mocap_mj.landmarks`) and ``axes`` (the chord-plane rows' widths,
     :func:`~mocap_mj.identify.axes.widths`): see
-    :func:`~mocap_mj.identify.anatomy.landmark_prior`."""
-    priors = [
-        landmark_prior(pset, subject, size=size, noise=noise, t10=t10, hip_centre=hip_centre,
-                       axis_widths=axes, landmarks=landmarks)
-    ]  # fmt: skip
+    :func:`~mocap_mj.identify.anatomy.landmark_prior`; ``centres``: a ball-joint centre
+    row's label -> its width factor (:func:`~mocap_mj.identify.ball_centres.centre_widths`,
+    decided by :func:`solve_anatomical`; default none)."""
+    landmark = landmark_prior(
+        pset,
+        subject,
+        size=size,
+        noise=noise,
+        t10=t10,
+        hip_centre=hip_centre,
+        axis_widths=axes,
+        landmarks=landmarks,
+    )
+    priors = [centre_widths(landmark, centres or {})]  # fmt: skip
     if symmetric is not None:
         priors.append(symmetric_prior(pset, symmetric, noise=noise))
     return [on_measured(p, pset.frozen) for p in priors]
@@ -474,9 +485,7 @@ def solve_anatomical(
     soft = noise > REWEIGHT_RATIO * settings.prior_noise
     weak, axis_noise = settings.weak_prior(start), noise if soft else settings.prior_noise
     axes = axis_decisions(pset, result.reduced_information, result.theta, priors, weak, axis_noise)
-    if axes:  # the flexion axes' rows as decided (:mod:`~mocap_mj.identify.axes`)
-        weighting["joint_axes"] = axes
-        priors = anatomical_priors(pset, subject, **options, axes=widths(pset, axes))
+    priors = _decided(pset, subject, options, result, priors, axes, weighting, soft, settings)
     if not soft and all(w == 1.0 for w in per_trial) and not axes:
         weighting["noise_mm"] = settings.prior_noise * 1e3
         return result, weighting
@@ -495,6 +504,56 @@ def solve_anatomical(
         upper=upper,
     )
     return _reweighed(solve, result, trials, weighted, weighting, pset, trial_weights), weighting
+
+
+def _decided(
+    pset: ParameterSet,
+    subject: Subject,
+    options: dict[str, Any],
+    first: IdentificationResult,
+    priors: list[LinearGaussianPrior],
+    axes: dict[str, Any],
+    weighting: dict[str, Any],
+    soft: bool,
+    settings: LMSettings,
+) -> list[LinearGaussianPrior]:
+    """The priors of :func:`solve_anatomical`'s weighted solves: the flexion axes' rows as
+    decided (``axes``, :mod:`~mocap_mj.identify.axes`) and, where the residuals show soft
+    tissue (``soft``), the ball-joint centres' regression rows weighed against the data
+    honestly counted (:func:`_centre_factors` at the ``first`` solve); both recorded in
+    ``weighting`` (``joint_axes``, ``centre_widths``)."""
+    if axes:
+        weighting["joint_axes"] = axes
+    if soft:
+        noise = weighting["noise_mm"] * 1e-3
+        weak = settings.weak_prior(first.theta)
+        weighting["centre_widths"] = _centre_factors(pset, first, priors, weak, noise)
+    if not axes and not soft:
+        return priors
+    return anatomical_priors(pset, subject, **options, axes=widths(pset, axes),
+                             centres=weighting.get("centre_widths"))  # fmt: skip
+
+
+def _centre_factors(
+    pset: ParameterSet,
+    result: IdentificationResult,
+    priors: Sequence[LinearGaussianPrior],
+    weak: LinearGaussianPrior,
+    noise: float,
+) -> dict[str, float]:
+    """The width factor of every ball-joint centre's regression row (label -> factor,
+    :func:`~mocap_mj.identify.ball_centres.row_spreads`) for a solve that weighs the
+    priors against ``noise`` [m]: the data of the first solve ``result`` (its reduced
+    information and poses) with the soft-tissue artefact's floor, ``max(sigma,
+    SOFT_TISSUE_SIGMA)`` per axis."""
+    landmark, *others = (p.with_noise(noise) for p in priors)
+    sta = max(result.sigma, SOFT_TISSUE_SIGMA)
+    spreads = row_spreads(pset, result.reduced_information, result.free, result.qpos,
+                          landmark, [weak, *others], noise, sta)  # fmt: skip
+    for label, s in spreads.items():
+        logger.info("%s: data %.1f mm, artefact floor %.1f mm: width x %.3f",
+                    label, s.data_m * 1e3, s.floor_m * 1e3, s.factor)  # fmt: skip
+    return {label: s.factor for label, s in spreads.items()}
 
 
 def _log_weighting(

@@ -8,15 +8,19 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import MocapError
 from ..marker_quality import Finding
 from ..parameters import ParameterSet
 from ..subject import Subject
 from .anatomy import ASYMMETRY_SIGMA
+from .axes import widths
+from .ball_centres import centre_report, row_spreads
 from .identifiability import Identifiability
 from .initial import marker_stature, segment_scales
 from .lm import LMSettings, solver_joint_range
+from .noise import SOFT_TISSUE_SIGMA
 from .partial import Unmeasured
-from .pipeline import Solved
+from .pipeline import REWEIGHT_RATIO, Solved, anatomical_priors
 from .plausibility import (
     implausible_reasons,
     joints_at_limit,
@@ -213,3 +217,34 @@ def add_checks(
     )
     summary.update(entries)
     return rows
+
+
+def centre_fields(solved: Solved, settings: LMSettings, recipe: Recipe) -> dict[str, Any]:
+    """summary.json's ``joint_centres_vs_regression``
+    (:func:`~mocap_mj.identify.ball_centres.centre_report`) at the solve's model: each
+    regression-placed ball joint's centre against its regression, with the data counted as
+    the solve counted them (the weighting's noise; with correlated residuals the soft-tissue
+    floor of ``max(sigma, SOFT_TISSUE_SIGMA)``); for the hips also the other regression's
+    centre (``davis_mm`` beside Harrington, ``harrington_mm`` beside Davis; Davis's needs
+    both leg lengths). Empty without the anatomical priors."""
+    if not recipe.anatomy:
+        return {}
+    pset, result, w = solved.pset, solved.result, solved.weighting
+    options: dict[str, Any] = {
+        "size": solved.size, "symmetric": solved.symmetric, "t10": solved.t10_prior,
+        "landmarks": solved.landmarks, "axes": widths(pset, w.get("joint_axes")),
+    }  # fmt: skip
+    noise = w.get("noise_mm", settings.prior_noise * 1e3) * 1e-3
+    priors = [p.with_noise(noise) for p in anatomical_priors(pset, solved.subject, **options,
+              hip_centre=recipe.hip_centre)]  # fmt: skip
+    soft = noise > REWEIGHT_RATIO * settings.prior_noise  # as solve_anatomical decides
+    sta = max(result.sigma, SOFT_TISSUE_SIGMA) if soft else 0.0
+    spreads = row_spreads(pset, result.reduced_information, result.free, result.qpos,
+                          priors[0], [settings.weak_prior(result.theta), *priors[1:]], noise,
+                          sta)  # fmt: skip
+    other = "davis" if recipe.hip_centre == "harrington" else "harrington"
+    try:
+        alt = anatomical_priors(pset, solved.subject, **options, hip_centre=other)[0]
+    except MocapError:  # Davis's rows need both leg lengths
+        alt = None
+    return centre_report(pset, result.theta, priors[0], spreads, {other: alt})
