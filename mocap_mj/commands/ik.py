@@ -16,6 +16,7 @@ marker alike). The marker data are checked first, as by identify (warnings; --st
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -41,7 +42,13 @@ from ..model import load_written
 from ..parameters import ParameterSet
 from ..results import save_motion
 from ..tables import write_joint_centres_csv
-from ._markers import add_marker_options, load_trial, model_for
+from ._markers import (
+    add_marker_options,
+    choose_marker_set,
+    load_trial,
+    marker_set_line,
+    model_for,
+)
 from ._quality import (
     add_quality_options,
     check_trials,
@@ -127,8 +134,12 @@ def write_motion_csv(
 
 
 def run(args: argparse.Namespace) -> int:
+    args.marker_set_record = choose_marker_set(args, [args.markers])
     pset = ParameterSet(model_for(args))
     trial = load_trial(args.markers, pset.marker_names, args)
+    line = marker_set_line(args.marker_set_record)
+    if line:
+        print(line, file=sys.stderr)
     sl = frame_range(args.frames, len(trial.markers), trial.path)
     if sl.stop - sl.start < 1:
         raise MocapError(f"{trial.path}: --frames {args.frames} selects no frame")
@@ -185,6 +196,7 @@ def _solve_and_write(
     summary = {
         "markers_file": str(trial.path),
         "model": str(pset.path),
+        "marker_set": getattr(args, "marker_set_record", None),
         "frames": n,
         "frames_range": [first, first + n],
         "frames_solved": int(n - skipped.size),
