@@ -64,6 +64,8 @@ def _pelvis_markers(kin: Kinematics) -> np.ndarray:
         root = int(m.jnt_bodyid[0])
         names = [m.site(i).name for i in range(m.nsite) if int(m.site_bodyid[i]) == root]
     return np.array([pset.marker_index(n) for n in names], dtype=int)
+
+
 Damping = Literal["adaptive", "sugihara"]
 COMPILED_CHAIN = 32  # longest chain of the compiled solver (chain_length=0)
 PROGRESS_FRAMES = 20_000  # frames per kernel call when progress is reported
