@@ -20,7 +20,7 @@ from mocap_mj.identify.recipe import Recipe
 from mocap_mj.io import MarkerTrajectory, save_trc
 from mocap_mj.io.labels import file_labels
 from mocap_mj.landmarks import LANDMARKS
-from mocap_mj.marker_set import marked_bodies, model_with_marker_set, plug_in_gait
+from mocap_mj.marker_set import MarkerSet, marked_bodies, model_with_marker_set, plug_in_gait
 from mocap_mj.marker_sets import (
     DEFAULT,
     bundled,
@@ -183,43 +183,25 @@ def test_ik_prints_and_records_the_detected_set(tmp_path: Path) -> None:
 
 
 #: Frames of each recovery trial: at 150 the priors still pull Plug-in Gait to 2.2x the
-#: bound; 300 (about 10 s each) reach it as the demo's 500 do.
+#: bound; 300 (about 10 s a trial) reach it as the demo's 500 do.
 FRAMES = 300
 
-#: Sets whose synthetic truth the landmark priors are biased against: the synthesis places
-#: the medial epicondyle and malleolus markers at their nominal offsets plus a uniform
-#: shift (synth/perturb.py knows Plug-in Gait's lateral landmarks only), while the
-#: identification puts the knee and ankle centres at the lateral-medial midpoint (2.0x the
-#: bound with the landmarks, 0.92x without them).
-BIASED_TRUTH = {"plug_in_gait_medial"}
+#: Subjects (seeds) per set. One subject's ratio spreads with sd 0.3 about 1 (the thorax
+#: centre most: tests/test_identify.py, benchmarks/seeds.py), so that 1.5x is one draw's
+#: 95th percentile; pooled over two subjects the spread is 0.2 and 1.5x is 2.5 sd out.
+SEEDS = (0, 1)
 
 
-@pytest.mark.parametrize(
-    "name",
-    [
-        pytest.param(n, marks=pytest.mark.xfail(reason="synthetic truth ignores medial landmarks"))
-        if n in BIASED_TRUTH
-        else n
-        for n in FOLDER
-    ],
-)
-def test_each_set_recovers_its_joint_centres_within_1_5x_the_bound(
-    name: str, tmp_path: Path
-) -> None:
-    """A synthetic subject in the set (humanoid lengths +-10 %, markers placed by the set,
-    a range-of-motion trial, 1 mm noise) identified as ``identify`` does with that set
-    (its landmarks given): the RMS joint-centre error over the bodies the set's markers
-    follow is within 1.5x its Cramer-Rao bound (score.py's ratio)."""
+def _recovery(marker_set: MarkerSet, pset: ParameterSet, seed: int) -> tuple[float, float]:
+    """(sum of squared joint-centre errors, sum of squared bounds) [m^2] over the bodies the
+    set's markers follow, for one synthetic subject of ``seed`` identified as ``identify``
+    does with the set."""
     from mocap_synth import SynthConfig, synthesize
 
-    marker_set = bundled(name)
-    path = tmp_path / "model.xml"
-    path.write_text(model_with_marker_set(marker_set).to_xml())
-    pset = ParameterSet(path)
-    exp = synthesize(SynthConfig(frames=FRAMES, seed=0), pset)
+    landmarks = {m.name: m.landmark for m in marker_set.markers if m.landmark}
+    exp = synthesize(SynthConfig(frames=FRAMES, seed=seed), pset, landmarks)
     trial = TrialData("rom", np.asarray(exp.markers), np.asarray(exp.times))
     recipe = Recipe(init="nominal", asymmetry_prior=False, sliding_landmarks=False, select="all")
-    landmarks = {m.name: m.landmark for m in marker_set.markers if m.landmark}
     fit = identify([trial], recipe, pset=pset, landmarks=landmarks)
     assert fit.motion is not None
     q = fit.motion[0].qpos
@@ -229,6 +211,23 @@ def test_each_set_recovers_its_joint_centres_within_1_5x_the_bound(
     jc = np.linalg.norm(joint_centres(kin_hat, q) - joint_centres(kin_true, exp.qpos), axis=2)
     seen = marked_bodies(kin_hat.model)[2:]
     bound = joint_centre_bound(kin_hat, trial.markers, q, fit.identifiability)
-    ratio = float(np.sqrt(np.mean(jc[:, seen] ** 2)) / np.sqrt(np.mean(bound.total[seen] ** 2)))
+    return float(np.mean(jc[:, seen] ** 2)), float(np.mean(bound.total[seen] ** 2))
+
+
+@pytest.mark.parametrize("name", FOLDER)
+def test_each_set_recovers_its_joint_centres_within_1_5x_the_bound(
+    name: str, tmp_path: Path
+) -> None:
+    """Synthetic subjects in the set (humanoid lengths +-10 %, the landmark markers placed
+    by the set's landmarks, the others +-20 mm; a range-of-motion trial, 1 mm noise),
+    identified as ``identify`` does with that set: the RMS joint-centre error over the
+    bodies the set's markers follow, pooled over :data:`SEEDS`, is within 1.5x its
+    Cramer-Rao bound (score.py's ratio)."""
+    marker_set = bundled(name)
+    path = tmp_path / "model.xml"
+    path.write_text(model_with_marker_set(marker_set).to_xml())
+    pset = ParameterSet(path)
+    pooled = np.array([_recovery(marker_set, pset, seed) for seed in SEEDS])
+    ratio = float(np.sqrt(pooled[:, 0].mean() / pooled[:, 1].mean()))
     print(f"{name}: joint-centre error / CRLB = {ratio:.2f}")
     assert ratio <= 1.5, ratio
