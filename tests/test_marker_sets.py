@@ -67,6 +67,37 @@ def test_each_set_is_documented_and_on_the_humanoid(name: str) -> None:
     model_with_marker_set(s)  # every body exists
 
 
+def test_the_bundled_sets_ship_as_package_data() -> None:
+    """A wheel installs what pyproject's package-data lists: the folder's YAML files too."""
+    import tomllib
+    from fnmatch import fnmatch
+
+    root = Path(__file__).resolve().parents[1]
+    config = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]
+    patterns = config["package-data"]["mocap_mj.models"]
+    assert all(any(fnmatch(f"marker_sets/{n}.yaml", p) for p in patterns) for n in FOLDER)
+
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
+
+
+@pytest.mark.parametrize(
+    ("trial", "expected"),
+    [("Movement_trial", "plug_in_gait"), ("Static_trial", "plug_in_gait"),
+     ("anatomical_posture", "plug_in_gait_medial"), ("Test_func_rknee", "plug_in_gait_medial")],
+)  # fmt: skip
+def test_the_real_recordings_detect_their_sets(trial: str, expected: str) -> None:
+    """The Vicon Plug-in Gait trials detect Plug-in Gait (so they run as without detection);
+    the biobuddy trials, with LKNEM, LANKM... on both sides, the medial set. Only the C3D's
+    header and parameters are read (the chunked reader's), as for a long recording."""
+    path = DATA / f"{trial}.c3d"
+    if not path.is_file():
+        pytest.skip(f"{path} absent (the shared recordings are not in this checkout)")
+    found = detect(file_labels(path))
+    assert found.chosen == expected, found.reason
+    assert found.of(expected).found == len(bundled(expected).names)
+
+
 def test_names_and_files_resolve(tmp_path: Path) -> None:
     assert resolve("cmu_41") == SETS / "cmu_41.yaml"
     own = tmp_path / "lab.yaml"
