@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import hashlib
+import sys
 import tempfile
 from pathlib import Path
 from typing import NamedTuple
@@ -198,6 +199,14 @@ def choose_marker_set(args: argparse.Namespace, paths: list[str]) -> dict[str, o
         "markers": m.size,
         "reason": found.reason,
     }
+
+
+def print_marker_set(args: argparse.Namespace) -> None:
+    """Print the detected set's line (:func:`marker_set_line`) on stderr: once the command
+    has passed its bad-input checks, so that a refusal stays one line."""
+    line = marker_set_line(getattr(args, "marker_set_record", {"how": "given"}))
+    if line:
+        print(f"{line}", file=sys.stderr)
 
 
 def marker_set_line(record: dict[str, object]) -> str | None:

@@ -48,8 +48,8 @@ from ._markers import (
     add_marker_options,
     choose_marker_set,
     load_trial,
-    marker_set_line,
     model_for,
+    print_marker_set,
 )
 from ._quality import (
     add_quality_options,
@@ -127,9 +127,6 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
     pset = ParameterSet(model_for(args))
     loaded = [load_trial(path, pset.marker_names, args, scratch) for path in args.markers]
     read_seconds = time.perf_counter() - t0
-    line = marker_set_line(args.marker_set_record)
-    if line:
-        print(line, file=sys.stderr)
     excluded = parse_marker_list(args.exclude_markers, pset.marker_names)
     trials = []
     ranges = []
@@ -240,6 +237,7 @@ def _identify(
         )
         inputs = _inputs(args, loaded, read_seconds)
         summary = write_result(fit, out, inputs=inputs, force=True)
+    print_marker_set(args)  # after the fit: a refusal stays one line
     for f in (summary.get("marker_quality") or {}).get("findings", []):
         if f["kind"] == "placement":  # found in the identification, after the stature
             print(f"mocap-mj {args.command}: warning: {f['message']}", file=sys.stderr)

@@ -16,7 +16,6 @@ marker alike). The marker data are checked first, as by identify (warnings; --st
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -46,8 +45,8 @@ from ._markers import (
     add_marker_options,
     choose_marker_set,
     load_trial,
-    marker_set_line,
     model_for,
+    print_marker_set,
 )
 from ._quality import (
     add_quality_options,
@@ -137,9 +136,6 @@ def run(args: argparse.Namespace) -> int:
     args.marker_set_record = choose_marker_set(args, [args.markers])
     pset = ParameterSet(model_for(args))
     trial = load_trial(args.markers, pset.marker_names, args)
-    line = marker_set_line(args.marker_set_record)
-    if line:
-        print(line, file=sys.stderr)
     sl = frame_range(args.frames, len(trial.markers), trial.path)
     if sl.stop - sl.start < 1:
         raise MocapError(f"{trial.path}: --frames {args.frames} selects no frame")
@@ -180,6 +176,7 @@ def _solve_and_write(
             sliding=not args.no_sliding_landmarks, progress=progress,
         )  # fmt: skip
     seconds = time.perf_counter() - t0
+    print_marker_set(args)  # after the solve: a refusal stays one line
     result, model = motion.ik, pset.model
     assert result is not None  # solve_motion's motion carries its IK
     sliding = None if args.no_sliding_landmarks else recorded_sliding_model(model)
