@@ -262,3 +262,24 @@ def test_each_set_recovers_its_joint_centres_within_1_5x_the_bound(
     ratio = float(np.sqrt(pooled[:, 0].mean() / pooled[:, 1].mean()))
     print(f"{name}: joint-centre error / CRLB = {ratio:.2f}")
     assert ratio <= 1.5, ratio
+
+
+def test_a_sets_marker_radius_is_the_subjects_unless_measured(tmp_path: Path) -> None:
+    import argparse
+
+    from mocap_mj.commands._subject import with_set_radius
+    from mocap_mj.subject import Subject
+
+    text = (SETS / "cmu_41.yaml").read_text()
+    text = text.replace("marker_radius: 0.007", "marker_radius: 0.0045")
+    path = tmp_path / "small.yaml"
+    path.write_text(text)
+    args = argparse.Namespace(marker_set_file=path, model=None)
+    subject = with_set_radius(args, Subject())
+    assert subject.marker_radius == pytest.approx(0.0045)
+    assert subject.to_dict()["marker_diameter"]["source"] == "marker set small.yaml"
+    measured = Subject()
+    measured.set("marker_diameter", 0.012, "PROCESSING:MarkerDiameter")
+    assert with_set_radius(args, measured).marker_radius == pytest.approx(0.006)
+    args.marker_set_file = SETS / "cmu_41.yaml"  # Plug-in Gait's 7 mm: nothing to record
+    assert "marker_diameter" not in with_set_radius(args, Subject()).to_dict()
