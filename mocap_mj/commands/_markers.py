@@ -47,8 +47,8 @@ def add_marker_options(parser: argparse.ArgumentParser, *, several: bool = False
     )
     parser.add_argument(
         "--marker-set",
-        metavar="NAME|FILE",
-        help="marker set replacing the model's own marker sites: a bundled set by name "
+        metavar="SET",
+        help="marker set replacing the model's own marker sites: SET is a bundled set's name "
         "(mocap-mj marker-sets lists them) or a YAML file (markers, bodies, offsets, prior "
         "classes, landmarks; docs/recordings.md#marker-sets) (default: the bundled set the "
         "labels fit, detected when --model is not given, else Plug-in Gait)",

@@ -34,9 +34,9 @@ def register(sub: Any) -> None:
     )
     p.add_argument(
         "--marker-set",
-        metavar="NAME|FILE",
-        help="the set to match against: a bundled name or a YAML file (default: the set "
-        "detected from the labels, else Plug-in Gait)",
+        metavar="SET",
+        help="the set to match against: SET is a bundled set's name or a YAML file "
+        "(default: the set detected from the labels, else Plug-in Gait)",
     )
     p.add_argument(
         "--subject",
