@@ -235,8 +235,7 @@ def _identify(
             motion_sink=Path(sink),
             landmarks=set_landmarks(args)[0],
         )
-        inputs = _inputs(args, loaded, read_seconds)
-        summary = write_result(fit, out, inputs=inputs, force=True)
+        summary = write_result(fit, out, inputs=_inputs(args, loaded, read_seconds), force=True)
     print_marker_set(args)  # after the fit: a refusal stays one line
     for f in (summary.get("marker_quality") or {}).get("findings", []):
         if f["kind"] == "placement":  # found in the identification, after the stature
