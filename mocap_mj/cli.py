@@ -41,7 +41,7 @@ EXIT_IMPLAUSIBLE = 3
 
 #: Core subcommand modules (``mocap_mj.commands.<name>``), in help order.
 CORE_COMMANDS: tuple[str, ...] = (
-    "info", "ik", "identify", "score", "export", "batch", "plug_in_gait",
+    "info", "ik", "identify", "score", "export", "batch", "plug_in_gait", "marker_sets",
 )  # fmt: skip
 
 

@@ -52,6 +52,20 @@ from .kinematics import Kinematics
 from .rigid import rigid_fit
 
 PELVIS_MARKERS = ("LASI", "RASI", "LPSI", "RPSI")
+
+
+def _pelvis_markers(kin: Kinematics) -> np.ndarray:
+    """(K,) int: the markers a frame's cold start fits the pelvis to: Plug-in Gait's
+    :data:`PELVIS_MARKERS`, else (a set that names them otherwise: R.ASIS, L_IAS) every
+    marker on the root body (the body of the free joint)."""
+    pset, m = kin.pset, kin.model
+    names = [n for n in PELVIS_MARKERS if n in pset.marker_names]
+    if not names:
+        root = int(m.jnt_bodyid[0])
+        names = [m.site(i).name for i in range(m.nsite) if int(m.site_bodyid[i]) == root]
+    return np.array([pset.marker_index(n) for n in names], dtype=int)
+
+
 Damping = Literal["adaptive", "sugihara"]
 COMPILED_CHAIN = 32  # longest chain of the compiled solver (chain_length=0)
 PROGRESS_FRAMES = 20_000  # frames per kernel call when progress is reported
@@ -183,9 +197,7 @@ class IKSolver:
     def __init__(self, kin: Kinematics, settings: IKSettings | None = None) -> None:
         self.kin = kin
         self.settings = settings or IKSettings()
-        self._pelvis_idx = np.array(
-            [kin.pset.marker_index(n) for n in PELVIS_MARKERS if n in kin.pset.marker_names]
-        )
+        self._pelvis_idx = _pelvis_markers(kin)
 
     # ------------------------------------------------------------------ input
     def _prepare(

@@ -3,6 +3,8 @@
 A marker-set file is YAML::
 
     name: Plug-in Gait full body
+    source: Vicon, Plug-in Gait Reference Guide (2017)
+    marker_radius: 0.007
     markers:
       - {name: LASI, body: pelvis, offset: [0.0, 0.125, 0.0], class: landmark}
       - {name: LTHI, body: thigh_l, offset: [0.0, 0.08, -0.25], class: cluster}
@@ -14,10 +16,15 @@ model); ``class`` is its prior class: ``landmark`` (placed on a palpated bony la
 offset is known to a few millimetres), ``cluster`` (on a wand or plate whose placement is
 arbitrary: its offset is for identification to find) or ``free`` (no prior at all);
 ``landmark`` (optional) names the bony landmark it sits on (:mod:`mocap_mj.landmarks`: two
-landmarks of a joint width measure it from the data). The
-bundled Plug-in Gait set (``models/plug_in_gait.yaml``) is the model's own sites in this
-format. :func:`model_with_marker_set` builds a model whose sites are a set's markers (via
-MjSpec), so that :class:`~mocap_mj.parameters.ParameterSet` works on any marker set.
+landmarks of a joint width measure it from the data). ``marker_radius`` [m] (optional,
+default :data:`DEFAULT_MARKER_RADIUS`, Plug-in Gait's 14 mm markers) is the radius of the
+set's markers, used wherever a marker's centre is placed off the skin (joint centres from a
+lateral landmark, widths from a landmark pair) when the subject's measurements give no
+marker diameter; ``source`` (optional) is one line naming where the set comes from. The
+bundled sets live in ``models/marker_sets/`` (:mod:`mocap_mj.marker_sets`); the Plug-in
+Gait set (``plug_in_gait.yaml``) is the model's own sites in this format.
+:func:`model_with_marker_set` builds a model whose sites are a set's markers (via MjSpec), so
+that :class:`~mocap_mj.parameters.ParameterSet` works on any marker set.
 """
 
 from __future__ import annotations
@@ -40,6 +47,7 @@ from .landmarks import LANDMARKS
 from .model import load_model, model_path
 
 __all__ = [
+    "DEFAULT_MARKER_RADIUS",
     "MARKER_CLASSES",
     "MarkerSet",
     "SetMarker",
@@ -59,7 +67,10 @@ MARKER_CLASSES = ("landmark", "cluster", "free")
 MarkerClass = Literal["landmark", "cluster", "free"]
 
 #: File name of the bundled Plug-in Gait marker set (in ``models/``).
-PLUG_IN_GAIT = "plug_in_gait.yaml"
+PLUG_IN_GAIT = "marker_sets/plug_in_gait.yaml"
+
+#: Marker radius [m] of a set that declares none: Plug-in Gait's 14 mm markers.
+DEFAULT_MARKER_RADIUS = 0.007
 
 
 @dataclass(frozen=True)
@@ -82,6 +93,10 @@ class MarkerSet:
 
     name: str
     markers: tuple[SetMarker, ...]
+    #: Radius of the set's markers [m].
+    marker_radius: float = DEFAULT_MARKER_RADIUS
+    #: Where the set comes from (one line; empty: not said).
+    source: str = ""
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -104,7 +119,13 @@ class MarkerSet:
         for name in names:
             self.marker(name)
         wanted = set(names)
-        return MarkerSet(self.name, tuple(m for m in self.markers if m.name in wanted))
+        kept = tuple(m for m in self.markers if m.name in wanted)
+        return MarkerSet(self.name, kept, self.marker_radius, self.source)
+
+    @property
+    def bodies(self) -> tuple[str, ...]:
+        """The bodies carrying the set's markers, in order of their first marker."""
+        return tuple(dict.fromkeys(m.body for m in self.markers))
 
 
 def load_marker_set(path: str | os.PathLike[str]) -> MarkerSet:
@@ -133,7 +154,17 @@ def load_marker_set(path: str | os.PathLike[str]) -> MarkerSet:
         raise InputFileError(f"{file}: expected unique marker names, got {', '.join(dupes)} twice")
     if not markers:
         raise InputFileError(f"{file}: expected at least one marker, got none")
-    return MarkerSet(str(data.get("name") or file.stem), markers)
+    radius = data.get("marker_radius", DEFAULT_MARKER_RADIUS)
+    if not (
+        isinstance(radius, int | float)
+        and not isinstance(radius, bool)
+        and 0.001 <= float(radius) <= 0.02
+    ):
+        raise InputFileError(
+            f"{file}: marker_radius: expected metres within 0.001..0.02, got {radius!r}"
+        )
+    source = " ".join(str(data.get("source") or "").split())
+    return MarkerSet(str(data.get("name") or file.stem), markers, float(radius), source)
 
 
 def _marker(file: Path, k: int, entry: Any) -> SetMarker:
@@ -169,7 +200,10 @@ def _marker(file: Path, k: int, entry: Any) -> SetMarker:
 
 def save_marker_set(path: str | os.PathLike[str], marker_set: MarkerSet) -> None:
     """Write ``marker_set`` as YAML (one flow mapping per marker), atomically."""
-    lines = [f"name: {yaml.safe_dump(marker_set.name).splitlines()[0]}", "markers:"]
+    lines = [f"name: {yaml.safe_dump(marker_set.name).splitlines()[0]}"]
+    if marker_set.source:
+        lines.append(f"source: {yaml.safe_dump(marker_set.source).splitlines()[0]}")
+    lines += [f"marker_radius: {marker_set.marker_radius!r}", "markers:"]
     for m in marker_set.markers:
         offset = ", ".join(repr(float(v)) for v in m.offset)
         landmark = "" if m.landmark is None else f", landmark: {m.landmark}"

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -120,7 +121,11 @@ class Experiment:
         )
 
 
-def synthesize(config: SynthConfig | None = None, pset: ParameterSet | None = None) -> Experiment:
+def synthesize(
+    config: SynthConfig | None = None,
+    pset: ParameterSet | None = None,
+    landmarks: Mapping[str, str] | None = None,
+) -> Experiment:
     """Build the experiment ``config`` describes (deterministic given ``config.seed``).
 
     Steps: perturb the nominal parameters and place the markers on the perturbed skeleton
@@ -136,6 +141,9 @@ def synthesize(config: SynthConfig | None = None, pset: ParameterSet | None = No
         Defaults to ``SynthConfig()``.
     pset : ParameterSet, optional
         The model parameterisation (the bundled humanoid by default).
+    landmarks : mapping, optional
+        Marker -> landmark of ``pset``'s marker set (its medial landmarks placed as the
+        identification expects them; :func:`mocap_synth.perturb.place_landmarks`).
 
     Returns
     -------
@@ -147,7 +155,7 @@ def synthesize(config: SynthConfig | None = None, pset: ParameterSet | None = No
     rng = {name: np.random.default_rng(s) for name, s in zip(STREAMS, seeds, strict=True)}
 
     theta = perturb_theta(pset, rng["model"], cfg.kappa_scale, cfg.offset_mm, cfg.symmetric,
-                          cfg.marker_placement)  # fmt: skip
+                          cfg.marker_placement, landmarks)  # fmt: skip
     kin = Kinematics(pset)
     kin.set_theta(theta)
     qpos = generate(cfg.motion, kin.model, cfg.frames, cfg.rate, rng["motion"])

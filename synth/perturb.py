@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
 from mocap_mj.errors import MocapError
@@ -50,6 +52,7 @@ def perturb_theta(
     offset_mm: float = 20.0,
     symmetric: bool = False,
     placement: str = "uniform",
+    landmarks: Mapping[str, str] | None = None,
 ) -> np.ndarray:
     """A random subject: theta (P,) [m] around ``pset.nominal``, clipped to the bounds.
 
@@ -83,6 +86,10 @@ def perturb_theta(
     symmetric : bool
     placement : str
         One of :data:`mocap_synth.config.MARKER_PLACEMENTS`.
+    landmarks : mapping, optional
+        Marker -> the landmark it sits on (a marker set's ``landmark:`` entries): a medial
+        epicondyle or malleolus is then placed as the identification's rows expect it
+        (its pair's midpoint on the joint centre), passed to :func:`place_landmarks`.
 
     Returns
     -------
@@ -111,7 +118,7 @@ def perturb_theta(
     # parameters existed, and the skeleton is the same whatever the placement.
     _draw_alignment(pset, rng.spawn(1)[0], theta, symmetric, kappa_scale / DEFAULT_KAPPA_SCALE)
     if placement == "anatomical":
-        theta = place_landmarks(pset, theta, rng)
+        theta = place_landmarks(pset, theta, rng, landmarks)
     return np.clip(theta, pset.lower, pset.upper)
 
 
@@ -138,7 +145,12 @@ def _draw_alignment(
             theta[index[f"{name}_{side}"]] = pset.nominal[index[f"{name}_{side}"]] + value
 
 
-def place_landmarks(pset: ParameterSet, theta: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+def place_landmarks(
+    pset: ParameterSet,
+    theta: np.ndarray,
+    rng: np.random.Generator,
+    landmarks: Mapping[str, str] | None = None,
+) -> np.ndarray:
     """theta (P,) [m] with its landmark markers where the marker set's anatomy puts them.
 
     The rows of :func:`mocap_mj.identify.anatomy.landmark_prior` (no subject measurements,
@@ -154,8 +166,10 @@ def place_landmarks(pset: ParameterSet, theta: np.ndarray, rng: np.random.Genera
     markers) are unchanged. Why: a real subject's KNE sits on the knee's axis whatever the
     thigh's length; moving the skeleton alone would place landmarks where no subject has them,
     and priors centred on anatomy would be biased against such a truth (docs/synth.md).
+    ``landmarks`` (marker -> landmark, default none) adds the rows of a marker set's medial
+    epicondyles and malleoli (``landmark_prior(..., landmarks=)``), for the same reason.
     """
-    prior = landmark_prior(pset)
+    prior = landmark_prior(pset, landmarks=landmarks)
     k = pset.n_kappa
     a_off = prior.a[:, k:]
     rows = np.flatnonzero(np.any(a_off != 0.0, axis=1))

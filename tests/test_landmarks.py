@@ -25,7 +25,7 @@ HALF = 0.065
 
 @pytest.fixture(scope="module")
 def medial(tmp_path_factory: pytest.TempPathFactory) -> tuple[ParameterSet, dict, dict]:
-    marker_set = load_marker_set(model_path("plug_in_gait_medial.yaml"))
+    marker_set = load_marker_set(model_path("marker_sets/plug_in_gait_medial.yaml"))
     path = tmp_path_factory.mktemp("medial") / "medial.xml"
     path.write_text(model_with_marker_set(marker_set).to_xml())
     landmarks = {m.name: m.landmark for m in marker_set.markers if m.landmark}
@@ -50,7 +50,7 @@ def _subject_trial(pset: ParameterSet, static: bool = False) -> tuple[np.ndarray
 
 
 def test_landmarks_round_trip_and_unknown_ones_are_refused(tmp_path: Path) -> None:
-    marker_set = load_marker_set(model_path("plug_in_gait_medial.yaml"))
+    marker_set = load_marker_set(model_path("marker_sets/plug_in_gait_medial.yaml"))
     assert marker_set.marker("LKNEM").landmark == "medial_femoral_epicondyle"
     assert marker_set.marker("LTHI").landmark == "technical"
     save_marker_set(tmp_path / "s.yaml", marker_set)

@@ -117,7 +117,7 @@ def test_a_non_plug_in_gait_set_identifies_within_1_5x_its_bound(tmp_path: Path)
     from mocap_mj.identify.identifiability import Identifiability
     from mocap_synth import SynthConfig, synthesize
 
-    clusters = load_marker_set(model_path("pig_leg_clusters.yaml"))
+    clusters = load_marker_set(model_path("marker_sets/pig_leg_clusters.yaml"))
     assert {"LTH1", "LSK3", "LKNM", "RMED"} <= set(clusters.names) and "LTHI" not in clusters.names
     assert (
         clusters.marker_class("LTH2") == "cluster" and clusters.marker_class("LKNM") == "landmark"
@@ -181,7 +181,7 @@ def test_marker_set_flag_builds_the_model_the_commands_use() -> None:
 
     parser = argparse.ArgumentParser()
     add_marker_options(parser)
-    yaml_path = str(model_path("pig_leg_clusters.yaml"))
+    yaml_path = str(model_path("marker_sets/pig_leg_clusters.yaml"))
     args = parser.parse_args(["--markers", "x.c3d", "--marker-set", yaml_path])
     args.model = None
     path = model_for(args)

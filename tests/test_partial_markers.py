@@ -164,9 +164,12 @@ def test_shared_lower_body_legs_match_the_full_model(
     if not path.is_file():
         pytest.skip(SKIP)
     pset = ParameterSet()
-    run(capsys, "identify", "--markers", str(path), "--out", str(tmp_path / "full"))
+    # Plug-in Gait whole and its lower body (the trial's medial markers would detect the
+    # medial set)
+    pig = ("--marker-set", "plug_in_gait")
+    run(capsys, "identify", "--markers", str(path), "--out", str(tmp_path / "full"), *pig)
     s = run(capsys, "identify", "--markers", str(path), "--out", str(tmp_path / "lower"),
-            "--exclude-markers", excluded(pset))  # fmt: skip
+            "--exclude-markers", excluded(pset), *pig)  # fmt: skip
     assert s["parameters_measured"] == 3 * len(LOWER) + len(LEG_KAPPA)
     full, lower = segments(tmp_path / "full"), segments(tmp_path / "lower")
     for name in LEG_LENGTHS:

@@ -39,7 +39,9 @@ def test_real_skeleton_targets(tmp_path: Path, capsys: pytest.CaptureFixture[str
     if not path.is_file():
         pytest.skip(SKIP)
     out = tmp_path / "out"
-    args = ["identify", "--markers", str(path), "--out", str(out), "--frames", frames]
+    # Plug-in Gait's model (the biobuddy trials' medial markers would detect the medial set)
+    args = ["identify", "--markers", str(path), "--out", str(out), "--frames", frames,
+            "--marker-set", "plug_in_gait"]  # fmt: skip
     subject = from_c3d(path)
     if not subject.values:  # no measurements in the file: give some by YAML file and flag
         (tmp_path / "s.yaml").write_text("knee_width_l: 100 mm\nknee_width_r: 0.1\n")
@@ -78,7 +80,8 @@ def test_real_skeleton_targets(tmp_path: Path, capsys: pytest.CaptureFixture[str
 
 def _identify(tmp_path: Path, name: str, *paths: Path) -> Path:
     out = tmp_path / name
-    args = ["identify", "--markers", *map(str, paths), "--out", str(out), "--force"]
+    args = ["identify", "--markers", *map(str, paths), "--out", str(out), "--force",
+            "--marker-set", "plug_in_gait"]  # fmt: skip
     assert main(args) == 0
     return out
 

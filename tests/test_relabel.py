@@ -179,7 +179,9 @@ def clusters(tmp_path_factory: pytest.TempPathFactory) -> ParameterSet:
 
     path = tmp_path_factory.mktemp("clusters") / "clusters.xml"
     path.write_text(
-        model_with_marker_set(load_marker_set(model_path("pig_leg_clusters.yaml"))).to_xml()
+        model_with_marker_set(
+            load_marker_set(model_path("marker_sets/pig_leg_clusters.yaml"))
+        ).to_xml()
     )
     return ParameterSet(path)
 

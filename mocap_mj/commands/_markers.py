@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import hashlib
+import sys
 import tempfile
 from pathlib import Path
 from typing import NamedTuple
@@ -13,8 +14,11 @@ import numpy as np
 
 from ..errors import MocapError
 from ..io import MarkerReport, MarkerTrajectory, atomic_write_text, load_markers
+from ..io.labels import file_labels
+from ..io.names import load_marker_map
 from ..io.stream import CHUNK, open_markers
 from ..marker_set import load_marker_set, model_with_marker_set, undetermined_segments
+from ..marker_sets import DEFAULT, bundled_names, detect, on_bundled_model, resolve
 from ..model import load_model
 
 
@@ -43,9 +47,11 @@ def add_marker_options(parser: argparse.ArgumentParser, *, several: bool = False
     )
     parser.add_argument(
         "--marker-set",
-        metavar="FILE",
-        help="YAML marker set (markers, bodies, offsets, prior classes) replacing the model's "
-        "own marker sites (default: Plug-in Gait, the bundled humanoid's sites)",
+        metavar="SET",
+        help="marker set replacing the model's own marker sites: SET is a bundled set's name "
+        "(mocap-mj marker-sets lists them) or a YAML file (markers, bodies, offsets, prior "
+        "classes, landmarks; docs/recordings.md#marker-sets) (default: the bundled set the "
+        "labels fit, detected when --model is not given, else Plug-in Gait)",
     )
     parser.add_argument(
         "--units",
@@ -130,10 +136,13 @@ def model_for(args: argparse.Namespace) -> str | None:
     result can name it.
     """
     base = getattr(args, "model", None)
-    marker_set = getattr(args, "marker_set", None)
+    marker_set = set_file(args)
     if marker_set is None:
         return base
-    xml = model_with_marker_set(load_marker_set(marker_set), base).to_xml()
+    chosen = load_marker_set(marker_set)
+    if base is None and on_bundled_model(chosen):
+        return None  # Plug-in Gait or part of it: the bundled humanoid's own sites
+    xml = model_with_marker_set(chosen, base).to_xml()
     digest = hashlib.sha256(xml.encode()).hexdigest()[:16]
     # "mocap-mj-models", not "mocap_mj": a folder named like the package in the temporary
     # folder would shadow it for any Python started there.
@@ -143,3 +152,68 @@ def model_for(args: argparse.Namespace) -> str | None:
         path.parent.mkdir(parents=True, exist_ok=True)
         atomic_write_text(path, xml)
     return str(path)
+
+
+def set_file(args: argparse.Namespace) -> Path | None:
+    """The marker-set file the command uses: the one :func:`choose_marker_set` chose, else
+    ``--marker-set`` resolved (a bundled name or a file), else None (the model's own
+    sites)."""
+    if hasattr(args, "marker_set_file"):
+        chosen: Path | None = args.marker_set_file
+        return chosen
+    given = getattr(args, "marker_set", None)
+    return None if given is None else resolve(given)
+
+
+def choose_marker_set(args: argparse.Namespace, paths: list[str]) -> dict[str, object]:
+    """Settle the command's marker set before the model is built, and return its record
+    for summary.json (``name``, ``file``, ``how``: given, detected, default or model, and
+    for a detected or default set ``markers_found`` of ``markers``). ``--marker-set`` wins;
+    with ``--model`` the model's own sites are the set; otherwise the bundled set the
+    labels of ``paths`` fit (:func:`mocap_mj.marker_sets.detect`), else Plug-in Gait.
+    Sets ``args.marker_set_file`` (None: the bundled humanoid's sites)."""
+    if getattr(args, "marker_set", None) is not None:
+        path = resolve(args.marker_set)
+        load_marker_set(path)  # a bad file is refused before any work
+        args.marker_set_file = path
+        name = path.stem if args.marker_set in bundled_names() else str(path)
+        return {"name": name, "file": str(path), "how": "given"}
+    if getattr(args, "model", None) is not None:
+        args.marker_set_file = None
+        return {"name": None, "file": None, "how": "model"}
+    rename = load_marker_map(args.marker_map) if args.marker_map else {}
+    labels: list[str] = []
+    for file in paths:
+        for label in file_labels(file, subject=args.subject, marker_map=rename):
+            if label not in labels:
+                labels.append(label)
+    found = detect(labels, renamed=set(rename.values()))
+    name = found.chosen or DEFAULT
+    args.marker_set_file = resolve(name) if name != DEFAULT else None
+    m = found.of(name)
+    return {
+        "name": name,
+        "file": str(resolve(name)),
+        "how": "detected" if found.chosen else "default",
+        "markers_found": m.found,
+        "markers": m.size,
+        "reason": found.reason,
+    }
+
+
+def print_marker_set(args: argparse.Namespace) -> None:
+    """Print the detected set's line (:func:`marker_set_line`) on stderr: once the command
+    has passed its bad-input checks, so that a refusal stays one line."""
+    line = marker_set_line(getattr(args, "marker_set_record", {"how": "given"}))
+    if line:
+        print(f"{line}", file=sys.stderr)
+
+
+def marker_set_line(record: dict[str, object]) -> str | None:
+    """The stderr line naming a detected (or defaulted) set; None for a given one."""
+    if record["how"] not in ("detected", "default"):
+        return None
+    return (
+        f"mocap-mj: marker set {record['name']!r} ({record['markers_found']} of "
+        f"{record['markers']} markers found; {record['reason']}, --marker-set to choose)"
+    )

@@ -11,6 +11,7 @@ from typing import Any
 
 from ..landmarks import disagreements, measured_widths
 from ..marker_set import load_marker_set
+from ..marker_sets import on_bundled_model
 from ..subject import Subject, from_c3d, from_values, from_yaml
 
 
@@ -65,6 +66,7 @@ def with_measured_widths(
     ``trials`` (each with ``markers`` (T, M, 3) [m] in the order ``names``) where none is
     given (:func:`mocap_mj.landmarks.measured_widths`); a given width that differs by more
     than 10 mm is kept and warned about on stderr."""
+    subject = with_set_radius(args, subject)
     landmarks, bodies = set_landmarks(args)
     if not landmarks:
         return subject
@@ -80,12 +82,33 @@ def with_measured_widths(
     return subject
 
 
+def with_set_radius(args: argparse.Namespace, subject: Subject) -> Subject:
+    """``subject`` with the marker diameter of the command's marker set (twice its
+    ``marker_radius``) when the subject's measurements give none and the set's radius is
+    not the default's (Plug-in Gait's 14 mm markers, which ``Subject.marker_radius`` assumes)."""
+    from ._markers import set_file
+
+    path = set_file(args)
+    if path is None or subject.get("marker_diameter") is not None:
+        return subject
+    marker_set = load_marker_set(path)
+    if marker_set.marker_radius == subject.marker_radius:
+        return subject
+    out = subject.update(Subject())
+    out.set("marker_diameter", 2 * marker_set.marker_radius, f"marker set {path.name}")
+    return out
+
+
 def set_landmarks(args: argparse.Namespace) -> tuple[dict[str, str], dict[str, str]]:
     """``--marker-set``'s landmarks (marker -> landmark) and bodies (marker -> body); empty
     without the flag."""
-    path = getattr(args, "marker_set", None)
-    if not path:
+    from ._markers import set_file
+
+    path = set_file(args)
+    if path is None:
         return {}, {}
     marker_set = load_marker_set(path)
+    if getattr(args, "model", None) is None and on_bundled_model(marker_set):
+        return {}, {}  # the bundled humanoid's own sites, run as the default set
     landmarks = {m.name: m.landmark for m in marker_set.markers if m.landmark}
     return landmarks, {m.name: m.body for m in marker_set.markers}

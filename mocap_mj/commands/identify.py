@@ -44,7 +44,13 @@ from ..ik import IKSettings
 from ..marker_quality import Finding
 from ..parameters import ParameterSet
 from ..subject import Subject
-from ._markers import add_marker_options, load_trial, model_for
+from ._markers import (
+    add_marker_options,
+    choose_marker_set,
+    load_trial,
+    model_for,
+    print_marker_set,
+)
 from ._quality import (
     add_quality_options,
     check_trials,
@@ -116,8 +122,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace, scratch: Path) -> int:
-    pset = ParameterSet(model_for(args))
     t0 = time.perf_counter()
+    args.marker_set_record = choose_marker_set(args, list(args.markers))
+    pset = ParameterSet(model_for(args))
     loaded = [load_trial(path, pset.marker_names, args, scratch) for path in args.markers]
     read_seconds = time.perf_counter() - t0
     excluded = parse_marker_list(args.exclude_markers, pset.marker_names)
@@ -181,6 +188,15 @@ def recipe_from_args(args: argparse.Namespace) -> Recipe:
     return recipe if args.loss is None else replace(recipe, loss=args.loss)
 
 
+def _inputs(args: argparse.Namespace, loaded: list[Any], seconds: float | None) -> dict[str, Any]:
+    """summary.json's record of the inputs: marker files, reading time, the marker set."""
+    return {
+        "markers_files": [t.path for t in loaded],
+        "read_seconds": seconds,
+        "marker_set": getattr(args, "marker_set_record", None),
+    }
+
+
 def _identify(
     args: argparse.Namespace,
     recipe: Recipe,
@@ -219,8 +235,8 @@ def _identify(
             motion_sink=Path(sink),
             landmarks=set_landmarks(args)[0],
         )
-        inputs = {"markers_files": [t.path for t in loaded], "read_seconds": read_seconds}
-        summary = write_result(fit, out, inputs=inputs, force=True)
+        summary = write_result(fit, out, inputs=_inputs(args, loaded, read_seconds), force=True)
+    print_marker_set(args)  # after the fit: a refusal stays one line
     for f in (summary.get("marker_quality") or {}).get("findings", []):
         if f["kind"] == "placement":  # found in the identification, after the stature
             print(f"mocap-mj {args.command}: warning: {f['message']}", file=sys.stderr)

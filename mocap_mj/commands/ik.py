@@ -41,7 +41,13 @@ from ..model import load_written
 from ..parameters import ParameterSet
 from ..results import save_motion
 from ..tables import write_joint_centres_csv
-from ._markers import add_marker_options, load_trial, model_for
+from ._markers import (
+    add_marker_options,
+    choose_marker_set,
+    load_trial,
+    model_for,
+    print_marker_set,
+)
 from ._quality import (
     add_quality_options,
     check_trials,
@@ -127,6 +133,7 @@ def write_motion_csv(
 
 
 def run(args: argparse.Namespace) -> int:
+    args.marker_set_record = choose_marker_set(args, [args.markers])
     pset = ParameterSet(model_for(args))
     trial = load_trial(args.markers, pset.marker_names, args)
     sl = frame_range(args.frames, len(trial.markers), trial.path)
@@ -169,6 +176,7 @@ def _solve_and_write(
             sliding=not args.no_sliding_landmarks, progress=progress,
         )  # fmt: skip
     seconds = time.perf_counter() - t0
+    print_marker_set(args)  # after the solve: a refusal stays one line
     result, model = motion.ik, pset.model
     assert result is not None  # solve_motion's motion carries its IK
     sliding = None if args.no_sliding_landmarks else recorded_sliding_model(model)
@@ -185,6 +193,7 @@ def _solve_and_write(
     summary = {
         "markers_file": str(trial.path),
         "model": str(pset.path),
+        "marker_set": getattr(args, "marker_set_record", None),
         "frames": n,
         "frames_range": [first, first + n],
         "frames_solved": int(n - skipped.size),
