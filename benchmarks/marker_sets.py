@@ -45,7 +45,7 @@ SETS = ROOT / "models" / "marker_sets"
 CASES: dict[str, tuple[Path, Path, str]] = {
     "Qualisys": (DATA / "vendors/Qualisys.c3d", SETS / "qualisys_isb.yaml", ""),
     "FP_Type3": (DATA / "vendors/FP_Type3.c3d", SETS / "qualisys_clusters.yaml", ""),
-    "BTS": (DATA / "vendors/BTS.c3d", SETS / "davis.yaml", ""),
+    "BTS": (DATA / "vendors/BTS.c3d", SETS / "davis_bts.yaml", ""),
     "FP_Type1": (DATA / "vendors/FP_Type1.c3d", SETS / "davis.yaml", ""),
     "rknee": (DATA / "real/Test_func_rknee.c3d", ROOT / "models/plug_in_gait_medial.yaml", "bb"),
     "rhip": (DATA / "real/Test_func_rhip.c3d", ROOT / "models/plug_in_gait_medial.yaml", "bb"),
