@@ -30,7 +30,12 @@ import numpy as np
 from mocap_mj import rolling
 from mocap_mj.cli import main as cli
 from mocap_mj.identify.consistency import joint_centre_lengths
-from mocap_mj.identify.plausibility import kappa_outside_bounds, left_right_differences
+from mocap_mj.identify.plausibility import (
+    PAIR_JOINTS,
+    kappa_outside_bounds,
+    left_right_differences,
+    pair_centre_gaps,
+)
 from mocap_mj.identify.ranges import kappa_ranges
 from mocap_mj.landmarks import WIDTH_PAIRS
 from mocap_mj.marker_set import MarkerSet, load_marker_set, model_with_marker_set
@@ -55,9 +60,6 @@ CASES: dict[str, tuple[Path, Path, str]] = {
         "bb",
     ),
 }
-#: Joint (side removed) -> the width whose landmark pair marks it and the joint's child body.
-JOINTS = {"knee": ("knee_width", "shank"), "ankle": ("ankle_width", "foot"),
-          "elbow": ("elbow_width", "ulna")}  # fmt: skip
 
 
 def set_pset(marker_set: Path, folder: Path) -> tuple[ParameterSet, MarkerSet]:
@@ -73,28 +75,24 @@ def centre_to_midpoint(
 ) -> dict[str, tuple[float, float]]:
     """Per joint and side (``knee_l``...) with both landmark markers in ``seen``: |joint
     centre - midpoint of the two markers' fitted positions| [m] in the model's reference
-    pose (the knee extended) and its median over the frames ``qpos`` (T, nq). They differ
-    only at the knee, whose centre rolls back with flexion (:mod:`mocap_mj.rolling`)."""
+    pose (:func:`~mocap_mj.identify.plausibility.pair_centre_gaps`: the knee extended) and
+    its median over the frames ``qpos`` (T, nq). They differ only at the knee, whose centre
+    rolls back with flexion (:mod:`mocap_mj.rolling`)."""
+    landmarks = {m.name: m.landmark for m in ms.markers if m.landmark}
+    ref = pair_centre_gaps(pset, theta, landmarks, seen)
     model = pset.model_for(theta)
-    ref = pset.body_pos(theta)
-    offsets = pset.split(theta)[1]
-    found: dict[str, tuple[int, int, int, float]] = {}
-    for joint, (width, child) in JOINTS.items():
-        for side in "lr":
-            pair = [_marker_on(ms, lm, side, seen) for lm in WIDTH_PAIRS[width]]
-            if None in pair:
-                continue
-            a, b = (model.site(str(n)).id for n in pair)
-            body = model.body(f"{child}_{side}").id
-            mid = 0.5 * (offsets[pset.marker_index(str(pair[0]))]
-                         + offsets[pset.marker_index(str(pair[1]))])  # fmt: skip
-            found[f"{joint}_{side}"] = (body, a, b, float(np.linalg.norm(ref[body] - mid)))
+    found = {}
+    for key in ref:
+        joint, side = key.rsplit("_", 1)
+        width, child = PAIR_JOINTS[joint]
+        a, b = (model.site(str(_marker_on(ms, lm, side, seen))).id for lm in WIDTH_PAIRS[width])
+        found[key] = (model.body(f"{child}_{side}").id, a, b)
     dist: dict[str, list[float]] = {k: [] for k in found}
     for _, data in rolling.posed(model, qpos):
-        for key, (body, a, b, _) in found.items():
+        for key, (body, a, b) in found.items():
             mid = 0.5 * (data.site_xpos[a] + data.site_xpos[b])
             dist[key].append(float(np.linalg.norm(data.xpos[body] - mid)))
-    return {k: (found[k][3], float(np.median(v))) for k, v in dist.items() if v}
+    return {k: (ref[k], float(np.median(v))) for k, v in dist.items() if v}
 
 
 def subject_of(summary: dict) -> Subject:
