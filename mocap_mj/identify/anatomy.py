@@ -11,6 +11,10 @@ measurement (KNE lateral of the knee centre by KneeWidth/2 + marker radius), a h
 the pelvis markers (Harrington et al. 2007), or a left length to a right one (the recipe's
 ``symmetric``).
 
+The rows name Plug-in Gait's markers; in another set the markers whose landmarks fill those
+roles take them (:mod:`mocap_mj.identify.roles`: ``L_FLE`` on the lateral femoral epicondyle
+gets LKNE's rows).
+
 Marker classes (:func:`mocap_mj.marker_set.marker_class`, from the marker-set file):
 *landmark* markers sit on a palpated bony landmark
 that the marker set defines relative to the joint centres: they get the rows of
@@ -341,6 +345,9 @@ def landmark_prior(
         for lateral in pairs:  # the pair gives the axis: no chord plane
             widths.update({p + w: None for w, (m, _) in PIG_AXIS_WANDS.items() if p + m == lateral})
         _limb_rows(rows, subject, side, p, s, widths, set(pairs))
+        # The pair's midpoint is the ISB's definition of the centre, known to the markers'
+        # placement: at SIGMA_CONVENTION the motion held Qualisys.c3d's knee centres 4-6 mm
+        # off it (benchmarks/marker_sets.py), at SIGMA_MEASURED within 2.5 mm.
         for lateral, medial in pairs.items():
             for row in medial_rows(side, lateral, medial, SIGMA_MEASURED, SIGMA_MEASURED):
                 rows.add(*row)
