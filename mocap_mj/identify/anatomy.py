@@ -11,6 +11,10 @@ measurement (KNE lateral of the knee centre by KneeWidth/2 + marker radius), a h
 the pelvis markers (Harrington et al. 2007), or a left length to a right one (the recipe's
 ``symmetric``).
 
+The rows name Plug-in Gait's markers; in another set the markers whose landmarks fill those
+roles take them (:mod:`mocap_mj.identify.roles`: ``L_FLE`` on the lateral femoral epicondyle
+gets LKNE's rows).
+
 Marker classes (:func:`mocap_mj.marker_set.marker_class`, from the marker-set file):
 *landmark* markers sit on a palpated bony landmark
 that the marker set defines relative to the joint centres: they get the rows of
@@ -115,7 +119,7 @@ the artefact's per-axis size (at least the fit's sigma, at least
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 
 import numpy as np
 
@@ -132,6 +136,7 @@ from .axis_rows import (
 from .hips import davis_rows
 from .priors import LinearGaussianPrior
 from .ranges import NOMINAL_HEIGHT
+from .roles import renamed, roles
 from .trunk import T10Placement
 
 SIGMA_LANDMARK = 0.010
@@ -202,17 +207,27 @@ CENTRE_LATERAL: dict[str, str] = {"knee_width": "knee_lateral", "ankle_width": "
 
 
 class _Rows:
-    """Accumulates prior rows over theta's names, skipping those naming absent parameters."""
+    """Accumulates prior rows over theta's names, skipping those naming absent parameters;
+    a row's marker names are Plug-in Gait's roles, ``alias`` (role -> marker,
+    :func:`~mocap_mj.identify.roles.roles`) gives the set's marker that fills each."""
 
-    def __init__(self, pset: ParameterSet) -> None:
+    def __init__(self, pset: ParameterSet, alias: Mapping[str, str] | None = None) -> None:
         self.pset = pset
+        self.alias = dict(alias or {})
         self.names = set(pset.names)
         self.a: list[np.ndarray] = []
         self.b: list[float] = []
         self.sigma: list[float] = []
         self.labels: list[str] = []
 
+    def name(self, marker: str) -> str:
+        """The set's marker filling the role ``marker`` (itself when no alias names it)."""
+        return self.alias.get(marker, marker)
+
     def add(self, terms: dict[str, float], b: float, sigma: float, label: str) -> None:
+        if self.alias:
+            terms = _add(*({_aliased(n, self.alias): c} for n, c in terms.items()))
+            label = renamed(label, self.alias)
         if not all(n in self.names and np.isfinite(c) for n, c in terms.items()):
             return
         row = np.zeros(self.pset.size)
@@ -231,6 +246,12 @@ class _Rows:
             noise,
             tuple(self.labels),
         )
+
+
+def _aliased(name: str, alias: Mapping[str, str]) -> str:
+    """Parameter ``name`` with its marker (``LKNE.y``'s ``LKNE``) renamed by ``alias``."""
+    marker, dot, axis = name.rpartition(".")
+    return f"{alias.get(marker, marker)}.{axis}" if dot and axis in "xyz" else name
 
 
 def _add(*terms: dict[str, float]) -> dict[str, float]:
@@ -313,18 +334,22 @@ def landmark_prior(
     subject = subject or Subject()
     stature = subject.stature()
     s = stature[0] / NOMINAL_HEIGHT if stature is not None else size
-    rows = _Rows(pset)
+    alias = roles(pset, landmarks)
+    rows = _Rows(pset, alias)
     _pelvis_rows(rows, subject, s, hip_centre)
     _trunk_rows(rows, s, t10)
     for side, p in (("l", "L"), ("r", "R")):
         _shoulder_rows(rows, pset, subject, side, p, s)
-        pairs = medial_pairs(rows.pset, landmarks or {}, p)
+        pairs = medial_pairs(rows.pset, landmarks or {}, p, alias)
         widths = dict(axis_widths or {})
         for lateral in pairs:  # the pair gives the axis: no chord plane
             widths.update({p + w: None for w, (m, _) in PIG_AXIS_WANDS.items() if p + m == lateral})
-        _limb_rows(rows, subject, side, p, s, widths)
+        _limb_rows(rows, subject, side, p, s, widths, set(pairs))
+        # The pair's midpoint is the ISB's definition of the centre, known to the markers'
+        # placement: at SIGMA_CONVENTION the motion held Qualisys.c3d's knee centres 4-6 mm
+        # off it (benchmarks/marker_sets.py), at SIGMA_MEASURED within 2.5 mm.
         for lateral, medial in pairs.items():
-            for row in medial_rows(side, lateral, medial, SIGMA_CONVENTION, SIGMA_MEASURED):
+            for row in medial_rows(side, lateral, medial, SIGMA_MEASURED, SIGMA_MEASURED):
                 rows.add(*row)
         _alignment_rows(rows, side, s)
         _hand_rows(rows, subject, side, p, s)
@@ -464,7 +489,7 @@ def _spine_joint_rows(rows: _Rows, s: float, t10: T10Placement | None = None) ->
             carried = _t10_carried(rows.pset, t10.shift if c == "z" else t10.spread)[c]
             sigma = float(np.hypot(sigma, carried))
         rows.add(terms, 0.0, sigma, f"T12/L1.{c} from T10 along and anterior of C7-T10")
-    if not _has_data(rows.pset, "T10"):
+    if not _has_data(rows.pset, rows.name("T10")):
         _depth_without_t10(rows, s)
 
 
@@ -489,9 +514,9 @@ def _depth_without_t10(rows: _Rows, s: float) -> None:
     :data:`THORAX_SPREAD` (8 %, adults of one stature) of the nominal chest's C7-to-sternum
     distance times ``s`` (the stature ratio): chest depth varies between adults of one
     stature about as much as trunk lengths do (Dumas et al. 2007 Table 2)."""
-    front = next((m for m in ("STRN", "CLAV") if _has_data(rows.pset, m)), None)
-    if front is not None and _has_data(rows.pset, "C7"):
-        along, up, length = _nominal_fractions(rows.pset, front, "C7")
+    front = next((m for m in ("STRN", "CLAV") if _has_data(rows.pset, rows.name(m))), None)
+    if front is not None and _has_data(rows.pset, rows.name("C7")):
+        along, up, length = _nominal_fractions(rows.pset, rows.name(front), rows.name("C7"))
         terms = _add({front + ".x": 1.0}, _rotated(front, "C7", along, up, "x"))
         rows.add(terms, 0.0, THORAX_SPREAD * length * s,
                  f"T12/L1.x from {front} and C7 (no T10)")  # fmt: skip
@@ -564,8 +589,13 @@ def _limb_rows(
     p: str,
     s: float,
     axis_widths: Mapping[str, float | None],
+    paired: Collection[str] = (),
 ) -> None:
-    """The rows of one side's joint-axis markers (knee, ankle, elbow), wrist bar and leg length."""
+    """The rows of one side's joint-axis markers (knee, ankle, elbow), wrist bar and leg
+    length. A lateral marker in ``paired`` (its medial landmark marked too,
+    :func:`~mocap_mj.identify.axis_rows.medial_rows`) keeps only its width row: the pair's
+    midpoint defines its joint centre's level and depth, and the lateral marker's own level
+    (the lateral malleolus reaches about 10 mm below the medial one) must not pull it."""
     lm = SIGMA_LANDMARK
     # Epicondyles, malleolus and styloids on their joint's axis, at the joint's level.
     for marker, length, width in (
@@ -577,8 +607,9 @@ def _limb_rows(
         # The ankle and the elbow are convention joints (module docstring): the lateral
         # marker's level and depth define them.
         sig = SIGMA_CONVENTION if marker in ("ANK", "ELB") else lm
-        rows.add({f"{m}.x": 1}, 0.0, sig, f"{m}.x = 0 (on the joint axis)")
-        rows.add({f"{m}.z": 1, f"{length}_{side}": 1}, 0.0, sig, f"{m}.z = -{length}")
+        if m not in paired:
+            rows.add({f"{m}.x": 1}, 0.0, sig, f"{m}.x = 0 (on the joint axis)")
+            rows.add({f"{m}.z": 1, f"{length}_{side}": 1}, 0.0, sig, f"{m}.z = -{length}")
         _width_rows(rows, subject, side, m, width)
     for wand, (marker, width) in PIG_AXIS_WANDS.items():
         names = rows.pset.marker_names

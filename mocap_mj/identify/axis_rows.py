@@ -13,6 +13,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..parameters import ParameterSet
+from .roles import medial_markers
 
 Row = tuple[dict[str, float], float, float, str]
 
@@ -48,14 +49,17 @@ MEDIAL_LANDMARKS: dict[str, tuple[str, str, str]] = {
 }
 
 
-def medial_pairs(pset: ParameterSet, landmarks: Mapping[str, str], p: str) -> dict[str, str]:
-    """Lateral joint marker -> the marker ``landmarks`` (marker -> landmark) puts on its
-    medial landmark, for side prefix ``p`` (the medial marker's name starting with it)."""
+def medial_pairs(
+    pset: ParameterSet, landmarks: Mapping[str, str], p: str, alias: Mapping[str, str] | None = None
+) -> dict[str, str]:
+    """Lateral joint marker's role (``LKNE``...) -> the marker ``landmarks`` (marker ->
+    landmark) puts on its medial landmark on side ``p`` ("L" or "R",
+    :func:`~mocap_mj.identify.roles.marker_sides`), where the set fills the role (the
+    marker of that name, or ``alias``'s: :func:`~mocap_mj.identify.roles.roles`)."""
     out = {}
     for lateral, (landmark, _, _) in MEDIAL_LANDMARKS.items():
-        found = [m for m, name in landmarks.items()
-                 if name == landmark and m.startswith(p) and m in pset.marker_names]  # fmt: skip
-        if found and p + lateral in pset.marker_names:
+        found = medial_markers(pset, landmarks, landmark, p)
+        if found and (p + lateral in pset.marker_names or p + lateral in (alias or {})):
             out[p + lateral] = found[0]
     return out
 
@@ -76,8 +80,8 @@ def medial_rows(
          f"joint centre at the {lateral}-{medial} midpoint (z)"),
     ]  # fmt: skip
     terms = {f"{medial}.y": 1.0, f"{lateral}.y": 1.0}
-    if centre:
-        terms[f"{centre}_{side}"] = -2.0
+    if centre:  # the centre's y in the frame is +the parameter on the left, - on the right
+        terms[f"{centre}_{side}"] = -2.0 if side == "l" else 2.0
     out.append((terms, 0.0, sigma_measured, f"joint centre midway between {lateral} and {medial}"))
     return out
 

@@ -286,7 +286,7 @@ def _describe(
     if top_name in pset.kappa_names and top_w > 0.8 and not _moves_a_marker(pset, top_name):
         return f"{top_name}: moves no marker (its prior rows alone decide it)"
     if top_name.endswith(" offset") and top_w > 0.8:
-        marker = top_name.split()[0]
+        marker = top_name.removesuffix(" offset")
         s = pset.marker_index(marker)
         body = int(model.site_bodyid[s])
         axes = []
@@ -308,7 +308,7 @@ def _describe(
     marker_w: dict[int, float] = {}
     for n, w in comps:
         if n.endswith(" offset"):
-            b = body_of[n.split()[0]]
+            b = body_of[n.removesuffix(" offset")]
             marker_w[b] = marker_w.get(b, 0.0) + w
     if marker_w:
         body, w = max(marker_w.items(), key=lambda kv: kv[1])
@@ -336,7 +336,7 @@ def _describe(
     if slide:
         return slide
     pelvis = {"LASI", "RASI", "LPSI", "RPSI"}
-    pel_w = sum(w for n, w in comps if n.split()[0] in pelvis)
+    pel_w = sum(w for n, w in comps if n.removesuffix(" offset") in pelvis)
     if pel_w > 0.3:
         return "pelvis frame vs its markers (absorbed by the free joint): " + ", ".join(
             f"{n} {w:.0%}" for n, w in comps[:5]

@@ -12,16 +12,18 @@ status of its own, the result written for inspection).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Mapping, Sequence
 
 import mujoco
 import numpy as np
 
 from ..joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
 from ..kinematics import Kinematics
+from ..landmarks import WIDTH_PAIRS
 from ..parameters import ParameterSet
 from ..subject import HUMAN_RANGES, Subject
 from .lm import LMResult, TrialData
+from .roles import marker_sides
 
 
 def marker_rmse_by_marker(
@@ -246,4 +248,40 @@ def implausible_reasons(
             f"stature {stature:.3g} m from the markers, outside any person's "
             f"{low:g}..{high:g} m (the file's length unit wrong? --units)"
         )
+    return out
+
+
+#: Joint (side removed) -> the width whose landmark pair marks it and the joint's child body.
+PAIR_JOINTS: dict[str, tuple[str, str]] = {
+    "knee": ("knee_width", "shank"),
+    "ankle": ("ankle_width", "foot"),
+    "elbow": ("elbow_width", "ulna"),
+}
+
+
+def pair_centre_gaps(
+    pset: ParameterSet, theta: np.ndarray, landmarks: Mapping[str, str], present: Collection[str]
+) -> dict[str, float]:
+    """Per joint and side (``knee_l``...) whose lateral and medial landmarks
+    (:data:`mocap_mj.landmarks.WIDTH_PAIRS`) two markers of ``present`` mark (``landmarks``:
+    marker -> landmark): the distance [m] from the joint centre of the model ``theta`` (P,)
+    to the midpoint of the two markers' offsets, in the parent segment's frame in the
+    reference pose (the knee extended, where the knee's rolling is zero). Both markers sit
+    on the parent segment, so this is the gap in every frame at the ankle and elbow."""
+    offsets, centres = pset.split(theta)[1], pset.body_pos(theta)
+    sides = marker_sides(pset)
+    out = {}
+    for joint, (width, child) in PAIR_JOINTS.items():
+        for side in "lr":
+            on = [
+                [m for m in pset.marker_names
+                 if m in present and landmarks.get(m) == lm and sides[m] == side.upper()]
+                for lm in WIDTH_PAIRS[width]
+            ]  # fmt: skip
+            if not (on[0] and on[1]):
+                continue
+            pair = (on[0][0], on[1][0])
+            mid = 0.5 * (offsets[pset.marker_index(pair[0])] + offsets[pset.marker_index(pair[1])])
+            body = pset.model.body(f"{child}_{side}").id
+            out[f"{joint}_{side}"] = float(np.linalg.norm(centres[body] - mid))
     return out
