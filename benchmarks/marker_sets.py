@@ -52,11 +52,11 @@ CASES: dict[str, tuple[Path, Path, str]] = {
     "FP_Type3": (DATA / "vendors/FP_Type3.c3d", SETS / "qualisys_clusters.yaml", ""),
     "BTS": (DATA / "vendors/BTS.c3d", SETS / "davis_bts.yaml", ""),
     "FP_Type1": (DATA / "vendors/FP_Type1.c3d", SETS / "davis.yaml", ""),
-    "rknee": (DATA / "real/Test_func_rknee.c3d", ROOT / "models/marker_sets/plug_in_gait_medial.yaml", "bb"),
-    "rhip": (DATA / "real/Test_func_rhip.c3d", ROOT / "models/marker_sets/plug_in_gait_medial.yaml", "bb"),
+    "rknee": (DATA / "real/Test_func_rknee.c3d", SETS / "plug_in_gait_medial.yaml", "bb"),
+    "rhip": (DATA / "real/Test_func_rhip.c3d", SETS / "plug_in_gait_medial.yaml", "bb"),
     "posture": (
         DATA / "real/anatomical_posture.c3d",
-        ROOT / "models/marker_sets/plug_in_gait_medial.yaml",
+        SETS / "plug_in_gait_medial.yaml",
         "bb",
     ),
 }

@@ -679,16 +679,3 @@ def weights_from_names(
             raise UnknownNameError("marker", name, marker_names)
         out[marker_names.index(name)] = float(value)
     return out
-
-
-def _pelvis_markers(kin: Kinematics) -> np.ndarray:
-    """(k,) int: the marker indices of Plug-in Gait's :data:`PELVIS_MARKERS`, or, in a set
-    without them, of the markers on the model's pelvis body (any set's ASIS, PSIS or
-    sacrum markers)."""
-    names = kin.pset.marker_names
-    idx = [kin.pset.marker_index(n) for n in PELVIS_MARKERS if n in names]
-    model = kin.model
-    if not idx and "pelvis" in [model.body(b).name for b in range(model.nbody)]:
-        pelvis = model.body("pelvis").id
-        idx = [i for i, n in enumerate(names) if model.site_bodyid[model.site(n).id] == pelvis]
-    return np.array(idx, dtype=int)

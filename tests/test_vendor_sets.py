@@ -28,7 +28,6 @@ from mocap_mj.identify.ranges import kappa_ranges
 from mocap_mj.identify.roles import roles
 from mocap_mj.landmarks import measured_widths
 from mocap_mj.marker_set import load_marker_set, model_with_marker_set
-from mocap_mj.model import model_path
 from mocap_mj.results import load_motion
 from mocap_mj.subject import Measurement, StatureEstimate, Subject
 
@@ -74,7 +73,7 @@ def test_pairs_place_both_sides_centres_at_their_midpoints(tmp_path: Path, stati
     Qualisys.c3d). Static, where the rows place them: within 0.5 mm (the lateral
     malleolus's own level row pulled the ankle centre toward it: 5-6 mm on the biobuddy
     trials)."""
-    pset, landmarks = _pset(model_path("marker_sets/plug_in_gait_medial.yaml"), tmp_path)
+    pset, landmarks = _pset(SETS / "plug_in_gait_medial.yaml", tmp_path)
     truth = pset.nominal.copy()
     for side, p, sign in (("l", "L", 1.0), ("r", "R", -1.0)):
         for name, value in (("knee_lateral", 0.008), ("ankle_lateral", -0.006)):
@@ -124,9 +123,9 @@ CASES = [
     ("vendors/FP_Type3.c3d", SETS / "qualisys_clusters.yaml", "0:2", 4, False, True),
     ("vendors/FP_Type1.c3d", SETS / "davis.yaml", "0:60", 0, True, False),
     ("vendors/BTS.c3d", SETS / "davis_bts.yaml", "200:500", 0, True, False),
-    ("real/Test_func_rknee.c3d", model_path("marker_sets/plug_in_gait_medial.yaml"), "0:217", 4, False, True),
-    ("real/Test_func_rhip.c3d", model_path("marker_sets/plug_in_gait_medial.yaml"), "0:260", 4, False, True),
-    ("real/anatomical_posture.c3d", model_path("marker_sets/plug_in_gait_medial.yaml"), "0:122", 4, False,
+    ("real/Test_func_rknee.c3d", SETS / "plug_in_gait_medial.yaml", "0:217", 4, False, True),
+    ("real/Test_func_rhip.c3d", SETS / "plug_in_gait_medial.yaml", "0:260", 4, False, True),
+    ("real/anatomical_posture.c3d", SETS / "plug_in_gait_medial.yaml", "0:122", 4, False,
      True),
 ]  # fmt: skip
 
