@@ -19,7 +19,7 @@ from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..subject import Subject
 from .anatomy import ASYMMETRY_SIGMA, landmark_prior, symmetric_prior
-from .axes import axis_decisions, pig_angle, widths
+from .axes import angle_to_pig, axis_decisions, widths
 from .consistency import pooled_correlation_time, trial_residuals
 from .initial import estimate_stature, place_markers, scaled_theta, segment_scales
 from .lm import LMSettings, identify_lm
@@ -126,7 +126,7 @@ def solve_trials(
             slides=slides, **options,
         )  # fmt: skip
     for d in (weighting.get("joint_axes") or {}).values():  # at the final model
-        d["angle_to_pig_deg"] = pig_angle(pset, result.theta, d["wand"], d["marker"], d["joint"])
+        d["angle_to_pig_deg"] = angle_to_pig(pset, result.theta, d)
     sliding = None
     if slides and "slide_base_mm" in weighting:
         # The fit (and the refinement on every frame, and the motion's IK) weighed with it.
