@@ -36,6 +36,7 @@ import numpy as np
 
 from .. import rolling
 from ..clinical.geometry import cardan_yxz, chord, frame_zy, relative, unit
+from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from .arm_axes import ARM_AXES, arm_angle, has_axis, lever
 from .axis_rows import PIG_AXIS_WANDS, SIGMA_WAND_ANGLE, wand_width
@@ -193,6 +194,45 @@ def pig_angle(pset: ParameterSet, theta: np.ndarray, wand: str, marker: str, joi
     return float(sign * np.degrees(np.arccos(cos)))
 
 
+#: Joint -> the bodies whose markers its flexion axis moves (the side appended).
+AXIS_BODIES = {"knee": ("thigh", "shank"), "ankle": ("shank", "foot"),
+               "elbow": ("upperarm", "radius"), "wrist": ("radius", "hand")}  # fmt: skip
+
+
+def axis_rmse(
+    pset: ParameterSet,
+    fits: Mapping[str, tuple[np.ndarray, Sequence[np.ndarray]]],
+    markers: Sequence[np.ndarray],
+    decisions: Mapping[str, dict[str, Any]],
+) -> None:
+    """Add each functional axis's marker RMSE [mm] to ``decisions`` (in place):
+    ``rmse_mm`` = {fit name: RMSE of the markers on the joint's two bodies
+    (:data:`AXIS_BODIES`)}, for each of ``fits`` (name -> (theta (P,) [m], qpos per trial
+    (T_i, nq), NaN rows for frames not solved)); markers (T_i, M, 3) [m] per trial. Called
+    with the first solve (Plug-in Gait's row held) and the final one (the row left out)."""
+    functional = {j: d for j, d in decisions.items() if d["source"] == "functional"}
+    if not functional:
+        return
+    kin = Kinematics(pset)
+    errors = {}
+    for name, (theta, qpos) in fits.items():
+        kin.set_theta(theta)
+        parts = []
+        for q, m in zip(qpos, markers, strict=True):
+            ok = np.all(np.isfinite(q), axis=1)
+            if ok.any():
+                parts.append(np.linalg.norm(kin.marker_positions(q[ok]) - m[ok], axis=-1))
+        errors[name] = np.concatenate(parts) if parts else np.zeros((0, pset.n_markers))
+    for joint, d in functional.items():
+        bodies = [pset.model.body(b + joint[-2:]).id for b in AXIS_BODIES[joint[:-2]]]
+        on = np.isin(pset.site_body, bodies)
+        d["rmse_mm"] = {}
+        for name, e in errors.items():
+            sub = e[:, on]
+            sub = sub[np.isfinite(sub)]
+            d["rmse_mm"][name] = float(np.sqrt(np.mean(sub**2)) * 1e3) if sub.size else None
+
+
 #: Knee flexion range [deg] (5th to 95th percentile) below which no crosstalk is reported.
 CROSSTALK_MIN_RANGE = 20.0
 
@@ -260,17 +300,21 @@ def report_lines(decisions: Mapping[str, Mapping[str, Any]]) -> list[str]:
         return []
     lines = [
         "| joint | axis from | data sd (deg) | row sd (deg) | angle to Plug-in Gait's (deg) "
+        "| marker RMSE (mm): this axis / Plug-in Gait's row "
         "| varus on flexion: this axis | Plug-in Gait's |",
-        "|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for joint, d in decisions.items():
         how = CONSTRUCTION[d["joint"].split("_")[0]]
         src = f"Plug-in Gait ({how})" if d["source"] == "plug-in-gait" else "the markers"
         if d.get("conflict"):
             src += f" (they contradict {how})"
+        rmse = d.get("rmse_mm") or {}
+        both = (rmse.get("functional"), rmse.get("plug_in_gait_row"))
+        fit = "-" if None in both else f"{both[0]:.2f} / {both[1]:.2f}"
         lines.append(
             f"| {joint} | {src} | {d['data_sd_deg']:.1f} | {d['row_sd_deg']:.1f} | "
-            f"{d['angle_to_pig_deg']:+.1f} | {_crosstalk_text(d.get('crosstalk_model'))} | "
+            f"{d['angle_to_pig_deg']:+.1f} | {fit} | {_crosstalk_text(d.get('crosstalk_model'))} | "
             f"{_crosstalk_text(d.get('crosstalk_pig'))} |"
         )
     return lines

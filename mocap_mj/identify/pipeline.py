@@ -19,7 +19,7 @@ from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..subject import Subject
 from .anatomy import ASYMMETRY_SIGMA, landmark_prior, symmetric_prior
-from .axes import angle_to_pig, axis_decisions, widths
+from .axes import angle_to_pig, axis_decisions, axis_rmse, widths
 from .consistency import pooled_correlation_time, trial_residuals
 from .initial import estimate_stature, place_markers, scaled_theta, segment_scales
 from .lm import LMSettings, identify_lm
@@ -494,7 +494,13 @@ def solve_anatomical(
         lower=lower,
         upper=upper,
     )
-    return _reweighed(solve, result, trials, weighted, weighting, pset, trial_weights), weighting
+    final = _reweighed(solve, result, trials, weighted, weighting, pset, trial_weights)
+    fits = {
+        "plug_in_gait_row": (result.theta, result.qpos),
+        "functional": (final.theta, final.qpos),
+    }
+    axis_rmse(pset, fits, [t.markers for t in trials], axes)
+    return final, weighting
 
 
 def _log_weighting(
