@@ -31,10 +31,10 @@ import numpy as np
 from ..parameters import ParameterSet
 from .axis_rows import SIGMA_WAND_ANGLE, Row, nominal_offset
 
-#: Joint -> (the marker whose name keys its row, the label's start, the measured width).
-ARM_AXES: dict[str, tuple[str, str, str]] = {
-    "elbow": ("ELB", "ELB.x = 0 (Plug-in Gait's", "elbow_width_"),
-    "wrist": ("WRA", "WRA-WRB bar along", "wrist_width_"),
+#: Joint -> (the marker whose name keys its row, the start of the row's label).
+ARM_AXES: dict[str, tuple[str, str]] = {
+    "elbow": ("ELB", "ELB.x = 0 (Plug-in Gait's"),
+    "wrist": ("WRA", "WRA-WRB bar along"),
 }
 
 

@@ -86,7 +86,7 @@ def axis_rows(pset: ParameterSet) -> list[tuple[str, str, str, str, float]]:
         out.append((joint, wand, f"{wand} in the plane", marker,
                     wand_width(pset, wand, marker, 45.0)))  # fmt: skip
     for side, p in (("l", "L"), ("r", "R")):
-        for name, (key, start, _) in ARM_AXES.items():
+        for name, (key, start) in ARM_AXES.items():
             if has_axis(pset, name, p):
                 out.append((f"{name}_{side}", p + key, p + start, p + key, lever(pset, name, p)))
     return out
