@@ -15,12 +15,9 @@ markers and every other prior (the row's own information taken out), with the ma
 weighed at the artefact's noise as the priors are (:mod:`mocap_mj.identify.pipeline`). Where
 it exceeds the row's width the recording cannot determine the axis: the axis is Plug-in
 Gait's, the row kept at :data:`SIGMA_PIG_AXIS`; otherwise the axis is functional and the row
-is left out, so the motion alone places it. Where the markers' own estimate contradicts the
-row (beyond :data:`CONFLICT_K` standard deviations of both) the conflict is reported, and the
-row kept where no motion places the axis: in a static trial that estimate comes from the
-model's structure, not from motion (its knee and ankle axes are parallel in the shank, with
-no tibial torsion; on the shared Static_trial a 23 degree twist between Nexus' knee and
-ankle axes read as a conflict at the left knee). Each decision is
+is left out, so the motion alone places it. A chord plane that the markers' own estimate
+contradicts (beyond :data:`CONFLICT_K` standard deviations of both) is taken for a misplaced
+wand and left out too. Each decision is
 reported (summary.json ``joint_axes``, report.md) with both standard deviations in degrees
 and, for a functional axis, its angle to Plug-in Gait's chord-plane axis in the identified
 model (:func:`pig_angle`). The elbow's row (its axis through ELB) and the wrist's (along
@@ -49,8 +46,13 @@ from .priors import LinearGaussianPrior
 #: a hip centre 1.2 standard deviations from Harrington's row.
 SIGMA_PIG_AXIS = SIGMA_WAND_ANGLE
 #: The markers and the chord plane conflict when the markers' own estimate of the row's
-#: residual lies beyond this many standard deviations of the two combined (reported as
-#: ``conflict``; the decision is the standard deviations').
+#: residual lies beyond this many standard deviations of the two combined: the wand is then
+#: taken as misplaced and the axis left to the markers (a functional axis, reported with
+#: ``conflict``). On the shared Static_trial the left knee conflicts (27 degrees): its
+#: shank's knee and ankle chord planes are 23 degrees apart (Nexus' static ankle rotation)
+#: and the model's knee and ankle axes are parallel. Keeping the row there put that knee
+#: 24.5 mm from Nexus' centre (37.3 with the markers' axis) but moved the hip centre 1.07
+#: standard deviations from Harrington's row.
 CONFLICT_K = 2.0
 #: Wand prefix -> the joint its chord plane places, and that joint's child body.
 JOINT_OF = {"THI": ("knee", "shank"), "TIB": ("ankle", "foot")}
@@ -131,11 +133,16 @@ def axis_decisions(
         # a precision-weighted mean of it and the row's 0.
         data = float(a @ theta) * (1.0 + (sd / sigma) ** 2)
         conflict = abs(data) > CONFLICT_K * float(np.hypot(sd, sigma))
+        # A wand can be misplaced; ELB and the wrist bar are landmarks that define their
+        # joint's axis: a conflict there is reported, and the row kept.
+        wand_row = joint.startswith(("knee", "ankle"))
         d: dict[str, Any] = {
             "joint": joint,
             "wand": key,
             "marker": marker,
-            "source": "plug-in-gait" if sd > sigma else "functional",
+            "source": "plug-in-gait"
+            if sd > sigma and not (conflict and wand_row)
+            else "functional",
             "conflict": conflict,
             "data_sd_deg": float(np.degrees(np.arctan(sd / arm))),
             "row_sd_deg": float(np.degrees(np.arctan(sigma / arm))),
