@@ -494,13 +494,7 @@ def solve_anatomical(
         lower=lower,
         upper=upper,
     )
-    final = _reweighed(solve, result, trials, weighted, weighting, pset, trial_weights)
-    fits = {
-        "plug_in_gait_row": (result.theta, result.qpos),
-        "functional": (final.theta, final.qpos),
-    }
-    axis_rmse(pset, fits, [t.markers for t in trials], axes)
-    return final, weighting
+    return _reweighed(solve, result, trials, weighted, weighting, pset, trial_weights), weighting
 
 
 def _log_weighting(
@@ -579,7 +573,8 @@ def _reweighed(
     no weight changes by more than ``TRIAL_WEIGHT_SETTLED``: a static trial's soft tissue is
     one offset over all its frames and would otherwise outvote a movement. Residuals of
     white noise keep every weight 1; one trial always weighs 1. The result carries the first
-    solve's initial model and the solves' summed iterations and time."""
+    solve's initial model and the solves' summed iterations and time; a functional flexion
+    axis of ``weighting`` gets its marker RMSE with each solve (:func:`axes.axis_rmse`)."""
     per_trial = weighting["trial_weights"]
     result = solve(_trials_weighed(weighted, per_trial), theta0=first.theta,
                    initial_qpos=first.qpos)  # fmt: skip
@@ -602,6 +597,11 @@ def _reweighed(
     result.seconds = seconds
     result.init_seconds = first.init_seconds
     result.iterations = iterations
+    fits = {
+        "plug_in_gait_row": (first.theta, first.qpos),
+        "functional": (result.theta, result.qpos),
+    }
+    axis_rmse(pset, fits, [t.markers for t in trials], weighting.get("joint_axes") or {})
     return result
 
 
