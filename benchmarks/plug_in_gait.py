@@ -36,7 +36,7 @@ def compare(trial: Path, static: Path | None) -> tuple[list[str], list[str]]:
         stat = load_markers(static)
         subject = pig_from_c3d(static).update(subject)
     result = plug_in_gait(traj, subject, stat)
-    labels, xyz = _points(trial)
+    labels, xyz, _ = _points(trial)
     lines, misses = [], []
     lines.append(f"{'angle component':28s} {'RMS deg':>8s} {'max deg':>8s}")
     for name in sorted(result.angles):

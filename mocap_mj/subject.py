@@ -190,6 +190,18 @@ class Subject:
         e = self.stature_estimate
         return None if e is None else (e.value, e.sd)
 
+    def asis_trochanter(self, side: str) -> float | None:
+        """The ASIS-trochanter distance [m] of ``side`` ("l", "r"), one definition for the
+        anatomical priors' Davis rows and for Plug-in Gait: the measurement
+        (``AsisTrocanterDistance``) when given, else Plug-in Gait's regression on the
+        side's leg length, 0.1288 leg length - 48.56 mm (Davis et al. 1991); None without
+        either."""
+        given = self.get(f"asis_trochanter_{side}")
+        if given is not None:
+            return given
+        leg = self.get(f"leg_length_{side}")
+        return None if leg is None else 0.1288 * leg - 0.04856
+
     @property
     def marker_radius(self) -> float:
         """Half the marker diameter [m] (``DEFAULT_MARKER_DIAMETER`` when not given)."""

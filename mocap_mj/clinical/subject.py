@@ -4,17 +4,17 @@ Sources, later ones overriding earlier ones:
 
 1. the C3D file's ``PROCESSING`` group, as Vicon Nexus writes it: the body measurements
    through :func:`mocap_mj.subject.from_c3d` (``LLegLength``, ``LKneeWidth``, ...) and the
-   Plug-in Gait values that are not body measurements (``LAsisTrocanterDistance``,
-   ``LStaticPlantFlex``, ``LStaticRotOff``, ``LTibialTorsion``; radians for the angles,
-   as Nexus stores them);
+   Plug-in Gait values that are not body measurements (``LStaticPlantFlex``,
+   ``LStaticRotOff``, ``LTibialTorsion``; radians, as Nexus stores them);
 2. a YAML file: ``name: value``, the names of :data:`mocap_mj.subject.MEASUREMENTS` (SI or
    with a unit, ``"877 mm"``) and of :data:`PIG_VALUES` (metres or radians, or with a unit,
    ``"14.5 deg"``, ``"64 mm"``);
 3. the static trial (:mod:`mocap_mj.clinical.static`): the static plantar-flexion and
    rotation offsets, and the inter-ASIS distance when none is given.
 
-What is still missing takes Plug-in Gait's rule: the ASIS-trochanter distance from the leg
-length (0.1288 leg length - 48.56 mm), offsets and torsion 0, the marker diameter 14 mm.
+What is still missing takes Plug-in Gait's rule: the ASIS-trochanter distance (a
+measurement, :meth:`mocap_mj.subject.Subject.asis_trochanter`) from the leg length, offsets
+and torsion 0, the marker diameter 14 mm.
 """
 
 from __future__ import annotations
@@ -41,7 +41,6 @@ from ..subject import (
 PIG_VALUES: dict[str, tuple[str, str]] = {
     **sided(
         (
-            ("asis_trochanter", "m", "ASIS to greater trochanter, along the pelvis"),
             ("static_plantar_flex", "rad", "foot plantar-flexion offset from the static trial"),
             ("static_rot_off", "rad", "foot rotation offset from the static trial"),
             ("tibial_torsion", "rad", "tibial torsion"),
@@ -55,7 +54,6 @@ LOWER = ("leg_length", "knee_width", "ankle_width")
 UPPER = ("shoulder_offset", "elbow_width", "wrist_width", "hand_thickness")
 
 _C3D_PIG = {
-    "ASISTROCANTERDISTANCE": ("asis_trochanter", 1e-3),
     "STATICPLANTFLEX": ("static_plantar_flex", 1.0),
     "STATICROTOFF": ("static_rot_off", 1.0),
     "TIBIALTORSION": ("tibial_torsion", 1.0),
@@ -117,11 +115,15 @@ class PigSubject:
         return 0.5 * (self.require("leg_length_l") + self.require("leg_length_r"))
 
     def asis_trochanter(self, side: str) -> float:
-        """ASIS-trochanter distance [m]: given, else 0.1288 leg length - 48.56 mm."""
-        given = self.values.get(f"asis_trochanter_{side}")
-        if given is not None:
-            return given
-        return 0.1288 * self.require(f"leg_length_{side}") - 0.04856
+        """ASIS-trochanter distance [m] (:meth:`mocap_mj.subject.Subject.asis_trochanter`);
+        a clear error without it and without the leg length."""
+        value = self.measurements.asis_trochanter(side)
+        if value is None:
+            raise MocapError(
+                f"Plug-in Gait needs the subject's leg_length_{side} or asis_trochanter_{side}: "
+                "give it in the C3D PROCESSING group or --subject-file"
+            )
+        return value
 
     def to_dict(self) -> dict[str, Any]:
         """Every value with its unit and source, for summary.json."""
@@ -137,8 +139,8 @@ def pig_from_c3d(path: str | Path) -> PigSubject:
     sources: dict[str, str] = {}
     for group, key, value in c3d_numbers(path):
         spec = _pig_name(key)
-        if spec is None or (spec[0].startswith("asis_trochanter") and value <= 0):
-            continue  # not a Plug-in Gait value, or 0: "not entered"
+        if spec is None:
+            continue  # not a Plug-in Gait value
         values[spec[0]], sources[spec[0]] = value * spec[1], f"{path}: {group}:{key}"
     return PigSubject(from_c3d(path), values, sources)
 

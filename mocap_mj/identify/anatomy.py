@@ -125,6 +125,7 @@ import numpy as np
 
 from ..parameters import ParameterSet
 from ..subject import Subject
+from .arm_axes import arm_rows
 from .axis_rows import (
     PIG_AXIS_WANDS,
     medial_pairs,
@@ -607,8 +608,14 @@ def _limb_rows(
         # The ankle and the elbow are convention joints (module docstring): the lateral
         # marker's level and depth define them.
         sig = SIGMA_CONVENTION if marker in ("ANK", "ELB") else lm
-        if m not in paired:
-            rows.add({f"{m}.x": 1}, 0.0, sig, f"{m}.x = 0 (on the joint axis)")
+        x_sig: float | None = sig
+        on_axis = f"{m}.x = 0 (on the joint axis)"
+        if marker == "ELB" and subject.get(f"elbow_width_{side}") is not None:
+            # Plug-in Gait's elbow axis through ELB, decided as the chord planes (arm_axes).
+            x_sig, on_axis = axis_widths.get(m, sig), f"{m}.x = 0 (Plug-in Gait's elbow axis)"
+        if m not in paired:  # a landmark pair places its centre itself (medial_rows)
+            if x_sig is not None:
+                rows.add({f"{m}.x": 1}, 0.0, x_sig, on_axis)
             rows.add({f"{m}.z": 1, f"{length}_{side}": 1}, 0.0, sig, f"{m}.z = -{length}")
         _width_rows(rows, subject, side, m, width)
     for wand, (marker, width) in PIG_AXIS_WANDS.items():
@@ -618,6 +625,9 @@ def _limb_rows(
         sigma = axis_widths.get(p + wand, wand_width(rows.pset, p + wand, p + marker))
         if sigma is not None:
             rows.add(*pig_axis_row(rows.pset, p + wand, p + marker, sigma))
+    for row in arm_rows(rows.pset, p, {f"wrist_width_{side}": subject.get(f"wrist_width_{side}")},
+                        axis_widths):  # fmt: skip
+        rows.add(*row)
     # Wrist bar on the dorsum: Plug-in Gait puts the wrist centre wrist_width/2 + r
     # anterior (palm side) of the WRA-WRB midpoint, perpendicular to the bar.
     wra, wrb = p + "WRA", p + "WRB"

@@ -221,7 +221,11 @@ def _with_every_frame(
         done = write_every_frame_motion(
             sink, pset, fit.theta, fit.settings, whole, first_frames=fit.first_frames, **args
         )
-        files = tuple(sorted(sink.glob("motion*.npz")) + sorted(sink.glob("joint_centres*.csv")))
+        files = tuple(
+            sorted(sink.glob("motion*.npz"))
+            + sorted(sink.glob("joint_centres*.csv"))
+            + sorted(sink.glob("angles.csv"))
+        )
     else:
         poses, done = every_frame_motion(pset, fit.theta, fit.settings, whole, **args)
         motion = tuple(

@@ -1,4 +1,5 @@
-"""Knee and ankle flexion axes: the motion's where it determines them, Plug-in Gait's elsewhere.
+"""Knee, ankle, elbow and wrist flexion axes: the motion's where it determines them, Plug-in
+Gait's elsewhere.
 
 A flexion axis's turn about its segment's long axis is what a recording determines least: a
 static trial or a joint that barely moves leaves it to the priors. Plug-in Gait places it
@@ -19,7 +20,8 @@ contradicts (beyond :data:`CONFLICT_K` standard deviations of both) is taken for
 wand and left out too. Each decision is
 reported (summary.json ``joint_axes``, report.md) with both standard deviations in degrees
 and, for a functional axis, its angle to Plug-in Gait's chord-plane axis in the identified
-model (:func:`pig_angle`).
+model (:func:`pig_angle`). The elbow's row (its axis through ELB) and the wrist's (along
+the wrist bar) are decided the same way (:mod:`mocap_mj.identify.arm_axes`).
 """
 
 from __future__ import annotations
@@ -31,7 +33,9 @@ import numpy as np
 
 from .. import rolling
 from ..clinical.geometry import cardan_yxz, chord, frame_zy, relative, unit
+from ..kinematics import Kinematics
 from ..parameters import ParameterSet
+from .arm_axes import ARM_AXES, arm_angle, has_axis, lever
 from .axis_rows import PIG_AXIS_WANDS, SIGMA_WAND_ANGLE, wand_width
 from .priors import LinearGaussianPrior
 
@@ -44,7 +48,11 @@ SIGMA_PIG_AXIS = SIGMA_WAND_ANGLE
 #: The markers and the chord plane conflict when the markers' own estimate of the row's
 #: residual lies beyond this many standard deviations of the two combined: the wand is then
 #: taken as misplaced and the axis left to the markers (a functional axis, reported with
-#: ``conflict``).
+#: ``conflict``). On the shared Static_trial the left knee conflicts (27 degrees): its
+#: shank's knee and ankle chord planes are 23 degrees apart (Nexus' static ankle rotation)
+#: and the model's knee and ankle axes are parallel. Keeping the row there put that knee
+#: 24.5 mm from Nexus' centre (37.3 with the markers' axis) but moved the hip centre 1.07
+#: standard deviations from Harrington's row.
 CONFLICT_K = 2.0
 #: Wand prefix -> the joint its chord plane places, and that joint's child body.
 JOINT_OF = {"THI": ("knee", "shank"), "TIB": ("ankle", "foot")}
@@ -60,18 +68,30 @@ def wands(pset: ParameterSet) -> list[tuple[str, str, str, str]]:
     return out
 
 
-def _row(priors: Sequence[LinearGaussianPrior], wand: str) -> tuple[np.ndarray, float] | None:
-    """The chord-plane row of ``wand`` (its ``a`` (P,) and width [m]), None when absent."""
+def _row(priors: Sequence[LinearGaussianPrior], start: str) -> tuple[np.ndarray, float] | None:
+    """The row whose label starts with ``start`` (its ``a`` (P,) and width [m]), None when
+    absent."""
     for p in priors:
         for r, label in enumerate(p.labels):
-            if label.startswith(f"{wand} in the plane"):
+            if label.startswith(start):
                 return np.asarray(p.a[r], dtype=float), float(p.sigma[r])
     return None
 
 
-def _degrees(width: float, pset: ParameterSet, wand: str, marker: str) -> float:
-    """A width [m] of the row as the flexion axis's turn [deg] (:func:`wand_width`)."""
-    return float(np.degrees(np.arctan(width / wand_width(pset, wand, marker, 45.0))))
+def axis_rows(pset: ParameterSet) -> list[tuple[str, str, str, str, float]]:
+    """Every decidable axis row ``pset`` has markers for: (joint, row key, the label's
+    start, the lateral marker, the lever [m] that turns a width into degrees): the knee's
+    and ankle's chord planes (:func:`wands`), the elbow's ELB and the wrist bar
+    (:mod:`mocap_mj.identify.arm_axes`)."""
+    out = []
+    for wand, marker, joint, _ in wands(pset):
+        out.append((joint, wand, f"{wand} in the plane", marker,
+                    wand_width(pset, wand, marker, 45.0)))  # fmt: skip
+    for side, p in (("l", "L"), ("r", "R")):
+        for name, (key, start) in ARM_AXES.items():
+            if has_axis(pset, name, p):
+                out.append((f"{name}_{side}", p + key, p + start, p + key, lever(pset, name, p)))
+    return out
 
 
 def axis_decisions(
@@ -82,15 +102,17 @@ def axis_decisions(
     weak: LinearGaussianPrior,
     noise: float,
 ) -> dict[str, dict[str, Any]]:
-    """Per joint (``knee_l``...): where its flexion axis comes from (module docstring).
+    """Per joint (``knee_l``, ``elbow_r``...): where its flexion axis comes from (module
+    docstring).
 
     ``information`` (P, P): the markers' reduced information (unit weights) at ``theta``
-    (P,) [m]; ``priors``: the landmark priors with their chord-plane rows, ``weak`` the weak
+    (P,) [m]; ``priors``: the landmark priors with their axis rows, ``weak`` the weak
     prior toward the initial model; ``noise`` [m]: the marker noise the priors are weighed
     against. Returns ``source`` ("plug-in-gait" or "functional"), ``conflict`` (the markers
-    contradict the chord plane, :data:`CONFLICT_K`), ``data_sd_deg`` (the direction's
-    standard deviation without the row), ``row_sd_deg`` and ``angle_to_pig_deg``
-    (:func:`pig_angle` at ``theta``).
+    contradict the row, :data:`CONFLICT_K`), ``data_sd_deg`` (the direction's standard
+    deviation without the row), ``row_sd_deg``, ``row_sigma_m`` and ``angle_to_pig_deg``
+    (:func:`angle_to_pig` at ``theta``); ``wand`` is the row's key
+    (:func:`widths`).
     """
     weighed = [p.with_noise(noise) for p in priors]
     hess = np.asarray(information, dtype=float) + weak.hessian()
@@ -98,8 +120,8 @@ def axis_decisions(
         hess = hess + p.hessian()
     free = ~np.asarray(pset.frozen, dtype=bool)
     out: dict[str, dict[str, Any]] = {}
-    for wand, marker, joint, _ in wands(pset):
-        row = _row(weighed, wand)
+    for joint, key, start, marker, arm in axis_rows(pset):
+        row = _row(weighed, start)
         if row is None:
             continue
         a, sigma = row
@@ -111,28 +133,49 @@ def axis_decisions(
         # a precision-weighted mean of it and the row's 0.
         data = float(a @ theta) * (1.0 + (sd / sigma) ** 2)
         conflict = abs(data) > CONFLICT_K * float(np.hypot(sd, sigma))
-        out[joint] = {
+        # A wand can be misplaced; ELB and the wrist bar are landmarks that define their
+        # joint's axis: a conflict there is reported, and the row kept.
+        wand_row = joint.startswith(("knee", "ankle"))
+        d: dict[str, Any] = {
             "joint": joint,
-            "wand": wand,
+            "wand": key,
             "marker": marker,
-            "source": "plug-in-gait" if sd > sigma and not conflict else "functional",
+            "source": "plug-in-gait"
+            if sd > sigma and not (conflict and wand_row)
+            else "functional",
             "conflict": conflict,
-            "data_sd_deg": _degrees(sd, pset, wand, marker),
-            "row_sd_deg": _degrees(sigma, pset, wand, marker),
-            "angle_to_pig_deg": pig_angle(pset, theta, wand, marker, joint),
+            "data_sd_deg": float(np.degrees(np.arctan(sd / arm))),
+            "row_sd_deg": float(np.degrees(np.arctan(sigma / arm))),
+            "row_sigma_m": sigma,
         }
+        d["angle_to_pig_deg"] = angle_to_pig(pset, theta, d)
+        out[joint] = d
     return out
+
+
+def angle_to_pig(pset: ParameterSet, theta: np.ndarray, d: Mapping[str, Any]) -> float:
+    """The angle [deg] between the model's axis of decision ``d``'s joint and Plug-in
+    Gait's: :func:`pig_angle` for the knee and ankle,
+    :func:`~mocap_mj.identify.arm_axes.arm_angle` for the elbow and wrist."""
+    if d["joint"].startswith(("knee", "ankle")):
+        return pig_angle(pset, theta, d["wand"], d["marker"], d["joint"])
+    return arm_angle(pset, theta, d["joint"])
 
 
 def widths(
     pset: ParameterSet, decisions: Mapping[str, Mapping[str, Any]] | None
 ) -> dict[str, float | None]:
-    """The chord-plane rows' widths [m] after ``decisions`` (:func:`axis_decisions`): a
-    Plug-in Gait axis's row at :data:`SIGMA_PIG_AXIS`, a functional axis's left out."""
+    """The axis rows' widths [m] (keyed by ``wand``) after ``decisions``
+    (:func:`axis_decisions`): a Plug-in Gait axis's row at :data:`SIGMA_PIG_AXIS` (the knee
+    and ankle) or its own width (the elbow and wrist), a functional axis's left out."""
     out: dict[str, float | None] = {}
     for d in (decisions or {}).values():
-        pig = d["source"] == "plug-in-gait"
-        out[d["wand"]] = wand_width(pset, d["wand"], d["marker"], SIGMA_PIG_AXIS) if pig else None
+        if d["source"] != "plug-in-gait":
+            out[d["wand"]] = None
+        elif d["joint"].startswith(("knee", "ankle")):
+            out[d["wand"]] = wand_width(pset, d["wand"], d["marker"], SIGMA_PIG_AXIS)
+        else:
+            out[d["wand"]] = float(d["row_sigma_m"])
     return out
 
 
@@ -156,6 +199,45 @@ def pig_angle(pset: ParameterSet, theta: np.ndarray, wand: str, marker: str, joi
     cos = float(np.clip(np.dot(ours_dir, pig_dir), -1.0, 1.0))
     sign = np.sign(np.dot(np.cross(pig_dir, ours_dir), long_axis)) or 1.0
     return float(sign * np.degrees(np.arccos(cos)))
+
+
+#: Joint -> the bodies whose markers its flexion axis moves (the side appended).
+AXIS_BODIES = {"knee": ("thigh", "shank"), "ankle": ("shank", "foot"),
+               "elbow": ("upperarm", "radius"), "wrist": ("radius", "hand")}  # fmt: skip
+
+
+def axis_rmse(
+    pset: ParameterSet,
+    fits: Mapping[str, tuple[np.ndarray, Sequence[np.ndarray]]],
+    markers: Sequence[np.ndarray],
+    decisions: Mapping[str, dict[str, Any]],
+) -> None:
+    """Add each functional axis's marker RMSE [mm] to ``decisions`` (in place):
+    ``rmse_mm`` = {fit name: RMSE of the markers on the joint's two bodies
+    (:data:`AXIS_BODIES`)}, for each of ``fits`` (name -> (theta (P,) [m], qpos per trial
+    (T_i, nq), NaN rows for frames not solved)); markers (T_i, M, 3) [m] per trial. Called
+    with the first solve (Plug-in Gait's row held) and the final one (the row left out)."""
+    functional = {j: d for j, d in decisions.items() if d["source"] == "functional"}
+    if not functional:
+        return
+    kin = Kinematics(pset)
+    errors = {}
+    for name, (theta, qpos) in fits.items():
+        kin.set_theta(theta)
+        parts = []
+        for q, m in zip(qpos, markers, strict=True):
+            ok = np.all(np.isfinite(q), axis=1)
+            if ok.any():
+                parts.append(np.linalg.norm(kin.marker_positions(q[ok]) - m[ok], axis=-1))
+        errors[name] = np.concatenate(parts) if parts else np.zeros((0, pset.n_markers))
+    for joint, d in functional.items():
+        bodies = [pset.model.body(b + joint[-2:]).id for b in AXIS_BODIES[joint[:-2]]]
+        on = np.isin(pset.site_body, bodies)
+        d["rmse_mm"] = {}
+        for name, e in errors.items():
+            sub = e[:, on]
+            sub = sub[np.isfinite(sub)]
+            d["rmse_mm"][name] = float(np.sqrt(np.mean(sub**2)) * 1e3) if sub.size else None
 
 
 #: Knee flexion range [deg] (5th to 95th percentile) below which no crosstalk is reported.
@@ -214,22 +296,32 @@ def _slope(flexion: np.ndarray, varus: np.ndarray) -> dict[str, float] | None:
     return {"corr": float(np.corrcoef(f, v)[0, 1]), "slope": float(np.polyfit(f, v, 1)[0])}
 
 
+#: Joint -> Plug-in Gait's construction of its flexion axis, as report.md names it.
+CONSTRUCTION = {"knee": "the chord plane", "ankle": "the chord plane",
+                "elbow": "through ELB", "wrist": "the wrist bar"}  # fmt: skip
+
+
 def report_lines(decisions: Mapping[str, Mapping[str, Any]]) -> list[str]:
     """report.md's lines on the flexion axes (empty without decisions)."""
     if not decisions:
         return []
     lines = [
         "| joint | axis from | data sd (deg) | row sd (deg) | angle to Plug-in Gait's (deg) "
+        "| marker RMSE (mm): this axis / Plug-in Gait's row "
         "| varus on flexion: this axis | Plug-in Gait's |",
-        "|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for joint, d in decisions.items():
-        src = "Plug-in Gait (chord plane)" if d["source"] == "plug-in-gait" else "the markers"
+        how = CONSTRUCTION[d["joint"].split("_")[0]]
+        src = f"Plug-in Gait ({how})" if d["source"] == "plug-in-gait" else "the markers"
         if d.get("conflict"):
-            src += " (they contradict the chord plane)"
+            src += f" (they contradict {how})"
+        rmse = d.get("rmse_mm") or {}
+        both = (rmse.get("functional"), rmse.get("plug_in_gait_row"))
+        fit = "-" if None in both else f"{both[0]:.2f} / {both[1]:.2f}"
         lines.append(
             f"| {joint} | {src} | {d['data_sd_deg']:.1f} | {d['row_sd_deg']:.1f} | "
-            f"{d['angle_to_pig_deg']:+.1f} | {_crosstalk_text(d.get('crosstalk_model'))} | "
+            f"{d['angle_to_pig_deg']:+.1f} | {fit} | {_crosstalk_text(d.get('crosstalk_model'))} | "
             f"{_crosstalk_text(d.get('crosstalk_pig'))} |"
         )
     return lines

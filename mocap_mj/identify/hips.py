@@ -36,8 +36,8 @@ def davis_rows(subject: Subject, side: str, nominal: Mapping[str, float]) -> lis
             "C3D file, or leg_length_l and leg_length_r in --subject-file)"
         )
     leg = 0.5 * (legs[0] + legs[1])
-    atd = subject.get(f"asis_trochanter_{side}")
-    atd = 0.1288 * leg - 0.04856 if atd is None else atd
+    atd = subject.asis_trochanter(side)  # both leg lengths given: never None
+    assert atd is not None
     c, d = 0.115 * leg - 0.0153, atd + subject.marker_radius
     x = c * np.cos(DAVIS_THETA) * np.sin(DAVIS_BETA) - d * np.cos(DAVIS_BETA)
     z = -c * np.cos(DAVIS_THETA) * np.cos(DAVIS_BETA) - d * np.sin(DAVIS_BETA)

@@ -7,8 +7,9 @@ each chunk goes straight into the files: motion.npz is a zip of ``.npy`` members
 :func:`mocap_mj.results.save_motion` writes it, byte for byte: uncompressed, fixed timestamps),
 each member's header written by numpy's ``.npy`` header writer and its rows appended as they
 come; joint_centres.csv is appended chunk by chunk (:func:`mocap_mj.tables.joint_centre_text`,
-the whole table's formatting). Both are written under a temporary name and renamed when complete
-(:func:`mocap_mj.io.atomic.atomic_path`)."""
+the whole table's formatting), angles.csv from the written motion
+(:mod:`mocap_mj.identify.angles_out`). All are written under a temporary name and renamed
+when complete (:func:`mocap_mj.io.atomic.atomic_path`)."""
 
 from __future__ import annotations
 
@@ -30,6 +31,7 @@ from ..io.atomic import atomic_path
 from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..tables import joint_centre_columns, joint_centre_text
+from .angles_out import write_angle_chunks
 from .lm import LMSettings, solver_joint_range
 from .long import CHUNK, ChunkFit, Robust, Weigh, solve_chunk
 from .problem import TrialData
@@ -148,8 +150,9 @@ def write_every_frame_motion(
     """IK of every frame of ``trials`` with the model as ``identify`` writes it (parameters
     theta (P,) [m], the joint limits the solver used), written chunk by chunk into
     ``out``/motion.npz (in model.xml's layout, :class:`mocap_mj.exported.Layout`) and
-    joint_centres.csv (``motion_<i>.npz``, ``joint_centres_<i>.csv`` for the other trials);
-    returns the fit over every frame.
+    joint_centres.csv (``motion_<i>.npz``, ``joint_centres_<i>.csv`` for the other trials),
+    and the first trial's angles.csv (:mod:`mocap_mj.identify.angles_out`); returns the fit
+    over every frame.
 
     ``start`` (per trial (T_i, nq)): poses the chunk's frames start from (finite rows, e.g.
     the refinement's: warm, ``WARM_ITERATIONS`` LM iterations each); default and NaN chunks: solved
@@ -185,6 +188,8 @@ def write_every_frame_motion(
                 chunk,
                 first,
             )
+        if i == 0:  # the first trial's angles, as write_result writes them
+            write_angle_chunks(out / "angles.csv", model, out / "motion.npz", first, chunk)
     return tally.fit._replace(seconds=time.perf_counter() - t0)
 
 

@@ -19,7 +19,7 @@ from ..kinematics import Kinematics
 from ..parameters import ParameterSet
 from ..subject import Subject
 from .anatomy import ASYMMETRY_SIGMA, landmark_prior, symmetric_prior
-from .axes import axis_decisions, pig_angle, widths
+from .axes import angle_to_pig, axis_decisions, axis_rmse, widths
 from .ball_centres import centre_widths, row_spreads
 from .consistency import pooled_correlation_time, trial_residuals
 from .initial import estimate_stature, place_markers, scaled_theta, segment_scales
@@ -127,7 +127,7 @@ def solve_trials(
             slides=slides, **options,
         )  # fmt: skip
     for d in (weighting.get("joint_axes") or {}).values():  # at the final model
-        d["angle_to_pig_deg"] = pig_angle(pset, result.theta, d["wand"], d["marker"], d["joint"])
+        d["angle_to_pig_deg"] = angle_to_pig(pset, result.theta, d)
     sliding = None
     if slides and "slide_base_mm" in weighting:
         # The fit (and the refinement on every frame, and the motion's IK) weighed with it.
@@ -632,7 +632,8 @@ def _reweighed(
     no weight changes by more than ``TRIAL_WEIGHT_SETTLED``: a static trial's soft tissue is
     one offset over all its frames and would otherwise outvote a movement. Residuals of
     white noise keep every weight 1; one trial always weighs 1. The result carries the first
-    solve's initial model and the solves' summed iterations and time."""
+    solve's initial model and the solves' summed iterations and time; a functional flexion
+    axis of ``weighting`` gets its marker RMSE with each solve (:func:`axes.axis_rmse`)."""
     per_trial = weighting["trial_weights"]
     result = solve(_trials_weighed(weighted, per_trial), theta0=first.theta,
                    initial_qpos=first.qpos)  # fmt: skip
@@ -655,6 +656,11 @@ def _reweighed(
     result.seconds = seconds
     result.init_seconds = first.init_seconds
     result.iterations = iterations
+    fits = {
+        "plug_in_gait_row": (first.theta, first.qpos),
+        "functional": (result.theta, result.qpos),
+    }
+    axis_rmse(pset, fits, [t.markers for t in trials], weighting.get("joint_axes") or {})
     return result
 
 

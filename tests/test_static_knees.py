@@ -1,0 +1,50 @@
+"""A static trial whose knees stand hyperextended: Plug-in Gait's chord plane places the knee
+axes (no motion does) and the identified knees keep the subject's hyperextension, inside
+the model's range (healthy adults extend 5-6 degrees beyond straight on average)."""
+
+from __future__ import annotations
+
+import numpy as np
+from _motion import smooth_motion
+
+from mocap_mj import Kinematics, ParameterSet
+from mocap_mj.identify import LMSettings, TrialData
+from mocap_mj.identify.axes import pig_angle
+from mocap_mj.identify.pipeline import solve_anatomical
+from mocap_mj.subject import Subject
+
+HYPEREXTENSION = -8.0  # deg: beyond the former -5 degree limit, inside the normal range
+
+
+def test_static_hyperextended_knees_keep_their_angle() -> None:
+    """One pose held for 80 frames, both knees at -8 degrees, wands in the chord plane: the
+    knee axes come from Plug-in Gait's construction, the identified knee flexion is the
+    truth's within 1.5 degrees and no knee sits at its limit."""
+    pset = ParameterSet()
+    kin = Kinematics(pset)
+    q = smooth_motion(kin, 1, seed=2)[0]
+    knees = [pset.model.joint(f"knee_flex_{s}").qposadr[0] for s in "lr"]
+    for i in knees:
+        q[i] = np.radians(HYPEREXTENSION)
+    qpos = np.tile(q, (80, 1))
+    kin.set_theta(pset.nominal)
+    rng = np.random.default_rng(4)
+    markers = kin.marker_positions(qpos) + rng.normal(0.0, 1e-3, (80, pset.n_markers, 3))
+    subject = Subject()
+    subject.set("height", 1.75, "test")
+    for side in "lr":  # the nominal model's widths (KNE 50 mm, ANK 40 mm lateral, r 7 mm)
+        subject.set(f"knee_width_{side}", 0.086, "test")
+        subject.set(f"ankle_width_{side}", 0.066, "test")
+    trial = TrialData("static", markers, np.arange(80) / 100.0)
+    result, weighting = solve_anatomical([trial], pset=pset, theta0=None, settings=LMSettings(),
+                                         subject=subject)  # fmt: skip
+    lower = np.degrees(pset.model.jnt_range[pset.model.joint("knee_flex_l").id][0])
+    for side, i in zip("lr", knees, strict=True):
+        d = weighting["joint_axes"][f"knee_{side}"]
+        assert d["source"] == "plug-in-gait", d
+        p = side.upper()
+        angle = pig_angle(pset, result.theta, p + "THI", p + "KNE", f"knee_{side}")
+        assert abs(angle) < 2.0 * d["row_sd_deg"], (side, angle)
+        got = np.degrees(np.median(result.qpos[0][:, i]))
+        assert abs(got - HYPEREXTENSION) < 1.5, (side, got)
+        assert got > lower + 0.5, (side, got, lower)
