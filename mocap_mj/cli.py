@@ -35,7 +35,7 @@ from .commands._removed import add_removed_flags as add_removed_flags
 from .errors import MocapError
 
 #: Exit status of a command whose result its own checks call implausible (see
-#: :func:`mocap_mj.identify.plausibility.implausible_reasons`): distinct from 1 (an
+#: :func:`mocap_mj.anatomy.plausibility.implausible_reasons`): distinct from 1 (an
 #: operating-system error), 2 (bad input), 130 and 143 (interrupted).
 EXIT_IMPLAUSIBLE = 3
 
@@ -89,7 +89,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if getattr(args, "func", None) is None:
             parser.print_help()
             return 2
-        from ._threads import one_blas_thread
+        from mocap_mj.kernels._threads import one_blas_thread
+
         from .commands._inputs import refuse_out_holding_inputs
     except KeyboardInterrupt:
         return _interrupted("mocap-mj")
@@ -265,7 +266,7 @@ def finish(
 
     Both are strict JSON: a value that could not be computed (NaN) is ``null``.
     """
-    from .strict_json import dumps
+    from mocap_mj.io.strict_json import dumps
 
     summary = with_exit_status(summary)
     if out is not None:
@@ -312,7 +313,8 @@ def into_out_folder(
 
 def write_summary(out: Path, summary: Mapping[str, Any]) -> None:
     """``out/summary.json``, strict JSON, written atomically."""
+    from mocap_mj.io.strict_json import dumps
+
     from .io.atomic import atomic_write_text
-    from .strict_json import dumps
 
     atomic_write_text(out / "summary.json", dumps(summary, indent=2) + "\n")

@@ -12,10 +12,10 @@ import pytest
 
 import mocap_mj
 from mocap_mj.errors import MocapError
-from mocap_mj.identify.lm import bounded_step
-from mocap_mj.identify.losses import LOSS_NAMES, loss_named
-from mocap_mj.identify.priors import LinearGaussianPrior, Prior, total_prior, weak_prior
-from mocap_mj.identify.problem import TrialData, check_bounds, pool, unpool
+from mocap_mj.solve.lm import bounded_step
+from mocap_mj.solve.losses import LOSS_NAMES, loss_named
+from mocap_mj.solve.priors import LinearGaussianPrior, Prior, total_prior, weak_prior
+from mocap_mj.solve.problem import TrialData, check_bounds, pool, unpool
 
 
 def test_linear_gaussian_prior_gradient_and_hessian() -> None:
@@ -116,8 +116,6 @@ def _packages() -> list[str]:
         for info in pkgutil.walk_packages(pkg.__path__, f"{top}."):
             if info.ispkg:
                 names.append(info.name)
-    identify = importlib.import_module("mocap_mj.identify")
-    names += [i.name for i in pkgutil.iter_modules(identify.__path__, "mocap_mj.identify.")]
     return names
 
 

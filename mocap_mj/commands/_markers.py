@@ -11,11 +11,16 @@ from typing import NamedTuple
 
 import numpy as np
 
+from mocap_mj.capture.marker_set import (
+    load_marker_set,
+    model_with_marker_set,
+    undetermined_segments,
+)
+from mocap_mj.skeleton.mjcf import load_model
+
 from ..errors import MocapError
 from ..io import MarkerReport, MarkerTrajectory, atomic_write_text, load_markers
 from ..io.stream import CHUNK, open_markers
-from ..marker_set import load_marker_set, model_with_marker_set, undetermined_segments
-from ..model import load_model
 
 
 def add_marker_options(parser: argparse.ArgumentParser, *, several: bool = False) -> None:

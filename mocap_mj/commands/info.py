@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from mocap_mj.skeleton.parameters import ParameterSet
+
 from ..cli import add_json_flag, finish
-from ..parameters import ParameterSet
 
 
 def register(sub: Any) -> None:

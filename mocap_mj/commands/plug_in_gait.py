@@ -56,8 +56,9 @@ def register(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from mocap_mj.outputs.plug_in_gait import write_all
+
     from ..clinical import pig_from_yaml, plug_in_gait
-    from ..clinical.outputs import write_all
     from ..io.load import load_markers
 
     trial = load_markers(args.markers)
