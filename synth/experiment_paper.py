@@ -31,7 +31,13 @@ from typing import Any
 
 import numpy as np
 
-from mocap_mj.cli import add_force_flag, add_json_flag, finish, output_folder, write_summary
+from mocap_mj.commands.common import (
+    add_force_flag,
+    add_json_flag,
+    finish,
+    output_folder,
+    write_summary,
+)
 from mocap_mj.commands.progress import progress_bar
 from mocap_mj.io.atomic import atomic_write_text
 from mocap_mj.io.plots import held_interrupts

@@ -14,7 +14,8 @@ from scipy.spatial.transform import Rotation
 
 from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.errors import MocapError
-from mocap_mj.long.long import identify_long, refine
+from mocap_mj.long.long import identify_long
+from mocap_mj.long.refine import refine
 from mocap_mj.outputs import score
 from mocap_mj.outputs.score import align_gauge_free, align_truth, gauge_free
 from mocap_mj.solve.identifiability import Identifiability
@@ -371,7 +372,7 @@ def test_select_refines_with_the_sliding_weights_its_solve_used(
 
     from mocap_mj.anatomy.tissue import SLIDES
     from mocap_mj.capture.subject import Subject
-    from mocap_mj.long.long import Refinement
+    from mocap_mj.long.refine import Refinement
     from mocap_mj.pipeline import steps as pipeline
     from mocap_mj.solve.lm import LMSettings
 
@@ -476,7 +477,7 @@ def test_refinement_minimises_the_robust_cost(pset: ParameterSet, hand_zero: Han
     """With ``robust`` (the Cauchy loss and the threshold of the fit), ``refine`` on every
     frame ends where the joint LM with that loss ends, and outliers (3 % of the samples
     displaced 50 mm) do not move it as they move the least-squares refinement."""
-    from mocap_mj.long.long import robust_loss
+    from mocap_mj.long.chunks import robust_loss
     from mocap_mj.solve.lm import LMSettings, Tolerances, identify_lm
 
     exp = hand_zero.exp  # 300 ROM frames; their information at the truth

@@ -13,7 +13,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from mocap_mj.cli import add_json_flag, add_removed_flags, finish
+from mocap_mj.commands._removed import add_removed_flags
+from mocap_mj.commands.common import add_json_flag, finish
 from mocap_mj.errors import MocapError
 from mocap_mj.export.registry import Exporter
 

@@ -16,11 +16,17 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from mocap_mj.commands.common import (
+    add_force_flag,
+    add_json_flag,
+    finish,
+    output_folder,
+    write_summary,
+)
 from mocap_mj.export.read_result import ExportSource, load_result
 from mocap_mj.pipeline.motion import ResultDir
 from mocap_mj.skeleton.mjcf import load_model
 
-from ..cli import add_force_flag, add_json_flag, finish, output_folder, write_summary
 from ..clinical.compare import comparison_section, folder_angles, numbered_like
 from ..errors import MocapError
 from ..export.c3d import write_c3d

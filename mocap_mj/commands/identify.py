@@ -33,17 +33,17 @@ from mocap_mj.anatomy.plausibility import plausibility_text
 from mocap_mj.capture.checks import check_markers
 from mocap_mj.capture.marker_quality import Finding
 from mocap_mj.capture.subject import Subject
-from mocap_mj.kernels import _numba_prewarm
+from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder
 from mocap_mj.outputs.write_fit import frame_range, result_text, write_result
 from mocap_mj.pipeline.api import identify, select_count
 from mocap_mj.pipeline.recipe import Recipe
 from mocap_mj.pipeline.steps import t10_check
+from mocap_mj.skeleton import prewarm
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.ik import IKSettings
 from mocap_mj.solve.losses import LossName
 from mocap_mj.solve.problem import TrialData
 
-from ..cli import add_force_flag, add_json_flag, into_out_folder
 from ..errors import MocapError
 from ._markers import add_marker_options, load_trial, model_for
 from ._quality import (
@@ -195,7 +195,7 @@ def _identify(
     read_seconds: float | None = None,
     quality: dict[str, Any] | None = None,
 ) -> tuple[dict[str, Any], str]:
-    _numba_prewarm.start()  # the identification kernels compile on the other core meanwhile
+    prewarm.start()  # the identification kernels compile on the other core meanwhile
     from .progress import frames_bar, progress_bar
 
     total = sum(len(t.markers) for t in trials) if count is not None else 0

@@ -26,6 +26,7 @@ import numpy as np
 from mocap_mj.anatomy.plausibility import AT_LIMIT_PRINT, joints_at_limit, limits_text
 from mocap_mj.anatomy.tissue import recorded_sliding_model
 from mocap_mj.capture.checks import check_markers
+from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder, number
 from mocap_mj.outputs.write_fit import frame_range
 from mocap_mj.pipeline.motion import save_motion
 from mocap_mj.pipeline.robust_ik import solve_motion
@@ -38,7 +39,6 @@ from mocap_mj.solve.ik import IKSettings, Status
 from mocap_mj.solve.losses import LossName
 from mocap_mj.solve.problem import TrialData
 
-from ..cli import add_force_flag, add_json_flag, into_out_folder, number
 from ..errors import MocapError
 from ..export.tables import write_angles_csv
 from ..io.atomic import atomic_write_text

@@ -5,9 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from mocap_mj.commands.common import add_json_flag, finish
 from mocap_mj.skeleton.parameters import ParameterSet
-
-from ..cli import add_json_flag, finish
 
 
 def register(sub: Any) -> None:

@@ -9,7 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from ..cli import add_force_flag, add_json_flag, into_out_folder
+from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder
+
 from ..clinical.subject import PigSubject
 
 

@@ -6,10 +6,10 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from mocap_mj.commands.common import add_json_flag, finish
 from mocap_mj.io.strict_json import dumps
 from mocap_mj.outputs.score import score, score_text
 
-from ..cli import add_json_flag, finish
 from ..io.atomic import atomic_write_text
 
 

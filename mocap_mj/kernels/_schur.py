@@ -31,6 +31,7 @@ from mocap_mj.kernels import _numba_prewarm
 from mocap_mj.kernels._jit import _jit, _kernel
 from mocap_mj.kernels._tree import (
     HINGE,
+    KappaTables,
     Tree,
     _floats,
     blocks,
@@ -44,7 +45,6 @@ from mocap_mj.kernels._tree import (
     work_arrays,
 )
 from mocap_mj.kernels._tree_ik import blocked_dofs, hold_blocked
-from mocap_mj.skeleton.tree_tables import KappaTables
 
 
 @_jit

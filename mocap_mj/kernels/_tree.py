@@ -90,6 +90,37 @@ class Tree(NamedTuple):
     body_rollmax: np.ndarray
 
 
+class KappaTables(NamedTuple):
+    """(parameter, body) pairs of the kinematic parameters and the sites each pair moves.
+
+    Fields
+    ------
+    pair_k, pair_parent : (npair,) int, the parameter and the moved body's parent
+    pair_dir : (npair, 3) float, direction in the parent's frame
+    site_pairptr : (ns + 1,) int; site_pairs : (sum,) int, the pairs that move each site
+    n_kappa : int
+    pair_body : (npair,) int, the moved body (the pair moves the sites of its subtree)
+    pair_dofptr : (npair + 1,) int; pair_dofs, pair_inside : (sum,) int, bool: the dofs that
+        move some of a pair's sites, ascending, and whether the dof's body is inside the
+        pair's body's subtree (it moves only its own body's subtree) or at or above it (it
+        moves all of the pair's sites)
+    pair_pairs : (k, 3) int, [p, q, body] for every two pairs (either order, each with
+        itself) that move common sites: those of ``body``'s subtree, the deeper of theirs
+    """
+
+    pair_k: np.ndarray
+    pair_parent: np.ndarray
+    pair_dir: np.ndarray
+    site_pairptr: np.ndarray
+    site_pairs: np.ndarray
+    n_kappa: int
+    pair_body: np.ndarray
+    pair_dofptr: np.ndarray
+    pair_dofs: np.ndarray
+    pair_inside: np.ndarray
+    pair_pairs: np.ndarray
+
+
 class Work(NamedTuple):
     """Per-frame scratch arrays of :func:`solve_frame` (see :func:`work`)."""
 

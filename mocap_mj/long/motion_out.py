@@ -26,7 +26,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from mocap_mj.long.long import CHUNK, ChunkFit, Robust, Weigh, solve_chunk
+from mocap_mj.long.chunks import CHUNK, ChunkFit, Robust, Weigh, solve_chunk
 from mocap_mj.skeleton.exported import Layout
 from mocap_mj.skeleton.joint_centre_table import joint_centre_columns, joint_centre_text
 from mocap_mj.skeleton.kinematics import Kinematics
@@ -160,7 +160,7 @@ def write_every_frame_motion(
     solves a trial). ``first_frames``: each trial's first frame in its file (the CSV's frame
     column; default 0). ``progress`` is called with the frames done over all trials.
     ``weigh``: per-sample weights by pose (default None: all 1), for the warm frames from
-    their start poses' (:func:`mocap_mj.long.long.solve_chunk`), as the identification
+    their start poses' (:func:`mocap_mj.long.chunks.solve_chunk`), as the identification
     weighed its fit (its soft-tissue sliding model); ``robust``: a robust loss and its
     threshold (default None: least squares), the warm frames weighed by its IRLS weights at
     their start poses, as the identification's robust fit weighed its samples."""
@@ -254,7 +254,7 @@ def _solved(
     weigh: Weigh | None = None,
     robust: Robust | None = None,
 ) -> Iterator[np.ndarray]:
-    """The trial's poses (n, nq) chunk by chunk (:func:`mocap_mj.long.long.solve_chunk`:
+    """The trial's poses (n, nq) chunk by chunk (:func:`mocap_mj.long.chunks.solve_chunk`:
     warm from q0's finite rows, else chained), each also appended to the centres table
     (when given)."""
     nq = solver.kin.nq

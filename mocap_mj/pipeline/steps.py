@@ -22,7 +22,9 @@ from mocap_mj.anatomy.tissue import SLIDES, Slide, SlidingModel, sliding_weights
 from mocap_mj.anatomy.trunk import T10Placement, t10_placement
 from mocap_mj.capture.checks import check_determined
 from mocap_mj.capture.subject import Subject
-from mocap_mj.long.long import Robust, Weigh, refine, result_at, robust_loss, scratch_array
+from mocap_mj.long.chunks import Robust, Weigh, robust_loss, scratch_array
+from mocap_mj.long.long import result_at
+from mocap_mj.long.refine import refine
 from mocap_mj.pipeline.recipe import Recipe
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
@@ -158,7 +160,7 @@ def refine_on_every_frame(
     landmarks: Mapping[str, str] | None = None,
 ) -> tuple[IdentificationResult, dict[str, Any]]:
     """The identification on ``trials`` (frames selected from ``motion_trials``) refined on
-    every frame of ``motion_trials`` (:func:`mocap_mj.long.long.refine`) with the priors
+    every frame of ``motion_trials`` (:func:`mocap_mj.long.refine.refine`) with the priors
     and bounds of its solve: with ``anatomical`` the landmark priors (and the left/right
     prior of width ``symmetric`` [m]) weighed against the noise of ``weighting``, the
     anatomical ranges as bounds; always the weak prior, toward the subset's estimate (the
@@ -168,7 +170,7 @@ def refine_on_every_frame(
     (``subset_kappa_mm``) and ``qpos``: every frame's pose under the sample's estimate per
     motion trial (T_i, nq), the start of the motion's IK. When the solve weighed the sliding
     landmarks (``slides``, and ``weighting`` has their ``slide_base_mm``), the refinement
-    weighs them alike, by each frame's pose (:func:`~mocap_mj.long.long.refine`'s
+    weighs them alike, by each frame's pose (:func:`~mocap_mj.long.refine.refine`'s
     ``weigh``): it minimises the cost the subset's solve minimised, over every frame. With a
     robust ``settings.loss`` it minimises that loss, its threshold first the subset's solve's
     last (:func:`robust_for`), then the sample's (in the dict as ``robust``, for the motion's
@@ -219,7 +221,7 @@ def robust_for(
 ) -> Robust | None:
     """The robust loss of ``settings`` with the threshold of the fit's last iterations (the
     median distance of ``trials`` at ``result``'s poses and model,
-    :func:`~mocap_mj.long.long.robust_loss`), None for the l2 loss."""
+    :func:`~mocap_mj.long.chunks.robust_loss`), None for the l2 loss."""
     if settings.loss == "l2":
         return None
     kin = Kinematics(pset)

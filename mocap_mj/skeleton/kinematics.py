@@ -17,10 +17,11 @@ import numpy as np
 
 from mocap_mj.errors import MocapError, check_shape
 from mocap_mj.kernels import _tree
+from mocap_mj.kernels._tree import KappaTables
 from mocap_mj.skeleton import rolling
 from mocap_mj.skeleton import tree_tables as _tree_tables
 from mocap_mj.skeleton.parameters import ParameterSet
-from mocap_mj.skeleton.tree_tables import KappaTables, kappa_tables
+from mocap_mj.skeleton.tree_tables import kappa_tables
 
 
 class Frames(NamedTuple):
