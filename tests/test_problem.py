@@ -108,13 +108,14 @@ def test_bounds_are_checked_and_pooling_round_trips() -> None:
 
 
 def _packages() -> list[str]:
-    """mocap_mj, the add-on packages and every subpackage, plus the identify modules."""
+    """mocap_mj and every module of it (``__main__`` aside), the add-on packages and their
+    subpackages."""
     names = []
     for top in ("mocap_mj", "mocap_synth", "mocap_viewer"):
         pkg = importlib.import_module(top)
         names.append(top)
         for info in pkgutil.walk_packages(pkg.__path__, f"{top}."):
-            if info.ispkg:
+            if info.ispkg or (top == "mocap_mj" and not info.name.endswith("__main__")):
                 names.append(info.name)
     return names
 
