@@ -23,6 +23,7 @@ from .errors import (
 if TYPE_CHECKING:
     from mocap_mj.io.marker_names import MARKER_NAMES
     from mocap_mj.outputs.write_fit import write_result
+    from mocap_mj.pipeline.api import identify
     from mocap_mj.pipeline.fit import Fit
     from mocap_mj.pipeline.motion import Motion
     from mocap_mj.pipeline.recipe import Recipe
@@ -37,8 +38,9 @@ __version__ = "0.1.0"
 #: The names imported on first use (PEP 562), so that ``import mocap_mj`` (and the command
 #: line's start, which must answer Ctrl-C from its first moment) does not load MuJoCo and
 #: the compiled kernels before they are needed. The identification API among them:
-#: ``mocap_mj.identify(trials, recipe, subject) -> Fit`` (:func:`mocap_mj.pipeline.api.identify`)
-#:, ``write_result(fit, folder)``, ``solve_motion(model, trial) -> Motion``.
+#: ``mocap_mj.identify(trials, recipe, subject) -> Fit``
+#: (:func:`mocap_mj.pipeline.api.identify`), ``write_result(fit, folder)``,
+#: ``solve_motion(model, trial) -> Motion``.
 _LAZY = {
     "Frames": ".skeleton.kinematics",
     "Kinematics": ".skeleton.kinematics",
