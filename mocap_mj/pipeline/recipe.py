@@ -6,8 +6,8 @@ the trials' weights, the loss, the frames it identifies on for a long recording 
 refinement on every frame, the iterations and the weak prior. Every result folder holds the
 recipe it was made with (``recipe.yaml``); ``mocap-mj identify --recipe DIR/recipe.yaml`` on
 the same trials gives the same theta. How the solver gets there (its
-:class:`~.settings.Tolerances`, the command's are the defaults) and how it uses memory
-(:class:`~.settings.Performance`) are not part of a recipe.
+:class:`~mocap_mj.solve.settings.Tolerances`, the command's are the defaults) and how it uses memory
+(:class:`~mocap_mj.solve.settings.Performance`) are not part of a recipe.
 
 Lengths are in metres in the file as in the code.
 """
@@ -53,18 +53,19 @@ class Recipe:
         marker distances, the marker offsets then placed by IK; scaled = scaled only;
         nominal = the bundled model as it is.
     anatomy : bool
-        Anatomical ranges as bounds and the landmark priors (:mod:`~.anatomy`, :mod:`~.ranges`).
+        Anatomical ranges as bounds and the landmark priors (:mod:`~mocap_mj.anatomy.anatomy`,
+        :mod:`~mocap_mj.anatomy.ranges`).
     symmetric : float or None [m]
         With anatomy: a prior tying every left length to the right one with this standard
         deviation, in place of the population asymmetry prior (None: not used).
     asymmetry_prior : bool
         With anatomy and no ``symmetric``: the population asymmetry prior (``ASYMMETRY_SIGMA``).
     sliding_landmarks : bool
-        With anatomy: the landmarks' soft-tissue sliding model (:mod:`~.tissue`), applied only
-        where the residuals show soft tissue.
+        With anatomy: the landmarks' soft-tissue sliding model (:mod:`~mocap_mj.anatomy.tissue`),
+        applied only where the residuals show soft tissue.
     trial_weights : bool
         With anatomy and several trials: weigh each trial by the independent observations it
-        holds (:func:`~.noise.trial_weights`); False weighs every trial 1.
+        holds (:func:`~mocap_mj.solve.noise.trial_weights`); False weighs every trial 1.
     loss : "l2", "huber" or "cauchy"
         Loss on each marker distance.
     loss_scale : float [1]
