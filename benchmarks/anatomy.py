@@ -5,12 +5,12 @@ See docs/validation.md#real-recordings.
     python benchmarks/anatomy.py OUT_DIR [OUT_DIR ...] [--pair A B [C ...]]
 
 For every ``mocap-mj identify`` result folder: marker RMSE, kinematic parameters outside
-their anatomical range (:mod:`mocap_mj.identify.ranges`, with the measurements the run used)
+their anatomical range (:mod:`mocap_mj.anatomy.ranges`, with the measurements the run used)
 or held at a bound, left/right differences of the paired segment lengths and, where the run
 had the joint widths, the median over frames of the distance from the knee, ankle, elbow and
 wrist centres to their lateral marker minus width/2 + marker radius
-(:mod:`mocap_mj.identify.plausibility`). With ``--pair A B ...``: the largest difference
-of the joint-centre distances (:func:`mocap_mj.identify.consistency.joint_centre_lengths`)
+(:mod:`mocap_mj.anatomy.plausibility`). With ``--pair A B ...``: the largest difference
+of the joint-centre distances (:func:`mocap_mj.solve.consistency.joint_centre_lengths`)
 between every two of the models.
 """
 
@@ -21,16 +21,12 @@ import itertools
 import json
 from pathlib import Path
 
-from mocap_mj.identify.consistency import joint_centre_lengths
-from mocap_mj.identify.plausibility import (
-    kappa_outside_bounds,
-    left_right_differences,
-    width_errors,
-)
-from mocap_mj.identify.ranges import kappa_ranges
-from mocap_mj.parameters import ParameterSet
-from mocap_mj.results import load_motion
-from mocap_mj.subject import Measurement, StatureEstimate, Subject
+from mocap_mj.anatomy.plausibility import kappa_outside_bounds, left_right_differences, width_errors
+from mocap_mj.anatomy.ranges import kappa_ranges
+from mocap_mj.capture.subject import Measurement, StatureEstimate, Subject
+from mocap_mj.pipeline.motion import load_motion
+from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.consistency import joint_centre_lengths
 
 
 def report(folder: Path, pset: ParameterSet) -> str:

@@ -7,7 +7,7 @@ this writes variants of the recording with ezc3d into a scratch folder (the inpu
 read, never written: every parameter group, subject measurements included, is copied) and
 runs ``mocap-mj identify`` on the original and on each variant. Per variant it prints the
 largest difference from the original's model of any joint-centre distance
-(:func:`mocap_mj.identify.consistency.joint_centre_lengths`, as benchmarks/anatomy.py) and of
+(:func:`mocap_mj.solve.consistency.joint_centre_lengths`, as benchmarks/anatomy.py) and of
 segments.csv's lengths, the marker RMSE, the kinematic parameters outside their range or at
 a bound, the marker-quality findings, the wall time, and the expected outcome:
 
@@ -40,11 +40,11 @@ from pathlib import Path
 import ezc3d
 import numpy as np
 
-from mocap_mj.identify.consistency import joint_centre_lengths
 from mocap_mj.io import load_markers
 from mocap_mj.io.names import split_prefix
 from mocap_mj.io.orientation import rotation_to_z_up
-from mocap_mj.parameters import ParameterSet
+from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.consistency import joint_centre_lengths
 
 REAL = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real"
 DEFAULT_TRIALS = ("Movement_trial.c3d", "Test_func_rknee.c3d")

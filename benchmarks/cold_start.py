@@ -13,7 +13,7 @@ Python (the entry kernels; each includes the helpers compiled for it), from numb
 process that ``--prewarm 1`` starts; with it, that process's compile is off the demo's
 critical path). ``--prewarm 0/1``
 sets ``MOCAP_MJ_PREWARM`` (the identification kernels compiled in a second process,
-``mocap_mj/_numba_prewarm.py``; default: its own rule).
+``mocap_mj/skeleton/prewarm.py``; default: its own rule).
 
 Run: python benchmarks/cold_start.py [--python PATH] [--frames 500] [--runs 2] [--kernels]
 [--prewarm 0|1] (``--python`` another environment's interpreter, e.g. to compare with an

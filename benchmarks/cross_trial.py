@@ -26,17 +26,18 @@ from typing import Any
 import numpy as np
 
 from mocap_mj import Kinematics, ParameterSet
-from mocap_mj.identify import LMSettings, Tolerances, TrialData
-from mocap_mj.identify.api import identify
-from mocap_mj.identify.consistency import (
+from mocap_mj.io import load_markers
+from mocap_mj.pipeline.api import identify
+from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.solve.consistency import (
     correlation_time,
     excited_lengths,
     joint_centre_lengths,
     length_std,
 )
-from mocap_mj.identify.recipe import Recipe
-from mocap_mj.ik import IKSolver
-from mocap_mj.io import load_markers
+from mocap_mj.solve.ik import IKSolver
+from mocap_mj.solve.lm import LMSettings, Tolerances
+from mocap_mj.solve.problem import TrialData
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 

@@ -28,7 +28,8 @@ from pathlib import Path
 import numpy as np
 
 import mocap_mj
-from mocap_mj.identify import anatomy, ball_centres
+from mocap_mj.anatomy import anatomy, ball_centres
+from mocap_mj.capture.subject import from_c3d
 from mocap_mj.io import load_markers
 from mocap_synth import SynthConfig, synthesize
 from mocap_synth.centres import at_regression
@@ -130,7 +131,7 @@ def real(shared: Path) -> None:
             traj = load_markers(path, model_names=pset.marker_names)
             trial = mocap_mj.TrialData(str(path), traj.select(pset.marker_names), traj.times)
             with floor_off(off):
-                fit = mocap_mj.identify([trial], mocap_mj.Recipe(), mocap_mj.subject.from_c3d(path),
+                fit = mocap_mj.identify([trial], mocap_mj.Recipe(), from_c3d(path),
                                         rates=[traj.rate])  # fmt: skip
             print(_line(f"{name} {label}", fit), flush=True)
 

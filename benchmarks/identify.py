@@ -9,14 +9,14 @@ In one process on the synthetic ROM trial (`mocap_synth`, seed 0, 1 mm noise, se
    back to back in the same process: times (and the median process CPU time, the figure to
    compare under load), iterations, errors against the bound, and the
    difference of the final F in sigma^2 (the same minimum: well below 1);
-2. Algorithm 1 (this project's faithful implementation, `mocap_mj.identify.paper`) with stochastic
+2. Algorithm 1 (this project's faithful implementation, `mocap_synth.paper`) with stochastic
    and batch sampling on the same data, run for a time budget: the time it needs to reach
    the LM's parameter error (or how far it got), and the speed ratio;
 3. the LM at 500, 5,000 (and, with --large, 50,000; or --sizes) frames: seconds and peak
    traced memory (coarse+fine iterations; with --baseline also without the coarse phase).
 
 The parameter error is the RMS, over the observable directions of theta, of the difference
-to the truth aligned with the LM's estimate along the unobservable ones (`mocap_mj.score`).
+to the truth aligned with the LM's estimate along the unobservable ones (`mocap_mj.outputs.score`).
 
 Run: python benchmarks/identify.py [--budget 120] [--large] [--seeds 10] [--baseline]
      [--repeats 3] [--only-500] [--sizes 50000 --skip-to-sizes]
@@ -32,9 +32,10 @@ from typing import Any
 import numpy as np
 
 from mocap_mj import ParameterSet
-from mocap_mj.identify import LMSettings, Tolerances, TrialData, identify_lm
-from mocap_mj.identify.identifiability import Identifiability
-from mocap_mj.score import align_truth
+from mocap_mj.outputs.score import align_truth
+from mocap_mj.solve.identifiability import Identifiability
+from mocap_mj.solve.lm import LMSettings, Tolerances, identify_lm
+from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize
 
 
@@ -117,7 +118,7 @@ def main() -> None:
 
     print(f"\n2. Algorithm 1 (finite differences through IK), budget {args.budget:.0f} s each")
     try:
-        from mocap_mj.identify.paper import PaperSettings, identify_paper
+        from mocap_synth.paper import PaperSettings, identify_paper
     except ImportError:
         print("   not available")
     else:

@@ -23,15 +23,17 @@ from typing import Any
 import numba
 import numpy as np
 
-from mocap_mj import ParameterSet, _schur
-from mocap_mj import ik as ik_module
-from mocap_mj._threads import one_blas_thread
-from mocap_mj.identify import LMSettings, Tolerances, TrialData, identify_lm
-from mocap_mj.identify import lm as lm_module
-from mocap_mj.identify import problem as problem_module
-from mocap_mj.identify.coarse import coarse_rows
-from mocap_mj.ik import IKSolver
-from mocap_mj.kinematics import Kinematics
+from mocap_mj import ParameterSet
+from mocap_mj.kernels import _schur
+from mocap_mj.kernels._threads import one_blas_thread
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.solve import ik as ik_module
+from mocap_mj.solve import lm as lm_module
+from mocap_mj.solve import problem as problem_module
+from mocap_mj.solve.coarse import coarse_rows
+from mocap_mj.solve.ik import IKSolver
+from mocap_mj.solve.lm import LMSettings, Tolerances, identify_lm
+from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize
 
 CPU: dict[str, float] = collections.defaultdict(float)

@@ -25,11 +25,11 @@ import numpy as np
 
 import mocap_mj
 from mocap_mj import Kinematics, ParameterSet
-from mocap_mj._threads import one_blas_thread, single_blas_thread
-from mocap_mj.identify import LMSettings, TrialData, identify_lm
-from mocap_mj.identify import lm as lm_module
-from mocap_mj.identify.problem import build_problem
-from mocap_mj.ik import IKSolver
+from mocap_mj.kernels._threads import one_blas_thread, single_blas_thread
+from mocap_mj.solve import lm as lm_module
+from mocap_mj.solve.ik import IKSolver
+from mocap_mj.solve.lm import LMSettings, identify_lm
+from mocap_mj.solve.problem import TrialData, build_problem
 from mocap_synth import SynthConfig, synthesize
 
 

@@ -2,7 +2,7 @@
 
 All in one process, on the same data: 500 frames of the synthetic range-of-motion trial
 (`mocap_synth`, seed 0), 1 mm noise, the true model (the humanoid with fixed-hinge knees,
-which mink can solve: `mocap_mj.rolling.without`). The converged marker RMSE is taken from
+which mink can solve: `mocap_mj.skeleton.rolling.without`). The converged marker RMSE is taken from
 a tight solve; each method runs until its marker RMSE is within 0.01 mm of it, and frames/s
 is frames divided by wall time. mink (a benchmark-only dependency, `pip install .[bench]`)
 tracks the 39 sites with position-only FrameTasks, warm-started from the previous frame,
@@ -21,9 +21,10 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from mocap_mj import Kinematics, ParameterSet, rolling
-from mocap_mj.ik import IKSettings, IKSolver
-from mocap_mj.model import model_path
+from mocap_mj import Kinematics, ParameterSet
+from mocap_mj.skeleton import rolling
+from mocap_mj.skeleton.mjcf import model_path
+from mocap_mj.solve.ik import IKSettings, IKSolver
 from mocap_synth import SynthConfig, synthesize
 
 
@@ -86,7 +87,7 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=5, help="best of this many runs (ours)")
     args = parser.parse_args()
     # mink solves MuJoCo's joints only: every method works on the humanoid with fixed-hinge
-    # knees (mocap_mj.rolling.without), the truth included.
+    # knees (mocap_mj.skeleton.rolling.without), the truth included.
     with tempfile.TemporaryDirectory() as tmp:
         plain = Path(tmp) / "humanoid.xml"
         plain.write_text(rolling.without(model_path().read_text()))

@@ -30,13 +30,14 @@ from typing import Any
 import numba
 import numpy as np
 
-from mocap_mj import ParameterSet, _schur, _tree
-from mocap_mj._threads import one_blas_thread
-from mocap_mj.identify import LMSettings, TrialData, identify_lm
-from mocap_mj.identify.coarse import coarse_rows
-from mocap_mj.identify.lm import solver_joint_range
-from mocap_mj.ik import IKSolver
-from mocap_mj.kinematics import Kinematics
+from mocap_mj import ParameterSet
+from mocap_mj.kernels import _schur, _tree
+from mocap_mj.kernels._threads import one_blas_thread
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.solve.coarse import coarse_rows
+from mocap_mj.solve.ik import IKSolver
+from mocap_mj.solve.lm import LMSettings, identify_lm, solver_joint_range
+from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize
 
 FRAMES = 500

@@ -6,14 +6,15 @@
 The recording is synthetic: a ROM trial (first half) then a walk (second half) of the same
 subject (one seed: one truth model), 1 mm noise. It is synthesized once into ``--cache`` (in a
 child process, so that its memory is not counted) as ``.npy`` files that the timed run reads
-as memory maps. The timed part is :func:`mocap_mj.identify.long.identify_long`: selection,
+as memory maps. The timed part is :func:`mocap_mj.long.long.identify_long`: selection,
 identification on the selection, the refinement (Gauss-Newton steps on a 20,000-frame
 sample, then one step on every frame: IK of every frame and its reduced gradient, in
 chunks), the IK of every frame with the refined model into a memory-mapped ``.npy``.
 
 Then, untimed, the accuracy: the parameter error against the truth (aligned along the
 directions the data cannot determine, as ``mocap-mj score`` does, but with the wrist's
-hinges widened: :func:`mocap_mj.score.align_gauge_free`; also printed aligned within the limits),
+hinges widened: :func:`mocap_mj.outputs.score.align_gauge_free`; also printed aligned within the
+limits),
 in the observable directions, of the subset's estimate and of the refined one, against the
 Cramer-Rao bound of the selected frames and of all frames. The all-frames information is
 summed over every ``--info-stride``-th frame and scaled by the stride (frames of an hour
@@ -37,12 +38,12 @@ import numpy as np
 from numpy.lib.format import open_memmap
 
 from mocap_mj import Kinematics, ParameterSet
-from mocap_mj.identify.identifiability import Identifiability
-from mocap_mj.identify.lm import LMResult, LMSettings, TrialData, identify_lm
-from mocap_mj.identify.long import identify_long
-from mocap_mj.identify.problem import IdentificationProblem
-from mocap_mj.model import model_path
-from mocap_mj.score import align_gauge_free, align_truth
+from mocap_mj.long.long import identify_long
+from mocap_mj.outputs.score import align_gauge_free, align_truth
+from mocap_mj.skeleton.mjcf import model_path
+from mocap_mj.solve.identifiability import Identifiability
+from mocap_mj.solve.lm import LMResult, LMSettings, TrialData, identify_lm
+from mocap_mj.solve.problem import IdentificationProblem
 
 
 def model_digest() -> str:
@@ -86,7 +87,7 @@ def observable_error(
 ) -> np.ndarray:
     """The error (P,) [m] of theta against the truth aligned on the clean markers of
     ``frames``, in idf's observable directions: the hand's zero free
-    (:func:`mocap_mj.score.align_gauge_free`) or, without ``hand_zero_free``, within pset's
+    (:func:`mocap_mj.outputs.score.align_gauge_free`) or, without ``hand_zero_free``, within pset's
     limits."""
     align = align_gauge_free if hand_zero_free else align_truth
     aligned = align(pset, theta, np.asarray(clean[frames]), times[frames])
@@ -228,7 +229,7 @@ def main() -> None:
         frames = np.linspace(0, n - 1, args.count).round().astype(int)
         sub = np.asarray(markers[frames])
         t = time.perf_counter()
-        from mocap_mj.identify.initial import place_markers, scaled_theta, segment_scales
+        from mocap_mj.anatomy.initial import place_markers, scaled_theta, segment_scales
 
         th0 = place_markers(pset, scaled_theta(pset, [sub], scales=segment_scales(pset, [sub])),
                             [sub])  # fmt: skip

@@ -17,7 +17,7 @@ anatomical priors and ranges, the refinement on every frame, the IK of every fra
 chunk): wall time, the child's peak RSS (``/usr/bin/time``), and its stages from
 summary.json. Untimed, the accuracy: the identified theta (theta.json) against the cached
 truth, aligned and restricted to the observable directions as ``benchmarks/long.py`` does
-(the hand's and the forearms' zeros free, :func:`mocap_mj.score.align_gauge_free`), beside
+(the hand's and the forearms' zeros free, :func:`mocap_mj.outputs.score.align_gauge_free`), beside
 the Cramer-Rao bound of all frames (the information of every ``--info-stride``-th frame at
 the written motion's poses, x the stride). Prints the figures and a JSON line.
 """
@@ -39,7 +39,7 @@ import numpy as np
 from mocap_mj import ParameterSet
 from mocap_mj.io import MarkerTrajectory, save_trc
 from mocap_mj.io.formats.c3d_write import write_markers_c3d
-from mocap_mj.results import load_motion
+from mocap_mj.pipeline.motion import load_motion
 
 sys.path.insert(0, str(Path(__file__).parent))
 from long import all_frames_bound, observable_error, rms, worst_markers

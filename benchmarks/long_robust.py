@@ -34,9 +34,9 @@ from pathlib import Path
 import numpy as np
 
 from mocap_mj import Kinematics, ParameterSet
-from mocap_mj.identify.identifiability import Identifiability
-from mocap_mj.identify.problem import IdentificationProblem
-from mocap_mj.results import load_motion
+from mocap_mj.pipeline.motion import load_motion
+from mocap_mj.solve.identifiability import Identifiability
+from mocap_mj.solve.problem import IdentificationProblem
 
 sys.path.insert(0, str(Path(__file__).parent))
 from long import observable_error, rms

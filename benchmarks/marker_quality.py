@@ -1,4 +1,4 @@
-"""Speed of the marker-data quality check (:mod:`mocap_mj.marker_quality`); prints figures.
+"""Speed of the marker-data quality check (:mod:`mocap_mj.capture.marker_quality`); prints figures.
 
     python benchmarks/marker_quality.py [--frames 1000 10000 100000 360000] [--repeat 3]
 
@@ -15,8 +15,8 @@ import time
 
 import numpy as np
 
-from mocap_mj.marker_quality import check_marker_quality, marker_segments
-from mocap_mj.parameters import ParameterSet
+from mocap_mj.capture.marker_quality import check_marker_quality, marker_segments
+from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_synth import SynthConfig, synthesize
 
 

@@ -12,7 +12,7 @@ two landmark markers (lateral and medial) the recording holds, the median over f
 the distance from the joint centre to the midpoint of the two markers' fitted positions
 (the identified model's markers in its identified poses). Last, for the three trials of
 one subject (the biobuddy trials), the largest difference of any joint-centre distance
-between every two of their models (:func:`mocap_mj.identify.consistency.joint_centre_lengths`).
+between every two of their models (:func:`mocap_mj.solve.consistency.joint_centre_lengths`).
 """
 
 from __future__ import annotations
@@ -27,21 +27,21 @@ from pathlib import Path
 
 import numpy as np
 
-from mocap_mj import rolling
-from mocap_mj.cli import main as cli
-from mocap_mj.identify.consistency import joint_centre_lengths
-from mocap_mj.identify.plausibility import (
+from mocap_mj.anatomy.plausibility import (
     PAIR_JOINTS,
     kappa_outside_bounds,
     left_right_differences,
     pair_centre_gaps,
 )
-from mocap_mj.identify.ranges import kappa_ranges
-from mocap_mj.landmarks import WIDTH_PAIRS
-from mocap_mj.marker_set import MarkerSet, load_marker_set, model_with_marker_set
-from mocap_mj.parameters import ParameterSet
-from mocap_mj.results import load_motion
-from mocap_mj.subject import Measurement, StatureEstimate, Subject
+from mocap_mj.anatomy.ranges import kappa_ranges
+from mocap_mj.capture.landmarks import WIDTH_PAIRS
+from mocap_mj.capture.marker_set import MarkerSet, load_marker_set, model_with_marker_set
+from mocap_mj.capture.subject import Measurement, StatureEstimate, Subject
+from mocap_mj.cli import main as cli
+from mocap_mj.pipeline.motion import load_motion
+from mocap_mj.skeleton import rolling
+from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.consistency import joint_centre_lengths
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data"
@@ -75,9 +75,9 @@ def centre_to_midpoint(
 ) -> dict[str, tuple[float, float]]:
     """Per joint and side (``knee_l``...) with both landmark markers in ``seen``: |joint
     centre - midpoint of the two markers' fitted positions| [m] in the model's reference
-    pose (:func:`~mocap_mj.identify.plausibility.pair_centre_gaps`: the knee extended) and
+    pose (:func:`~mocap_mj.anatomy.plausibility.pair_centre_gaps`: the knee extended) and
     its median over the frames ``qpos`` (T, nq). They differ only at the knee, whose centre
-    rolls back with flexion (:mod:`mocap_mj.rolling`)."""
+    rolls back with flexion (:mod:`mocap_mj.skeleton.rolling`)."""
     landmarks = {m.name: m.landmark for m in ms.markers if m.landmark}
     ref = pair_centre_gaps(pset, theta, landmarks, seen)
     model = pset.model_for(theta)

@@ -26,9 +26,10 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from mocap_mj import Kinematics, ParameterSet, exported
-from mocap_mj.joint_centres import centre_bodies
-from mocap_mj.results import ResultDir
+from mocap_mj import Kinematics, ParameterSet
+from mocap_mj.pipeline.motion import ResultDir
+from mocap_mj.skeleton import exported
+from mocap_mj.skeleton.joint_centres import centre_bodies
 
 
 def kinematics_errors(rd: ResultDir) -> tuple[float, float, int, float]:

@@ -32,9 +32,9 @@ import numpy as np
 
 from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.export.opensim_ik import run_opensim_ik
-from mocap_mj.export.result import load_result
-from mocap_mj.ik import IKSettings, IKSolver
+from mocap_mj.export.read_result import load_result
 from mocap_mj.io import load_markers
+from mocap_mj.solve.ik import IKSettings, IKSolver
 from mocap_synth import SynthConfig, synthesize
 
 REAL = Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "real"

@@ -5,7 +5,7 @@ For each seed: the demo's experiment (range of motion, 1 mm noise, segment lengt
 offsets +-20 mm) with only the 16 Plug-in Gait lower-body markers kept (the others NaN in
 every frame), identified with :func:`mocap_mj.identify` as ``mocap-mj demo`` does (anatomical
 priors and ranges on). Prints the noise estimate against the simulated noise, the error of the
-measured kinematic parameters (projected on the observable directions, as ``mocap_mj.score``
+measured kinematic parameters (projected on the observable directions, as ``mocap_mj.outputs.score``
 does) against their Cramer-Rao bound from that fit's reduced information, the same for the
 measured marker offsets, and the largest distance of a frozen parameter from its prior mean
 (the initial model: 0 when frozen).
@@ -23,10 +23,10 @@ from pathlib import Path
 import numpy as np
 
 from mocap_mj import ParameterSet
-from mocap_mj.identify import TrialData
-from mocap_mj.identify.api import identify
-from mocap_mj.identify.output import write_result
-from mocap_mj.identify.recipe import Recipe
+from mocap_mj.outputs.write_fit import write_result
+from mocap_mj.pipeline.api import identify
+from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize
 
 LOWER = "LASI RASI LPSI RPSI LTHI LKNE LTIB LANK LHEE LTOE RTHI RKNE RTIB RANK RHEE RTOE".split()

@@ -32,8 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from mocap_mj import ParameterSet
-from mocap_mj._fixed_text import csv_rows
 from mocap_mj.io import rotation_to_z_up
+from mocap_mj.kernels._fixed_text import csv_rows
 
 #: Frames formatted at a time by the writers.
 CHUNK = 20_000

@@ -24,8 +24,8 @@ from pathlib import Path
 
 from anatomy import pair_line, report
 
-from mocap_mj.identify.plausibility import limits_text
-from mocap_mj.parameters import ParameterSet
+from mocap_mj.anatomy.plausibility import limits_text
+from mocap_mj.skeleton.parameters import ParameterSet
 
 TRIALS = ["Test_func_rknee", "anatomical_posture", "Test_func_rhip", "Movement_trial",
           "Static_trial"]  # fmt: skip

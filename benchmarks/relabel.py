@@ -8,7 +8,7 @@ touched): RKNE with RTIB and LASI with RASI over the whole trial, LTHI with LKNE
 middle third of the frames (LTHI missing for the 3 frames before it and LKNE for the 3 after:
 a swap between two occlusions), and the two front head markers with the two back ones
 (LFHD/RFHD with LBHD/RBHD). For each trial the script prints the time of
-:func:`mocap_mj.relabel.find_label_errors` on the unmodified data and on the data with all
+:func:`mocap_mj.pipeline.relabel.find_label_errors` on the unmodified data and on the data with all
 four exchanges, the corrections found, whether each exchange was found with its markers and
 frames, and whether the corrected data equal the original (present samples, bit for bit).
 
@@ -37,9 +37,9 @@ import numpy as np
 
 from mocap_mj.cli import main as cli
 from mocap_mj.io import MarkerTrajectory, load_markers, save_csv
-from mocap_mj.kinematics import Kinematics
-from mocap_mj.parameters import ParameterSet
-from mocap_mj.relabel import Relabel, apply_relabels, find_label_errors, reference_theta
+from mocap_mj.pipeline.relabel import Relabel, apply_relabels, find_label_errors, reference_theta
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.skeleton.parameters import ParameterSet
 
 HERE = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 

@@ -2,7 +2,7 @@
 
 For each seed: the demo's experiment (500-frame range-of-motion trial, 1 mm noise, segment
 lengths ±10 %, offsets ±20 mm), identified with `mocap_mj.identify` and scored against the
-truth (`mocap_mj.score`): fit RMSE, iterations, kappa / offset errors over the bound, joint
+truth (`mocap_mj.outputs.score`): fit RMSE, iterations, kappa / offset errors over the bound, joint
 centres, observable directions.
 
 With the anatomical priors on (the default, as in ``mocap-mj demo``) the bound is printed
@@ -27,14 +27,15 @@ from typing import Any
 import numpy as np
 
 from mocap_mj import ParameterSet
-from mocap_mj.identify import LMSettings, Performance, Tolerances, TrialData
-from mocap_mj.identify.anatomy import ASYMMETRY_SIGMA
-from mocap_mj.identify.api import identify
-from mocap_mj.identify.output import write_result
-from mocap_mj.identify.pipeline import anatomical_priors, prior_information
-from mocap_mj.identify.recipe import Recipe
-from mocap_mj.score import score
-from mocap_mj.subject import Subject
+from mocap_mj.anatomy.anatomy import ASYMMETRY_SIGMA
+from mocap_mj.capture.subject import Subject
+from mocap_mj.outputs.score import score
+from mocap_mj.outputs.write_fit import write_result
+from mocap_mj.pipeline.api import identify
+from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.pipeline.steps import anatomical_priors, prior_information
+from mocap_mj.solve.lm import LMSettings, Performance, Tolerances
+from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize, write_experiment
 from mocap_synth.config import MARKER_PLACEMENTS
 

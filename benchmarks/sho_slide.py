@@ -4,10 +4,10 @@
 
 For each seed: the demo's synthetic range-of-motion trial (``mocap_synth``), each SHO moved
 towards its sternoclavicular joint by ``rate`` [m/rad] x humerothoracic elevation (the
-upper arm's tilt from the thorax, :func:`mocap_mj.identify.tissue.slide_angles`; the
+upper arm's tilt from the thorax, :func:`mocap_mj.anatomy.tissue.slide_angles`; the
 direction of the slide on the shared Movement/Static trials), then ``solve_anatomical``
 without a sliding model and with
-:data:`~mocap_mj.identify.tissue.SHOULDER_SLIDE`. Prints the clavicle lengths' errors (SC
+:data:`~mocap_mj.anatomy.tissue.SHOULDER_SLIDE`. Prints the clavicle lengths' errors (SC
 joint to glenohumeral centre) and the glenohumeral centres' RMS error over frames [mm].
 """
 
@@ -18,10 +18,11 @@ import argparse
 import numpy as np
 
 from mocap_mj import Kinematics, ParameterSet
-from mocap_mj.identify import LMSettings, TrialData
-from mocap_mj.identify.pipeline import solve_anatomical
-from mocap_mj.identify.tissue import SHOULDER_SLIDE, slide_angles
-from mocap_mj.subject import Subject
+from mocap_mj.anatomy.tissue import SHOULDER_SLIDE, slide_angles
+from mocap_mj.capture.subject import Subject
+from mocap_mj.pipeline.steps import solve_anatomical
+from mocap_mj.solve.lm import LMSettings
+from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize
 
 

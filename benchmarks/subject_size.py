@@ -7,7 +7,7 @@ each DIR of the same recording with every marker coordinate multiplied by SCALE 
 0.55-0.75 the size, a tall adult at 1.15; no height in the files, so the runs use the stature
 estimated from the markers). For each DIR: the stature estimate, the kinematic parameters at
 a bound of their anatomical range, and every joint-centre distance
-(:func:`mocap_mj.identify.consistency.joint_centre_lengths`) against REF_DIR's times SCALE:
+(:func:`mocap_mj.solve.consistency.joint_centre_lengths`) against REF_DIR's times SCALE:
 the largest relative difference and the distances beyond ``--tolerance`` (default 3 %).
 The markers themselves are scaled, so a size-independent pipeline would give REF_DIR's model
 times SCALE exactly; the differences measure what does not scale (constants in millimetres:
@@ -20,8 +20,8 @@ import argparse
 import json
 from pathlib import Path
 
-from mocap_mj.identify.consistency import joint_centre_lengths
-from mocap_mj.parameters import ParameterSet
+from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.consistency import joint_centre_lengths
 
 
 def _model(folder: Path, pset: ParameterSet) -> tuple[dict, dict[str, float]]:

@@ -8,9 +8,10 @@ landmarks placed anatomically), a range-of-motion or walking trial (1 mm white n
 (1 mm white noise) whose every marker carries one constant soft-tissue offset (``--static-mm``
 RMS per axis, random per marker, the same in every frame). Both are identified together by
 :func:`mocap_mj.identify` with the default priors and ``init="nominal"``, once with the
-per-trial weights (:func:`mocap_mj.identify.noise.trial_weights`) and once with every weight 1
+per-trial weights (:func:`mocap_mj.solve.noise.trial_weights`) and once with every weight 1
 (``Recipe(trial_weights=False)``); printed: the weights, the kinematic parameters' and joint
-centres' RMS errors against the truth (:func:`mocap_mj.score.score`, on the movement trial) for
+centres' RMS errors against the truth (:func:`mocap_mj.outputs.score.score`, on the movement trial)
+for
 both, and the movement alone for reference. With ``--static-mm 0 --sta-mm 0`` (white noise only) the
 weights must all be 1.
 
@@ -27,11 +28,12 @@ from pathlib import Path
 import numpy as np
 
 from mocap_mj import ParameterSet
-from mocap_mj.identify import LMSettings, TrialData
-from mocap_mj.identify.api import identify
-from mocap_mj.identify.output import write_result
-from mocap_mj.identify.recipe import Recipe
-from mocap_mj.score import score
+from mocap_mj.outputs.score import score
+from mocap_mj.outputs.write_fit import write_result
+from mocap_mj.pipeline.api import identify
+from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.solve.lm import LMSettings
+from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
 

@@ -1,7 +1,7 @@
 """Synthetic subjects whose hip centres sit where their regression puts them, or off it.
 
 :func:`at_regression` moves an experiment's truth hip centres onto the Harrington et al.
-(2007) regression of its own pelvis markers (``mocap_mj.identify.anatomy``'s rows, the
+(2007) regression of its own pelvis markers (``mocap_mj.anatomy.anatomy``'s rows, the
 prior the identification uses), optionally shifted by a given amount per parameter, and
 moves the measured markers with them (the soft-tissue artefact and the noise unchanged: the
 artefact depends on the motion's rotations alone). The tests and
@@ -15,9 +15,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from mocap_mj.identify.anatomy import landmark_prior
-from mocap_mj.identify.ball_centres import centre_rows
-from mocap_mj.kinematics import Kinematics
+from mocap_mj.anatomy.anatomy import landmark_prior
+from mocap_mj.anatomy.ball_centres import centre_rows
+from mocap_mj.skeleton.kinematics import Kinematics
 
 from .experiment import Experiment
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from mocap_mj.cli import add_force_flag, add_json_flag, add_removed_flags, finish
+from mocap_mj.commands._removed import add_removed_flags
+from mocap_mj.commands.common import add_force_flag, add_json_flag, finish
 
 from .config import MOTIONS, ConfigError, SynthConfig
 from .experiment import synthesize, write_experiment

@@ -20,26 +20,21 @@ from typing import Any
 
 import numpy as np
 
-from mocap_mj import _numba_prewarm
-from mocap_mj.cli import (
-    add_force_flag,
-    add_json_flag,
-    add_removed_flags,
-    into_out_folder,
-    prepare_out,
-)
+from mocap_mj.capture.subject import Subject
+from mocap_mj.commands._removed import add_removed_flags
+from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder, prepare_out
 from mocap_mj.commands.progress import progress_bar
-from mocap_mj.identify.api import identify
-from mocap_mj.identify.fit import Fit
-from mocap_mj.identify.output import expected_rmse, write_result
-from mocap_mj.identify.pipeline import anatomical_priors, prior_information
-from mocap_mj.identify.problem import TrialData
-from mocap_mj.identify.recipe import Recipe
-from mocap_mj.ik import IKSolver
-from mocap_mj.kinematics import Kinematics
-from mocap_mj.parameters import ParameterSet
-from mocap_mj.score import score
-from mocap_mj.subject import Subject
+from mocap_mj.outputs.score import score
+from mocap_mj.outputs.write_fit import expected_rmse, write_result
+from mocap_mj.pipeline.api import identify
+from mocap_mj.pipeline.fit import Fit
+from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.pipeline.steps import anatomical_priors, prior_information
+from mocap_mj.skeleton import prewarm
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.ik import IKSolver
+from mocap_mj.solve.problem import TrialData
 
 from .config import SynthConfig
 from .experiment import synthesize, write_experiment
@@ -137,7 +132,7 @@ def _held_out(pset: ParameterSet, theta: np.ndarray, walk: Any) -> dict[str, Any
 def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str, Any], str]:
     """Run the demo writing into ``staging``; messages and paths name ``out``."""
     t0 = time.perf_counter()
-    _numba_prewarm.start()  # the identification kernels compile on the other core meanwhile
+    prewarm.start()  # the identification kernels compile on the other core meanwhile
     cfg = SynthConfig(frames=args.frames, noise_mm=args.noise_mm, seed=args.seed)
     pset = ParameterSet()
     exp = synthesize(cfg, pset)

@@ -14,12 +14,12 @@ from typing import Any
 
 import numpy as np
 
-from mocap_mj.exported import Layout
 from mocap_mj.io import MarkerTrajectory, atomic_write_text, save_csv, save_trc
 from mocap_mj.io.atomic import atomic_folder
-from mocap_mj.kinematics import Kinematics
-from mocap_mj.parameters import ParameterSet
-from mocap_mj.results import Motion, save_motion
+from mocap_mj.pipeline.motion import Motion, save_motion
+from mocap_mj.skeleton.exported import Layout
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.skeleton.parameters import ParameterSet
 
 from . import noise
 from .config import SynthConfig

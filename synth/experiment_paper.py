@@ -2,8 +2,8 @@
 
 One synthetic trial (5 s at 100 Hz, range-of-motion preset, 1 mm noise, truth model perturbed
 from the nominal one) is identified from the nominal model by Algorithm 1
-(:mod:`mocap_mj.identify.paper`) with the paper's four frame samplings, and by the project's
-joint LM (:func:`mocap_mj.identify.identify_lm`). Every identified model is then evaluated the
+(:mod:`mocap_synth.paper`) with the paper's four frame samplings, and by the project's
+joint LM (:func:`mocap_mj.solve.lm.identify_lm`). Every identified model is then evaluated the
 same way: IK of every frame with that model, marker error per frame (Fig 3) and accumulated
 over the trial (Fig 4), and parameter errors against the truth.
 
@@ -31,11 +31,22 @@ from typing import Any
 
 import numpy as np
 
-from mocap_mj.cli import add_force_flag, add_json_flag, finish, output_folder, write_summary
+from mocap_mj.commands.common import (
+    add_force_flag,
+    add_json_flag,
+    finish,
+    output_folder,
+    write_summary,
+)
 from mocap_mj.commands.progress import progress_bar
-from mocap_mj.identify.identifiability import Identifiability
-from mocap_mj.identify.lm import LMSettings, TrialData, identify_lm
-from mocap_mj.identify.paper import (
+from mocap_mj.io.atomic import atomic_write_text
+from mocap_mj.io.plots import held_interrupts
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.identifiability import Identifiability
+from mocap_mj.solve.ik import IKSolver
+from mocap_mj.solve.lm import LMSettings, TrialData, identify_lm
+from mocap_synth.paper import (
     DEFAULT_DELTA,
     DEFAULT_STEP,
     PaperResult,
@@ -43,11 +54,6 @@ from mocap_mj.identify.paper import (
     identify_paper,
     reduced_information,
 )
-from mocap_mj.ik import IKSolver
-from mocap_mj.io.atomic import atomic_write_text
-from mocap_mj.kinematics import Kinematics
-from mocap_mj.parameters import ParameterSet
-from mocap_mj.plots import held_interrupts
 
 from .config import SynthConfig
 from .experiment import Experiment, synthesize
@@ -491,7 +497,7 @@ def report_lines(summary: Mapping[str, Any]) -> list[str]:
 def plot_frame_error(path: Path, times: np.ndarray, errors: Mapping[str, np.ndarray]) -> None:
     """Fig 3: marker error per frame (mm) for each model."""
     try:
-        from mocap_mj.plots import plot_marker_error_per_frame
+        from mocap_mj.io.plots import plot_marker_error_per_frame
     except ImportError:
         _plot_series(path, times, errors, cumulative=False)
         return
@@ -501,7 +507,7 @@ def plot_frame_error(path: Path, times: np.ndarray, errors: Mapping[str, np.ndar
 def plot_accumulated(path: Path, times: np.ndarray, errors: Mapping[str, np.ndarray]) -> None:
     """Fig 4: marker error accumulated over the frames (mm)."""
     try:
-        from mocap_mj.plots import plot_error_accumulation
+        from mocap_mj.io.plots import plot_error_accumulation
     except ImportError:
         _plot_series(path, times, errors, cumulative=True)
         return
@@ -576,7 +582,7 @@ def measure_steps(
     progress: bool = False,
 ) -> dict[str, Any]:
     """Gradient accuracy against Delta and IK iterations; runs for several alpha and Delta."""
-    from mocap_mj.identify.paper import GradientEstimator, analytic_gradient
+    from mocap_synth.paper import GradientEstimator, analytic_gradient
 
     exp = synthesize(SynthConfig(frames=frames, rate=100.0, seed=seed, marker_placement="uniform"))
     pset = exp.pset

@@ -6,9 +6,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from mocap_mj.anatomy.anatomy import ALIGNMENT, landmark_prior
 from mocap_mj.errors import MocapError
-from mocap_mj.identify.anatomy import ALIGNMENT, landmark_prior
-from mocap_mj.parameters import ParameterSet
+from mocap_mj.skeleton.parameters import ParameterSet
 
 from .config import MARKER_PLACEMENTS
 
@@ -126,7 +126,7 @@ def _draw_alignment(
     pset: ParameterSet, rng: np.random.Generator, theta: np.ndarray, symmetric: bool, scale: float
 ) -> None:
     """Draw the frontal-plane alignment parameters into ``theta`` (P,) [m] in place, each from
-    its prior (:data:`mocap_mj.identify.anatomy.ALIGNMENT`): normal with mean ``tan(mean)``
+    its prior (:data:`mocap_mj.anatomy.anatomy.ALIGNMENT`): normal with mean ``tan(mean)``
     and standard deviation ``scale x tan(sd)`` x its segment's nominal length; at ``scale``
     1 (the default ``kappa_scale``) the spread of healthy adults that the prior rows
     describe, so a demo tests the rows as well as the data; at 0 none, as for the lengths."""
@@ -153,7 +153,7 @@ def place_landmarks(
 ) -> np.ndarray:
     """theta (P,) [m] with its landmark markers where the marker set's anatomy puts them.
 
-    The rows of :func:`mocap_mj.identify.anatomy.landmark_prior` (no subject measurements,
+    The rows of :func:`mocap_mj.anatomy.anatomy.landmark_prior` (no subject measurements,
     nominal stature) say where each Plug-in Gait landmark sits relative to the skeleton, as
     ``a_r . theta = b_r`` with a placement width ``sigma_r`` per row. Each row draws a
     placement error ``e_r ~ N(0, sigma_r^2)``, and the marker offsets the rows name are moved

@@ -6,7 +6,7 @@ import mujoco
 import numpy as np
 
 from mocap_mj import Kinematics
-from mocap_mj.ik import IKSolver
+from mocap_mj.solve.ik import IKSolver
 
 
 def smooth_motion(kin: Kinematics, frames: int, *, seed: int = 0, amp: float = 0.5) -> np.ndarray:

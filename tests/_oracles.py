@@ -5,9 +5,9 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from mocap_mj.identify.problem import IdentificationProblem
-from mocap_mj.ik import IKResult, IKSolver, Status
-from mocap_mj.kinematics import Kinematics
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.solve.ik import IKResult, IKSolver, Status
+from mocap_mj.solve.problem import IdentificationProblem
 
 
 def normal_equations(
@@ -178,11 +178,11 @@ def mj_site_jacobian(kin: Kinematics, q: np.ndarray) -> np.ndarray:
 
 def mj_jacobians(kin: Kinematics, q: np.ndarray, kind: str) -> np.ndarray:
     """MuJoCo's Jacobians of every site (``kind="site"``, (M, 3, nv)) or body origin
-    (``"body"``, (nbody, 3, nv)) at pose q (nq,), with the knee rolling (mocap_mj.rolling)
+    (``"body"``, (nbody, 3, nv)) at pose q (nq,), with the knee rolling (mocap_mj.skeleton.rolling)
     placed and its term added: ``mj_jacSite``/``mj_jacBody`` of the placed bodies plus, for a
     point below a rolling body, the origin's velocity R_parent dt/dq in the flexion column
     (MuJoCo knows the hinge, not the coupling)."""
-    from mocap_mj import rolling
+    from mocap_mj.skeleton import rolling
 
     m = kin.model
     data = mujoco.MjData(m)

@@ -13,17 +13,12 @@ import pytest
 from _motion import smooth_motion
 
 from mocap_mj import Kinematics, MocapError, ParameterSet
-from mocap_mj.identify import LMSettings, TrialData
-from mocap_mj.identify.anatomy import (
-    ALIGNMENT,
-    SIGMA_REGRESSED,
-    landmark_prior,
-    marker_prior_table,
-)
-from mocap_mj.identify.identifiability import Identifiability
-from mocap_mj.identify.pipeline import anatomical_priors, prior_information, solve_anatomical
-from mocap_mj.identify.problem import reduced_information
-from mocap_mj.subject import Subject
+from mocap_mj.anatomy.anatomy import ALIGNMENT, SIGMA_REGRESSED, landmark_prior, marker_prior_table
+from mocap_mj.capture.subject import Subject
+from mocap_mj.pipeline.steps import anatomical_priors, prior_information, solve_anatomical
+from mocap_mj.solve.identifiability import Identifiability
+from mocap_mj.solve.lm import LMSettings
+from mocap_mj.solve.problem import TrialData, reduced_information
 from mocap_synth.perturb import perturb_theta, place_landmarks
 
 ALIGNED = ("knee_lateral_l", "knee_lateral_r", "ankle_lateral_l", "ankle_lateral_r")

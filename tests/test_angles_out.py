@@ -1,4 +1,4 @@
-"""angles.csv of a long recording, written chunk by chunk (mocap_mj.identify.angles_out): the
+"""angles.csv of a long recording, written chunk by chunk (mocap_mj.long.angles_out): the
 same table as the whole motion's (export --to angles), whatever the chunk."""
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ from _motion import smooth_motion
 from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.cli import main
 from mocap_mj.export.clinical import angles_table_text
-from mocap_mj.exported import Layout
-from mocap_mj.identify.angles_out import write_angle_chunks
-from mocap_mj.results import Motion, save_motion
+from mocap_mj.long.angles_out import write_angle_chunks
+from mocap_mj.pipeline.motion import Motion, save_motion
+from mocap_mj.skeleton.exported import Layout
 
 
 def test_chunked_angles_are_the_whole_motions(tmp_path: Path) -> None:

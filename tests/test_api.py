@@ -13,14 +13,14 @@ import pytest
 
 import mocap_mj
 from mocap_mj import cli
+from mocap_mj.capture.subject import from_c3d
 from mocap_mj.errors import InputFileError
 from mocap_mj.io import load_markers
-from mocap_mj.model import load_model
-from mocap_mj.results import load_motion
-from mocap_mj.subject import from_c3d
+from mocap_mj.pipeline.motion import load_motion
+from mocap_mj.skeleton.mjcf import load_model
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
-STATIC = Path("/work/shared/data/real/Static_trial.c3d")
+STATIC = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "Static_trial.c3d"
 #: The frames of the shared recording both runs fit: enough for a determined fit, quick.
 WINDOW = (0, 100)
 

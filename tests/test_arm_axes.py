@@ -1,6 +1,6 @@
 """Elbow and wrist flexion axes: Plug-in Gait's construction (the axis through ELB, the
 wrist bar) where a trial cannot place them, the motion's where it can
-(mocap_mj.identify.arm_axes), on synthetic subjects whose axes are known."""
+(mocap_mj.anatomy.arm_axes), on synthetic subjects whose axes are known."""
 
 from __future__ import annotations
 
@@ -9,11 +9,12 @@ import pytest
 from _motion import smooth_motion
 
 from mocap_mj import Kinematics, ParameterSet
-from mocap_mj.identify import LMSettings, TrialData
-from mocap_mj.identify.anatomy import landmark_prior
-from mocap_mj.identify.arm_axes import arm_angle, lever
-from mocap_mj.identify.pipeline import solve_anatomical
-from mocap_mj.subject import Subject
+from mocap_mj.anatomy.anatomy import landmark_prior
+from mocap_mj.anatomy.arm_axes import arm_angle, lever
+from mocap_mj.capture.subject import Subject
+from mocap_mj.pipeline.steps import solve_anatomical
+from mocap_mj.solve.lm import LMSettings
+from mocap_mj.solve.problem import TrialData
 
 WRIST_WIDTH = 0.05  # m: the bar's mid-point 32 mm dorsal of the wrist centre (r 7 mm)
 ARMS = ("elbow_l", "elbow_r", "wrist_l", "wrist_r")

@@ -1,5 +1,5 @@
 """Knee flexion axes: Plug-in Gait's chord plane where a trial cannot place them, the
-motion's where it can (mocap_mj.identify.axes), on synthetic subjects whose axes are known."""
+motion's where it can (mocap_mj.anatomy.axes), on synthetic subjects whose axes are known."""
 
 from __future__ import annotations
 
@@ -8,13 +8,14 @@ import pytest
 from _motion import smooth_motion
 
 from mocap_mj import Kinematics, MocapError, ParameterSet
-from mocap_mj.identify import LMSettings, TrialData
-from mocap_mj.identify.anatomy import landmark_prior
-from mocap_mj.identify.axes import knee_crosstalk, pig_angle
-from mocap_mj.identify.axis_rows import wand_width
-from mocap_mj.identify.pipeline import solve_anatomical
-from mocap_mj.identify.recipe import Recipe
-from mocap_mj.subject import Measurement, Subject
+from mocap_mj.anatomy.anatomy import landmark_prior
+from mocap_mj.anatomy.axes import knee_crosstalk, pig_angle
+from mocap_mj.anatomy.axis_rows import wand_width
+from mocap_mj.capture.subject import Measurement, Subject
+from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.pipeline.steps import solve_anatomical
+from mocap_mj.solve.lm import LMSettings
+from mocap_mj.solve.problem import TrialData
 
 KNEES = (("LTHI", "LKNE", "knee_l"), ("RTHI", "RKNE", "knee_r"))
 

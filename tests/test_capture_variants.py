@@ -19,13 +19,13 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from mocap_mj import ParameterSet
+from mocap_mj.capture.marker_quality import check_marker_quality, drop_ghosts, marker_segments
 from mocap_mj.cli import main
 from mocap_mj.errors import InputFileError
-from mocap_mj.identify.consistency import joint_centre_lengths
 from mocap_mj.io import MarkerTrajectory, load_markers, save_csv, save_trc
 from mocap_mj.io.handedness import check_handedness
-from mocap_mj.marker_quality import check_marker_quality, drop_ghosts, marker_segments
-from mocap_mj.results import load_motion
+from mocap_mj.pipeline.motion import load_motion
+from mocap_mj.solve.consistency import joint_centre_lengths
 from mocap_synth import SynthConfig, synthesize
 
 ROOT = Path(__file__).resolve().parents[1]

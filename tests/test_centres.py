@@ -1,4 +1,4 @@
-"""The joint-centre Cramer-Rao bound (mocap_mj/identify/centres.py).
+"""The joint-centre Cramer-Rao bound (mocap_mj/solve/centres.py).
 
 Its Jacobians are checked against MuJoCo's, and its pose part against a Monte-Carlo
 experiment: with the model known, the joint centres of IK solutions of noisy markers scatter
@@ -13,9 +13,9 @@ from _motion import smooth_motion
 from _oracles import mj_jacobians
 
 from mocap_mj import Kinematics, ParameterSet
-from mocap_mj.identify.centres import centre_jacobians, joint_centre_bound
-from mocap_mj.identify.identifiability import Identifiability
-from mocap_mj.ik import IKSolver
+from mocap_mj.solve.centres import centre_jacobians, joint_centre_bound
+from mocap_mj.solve.identifiability import Identifiability
+from mocap_mj.solve.ik import IKSolver
 
 
 @pytest.fixture(scope="module")

@@ -12,9 +12,9 @@ import pytest
 
 import mocap_mj
 from mocap_mj import cli
+from mocap_mj.capture.subject import from_values
 from mocap_mj.commands._removed import REMOVED, STILL_WORKS, message
 from mocap_mj.io import load_markers
-from mocap_mj.subject import from_values
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
 #: identify's flags at most (``-h`` aside), and every other command's.

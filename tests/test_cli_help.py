@@ -11,7 +11,7 @@ import re
 from collections.abc import Iterator
 from typing import Any
 
-from mocap_mj.cli import build_parser
+from mocap_mj.commands.registry import build_parser
 
 FLAGS = (argparse._StoreTrueAction, argparse._HelpAction, argparse._VersionAction)
 

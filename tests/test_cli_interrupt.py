@@ -19,7 +19,7 @@ import pytest
 
 from mocap_mj.errors import OutputFolderError
 from mocap_mj.io.atomic import atomic_folder
-from mocap_mj.results import ResultDir
+from mocap_mj.pipeline.motion import ResultDir
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
 #: What a complete identify folder holds.

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from mocap_mj.commands import progress
-from mocap_mj.plots import held_interrupts, plot_residual_per_marker
+from mocap_mj.io.plots import held_interrupts, plot_residual_per_marker
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
 

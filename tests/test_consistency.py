@@ -6,14 +6,15 @@ import numpy as np
 import pytest
 
 from mocap_mj import ParameterSet
-from mocap_mj.identify import TrialData, identify_lm
-from mocap_mj.identify.consistency import (
+from mocap_mj.solve.consistency import (
     correlation_time,
     excited_lengths,
     joint_centre_lengths,
     length_std,
 )
-from mocap_mj.identify.noise import residual_correlation_time
+from mocap_mj.solve.lm import identify_lm
+from mocap_mj.solve.noise import residual_correlation_time
+from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize
 
 

@@ -15,7 +15,6 @@ import mujoco
 import numpy as np
 import pytest
 
-from mocap_mj import rolling
 from mocap_mj.cli import main
 from mocap_mj.clinical.angles import ANGLES
 from mocap_mj.export.c3d import c3d_points, write_c3d
@@ -26,13 +25,14 @@ from mocap_mj.export.coordinates import (
 )
 from mocap_mj.export.mot import coordinates_in_degrees, read_mot, write_mot
 from mocap_mj.export.osim import up_rotation, write_osim
-from mocap_mj.export.result import load_result
+from mocap_mj.export.read_result import load_result
 from mocap_mj.export.tables import marker_residuals, scale_table_text
 from mocap_mj.export.trc import write_trc
 from mocap_mj.io import load_markers
-from mocap_mj.kinematics import Kinematics
-from mocap_mj.parameters import ParameterSet
-from mocap_mj.results import Motion, save_motion
+from mocap_mj.pipeline.motion import Motion, save_motion
+from mocap_mj.skeleton import rolling
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.skeleton.parameters import ParameterSet
 
 
 def _opensim():  # type: ignore[no-untyped-def]
@@ -302,8 +302,8 @@ def test_opensim_ik_reproduces_our_joint_angles(tmp_path: Path) -> None:
     """Noise-free synthetic markers of a subject model: OpenSim's IK on the exported .osim
     returns the truth joint angles within 0.5 degree."""
     _opensim()
+    from mocap_mj.capture.marker_set import marked_bodies
     from mocap_mj.export.opensim_ik import run_opensim_ik
-    from mocap_mj.marker_set import marked_bodies
     from mocap_synth.config import SynthConfig
     from mocap_synth.experiment import synthesize
 

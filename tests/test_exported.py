@@ -1,4 +1,5 @@
-"""The written model in plain MuJoCo (mocap_mj/exported.py, docs/mujoco.md): the knees' slide
+"""The written model in plain MuJoCo (mocap_mj/skeleton/exported.py, docs/mujoco.md): the knees'
+slide
 joints reproduce the tool's kinematics, keep the coupling under mj_step, and a model written
 before them is read alike."""
 
@@ -13,12 +14,13 @@ import mujoco
 import numpy as np
 import pytest
 
-from mocap_mj import Kinematics, ParameterSet, exported
+from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.cli import main
 from mocap_mj.errors import InputFileError
-from mocap_mj.export.result import load_result
-from mocap_mj.model import load_model
-from mocap_mj.results import Motion, load_motion, save_motion
+from mocap_mj.export.read_result import load_result
+from mocap_mj.pipeline.motion import Motion, load_motion, save_motion
+from mocap_mj.skeleton import exported
+from mocap_mj.skeleton.mjcf import load_model
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "mujoco.md"
@@ -65,7 +67,7 @@ def test_doc_example_reproduces_the_tool_on_flexed_knees(result: Path) -> None:
     assert np.degrees(qpos[:, knees].max()) > 100.0  # the coupling is far from zero
     np.testing.assert_allclose(sites, markers, rtol=0, atol=TOLERANCE)
     # Joint centres: plain MuJoCo's bodies against the tool's joint_centres.csv.
-    from mocap_mj.joint_centres import centre_bodies
+    from mocap_mj.skeleton.joint_centres import centre_bodies
 
     data = mujoco.MjData(model)
     bodies = centre_bodies(model)
@@ -166,7 +168,7 @@ def test_motion_of_another_width_is_refused(result: Path, tmp_path: Path) -> Non
 
 
 def test_fixed_hinges_of_a_written_model() -> None:
-    from mocap_mj import rolling
+    from mocap_mj.skeleton import rolling
 
     pset = ParameterSet()
     plain = mujoco.MjModel.from_xml_string(rolling.without(pset.to_xml(pset.nominal)))

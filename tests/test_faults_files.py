@@ -25,7 +25,7 @@ import pytest
 from mocap_mj.cli import main
 from mocap_mj.errors import OutputFolderError
 from mocap_mj.io.atomic import atomic_folder, atomic_path
-from mocap_mj.model import model_path
+from mocap_mj.skeleton.mjcf import model_path
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
 FRAMES = 30

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mocap_mj._fixed_text import csv_rows
+from mocap_mj.kernels._fixed_text import csv_rows
 
 
 def _python(ints: np.ndarray, floats: np.ndarray, formats: tuple[str, ...]) -> bytes:

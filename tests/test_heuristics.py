@@ -1,4 +1,4 @@
-"""The joint LM's safeguards (identify/heuristics.py), each on its own, and the box in the LM."""
+"""The joint LM's safeguards (solve/heuristics.py), each on its own, and the box in the LM."""
 
 from __future__ import annotations
 
@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 from mocap_mj import Kinematics, ParameterSet
-from mocap_mj.identify import LMSettings, Tolerances, TrialData, identify_lm
-from mocap_mj.identify.heuristics import RefitSchedule, StallMonitor, frame_rmse, refit_frames
-from mocap_mj.ik import IKSolver
+from mocap_mj.solve.heuristics import RefitSchedule, StallMonitor, frame_rmse, refit_frames
+from mocap_mj.solve.ik import IKSolver
+from mocap_mj.solve.lm import LMSettings, Tolerances, identify_lm
+from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize
 
 

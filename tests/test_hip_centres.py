@@ -1,7 +1,7 @@
 """Ball-joint centres against their regression: a walk's soft-tissue artefact does not move
 the hips off a regression that is right, a functional trial moves them to a truth off it,
 and summary.json's ``joint_centres_vs_regression`` agrees with theta
-(mocap_mj/identify/ball_centres.py, docs/model.md#hip-centres-regression-and-data)."""
+(mocap_mj/anatomy/ball_centres.py, docs/model.md#hip-centres-regression-and-data)."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import mocap_mj
-from mocap_mj.identify.anatomy import landmark_prior
-from mocap_mj.identify.ball_centres import RowSpread, centre_rows, rotation_spread
+from mocap_mj.anatomy.anatomy import landmark_prior
+from mocap_mj.anatomy.ball_centres import RowSpread, centre_rows, rotation_spread
 from mocap_synth import SynthConfig, synthesize
 from mocap_synth.centres import at_regression
 
@@ -78,7 +78,7 @@ def test_report_fields_agree_with_theta() -> None:
         diff = np.asarray(entry["identified_mm"]) - np.asarray(entry["regression_mm"])
         assert np.linalg.norm(diff) == pytest.approx(entry["distance_mm"], abs=1e-6)
         assert entry["distance_sd_mm"] > 0 and "davis_mm" in entry
-    from mocap_mj.identify.output import centre_lines
+    from mocap_mj.outputs.write_fit import centre_lines
 
     lines = centre_lines(report)
     assert sum(line.startswith("| hip_") for line in lines) == 2

@@ -12,13 +12,14 @@ import numpy as np
 import pytest
 
 from mocap_mj import Kinematics, ParameterSet
-from mocap_mj.identify import LMSettings, TrialData, identify_lm
-from mocap_mj.identify.centres import joint_centre_bound
-from mocap_mj.identify.identifiability import Identifiability
-from mocap_mj.identify.pipeline import anatomical_priors, prior_information, solve_anatomical
-from mocap_mj.marker_set import marked_bodies
-from mocap_mj.score import align_truth, joint_centres
-from mocap_mj.subject import Subject
+from mocap_mj.capture.marker_set import marked_bodies
+from mocap_mj.capture.subject import Subject
+from mocap_mj.outputs.score import align_truth, joint_centres
+from mocap_mj.pipeline.steps import anatomical_priors, prior_information, solve_anatomical
+from mocap_mj.solve.centres import joint_centre_bound
+from mocap_mj.solve.identifiability import Identifiability
+from mocap_mj.solve.lm import LMSettings, identify_lm
+from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize
 
 FRAMES = 500
@@ -85,7 +86,7 @@ def test_reaches_the_bound_on_the_observable_subspace(clean) -> None:  # type: i
     # A prior that says nothing leaves the data's bound.
     assert np.allclose(idf.bound_rms_with_prior(np.eye(pset.size) * 1e-6), (bk, bo), rtol=1e-3)
     # Joint centres (world positions of the body origins over the frames) against their own
-    # bound (pose and model uncertainty, identify/centres.py): 1.5 mm RMS on this trial, so
+    # bound (pose and model uncertainty, solve/centres.py): 1.5 mm RMS on this trial, so
     # the issue's 1 mm is below what 1 mm markers allow (even with the model known the
     # poses alone give 1.17 mm, tests/test_centres.py).
     kin_hat = Kinematics(pset)
@@ -215,7 +216,7 @@ def test_cli_identify_score_demo(tmp_path: Path) -> None:
 
 def test_score_of_truth_against_itself_is_zero(tmp_path: Path) -> None:
     """A result folder made from the truth itself scores zero parameter error."""
-    from mocap_mj.identify.output import write_files
+    from mocap_mj.outputs.write_fit import write_files
     from mocap_synth import write_experiment
 
     pset = ParameterSet()
@@ -244,7 +245,7 @@ def test_score_of_truth_against_itself_is_zero(tmp_path: Path) -> None:
     }
     write_files(out, pset, result, idf, [trial], summary)
     (out / "summary.json").write_text(json.dumps(summary))
-    from mocap_mj.score import score
+    from mocap_mj.outputs.score import score
 
     s = score(tmp_path / "synth", out, plot=False)
     assert s["kappa_rmse_all_mm"] < 1e-6

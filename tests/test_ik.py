@@ -8,7 +8,7 @@ import pytest
 from _motion import smooth_motion
 
 from mocap_mj import Kinematics, ShapeError, UnknownNameError
-from mocap_mj.ik import IKSettings, IKSolver, Status, weights_from_names
+from mocap_mj.solve.ik import IKSettings, IKSolver, Status, weights_from_names
 
 SIGMA = 1e-3  # [m] per axis
 #: Tolerances for tests of what the solver converges to (the defaults stop at 0.1 % RMSE
@@ -182,7 +182,7 @@ def test_static_poses_with_arms_raised(kin: Kinematics, monkeypatch: pytest.Monk
     (monkeypatched away) some of these trials do not."""
     from scipy.spatial.transform import Rotation
 
-    import mocap_mj.ik as ik_module
+    import mocap_mj.solve.ik as ik_module
 
     m = kin.model
     rng = np.random.default_rng(0)
@@ -245,7 +245,7 @@ def test_a_chain_that_changes_basin_is_resolved_from_its_better_side(
     switched off (JUMP = inf) at least three of them do not, and no trial fits better."""
     from scipy.spatial.transform import Rotation
 
-    import mocap_mj.ik as ik_module
+    import mocap_mj.solve.ik as ik_module
 
     m = kin.model
     rng = np.random.default_rng(0)

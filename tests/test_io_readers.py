@@ -11,7 +11,7 @@ import pytest
 
 from mocap_mj.errors import MocapError
 from mocap_mj.io import MarkerTrajectory, load_markers, rotation_to_z_up, save_csv, save_trc
-from mocap_mj.markers import MARKER_NAMES
+from mocap_mj.io.marker_names import MARKER_NAMES
 
 # A standing Plug-in Gait subject, Z up, metres: (x forward, y left, z up).
 _LEFT = {

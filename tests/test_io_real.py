@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from mocap_mj.io import load_markers
-from mocap_mj.markers import MARKER_NAMES
+from mocap_mj.io.marker_names import MARKER_NAMES
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 SKIP = "../shared/data/real not present: real-data checks need the shared folder beside the repo"

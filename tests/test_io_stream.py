@@ -14,13 +14,13 @@ import pytest
 from mocap_mj import ParameterSet
 from mocap_mj.commands import _markers
 from mocap_mj.errors import InputFileError
-from mocap_mj.identify.motion_out import write_motion_chunks
-from mocap_mj.identify.problem import TrialData
 from mocap_mj.io import MarkerTrajectory, load_markers, save_csv, save_trc
 from mocap_mj.io.formats.c3d_check import check_c3d
 from mocap_mj.io.formats.c3d_write import frame_records, write_markers_c3d
 from mocap_mj.io.stream import open_markers
-from mocap_mj.results import Motion, save_motion
+from mocap_mj.long.motion_out import write_motion_chunks
+from mocap_mj.pipeline.motion import Motion, save_motion
+from mocap_mj.solve.problem import TrialData
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 FILES = sorted((SHARED / "real").glob("*.c3d")) + sorted((SHARED / "vendors").glob("*.c3d"))

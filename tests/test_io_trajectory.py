@@ -9,7 +9,7 @@ import pytest
 
 from mocap_mj.errors import MocapError, ShapeError
 from mocap_mj.io import MarkerTrajectory
-from mocap_mj.markers import MARKER_NAMES
+from mocap_mj.io.marker_names import MARKER_NAMES
 
 
 def _traj(n_frames: int = 4, names: tuple[str, ...] = ("LASI", "RASI", "XTRA")) -> MarkerTrajectory:

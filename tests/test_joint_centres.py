@@ -1,8 +1,9 @@
 import mujoco
 import numpy as np
 
-from mocap_mj import ParameterSet, rolling
-from mocap_mj.joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
+from mocap_mj import ParameterSet
+from mocap_mj.skeleton import rolling
+from mocap_mj.skeleton.joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
 
 
 def test_joint_centres_are_the_child_body_origins() -> None:
@@ -19,7 +20,7 @@ def test_joint_centres_are_the_child_body_origins() -> None:
     assert np.all(np.isnan(c[1]))
     data = mujoco.MjData(model)
     data.qpos[:] = qpos[2]
-    rolling.kinematics(model, data)  # the knee rolling placed (mocap_mj.rolling)
+    rolling.kinematics(model, data)  # the knee rolling placed (mocap_mj.skeleton.rolling)
     knee = JOINT_CENTRE_NAMES.index("knee_l")
     np.testing.assert_allclose(c[2, knee], data.xpos[model.body("shank_l").id], atol=1e-12)
     hip = JOINT_CENTRE_NAMES.index("hip_l")

@@ -8,11 +8,11 @@ from pathlib import Path
 
 import numpy as np
 
+from mocap_mj.anatomy.plausibility import joints_at_limit, limits_text, plausibility_text
 from mocap_mj.cli import main
-from mocap_mj.identify.lm import LMSettings, solver_joint_range
-from mocap_mj.identify.plausibility import joints_at_limit, limits_text, plausibility_text
 from mocap_mj.io import MarkerTrajectory, save_csv
-from mocap_mj.parameters import ParameterSet
+from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.lm import LMSettings, solver_joint_range
 from mocap_synth.config import SynthConfig
 from mocap_synth.experiment import synthesize
 

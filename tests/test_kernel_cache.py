@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 from numba.core import config
 
-from mocap_mj import _schur, _tree_ik
-from mocap_mj._kernel_cache import cache_root
+from mocap_mj.kernels import _schur, _tree_ik
+from mocap_mj.kernels._kernel_cache import cache_root
 
 
 @pytest.mark.skipif(bool(config.CACHE_DIR), reason="NUMBA_CACHE_DIR set: numba's own locator")

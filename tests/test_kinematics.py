@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from _oracles import mj_site_jacobian
 
-from mocap_mj import Kinematics, ShapeError, rolling
+from mocap_mj import Kinematics, ShapeError
+from mocap_mj.skeleton import rolling
 
 EPS = 1e-6
 REL_TOL = 1e-6
@@ -35,7 +36,7 @@ def test_fk_equals_plain_loop(kin: Kinematics) -> None:
     expected = []
     for q in qpos:
         data.qpos[:] = q
-        rolling.kinematics(kin.model, data)  # the knee rolling placed, mocap_mj.rolling
+        rolling.kinematics(kin.model, data)  # the knee rolling placed, mocap_mj.skeleton.rolling
         expected.append(data.site_xpos.copy())
     np.testing.assert_array_equal(kin.marker_positions(qpos), np.array(expected))
     np.testing.assert_array_equal(kin.forward(qpos).site_xpos, np.array(expected))

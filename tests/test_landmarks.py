@@ -1,5 +1,5 @@
 """Landmarks in marker-set files and the joint widths a landmark pair measures
-(mocap_mj.landmarks), on a synthetic subject in the bundled Plug-in Gait set with medial
+(mocap_mj.capture.landmarks), on a synthetic subject in the bundled Plug-in Gait set with medial
 knee and ankle markers."""
 
 from __future__ import annotations
@@ -11,12 +11,13 @@ import pytest
 from _motion import smooth_motion
 
 from mocap_mj import InputFileError, Kinematics, ParameterSet
-from mocap_mj.identify import LMSettings, TrialData
-from mocap_mj.identify.pipeline import solve_anatomical
-from mocap_mj.landmarks import disagreements, measured_widths
-from mocap_mj.marker_set import load_marker_set, model_with_marker_set, save_marker_set
-from mocap_mj.model import model_path
-from mocap_mj.subject import Subject
+from mocap_mj.capture.landmarks import disagreements, measured_widths
+from mocap_mj.capture.marker_set import load_marker_set, model_with_marker_set, save_marker_set
+from mocap_mj.capture.subject import Subject
+from mocap_mj.pipeline.steps import solve_anatomical
+from mocap_mj.skeleton.mjcf import model_path
+from mocap_mj.solve.lm import LMSettings
+from mocap_mj.solve.problem import TrialData
 
 #: The synthetic subject's epicondyles: 130 mm apart (a 116 mm knee, 14 mm markers), where
 #: the nominal model's regression gives 86 mm.

@@ -1,4 +1,4 @@
-"""Coarse to fine (:mod:`mocap_mj.identify.coarse`): the LM's approach on a subset of the
+"""Coarse to fine (:mod:`mocap_mj.solve.coarse`): the LM's approach on a subset of the
 frames ends at the same minimum as the LM on every frame alone."""
 
 from __future__ import annotations
@@ -6,10 +6,11 @@ from __future__ import annotations
 import numpy as np
 
 from mocap_mj import ParameterSet
-from mocap_mj.identify import LMSettings, Tolerances, TrialData, identify_lm
-from mocap_mj.identify.coarse import coarse_rows
-from mocap_mj.identify.identifiability import Identifiability
-from mocap_mj.identify.selection import PELVIS
+from mocap_mj.solve.coarse import coarse_rows
+from mocap_mj.solve.identifiability import Identifiability
+from mocap_mj.solve.lm import LMSettings, Tolerances, identify_lm
+from mocap_mj.solve.problem import TrialData
+from mocap_mj.solve.selection import PELVIS
 from mocap_synth import SynthConfig, synthesize
 
 FRAMES, SUBSET = 300, 60

@@ -8,8 +8,10 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from mocap_mj import Kinematics, ParameterSet, _tree, _tree_tables
-from mocap_mj.identify.lm import informed_solve
+from mocap_mj import Kinematics, ParameterSet
+from mocap_mj.kernels import _tree
+from mocap_mj.skeleton import tree_tables as _tree_tables
+from mocap_mj.solve.lm import informed_solve
 
 
 def _eigenbasis_solve(

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from mocap_mj import Kinematics, ParameterSet
-from mocap_mj.ik import IKSolver
+from mocap_mj.solve.ik import IKSolver
 from mocap_synth import SynthConfig, synthesize
 
 

@@ -12,15 +12,17 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from mocap_mj import Kinematics, ParameterSet, score
+from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.errors import MocapError
-from mocap_mj.identify.identifiability import Identifiability
-from mocap_mj.identify.lm import TrialData
-from mocap_mj.identify.long import identify_long, refine
-from mocap_mj.identify.priors import LinearGaussianPrior
-from mocap_mj.identify.problem import IdentificationProblem
-from mocap_mj.identify.selection import select_frames
-from mocap_mj.score import align_gauge_free, align_truth, gauge_free
+from mocap_mj.long.long import identify_long
+from mocap_mj.long.refine import refine
+from mocap_mj.outputs import score
+from mocap_mj.outputs.score import align_gauge_free, align_truth, gauge_free
+from mocap_mj.solve.identifiability import Identifiability
+from mocap_mj.solve.lm import TrialData
+from mocap_mj.solve.priors import LinearGaussianPrior
+from mocap_mj.solve.problem import IdentificationProblem
+from mocap_mj.solve.selection import select_frames
 from mocap_synth import Experiment, SynthConfig, synthesize
 
 
@@ -98,7 +100,7 @@ def test_identify_select_fits_a_subset_and_moves_every_frame(tmp_path: Path) -> 
     assert len(kept) == 90 and np.all(np.diff(kept) > 0) and kept[-1] < 300
     assert summary["motion_frames"] == [300]
     with np.load(out / "motion.npz") as motion:
-        # nq 55 and the knees' 4 slide joints (mocap_mj.exported)
+        # nq 55 and the knees' 4 slide joints (mocap_mj.skeleton.exported)
         assert motion["qpos"].shape == (300, 59) and np.all(np.isfinite(motion["qpos"]))
     # 1 mm per-axis noise: about sqrt(3 (1 - 48/117)) = 1.33 mm after every frame's IK
     assert 1.2 < summary["motion_marker_rmse_mm"] < 1.5
@@ -328,8 +330,8 @@ def test_refinement_minimises_the_weighted_cost_of_the_sliding_landmarks(
     degrees), so the unweighted and the weighted optimum lie centimetres apart."""
     from functools import partial
 
-    from mocap_mj.identify.lm import LMSettings, Tolerances, TrialData, identify_lm
-    from mocap_mj.identify.tissue import SLIDES, SlidingModel
+    from mocap_mj.anatomy.tissue import SLIDES, SlidingModel
+    from mocap_mj.solve.lm import LMSettings, Tolerances, TrialData, identify_lm
 
     exp, m = hand_zero.exp, pset.model  # 300 ROM frames; their information at the truth
     markers = exp.markers.copy()
@@ -368,11 +370,11 @@ def test_select_refines_with_the_sliding_weights_its_solve_used(
     its ``slide_base_mm``), with that base: the same weighted problem as the plain solve."""
     from types import SimpleNamespace
 
-    from mocap_mj.identify import pipeline
-    from mocap_mj.identify.lm import LMSettings
-    from mocap_mj.identify.long import Refinement
-    from mocap_mj.identify.tissue import SLIDES
-    from mocap_mj.subject import Subject
+    from mocap_mj.anatomy.tissue import SLIDES
+    from mocap_mj.capture.subject import Subject
+    from mocap_mj.long.refine import Refinement
+    from mocap_mj.pipeline import steps as pipeline
+    from mocap_mj.solve.lm import LMSettings
 
     seen: list[object] = []
 
@@ -429,8 +431,8 @@ class _RejectAll:
 def test_refinement_on_every_frame_keeps_the_poses_of_its_model(pset: ParameterSet) -> None:
     """With every frame the sample, ``refine``'s poses are those of the model it returns,
     also when its last step was taken back (the poses of the taken-back model were kept)."""
-    from mocap_mj.identify.lm import LMSettings, solver_joint_range
-    from mocap_mj.ik import IKSolver
+    from mocap_mj.solve.ik import IKSolver
+    from mocap_mj.solve.lm import LMSettings, solver_joint_range
 
     exp = synthesize(SynthConfig(frames=120, motion="rom", seed=4), pset)
     theta0 = exp.theta_true.copy()
@@ -453,7 +455,7 @@ def test_auto_selection_with_a_robust_loss_refines_with_it(
     selected frames and refines on every frame with the robust loss (once refused with an
     explicit number of frames, and auto fitted every frame instead)."""
     from mocap_mj import cli
-    from mocap_mj.identify import api
+    from mocap_mj.pipeline import api
 
     truth, out = tmp_path / "truth", tmp_path / "robust"
     proc = _cli(
@@ -475,8 +477,8 @@ def test_refinement_minimises_the_robust_cost(pset: ParameterSet, hand_zero: Han
     """With ``robust`` (the Cauchy loss and the threshold of the fit), ``refine`` on every
     frame ends where the joint LM with that loss ends, and outliers (3 % of the samples
     displaced 50 mm) do not move it as they move the least-squares refinement."""
-    from mocap_mj.identify.lm import LMSettings, Tolerances, identify_lm
-    from mocap_mj.identify.long import robust_loss
+    from mocap_mj.long.chunks import robust_loss
+    from mocap_mj.solve.lm import LMSettings, Tolerances, identify_lm
 
     exp = hand_zero.exp  # 300 ROM frames; their information at the truth
     rng = np.random.default_rng(1)

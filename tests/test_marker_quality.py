@@ -9,11 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mocap_mj.cli import main
-from mocap_mj.errors import UnknownNameError
-from mocap_mj.io import MarkerTrajectory, load_markers, save_csv
-from mocap_mj.kinematics import Kinematics
-from mocap_mj.marker_quality import (
+from mocap_mj.capture.marker_quality import (
     MOVED_MIN,
     between_trials,
     check_marker_quality,
@@ -23,7 +19,11 @@ from mocap_mj.marker_quality import (
     quality_lines,
     suspects,
 )
-from mocap_mj.parameters import ParameterSet
+from mocap_mj.cli import main
+from mocap_mj.errors import UnknownNameError
+from mocap_mj.io import MarkerTrajectory, load_markers, save_csv
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_synth.config import SynthConfig
 from mocap_synth.experiment import Experiment, synthesize
 from mocap_synth.noise import apply_swaps
@@ -249,7 +249,7 @@ def test_ik_warns_records_and_strict_refuses(
     assert [(f["kind"], f["frames"]) for f in quality["findings"]] == [("swap", [40, 80])]
     assert quality["findings"][0]["file"] == str(swapped_csv)
 
-    # By default the swap is corrected (mocap_mj.relabel.track_swaps) and nothing is left.
+    # By default the swap is corrected (mocap_mj.pipeline.relabel.track_swaps) and nothing is left.
     code, err = _ik(capsys, "--markers", str(swapped_csv), "--out", str(tmp_path / "f"))
     assert code == 0 and len(err) == 1 and "relabelled: " in err[0], err
     assert "LWRA <-> LWRB in frames 40-79" in err[0]

@@ -8,8 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mocap_mj.errors import InputFileError, UnknownNameError
-from mocap_mj.marker_set import (
+from mocap_mj.capture.marker_set import (
     MarkerSet,
     load_marker_set,
     marker_class,
@@ -18,9 +17,10 @@ from mocap_mj.marker_set import (
     save_marker_set,
     undetermined_segments,
 )
-from mocap_mj.markers import MARKER_NAMES
-from mocap_mj.model import load_model, model_path
-from mocap_mj.parameters import ParameterSet
+from mocap_mj.errors import InputFileError, UnknownNameError
+from mocap_mj.io.marker_names import MARKER_NAMES
+from mocap_mj.skeleton.mjcf import load_model, model_path
+from mocap_mj.skeleton.parameters import ParameterSet
 
 LANDMARKS = ("ASI", "PSI", "KNE", "ANK", "HEE", "TOE", "C7", "T10", "CLAV", "STRN", "SHO",
              "ELB", "WRA", "WRB", "FIN", "FHD", "BHD")  # fmt: skip
@@ -113,8 +113,9 @@ def test_a_non_plug_in_gait_set_identifies_within_1_5x_its_bound(tmp_path: Path)
     their Cramer-Rao bounds, as for Plug-in Gait (tests/test_identify.py)."""
     from test_identify import errors
 
-    from mocap_mj.identify import TrialData, identify_lm
-    from mocap_mj.identify.identifiability import Identifiability
+    from mocap_mj.solve.identifiability import Identifiability
+    from mocap_mj.solve.lm import identify_lm
+    from mocap_mj.solve.problem import TrialData
     from mocap_synth import SynthConfig, synthesize
 
     clusters = load_marker_set(model_path("marker_sets/pig_leg_clusters.yaml"))

@@ -1,4 +1,4 @@
-"""Bundled marker sets (mocap_mj.marker_sets): names, detection from a recording's labels,
+"""Bundled marker sets (mocap_mj.capture.marker_sets): names, detection from a recording's labels,
 the ``marker-sets`` command, and a synthetic subject in each bundled set whose joint
 centres are recovered within the Cramer-Rao bound."""
 
@@ -13,15 +13,14 @@ import numpy as np
 import pytest
 
 from mocap_mj import Kinematics, MocapError, ParameterSet
-from mocap_mj.identify import TrialData
-from mocap_mj.identify.api import identify
-from mocap_mj.identify.centres import joint_centre_bound
-from mocap_mj.identify.recipe import Recipe
-from mocap_mj.io import MarkerTrajectory, save_trc
-from mocap_mj.io.labels import file_labels
-from mocap_mj.landmarks import LANDMARKS
-from mocap_mj.marker_set import MarkerSet, marked_bodies, model_with_marker_set, plug_in_gait
-from mocap_mj.marker_sets import (
+from mocap_mj.capture.landmarks import LANDMARKS
+from mocap_mj.capture.marker_set import (
+    MarkerSet,
+    marked_bodies,
+    model_with_marker_set,
+    plug_in_gait,
+)
+from mocap_mj.capture.marker_sets import (
     DEFAULT,
     bundled,
     bundled_names,
@@ -29,8 +28,14 @@ from mocap_mj.marker_sets import (
     on_bundled_model,
     resolve,
 )
-from mocap_mj.model import load_model, model_path
-from mocap_mj.score import joint_centres
+from mocap_mj.io import MarkerTrajectory, save_trc
+from mocap_mj.io.labels import file_labels
+from mocap_mj.outputs.score import joint_centres
+from mocap_mj.pipeline.api import identify
+from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.skeleton.mjcf import load_model, model_path
+from mocap_mj.solve.centres import joint_centre_bound
+from mocap_mj.solve.problem import TrialData
 
 SETS = Path(__file__).resolve().parents[1] / "models" / "marker_sets"
 #: Every YAML file of the folder (the vendor sets included, as they are added).
@@ -143,7 +148,7 @@ def test_detection_rules_on_label_lists() -> None:
 def test_sets_tied_on_both_counts_are_refused(
     monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
-    import mocap_mj.marker_sets as ms
+    import mocap_mj.capture.marker_sets as ms
 
     for name in ("a", "b"):
         (tmp_path / f"{name}.yaml").write_text((SETS / "plug_in_gait.yaml").read_text())
@@ -267,8 +272,8 @@ def test_each_set_recovers_its_joint_centres_within_1_5x_the_bound(
 def test_a_sets_marker_radius_is_the_subjects_unless_measured(tmp_path: Path) -> None:
     import argparse
 
+    from mocap_mj.capture.subject import Subject
     from mocap_mj.commands._subject import with_set_radius
-    from mocap_mj.subject import Subject
 
     text = (SETS / "cmu_41.yaml").read_text()
     text = text.replace("marker_radius: 0.007", "marker_radius: 0.0045")

@@ -11,15 +11,15 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from mocap_mj import rolling
 from mocap_mj.cli import main
 from mocap_mj.clinical.angles import ANGLES
 from mocap_mj.clinical.compare import c3d_angles, compare, folder_angles
 from mocap_mj.clinical.from_model import model_angles
-from mocap_mj.export.result import load_result
-from mocap_mj.identify.clinical_out import write_model_angles
-from mocap_mj.model import load_model, model_path
-from mocap_mj.results import Motion
+from mocap_mj.export.read_result import load_result
+from mocap_mj.outputs.clinical_out import write_model_angles
+from mocap_mj.pipeline.motion import Motion
+from mocap_mj.skeleton import rolling
+from mocap_mj.skeleton.mjcf import load_model, model_path
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 MOVEMENT = SHARED / "Movement_trial.c3d"

@@ -1,4 +1,5 @@
-"""The background compile of the identification kernels (mocap_mj._numba_prewarm)."""
+"""The background compile of the identification kernels (mocap_mj.skeleton.prewarm, and
+mocap_mj.kernels._numba_prewarm, which the kernels wait on)."""
 
 from __future__ import annotations
 
@@ -9,14 +10,16 @@ from pathlib import Path
 
 import pytest
 
-from mocap_mj import _numba_prewarm
+from mocap_mj.kernels import _numba_prewarm
+from mocap_mj.skeleton import prewarm
 
 #: Run with the background process's cache: the LM's elimination and back-substitution and the
 #: forward kinematics as the library calls them; prints each kernel's cache hits and misses.
 _USE = """
 import numpy as np
-from mocap_mj import Kinematics, ParameterSet, _schur, _tree
-from mocap_mj.identify.problem import IdentificationProblem
+from mocap_mj import Kinematics, ParameterSet
+from mocap_mj.kernels import _schur, _tree
+from mocap_mj.solve.problem import IdentificationProblem
 from mocap_synth import SynthConfig, synthesize
 
 exp = synthesize(SynthConfig(frames=6, seed=1), ParameterSet())
@@ -34,7 +37,7 @@ for k in (_schur._schur_range, _schur._back_range, _tree._forward_range):
 def test_off_starts_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("MOCAP_MJ_PREWARM", "0")
     monkeypatch.setattr(_numba_prewarm, "_process", None)
-    _numba_prewarm.start()
+    prewarm.start()
     assert _numba_prewarm._process is None
     _numba_prewarm.wait()  # nothing to wait for
 
@@ -42,7 +45,7 @@ def test_off_starts_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
 def test_background_compile_serves_the_identification(tmp_path: Path) -> None:
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), MOCAP_MJ_PREWARM="0")
     subprocess.run(
-        [sys.executable, "-c", "from mocap_mj._numba_prewarm import _compile; _compile()"],
+        [sys.executable, "-c", "from mocap_mj.skeleton.prewarm import _compile; _compile()"],
         env=env,
         check=True,
         timeout=900,

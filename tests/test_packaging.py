@@ -14,7 +14,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def test_every_package_folder_is_listed() -> None:
     config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
     listed = set(config["packages"])
-    assert "mocap_mj.identify" in listed
+    assert "mocap_mj.pipeline" in listed
     folders = {v: k for k, v in config["package-dir"].items()}  # folder -> import name
     found = set()
     for init in ROOT.glob("*/**/__init__.py"):

@@ -1,4 +1,4 @@
-"""Algorithm 1 of Zou & Sugihara (``mocap_mj.identify.paper``), the baseline of
+"""Algorithm 1 of Zou & Sugihara (``mocap_synth.paper``), the baseline of
 ``mocap-mj experiment paper``."""
 
 from __future__ import annotations
@@ -10,11 +10,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mocap_mj import _tree
 from mocap_mj.errors import MocapError
-from mocap_mj.identify.identifiability import Identifiability
-from mocap_mj.identify.lm import TrialData
-from mocap_mj.identify.paper import (
+from mocap_mj.kernels import _tree
+from mocap_mj.outputs.score import score
+from mocap_mj.pipeline.motion import Motion, save_motion
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.solve.identifiability import Identifiability
+from mocap_mj.solve.ik import IKSolver
+from mocap_mj.solve.lm import TrialData
+from mocap_synth import SynthConfig, synthesize, write_experiment
+from mocap_synth.paper import (
     IK_SETTINGS,
     FrameSampler,
     GradientEstimator,
@@ -23,11 +28,6 @@ from mocap_mj.identify.paper import (
     identify_paper,
     reduced_information,
 )
-from mocap_mj.ik import IKSolver
-from mocap_mj.kinematics import Kinematics
-from mocap_mj.results import Motion, save_motion
-from mocap_mj.score import score
-from mocap_synth import SynthConfig, synthesize, write_experiment
 
 # Well-observed parameters (segment lengths of the limbs, pelvis and knee markers).
 PERTURBED = {"thigh_length_l": 0.012, "shank_length_r": -0.010, "LASI.x": 0.010, "RKNE.y": -0.008}

@@ -19,12 +19,12 @@ import numpy as np
 import pytest
 
 from mocap_mj import ParameterSet
-from mocap_mj.checks import check_determined
+from mocap_mj.anatomy.partial import NOT_MEASURED
+from mocap_mj.capture.checks import check_determined
 from mocap_mj.cli import main
 from mocap_mj.errors import SolverError
-from mocap_mj.identify.identifiability import Identifiability
-from mocap_mj.identify.partial import NOT_MEASURED
-from mocap_mj.results import load_motion
+from mocap_mj.pipeline.motion import load_motion
+from mocap_mj.solve.identifiability import Identifiability
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
 LOWER = "LASI RASI LPSI RPSI LTHI LKNE LTIB LANK LHEE LTOE RTHI RKNE RTIB RANK RHEE RTOE".split()

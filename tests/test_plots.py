@@ -1,4 +1,4 @@
-"""mocap_mj.plots: each figure writes a PNG of the requested size and rejects bad arrays."""
+"""mocap_mj.io.plots: each figure writes a PNG of the requested size and rejects bad arrays."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 from PIL import Image
 
 from mocap_mj import MocapError
-from mocap_mj.plots import (
+from mocap_mj.io.plots import (
     plot_error_accumulation,
     plot_marker_error_per_frame,
     plot_parameter_errors,

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mocap_mj.capture.subject import from_values
 from mocap_mj.clinical import PigSubject, calibrate, pig_from_c3d, plug_in_gait
 from mocap_mj.clinical.centres import davis_hip
 from mocap_mj.io.trajectory import MarkerTrajectory
-from mocap_mj.subject import from_values
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 SKIP = "../shared/data/real not present: the Nexus comparison needs the shared folder"

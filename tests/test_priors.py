@@ -9,8 +9,7 @@ import pytest
 from _motion import smooth_motion
 
 from mocap_mj import Kinematics, ParameterSet
-from mocap_mj.errors import MocapError
-from mocap_mj.identify.anatomy import (
+from mocap_mj.anatomy.anatomy import (
     MEDIAL_MALLEOLUS_ABOVE,
     SIGMA_CONVENTION,
     SIGMA_FOOT_HEIGHT,
@@ -23,18 +22,13 @@ from mocap_mj.identify.anatomy import (
     marker_prior_table,
     symmetric_prior,
 )
-from mocap_mj.identify.lm import LMSettings, Tolerances, TrialData, identify_lm
-from mocap_mj.identify.noise import SOFT_TISSUE_SIGMA, artefact_noise
-from mocap_mj.identify.priors import LinearGaussianPrior
-from mocap_mj.identify.ranges import (
-    ALIGNMENT_RANGES,
-    SIGNED,
-    base_name,
-    kappa_ranges,
-    theta_bounds,
-)
-from mocap_mj.marker_set import marker_class
-from mocap_mj.subject import Subject, from_c3d, from_values, from_yaml
+from mocap_mj.anatomy.ranges import ALIGNMENT_RANGES, SIGNED, base_name, kappa_ranges, theta_bounds
+from mocap_mj.capture.marker_set import marker_class
+from mocap_mj.capture.subject import Subject, from_c3d, from_values, from_yaml
+from mocap_mj.errors import MocapError
+from mocap_mj.solve.lm import LMSettings, Tolerances, TrialData, identify_lm
+from mocap_mj.solve.noise import SOFT_TISSUE_SIGMA, artefact_noise
+from mocap_mj.solve.priors import LinearGaussianPrior
 
 
 @pytest.fixture(scope="module")

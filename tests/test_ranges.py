@@ -1,5 +1,5 @@
 """The stature estimate from the markers and the anatomical ranges centred on it
-(:func:`mocap_mj.identify.initial.estimate_stature`, :mod:`mocap_mj.identify.ranges`)."""
+(:func:`mocap_mj.anatomy.initial.estimate_stature`, :mod:`mocap_mj.anatomy.ranges`)."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from mocap_mj import Kinematics, ParameterSet
-from mocap_mj.identify.initial import STATURE_SPREAD, estimate_stature, segment_scales
-from mocap_mj.identify.ranges import (
+from mocap_mj.anatomy.initial import STATURE_SPREAD, estimate_stature, segment_scales
+from mocap_mj.anatomy.ranges import (
     ADULT_HEIGHTS,
     NOMINAL_HEIGHT,
     SIGNED,
@@ -16,8 +16,8 @@ from mocap_mj.identify.ranges import (
     base_name,
     kappa_ranges,
 )
-from mocap_mj.marker_quality import _HEIGHTS, BONE_FRACTIONS
-from mocap_mj.subject import StatureEstimate, Subject, from_values
+from mocap_mj.capture.marker_quality import _HEIGHTS, BONE_FRACTIONS
+from mocap_mj.capture.subject import StatureEstimate, Subject, from_values
 from mocap_synth.motion import generate
 from mocap_synth.perturb import perturb_theta
 

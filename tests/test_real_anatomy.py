@@ -12,17 +12,13 @@ import numpy as np
 import pytest
 
 from mocap_mj import ParameterSet
+from mocap_mj.anatomy.anatomy import landmark_prior
+from mocap_mj.anatomy.plausibility import kappa_outside_bounds, left_right_differences, width_errors
+from mocap_mj.anatomy.ranges import kappa_ranges
+from mocap_mj.capture.subject import from_c3d, from_values, from_yaml
 from mocap_mj.cli import main
-from mocap_mj.identify.anatomy import landmark_prior
-from mocap_mj.identify.consistency import joint_centre_lengths
-from mocap_mj.identify.plausibility import (
-    kappa_outside_bounds,
-    left_right_differences,
-    width_errors,
-)
-from mocap_mj.identify.ranges import kappa_ranges
-from mocap_mj.results import load_motion
-from mocap_mj.subject import from_c3d, from_values, from_yaml
+from mocap_mj.pipeline.motion import load_motion
+from mocap_mj.solve.consistency import joint_centre_lengths
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 SKIP = "../shared/data/real not present: real-data checks need the shared folder beside the repo"

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from mocap_mj import Kinematics, ParameterSet
+from mocap_mj.anatomy.initial import place_markers, scaled_theta, segment_scales
 from mocap_mj.cli import main
-from mocap_mj.identify.initial import place_markers, scaled_theta, segment_scales
 from mocap_mj.io import load_markers
 from mocap_synth import SynthConfig, synthesize
 

@@ -11,12 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mocap_mj.capture.marker_quality import check_marker_quality, marker_segments, quality_lines
 from mocap_mj.cli import main
 from mocap_mj.io import MarkerTrajectory, save_csv
-from mocap_mj.kinematics import Kinematics
-from mocap_mj.marker_quality import check_marker_quality, marker_segments, quality_lines
-from mocap_mj.parameters import ParameterSet
-from mocap_mj.relabel import (
+from mocap_mj.pipeline.relabel import (
     Relabel,
     apply_relabels,
     candidates,
@@ -24,6 +22,8 @@ from mocap_mj.relabel import (
     reference_theta,
     track_swaps,
 )
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_synth.config import SynthConfig
 from mocap_synth.experiment import synthesize
 
@@ -174,8 +174,8 @@ def test_track_swap_of_close_markers(pset: ParameterSet) -> None:
 def clusters(tmp_path_factory: pytest.TempPathFactory) -> ParameterSet:
     """The bundled thigh/shank-cluster marker set (three-marker plates, medial knee and
     ankle markers) on the humanoid."""
-    from mocap_mj.marker_set import load_marker_set, model_with_marker_set
-    from mocap_mj.model import model_path
+    from mocap_mj.capture.marker_set import load_marker_set, model_with_marker_set
+    from mocap_mj.skeleton.mjcf import model_path
 
     path = tmp_path_factory.mktemp("clusters") / "clusters.xml"
     path.write_text(

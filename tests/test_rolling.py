@@ -1,4 +1,4 @@
-"""The knee's rolling (mocap_mj.rolling): kernels, MuJoCo and NumPy paths agree with it."""
+"""The knee's rolling (mocap_mj.skeleton.rolling): kernels, MuJoCo and NumPy paths agree with it."""
 
 from __future__ import annotations
 
@@ -7,10 +7,12 @@ import numpy as np
 import pytest
 from _motion import random_poses
 
-from mocap_mj import Kinematics, _tree_tables, rolling
-from mocap_mj import _tree as tree_kernels
+from mocap_mj import Kinematics
 from mocap_mj.errors import MocapError
-from mocap_mj.model import model_path
+from mocap_mj.kernels import _tree as tree_kernels
+from mocap_mj.skeleton import rolling
+from mocap_mj.skeleton import tree_tables as _tree_tables
+from mocap_mj.skeleton.mjcf import model_path
 
 fk = tree_kernels.python_callable(tree_kernels.fk)
 
@@ -147,7 +149,7 @@ def test_model_without_the_entries_is_a_fixed_hinge(tmp_path) -> None:  # type: 
     tr = _tree_tables.build_tree(model)
     assert np.all(tr.body_rolladr == -1)
     k = Kinematics()
-    from mocap_mj.parameters import ParameterSet
+    from mocap_mj.skeleton.parameters import ParameterSet
 
     fixed = Kinematics(ParameterSet(plain))
     q = flexed_poses(k, 2, 5)
@@ -170,7 +172,7 @@ def test_bad_entry_names_the_entry(tmp_path) -> None:  # type: ignore[no-untyped
 def test_scaled_rolling_is_written_and_read_back(tmp_path) -> None:  # type: ignore[no-untyped-def]
     """with_rolling_scaled: L = hip-to-knee distance of theta, in a copy; model.xml carries it,
     and a ParameterSet of that file has the same kinematics (what `ik --model` solves)."""
-    from mocap_mj.parameters import ParameterSet
+    from mocap_mj.skeleton.parameters import ParameterSet
 
     pset = ParameterSet()
     theta = pset.nominal.copy()
@@ -194,7 +196,7 @@ def test_scaled_rolling_is_written_and_read_back(tmp_path) -> None:  # type: ign
 
 
 def test_viewer_and_joint_centres_show_the_rolling(kin: Kinematics) -> None:
-    from mocap_mj.joint_centres import JOINT_CENTRES, joint_centre_trajectories
+    from mocap_mj.skeleton.joint_centres import JOINT_CENTRES, joint_centre_trajectories
     from mocap_viewer.playback import marker_positions
 
     q = flexed_poses(kin, 3, 7)

@@ -1,4 +1,4 @@
-"""The compiled joint-LM blocks (mocap_mj._schur) against the NumPy normal equations
+"""The compiled joint-LM blocks (mocap_mj.kernels._schur) against the NumPy normal equations
 (tests/_oracles.py)."""
 
 from __future__ import annotations
@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 from _oracles import damped_inverse, information, normal_equations
 
-from mocap_mj import Kinematics, ParameterSet, _schur
-from mocap_mj.identify.problem import IdentificationProblem
+from mocap_mj import Kinematics, ParameterSet
+from mocap_mj.kernels import _schur
+from mocap_mj.solve.problem import IdentificationProblem
 from mocap_synth import SynthConfig, synthesize
 
 

@@ -5,7 +5,7 @@ A function's length is its lines from the ``def`` (decorators aside) to its last
 docstring included. A numba kernel is exempt (one loop nest, which splitting would slow
 down): a function decorated with numba's ``njit``/``jit``/``vectorize``/... or with the
 project's wrappers of ``numba.njit`` (``_kernel``, ``_jit``, ``_inline`` in
-:mod:`mocap_mj._tree`), with or without arguments.
+:mod:`mocap_mj.kernels._tree`), with or without arguments.
 """
 
 from __future__ import annotations

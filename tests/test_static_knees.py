@@ -8,10 +8,11 @@ import numpy as np
 from _motion import smooth_motion
 
 from mocap_mj import Kinematics, ParameterSet
-from mocap_mj.identify import LMSettings, TrialData
-from mocap_mj.identify.axes import pig_angle
-from mocap_mj.identify.pipeline import solve_anatomical
-from mocap_mj.subject import Subject
+from mocap_mj.anatomy.axes import pig_angle
+from mocap_mj.capture.subject import Subject
+from mocap_mj.pipeline.steps import solve_anatomical
+from mocap_mj.solve.lm import LMSettings
+from mocap_mj.solve.problem import TrialData
 
 HYPEREXTENSION = -8.0  # deg: beyond the former -5 degree limit, inside the normal range
 

@@ -13,13 +13,13 @@ import pytest
 from test_ranges import subject_markers
 
 from mocap_mj import ParameterSet
+from mocap_mj.anatomy.ranges import NOMINAL_HEIGHT
 from mocap_mj.cli import main
-from mocap_mj.identify.api import identify
-from mocap_mj.identify.consistency import joint_centre_lengths
-from mocap_mj.identify.output import write_result
-from mocap_mj.identify.problem import TrialData
-from mocap_mj.identify.ranges import NOMINAL_HEIGHT
-from mocap_mj.identify.recipe import Recipe
+from mocap_mj.outputs.write_fit import write_result
+from mocap_mj.pipeline.api import identify
+from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.solve.consistency import joint_centre_lengths
+from mocap_mj.solve.problem import TrialData
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 SKIP = "../shared/data/real not present: the child-scaled copy needs the shared folder"

@@ -8,12 +8,13 @@ import mujoco
 import numpy as np
 import pytest
 
-from mocap_mj import MocapError, ParameterSet, rolling
-from mocap_mj.exported import Layout
-from mocap_mj.identify.anatomy import landmark_prior
+from mocap_mj import MocapError, ParameterSet
+from mocap_mj.anatomy.anatomy import landmark_prior
+from mocap_mj.capture.marker_set import marker_class
 from mocap_mj.io import MarkerTrajectory, load_markers
-from mocap_mj.marker_set import marker_class
-from mocap_mj.results import load_motion
+from mocap_mj.pipeline.motion import load_motion
+from mocap_mj.skeleton import rolling
+from mocap_mj.skeleton.exported import Layout
 from mocap_synth import (
     FILES,
     ConfigError,
@@ -102,7 +103,7 @@ def test_clean_markers_are_truth_forward_kinematics(corrupt: Experiment) -> None
     data = mujoco.MjData(model)
     for t in (0, 123, CORRUPT.frames - 1):
         data.qpos[:] = corrupt.qpos[t]
-        rolling.kinematics(model, data)  # the knee rolling placed (mocap_mj.rolling)
+        rolling.kinematics(model, data)  # the knee rolling placed (mocap_mj.skeleton.rolling)
         np.testing.assert_allclose(corrupt.markers_clean[t], data.site_xpos, atol=1e-12)
 
 

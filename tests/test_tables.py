@@ -15,19 +15,19 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from mocap_mj import ParameterSet
+from mocap_mj.anatomy.ranges import kappa_ranges
+from mocap_mj.anatomy.segments import COLUMNS, parameter_flag
+from mocap_mj.capture.subject import StatureEstimate, Subject
 from mocap_mj.cli import main
-from mocap_mj.identify.consistency import joint_centre_lengths
-from mocap_mj.identify.lm import LMSettings, solver_joint_range
-from mocap_mj.identify.ranges import kappa_ranges
-from mocap_mj.identify.robust_ik import solve_trial_loss
-from mocap_mj.identify.segments import COLUMNS, parameter_flag
-from mocap_mj.ik import IKSolver
 from mocap_mj.io import MarkerTrajectory, load_markers, save_csv
-from mocap_mj.joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
-from mocap_mj.kinematics import Kinematics
-from mocap_mj.results import load_motion
-from mocap_mj.subject import StatureEstimate, Subject
-from mocap_mj.tables import joint_centre_columns
+from mocap_mj.pipeline.motion import load_motion
+from mocap_mj.pipeline.robust_ik import solve_trial_loss
+from mocap_mj.skeleton.joint_centre_table import joint_centre_columns
+from mocap_mj.skeleton.joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.solve.consistency import joint_centre_lengths
+from mocap_mj.solve.ik import IKSolver
+from mocap_mj.solve.lm import LMSettings, solver_joint_range
 from mocap_synth import SynthConfig, synthesize
 
 #: The thorax ball of the synthetic truth is turned this far [deg]: beyond the model's 45
@@ -47,7 +47,7 @@ def test_exported_joint_ranges_reload_exactly() -> None:
     for rng in (None, widened):
         model = mujoco.MjModel.from_xml_string(pset.to_xml(pset.nominal, joint_range=rng))
         expected = pset.model.jnt_range if rng is None else rng
-        # by name: the written model has the knees' slide joints too (mocap_mj.exported)
+        # by name: the written model has the knees' slide joints too (mocap_mj.skeleton.exported)
         names = [pset.model.joint(j).name for j in range(pset.model.njnt)]
         ranges = np.array([model.joint(n).range for n in names])
         np.testing.assert_array_equal(ranges, expected)  # not rounded to 6 digits
@@ -276,7 +276,7 @@ def test_parameter_covariance_with_priors_is_the_posterior() -> None:
     parameters, the priors' information not divided by tau; a frozen parameter keeps zero."""
     from types import SimpleNamespace
 
-    from mocap_mj.identify.consistency import parameter_covariance
+    from mocap_mj.solve.consistency import parameter_covariance
 
     rng = np.random.default_rng(0)
     a = rng.normal(size=(6, 3))

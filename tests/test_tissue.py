@@ -1,4 +1,4 @@
-"""Soft-tissue sliding of landmark markers (identify/tissue.py): the weights, the weighted
+"""Soft-tissue sliding of landmark markers (anatomy/tissue.py): the weights, the weighted
 loss, and the knee centre on a synthetic trial whose KNE slides with knee flexion."""
 
 from __future__ import annotations
@@ -8,10 +8,7 @@ import numpy as np
 import pytest
 
 from mocap_mj import Kinematics, ParameterSet
-from mocap_mj.identify import LMSettings, TrialData
-from mocap_mj.identify.losses import L2, Cauchy, Huber, Weighted
-from mocap_mj.identify.pipeline import solve_anatomical
-from mocap_mj.identify.tissue import (
+from mocap_mj.anatomy.tissue import (
     RAISED_ARMS,
     SHOULDER_SLIDE,
     SLIDES,
@@ -24,7 +21,11 @@ from mocap_mj.identify.tissue import (
     sliding_weights,
     with_sliding_model,
 )
-from mocap_mj.subject import Subject
+from mocap_mj.capture.subject import Subject
+from mocap_mj.pipeline.steps import solve_anatomical
+from mocap_mj.solve.lm import LMSettings
+from mocap_mj.solve.losses import L2, Cauchy, Huber, Weighted
+from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize
 
 FRAMES = 300

@@ -1,4 +1,5 @@
-"""The compiled kernels (mocap_mj._tree) against MuJoCo and against the NumPy reference path."""
+"""The compiled kernels (mocap_mj.kernels._tree) against MuJoCo and against the NumPy reference
+path."""
 
 from __future__ import annotations
 
@@ -9,9 +10,11 @@ import pytest
 from _motion import random_poses, smooth_motion
 from _oracles import mj_site_jacobian, numpy_solve_frames
 
-from mocap_mj import Kinematics, _tree_ik, rolling
-from mocap_mj import _tree as tree_kernels
-from mocap_mj.ik import IKSettings, IKSolver
+from mocap_mj import Kinematics
+from mocap_mj.kernels import _tree as tree_kernels
+from mocap_mj.kernels import _tree_ik
+from mocap_mj.skeleton import rolling
+from mocap_mj.solve.ik import IKSettings, IKSolver
 
 # Helpers that only kernels call have no Python entry point: these copies have one.
 fk, normal_equations, factor, solve, integrate, difference = (
@@ -45,7 +48,7 @@ def test_fk_matches_mj_kinematics(kin: Kinematics) -> None:
     data = mujoco.MjData(kin.model)
     for q in poses(kin, 20, 1):
         data.qpos[:] = q
-        rolling.kinematics(kin.model, data)  # the knee rolling placed, mocap_mj.rolling
+        rolling.kinematics(kin.model, data)  # the knee rolling placed, mocap_mj.skeleton.rolling
         fk(tr, q, w)
         np.testing.assert_allclose(w.site_xpos, data.site_xpos, rtol=0, atol=1e-12)
         np.testing.assert_allclose(w.xpos, data.xpos, rtol=0, atol=1e-12)

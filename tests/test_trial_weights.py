@@ -1,7 +1,7 @@
 """Multi-trial weighting and the thorax without T10.
 
 A static trial whose soft tissue is one constant offset must not outvote a movement: each
-trial weighs by its independent observations (:func:`mocap_mj.identify.noise.trial_weights`);
+trial weighs by its independent observations (:func:`mocap_mj.solve.noise.trial_weights`);
 white noise keeps every weight 1. Without T10 data the thorax origin's depth and the thorax
 frame's tilt are placed from C7 and the sternum, so that nothing sits at a bound.
 
@@ -18,22 +18,23 @@ import numpy as np
 import pytest
 
 from mocap_mj import ParameterSet
+from mocap_mj.anatomy import anatomy
+from mocap_mj.anatomy.anatomy import landmark_prior
+from mocap_mj.anatomy.partial import freeze_unmeasured, on_measured
+from mocap_mj.capture.subject import Subject
 from mocap_mj.cli import main
-from mocap_mj.identify import anatomy, pipeline
-from mocap_mj.identify.anatomy import landmark_prior
-from mocap_mj.identify.consistency import joint_centre_lengths
-from mocap_mj.identify.lm import LMSettings
-from mocap_mj.identify.noise import (
+from mocap_mj.outputs.write_fit import _anatomy_lines
+from mocap_mj.pipeline import steps as pipeline
+from mocap_mj.pipeline.steps import solve_anatomical
+from mocap_mj.solve.consistency import joint_centre_lengths
+from mocap_mj.solve.lm import LMSettings
+from mocap_mj.solve.noise import (
     CORRELATED_TAU,
     TRIAL_WEIGHT_RANGE,
     residual_correlation_time,
     trial_weights,
 )
-from mocap_mj.identify.output import _anatomy_lines
-from mocap_mj.identify.partial import freeze_unmeasured, on_measured
-from mocap_mj.identify.pipeline import solve_anatomical
-from mocap_mj.identify.problem import TrialData
-from mocap_mj.subject import Subject
+from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize
 
 #: Per-axis RMS [m] of the static trial's constant soft-tissue offset per marker.

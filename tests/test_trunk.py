@@ -19,13 +19,13 @@ import numpy as np
 import pytest
 
 from mocap_mj import ParameterSet
+from mocap_mj.anatomy.anatomy import landmark_prior
+from mocap_mj.anatomy.trunk import T10Placement, t10_placement
+from mocap_mj.capture.subject import Subject
 from mocap_mj.cli import main
-from mocap_mj.identify.anatomy import landmark_prior
-from mocap_mj.identify.pipeline import _with_stature
-from mocap_mj.identify.problem import TrialData
-from mocap_mj.identify.trunk import T10Placement, t10_placement
-from mocap_mj.kinematics import Kinematics
-from mocap_mj.subject import Subject
+from mocap_mj.pipeline.steps import _with_stature
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
 LOWER = "LASI RASI LPSI RPSI LTHI LKNE LTIB LANK LHEE LTOE RTHI RKNE RTIB RANK RHEE RTOE".split()

@@ -16,11 +16,11 @@ import ezc3d
 import numpy as np
 import pytest
 
+from mocap_mj.anatomy.plausibility import implausible_reasons
+from mocap_mj.capture.subject import from_c3d, from_yaml
 from mocap_mj.errors import InputFileError, MocapError
-from mocap_mj.identify.plausibility import implausible_reasons
 from mocap_mj.io import load_markers
 from mocap_mj.io.stream import open_markers
-from mocap_mj.subject import from_c3d, from_yaml
 
 # Two markers 1.5 m apart over three frames, in mm: a human-sized cloud.
 TRUTH_MM = np.array(
@@ -239,8 +239,8 @@ def test_implausible_reasons_thresholds() -> None:
 def test_an_overflowed_fit_reports_nothing_observable_instead_of_failing() -> None:
     """A fit whose information overflowed (NaN) reports every direction unobservable: the
     report is written (the fit's checks then call it implausible), no SVD error."""
-    from mocap_mj.identify.identifiability import Identifiability
-    from mocap_mj.parameters import ParameterSet
+    from mocap_mj.skeleton.parameters import ParameterSet
+    from mocap_mj.solve.identifiability import Identifiability
 
     pset = ParameterSet()
     info = np.eye(pset.size)

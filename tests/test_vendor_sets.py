@@ -1,5 +1,5 @@
 """The bundled vendor marker sets (models/marker_sets/) and the landmark roles that give
-their markers Plug-in Gait's anatomical rows (mocap_mj.identify.roles): a lateral and a
+their markers Plug-in Gait's anatomical rows (mocap_mj.capture.roles): a lateral and a
 medial landmark place their joint centre at their midpoint on both sides; each set
 identifies its shared recording (skip without ../shared) with the joint centres within
 3 mm of their landmark pairs' midpoint and, for the lateral-only Davis sets, left and
@@ -15,21 +15,22 @@ import pytest
 from _motion import smooth_motion
 
 from mocap_mj import Kinematics, ParameterSet
-from mocap_mj.cli import main
-from mocap_mj.identify import LMSettings, TrialData
-from mocap_mj.identify.anatomy import landmark_prior
-from mocap_mj.identify.pipeline import solve_anatomical
-from mocap_mj.identify.plausibility import (
+from mocap_mj.anatomy.anatomy import landmark_prior
+from mocap_mj.anatomy.plausibility import (
     kappa_outside_bounds,
     left_right_differences,
     pair_centre_gaps,
 )
-from mocap_mj.identify.ranges import kappa_ranges
-from mocap_mj.identify.roles import roles
-from mocap_mj.landmarks import measured_widths
-from mocap_mj.marker_set import load_marker_set, model_with_marker_set
-from mocap_mj.results import load_motion
-from mocap_mj.subject import Measurement, StatureEstimate, Subject
+from mocap_mj.anatomy.ranges import kappa_ranges
+from mocap_mj.capture.landmarks import measured_widths
+from mocap_mj.capture.marker_set import load_marker_set, model_with_marker_set
+from mocap_mj.capture.roles import roles
+from mocap_mj.capture.subject import Measurement, StatureEstimate, Subject
+from mocap_mj.cli import main
+from mocap_mj.pipeline.motion import load_motion
+from mocap_mj.pipeline.steps import solve_anatomical
+from mocap_mj.solve.lm import LMSettings
+from mocap_mj.solve.problem import TrialData
 
 ROOT = Path(__file__).resolve().parents[1]
 SETS = ROOT / "models" / "marker_sets"

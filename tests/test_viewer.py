@@ -22,7 +22,7 @@ import pytest
 from mocap_mj import Kinematics, MocapError, ParameterSet
 from mocap_mj.cli import main
 from mocap_mj.errors import InputFileError, ShapeError
-from mocap_mj.results import Motion, load_motion, save_motion
+from mocap_mj.pipeline.motion import Motion, load_motion, save_motion
 from mocap_viewer import interactive as ia
 from mocap_viewer.glb import export_glb, frame_node
 from mocap_viewer.meshes import geom_meshes, geom_poses, primitives_mesh

@@ -13,8 +13,9 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from mocap_mj.cli import add_force_flag, add_json_flag, add_removed_flags, finish
 from mocap_mj.commands._inputs import refuse_replacing_file
+from mocap_mj.commands._removed import add_removed_flags
+from mocap_mj.commands.common import add_force_flag, add_json_flag, finish
 from mocap_mj.errors import MocapError
 from mocap_mj.export.registry import Exporter
 

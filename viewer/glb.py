@@ -18,9 +18,9 @@ import mujoco
 import numpy as np
 import trimesh
 
-from mocap_mj import rolling
 from mocap_mj.errors import MocapError
 from mocap_mj.io.atomic import atomic_write_bytes
+from mocap_mj.skeleton import rolling
 
 from .meshes import geom_meshes, geom_poses, primitives_mesh, with_colour
 from .playback import Ghost, Playback

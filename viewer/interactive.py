@@ -22,8 +22,8 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from mocap_mj import rolling
 from mocap_mj.errors import MocapError
+from mocap_mj.skeleton import rolling
 
 from .playback import Ghost, Playback
 from .render import camera_id

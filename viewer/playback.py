@@ -14,11 +14,11 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from mocap_mj import rolling
 from mocap_mj.errors import InputFileError, MocapError, ShapeError
-from mocap_mj.identify.output import frame_range
-from mocap_mj.model import load_model, model_path
-from mocap_mj.results import Motion, ResultDir, load_motion
+from mocap_mj.outputs.write_fit import frame_range
+from mocap_mj.pipeline.motion import Motion, ResultDir, load_motion
+from mocap_mj.skeleton import rolling
+from mocap_mj.skeleton.mjcf import load_model, model_path
 
 __all__ = [
     "Ghost",
@@ -328,7 +328,7 @@ def parse_frame(text: str, playback: Playback) -> int:
 
 def parse_frames(text: str, n: int) -> list[int]:
     """Frame indices of a ``--frames`` text ``"A:B[:S]"`` over ``n`` frames (B exclusive;
-    :func:`mocap_mj.identify.output.frame_range`, the parser of every command)."""
+    :func:`mocap_mj.outputs.write_fit.frame_range`, the parser of every command)."""
     frames = list(range(n))[frame_range(text, n, "the result", stride=True)]
     if not frames:
         raise MocapError(f"--frames {text}: selects no frame of the {n}")

@@ -27,8 +27,8 @@ import numpy as np
 import trimesh
 from numpy.typing import ArrayLike
 
-from mocap_mj import rolling
 from mocap_mj.errors import MocapError, UnknownNameError
+from mocap_mj.skeleton import rolling
 
 from .meshes import geom_meshes, geom_poses, primitives_mesh
 from .playback import Ghost, Playback

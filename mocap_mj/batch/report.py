@@ -12,14 +12,15 @@ from typing import Any
 
 import numpy as np
 
+from mocap_mj.io.plots import _figure, _save, held_interrupts
+
 from ..io.atomic import atomic_write_text
-from ..plots import _figure, _save, held_interrupts
 from .run import Outcome
 
 #: Columns of summary.csv. RMSE in mm, times in s; ``parameters_at_bounds`` names the
 #: kinematic parameters at or outside their range (';'-separated); ``marker_quality`` the
 #: trial's marker-data findings (``none``, or their count and the markers they name:
-#: :mod:`mocap_mj.marker_quality`); ``resumed`` is true for a
+#: :mod:`mocap_mj.capture.marker_quality`); ``resumed`` is true for a
 #: subject whose complete result was kept from an earlier run.
 COLUMNS = (
     "subject",

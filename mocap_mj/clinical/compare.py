@@ -153,7 +153,7 @@ def comparison_section(
 ) -> tuple[list[str], list[Row]]:  # fmt: skip
     """(Markdown lines, rows) of ours (name -> (T, 3) [rad] at frames (T,), times (T,) [s])
     against ``ref``, with both curves per component drawn into ``folder`` / ``figure``."""
-    from ..plots import plot_angle_comparison
+    from mocap_mj.io.plots import plot_angle_comparison
 
     idx = aligned(frames, ref)
     theirs = {

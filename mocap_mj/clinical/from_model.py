@@ -31,7 +31,8 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from .. import rolling
+from mocap_mj.skeleton import rolling
+
 from ..errors import check_shape
 from .angles import FLIP_YZ, all_angles, progression_frame
 from .geometry import frame, frame_zy

@@ -111,7 +111,7 @@ def calibrate(static: MarkerTrajectory, subject: PigSubject) -> PigSubject:
 
 def _with_marker_measures(m: Markers, subject: PigSubject, where: str) -> PigSubject:
     """Leg lengths from the markers where the subject values give none."""
-    from ..subject import from_values
+    from mocap_mj.capture.subject import from_values
 
     missing = [s for s in SIDES if subject.measured(f"leg_length_{s}") is None]
     if not missing:

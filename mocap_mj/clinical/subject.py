@@ -3,17 +3,17 @@
 Sources, later ones overriding earlier ones:
 
 1. the C3D file's ``PROCESSING`` group, as Vicon Nexus writes it: the body measurements
-   through :func:`mocap_mj.subject.from_c3d` (``LLegLength``, ``LKneeWidth``, ...) and the
+   through :func:`mocap_mj.capture.subject.from_c3d` (``LLegLength``, ``LKneeWidth``, ...) and the
    Plug-in Gait values that are not body measurements (``LStaticPlantFlex``,
    ``LStaticRotOff``, ``LTibialTorsion``; radians, as Nexus stores them);
-2. a YAML file: ``name: value``, the names of :data:`mocap_mj.subject.MEASUREMENTS` (SI or
+2. a YAML file: ``name: value``, the names of :data:`mocap_mj.capture.subject.MEASUREMENTS` (SI or
    with a unit, ``"877 mm"``) and of :data:`PIG_VALUES` (metres or radians, or with a unit,
    ``"14.5 deg"``, ``"64 mm"``);
 3. the static trial (:mod:`mocap_mj.clinical.static`): the static plantar-flexion and
    rotation offsets, and the inter-ASIS distance when none is given.
 
 What is still missing takes Plug-in Gait's rule: the ASIS-trochanter distance (a
-measurement, :meth:`mocap_mj.subject.Subject.asis_trochanter`) from the leg length, offsets
+measurement, :meth:`mocap_mj.capture.subject.Subject.asis_trochanter`) from the leg length, offsets
 and torsion 0, the marker diameter 14 mm.
 """
 
@@ -25,8 +25,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from ..errors import InputFileError, MocapError
-from ..subject import (
+from mocap_mj.capture.subject import (
     MEASUREMENTS,
     Subject,
     c3d_numbers,
@@ -36,6 +35,8 @@ from ..subject import (
     read_mapping,
     sided,
 )
+
+from ..errors import InputFileError, MocapError
 
 #: Plug-in Gait values that are not body measurements: name -> (unit inside, description).
 PIG_VALUES: dict[str, tuple[str, str]] = {
@@ -64,7 +65,7 @@ _UNITS = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "rad": 1.0, "deg": math.pi / 180.0}
 
 @dataclass
 class PigSubject:
-    """Measurements (:class:`mocap_mj.subject.Subject`, metres) and the Plug-in Gait values
+    """Measurements (:class:`mocap_mj.capture.subject.Subject`, metres) and the Plug-in Gait values
     (``values``: name -> value in m or rad; ``sources``: name -> where it came from)."""
 
     measurements: Subject = field(default_factory=Subject)
@@ -115,7 +116,7 @@ class PigSubject:
         return 0.5 * (self.require("leg_length_l") + self.require("leg_length_r"))
 
     def asis_trochanter(self, side: str) -> float:
-        """ASIS-trochanter distance [m] (:meth:`mocap_mj.subject.Subject.asis_trochanter`);
+        """ASIS-trochanter distance [m] (:meth:`mocap_mj.capture.subject.Subject.asis_trochanter`);
         a clear error without it and without the leg length."""
         value = self.measurements.asis_trochanter(side)
         if value is None:

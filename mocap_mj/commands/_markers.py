@@ -12,14 +12,19 @@ from typing import NamedTuple
 
 import numpy as np
 
+from mocap_mj.capture.marker_set import (
+    load_marker_set,
+    model_with_marker_set,
+    undetermined_segments,
+)
+from mocap_mj.capture.marker_sets import DEFAULT, bundled_names, detect, on_bundled_model, resolve
+from mocap_mj.skeleton.mjcf import load_model
+
 from ..errors import MocapError
 from ..io import MarkerReport, MarkerTrajectory, atomic_write_text, load_markers
 from ..io.labels import file_labels
 from ..io.names import load_marker_map
 from ..io.stream import CHUNK, open_markers
-from ..marker_set import load_marker_set, model_with_marker_set, undetermined_segments
-from ..marker_sets import DEFAULT, bundled_names, detect, on_bundled_model, resolve
-from ..model import load_model
 
 
 def add_marker_options(parser: argparse.ArgumentParser, *, several: bool = False) -> None:
@@ -170,7 +175,7 @@ def choose_marker_set(args: argparse.Namespace, paths: list[str]) -> dict[str, o
     for summary.json (``name``, ``file``, ``how``: given, detected, default or model, and
     for a detected or default set ``markers_found`` of ``markers``). ``--marker-set`` wins;
     with ``--model`` the model's own sites are the set; otherwise the bundled set the
-    labels of ``paths`` fit (:func:`mocap_mj.marker_sets.detect`), else Plug-in Gait.
+    labels of ``paths`` fit (:func:`mocap_mj.capture.marker_sets.detect`), else Plug-in Gait.
     Sets ``args.marker_set_file`` (None: the bundled humanoid's sites)."""
     if getattr(args, "marker_set", None) is not None:
         path = resolve(args.marker_set)

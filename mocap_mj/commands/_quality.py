@@ -1,5 +1,5 @@
 """``--exclude-markers`` and ``--strict`` of identify and ik: the marker-data quality check
-(:mod:`mocap_mj.marker_quality`) run on the loaded trials before any solve.
+(:mod:`mocap_mj.capture.marker_quality`) run on the loaded trials before any solve.
 
 Findings are warnings by default (one line each on stderr, recorded in summary.json's
 ``marker_quality`` and in report.md), and the exit status stays 0: the check is evidence,
@@ -7,7 +7,8 @@ not proof (a child's forearm, an unusual marker set), and a fit of the remaining
 still useful. ``--strict`` refuses the data instead (exit 2, nothing written), for pipelines
 that must not publish a model built on suspect markers.
 
-Before the check, labels exchanged by mistake are corrected (:mod:`mocap_mj.relabel`): in the
+Before the check, labels exchanged by mistake are corrected (:mod:`mocap_mj.pipeline.relabel`): in
+the
 command's own copy of the markers (the files are never touched), one line each on stderr,
 listed in summary.json's ``marker_quality.relabelled`` and in report.md. ``--no-relabel``
 leaves the labels as they are and prints the same lines as warnings; ``--strict`` refuses a
@@ -24,9 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import MocapError
-from ..kinematics import Kinematics
-from ..marker_quality import (
+from mocap_mj.capture.marker_quality import (
     Finding,
     check_trials_quality,
     drop_ghosts,
@@ -35,9 +34,18 @@ from ..marker_quality import (
     quality_entry,
     suspects,
 )
-from ..marker_quality import parse_marker_list as parse_marker_list
-from ..parameters import ParameterSet
-from ..relabel import Relabel, apply_relabels, find_label_errors, reference_theta, track_swaps
+from mocap_mj.capture.marker_quality import parse_marker_list as parse_marker_list
+from mocap_mj.pipeline.relabel import (
+    Relabel,
+    apply_relabels,
+    find_label_errors,
+    reference_theta,
+    track_swaps,
+)
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.skeleton.parameters import ParameterSet
+
+from ..errors import MocapError
 
 
 def add_quality_options(parser: argparse.ArgumentParser) -> None:
@@ -131,7 +139,7 @@ def relabel(
     trials: Sequence[tuple[str, np.ndarray, float, int]],
 ) -> list[Relabel]:
     """The label errors of each (path, markers (T, M, 3) [m], rate [Hz], file's frame of
-    row 0) that a model shows (:func:`~mocap_mj.relabel.find_label_errors`): ``identify``
+    row 0) that a model shows (:func:`~mocap_mj.pipeline.relabel.find_label_errors`): ``identify``
     judges them with the nominal model scaled to the subject, ``ik`` with its model."""
     kin = Kinematics(pset)
     if args.command == "identify":
@@ -174,7 +182,7 @@ def without_ghosts(
 ) -> np.ndarray:
     """markers (T, M, 3) [m] of ``path`` (row 0 = the file's frame ``first``) with the
     samples its ``ghost`` and ``jump`` findings name missing
-    (:func:`~mocap_mj.marker_quality.drop_ghosts`). A long recording's markers are a memory
+    (:func:`~mocap_mj.capture.marker_quality.drop_ghosts`). A long recording's markers are a memory
     map in the command's scratch folder (:func:`~mocap_mj.commands._markers.load_trial`),
     the command's own: the samples are dropped in it, not in a copy of the whole recording."""
     own = isinstance(markers, np.memmap) and markers.flags.writeable
@@ -183,7 +191,7 @@ def without_ghosts(
 
 def drop_excluded(markers: np.ndarray, pset: ParameterSet, excluded: Sequence[str]) -> np.ndarray:
     """markers (T, M, 3) [m] with the ``excluded`` markers' columns NaN (see
-    :func:`~mocap_mj.marker_quality.exclude_markers`)."""
+    :func:`~mocap_mj.capture.marker_quality.exclude_markers`)."""
     return exclude_markers(markers, pset.marker_names, excluded)
 
 

@@ -1,4 +1,4 @@
-"""Command-line options for the subject's measurements (:mod:`mocap_mj.subject`): a YAML
+"""Command-line options for the subject's measurements (:mod:`mocap_mj.capture.subject`): a YAML
 ``--subject-file`` holding any of them, and the two that a person knows by heart,
 ``--height`` and ``--mass``."""
 
@@ -9,10 +9,10 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from ..landmarks import disagreements, measured_widths
-from ..marker_set import load_marker_set
-from ..marker_sets import on_bundled_model
-from ..subject import Subject, from_c3d, from_values, from_yaml
+from mocap_mj.capture.landmarks import disagreements, measured_widths
+from mocap_mj.capture.marker_set import load_marker_set
+from mocap_mj.capture.marker_sets import on_bundled_model
+from mocap_mj.capture.subject import Subject, from_c3d, from_values, from_yaml
 
 
 def add_subject_options(p: Any) -> None:
@@ -64,7 +64,7 @@ def with_measured_widths(
 ) -> Subject:
     """``subject`` with the joint widths that ``--marker-set``'s landmark pairs measure in
     ``trials`` (each with ``markers`` (T, M, 3) [m] in the order ``names``) where none is
-    given (:func:`mocap_mj.landmarks.measured_widths`); a given width that differs by more
+    given (:func:`mocap_mj.capture.landmarks.measured_widths`); a given width that differs by more
     than 10 mm is kept and warned about on stderr."""
     subject = with_set_radius(args, subject)
     landmarks, bodies = set_landmarks(args)

@@ -20,13 +20,15 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from .._threads import one_blas_thread
+from mocap_mj.commands.common import EXIT_IMPLAUSIBLE, add_json_flag, finish, number
+from mocap_mj.commands.registry import build_parser
+from mocap_mj.kernels._threads import one_blas_thread
+from mocap_mj.skeleton.parameters import ParameterSet
+
 from ..batch.dataset import FLAGS, OPTION_KEYS, Subject, load_dataset
 from ..batch.report import write_report, write_summary_csv
 from ..batch.run import have_ray, one_line, run_batch
-from ..cli import EXIT_IMPLAUSIBLE, add_json_flag, build_parser, finish, number
 from ..errors import MocapError
-from ..parameters import ParameterSet
 from ._inputs import refuse_out_holding_inputs
 from ._markers import load_trial
 from ._removed import add_removed_flags

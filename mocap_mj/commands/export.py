@@ -16,7 +16,17 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from ..cli import add_force_flag, add_json_flag, finish, output_folder, write_summary
+from mocap_mj.commands.common import (
+    add_force_flag,
+    add_json_flag,
+    finish,
+    output_folder,
+    write_summary,
+)
+from mocap_mj.export.read_result import ExportSource, load_result
+from mocap_mj.pipeline.motion import ResultDir
+from mocap_mj.skeleton.mjcf import load_model
+
 from ..clinical.compare import comparison_section, folder_angles, numbered_like
 from ..errors import MocapError
 from ..export.c3d import write_c3d
@@ -25,7 +35,6 @@ from ..export.ik_setup import write_ik_setup
 from ..export.mot import write_mot
 from ..export.osim import UP_ORIENTATION, write_osim
 from ..export.registry import Exporter, plugin_exporters
-from ..export.result import ExportSource, load_result
 from ..export.tables import (
     marker_residuals,
     scale_table_text,
@@ -34,8 +43,6 @@ from ..export.tables import (
 )
 from ..export.trc import write_trc
 from ..io.atomic import atomic_write_text
-from ..model import load_model
-from ..results import ResultDir
 from ._inputs import refuse_overwriting, refuse_replacing_file
 
 #: File names of ``--to all``, per format.

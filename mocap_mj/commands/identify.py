@@ -29,21 +29,22 @@ from typing import Any, get_args
 
 import numpy as np
 
-from .. import _numba_prewarm
-from ..checks import check_markers
-from ..cli import add_force_flag, add_json_flag, into_out_folder
+from mocap_mj.anatomy.plausibility import plausibility_text
+from mocap_mj.capture.checks import check_markers
+from mocap_mj.capture.marker_quality import Finding
+from mocap_mj.capture.subject import Subject
+from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder
+from mocap_mj.outputs.write_fit import frame_range, result_text, write_result
+from mocap_mj.pipeline.api import identify, select_count
+from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.pipeline.steps import t10_check
+from mocap_mj.skeleton import prewarm
+from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.ik import IKSettings
+from mocap_mj.solve.losses import LossName
+from mocap_mj.solve.problem import TrialData
+
 from ..errors import MocapError
-from ..identify.api import identify, select_count
-from ..identify.losses import LossName
-from ..identify.output import frame_range, result_text, write_result
-from ..identify.pipeline import t10_check
-from ..identify.plausibility import plausibility_text
-from ..identify.problem import TrialData
-from ..identify.recipe import Recipe
-from ..ik import IKSettings
-from ..marker_quality import Finding
-from ..parameters import ParameterSet
-from ..subject import Subject
 from ._markers import (
     add_marker_options,
     choose_marker_set,
@@ -171,7 +172,7 @@ def _without_ghosts(
 
 def _refuse_misplaced_t10(pset: ParameterSet, trials: list[TrialData], subject: Subject) -> None:
     """``--strict``: refuse the trials when T10's placement finding (found in the fit, from
-    the stature: :func:`mocap_mj.identify.pipeline.t10_check`) would be reported, as the
+    the stature: :func:`mocap_mj.pipeline.steps.t10_check`) would be reported, as the
     marker-data findings are: --strict refuses whatever the run would warn about."""
     placement = t10_check(pset, trials, subject)
     if placement is not None and placement.finding is not None:
@@ -210,7 +211,7 @@ def _identify(
     read_seconds: float | None = None,
     quality: dict[str, Any] | None = None,
 ) -> tuple[dict[str, Any], str]:
-    _numba_prewarm.start()  # the identification kernels compile on the other core meanwhile
+    prewarm.start()  # the identification kernels compile on the other core meanwhile
     from .progress import frames_bar, progress_bar
 
     total = sum(len(t.markers) for t in trials) if count is not None else 0

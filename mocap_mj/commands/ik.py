@@ -23,24 +23,25 @@ from typing import Any
 
 import numpy as np
 
-from ..angles import angle_columns, joint_angle_table
-from ..checks import check_markers
-from ..cli import add_force_flag, add_json_flag, into_out_folder, number
+from mocap_mj.anatomy.plausibility import AT_LIMIT_PRINT, joints_at_limit, limits_text
+from mocap_mj.anatomy.tissue import recorded_sliding_model
+from mocap_mj.capture.checks import check_markers
+from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder, number
+from mocap_mj.outputs.write_fit import frame_range
+from mocap_mj.pipeline.motion import save_motion
+from mocap_mj.pipeline.robust_ik import solve_motion
+from mocap_mj.skeleton.angles import angle_columns, joint_angle_table
+from mocap_mj.skeleton.exported import Layout
+from mocap_mj.skeleton.joint_centre_table import write_joint_centres_csv
+from mocap_mj.skeleton.mjcf import load_written
+from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.ik import IKSettings, Status
+from mocap_mj.solve.losses import LossName
+from mocap_mj.solve.problem import TrialData
+
 from ..errors import MocapError
 from ..export.tables import write_angles_csv
-from ..exported import Layout
-from ..identify.losses import LossName
-from ..identify.output import frame_range
-from ..identify.plausibility import AT_LIMIT_PRINT, joints_at_limit, limits_text
-from ..identify.problem import TrialData
-from ..identify.robust_ik import solve_motion
-from ..identify.tissue import recorded_sliding_model
-from ..ik import IKSettings, Status
 from ..io.atomic import atomic_write_text
-from ..model import load_written
-from ..parameters import ParameterSet
-from ..results import save_motion
-from ..tables import write_joint_centres_csv
 from ._markers import (
     add_marker_options,
     choose_marker_set,
@@ -122,7 +123,7 @@ def write_motion_csv(
 ) -> None:
     """Joint angles as CSV: frame (the recording's number, from ``first_frame``), time_s [s], then
     named columns in mm and degrees, of ``model`` as written (qpos (T, nq) of its layout, the
-    knees' slide joints included: :mod:`mocap_mj.exported`)."""
+    knees' slide joints included: :mod:`mocap_mj.skeleton.exported`)."""
     table = joint_angle_table(model, qpos)
     header = ",".join(["frame", "time_s", *angle_columns(model)])
     lines = [header]

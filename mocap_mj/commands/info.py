@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ..cli import add_json_flag, finish
-from ..parameters import ParameterSet
+from mocap_mj.commands.common import add_json_flag, finish
+from mocap_mj.skeleton.parameters import ParameterSet
 
 
 def register(sub: Any) -> None:

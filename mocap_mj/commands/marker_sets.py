@@ -13,11 +13,12 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ..cli import add_json_flag, finish
+from mocap_mj.capture.marker_set import MarkerSet
+from mocap_mj.capture.marker_sets import DEFAULT, FIT_FRACTION, bundled, bundled_names, check
+from mocap_mj.commands.common import add_json_flag, finish
+
 from ..io.labels import file_labels
 from ..io.names import load_marker_map
-from ..marker_set import MarkerSet
-from ..marker_sets import DEFAULT, FIT_FRACTION, bundled, bundled_names, check
 
 
 def register(sub: Any) -> None:

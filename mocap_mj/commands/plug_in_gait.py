@@ -9,7 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from ..cli import add_force_flag, add_json_flag, into_out_folder
+from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder
+
 from ..clinical.subject import PigSubject
 
 
@@ -56,8 +57,9 @@ def register(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from mocap_mj.outputs.plug_in_gait import write_all
+
     from ..clinical import pig_from_yaml, plug_in_gait
-    from ..clinical.outputs import write_all
     from ..io.load import load_markers
 
     trial = load_markers(args.markers)

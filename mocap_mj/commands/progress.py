@@ -7,7 +7,7 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
-from ..identify.result import ProgressCallback, TraceEntry
+from mocap_mj.solve.solver_result import ProgressCallback, TraceEntry
 
 
 @contextlib.contextmanager

@@ -6,10 +6,11 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from ..cli import add_json_flag, finish
+from mocap_mj.commands.common import add_json_flag, finish
+from mocap_mj.io.strict_json import dumps
+from mocap_mj.outputs.score import score, score_text
+
 from ..io.atomic import atomic_write_text
-from ..score import score, score_text
-from ..strict_json import dumps
 
 
 def register(sub: Any) -> None:

@@ -7,6 +7,8 @@ OpenSim coordinates of the MJCF joints (``coordinates``), Plug-in Gait's angles 
 extra). The writers need no OpenSim. Conventions: docs/opensim.md.
 """
 
+from mocap_mj.export.read_result import ExportSource, load_result
+
 from .c3d import write_c3d
 from .clinical import angles_table_text, clinical_angles
 from .coordinates import Coordinate, coordinate_values, model_coordinates, qpos_from_coordinates
@@ -14,7 +16,6 @@ from .ik_setup import ik_setup_xml, write_ik_setup
 from .mot import read_mot, write_mot
 from .osim import osim_xml, write_osim
 from .registry import Exporter
-from .result import ExportSource, load_result
 from .tables import (
     marker_residuals,
     scale_table_text,

@@ -4,7 +4,7 @@ Points, in this order, all in the MJCF world frame (z up, as the lab of the inpu
 
 - the measured markers, under their names (``LASI`` ...), in millimetres;
 - the model's markers, ``<name>_model`` (``LASI_model``), in millimetres;
-- the joint centres of :mod:`mocap_mj.joint_centres` (``hip_l`` ...), in millimetres;
+- the joint centres of :mod:`mocap_mj.skeleton.joint_centres` (``hip_l`` ...), in millimetres;
 - Plug-in Gait's angles of the model (:mod:`mocap_mj.export.clinical`) under Vicon's names
   and components (``LHipAngles``: x flexion, y adduction, z internal rotation), in degrees.
 
@@ -21,10 +21,11 @@ from pathlib import Path
 import ezc3d
 import numpy as np
 
+from mocap_mj.export.read_result import ExportSource
+from mocap_mj.skeleton.joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
+
 from ..io.atomic import atomic_write_bytes
-from ..joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
 from .clinical import clinical_angles
-from .result import ExportSource
 from .tables import marker_residuals
 
 

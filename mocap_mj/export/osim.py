@@ -12,7 +12,7 @@ y -> -z, z -> y); ``up="z"`` keeps the MJCF world. Marker files for this model m
 same up axis (:func:`mocap_mj.export.trc.write_trc`). The MJCF capsules and spheres are drawn
 as OpenSim cylinders and spheres.
 
-A knee that rolls (:mod:`mocap_mj.rolling`) gets its translation functions of the flexion
+A knee that rolls (:mod:`mocap_mj.skeleton.rolling`) gets its translation functions of the flexion
 coordinate, as gait2392's knee: the joint's ``translation1..3`` (parent-frame x, y, z) are
 ``SimmSpline`` functions sampled from the model's t(q) every :data:`ROLLING_STEP` over the
 coordinate's range and :data:`ROLLING_MARGIN` beyond each end (within 2 micrometres of it).
@@ -31,7 +31,8 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .. import rolling
+from mocap_mj.skeleton import rolling
+
 from ..errors import MocapError
 from ..io.atomic import atomic_write_text
 from .coordinates import Coordinate, model_coordinates
@@ -168,7 +169,8 @@ def _rolling_splines(
     model: mujoco.MjModel, coords: Sequence[Coordinate]
 ) -> dict[int, list[Spline]]:
     """Per rolling body: its parent-frame x, y, z translations as splines of the flexion
-    coordinate (:mod:`mocap_mj.rolling`), sampled over the coordinate's range and a margin."""
+    coordinate (:mod:`mocap_mj.skeleton.rolling`), sampled over the coordinate's range and a
+    margin."""
     roll = rolling.read(model)
     if roll is None:
         return {}

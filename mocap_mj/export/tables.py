@@ -15,12 +15,13 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from .. import rolling
+from mocap_mj.export.read_result import posed_frames
+from mocap_mj.skeleton import rolling
+from mocap_mj.skeleton.joint_centres import JOINT_CENTRES
+
 from ..errors import check_shape
 from ..io.atomic import atomic_write_text
-from ..joint_centres import JOINT_CENTRES
 from .clinical import angles_table_text
-from .result import posed_frames
 
 #: Segments of the scale table: (segment, proximal joint centre, distal joint centre). The
 #: length is the distance between the two centres in the reference pose, which is what

@@ -13,10 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
+from mocap_mj.export.read_result import frame_rate
+
 from ..io.formats.trc import save_trc
 from ..io.trajectory import MarkerTrajectory
 from .osim import up_rotation
-from .result import frame_rate
 
 
 def write_trc(

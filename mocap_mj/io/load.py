@@ -25,6 +25,7 @@ import numpy as np
 from mocap_mj.errors import InputFileError
 from mocap_mj.io.formats import RawMarkers, read_raw
 from mocap_mj.io.handedness import HANDEDNESS_MARKERS, check_handedness
+from mocap_mj.io.marker_names import MARKER_NAMES
 from mocap_mj.io.names import builtin_alias, is_non_marker, load_marker_map, split_prefix
 from mocap_mj.io.orientation import (
     FOOT_MARKERS,
@@ -42,7 +43,6 @@ from mocap_mj.io.units import (
     median_extent,
     metres_per_unit,
 )
-from mocap_mj.markers import MARKER_NAMES
 
 __all__ = ["COORDINATE_LIMIT", "load_markers"]
 

@@ -11,7 +11,7 @@ from pathlib import Path
 import yaml
 
 from mocap_mj.errors import InputFileError
-from mocap_mj.markers import MARKER_NAMES
+from mocap_mj.io.marker_names import MARKER_NAMES
 
 #: Names of points that are not markers: Plug-in Gait model outputs and unlabelled points.
 _NON_MARKER = re.compile(

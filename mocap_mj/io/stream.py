@@ -24,8 +24,8 @@ from numpy.lib.format import open_memmap
 
 from mocap_mj.io.formats import c3d, detect_format, mocap_csv, motive_csv, nexus_csv, trc
 from mocap_mj.io.load import Reading, _arguments, _selection, load_markers
+from mocap_mj.io.marker_names import MARKER_NAMES
 from mocap_mj.io.trajectory import MarkerReport, first_frame, marker_report
-from mocap_mj.markers import MARKER_NAMES
 
 __all__ = ["CHUNK", "MarkerStream", "open_markers"]
 

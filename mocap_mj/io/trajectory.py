@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from mocap_mj.errors import ShapeError, check_shape
-from mocap_mj.markers import MARKER_NAMES
+from mocap_mj.io.marker_names import MARKER_NAMES
 
 __all__ = ["MarkerReport", "MarkerTrajectory", "first_frame"]
 
@@ -202,7 +202,7 @@ class MarkerReport:
         Of those, the samples the file wrote as 0 0 0.
     undetermined : tuple of str
         Model bodies no marker found determines (set by the caller that knows the model, see
-        :func:`mocap_mj.marker_set.undetermined_segments`); empty by default.
+        :func:`mocap_mj.capture.marker_set.undetermined_segments`); empty by default.
     """
 
     found: tuple[str, ...]

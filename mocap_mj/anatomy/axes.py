@@ -1,0 +1,332 @@
+"""Knee, ankle, elbow and wrist flexion axes: the motion's where it determines them, Plug-in
+Gait's elsewhere.
+
+A flexion axis's turn about its segment's long axis is what a recording determines least: a
+static trial or a joint that barely moves leaves it to the priors. Plug-in Gait places it
+with the chord construction (:func:`mocap_mj.clinical.geometry.chord`): the joint centre in
+the plane of the proximal joint centre, the wand (THI, TIB) and the lateral marker (KNE,
+ANK). The landmark prior holds that plane as a row of width
+:data:`~mocap_mj.anatomy.axis_rows.SIGMA_WAND_ANGLE` (5 degrees of the axis's turn,
+:func:`~mocap_mj.anatomy.axis_rows.pig_axis_row`).
+
+After the first solve, :func:`axis_decisions` measures what the data hold about each row's
+direction: the standard deviation of ``a_r . theta`` from the reduced information of the
+markers and every other prior (the row's own information taken out), with the markers
+weighed at the artefact's noise as the priors are (:mod:`mocap_mj.pipeline.steps`). Where
+it exceeds the row's width the recording cannot determine the axis: the axis is Plug-in
+Gait's, the row kept at :data:`SIGMA_PIG_AXIS`; otherwise the axis is functional and the row
+is left out, so the motion alone places it. A chord plane that the markers' own estimate
+contradicts (beyond :data:`CONFLICT_K` standard deviations of both) is taken for a misplaced
+wand and left out too. Each decision is
+reported (summary.json ``joint_axes``, report.md) with both standard deviations in degrees
+and, for a functional axis, its angle to Plug-in Gait's chord-plane axis in the identified
+model (:func:`pig_angle`). The elbow's row (its axis through ELB) and the wrist's (along
+the wrist bar) are decided the same way (:mod:`mocap_mj.anatomy.arm_axes`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from mocap_mj.anatomy.arm_axes import ARM_AXES, arm_angle, has_axis, lever
+from mocap_mj.anatomy.axis_rows import PIG_AXIS_WANDS, SIGMA_WAND_ANGLE, wand_width
+from mocap_mj.skeleton import rolling
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.priors import LinearGaussianPrior
+
+from ..clinical.geometry import cardan_yxz, chord, frame_zy, relative, unit
+
+#: Width [deg] of the chord-plane row where Plug-in Gait's construction places the axis: the
+#: wand's own (:data:`~mocap_mj.anatomy.axis_rows.SIGMA_WAND_ANGLE`). Held tighter (1-3
+#: degrees) it turned the shared static trials' knees to their extension and rotation limits
+#: (Nexus's own knee angles there: 4-6 degrees of hyperextension, 8-25 of rotation) and moved
+#: a hip centre 1.2 standard deviations from Harrington's row.
+SIGMA_PIG_AXIS = SIGMA_WAND_ANGLE
+#: The markers and the chord plane conflict when the markers' own estimate of the row's
+#: residual lies beyond this many standard deviations of the two combined: the wand is then
+#: taken as misplaced and the axis left to the markers (a functional axis, reported with
+#: ``conflict``). On the shared Static_trial the left knee conflicts (27 degrees): its
+#: shank's knee and ankle chord planes are 23 degrees apart (Nexus' static ankle rotation)
+#: and the model's knee and ankle axes are parallel. Keeping the row there put that knee
+#: 24.5 mm from Nexus' centre (37.3 with the markers' axis) but moved the hip centre 1.07
+#: standard deviations from Harrington's row.
+CONFLICT_K = 2.0
+#: Wand prefix -> the joint its chord plane places, and that joint's child body.
+JOINT_OF = {"THI": ("knee", "shank"), "TIB": ("ankle", "foot")}
+
+
+def wands(pset: ParameterSet) -> list[tuple[str, str, str, str]]:
+    """(wand, lateral marker, joint, side) of every chord plane ``pset`` has markers for."""
+    out = []
+    for side, p in (("l", "L"), ("r", "R")):
+        for wand, (marker, _) in PIG_AXIS_WANDS.items():
+            if p + wand in pset.marker_names and p + marker in pset.marker_names:
+                out.append((p + wand, p + marker, f"{JOINT_OF[wand][0]}_{side}", side))
+    return out
+
+
+def _row(priors: Sequence[LinearGaussianPrior], start: str) -> tuple[np.ndarray, float] | None:
+    """The row whose label starts with ``start`` (its ``a`` (P,) and width [m]), None when
+    absent."""
+    for p in priors:
+        for r, label in enumerate(p.labels):
+            if label.startswith(start):
+                return np.asarray(p.a[r], dtype=float), float(p.sigma[r])
+    return None
+
+
+def axis_rows(pset: ParameterSet) -> list[tuple[str, str, str, str, float]]:
+    """Every decidable axis row ``pset`` has markers for: (joint, row key, the label's
+    start, the lateral marker, the lever [m] that turns a width into degrees): the knee's
+    and ankle's chord planes (:func:`wands`), the elbow's ELB and the wrist bar
+    (:mod:`mocap_mj.anatomy.arm_axes`)."""
+    out = []
+    for wand, marker, joint, _ in wands(pset):
+        out.append((joint, wand, f"{wand} in the plane", marker,
+                    wand_width(pset, wand, marker, 45.0)))  # fmt: skip
+    for side, p in (("l", "L"), ("r", "R")):
+        for name, (key, start) in ARM_AXES.items():
+            if has_axis(pset, name, p):
+                out.append((f"{name}_{side}", p + key, p + start, p + key, lever(pset, name, p)))
+    return out
+
+
+def axis_decisions(
+    pset: ParameterSet,
+    information: np.ndarray,
+    theta: np.ndarray,
+    priors: Sequence[LinearGaussianPrior],
+    weak: LinearGaussianPrior,
+    noise: float,
+) -> dict[str, dict[str, Any]]:
+    """Per joint (``knee_l``, ``elbow_r``...): where its flexion axis comes from (module
+    docstring).
+
+    ``information`` (P, P): the markers' reduced information (unit weights) at ``theta``
+    (P,) [m]; ``priors``: the landmark priors with their axis rows, ``weak`` the weak
+    prior toward the initial model; ``noise`` [m]: the marker noise the priors are weighed
+    against. Returns ``source`` ("plug-in-gait" or "functional"), ``conflict`` (the markers
+    contradict the row, :data:`CONFLICT_K`), ``data_sd_deg`` (the direction's standard
+    deviation without the row), ``row_sd_deg``, ``row_sigma_m`` and ``angle_to_pig_deg``
+    (:func:`angle_to_pig` at ``theta``); ``wand`` is the row's key
+    (:func:`widths`).
+    """
+    weighed = [p.with_noise(noise) for p in priors]
+    hess = np.asarray(information, dtype=float) + weak.hessian()
+    for p in weighed:
+        hess = hess + p.hessian()
+    free = ~np.asarray(pset.frozen, dtype=bool)
+    out: dict[str, dict[str, Any]] = {}
+    for joint, key, start, marker, arm in axis_rows(pset):
+        row = _row(weighed, start)
+        if row is None:
+            continue
+        a, sigma = row
+        without = hess - (noise / sigma) ** 2 * np.outer(a, a)
+        sub = without[np.ix_(free, free)]
+        var = float(a[free] @ np.linalg.lstsq(sub, a[free], rcond=None)[0]) * noise**2
+        sd = float(np.sqrt(max(var, 0.0)))
+        # The markers' own estimate of the row's residual, from the solve with the row:
+        # a precision-weighted mean of it and the row's 0.
+        data = float(a @ theta) * (1.0 + (sd / sigma) ** 2)
+        conflict = abs(data) > CONFLICT_K * float(np.hypot(sd, sigma))
+        # A wand can be misplaced; ELB and the wrist bar are landmarks that define their
+        # joint's axis: a conflict there is reported, and the row kept.
+        wand_row = joint.startswith(("knee", "ankle"))
+        d: dict[str, Any] = {
+            "joint": joint,
+            "wand": key,
+            "marker": marker,
+            "source": "plug-in-gait"
+            if sd > sigma and not (conflict and wand_row)
+            else "functional",
+            "conflict": conflict,
+            "data_sd_deg": float(np.degrees(np.arctan(sd / arm))),
+            "row_sd_deg": float(np.degrees(np.arctan(sigma / arm))),
+            "row_sigma_m": sigma,
+        }
+        d["angle_to_pig_deg"] = angle_to_pig(pset, theta, d)
+        out[joint] = d
+    return out
+
+
+def angle_to_pig(pset: ParameterSet, theta: np.ndarray, d: Mapping[str, Any]) -> float:
+    """The angle [deg] between the model's axis of decision ``d``'s joint and Plug-in
+    Gait's: :func:`pig_angle` for the knee and ankle,
+    :func:`~mocap_mj.anatomy.arm_axes.arm_angle` for the elbow and wrist."""
+    if d["joint"].startswith(("knee", "ankle")):
+        return pig_angle(pset, theta, d["wand"], d["marker"], d["joint"])
+    return arm_angle(pset, theta, d["joint"])
+
+
+def widths(
+    pset: ParameterSet, decisions: Mapping[str, Mapping[str, Any]] | None
+) -> dict[str, float | None]:
+    """The axis rows' widths [m] (keyed by ``wand``) after ``decisions``
+    (:func:`axis_decisions`): a Plug-in Gait axis's row at :data:`SIGMA_PIG_AXIS` (the knee
+    and ankle) or its own width (the elbow and wrist), a functional axis's left out."""
+    out: dict[str, float | None] = {}
+    for d in (decisions or {}).values():
+        if d["source"] != "plug-in-gait":
+            out[d["wand"]] = None
+        elif d["joint"].startswith(("knee", "ankle")):
+            out[d["wand"]] = wand_width(pset, d["wand"], d["marker"], SIGMA_PIG_AXIS)
+        else:
+            out[d["wand"]] = float(d["row_sigma_m"])
+    return out
+
+
+def pig_angle(pset: ParameterSet, theta: np.ndarray, wand: str, marker: str, joint: str) -> float:
+    """Angle [deg] between the identified model's flexion axis of ``joint`` and Plug-in
+    Gait's chord-plane axis built from the same model: in the parent segment's frame, the
+    chord construction (:func:`~mocap_mj.clinical.geometry.chord`) from the wand's and the
+    lateral marker's offsets and the proximal joint centre (the frame's origin), at the
+    marker's distance from the identified joint centre; both axes taken normal to the
+    segment's long axis (origin to joint centre)."""
+    side = joint[-2:]
+    body = {"knee": "shank", "ankle": "foot"}[joint[:-2]] + side
+    centre = pset.body_pos(theta)[pset.model.body(body).id]
+    offsets = pset.split(theta)[1]
+    w, m = (offsets[pset.marker_index(n)] for n in (wand, marker))
+    delta = float(np.linalg.norm(m - centre))
+    origin = np.zeros(3)
+    pig = chord(w[None], origin[None], m[None], delta)[0]
+    long_axis = unit(centre - origin)
+    ours_dir, pig_dir = (unit(v - np.dot(v, long_axis) * long_axis) for v in (m - centre, m - pig))
+    cos = float(np.clip(np.dot(ours_dir, pig_dir), -1.0, 1.0))
+    sign = np.sign(np.dot(np.cross(pig_dir, ours_dir), long_axis)) or 1.0
+    return float(sign * np.degrees(np.arccos(cos)))
+
+
+#: Joint -> the bodies whose markers its flexion axis moves (the side appended).
+AXIS_BODIES = {"knee": ("thigh", "shank"), "ankle": ("shank", "foot"),
+               "elbow": ("upperarm", "radius"), "wrist": ("radius", "hand")}  # fmt: skip
+
+
+def axis_rmse(
+    pset: ParameterSet,
+    fits: Mapping[str, tuple[np.ndarray, Sequence[np.ndarray]]],
+    markers: Sequence[np.ndarray],
+    decisions: Mapping[str, dict[str, Any]],
+) -> None:
+    """Add each functional axis's marker RMSE [mm] to ``decisions`` (in place):
+    ``rmse_mm`` = {fit name: RMSE of the markers on the joint's two bodies
+    (:data:`AXIS_BODIES`)}, for each of ``fits`` (name -> (theta (P,) [m], qpos per trial
+    (T_i, nq), NaN rows for frames not solved)); markers (T_i, M, 3) [m] per trial. Called
+    with the first solve (Plug-in Gait's row held) and the final one (the row left out)."""
+    functional = {j: d for j, d in decisions.items() if d["source"] == "functional"}
+    if not functional:
+        return
+    kin = Kinematics(pset)
+    errors = {}
+    for name, (theta, qpos) in fits.items():
+        kin.set_theta(theta)
+        parts = []
+        for q, m in zip(qpos, markers, strict=True):
+            ok = np.all(np.isfinite(q), axis=1)
+            if ok.any():
+                parts.append(np.linalg.norm(kin.marker_positions(q[ok]) - m[ok], axis=-1))
+        errors[name] = np.concatenate(parts) if parts else np.zeros((0, pset.n_markers))
+    for joint, d in functional.items():
+        bodies = [pset.model.body(b + joint[-2:]).id for b in AXIS_BODIES[joint[:-2]]]
+        on = np.isin(pset.site_body, bodies)
+        d["rmse_mm"] = {}
+        for name, e in errors.items():
+            sub = e[:, on]
+            sub = sub[np.isfinite(sub)]
+            d["rmse_mm"][name] = float(np.sqrt(np.mean(sub**2)) * 1e3) if sub.size else None
+
+
+#: Knee flexion range [deg] (5th to 95th percentile) below which no crosstalk is reported.
+CROSSTALK_MIN_RANGE = 20.0
+
+
+def knee_crosstalk(
+    pset: ParameterSet,
+    theta: np.ndarray,
+    qpos: Sequence[np.ndarray],
+    markers: Sequence[np.ndarray],
+    decisions: Mapping[str, dict[str, Any]],
+) -> None:
+    """Add each knee's varus-valgus / flexion crosstalk to ``decisions`` (in place): the
+    Pearson correlation and the regression slope [deg/deg] of varus-valgus on flexion over
+    the frames (qpos (T_i, nq) and markers (T_i, M, 3) [m] per trial, pooled), for the
+    identified axis (``crosstalk_model``) and for Plug-in Gait's (``crosstalk_pig``: the
+    chord construction in every frame from the measured wand and knee markers and the
+    identified hip centre), the femur's frame from that axis and the hip and knee centres,
+    the tibia's from the identified knee and ankle centres and shank (Plug-in Gait's Cardan
+    sequence, :func:`~mocap_mj.clinical.geometry.cardan_yxz`). A well-placed flexion axis
+    shows little. Knees that flex less than :data:`CROSSTALK_MIN_RANGE` get None."""
+    knees = {j: d for j, d in decisions.items() if j.startswith("knee")}
+    if not knees:
+        return
+    model = pset.model_for(theta)
+    q = np.concatenate([np.asarray(x, dtype=float) for x in qpos])
+    mk = np.concatenate([np.asarray(x, dtype=float) for x in markers])
+    xpos = np.full((len(q), model.nbody, 3), np.nan)
+    xmat = np.full((len(q), model.nbody, 3, 3), np.nan)
+    for t, data in rolling.posed(model, q):
+        xpos[t], xmat[t] = data.xpos, data.xmat.reshape(-1, 3, 3)
+    offsets = pset.split(theta)[1]
+    for joint, d in knees.items():
+        side = joint[-2:]
+        thigh, shank, foot = (model.body(b + side).id for b in ("thigh", "shank", "foot"))
+        hip, knee, ankle = xpos[:, thigh], xpos[:, shank], xpos[:, foot]
+        centre = pset.body_pos(theta)[shank]
+        delta = float(np.linalg.norm(offsets[pset.marker_index(d["marker"])] - centre))
+        wand, kne = (mk[:, pset.marker_index(n)] for n in (d["wand"], d["marker"]))
+        lat = 1.0 if side == "_l" else -1.0
+        pig_y = lat * unit(kne - chord(wand, hip, kne, delta))
+        tibia = frame_zy(knee - ankle, xmat[:, shank, :, 1])
+        for key, y in (("crosstalk_model", xmat[:, thigh, :, 1]), ("crosstalk_pig", pig_y)):
+            angles = np.degrees(cardan_yxz(relative(frame_zy(hip - knee, y), tibia)))
+            d[key] = _slope(angles[:, 0], angles[:, 1])
+
+
+def _slope(flexion: np.ndarray, varus: np.ndarray) -> dict[str, float] | None:
+    """Correlation and slope [deg/deg] of ``varus`` on ``flexion`` (T,) [deg] over finite
+    frames; None when flexion spans less than :data:`CROSSTALK_MIN_RANGE`."""
+    ok = np.isfinite(flexion) & np.isfinite(varus)
+    f, v = flexion[ok], varus[ok]
+    if len(f) < 3 or np.ptp(np.percentile(f, [5, 95])) < CROSSTALK_MIN_RANGE:
+        return None
+    return {"corr": float(np.corrcoef(f, v)[0, 1]), "slope": float(np.polyfit(f, v, 1)[0])}
+
+
+#: Joint -> Plug-in Gait's construction of its flexion axis, as report.md names it.
+CONSTRUCTION = {"knee": "the chord plane", "ankle": "the chord plane",
+                "elbow": "through ELB", "wrist": "the wrist bar"}  # fmt: skip
+
+
+def report_lines(decisions: Mapping[str, Mapping[str, Any]]) -> list[str]:
+    """report.md's lines on the flexion axes (empty without decisions)."""
+    if not decisions:
+        return []
+    lines = [
+        "| joint | axis from | data sd (deg) | row sd (deg) | angle to Plug-in Gait's (deg) "
+        "| marker RMSE (mm): this axis / Plug-in Gait's row "
+        "| varus on flexion: this axis | Plug-in Gait's |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for joint, d in decisions.items():
+        how = CONSTRUCTION[d["joint"].split("_")[0]]
+        src = f"Plug-in Gait ({how})" if d["source"] == "plug-in-gait" else "the markers"
+        if d.get("conflict"):
+            src += f" (they contradict {how})"
+        rmse = d.get("rmse_mm") or {}
+        both = (rmse.get("functional"), rmse.get("plug_in_gait_row"))
+        fit = "-" if None in both else f"{both[0]:.2f} / {both[1]:.2f}"
+        lines.append(
+            f"| {joint} | {src} | {d['data_sd_deg']:.1f} | {d['row_sd_deg']:.1f} | "
+            f"{d['angle_to_pig_deg']:+.1f} | {fit} | {_crosstalk_text(d.get('crosstalk_model'))} | "
+            f"{_crosstalk_text(d.get('crosstalk_pig'))} |"
+        )
+    return lines
+
+
+def _crosstalk_text(c: Mapping[str, float] | None) -> str:
+    return "-" if not c else f"r {c['corr']:+.2f}, slope {c['slope']:+.2f}"

@@ -1,0 +1,410 @@
+"""Writing an identification result folder (see :mod:`mocap_mj.pipeline.motion`) and its report."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mocap_mj.anatomy.axes import report_lines as axis_lines
+from mocap_mj.anatomy.plausibility import limits_text
+from mocap_mj.anatomy.segments import SegmentRow, uncertainty_lines, write_segments_csv
+from mocap_mj.anatomy.tissue import SlidingModel, with_sliding_model
+from mocap_mj.capture.marker_quality import quality_lines
+from mocap_mj.io.strict_json import dumps, jsonable
+from mocap_mj.outputs.clinical_out import write_model_angles
+from mocap_mj.pipeline.fit import Fit
+from mocap_mj.pipeline.motion import Motion, save_motion
+from mocap_mj.skeleton.exported import Layout
+from mocap_mj.skeleton.joint_centre_table import write_joint_centres_csv
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.identifiability import Identifiability
+from mocap_mj.solve.lm import solver_joint_range
+from mocap_mj.solve.problem import TrialData
+from mocap_mj.solve.solver_result import IdentificationResult, IterationLog
+
+from ..io.atomic import atomic_folder, atomic_write_text
+
+
+def write_result(
+    fit: Fit,
+    folder: str | Path,
+    *,
+    inputs: Mapping[str, Any] | None = None,
+    force: bool = False,
+) -> dict[str, Any]:
+    """Write ``fit`` as a result folder (:mod:`mocap_mj.pipeline.motion`): model.xml, theta.json,
+    recipe.yaml (:meth:`Recipe.save`: ``mocap-mj identify --recipe`` re-runs it),
+    motion.npz and joint_centres.csv (``_<i>`` for the other trials), angles.csv (Plug-in
+    Gait's angles of the model, first trial; compared in report.md with the Nexus angles its
+    C3D holds), segments.csv,
+    identifiability.json, report.md, plots and summary.json (``inputs``, e.g. the marker
+    files read, then :meth:`Fit.summary`). The folder is replaced whole at the end
+    (:func:`~mocap_mj.io.atomic.atomic_folder`; a non-empty ``folder`` only with ``force``);
+    a motion streamed to files (``Fit.motion_files``) is moved into it. Returns the summary
+    written."""
+    summary = jsonable({**(inputs or {}), **fit.summary()})
+    motion = list(fit.motion) if fit.motion is not None else []
+    with atomic_folder(folder, force=force) as staging:
+        for path in fit.motion_files:
+            shutil.move(path, staging / path.name)
+        write_files(
+            staging,
+            fit.pset,
+            fit.result,
+            fit.identifiability,
+            fit.trials,
+            summary,
+            joint_range=solver_joint_range(fit.pset.model, fit.settings),
+            motion=motion,
+            sliding=fit.sliding,
+        )
+        _write_tables(staging, fit.pset, fit.theta, motion, fit.segments, fit.first_frames)
+        lines, compared = write_model_angles(
+            staging,
+            fit.pset.model_for(fit.theta),
+            motion,
+            str(fit.trials[0].name) if fit.trials else "",
+            fit.first_frames[0] if fit.first_frames else 0,
+        )
+        if compared is not None:
+            summary["angles_vs_plug_in_gait"] = compared
+        if lines:
+            report = staging / "report.md"
+            atomic_write_text(report, report.read_text() + "\n" + "\n".join(lines))
+        fit.recipe.save(staging / "recipe.yaml")
+        atomic_write_text(staging / "summary.json", dumps(summary, indent=2) + "\n")
+    return summary
+
+
+def _write_tables(
+    out: Path,
+    pset: ParameterSet,
+    theta: np.ndarray,
+    motion: Sequence[Motion],
+    rows: Sequence[SegmentRow],
+    first_frames: Sequence[int],
+) -> None:
+    """segments.csv, and joint_centres.csv per trial of ``motion`` (``joint_centres_<i>.csv``
+    for the others, like motion.npz) of the model theta (P,) [m]; ``first_frames``: each
+    trial's first frame in its file."""
+    write_segments_csv(out / "segments.csv", rows)
+    model = pset.model_for(theta)
+    for i, (m, first) in enumerate(zip(motion, first_frames, strict=False)):
+        name = "joint_centres.csv" if i == 0 else f"joint_centres_{i}.csv"
+        write_joint_centres_csv(out / name, model, m.times, m.qpos, first_frame=first)
+
+
+def write_files(
+    out: Path,
+    pset: ParameterSet,
+    result: IdentificationResult,
+    idf: Identifiability,
+    trials: Sequence[TrialData],
+    summary: Mapping[str, Any],
+    iterations: Sequence[str] | None = None,
+    *,
+    joint_range: np.ndarray | None = None,
+    motion: Sequence[Motion] | None = None,
+    sliding: SlidingModel | None = None,
+) -> None:
+    """model.xml, theta.json, motion.npz (first trial; ``motion_<i>.npz`` for the others),
+    identifiability.json and report.md (its iterations section: ``iterations``, default
+    :func:`iteration_lines`). ``joint_range`` (njnt, 2): the limits the solver used, written
+    into model.xml (see :meth:`ParameterSet.to_spec`). ``motion``: what motion.npz holds
+    (default: ``trials`` and the fit's poses; internal qpos (T_i, nq), written in model.xml's
+    layout, :class:`mocap_mj.skeleton.exported.Layout`). ``sliding``: the landmarks' sliding model
+    the
+    fit was weighed with, recorded in model.xml for ``ik``
+    (:func:`~mocap_mj.anatomy.tissue.with_sliding_model`; default None: not recorded)."""
+    xml = pset.to_xml(result.theta, joint_range=joint_range)
+    atomic_write_text(
+        out / "model.xml", xml if sliding is None else with_sliding_model(xml, sliding)
+    )
+    pset.save_json(
+        out / "theta.json",
+        result.theta,
+        extra={
+            "description": "mocap-mj identified model parameters",
+            "theta0": pset.to_dict(result.theta0),
+            "parameter_std_m": {
+                n: float(s) for n, s in zip(pset.names, idf.param_std, strict=True)
+            },
+        },
+    )
+    if motion is None:
+        motion = [
+            Motion(q, t.times, t.markers, pset.marker_names)
+            for t, q in zip(trials, result.qpos, strict=True)
+        ]
+    layout = Layout.of(pset.model)
+    for i, m in enumerate(motion):
+        name = "motion.npz" if i == 0 else f"motion_{i}.npz"
+        save_motion(out / name, replace(m, qpos=layout.written(m.qpos), ik=None))
+    atomic_write_text(out / "identifiability.json", json.dumps(idf.to_json()) + "\n")
+    write_plots(out, pset, result, trials)
+    lines = report_lines(pset, result, idf, summary, iterations)
+    atomic_write_text(out / "report.md", "\n".join(lines))
+
+
+def write_plots(
+    out: Path, pset: ParameterSet, result: IdentificationResult, trials: Sequence[TrialData]
+) -> None:
+    """marker_error.png (per frame, first trial) and residual_per_marker.png."""
+    from mocap_mj.io.plots import plot_marker_error_per_frame, plot_residual_per_marker
+
+    first = trials[0]
+    plot_marker_error_per_frame(
+        out / "marker_error.png", first.times, {"identified model": result.frame_rmse[0] * 1e3}
+    )
+    kin = Kinematics(pset)
+    kin.set_theta(result.theta)
+    sq = np.zeros(pset.n_markers)
+    cnt = np.zeros(pset.n_markers)
+    for t, q in zip(trials, result.qpos, strict=True):
+        ok = np.all(np.isfinite(q), axis=1)
+        d = np.linalg.norm(kin.marker_positions(q[ok]) - t.markers[ok], axis=2)
+        present = np.isfinite(d)
+        sq += np.sum(np.where(present, d, 0.0) ** 2, axis=0)
+        cnt += present.sum(axis=0)
+    rmse = np.sqrt(sq / np.maximum(cnt, 1)) * 1e3
+    plot_residual_per_marker(out / "residual_per_marker.png", pset.marker_names, rmse)
+
+
+def report_lines(
+    pset: ParameterSet,
+    result: IdentificationResult,
+    idf: Identifiability,
+    summary: Mapping[str, Any],
+    iterations: Sequence[str] | None = None,
+) -> list[str]:
+    """The Markdown report; ``iterations``: its last section (default :func:`iteration_lines`)."""
+    kappa, _ = pset.split(result.theta)
+    kappa0, _ = pset.split(result.theta0)
+    lines = [
+        "# Identification report",
+        "",
+        f"- trials: {', '.join(summary.get('markers_files', []))}",
+        f"- frames used: {summary['frames_used']} of {summary['frames']}",
+        f"- solver: {summary['solver']}, loss {summary.get('loss', 'l2')}, "
+        f"{result.iterations} iterations ({result.termination.value})",
+        f"- time: {summary['seconds']:.2f} s (initial IK {result.init_seconds:.2f} s)",
+        f"- marker RMSE: {result.marker_rmse * 1e3:.3f} mm: a per-axis noise sigma of "
+        f"{result.sigma * 1e3:.3f} mm (RMSE / sqrt(3 (1 - p/n)), p = {result.n_unknowns} "
+        f"unknowns, n = {result.n_residuals} residuals)",
+        *_measured_lines(pset, summary),
+        *_anatomy_lines(summary),
+        *centre_lines(summary.get("joint_centres_vs_regression") or {}),
+        "",
+        *(quality_lines(summary["marker_quality"]) if summary.get("marker_quality") else []),
+        "## Kinematic parameters",
+        "",
+        "| parameter | initial (mm) | identified (mm) | change (mm) | CRLB std, white (mm) |",
+        "|---|---|---|---|---|",
+    ]
+    for i, name in enumerate(pset.kappa_names):
+        std = "not measured" if pset.frozen[i] else f"{idf.param_std[i] * 1e3:.2f}"
+        lines.append(
+            f"| {name} | {kappa0[i] * 1e3:.1f} | {kappa[i] * 1e3:.2f} | "
+            f"{(kappa[i] - kappa0[i]) * 1e3:+.2f} | {std} |"
+        )
+    lines += ["", *uncertainty_lines(summary), *idf.report_lines()]
+    lines += iteration_lines(result) if iterations is None else list(iterations)
+    return lines
+
+
+def _measured_lines(pset: ParameterSet, summary: Mapping[str, Any]) -> list[str]:
+    """The report's line on a partial marker set (none when every parameter was measured):
+    how many parameters the data measured and why the others are held at the prior."""
+    held = summary.get("parameters_not_measured") or []
+    if not held:
+        return []
+    bodies = ", ".join(summary.get("unmeasured_bodies") or []) or "none"
+    markers = ", ".join(summary.get("markers_without_data") or []) or "none"
+    return [
+        f"- parameters measured: {pset.size - len(held)} of {pset.size}; {len(held)} held at "
+        f"the prior mean (the scaled model, flagged `not_measured`, no standard deviation): "
+        f"bodies without a marker: {bodies}; markers without data: {markers}"
+    ]
+
+
+def iteration_lines(result: IdentificationResult) -> list[str]:
+    """The report's iterations section: one line per trace entry (cost, RMSE; for the joint
+    LM also damping, acceptance and time)."""
+    lines = ["## Iterations", "", "```"]
+    # The coarse phase's iterations run on subsets (their F is the subset's): say on which.
+    levels = {log.frames for log in result.trace if isinstance(log, IterationLog)}
+    for log in result.trace:
+        text = f"{log.iteration:3d}  F {log.cost:.6e}  rmse {log.rmse * 1e3:.4f} mm"
+        if isinstance(log, IterationLog):
+            text += (
+                f"  mu {log.mu:.1e}  {'accepted' if log.accepted else 'rejected'}  "
+                f"{log.seconds:.2f} s"
+            )
+            if len(levels) > 1:
+                text += f"  {log.frames} frames"
+        lines.append(text)
+    return [*lines, "```", ""]
+
+
+def centre_lines(centres: Mapping[str, Any]) -> list[str]:
+    """report.md's table of the ball-joint centres against their regression (summary.json's
+    ``joint_centres_vs_regression``): centres in the parent body's frame [mm]."""
+    if not centres:
+        return []
+    lines = ["", "Ball-joint centres against their regression (parent frame, x y z mm; "
+             "docs/model.md#hip-centres-regression-and-data):", "",
+             "| joint | regression | regression centre | identified centre | distance (mm) "
+             "| sd (mm) | moved by the data | other regression |",
+             "|---|---|---|---|---|---|---|---|"]  # fmt: skip
+
+    def xyz(v: Sequence[float] | None) -> str:
+        return "n/a" if v is None else " ".join(f"{x:.1f}" for x in v)
+
+    for joint, c in centres.items():
+        other = next(((k[:-3], c[k]) for k in ("davis_mm", "harrington_mm") if k in c), None)
+        alt = "" if other is None else f"{other[0]}: {xyz(other[1])}"
+        lines.append(
+            f"| {joint} | {c['regression']} | {xyz(c['regression_mm'])} | "
+            f"{xyz(c['identified_mm'])} | {c['distance_mm']:.1f} | {c['distance_sd_mm']:.1f} | "
+            f"{'yes' if c['moved_by_data'] else 'no'} | {alt} |"
+        )
+    return lines
+
+
+#: report.md's words for each hip-centre regression.
+HIP_SOURCES = {"harrington": "Harrington et al. 2007 (pelvis width and depth)",
+               "davis": "Davis et al. 1991 (leg length, as Plug-in Gait)"}  # fmt: skip
+
+
+def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
+    """The subject measurements used (value, source), prior weighting, parameters at a
+    bound of their anatomical range."""
+    if not summary.get("anatomical_priors"):
+        return []
+    lines = ["", "## Subject measurements and anatomical priors", ""]
+    meas = summary.get("measurements", {})
+    for n, m in meas.items():
+        value = m["value"] if m["unit"] == "kg" else m["value"] * 1e3
+        lines.append(f"- {n}: {value:g} {'kg' if m['unit'] == 'kg' else 'mm'} ({m['source']})")
+    if not meas:
+        lines.append("- no measurements: widths and the hip centres regressed from the markers")
+    est = summary.get("stature_estimate")
+    if est:
+        lines.append(
+            f"- stature {est['value']:.2f} +- {est['sd']:.2f} m estimated from {est['source']} "
+            "(no measured height): the anatomical ranges and stature-scaled priors use it"
+        )
+    w = summary.get("prior_weighting", {})
+    if w:
+        lines.append(
+            f"- priors weighed against a marker noise of {w['noise_mm']:.2f} mm (fit sigma "
+            f"{w['sigma_mm']:.2f} mm, residual correlation time {w['tau_frames']:.1f} frames)"
+        )
+    per_trial = w.get("trial_weights") or []
+    if len(per_trial) > 1:
+        taus = w.get("trial_tau_frames") or [float("nan")] * len(per_trial)
+        files = summary.get("markers_files") or []
+        names = [Path(f).name for f in files] if len(files) == len(per_trial) else [
+            f"trial {i}" for i in range(len(per_trial))]  # fmt: skip
+        lines.append(
+            "- trials weighed by their independent frames (weight, residual correlation time "
+            "about zero): "
+            + ", ".join(f"{n} {v:.2f} ({t:.0f} frames)" for n, v, t in
+                        zip(names, per_trial, taus, strict=True))
+        )  # fmt: skip
+    hip = summary.get("hip_centre")
+    if hip:
+        lines.append(f"- hip centres: {HIP_SOURCES.get(hip, hip)}")
+    axes = summary.get("joint_axes") or {}
+    if axes:
+        lines += ["", "Flexion axes (docs/model.md#flexion-axes): Plug-in Gait's chord plane "
+                  "where the data determine the axis less well than the wand does (data sd "
+                  "above the row's) and do not contradict it, else the markers'; varus-valgus "
+                  "on flexion over the frames as correlation and slope (deg/deg):", "",
+                  *axis_lines(axes), ""]  # fmt: skip
+    bound = summary.get("kappa_at_bound", {})
+    lines.append(
+        "- parameters at a bound of their anatomical range: "
+        + (", ".join(f"{n} ({b})" for n, b in bound.items()) or "none")
+    )
+    if summary.get("shoulder_note"):
+        lines.append(f"- shoulders: {summary['shoulder_note']}")
+    held = summary.get("joints_at_limit") or {}
+    lines.append(
+        "- joints held at a limit of their range (share of the fitted frames): "
+        + (limits_text(held) or "none")
+    )
+    return lines
+
+
+def frame_range(
+    text: str | None, n: int, source: str = "the recording", *, stride: bool = False
+) -> slice:
+    """The frames of a ``--frames`` text over ``n`` frames: the one parser of every command.
+
+    ``"A:B"`` is a Python slice of frames, B exclusive, negative from the end, an empty part
+    the slice's default (``":"`` every frame); with ``stride``, ``"A:B:S"`` also takes every
+    S-th frame (S positive). None or "" -> every frame. Returns the slice with its bounds
+    resolved (0 <= start <= stop <= n). A bound past the ``n`` frames of ``source`` is
+    refused, naming its frame count: a range silently shortened would use other frames than
+    the ones asked for.
+    """
+    from ..errors import MocapError
+
+    if not text:
+        return slice(0, n)
+    form = "A:B or A:B:S" if stride else "A:B"
+    parts = text.split(":")
+    try:
+        if len(parts) not in ((2, 3) if stride else (2,)):
+            raise ValueError
+        a, b, *s = (int(p) if p.strip() else None for p in parts)
+    except ValueError:
+        raise MocapError(f"--frames: expected {form} (e.g. 0:500), got {text!r}") from None
+    step = s[0] if s else None
+    if step is not None and step <= 0:
+        raise MocapError(f"--frames {text}: the step S must be positive, got {step}")
+    if any(v is not None and not -n <= v <= n for v in (a, b)):
+        raise MocapError(
+            f"{source}: --frames {text}: past the end, the recording has {n} frames (0 to {n - 1})"
+        )
+    start, stop, _ = slice(a, b).indices(n)
+    return slice(start, max(start, stop), step)
+
+
+def expected_rmse(sigma: float, n_unknowns: int, n_residuals: int) -> float:
+    """sqrt(3) sigma sqrt(1 - p / n) [m]: the fit RMSE that noise alone leaves."""
+    return float(np.sqrt(3) * sigma * np.sqrt(max(1 - n_unknowns / n_residuals, 0.0)))
+
+
+def result_text(summary: dict[str, Any], pset: ParameterSet, out: Path) -> str:
+    held = summary.get("parameters_not_measured") or []
+    measured = (
+        f"{pset.size - len(held)} of {pset.size} parameters" if held else f"{pset.size} parameters"
+    )
+    why = []
+    if summary.get("unmeasured_bodies"):
+        why.append(f"no marker on {' '.join(summary['unmeasured_bodies'])}")
+    if summary.get("markers_without_data"):
+        why.append(f"no data for {' '.join(summary['markers_without_data'])}")
+    note = f"{len(held)} held at the prior ({'; '.join(why)})\n" if held else ""
+    return (
+        f"identified {measured} from {summary['frames_used']} frames in "
+        f"{summary['seconds']:.2f} s ({summary['iterations']} LM iterations, "
+        f"{summary['termination']})\n"
+        f"{note}"
+        f"marker RMSE {summary['marker_rmse_mm']:.3f} mm, i.e. a per-axis noise sigma of "
+        f"{summary['sigma_mm']:.3f} mm given {summary['n_unknowns']} unknowns and "
+        f"{summary['n_residuals']} residuals; {summary['observable_directions']} of {pset.size} "
+        f"directions observable, CRLB {summary['kappa_crlb_rms_mm']:.3f} mm (kinematic) / "
+        f"{summary['offset_crlb_rms_mm']:.3f} mm (offsets)\n"
+        f"wrote {out}/model.xml, theta.json, motion.npz, joint_centres.csv, segments.csv, "
+        "identifiability.json, report.md"
+    )

@@ -1,0 +1,297 @@
+""":func:`identify`: the whole identification of ``mocap-mj identify``, in memory.
+
+From the trials' markers to a :class:`~mocap_mj.pipeline.fit.Fit`: the marker-data quality
+check (ghost and jump samples dropped), the frames to identify on (all, or a pose-diverse
+selection of a long recording), the initial model, the joint LM with the anatomical priors and
+ranges and the trials' weights (:func:`~mocap_mj.pipeline.steps.solve_anatomical`), the
+refinement on every frame of a selected recording and the motion of every frame. Nothing is
+written: :func:`mocap_mj.outputs.write_fit.write_result` writes a fit as a result folder.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mocap_mj.anatomy.axes import knee_crosstalk, widths
+from mocap_mj.capture.marker_quality import (
+    check_trials_quality,
+    drop_ghosts,
+    marker_segments,
+    quality_entry,
+)
+from mocap_mj.capture.subject import Subject
+from mocap_mj.io.strict_json import jsonable
+from mocap_mj.long.motion_out import every_frame_motion, write_every_frame_motion
+from mocap_mj.pipeline.fit import Fit
+from mocap_mj.pipeline.motion import Motion
+from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.pipeline.steps import (
+    Solved,
+    anatomical_priors,
+    prior_information,
+    robust_for,
+    sliding_weigh,
+    solve_trials,
+)
+from mocap_mj.pipeline.summary import add_checks, add_finding, centre_fields, fit_report
+from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.identifiability import Identifiability
+from mocap_mj.solve.lm import LMSettings, Performance, Tolerances
+from mocap_mj.solve.problem import TrialData
+from mocap_mj.solve.selection import select_in_trials
+from mocap_mj.solve.solver_result import ProgressCallback
+
+from ..errors import MocapError
+
+#: ``select="auto"``: above this many frames in all the trials, identify on a pose-diverse
+#: subset. The cost of an LM iteration grows with the frames while an hour of motion repeats
+#: a few thousand poses (docs/method.md#long-recordings).
+AUTO_SELECT_ABOVE = 20_000
+#: ``select="auto"``: the subset's size (the long-recording benchmark's, 1000 frames).
+AUTO_SELECT_COUNT = 1000
+#: The recipe of ``mocap-mj identify`` with no option (frozen, shared).
+DEFAULT_RECIPE = Recipe()
+
+
+def identify(
+    trials: Sequence[TrialData],
+    recipe: Recipe = DEFAULT_RECIPE,
+    subject: Subject | None = None,
+    *,
+    pset: ParameterSet | None = None,
+    theta0: np.ndarray | None = None,
+    first_frames: Sequence[int] | None = None,
+    rates: Sequence[float] | None = None,
+    quality: dict[str, Any] | None = None,
+    tolerances: Tolerances | None = None,
+    performance: Performance | None = None,
+    progress: ProgressCallback | None = None,
+    motion_progress: Callable[[int], None] | None = None,
+    motion_sink: Path | None = None,
+    landmarks: Mapping[str, str] | None = None,
+) -> Fit:
+    """Identify the subject's model and motion from ``trials`` (markers (T_i, M, 3) [m] in
+    ``pset``'s marker order, NaN where missing; times (T_i,) [s]) as ``recipe`` says.
+
+    Parameters
+    ----------
+    trials : the marker trials, one model for all of them.
+    recipe : the choices (default: those of ``mocap-mj identify``).
+    subject : the subject's measurements (default: none; the stature is then estimated).
+    pset : the parameters to identify (default: the bundled humanoid's).
+    theta0 : (P,) [m] the initial model (default: from ``recipe.init``).
+    first_frames : each trial's first frame in its file (default 0): report and table rows.
+    rates : each trial's frame rate [Hz] for the quality check (default: from its times).
+    quality : summary.json's ``marker_quality`` entry of a check already run by the caller
+        on these trials, their ghost and jump samples already dropped (the command line's,
+        which prints the findings and honours ``--strict``); default None: checked here.
+    tolerances, performance : the solver's (default: theirs); they do not change the problem.
+    progress : called with every LM iteration's trace entry.
+    motion_progress : called with the frames done of the motion of every frame.
+    motion_sink : a folder; when the recipe selects frames (a long recording), every frame's
+        motion is solved chunk by chunk and written there as it comes (motion*.npz,
+        joint_centres*.csv; the memory then does not grow with the recording) and
+        ``Fit.motion`` is None (``Fit.motion_files`` names the files). Default None: the
+        motion is held in memory (poses (T, nq) per trial).
+    landmarks : marker -> the anatomical landmark it sits on (:mod:`mocap_mj.capture.landmarks`, a
+        marker set's ``landmark:`` entries): epicondyle and malleolus pairs give their joint's
+        axis and centre (:func:`~mocap_mj.anatomy.anatomy.landmark_prior`). Default none.
+
+    Returns
+    -------
+    Fit : theta (P,) [m], every frame's motion, identifiability, segment table, checks.
+    """
+    pset = ParameterSet() if pset is None else pset
+    trials = list(trials)
+    firsts = [0] * len(trials) if first_frames is None else [int(f) for f in first_frames]
+    settings = recipe.settings(tolerances, performance)
+    if quality is None:
+        trials, quality = checked(trials, pset, firsts, rates)
+    report: dict[str, Any] = {
+        "frames_fitted_range": [
+            [f, f + len(t.markers)] for f, t in zip(firsts, trials, strict=True)
+        ],
+        "marker_quality": quality,
+    }
+    count = select_count(recipe.select, sum(len(t.markers) for t in trials), len(trials))
+    fitted, whole = trials, None
+    if count is not None:
+        t0 = time.perf_counter()
+        fitted, kept = selected(trials, pset.marker_names, count)
+        report["select_seconds"] = time.perf_counter() - t0
+        report["frames_selected"] = kept
+        whole = trials
+    solved = solve_trials(
+        fitted, pset, settings, recipe, subject, theta0, progress, whole, landmarks=landmarks
+    )
+    fit = _described(solved, fitted, settings, recipe, report, firsts)
+    if whole is None:
+        return fit
+    return _with_every_frame(fit, solved, whole, motion_sink, motion_progress)
+
+
+def _described(
+    solved: Solved,
+    trials: list[TrialData],
+    settings: LMSettings,
+    recipe: Recipe,
+    report: dict[str, Any],
+    firsts: list[int],
+) -> Fit:
+    """The fit of ``solved`` on ``trials`` (the frames identified on): its identifiability,
+    report, checks and segment table; the motion the fitted frames' poses."""
+    pset, result = solved.pset, solved.result
+    idf = Identifiability(
+        pset,
+        result.reduced_information,
+        result.sigma,
+        observable_std=settings.observable_std,
+        theta=result.theta,
+    )
+    knee_crosstalk(pset, result.theta, result.qpos, [t.markers for t in trials],
+                   solved.weighting.get("joint_axes") or {})  # fmt: skip
+    report.update(fit_report(solved, trials, settings, recipe, idf))
+    if solved.t10_prior is not None and solved.t10_prior.finding is not None:
+        add_finding(report, solved.t10_prior.finding)
+    priors = (
+        anatomical_priors(pset, solved.subject, size=solved.size, symmetric=solved.symmetric,
+                          t10=solved.t10_prior, hip_centre=recipe.hip_centre,
+                          axes=widths(pset, solved.weighting.get("joint_axes")),
+                          landmarks=solved.landmarks,
+                          centres=solved.weighting.get("centre_widths"))
+        if recipe.anatomy
+        else []
+    )  # fmt: skip
+    info = prior_information(priors, settings, pset.size)
+    rows = add_checks(report, pset, result, trials, settings, solved.ranges, info)
+    report["joint_centres_vs_regression"] = centre_fields(solved, settings, recipe)
+    report = jsonable(report)
+    motion = tuple(
+        Motion(np.asarray(q), t.times, t.markers, pset.marker_names, first_frame=f)
+        for t, q, f in zip(trials, result.qpos, firsts, strict=True)
+    )
+    return Fit(
+        pset=pset,
+        recipe=recipe,
+        settings=settings,
+        result=result,
+        identifiability=idf,
+        trials=tuple(trials),
+        motion=motion,
+        first_frames=tuple(firsts),
+        segments=tuple(rows),
+        sliding=solved.sliding,
+        subject=solved.subject,
+        report=report,
+    )
+
+
+def _with_every_frame(
+    fit: Fit,
+    solved: Solved,
+    whole: list[TrialData],
+    sink: Path | None,
+    progress: Callable[[int], None] | None,
+) -> Fit:
+    """``fit`` with the motion of every frame of ``whole`` (the recordings the fitted frames
+    were selected from), by IK with the identified model: written into ``sink`` chunk by
+    chunk, or held in memory without one."""
+    report = dict(fit.report)
+    report["motion_frames"] = [len(t.markers) for t in whole]
+    if solved.refined:
+        report["refinement"] = {
+            k: v for k, v in solved.refined.items() if k not in ("qpos", "robust")
+        }
+    pset = fit.pset
+    args: dict[str, Any] = {
+        "start": solved.refined.get("qpos"),
+        "progress": progress,
+        "weigh": sliding_weigh(pset, solved.weighting, solved.slides),
+        "robust": solved.refined.get("robust")
+        or robust_for(pset, fit.result, fit.trials, fit.settings),
+    }
+    motion: tuple[Motion, ...] | None = None
+    files: tuple[Path, ...] = ()
+    if sink is not None:
+        done = write_every_frame_motion(
+            sink, pset, fit.theta, fit.settings, whole, first_frames=fit.first_frames, **args
+        )
+        files = tuple(
+            sorted(sink.glob("motion*.npz"))
+            + sorted(sink.glob("joint_centres*.csv"))
+            + sorted(sink.glob("angles.csv"))
+        )
+    else:
+        poses, done = every_frame_motion(pset, fit.theta, fit.settings, whole, **args)
+        motion = tuple(
+            Motion(q, np.asarray(t.times, dtype=float), np.asarray(t.markers, dtype=float),
+                   pset.marker_names, first_frame=f)
+            for t, q, f in zip(whole, poses, fit.first_frames, strict=True)
+        )  # fmt: skip
+    report["motion_marker_rmse_mm"] = done.rmse * 1e3
+    report["motion_seconds"] = {"ik": done.ik_seconds, "all": done.seconds}
+    return replace(fit, report=jsonable(report), motion=motion, motion_files=files)
+
+
+def checked(
+    trials: list[TrialData],
+    pset: ParameterSet,
+    first_frames: Sequence[int],
+    rates: Sequence[float] | None = None,
+) -> tuple[list[TrialData], dict[str, Any]]:
+    """The marker-data quality check of the trials (:func:`check_trials_quality`; rates
+    [Hz], default from each trial's times) and the trials with the samples the ``ghost`` and
+    ``jump`` findings name dropped (copies: the caller's arrays are left as they are)."""
+    if rates is None:
+        rates = [_rate(t.times) for t in trials]
+    found = check_trials_quality(
+        [t.name for t in trials],
+        pset.marker_names,
+        [t.markers for t in trials],
+        rates,
+        marker_segments(pset.model),
+        first_frames,
+    )
+    kept = [
+        t._replace(
+            markers=drop_ghosts(t.markers, pset.marker_names, found, t.name, first_frame=f)[0]
+        )
+        for t, f in zip(trials, first_frames, strict=True)
+    ]
+    return kept, quality_entry(found, [])
+
+
+def _rate(times: np.ndarray) -> float:
+    """Frame rate [Hz] of times (T,) [s] (their median step); 100 Hz for a single frame."""
+    steps = np.diff(np.asarray(times, dtype=float))
+    return float(1.0 / np.median(steps)) if len(steps) and np.median(steps) > 0 else 100.0
+
+
+def select_count(select: int | str, frames: int, n_trials: int) -> int | None:
+    """Frames to identify on for ``Recipe.select`` (None: every frame) over ``frames``
+    frames in ``n_trials`` trials."""
+    if select == "all":
+        return None
+    if select == "auto":
+        return AUTO_SELECT_COUNT if frames > AUTO_SELECT_ABOVE else None
+    count = int(select)
+    if count < n_trials:
+        raise MocapError(f"select: expected at least one frame per trial ({n_trials}), got {count}")
+    return count if count < frames else None
+
+
+def selected(
+    trials: list[TrialData], names: tuple[str, ...], count: int
+) -> tuple[list[TrialData], list[list[int]]]:
+    """The trials' pose-diverse frames (:func:`select_in_trials`) and their indices."""
+    kept = select_in_trials([t.markers for t in trials], names, count)
+    subsets = [
+        TrialData(t.name, t.markers[k], t.times[k]) for t, k in zip(trials, kept, strict=True)
+    ]
+    return subsets, [k.tolist() for k in kept]

@@ -1,0 +1,210 @@
+"""The choices of an identification, as one value: :class:`Recipe`, read from and written to YAML.
+
+A recipe states what ``mocap-mj identify`` (and :func:`mocap_mj.identify`) solves: the initial
+model, the anatomical priors and ranges, the left/right prior, the soft-tissue sliding model,
+the trials' weights, the loss, the frames it identifies on for a long recording and the
+refinement on every frame, the iterations and the weak prior. Every result folder holds the
+recipe it was made with (``recipe.yaml``); ``mocap-mj identify --recipe DIR/recipe.yaml`` on
+the same trials gives the same theta. How the solver gets there (its
+:class:`~mocap_mj.solve.settings.Tolerances`, the command's are the defaults) and how it uses memory
+(:class:`~mocap_mj.solve.settings.Performance`) are not part of a recipe.
+
+Lengths are in metres in the file as in the code.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal, get_args
+
+import yaml
+
+from mocap_mj.solve.lm import LMSettings, Performance, Tolerances
+from mocap_mj.solve.losses import LossName
+
+from ..errors import InputFileError, MocapError
+from ..io.atomic import atomic_write_text
+
+Init = Literal["placed", "scaled", "nominal"]
+#: Initial models (:attr:`Recipe.init`).
+INITS: tuple[str, ...] = get_args(Init)
+HipCentre = Literal["harrington", "davis"]
+#: Hip-centre regressions (:attr:`Recipe.hip_centre`).
+HIP_CENTRES: tuple[str, ...] = get_args(HipCentre)
+#: The choices :class:`LMSettings` holds (the solver's share of a recipe).
+_SETTINGS_CHOICES = (
+    "max_iterations", "prior_sigma", "prior_noise", "loss", "loss_scale", "observable_std"
+)  # fmt: skip
+#: ``select``'s words besides a number of frames.
+SELECT_WORDS = ("auto", "all")
+
+
+@dataclass(frozen=True)
+class Recipe:
+    """The choices of an identification (defaults: those of ``mocap-mj identify``).
+
+    Attributes
+    ----------
+    init : "placed", "scaled" or "nominal"
+        Initial model and prior mean: placed = the nominal model scaled to the subject from
+        marker distances, the marker offsets then placed by IK; scaled = scaled only;
+        nominal = the bundled model as it is.
+    anatomy : bool
+        Anatomical ranges as bounds and the landmark priors (:mod:`~mocap_mj.anatomy.anatomy`,
+        :mod:`~mocap_mj.anatomy.ranges`).
+    symmetric : float or None [m]
+        With anatomy: a prior tying every left length to the right one with this standard
+        deviation, in place of the population asymmetry prior (None: not used).
+    asymmetry_prior : bool
+        With anatomy and no ``symmetric``: the population asymmetry prior (``ASYMMETRY_SIGMA``).
+    sliding_landmarks : bool
+        With anatomy: the landmarks' soft-tissue sliding model (:mod:`~mocap_mj.anatomy.tissue`),
+        applied only where the residuals show soft tissue.
+    trial_weights : bool
+        With anatomy and several trials: weigh each trial by the independent observations it
+        holds (:func:`~mocap_mj.solve.noise.trial_weights`); False weighs every trial 1.
+    loss : "l2", "huber" or "cauchy"
+        Loss on each marker distance.
+    loss_scale : float [1]
+        Robust threshold in units of the estimated per-axis noise sigma.
+    select : int, "auto" or "all"
+        Frames to identify on, chosen for pose diversity (then refined on every frame when
+        ``refine``): a number, "auto" (``AUTO_SELECT_COUNT`` frames when the trials hold more
+        than ``AUTO_SELECT_ABOVE``, else every frame) or "all".
+    refine : bool
+        After identifying on selected frames, refine the model on every frame.
+    max_iterations : int
+        LM iterations at most.
+    prior_sigma : float [m]
+        Width of the weak prior toward the initial model (for a marker noise ``prior_noise``).
+    prior_noise : float [m]
+        The marker noise the priors are first weighed against.
+    observable_std : float [m]
+        A direction of theta counts as observable when its standard deviation is below this
+        (reporting only).
+    hip_centre : "harrington" or "davis"
+        With anatomy: the hip centres' regression, Harrington et al. 2007 (closer to
+        imaging) or Davis et al. 1991 (Plug-in Gait's; needs both leg lengths).
+    """
+
+    init: Init = "placed"
+    anatomy: bool = True
+    symmetric: float | None = None
+    asymmetry_prior: bool = True
+    sliding_landmarks: bool = True
+    trial_weights: bool = True
+    loss: LossName = "l2"
+    loss_scale: float = 3.0
+    select: int | str = "auto"
+    refine: bool = True
+    max_iterations: int = 100
+    prior_sigma: float = 0.05
+    prior_noise: float = 0.001
+    observable_std: float = 0.005
+    hip_centre: HipCentre = "harrington"
+
+    def __post_init__(self) -> None:
+        if self.init not in INITS:
+            raise MocapError(f"init must be one of {', '.join(INITS)}; got {self.init!r}")
+        if isinstance(self.select, str) and self.select not in SELECT_WORDS:
+            raise MocapError(
+                f"select: expected a number of frames, auto or all, got {self.select!r}"
+            )
+        if not isinstance(self.select, str) and (isinstance(self.select, bool) or self.select < 1):
+            raise MocapError(f"select: expected at least 1 frame, got {self.select!r}")
+        if self.hip_centre not in HIP_CENTRES:
+            raise MocapError(
+                f"hip_centre must be one of {', '.join(HIP_CENTRES)}; got {self.hip_centre!r}"
+            )
+        if self.symmetric is not None and not 0 < self.symmetric < math.inf:
+            raise MocapError(f"symmetric: expected a width > 0 m, got {self.symmetric}")
+        for name in ("observable_std", "loss_scale"):
+            value = getattr(self, name)
+            if not 0 < value < math.inf:  # NaN fails too
+                raise MocapError(f"{name}: expected a number > 0, got {value}")
+        self.settings()  # the solver's own checks (loss, prior widths, iterations)
+
+    def settings(
+        self, tolerances: Tolerances | None = None, performance: Performance | None = None
+    ) -> LMSettings:
+        """The joint LM's settings: this recipe's choices with ``tolerances`` and
+        ``performance`` (default: theirs)."""
+        return LMSettings(
+            max_iterations=self.max_iterations,
+            prior_sigma=self.prior_sigma,
+            prior_noise=self.prior_noise,
+            loss=self.loss,
+            loss_scale=self.loss_scale,
+            observable_std=self.observable_std,
+            tolerances=tolerances or Tolerances(),
+            performance=performance or Performance(),
+        )
+
+    @classmethod
+    def of_settings(cls, settings: LMSettings, **choices: Any) -> Recipe:
+        """The recipe whose :meth:`settings` hold ``settings``' choices (iterations, loss,
+        weak prior, reporting threshold), with the other ``choices`` given."""
+        mine = {k: getattr(settings, k) for k in _SETTINGS_CHOICES}
+        return cls(**{**mine, **choices})
+
+    def to_yaml(self) -> str:
+        """The recipe as YAML (every field, lengths in metres), with a header line."""
+        body = yaml.safe_dump(dataclasses.asdict(self), sort_keys=False)
+        return "# mocap-mj recipe: the choices of an identification (lengths in m)\n" + body
+
+    def save(self, path: str | Path) -> None:
+        """Write :meth:`to_yaml` to ``path`` (atomically)."""
+        atomic_write_text(path, self.to_yaml())
+
+    @classmethod
+    def load(cls, path: str | Path) -> Recipe:
+        """The recipe in the YAML file ``path``: a mapping of field names to values; fields
+        not named keep their defaults. Raises :class:`InputFileError` naming the file and
+        the field for an unknown field or a value of the wrong kind."""
+        try:
+            data = yaml.safe_load(Path(path).read_text())
+        except (OSError, yaml.YAMLError) as exc:
+            raise InputFileError(f"{path}: cannot read the recipe ({exc})") from None
+        if data is None:
+            data = {}
+        if not isinstance(data, dict):
+            raise InputFileError(f"{path}: expected a mapping of recipe fields, got {data!r}")
+        return cls.from_dict(data, source=str(path))
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "recipe") -> Recipe:
+        """The recipe of ``data`` (field name -> value); ``source`` names it in errors."""
+        fields = {f.name: f for f in dataclasses.fields(cls)}
+        for name, value in data.items():
+            if name not in fields:
+                raise InputFileError(
+                    f"{source}: unknown recipe field {name!r} (expected one of {', '.join(fields)})"
+                )
+            _check_kind(source, name, value, cls.__dataclass_fields__[name].default)
+        try:
+            return cls(**data)
+        except MocapError as exc:
+            raise InputFileError(f"{source}: {exc}") from None
+
+
+def _check_kind(source: str, name: str, value: Any, default: Any) -> None:
+    """Refuse a value whose kind differs from the field's default (bool, number, text)."""
+    if name == "select":
+        ok = isinstance(value, str) or (isinstance(value, int) and not isinstance(value, bool))
+    elif name == "symmetric":
+        ok = value is None or (isinstance(value, int | float) and not isinstance(value, bool))
+    elif isinstance(default, bool):
+        ok = isinstance(value, bool)
+    elif isinstance(default, int):
+        ok = isinstance(value, int) and not isinstance(value, bool)
+    elif isinstance(default, float):
+        ok = isinstance(value, int | float) and not isinstance(value, bool)
+    else:
+        ok = isinstance(value, str)
+    if not ok:
+        raise InputFileError(
+            f"{source}: recipe field {name!r}: expected a value like {default!r}, got {value!r}"
+        )

@@ -1,0 +1,691 @@
+"""The solve of an identification: initial model, anatomical priors and ranges, the trials'
+weights, the refinement on every frame of a long recording (:func:`solve_trials`, which
+:func:`mocap_mj.pipeline.api.identify` runs)."""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import time
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from functools import partial
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from mocap_mj.anatomy.anatomy import ASYMMETRY_SIGMA, landmark_prior, symmetric_prior
+from mocap_mj.anatomy.axes import angle_to_pig, axis_decisions, axis_rmse, widths
+from mocap_mj.anatomy.ball_centres import centre_widths, row_spreads
+from mocap_mj.anatomy.initial import estimate_stature, place_markers, scaled_theta, segment_scales
+from mocap_mj.anatomy.partial import Unmeasured, freeze_unmeasured, on_measured
+from mocap_mj.anatomy.ranges import NOMINAL_HEIGHT, kappa_ranges, theta_bounds
+from mocap_mj.anatomy.tissue import SLIDES, Slide, SlidingModel, sliding_weights
+from mocap_mj.anatomy.trunk import T10Placement, t10_placement
+from mocap_mj.capture.checks import check_determined
+from mocap_mj.capture.subject import Subject
+from mocap_mj.long.chunks import Robust, Weigh, robust_loss, scratch_array
+from mocap_mj.long.long import result_at
+from mocap_mj.long.refine import refine
+from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.consistency import pooled_correlation_time, trial_residuals
+from mocap_mj.solve.ik import IKSettings
+from mocap_mj.solve.lm import LMSettings, identify_lm
+from mocap_mj.solve.noise import (
+    SOFT_TISSUE_SIGMA,
+    artefact_noise,
+    residual_correlation_time,
+    trial_weights,
+)
+from mocap_mj.solve.priors import LinearGaussianPrior, Prior
+from mocap_mj.solve.problem import TrialData
+from mocap_mj.solve.solver_result import IdentificationResult, ProgressCallback
+
+logger = logging.getLogger(__name__)
+
+
+class Solved(NamedTuple):
+    """The solve of :func:`solve_trials`: the parameter set solved with, the result, the
+    prior weighting (:func:`solve_anatomical`), the refinement on every frame's extras
+    (:func:`refine_on_every_frame`; empty without), the sliding model weighed with, the
+    subject (stature estimated when not measured) and what the report says of the solve:
+    prior scale ``size`` [1], left/right prior ``symmetric`` [m], T10's placement, the
+    kinematic ranges (K,) [m] (with anatomy), the initial model used, the segment scales,
+    the unmeasured parameters, the solve's wall time [s] and its log lines."""
+
+    pset: ParameterSet
+    result: IdentificationResult
+    weighting: dict[str, Any]
+    refined: dict[str, Any]
+    sliding: SlidingModel | None
+    slides: dict[str, Slide] | None
+    subject: Subject
+    size: float
+    symmetric: float | None
+    t10: T10Placement | None
+    ranges: tuple[np.ndarray, np.ndarray] | None
+    init_used: str
+    scales: dict[str, float]
+    missing: Unmeasured
+    seconds: float
+    log: list[str]
+    landmarks: Mapping[str, str] | None = None
+
+    @property
+    def t10_prior(self) -> T10Placement | None:
+        """T10's placement when found misplaced (it widens the priors), else None."""
+        return self.t10 if self.t10 is not None and self.t10.finding is not None else None
+
+
+def solve_trials(
+    trials: Sequence[TrialData],
+    pset: ParameterSet,
+    settings: LMSettings,
+    recipe: Recipe,
+    subject: Subject | None,
+    theta0: np.ndarray | None,
+    progress: ProgressCallback | None,
+    whole: Sequence[TrialData] | None = None,
+    landmarks: Mapping[str, str] | None = None,
+) -> Solved:
+    """The joint LM on ``trials`` as ``recipe`` says: the parameters the data do not measure
+    frozen (:func:`~mocap_mj.anatomy.partial.freeze_unmeasured`), trials with fewer marker
+    coordinates than unknowns refused (:func:`mocap_mj.capture.checks.check_determined`), the
+    initial
+    model (``theta0`` (P,) [m], else ``recipe.init``: :func:`_initial_theta`), the subject's
+    stature estimated when not measured, and with ``recipe.anatomy`` the anatomical ranges as
+    bounds, the landmark priors (T10's placement checked against the stature), the
+    left/right prior and the sliding landmarks (:func:`solve_anatomical`). With ``whole``
+    (one recording per trial, which ``trials``' frames were selected from) and
+    ``recipe.refine`` the model is then refined on every frame (:func:`refine_on_every_frame`)."""
+    t0 = time.perf_counter()
+    pset, missing = freeze_unmeasured(pset, trials)
+    _check_inputs(trials, pset)
+    init_used = "given" if theta0 is not None else recipe.init
+    theta0, scales, pset = _initial_theta(trials, pset, theta0, recipe.init)
+    subject = _with_stature(subject or Subject(), trials, pset)
+    stature = subject.stature()
+    t10 = t10_placement(pset, trials, subject) if recipe.anatomy else None  # stature estimated
+    slides = SLIDES if recipe.sliding_landmarks else None
+    symmetric = recipe.symmetric
+    options: dict[str, Any] = {
+        "subject": subject,
+        "size": stature[0] / NOMINAL_HEIGHT if stature else scales.get("overall", 1.0),
+        "anatomical": recipe.anatomy,
+        "symmetric": ASYMMETRY_SIGMA if symmetric is None and recipe.asymmetry_prior else symmetric,
+        "t10": t10 if t10 is not None and t10.finding is not None else None,
+        "hip_centre": recipe.hip_centre,
+        "landmarks": landmarks,
+    }
+    with captured_log() as log:
+        result, weighting = _solve(
+            trials, pset=pset, theta0=theta0, settings=settings, progress=progress,
+            slides=slides, trial_weights=recipe.trial_weights, **options,
+        )  # fmt: skip
+    refined: dict[str, Any] = {}
+    if recipe.refine and whole is not None:
+        result, refined = refine_on_every_frame(
+            result, trials, whole, pset=pset, settings=settings, weighting=weighting,
+            slides=slides, **options,
+        )  # fmt: skip
+    for d in (weighting.get("joint_axes") or {}).values():  # at the final model
+        d["angle_to_pig_deg"] = angle_to_pig(pset, result.theta, d)
+    sliding = None
+    if slides and "slide_base_mm" in weighting:
+        # The fit (and the refinement on every frame, and the motion's IK) weighed with it.
+        sliding = SlidingModel(dict(slides), weighting["slide_base_mm"] * 1e-3)
+    ranges = kappa_ranges(pset, subject) if recipe.anatomy else None
+    return Solved(
+        pset, result, weighting, refined, sliding, slides, subject, options["size"],
+        options["symmetric"], t10, ranges, init_used, scales, missing,
+        time.perf_counter() - t0, log, landmarks,
+    )  # fmt: skip
+
+
+def refine_on_every_frame(
+    result: IdentificationResult,
+    trials: Sequence[TrialData],
+    motion_trials: Sequence[TrialData],
+    *,
+    pset: ParameterSet,
+    settings: LMSettings,
+    weighting: dict[str, Any],
+    subject: Subject,
+    size: float,
+    anatomical: bool,
+    symmetric: float | None,
+    slides: dict[str, Slide] | None = None,
+    t10: T10Placement | None = None,
+    hip_centre: str = "harrington",
+    landmarks: Mapping[str, str] | None = None,
+) -> tuple[IdentificationResult, dict[str, Any]]:
+    """The identification on ``trials`` (frames selected from ``motion_trials``) refined on
+    every frame of ``motion_trials`` (:func:`mocap_mj.long.refine.refine`) with the priors
+    and bounds of its solve: with ``anatomical`` the landmark priors (and the left/right
+    prior of width ``symmetric`` [m]) weighed against the noise of ``weighting``, the
+    anatomical ranges as bounds; always the weak prior, toward the subset's estimate (the
+    directions the subset barely determined keep its value unless every frame determines
+    them). The result is described at the refined model (:func:`~mocap_mj.long.long.result_at`);
+    the dict holds the refinement's ``steps_std``, ``seconds``, the subset's own estimate
+    (``subset_kappa_mm``) and ``qpos``: every frame's pose under the sample's estimate per
+    motion trial (T_i, nq), the start of the motion's IK. When the solve weighed the sliding
+    landmarks (``slides``, and ``weighting`` has their ``slide_base_mm``), the refinement
+    weighs them alike, by each frame's pose (:func:`~mocap_mj.long.refine.refine`'s
+    ``weigh``): it minimises the cost the subset's solve minimised, over every frame. With a
+    robust ``settings.loss`` it minimises that loss, its threshold first the subset's solve's
+    last (:func:`robust_for`), then the sample's (in the dict as ``robust``, for the motion's
+    IK)."""
+    noise = weighting.get("noise_mm", settings.prior_noise * 1e3) * 1e-3
+    priors: list[Prior] = [settings.weak_prior(result.theta)]
+    box = None
+    if anatomical:
+        priors += anatomical_priors(
+            pset, subject, size=size, symmetric=symmetric, noise=noise, t10=t10,
+            hip_centre=hip_centre, landmarks=landmarks,
+            axes=widths(pset, weighting.get("joint_axes")), centres=weighting.get("centre_widths"),
+        )  # fmt: skip
+        box = theta_bounds(pset, subject)
+    qpos = [scratch_array((len(t.markers), pset.model.nq)) for t in motion_trials]
+    robust = robust_for(pset, result, trials, settings)
+    ref = refine(
+        [t.markers for t in motion_trials],
+        pset,
+        result.theta,
+        qpos,
+        result.sigma,
+        settings=settings,
+        priors=priors,
+        lower=None if box is None else box[0],
+        upper=None if box is None else box[1],
+        weigh=sliding_weigh(pset, weighting, slides),
+        robust=robust,
+    )
+    refined = result_at(result, trials, pset, ref.theta, settings, box, robust)
+    info = {
+        "steps_std": ref.steps,
+        "seconds": ref.seconds,
+        "subset_kappa_mm": {
+            n: float(v) * 1e3 for n, v in zip(pset.kappa_names, result.theta, strict=False)
+        },
+        "qpos": qpos,
+        "robust": ref.robust,
+    }
+    return refined, info
+
+
+def robust_for(
+    pset: ParameterSet,
+    result: IdentificationResult,
+    trials: Sequence[TrialData],
+    settings: LMSettings,
+) -> Robust | None:
+    """The robust loss of ``settings`` with the threshold of the fit's last iterations (the
+    median distance of ``trials`` at ``result``'s poses and model,
+    :func:`~mocap_mj.long.chunks.robust_loss`), None for the l2 loss."""
+    if settings.loss == "l2":
+        return None
+    kin = Kinematics(pset)
+    kin.set_theta(result.theta)
+    markers = [t.markers for t in trials]
+    return robust_loss(settings.loss, kin, markers, result.qpos, settings.loss_scale)
+
+
+def sliding_weigh(
+    pset: ParameterSet, weighting: dict[str, Any], slides: dict[str, Slide] | None
+) -> Weigh | None:
+    """The sliding landmarks' weights by pose (:meth:`SlidingModel.weights`) that the solve
+    weighed with (``weighting`` has ``slide_base_mm``), else None."""
+    if not slides or "slide_base_mm" not in weighting:
+        return None
+    return partial(SlidingModel(dict(slides), weighting["slide_base_mm"] * 1e-3).weights, pset)
+
+
+def _check_inputs(trials: Sequence[TrialData], pset: ParameterSet) -> None:
+    """Refuse trials with fewer marker coordinates than unknowns."""
+    check_determined(
+        [t.name for t in trials],
+        [t.markers for t in trials],
+        IKSettings().min_markers,
+        pset.model,
+        int(np.sum(~pset.frozen)),
+    )
+
+
+def _with_stature(subject: Subject, trials: Sequence[TrialData], pset: ParameterSet) -> Subject:
+    """``subject`` with the stature estimated from the trials' markers
+    (:func:`~mocap_mj.anatomy.initial.estimate_stature`) when its height is not measured:
+    the anatomical ranges and the stature-scaled priors are centred on it."""
+    if subject.get("height") is not None:
+        return subject
+    scales = segment_scales(pset, [t.markers for t in trials])
+    return subject.with_stature_estimate(estimate_stature(scales))
+
+
+def t10_check(
+    pset: ParameterSet, trials: Sequence[TrialData], subject: Subject
+) -> T10Placement | None:
+    """T10's placement against ``subject``'s stature, estimated from the trials' markers
+    when not measured (:func:`~mocap_mj.anatomy.trunk.t10_placement`): what
+    :func:`solve_trials` finds and reports (``--strict`` refuses its finding before
+    the fit)."""
+    return t10_placement(pset, trials, _with_stature(subject, trials, pset))
+
+
+def _initial_theta(
+    trials: Sequence[TrialData],
+    pset: ParameterSet,
+    theta0: np.ndarray | None,
+    init: str,
+) -> tuple[np.ndarray | None, dict[str, float], ParameterSet]:
+    """The initial model (P,) of :func:`solve_trials`, the segment scale estimates
+    behind it (name -> factor; empty unless ``init`` scaled the nominal model) and the
+    parameter set to solve with: ``pset`` with its knee rolling scaled to the initial model
+    (:meth:`ParameterSet.with_rolling_scaled`, fixed for the solve).
+
+    A given ``theta0`` is kept with the model file's rolling (an exported model.xml holds its
+    subject's), as is the nominal model; otherwise ``init="nominal"`` leaves it None (the
+    solver starts from the nominal model), ``"scaled"`` scales the
+    nominal model to the trials' marker distances and ``"placed"`` also places the marker
+    offsets by IK (with the scaled rolling)."""
+    scales: dict[str, float] = {}
+    if theta0 is None and init != "nominal":
+        markers = [t.markers for t in trials]
+        estimates = segment_scales(pset, markers)
+        theta0 = scaled_theta(pset, markers, scales=estimates)
+        scales = {n: e.value for n, e in estimates.items()}
+        pset = pset.with_rolling_scaled(theta0)
+        if init == "placed":
+            theta0 = place_markers(pset, theta0, markers)
+    return theta0, scales, pset
+
+
+def _solve(
+    trials: Sequence[TrialData],
+    *,
+    pset: ParameterSet,
+    theta0: np.ndarray | None,
+    settings: LMSettings,
+    subject: Subject,
+    size: float,
+    anatomical: bool,
+    symmetric: float | None,
+    progress: ProgressCallback | None,
+    slides: dict[str, Slide] | None = None,
+    t10: T10Placement | None = None,
+    trial_weights: bool = True,
+    hip_centre: str = "harrington",
+    landmarks: Mapping[str, str] | None = None,
+) -> tuple[IdentificationResult, dict[str, Any]]:
+    """The joint LM of :func:`solve_trials`: with ``anatomical`` through
+    :func:`solve_anatomical` (ranges and landmark priors; ``symmetric`` [m] the left/right
+    prior's standard deviation or None; ``slides`` the sliding landmarks or None;
+    ``trial_weights``), else the plain :func:`identify_lm`; return the result and the prior
+    weighting (empty without ``anatomical``)."""
+    if anatomical:
+        return solve_anatomical(
+            trials,
+            pset=pset,
+            theta0=theta0,
+            settings=settings,
+            subject=subject,
+            size=size,
+            symmetric=symmetric,
+            progress=progress,
+            slides=slides,
+            t10=t10,
+            trial_weights=trial_weights,
+            hip_centre=hip_centre,
+            landmarks=landmarks,
+        )
+    result = identify_lm(trials, pset=pset, theta0=theta0, settings=settings, progress=progress)
+    return result, {}
+
+
+class _ListHandler(logging.Handler):
+    def __init__(self) -> None:
+        super().__init__(logging.INFO)
+        self.lines: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.lines.append(record.getMessage())
+
+
+@contextlib.contextmanager
+def captured_log() -> Iterator[list[str]]:
+    """The INFO messages of the ``mocap_mj`` logger while the block runs, as a list."""
+    handler = _ListHandler()
+    root = logging.getLogger("mocap_mj")
+    level = root.level
+    root.addHandler(handler)
+    if root.getEffectiveLevel() > logging.INFO:
+        root.setLevel(logging.INFO)
+    try:
+        yield handler.lines
+    finally:
+        root.removeHandler(handler)
+        root.setLevel(level)
+
+
+#: Effective noise [m] below which one solve with the nominal prior noise is kept.
+REWEIGHT_RATIO = 1.5
+#: Solves with per-trial weights at most (:func:`solve_anatomical`): each re-estimates the
+#: trials' correlation times at the last solve's model, since a trial's residuals also carry
+#: the bias another, overweighted trial pulled into the model.
+TRIAL_WEIGHT_ROUNDS = 4
+#: The rounds stop when no trial's weight changes by more than this factor.
+TRIAL_WEIGHT_SETTLED = 1.25
+
+
+def anatomical_priors(
+    pset: ParameterSet,
+    subject: Subject,
+    *,
+    size: float = 1.0,
+    symmetric: float | None = None,
+    noise: float = 0.001,
+    t10: T10Placement | None = None,
+    hip_centre: str = "harrington",
+    landmarks: Mapping[str, str] | None = None,
+    axes: dict[str, float | None] | None = None,
+    centres: Mapping[str, float] | None = None,
+) -> list[LinearGaussianPrior]:
+    """Landmark priors and, with ``symmetric`` [m], the left/right length prior; without the
+    rows on ``pset``'s frozen parameters (:func:`~mocap_mj.anatomy.partial.on_measured`).
+    ``t10``: a T10 found misplaced (:mod:`mocap_mj.anatomy.trunk`; default None: trusted),
+    widening the rows that hang on it; ``hip_centre``, ``landmarks`` (marker -> landmark,
+    :mod:`mocap_mj.capture.landmarks`) and ``axes`` (the chord-plane rows' widths,
+    :func:`~mocap_mj.anatomy.axes.widths`): see
+    :func:`~mocap_mj.anatomy.anatomy.landmark_prior`; ``centres``: a ball-joint centre
+    row's label -> its width factor (:func:`~mocap_mj.anatomy.ball_centres.centre_widths`,
+    decided by :func:`solve_anatomical`; default none)."""
+    landmark = landmark_prior(
+        pset,
+        subject,
+        size=size,
+        noise=noise,
+        t10=t10,
+        hip_centre=hip_centre,
+        axis_widths=axes,
+        landmarks=landmarks,
+    )
+    priors = [centre_widths(landmark, centres or {})]  # fmt: skip
+    if symmetric is not None:
+        priors.append(symmetric_prior(pset, symmetric, noise=noise))
+    return [on_measured(p, pset.frozen) for p in priors]
+
+
+def prior_information(
+    priors: Sequence[LinearGaussianPrior], settings: LMSettings, size: int
+) -> np.ndarray:
+    """The information (size, size) [1/m^2] the priors of a solve hold about theta: every
+    row's ``a_r a_r^T / sigma_r^2`` plus the weak prior toward the initial model
+    (``1 / settings.prior_sigma^2`` per parameter), as for a marker noise equal to the
+    priors' ``noise`` (the weighting the solve used). For the Cramer-Rao bound with the
+    priors (:meth:`Identifiability.bound_rms_with_prior`)."""
+    info = np.zeros((size, size))
+    for p in (settings.weak_prior(np.zeros(size)), *priors):
+        info += (p.a.T / p.sigma**2) @ p.a
+    return info
+
+
+def solve_anatomical(
+    trials: Sequence[TrialData],
+    *,
+    pset: ParameterSet,
+    theta0: np.ndarray | None,
+    settings: LMSettings,
+    subject: Subject,
+    size: float = 1.0,
+    symmetric: float | None = None,
+    progress: ProgressCallback | None = None,
+    slides: dict[str, Slide] | None = None,
+    t10: T10Placement | None = None,
+    trial_weights: bool = True,
+    hip_centre: str = "harrington",
+    landmarks: Mapping[str, str] | None = None,
+) -> tuple[IdentificationResult, dict[str, Any]]:
+    """The joint LM with anatomical ranges as bounds and the anatomical priors
+    (``t10``: see :func:`anatomical_priors`; ``trial_weights``: False weighs every trial 1).
+
+    The priors are weighed against the markers' effective noise: a first solve uses the
+    nominal marker noise (``settings.prior_noise``, 1 mm); when the artefact's noise of one
+    independent observation (:func:`artefact_noise`: the per-axis noise sigma, at least
+    ``SOFT_TISSUE_SIGMA`` when the residuals are correlated, times the square root of the
+    residuals' correlation time tau [frames]) exceeds that by ``REWEIGHT_RATIO``, a second
+    solve starts from the first one's result with the priors' noise set to it (residuals
+    correlated over tau frames hold about 1 / tau of white noise's information). On white
+    noise one solve is kept. The flexion axes' rows are decided after the first solve.
+
+    Several trials are weighed in the second solve by the independent observations each
+    holds (:func:`_reweighed`); with ``slides`` (e.g. :data:`~mocap_mj.anatomy.tissue.SLIDES`;
+    default None: off) it also weighs the landmark markers that slide with their joint's
+    angle (:func:`_slid`), only where the residuals show soft tissue, never on white noise.
+    Returns the result and the weighting used (``noise_mm``, ``sigma_mm``, ``tau_frames``,
+    ``trial_tau_frames`` and ``trial_weights`` (one per trial); with the sliding weights
+    ``slide_weight_min`` and ``slide_base_mm``, see :func:`_slid`).
+    """
+    lower, upper = theta_bounds(pset, subject)
+    options: dict[str, Any] = {
+        "size": size, "symmetric": symmetric, "noise": settings.prior_noise, "t10": t10,
+        "hip_centre": hip_centre, "landmarks": landmarks,
+    }  # fmt: skip
+    priors = anatomical_priors(pset, subject, **options)
+    start = pset.nominal if theta0 is None else theta0
+    result = identify_lm(
+        trials,
+        pset=pset,
+        theta0=theta0,
+        settings=settings,
+        progress=progress,
+        priors=[settings.weak_prior(start), *priors],
+        lower=lower,
+        upper=upper,
+    )
+    weighting, noise = _weighting(pset, result, trials, trial_weights)
+    tau = weighting["tau_frames"]
+    taus, per_trial = weighting["trial_tau_frames"], weighting["trial_weights"]
+    soft = noise > REWEIGHT_RATIO * settings.prior_noise
+    weak, axis_noise = settings.weak_prior(start), noise if soft else settings.prior_noise
+    axes = axis_decisions(pset, result.reduced_information, result.theta, priors, weak, axis_noise)
+    priors = _decided(pset, subject, options, result, priors, axes, weighting, soft, settings)
+    if not soft and all(w == 1.0 for w in per_trial) and not axes:
+        weighting["noise_mm"] = settings.prior_noise * 1e3
+        return result, weighting
+    if not soft:
+        noise = settings.prior_noise
+        weighting["noise_mm"] = noise * 1e3
+    _log_weighting(soft, noise, tau, per_trial, taus)
+    weighted = _slid(trials, result, pset, slides, weighting) if slides and soft else list(trials)
+    solve = partial(
+        identify_lm,
+        pset=pset,
+        settings=settings,
+        progress=progress,
+        priors=[settings.weak_prior(result.theta), *(p.with_noise(noise) for p in priors)],
+        lower=lower,
+        upper=upper,
+    )
+    return _reweighed(solve, result, trials, weighted, weighting, pset, trial_weights), weighting
+
+
+def _decided(
+    pset: ParameterSet,
+    subject: Subject,
+    options: dict[str, Any],
+    first: IdentificationResult,
+    priors: list[LinearGaussianPrior],
+    axes: dict[str, Any],
+    weighting: dict[str, Any],
+    soft: bool,
+    settings: LMSettings,
+) -> list[LinearGaussianPrior]:
+    """The priors of :func:`solve_anatomical`'s weighted solves: the flexion axes' rows as
+    decided (``axes``, :mod:`~mocap_mj.anatomy.axes`) and, where the residuals show soft
+    tissue (``soft``), the ball-joint centres' regression rows weighed against the data
+    honestly counted (:func:`_centre_factors` at the ``first`` solve); both recorded in
+    ``weighting`` (``joint_axes``, ``centre_widths``)."""
+    if axes:
+        weighting["joint_axes"] = axes
+    if soft:
+        noise = weighting["noise_mm"] * 1e-3
+        weak = settings.weak_prior(first.theta)
+        weighting["centre_widths"] = _centre_factors(pset, first, priors, weak, noise)
+    if not axes and not soft:
+        return priors
+    return anatomical_priors(pset, subject, **options, axes=widths(pset, axes),
+                             centres=weighting.get("centre_widths"))  # fmt: skip
+
+
+def _centre_factors(
+    pset: ParameterSet,
+    result: IdentificationResult,
+    priors: Sequence[LinearGaussianPrior],
+    weak: LinearGaussianPrior,
+    noise: float,
+) -> dict[str, float]:
+    """The width factor of every ball-joint centre's regression row (label -> factor,
+    :func:`~mocap_mj.anatomy.ball_centres.row_spreads`) for a solve that weighs the
+    priors against ``noise`` [m]: the data of the first solve ``result`` (its reduced
+    information and poses) with the soft-tissue artefact's floor, ``max(sigma,
+    SOFT_TISSUE_SIGMA)`` per axis."""
+    landmark, *others = (p.with_noise(noise) for p in priors)
+    sta = max(result.sigma, SOFT_TISSUE_SIGMA)
+    spreads = row_spreads(pset, result.reduced_information, result.free, result.qpos,
+                          landmark, [weak, *others], noise, sta)  # fmt: skip
+    for label, s in spreads.items():
+        logger.info("%s: data %.1f mm, artefact floor %.1f mm: width x %.3f",
+                    label, s.data_m * 1e3, s.floor_m * 1e3, s.factor)  # fmt: skip
+    return {label: s.factor for label, s in spreads.items()}
+
+
+def _log_weighting(
+    soft: bool, noise: float, tau: float, per_trial: Sequence[float], taus: Sequence[float]
+) -> None:
+    """Log how the second solve weighs the priors (noise [m], correlation time tau [frames])
+    and the trials (their weights and correlation times)."""
+    if soft:
+        logger.info("priors reweighted: noise %.2f mm (sigma x sqrt(tau %.1f))", noise * 1e3, tau)
+    if any(w != 1.0 for w in per_trial):
+        logger.info(
+            "trials weighed by their independent frames: %s",
+            ", ".join(f"{w:.2f} (tau {t:.0f})" for w, t in zip(per_trial, taus, strict=True)),
+        )
+
+
+def _weighting(
+    pset: ParameterSet,
+    result: IdentificationResult,
+    trials: Sequence[TrialData],
+    trial_weights: bool,
+) -> tuple[dict[str, Any], float]:
+    """The prior weighting after the first solve ``result`` (its per-axis noise sigma, the
+    residuals' pooled correlation time tau [frames], the artefact's noise of one
+    independent observation, each trial's tau and weight) and that noise [m]
+    (:func:`artefact_noise`)."""
+    residuals = trial_residuals(pset, result, trials)
+    tau = pooled_correlation_time(residuals)
+    noise = artefact_noise(result.sigma, tau)
+    taus, per_trial = _trial_weighting(residuals, trial_weights)
+    weighting = {
+        "sigma_mm": result.sigma * 1e3,
+        "tau_frames": tau,
+        "noise_mm": noise * 1e3,
+        "trial_tau_frames": taus,
+        "trial_weights": per_trial,
+    }
+    return weighting, noise
+
+
+def _slid(
+    trials: Sequence[TrialData],
+    first: IdentificationResult,
+    pset: ParameterSet,
+    slides: dict[str, Slide],
+    weighting: dict[str, Any],
+) -> list[TrialData]:
+    """The trials with the weights of the landmark markers that slide with their joint's
+    angle (:mod:`mocap_mj.anatomy.tissue`) by the ``first`` solve's poses, against a
+    per-axis artefact of ``max(sigma, SOFT_TISSUE_SIGMA)`` (recorded in ``weighting``:
+    ``slide_weight_min``, the smallest weight, and ``slide_base_mm``, the artefact).
+    ``mocap-mj identify`` slides :data:`~mocap_mj.anatomy.tissue.SLIDES` unless the
+    recipe's ``sliding_landmarks`` is false
+    (docs/method.md#weighing-priors-trials-and-sliding-markers)."""
+    base = max(first.sigma, SOFT_TISSUE_SIGMA)
+    weights = [sliding_weights(pset, q, base, slides) for q in first.qpos]
+    weighting["slide_weight_min"] = float(min(w.min() for w in weights))
+    weighting["slide_base_mm"] = base * 1e3
+    return [t._replace(weights=w) for t, w in zip(trials, weights, strict=True)]
+
+
+def _reweighed(
+    solve: Callable[..., IdentificationResult],
+    first: IdentificationResult,
+    trials: Sequence[TrialData],
+    weighted: Sequence[TrialData],
+    weighting: dict[str, Any],
+    pset: ParameterSet,
+    trial_weights: bool,
+) -> IdentificationResult:
+    """:func:`solve_anatomical`'s weighted solves from the ``first`` one: ``weighted`` (the
+    trials with their sliding weights) weighed by ``weighting``'s ``trial_weights``: the
+    independent observations each trial holds (:func:`~mocap_mj.solve.noise.trial_weights`,
+    from each trial's residual correlation time about zero), re-estimated at each weighted
+    solve's model (updated in ``weighting``), at most ``TRIAL_WEIGHT_ROUNDS`` solves, until
+    no weight changes by more than ``TRIAL_WEIGHT_SETTLED``: a static trial's soft tissue is
+    one offset over all its frames and would otherwise outvote a movement. Residuals of
+    white noise keep every weight 1; one trial always weighs 1. The result carries the first
+    solve's initial model and the solves' summed iterations and time; a functional flexion
+    axis of ``weighting`` gets its marker RMSE with each solve (:func:`axes.axis_rmse`)."""
+    per_trial = weighting["trial_weights"]
+    result = solve(_trials_weighed(weighted, per_trial), theta0=first.theta,
+                   initial_qpos=first.qpos)  # fmt: skip
+    seconds, iterations = first.seconds + result.seconds, first.iterations + result.iterations
+    for _ in range(TRIAL_WEIGHT_ROUNDS - 1):
+        if all(w == 1.0 for w in per_trial):
+            break
+        taus, update = _trial_weighting(trial_residuals(pset, result, trials), trial_weights)
+        if max(abs(np.log(u / w)) for u, w in zip(update, per_trial, strict=True)) < np.log(
+            TRIAL_WEIGHT_SETTLED
+        ):
+            break
+        per_trial = update
+        weighting.update(trial_tau_frames=taus, trial_weights=per_trial)
+        logger.info("trials reweighed: %s", ", ".join(f"{w:.2f}" for w in per_trial))
+        result = solve(_trials_weighed(weighted, per_trial), theta0=result.theta,
+                       initial_qpos=result.qpos)  # fmt: skip
+        seconds, iterations = seconds + result.seconds, iterations + result.iterations
+    result.theta0 = first.theta0
+    result.seconds = seconds
+    result.init_seconds = first.init_seconds
+    result.iterations = iterations
+    fits = {
+        "plug_in_gait_row": (first.theta, first.qpos),
+        "functional": (result.theta, result.qpos),
+    }
+    axis_rmse(pset, fits, [t.markers for t in trials], weighting.get("joint_axes") or {})
+    return result
+
+
+def _trial_weighting(
+    residuals: Sequence[np.ndarray], weigh: bool = True
+) -> tuple[list[float], list[float]]:
+    """Each trial's residual correlation time about zero [frames] and its weight [1]
+    (:func:`~mocap_mj.solve.noise.trial_weights`; every weight 1 without ``weigh``) from
+    the trials' residuals (T_i, M, 3) [m]."""
+    taus = [residual_correlation_time(r, about_mean=False) for r in residuals]
+    if not weigh:
+        return taus, [1.0] * len(taus)
+    return taus, trial_weights(taus, [len(r) for r in residuals])
+
+
+def _trials_weighed(trials: Sequence[TrialData], weights: Sequence[float]) -> list[TrialData]:
+    """``trials`` with every sample's weight (their own, default 1) times the trial's
+    weight [1] from ``weights``; a trial of weight 1 is returned as it is."""
+    out = []
+    for t, w in zip(trials, weights, strict=True):
+        if w != 1.0:
+            own = np.ones(t.markers.shape[:2]) if t.weights is None else t.weights
+            t = t._replace(weights=w * own)
+        out.append(t)
+    return out

@@ -1,0 +1,251 @@
+"""The summary of a fit (summary.json): what :func:`mocap_mj.pipeline.api.identify` reports
+beside its arrays, in the summary's units (millimetres, seconds; names ending ``_mm``)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from mocap_mj.anatomy.anatomy import ASYMMETRY_SIGMA
+from mocap_mj.anatomy.axes import widths
+from mocap_mj.anatomy.ball_centres import centre_report, row_spreads
+from mocap_mj.anatomy.initial import marker_stature, segment_scales
+from mocap_mj.anatomy.partial import Unmeasured
+from mocap_mj.anatomy.plausibility import (
+    implausible_reasons,
+    joints_at_limit,
+    kappa_outside_bounds,
+    marker_rmse_by_marker,
+)
+from mocap_mj.anatomy.segments import SegmentRow, uncertainty_summary
+from mocap_mj.anatomy.tissue import arm_elevation, raised_arms_note
+from mocap_mj.anatomy.trunk import T10Placement
+from mocap_mj.capture.marker_quality import Finding
+from mocap_mj.capture.subject import Subject
+from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.pipeline.steps import REWEIGHT_RATIO, Solved, anatomical_priors
+from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.identifiability import Identifiability
+from mocap_mj.solve.lm import LMSettings, solver_joint_range
+from mocap_mj.solve.noise import SOFT_TISSUE_SIGMA
+from mocap_mj.solve.problem import TrialData
+from mocap_mj.solve.solver_result import IdentificationResult
+
+from ..errors import MocapError
+
+
+def fit_report(
+    solved: Solved,
+    trials: Sequence[TrialData],
+    settings: LMSettings,
+    recipe: Recipe,
+    idf: Identifiability,
+) -> dict[str, Any]:
+    """The summary of the solve ``solved`` on ``trials`` (the frames identified on): solver,
+    frames, timing, fit and observability, priors, measured parameters, bounds and limits
+    reached, the arms' elevation and T10's placement (its finding added to
+    ``marker_quality``, which the caller's ``summary`` may already hold)."""
+    pset, result = solved.pset, solved.result
+    summary = _summary_fields(
+        trials, pset, settings, result, idf, solved.init_used, solved.scales, solved.seconds,
+        solved.log,
+    )  # fmt: skip
+    summary.update(
+        _prior_fields(recipe.anatomy, solved.weighting, recipe.symmetric,
+                      recipe.asymmetry_prior, solved.subject)
+    )  # fmt: skip
+    summary["hip_centre"] = recipe.hip_centre if recipe.anatomy else None
+    summary.update(_measured_fields(pset, solved.missing))
+    summary["sliding_landmarks"] = None if solved.sliding is None else sorted(solved.sliding.slides)
+    summary["kappa_at_bound"] = _kappa_at_bound(pset, result)
+    summary["implausible"] = implausible_reasons(
+        result.marker_rmse,
+        len(summary["kappa_at_bound"]),
+        int(np.sum(~pset.frozen[: pset.n_kappa])),
+        marker_stature(segment_scales(pset, [t.markers for t in trials])),
+    )
+    fitted = [q[used] for q, used in zip(result.qpos, result.used, strict=True)]
+    summary["joints_at_limit"] = joints_at_limit(
+        pset.model, solver_joint_range(pset.model, settings), fitted
+    )
+    elevation = arm_elevation(pset, fitted)
+    summary["arm_elevation_deg"] = {
+        s: [float(np.degrees(a)) for a in v] for s, v in elevation.items()
+    }
+    summary["shoulder_note"] = raised_arms_note(elevation)
+    summary["t10_placement"] = None if solved.t10 is None else _t10_fields(solved.t10)
+    return summary
+
+
+def _measured_fields(pset: ParameterSet, missing: Unmeasured) -> dict[str, Any]:
+    """The partial-marker-set part of the summary: how many parameters the data measured,
+    the names of those held at the prior (:mod:`mocap_mj.anatomy.partial`), the bodies no
+    present marker determines and the markers without data."""
+    return {
+        "parameters_measured": int(np.sum(~pset.frozen)),
+        "parameters_not_measured": [n for n, f in zip(pset.names, pset.frozen, strict=True) if f],
+        "unmeasured_bodies": list(missing.bodies),
+        "markers_without_data": list(missing.markers),
+    }
+
+
+def _prior_fields(
+    anatomical: bool,
+    weighting: dict[str, Any],
+    symmetric: float | None,
+    asymmetry_prior: bool,
+    subject: Subject,
+) -> dict[str, Any]:
+    """The priors part of the summary (standard deviations in millimetres)."""
+    return {
+        "anatomical_priors": anatomical,
+        "prior_weighting": {k: v for k, v in weighting.items() if k != "joint_axes"},
+        "joint_axes": weighting.get("joint_axes") or {},
+        "symmetric_mm": None if symmetric is None else symmetric * 1e3,
+        "asymmetry_prior_mm": (
+            ASYMMETRY_SIGMA * 1e3 if anatomical and asymmetry_prior and symmetric is None else None
+        ),
+        "measurements": subject.to_dict(),
+        "stature_estimate": (
+            None if subject.stature_estimate is None else subject.stature_estimate.to_dict()
+        ),
+    }
+
+
+def _t10_fields(t10: T10Placement) -> dict[str, Any]:
+    """summary.json's ``t10_placement``: the C7-T10 distance against the stature [mm]."""
+    return {
+        "c7_t10_mm": t10.measured * 1e3,
+        "expected_mm": t10.expected * 1e3,
+        "spread_mm": t10.spread * 1e3,
+        "shift_mm": t10.shift * 1e3,
+        "misplaced": t10.finding is not None,
+    }
+
+
+def add_finding(summary: dict[str, Any], finding: Finding) -> None:
+    """``finding`` added to summary's ``marker_quality`` entry (created when the caller gave
+    none), with the markers it names counted among the suspects."""
+    entry = summary.get("marker_quality")
+    if entry is None:
+        entry = summary["marker_quality"] = {"findings": [], "suspects": {}, "excluded": []}
+    entry["findings"].append(finding.to_json())
+    named = dict(entry.get("suspects") or {})
+    for n in finding.markers:
+        named[n] = named.get(n, 0) + 1
+    entry["suspects"] = dict(sorted(named.items(), key=lambda kv: (-kv[1], kv[0])))
+
+
+def _summary_fields(
+    trials: Sequence[TrialData],
+    pset: ParameterSet,
+    settings: LMSettings,
+    result: IdentificationResult,
+    idf: Identifiability,
+    init_used: str,
+    scales: dict[str, float],
+    seconds: float,
+    log: list[str],
+) -> dict[str, Any]:
+    """The solver part of the summary: initial model, frames, timing, fit (millimetres) and
+    observability."""
+    n_frames = sum(len(t.markers) for t in trials)
+    n_used = sum(int(u.sum()) for u in result.used)
+    bk, bo = idf.bound_rms()
+    return {
+        "solver": "lm",
+        "loss": settings.loss,
+        "init": init_used,
+        "init_scales": scales,
+        "frames": n_frames,
+        "frames_used": n_used,
+        "frames_skipped": n_frames - n_used,
+        "seconds": seconds,
+        "init_seconds": result.init_seconds,
+        "iterations": result.iterations,
+        "termination": result.termination.value,
+        "marker_rmse_mm": result.marker_rmse * 1e3,
+        "sigma_mm": result.sigma * 1e3,
+        "n_residuals": result.n_residuals,
+        "n_unknowns": result.n_unknowns,
+        "observable_directions": idf.rank,
+        "unobservable_directions": int(np.sum(~idf.observable)),
+        "kappa_crlb_rms_mm": bk * 1e3,
+        "offset_crlb_rms_mm": bo * 1e3,
+        "kappa_mm": {
+            n: float(v) * 1e3 for n, v in zip(pset.kappa_names, result.theta, strict=False)
+        },
+        "log": log,
+    }
+
+
+def _kappa_at_bound(pset: ParameterSet, result: IdentificationResult) -> dict[str, str]:
+    """Kinematic parameters the solve left at a bound: name -> "lower" or "upper" (which side
+    of the nominal value they stopped on)."""
+    return {
+        n: ("lower" if th < nom else "upper")
+        for n, b, th, nom in zip(
+            pset.kappa_names, result.at_bound, result.theta, pset.nominal, strict=False
+        )
+        if b
+    }
+
+
+def add_checks(
+    summary: dict[str, Any],
+    pset: ParameterSet,
+    result: IdentificationResult,
+    trials: Sequence[TrialData],
+    settings: LMSettings,
+    ranges: tuple[np.ndarray, np.ndarray] | None,
+    prior_info: np.ndarray | None = None,
+) -> list[SegmentRow]:
+    """Add the real-data checks to ``summary`` (worst markers, parameters outside their range
+    ``ranges`` (K,) [m], default ``pset``'s, the segment table with inflated standard
+    deviations, with the priors of ``prior_info`` (P, P) [1/m^2] in ``std_priors``); return
+    the segment rows."""
+    per_marker = marker_rmse_by_marker(pset, result, trials)
+    lower, upper = ranges if ranges is not None else (None, None)
+    outside = kappa_outside_bounds(pset, result.theta, lower, upper)
+    summary["marker_rmse_by_marker_mm"] = {
+        n: float(v) * 1e3 for n, v in zip(pset.marker_names, per_marker, strict=True)
+    }
+    summary["kappa_outside_bounds_mm"] = {n: [v * 1e3 for v in b] for n, b in outside.items()}
+    entries, rows = uncertainty_summary(
+        pset, result, trials, per_marker, settings, ranges=ranges, prior_information=prior_info
+    )
+    summary.update(entries)
+    return rows
+
+
+def centre_fields(solved: Solved, settings: LMSettings, recipe: Recipe) -> dict[str, Any]:
+    """summary.json's ``joint_centres_vs_regression``
+    (:func:`~mocap_mj.anatomy.ball_centres.centre_report`) at the solve's model: each
+    regression-placed ball joint's centre against its regression, with the data counted as
+    the solve counted them (the weighting's noise; with correlated residuals the soft-tissue
+    floor of ``max(sigma, SOFT_TISSUE_SIGMA)``); for the hips also the other regression's
+    centre (``davis_mm`` beside Harrington, ``harrington_mm`` beside Davis; Davis's needs
+    both leg lengths). Empty without the anatomical priors."""
+    if not recipe.anatomy:
+        return {}
+    pset, result, w = solved.pset, solved.result, solved.weighting
+    options: dict[str, Any] = {
+        "size": solved.size, "symmetric": solved.symmetric, "t10": solved.t10_prior,
+        "landmarks": solved.landmarks, "axes": widths(pset, w.get("joint_axes")),
+    }  # fmt: skip
+    noise = w.get("noise_mm", settings.prior_noise * 1e3) * 1e-3
+    priors = [p.with_noise(noise) for p in anatomical_priors(pset, solved.subject, **options,
+              hip_centre=recipe.hip_centre)]  # fmt: skip
+    soft = noise > REWEIGHT_RATIO * settings.prior_noise  # as solve_anatomical decides
+    sta = max(result.sigma, SOFT_TISSUE_SIGMA) if soft else 0.0
+    spreads = row_spreads(pset, result.reduced_information, result.free, result.qpos,
+                          priors[0], [settings.weak_prior(result.theta), *priors[1:]], noise,
+                          sta)  # fmt: skip
+    other = "davis" if recipe.hip_centre == "harrington" else "harrington"
+    try:
+        alt = anatomical_priors(pset, solved.subject, **options, hip_centre=other)[0]
+    except MocapError:  # Davis's rows need both leg lengths
+        alt = None
+    return centre_report(pset, result.theta, priors[0], spreads, {other: alt})
