@@ -23,7 +23,7 @@ from pathlib import Path
 
 from mocap_mj.anatomy.plausibility import kappa_outside_bounds, left_right_differences, width_errors
 from mocap_mj.anatomy.ranges import kappa_ranges
-from mocap_mj.capture.subject import Measurement, StatureEstimate, Subject
+from mocap_mj.capture.subject import Subject
 from mocap_mj.pipeline.motion import load_motion
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.consistency import joint_centre_lengths
@@ -32,17 +32,7 @@ from mocap_mj.solve.consistency import joint_centre_lengths
 def report(folder: Path, pset: ParameterSet) -> str:
     summary = json.loads((folder / "summary.json").read_text())
     theta = pset.load_json(folder / "theta.json")
-    subject = Subject(
-        {
-            n: Measurement(v["value"], v["source"])
-            for n, v in summary.get("measurements", {}).items()
-        }
-    )
-    est = summary.get("stature_estimate")
-    if est:
-        subject = subject.with_stature_estimate(
-            StatureEstimate(est["value"], est["sd"], est["source"])
-        )
+    subject = Subject.from_summary(summary)
     outside = kappa_outside_bounds(pset, theta, *kappa_ranges(pset, subject))
     lr = {k: v * 1e3 for k, v in left_right_differences(pset, theta).items()}
     motion = load_motion(folder / "motion.npz", pset.model)

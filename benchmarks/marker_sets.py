@@ -36,7 +36,7 @@ from mocap_mj.anatomy.plausibility import (
 from mocap_mj.anatomy.ranges import kappa_ranges
 from mocap_mj.capture.landmarks import WIDTH_PAIRS
 from mocap_mj.capture.marker_set import MarkerSet, load_marker_set, model_with_marker_set
-from mocap_mj.capture.subject import Measurement, StatureEstimate, Subject
+from mocap_mj.capture.subject import Subject
 from mocap_mj.cli import main as cli
 from mocap_mj.pipeline.motion import load_motion
 from mocap_mj.skeleton import rolling
@@ -95,18 +95,6 @@ def centre_to_midpoint(
     return {k: (ref[k], float(np.median(v))) for k, v in dist.items() if v}
 
 
-def subject_of(summary: dict) -> Subject:
-    """The measurements and stature estimate an ``identify`` run used (its summary.json)."""
-    values = summary.get("measurements", {})
-    subject = Subject({n: Measurement(v["value"], v["source"]) for n, v in values.items()})
-    est = summary.get("stature_estimate")
-    if est:
-        subject = subject.with_stature_estimate(
-            StatureEstimate(est["value"], est["sd"], est["source"])
-        )
-    return subject
-
-
 def run(name: str, out: Path) -> tuple[ParameterSet, np.ndarray] | None:
     """Identify case ``name`` into ``out / name`` and print its row; None without its file."""
     path, marker_set, _ = CASES[name]
@@ -122,7 +110,7 @@ def run(name: str, out: Path) -> tuple[ParameterSet, np.ndarray] | None:
     theta = pset.load_json(folder / "theta.json")
     motion = load_motion(folder / "motion.npz", pset.model)
     seen = {n for i, n in enumerate(pset.marker_names) if np.isfinite(motion.markers[:, i]).any()}
-    subject = subject_of(summary)
+    subject = Subject.from_summary(summary)
     outside = kappa_outside_bounds(pset, theta, *kappa_ranges(pset, subject))
     lr = left_right_differences(pset, theta)
     worst = max(lr, key=lambda k: lr[k])

@@ -25,7 +25,7 @@ from mocap_mj.anatomy.ranges import kappa_ranges
 from mocap_mj.capture.landmarks import measured_widths
 from mocap_mj.capture.marker_set import load_marker_set, model_with_marker_set
 from mocap_mj.capture.roles import roles
-from mocap_mj.capture.subject import Measurement, StatureEstimate, Subject
+from mocap_mj.capture.subject import Subject
 from mocap_mj.cli import main
 from mocap_mj.pipeline.motion import load_motion
 from mocap_mj.pipeline.steps import solve_anatomical
@@ -106,17 +106,6 @@ def test_pairs_place_both_sides_centres_at_their_midpoints(tmp_path: Path, stati
     assert max(gaps.values()) < (0.0005 if static else 0.0015), gaps
 
 
-def _subject(summary: dict) -> Subject:
-    values = summary.get("measurements", {})
-    subject = Subject({n: Measurement(v["value"], v["source"]) for n, v in values.items()})
-    est = summary.get("stature_estimate")
-    if est:
-        subject = subject.with_stature_estimate(
-            StatureEstimate(est["value"], est["sd"], est["source"])
-        )
-    return subject
-
-
 #: (recording under ../shared/data, set, frames, the joints whose pairs it holds, whether the
 #: left/right target applies, whether the anatomical ranges are checked).
 CASES = [
@@ -161,4 +150,5 @@ def test_vendor_set_identifies_its_recording(
         diff = left_right_differences(pset, theta)
         assert max(diff.values()) <= 0.010, diff
     if ranges:
-        assert kappa_outside_bounds(pset, theta, *kappa_ranges(pset, _subject(summary))) == {}
+        ranges_of = kappa_ranges(pset, Subject.from_summary(summary))
+        assert kappa_outside_bounds(pset, theta, *ranges_of) == {}

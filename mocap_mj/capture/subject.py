@@ -215,6 +215,19 @@ class Subject:
             for n, m in sorted(self.values.items())
         }
 
+    @classmethod
+    def from_summary(cls, summary: Mapping[str, Any]) -> Subject:
+        """The measurements and stature estimate a result's summary.json records (its
+        ``measurements`` as :meth:`to_dict` writes them, ``stature_estimate``): the subject
+        an ``identify`` run used."""
+        values = {
+            n: Measurement(float(v["value"]), str(v["source"]))
+            for n, v in summary.get("measurements", {}).items()
+        }
+        est = summary.get("stature_estimate")
+        estimate = StatureEstimate(est["value"], est["sd"], est["source"]) if est else None
+        return cls(values, estimate)
+
 
 def _check_name(name: str, source: str) -> None:
     if name not in MEASUREMENTS:
