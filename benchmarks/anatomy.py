@@ -19,14 +19,31 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
+import tempfile
 from pathlib import Path
 
 from mocap_mj.anatomy.plausibility import kappa_outside_bounds, left_right_differences, width_errors
 from mocap_mj.anatomy.ranges import kappa_ranges
+from mocap_mj.capture.marker_set import model_with_marker_set
+from mocap_mj.capture.marker_sets import bundled
 from mocap_mj.capture.subject import Subject
 from mocap_mj.pipeline.motion import load_motion
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.consistency import joint_centre_lengths
+
+
+def result_pset(folder: Path, scratch: Path) -> ParameterSet:
+    """The parameter set of an ``identify`` folder: the bundled humanoid with the marker set
+    its summary.json records (Plug-in Gait when it records none); a model file for another
+    set is written into ``scratch``."""
+    summary = json.loads((folder / "summary.json").read_text())
+    name = (summary.get("marker_set") or {}).get("name") or "plug_in_gait"
+    if name == "plug_in_gait":
+        return ParameterSet()
+    path = scratch / f"model_{name}.xml"
+    if not path.exists():
+        path.write_text(model_with_marker_set(bundled(name)).to_xml())
+    return ParameterSet(str(path))
 
 
 def report(folder: Path, pset: ParameterSet) -> str:
@@ -70,12 +87,12 @@ def main() -> None:
     ap.add_argument("folders", nargs="+", type=Path)
     ap.add_argument("--pair", nargs="+", action="append", default=[], metavar="FOLDER")
     args = ap.parse_args()
-    pset = ParameterSet()
-    for f in args.folders:
-        print(report(f, pset))
-    for group in args.pair:
-        for a, b in itertools.combinations(group, 2):
-            print(pair_line(Path(a), Path(b), pset))
+    with tempfile.TemporaryDirectory() as scratch:
+        for f in args.folders:
+            print(report(f, result_pset(f, Path(scratch))))
+        for group in args.pair:
+            for a, b in itertools.combinations(group, 2):
+                print(pair_line(Path(a), Path(b), result_pset(Path(a), Path(scratch))))
 
 
 if __name__ == "__main__":

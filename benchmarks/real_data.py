@@ -22,10 +22,9 @@ import sys
 import time
 from pathlib import Path
 
-from anatomy import pair_line, report
+from anatomy import pair_line, report, result_pset
 
 from mocap_mj.anatomy.plausibility import limits_text
-from mocap_mj.skeleton.parameters import ParameterSet
 
 TRIALS = ["Test_func_rknee", "anatomical_posture", "Test_func_rhip", "Movement_trial",
           "Static_trial"]  # fmt: skip
@@ -64,12 +63,11 @@ def main() -> None:
     for name, group in GROUPS.items():
         ident = _run("identify", "--markers", *[files[t] for t in group], "--out", str(out / name))
         runs[name] = (ident, None)
-    pset = ParameterSet()
     for name in runs:
-        print(report(out / name, pset))
+        print(report(out / name, result_pset(out / name, out)))
     for group in GROUPS.values():
         for a, b in itertools.combinations(group, 2):
-            print(pair_line(out / a, out / b, pset))
+            print(pair_line(out / a, out / b, result_pset(out / a, out)))
     for name, (ident, ik) in runs.items():
         ratio = "" if ik is None else (
             f", ik --model {ik['marker_rmse_mm']:.4f} mm, ratio "

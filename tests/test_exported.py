@@ -1,6 +1,5 @@
 """The written model in plain MuJoCo (mocap_mj/skeleton/exported.py, docs/mujoco.md): the knees'
-slide
-joints reproduce the tool's kinematics, keep the coupling under mj_step, and a model written
+slide joints reproduce the tool's kinematics, keep the coupling under mj_step, and a model written
 before them is read alike."""
 
 from __future__ import annotations

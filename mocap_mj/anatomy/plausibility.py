@@ -191,13 +191,15 @@ def width_errors(
 ) -> dict[str, float]:
     """Per measured width: median over frames of |centre - lateral marker| minus (width/2 +
     marker radius) [m], centres of the model theta in poses qpos (T, nq), markers (T, M, 3)
-    [m] measured (model order). Keys ``knee_l``, ...; widths not measured are left out."""
+    [m] measured (model order). Keys ``knee_l``, ...; widths not measured, and joints whose
+    Plug-in Gait markers the set does not name, are left out."""
     jc = joint_centre_trajectories(pset.model_for(theta), qpos)
     out = {}
     for side, p in (("l", "L"), ("r", "R")):
         for joint, marker, width in WIDTH_CHECKS:
             w = subject.get(f"{width}_{side}")
-            if w is None:
+            needed = [p + marker] + ([p + "WRB"] if marker == "WRA" else [])
+            if w is None or not set(needed) <= set(pset.marker_names):
                 continue
             m = markers[:, pset.marker_index(p + marker)]
             if marker == "WRA":

@@ -5,8 +5,7 @@ in it (the IK rule, :class:`mocap_mj.solve.ik.IKSettings`). Without a usable fra
 write a motion of NaN; with fewer residuals (3 per present marker of the usable frames) than
 unknowns (the joint dofs each usable frame's present markers determine,
 :func:`mocap_mj.capture.marker_set.measured_dofs`, plus the free model parameters) ``identify``
-would
-report bounds of a problem the data cannot determine. Both are refused here. The dofs of a
+would report bounds of a problem the data cannot determine. Both are refused here. The dofs of a
 body no present marker determines (the arms of a lower-body marker set) are not counted: the
 solver holds them, so they are not unknowns.
 """

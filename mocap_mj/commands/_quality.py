@@ -8,8 +8,7 @@ still useful. ``--strict`` refuses the data instead (exit 2, nothing written), f
 that must not publish a model built on suspect markers.
 
 Before the check, labels exchanged by mistake are corrected (:mod:`mocap_mj.pipeline.relabel`): in
-the
-command's own copy of the markers (the files are never touched), one line each on stderr,
+the command's own copy of the markers (the files are never touched), one line each on stderr,
 listed in summary.json's ``marker_quality.relabelled`` and in report.md. ``--no-relabel``
 leaves the labels as they are and prints the same lines as warnings; ``--strict`` refuses a
 recording whose labels need a correction.

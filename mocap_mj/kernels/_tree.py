@@ -17,8 +17,7 @@ Everything works on one frame at a time with scalars and small work arrays (no a
 the inner loops); frames are spread over Python threads in contiguous blocks
 (:func:`run_blocks`; each frame's arithmetic is sequential, so results do not depend on the
 thread count). The per-frame IK solver and the joint limits are :mod:`mocap_mj.kernels._tree_ik`,
-the
-tables of a MuJoCo model :mod:`mocap_mj.skeleton.tree_tables`, the compile options
+the tables of a MuJoCo model :mod:`mocap_mj.skeleton.tree_tables`, the compile options
 :mod:`mocap_mj.kernels._jit`.
 """
 
@@ -361,8 +360,7 @@ def dof_axes(tr, w):
     """World axis and anchor of every dof (``w.axis``, ``w.anchor``: (nv, 3)), after :func:`fk`.
 
     A rolling hinge (:mod:`mocap_mj.skeleton.rolling`) turns its subtree about its axis a through
-    the
-    body origin p and moves the origin by e = ``w.xroll`` per rad, e normal to a: together a
+    the body origin p and moves the origin by e = ``w.xroll`` per rad, e normal to a: together a
     rotation about the instantaneous centre p + a x e (a x (x - p - a x e) = a x (x - p) + e),
     which is the anchor given here, so every column stays ``a x (x - anchor)``.
     """

@@ -120,8 +120,7 @@ def write_files(
     into model.xml (see :meth:`ParameterSet.to_spec`). ``motion``: what motion.npz holds
     (default: ``trials`` and the fit's poses; internal qpos (T_i, nq), written in model.xml's
     layout, :class:`mocap_mj.skeleton.exported.Layout`). ``sliding``: the landmarks' sliding model
-    the
-    fit was weighed with, recorded in model.xml for ``ik``
+    the fit was weighed with, recorded in model.xml for ``ik``
     (:func:`~mocap_mj.anatomy.tissue.with_sliding_model`; default None: not recorded)."""
     xml = pset.to_xml(result.theta, joint_range=joint_range)
     atomic_write_text(

@@ -92,8 +92,7 @@ def solve_trials(
     """The joint LM on ``trials`` as ``recipe`` says: the parameters the data do not measure
     frozen (:func:`~mocap_mj.anatomy.partial.freeze_unmeasured`), trials with fewer marker
     coordinates than unknowns refused (:func:`mocap_mj.capture.checks.check_determined`), the
-    initial
-    model (``theta0`` (P,) [m], else ``recipe.init``: :func:`_initial_theta`), the subject's
+    initial model (``theta0`` (P,) [m], else ``recipe.init``: :func:`_initial_theta`), the subject's
     stature estimated when not measured, and with ``recipe.anatomy`` the anatomical ranges as
     bounds, the landmark priors (T10's placement checked against the stature), the
     left/right prior and the sliding landmarks (:func:`solve_anatomical`). With ``whole``

@@ -2,8 +2,7 @@
 
 Hinges become one column in degrees, slide joints (the knees' rolling in a model as written,
 :mod:`mocap_mj.skeleton.exported`) one in millimetres. Ball joints and the root orientation become
-intrinsic
-X-Y-Z Cardan angles in degrees (``hip_l_x``, ``hip_l_y``, ``hip_l_z``); the root position
+intrinsic X-Y-Z Cardan angles in degrees (``hip_l_x``, ``hip_l_y``, ``hip_l_z``); the root position
 becomes ``root_x``, ``root_y``, ``root_z`` in millimetres.
 """
 

@@ -23,7 +23,7 @@ def model_path(name: str = HUMANOID) -> Path:
     try:
         path = Path(str(resources.files("mocap_mj.models") / name))
     except ModuleNotFoundError:
-        path = Path(__file__).resolve().parent.parent / "models" / name
+        path = Path(__file__).resolve().parents[2] / "models" / name
     if not path.is_file():
         raise MocapError(f"bundled model {name!r} not found at {path}")
     return path
@@ -34,8 +34,7 @@ def load_model(path: str | Path | None = None) -> mujoco.MjModel:
     works on: a model as the tool writes it carries the knee's rolling as slide joints for
     plain MuJoCo, which are removed here (the exact coupling is its ``<custom>`` record,
     :mod:`mocap_mj.skeleton.exported`); a model without them (the bundled humanoid, or written
-    before
-    they existed) compiles as it is."""
+    before they existed) compiles as it is."""
     path = model_path() if path is None else Path(path)
     model = load_written(path)
     if not exported.carried(model):

@@ -280,9 +280,8 @@ class ParameterSet:
 
     def with_rolling_scaled(self, theta: np.ndarray) -> ParameterSet:
         """This parameter set with its model's knee rolling (:mod:`mocap_mj.skeleton.rolling`)
-        scaled to
-        theta's segments: each coupling's reference length L becomes the distance of its body
-        from the parent's origin (hip to knee centre) at theta, as OpenSim's scaling scales
+        scaled to theta's segments: each coupling's reference length L becomes the distance of
+        its body from the parent's origin (hip to knee centre) at theta, as OpenSim's scaling scales
         the femur's translation functions with the femur. A copy (its own model); ``self``
         when the model has no coupling.
 

@@ -132,8 +132,7 @@ def build_tree(model: mujoco.MjModel) -> Tree:
 def moved(tree: Tree, model: mujoco.MjModel) -> Tree:
     """``tree`` with the body and site positions of ``model`` (what a new theta changes:
     :meth:`~mocap_mj.skeleton.parameters.ParameterSet.apply`); the rest is kept, so a change of
-    theta
-    (every step of the joint LM) costs two copies instead of :func:`build_tree`."""
+    theta (every step of the joint LM) costs two copies instead of :func:`build_tree`."""
     return tree._replace(
         body_pos=np.array(model.body_pos, dtype=float),
         site_pos=np.array(model.site_pos, dtype=float),

@@ -455,8 +455,7 @@ class IKSolver:
         solved under the same model, as ``identify``'s refinement has them); each chain runs
         from its head to the frame before the next one, every later frame starting from the
         constant-velocity prediction (:func:`mocap_mj.kernels._tree_ik.solve_chains`). The trial's
-        first
-        frame always heads a chain; a head without a pose (NaN row) and a frame after an
+        first frame always heads a chain; a head without a pose (NaN row) and a frame after an
         unsolved one start from the pelvis's rigid fit (:meth:`root_from_pelvis`). Frames
         that then fit clearly worse than the trial are re-solved as :meth:`solve_trial`
         does. Compared with :meth:`solve_trial`, no chain start is solved cold from several
@@ -564,8 +563,7 @@ class IKSolver:
         seams: bool,
     ) -> None:
         """:func:`mocap_mj.kernels._tree_ik.walk` with this solver's settings: frames firsts ->
-        lasts
-        re-solved from seeds (k, nq), into out = (qpos, rmse, iters, status)."""
+        lasts re-solved from seeds (k, nq), into out = (qpos, rmse, iters, status)."""
         st = self.settings
         _tree_ik.walk(
             self.kin.tree(),
