@@ -126,3 +126,41 @@ def test_crosstalk_shows_a_turned_wand(pset: ParameterSet) -> None:
             assert abs(d["crosstalk_model"]["slope"]) < 0.01, (turn, joint, d)
             assert pig_min <= abs(d["crosstalk_pig"]["slope"]) < pig_max, (turn, joint, d)
             assert turn == 0.0 or abs(d["crosstalk_pig"]["corr"]) > 0.7
+
+
+def test_foot_turns_about_a_placed_ankle_axis(pset: ParameterSet) -> None:
+    """With Plug-in Gait's TIB chord (the ankle width measured) the heel-toe line may turn
+    about the foot's z by SIGMA_FOOT_TURN (its mid-point held on the x axis); without it
+    HEE.y = TOE.y = 0 set the ankle axis normal to the heel-toe line."""
+    from mocap_mj.anatomy.anatomy import SIGMA_LANDMARK
+    from mocap_mj.anatomy.foot import HEEL_TO_TOE, SIGMA_FOOT_TURN
+
+    subject = Subject()
+    subject.set("height", 1.75, "test")
+    bare = landmark_prior(pset, subject)
+    assert sum(lab in ("LHEE.y = 0", "RHEE.y = 0") for lab in bare.labels) == 2
+    for side in "lr":
+        subject.set(f"ankle_width_{side}", 0.066, "test")
+    placed = landmark_prior(pset, subject)
+    assert not any(lab.endswith("HEE.y = 0") for lab in placed.labels)
+    for p in "LR":
+        (r,) = [i for i, lab in enumerate(placed.labels) if lab.startswith(f"{p}TOE.y = {p}HEE.y")]
+        assert placed.sigma[r] == pytest.approx(np.tan(np.radians(SIGMA_FOOT_TURN)) * HEEL_TO_TOE)
+        (m,) = [i for i, lab in enumerate(placed.labels) if lab == f"{p}HEE-TOE midpoint y = 0"]
+        assert placed.sigma[m] == SIGMA_LANDMARK
+
+
+def test_knee_level_row_is_plug_in_gaits_perpendicular(pset: ParameterSet) -> None:
+    """KNE's level row states Plug-in Gait's chord: KNE's offset from the knee centre normal
+    to the hip-knee line, so a knee centre moved medially raises KNE's level by
+    (w/2 + r) / thigh length per metre."""
+    subject = Subject()
+    subject.set("height", 1.75, "test")
+    subject.set("knee_width_l", 0.086, "test")
+    prior = landmark_prior(pset, subject)
+    (r,) = [i for i, lab in enumerate(prior.labels) if lab == "LKNE.z = -thigh_length"]
+    a = prior.a[r]
+    half = 0.086 / 2 + subject.marker_radius
+    thigh = pset.nominal[pset.index("thigh_length_l")]
+    assert a[pset.index("knee_lateral_l")] == pytest.approx(-half / thigh)
+    assert a[pset.index("thigh_length_l")] == 1.0

@@ -12,8 +12,6 @@ from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.anatomy.anatomy import (
     MEDIAL_MALLEOLUS_ABOVE,
     SIGMA_CONVENTION,
-    SIGMA_FOOT_HEIGHT,
-    SIGMA_FOOT_LENGTH,
     SIGMA_LANDMARK,
     SIGMA_MEASURED,
     SIGMA_REGRESSED,
@@ -22,6 +20,7 @@ from mocap_mj.anatomy.anatomy import (
     marker_prior_table,
     symmetric_prior,
 )
+from mocap_mj.anatomy.foot import SIGMA_FOOT_HEIGHT, SIGMA_FOOT_LENGTH
 from mocap_mj.anatomy.ranges import ALIGNMENT_RANGES, SIGNED, base_name, kappa_ranges, theta_bounds
 from mocap_mj.capture.marker_set import marker_class
 from mocap_mj.capture.subject import Subject, from_c3d, from_values, from_yaml

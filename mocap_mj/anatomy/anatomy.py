@@ -99,8 +99,10 @@ Widths (standard deviations, per row) and their sources:
   Dumas et al. 2007 Table 2): where no marker places T12/L1 well (a misplaced T10,
   :mod:`mocap_mj.anatomy.trunk`; the pelvis unmarked, so that no L5/S1 row and no
   ``lumbar_length`` row hold it either) it keeps the thorax human;
-* :data:`SIGMA_FOOT_LENGTH`, :data:`SIGMA_FOOT_HEIGHT` = 7, 8 mm (x stature / 1.75 m): the MTP
-  joint from the stature, beside TOE's rows (:func:`_foot_rows`);
+* :data:`~mocap_mj.anatomy.foot.SIGMA_FOOT_LENGTH`, ``SIGMA_FOOT_HEIGHT`` = 7, 8 mm (x
+  stature / 1.75 m): the MTP joint from the stature, beside TOE's rows
+  (:func:`~mocap_mj.anatomy.foot.foot_rows`), and ``SIGMA_FOOT_TURN`` = 15 deg: the foot's
+  turn about an ankle axis that a landmark places;
 * :data:`SIGMA_LEG` = 15 mm: the ASIS-to-medial-malleolus distance of the straight leg against
   the measured leg length (:func:`_leg_length_row`): the tape's precision (about 10 mm), the
   hip's angle in the pelvis frame while it was measured (5 degrees of pelvic tilt: 4 mm),
@@ -132,6 +134,7 @@ from mocap_mj.anatomy.axis_rows import (
     pig_axis_row,
     wand_width,
 )
+from mocap_mj.anatomy.foot import foot_rows
 from mocap_mj.anatomy.hips import davis_rows
 from mocap_mj.anatomy.ranges import NOMINAL_HEIGHT
 from mocap_mj.anatomy.trunk import T10Placement
@@ -168,18 +171,6 @@ PSIS_ABOVE_ASIS = 0.02
 #: Gait puts the ankle centre at the level of ANK on the lateral malleolus, whose tip reaches
 #: about 10 mm further distally than the medial one's.
 MEDIAL_MALLEOLUS_ABOVE = 0.010
-#: TOE above the MTP joint centre [m] on a 1.75 m adult: half the metatarsal head's height,
-#: the dorsal skin and the marker radius.
-TOE_ABOVE_MTP = 0.02
-
-#: Standard deviations [m] of the MTP joint centre's position from the ankle centre between
-#: adults of one stature, on a 1.75 m adult: ``foot_length`` (the ankle centre to the
-#: second metatarsal head, half the foot's length: foot length 0.152 H, Winter 2009, with a
-#: 4 % coefficient of variation at a given stature; the ball of the foot at 73 % of it from
-#: the heel, ANSUR II) and ``foot_height`` (the ankle centre 0.039 H above the sole, the
-#: metatarsal head's centre 20-25 mm above it: the head's radius and the plantar pad).
-SIGMA_FOOT_LENGTH, SIGMA_FOOT_HEIGHT = 0.007, 0.008
-
 #: Joint width (measurement, side removed) -> (kinematic parameter, width / parameter): the
 #: regression used when the width is not measured, from the nominal model (Plug-in Gait
 #: placement of a 14 mm marker on a 1.75 m adult: knee 86 mm, ankle 66, elbow 66).
@@ -354,7 +345,7 @@ def landmark_prior(
                 rows.add(*row)
         _alignment_rows(rows, side, s)
         _hand_rows(rows, subject, side, p, s)
-        _foot_rows(rows, side, p, s)
+        _foot_rows(rows, side, p, s, _ankle_axis_placed(rows, subject, side, p, set(pairs)))
     return rows.prior(noise)
 
 
@@ -583,6 +574,27 @@ def _shoulder_rows(
             rows.add(terms, mean, SIGMA_CONVENTION, f"{p}SHO.{c} = GH.{c} {mean * 1e3:+.0f} mm")
 
 
+def _level_terms(
+    rows: _Rows, subject: Subject, side: str, marker: str, length: str, width: str, s: float
+) -> dict[str, float]:
+    """The terms of ``marker``'s level row: Plug-in Gait's chord puts the joint centre where
+    the lateral marker's offset from it is normal to the segment's long axis (proximal
+    centre to joint centre). With the centre ``lateral`` along the axis from the frame's
+    origin, that reads ``marker.z + length = (w/2 + r) lateral / length``, linearised about
+    the measured half-width ``w/2 + r`` (else the nominal marker's) and the nominal length
+    scaled by ``s``: a knee centre 15 mm medial of the hip's moves the level by 3 mm."""
+    terms = {f"{marker}.z": 1.0, f"{length}_{side}": 1.0}
+    lateral = CENTRE_LATERAL.get(width)
+    base = dict(zip(rows.pset.names, rows.pset.nominal, strict=False)).get(f"{length}_{side}")
+    if lateral is None or base is None or rows.name(marker) not in rows.pset.marker_names:
+        return terms
+    measured = subject.get(f"{width}_{side}")
+    half = (measured / 2 + subject.marker_radius if measured is not None
+            else abs(float(nominal_offset(rows.pset, rows.name(marker))[1])))  # fmt: skip
+    terms[f"{lateral}_{side}"] = -half / (base * s)
+    return terms
+
+
 def _limb_rows(
     rows: _Rows,
     subject: Subject,
@@ -608,6 +620,8 @@ def _limb_rows(
         # The ankle and the elbow are convention joints (module docstring): the lateral
         # marker's level and depth define them.
         sig = SIGMA_CONVENTION if marker in ("ANK", "ELB") else lm
+        if marker == "KNE" and axis_widths.get(p + "THI") is not None:
+            sig = SIGMA_CONVENTION  # Plug-in Gait's knee axis decided: its centre's level too
         x_sig: float | None = sig
         on_axis = f"{m}.x = 0 (on the joint axis)"
         if marker == "ELB" and subject.get(f"elbow_width_{side}") is not None:
@@ -616,7 +630,8 @@ def _limb_rows(
         if m not in paired:  # a landmark pair places its centre itself (medial_rows)
             if x_sig is not None:
                 rows.add({f"{m}.x": 1}, 0.0, x_sig, on_axis)
-            rows.add({f"{m}.z": 1, f"{length}_{side}": 1}, 0.0, sig, f"{m}.z = -{length}")
+            rows.add(_level_terms(rows, subject, side, m, length, width, s), 0.0, sig,
+                     f"{m}.z = -{length}")  # fmt: skip
         _width_rows(rows, subject, side, m, width)
     for wand, (marker, width) in PIG_AXIS_WANDS.items():
         names = rows.pset.marker_names
@@ -699,37 +714,20 @@ def _hand_rows(rows: _Rows, subject: Subject, side: str, p: str, s: float) -> No
     rows.add({f"{p}FIN.z": 1}, -0.08 * s, soft, f"{p}FIN.z = 80 mm beyond the wrist")
 
 
-def _foot_rows(rows: _Rows, side: str, p: str, s: float) -> None:
-    """The rows of one side's heel and toe markers, and the MTP joint from the toe marker.
+def _ankle_axis_placed(rows: _Rows, subject: Subject, side: str, p: str, paired: set[str]) -> bool:
+    """Whether a landmark places side ``p``'s ankle flexion axis: a malleolus pair, or Plug-in
+    Gait's chord plane (TIB, ANK and the measured ankle width)."""
+    names = rows.pset.marker_names
+    chord = all(rows.name(p + m) in names for m in ("TIB", "ANK"))
+    return p + "ANK" in paired or (chord and subject.get(f"ankle_width_{side}") is not None)
 
-    Plug-in Gait's foot runs rigidly from the ankle centre to TOE, on the second metatarsal
-    head: TOE is on the foot body, over the MTP joint, which no marker sees (the toes carry
-    none). So the MTP joint (``foot_length``, ``foot_height``) is placed from TOE, below it
-    by the dorsal thickness of the forefoot (bone, skin, marker radius), and from the
-    stature (the nominal proportions scaled by ``s``, :data:`SIGMA_FOOT_LENGTH`,
-    :data:`SIGMA_FOOT_HEIGHT`): TOE's placement varies (over the metatarsal head, on the
-    shoe's toe) and the foot frame's pitch is left to the heel rows, so that a joint seen by
-    no marker is not placed by one marker's placement alone.
-    """
-    lm, soft = SIGMA_LANDMARK, SIGMA_SOFT
-    kappa0 = dict(zip(rows.pset.names, rows.pset.nominal, strict=False))
-    for name, sigma in (("foot_length", SIGMA_FOOT_LENGTH), ("foot_height", SIGMA_FOOT_HEIGHT)):
-        base = kappa0.get(f"{name}_{side}")
-        if base is not None:
-            rows.add({f"{name}_{side}": 1.0}, base * s, sigma * s,
-                     f"{name}_{side} = {base * 1e3:.0f} mm x stature / 1.75 m")  # fmt: skip
-    rows.add({f"{p}HEE.x": 1}, -0.07 * s, soft, f"{p}HEE.x = 70 mm behind the ankle")
-    rows.add({f"{p}HEE.y": 1}, 0.0, lm, f"{p}HEE.y = 0")
-    rows.add({f"{p}HEE.z": 1}, -0.035 * s, soft, f"{p}HEE.z = 35 mm below the ankle")
-    rows.add({f"{p}TOE.x": 1, f"foot_length_{side}": -1}, 0.0, lm,
-             f"{p}TOE.x = foot_length_{side} (over the MTP joint)")  # fmt: skip
-    rows.add({f"{p}TOE.y": 1}, 0.0, lm, f"{p}TOE.y = 0")
-    rows.add({f"{p}TOE.z": 1, f"foot_height_{side}": 1}, TOE_ABOVE_MTP * s, lm,
-             f"{p}TOE.z = {TOE_ABOVE_MTP * 1e3:.0f} mm above the MTP joint")  # fmt: skip
-    # Plug-in Gait's foot axis runs from HEE to TOE: the two markers are (nearly: 10 mm on
-    # the nominal model) level in the foot frame.
-    rows.add({f"{p}HEE.z": 1, f"{p}TOE.z": -1}, -0.01 * s, lm,
-             f"{p}HEE level with {p}TOE in the foot frame")  # fmt: skip
+
+def _foot_rows(rows: _Rows, side: str, p: str, s: float, axis_placed: bool) -> None:
+    """One side's heel and toe rows (:func:`~mocap_mj.anatomy.foot.foot_rows`); the heel-toe
+    line turns about a placed ankle axis only where the set has a toe marker."""
+    turn = axis_placed and rows.name(f"{p}TOE") in rows.pset.marker_names
+    for row in foot_rows(rows.pset, side, p, s, turn, SIGMA_LANDMARK, SIGMA_SOFT):
+        rows.add(*row)
 
 
 #: Left/right kinematic parameter pairs tied by :func:`symmetric_prior`.
