@@ -50,6 +50,10 @@ from ..clinical.geometry import cardan_yxz, chord, frame_zy, relative, unit
 #: their ranges, since the foot turns about the ankle axis
 #: (:data:`~mocap_mj.anatomy.foot.SIGMA_FOOT_TURN`) and the tibia about the knee's.
 SIGMA_PIG_AXIS = 4.0
+#: The data are silent on a knee or ankle axis when their standard deviation exceeds this
+#: many widths of the chord-plane row: 17-26 degrees on the shared Static_trial, 10-13 on the
+#: ankles of its jump (Movement_trial), where the row keeps the wand's own width.
+SILENT = 2.0
 #: The markers and the chord plane conflict when the markers' own estimate of the row's
 #: residual lies beyond this many standard deviations of the two combined: reported as
 #: ``conflict`` (a wand possibly misplaced). Where the data place the axis better than the
@@ -102,6 +106,7 @@ def axis_decisions(
     priors: Sequence[LinearGaussianPrior],
     weak: LinearGaussianPrior,
     noise: float,
+    solved_noise: float | None = None,
 ) -> dict[str, dict[str, Any]]:
     """Per joint (``knee_l``, ``elbow_r``...): where its flexion axis comes from (module
     docstring).
@@ -109,30 +114,40 @@ def axis_decisions(
     ``information`` (P, P): the markers' reduced information (unit weights) at ``theta``
     (P,) [m]; ``priors``: the landmark priors with their axis rows, ``weak`` the weak
     prior toward the initial model; ``noise`` [m]: the marker noise the priors are weighed
-    against. Returns ``source`` ("plug-in-gait" or "functional"), ``conflict`` (the markers
-    contradict the row, :data:`CONFLICT_K`), ``data_sd_deg`` (the direction's standard
-    deviation without the row), ``row_sd_deg``, ``row_sigma_m`` and ``angle_to_pig_deg``
-    (:func:`angle_to_pig` at ``theta``); ``wand`` is the row's key
+    against; ``solved_noise`` [m]: the one they were weighed against in the solve that gave
+    ``theta`` (default ``noise``), which sets how far that solve pulled the markers'
+    estimate toward the row. Returns ``source`` ("plug-in-gait" or "functional"),
+    ``conflict`` (the markers contradict the row, :data:`CONFLICT_K`), ``data_sd_deg`` (the
+    direction's standard deviation without the row), ``row_sd_deg``, ``row_sigma_m`` and
+    ``angle_to_pig_deg`` (:func:`angle_to_pig` at ``theta``); ``wand`` is the row's key
     (:func:`widths`).
     """
-    weighed = [p.with_noise(noise) for p in priors]
-    hess = np.asarray(information, dtype=float) + weak.hessian()
-    for p in weighed:
-        hess = hess + p.hessian()
     free = ~np.asarray(pset.frozen, dtype=bool)
+    solved = noise if solved_noise is None else solved_noise
+
+    def hessian(at: float) -> np.ndarray:
+        hess = np.asarray(information, dtype=float) + weak.hessian()
+        for p in priors:
+            hess = hess + p.with_noise(at).hessian()
+        return hess
+
+    def sd_without(hess: np.ndarray, a: np.ndarray, sigma: float, at: float) -> float:
+        """The standard deviation [m] of ``a . theta`` without the row (width ``sigma``)."""
+        sub = (hess - (at / sigma) ** 2 * np.outer(a, a))[np.ix_(free, free)]
+        var = float(a[free] @ np.linalg.lstsq(sub, a[free], rcond=None)[0]) * at**2
+        return float(np.sqrt(max(var, 0.0)))
+
+    hess, hess_solved = hessian(noise), hessian(solved)
     out: dict[str, dict[str, Any]] = {}
     for joint, key, start, marker, arm in axis_rows(pset):
-        row = _row(weighed, start)
+        row = _row(priors, start)
         if row is None:
             continue
         a, sigma = row
-        without = hess - (noise / sigma) ** 2 * np.outer(a, a)
-        sub = without[np.ix_(free, free)]
-        var = float(a[free] @ np.linalg.lstsq(sub, a[free], rcond=None)[0]) * noise**2
-        sd = float(np.sqrt(max(var, 0.0)))
-        # The markers' own estimate of the row's residual, from the solve with the row:
-        # a precision-weighted mean of it and the row's 0.
-        data = float(a @ theta) * (1.0 + (sd / sigma) ** 2)
+        sd = sd_without(hess, a, sigma, noise)
+        # The markers' own estimate of the row's residual, from the solve with the row: a
+        # precision-weighted mean of it and the row's 0, at that solve's weighting.
+        data = float(a @ theta) * (1.0 + (sd_without(hess_solved, a, sigma, solved) / sigma) ** 2)
         conflict = abs(data) > CONFLICT_K * float(np.hypot(sd, sigma))
         d: dict[str, Any] = {
             "joint": joint,
@@ -162,14 +177,19 @@ def widths(
     pset: ParameterSet, decisions: Mapping[str, Mapping[str, Any]] | None
 ) -> dict[str, float | None]:
     """The axis rows' widths [m] (keyed by ``wand``) after ``decisions``
-    (:func:`axis_decisions`): a Plug-in Gait axis's row at :data:`SIGMA_PIG_AXIS` (the knee
-    and ankle) or its own width (the elbow and wrist), a functional axis's left out."""
+    (:func:`axis_decisions`): a Plug-in Gait knee or ankle axis's row at
+    :data:`SIGMA_PIG_AXIS` where the data are silent (their standard deviation beyond
+    :data:`SILENT` row widths), else at its own width (the data about as precise as the
+    wand: their weighted mean); the elbow's and wrist's at their own width; a functional
+    axis's left out."""
     out: dict[str, float | None] = {}
     for d in (decisions or {}).values():
         if d["source"] != "plug-in-gait":
             out[d["wand"]] = None
         elif d["joint"].startswith(("knee", "ankle")):
-            out[d["wand"]] = wand_width(pset, d["wand"], d["marker"], SIGMA_PIG_AXIS)
+            silent = d["data_sd_deg"] > SILENT * d["row_sd_deg"]
+            angle = SIGMA_PIG_AXIS if silent else d["row_sd_deg"]
+            out[d["wand"]] = wand_width(pset, d["wand"], d["marker"], angle)
         else:
             out[d["wand"]] = float(d["row_sigma_m"])
     return out

@@ -486,7 +486,8 @@ def solve_anatomical(
     taus, per_trial = weighting["trial_tau_frames"], weighting["trial_weights"]
     soft = noise > REWEIGHT_RATIO * settings.prior_noise
     weak, axis_noise = settings.weak_prior(start), noise if soft else settings.prior_noise
-    axes = axis_decisions(pset, result.reduced_information, result.theta, priors, weak, axis_noise)
+    axes = axis_decisions(pset, result.reduced_information, result.theta, priors, weak, axis_noise,
+                          settings.prior_noise)  # fmt: skip
     priors = _decided(pset, subject, options, result, priors, axes, weighting, soft, settings)
     if not soft and all(w == 1.0 for w in per_trial) and not axes:
         weighting["noise_mm"] = settings.prior_noise * 1e3
