@@ -120,7 +120,8 @@ def _gap(distance: float, **figures: object) -> CentreGap:
 def test_explanations() -> None:
     """Within 10 mm: none; without figures: the tool says it measures no cause; the
     construction on our proximal centre near Nexus's and far from ours names our placement,
-    the reverse the proximal centre."""
+    the reverse the proximal centre; both at one distance from the marker but apart seen
+    from it: a direction (a different distance alone shows no cause)."""
     assert explanation(_gap(0.009)) is None
     assert "measures no cause" in str(explanation(_gap(0.02)))
     near_nexus = explanation(_gap(0.02, proximal="shoulder", construction=(0.004, 0.02)))
@@ -129,6 +130,13 @@ def test_explanations() -> None:
     assert "the shoulder centre it hangs from moves it" in str(near_ours)
     both = explanation(_gap(0.02, proximal="shoulder", construction=(0.012, 0.012)))
     assert "measures no cause" in str(both)
+    turned = explanation(_gap(0.02, marker="LELB", from_marker=(0.055, 0.055),
+                              marker_angle=np.radians(21.0)))  # fmt: skip
+    assert "ours lies 55 mm, nexus's 55 mm from lelb, 21 deg apart" in str(turned).lower()
+    assert "no cause" not in str(turned)
+    deeper = explanation(_gap(0.02, marker="LELB", from_marker=(0.075, 0.055),
+                              marker_angle=np.radians(21.0)))  # fmt: skip
+    assert "measures no cause" in str(deeper)
 
 
 def test_c3d_with_and_without_bone_points(tmp_path: Path) -> None:

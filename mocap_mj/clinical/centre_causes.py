@@ -4,10 +4,12 @@
 Every centre more than :data:`~.nexus_centres.EXPLAIN_ABOVE` from Nexus's gets a sentence
 of measured figures. The figures name a cause only where they show one: Plug-in Gait's
 construction hung from our proximal centre lying near Nexus's and far from ours puts the
-gap on our own axis, the reverse on the proximal centre; for a hip, Davis's regression (Plug-in
-Gait's) on our pelvis lying near Nexus's puts it on the regression; for a flexion axis,
-its angle to Plug-in Gait's and the varus-valgus / flexion crosstalk each axis produces. Where
-no figure shows a cause the sentence says so.
+gap on our own placement, the reverse on the proximal centre; for a hip, Davis's regression
+(Plug-in Gait's) on our pelvis lying near Nexus's puts it on the regression; for a flexion
+axis, its angle to Plug-in Gait's and the varus-valgus / flexion crosstalk each axis
+produces; two centres at the same distance from the joint's marker but apart seen from it
+differ by the direction from the marker; a distance that follows the joint's bend, by a
+construction that changes with the pose. Where no figure shows a cause the sentence says so.
 """
 
 from __future__ import annotations
@@ -27,8 +29,12 @@ BEND_CORR = 0.7
 #: A gap is "constant" when every component's standard deviation over the frames is below
 #: this [m].
 CONSTANT_SD = 0.002
-#: A flexion axis this far [deg] from Plug-in Gait's moves the centre about its marker.
+#: A flexion axis this far [deg] from Plug-in Gait's, or two centres this far apart seen
+#: from the joint's marker, place the centre in another direction from the marker.
 AXIS_ANGLE = 10.0
+#: Two centres whose distances from the joint's marker differ by less than this [m] sit at
+#: the same depth under it.
+SAME_DEPTH = 0.005
 
 
 def _mm(x: float) -> str:
@@ -65,13 +71,14 @@ def _sentences(gap: CentreGap, axis: Mapping[str, Any] | None,
         ours, theirs = gap.from_marker
         out.append(f"ours lies {_mm(ours)}, Nexus's {_mm(theirs)} from {gap.marker}, "
                    f"{np.degrees(gap.marker_angle):.0f} deg apart seen from it")  # fmt: skip
+        # the same depth under the marker, another direction: a convention of direction
+        shows |= abs(ours - theirs) < SAME_DEPTH and gap.marker_angle >= np.radians(AXIS_ANGLE)
     if gap.marker_anterior is not None:
         a, b = (f"{v * 1e3:+.0f}" for v in gap.marker_anterior)
         out.append(f"anterior of {gap.marker}: ours {a} mm, Nexus's {b} mm")
     bends = gap.bend_corr is not None and abs(gap.bend_corr) >= BEND_CORR
     if np.all(gap.components_sd < CONSTANT_SD) and not bends:
         out.append(f"the offset is constant (sd under {_mm(CONSTANT_SD)} over the frames)")
-        shows = True
     if bends and gap.bend is not None and gap.bend_corr is not None:
         lo, hi = np.degrees(gap.bend)
         slope = (gap.bend_slope or 0.0) * 1e3 * np.pi / 180
