@@ -64,6 +64,11 @@ def _sentences(gap: CentreGap, axis: Mapping[str, Any] | None,
             text += f": the regressions differ (Nexus's is {name})"
             shows = True
         out.append(text)
+    if gap.arm_plane is not None:
+        tilt, corr = gap.arm_plane
+        out.append(f"Plug-in Gait's arm plane (through {gap.point[0]}ELB, not the elbow centre) "
+                   f"lies {np.degrees(tilt):.0f} deg from the plane of Nexus's own shoulder, "
+                   f"elbow and wrist centres (r {corr:+.2f} with its flexion)")  # fmt: skip
     if axis:
         out.append(_axis_text(axis, crosstalk))
         shows |= abs(float(axis["angle_to_pig_deg"])) >= AXIS_ANGLE
@@ -82,7 +87,7 @@ def _sentences(gap: CentreGap, axis: Mapping[str, Any] | None,
     if bends and gap.bend is not None and gap.bend_corr is not None:
         lo, hi = np.degrees(gap.bend)
         slope = (gap.bend_slope or 0.0) * 1e3 * np.pi / 180
-        out.append(f"the distance follows the joint's bend ({lo:.0f}-{hi:.0f} deg): "
+        out.append(f"the distance follows our joint's bend ({lo:.0f}-{hi:.0f} deg): "
                    f"r {gap.bend_corr:+.2f}, {slope:+.2f} mm/deg")  # fmt: skip
         shows = True
     return out, shows
@@ -149,6 +154,9 @@ def entry(gap: CentreGap, source: str, text: str | None) -> dict[str, Any]:
         out["plug_in_gait_on_our_proximal"] = {"proximal": gap.proximal,
                                                "to_nexus_mm": gap.construction[0] * 1e3,
                                                "to_ours_mm": gap.construction[1] * 1e3}  # fmt: skip
+    if gap.arm_plane is not None:
+        out["arm_plane_tilt_deg"] = float(np.degrees(gap.arm_plane[0]))
+        out["arm_plane_tilt_flexion_corr"] = gap.arm_plane[1]
     if gap.alternative is not None:
         out["alternative"] = {"name": gap.alternative[0], "to_nexus_mm": gap.alternative[1] * 1e3,
                               "to_ours_mm": gap.alternative[2] * 1e3}  # fmt: skip

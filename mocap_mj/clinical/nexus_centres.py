@@ -177,7 +177,10 @@ class CentreGap:
     Nexus's) [m]: each centre's anterior distance from the marker. ``bend``: the joint's bend
     range (5th, 95th percentile) [rad], ``bend_corr`` and ``bend_slope`` [m/rad] of the
     distance on it. ``construction`` (to Nexus's, to ours) [m]: Plug-in Gait's construction
-    on our ``proximal`` centre. ``alternative``: (name, to Nexus's, to ours) [m]."""
+    on our ``proximal`` centre. ``alternative``: (name, to Nexus's, to ours) [m].
+    ``arm_plane`` (elbows): the median angle [rad] between Plug-in Gait's arm plane (its
+    shoulder centre, ELB, the wrist bar's mid-point) and the plane of Nexus's own shoulder,
+    elbow and wrist centres, and its correlation with Nexus's elbow flexion."""
 
     joint: str
     point: str
@@ -195,6 +198,7 @@ class CentreGap:
     bend_slope: float | None = None
     construction: tuple[float, float] | None = None
     alternative: tuple[str, float, float] | None = None
+    arm_plane: tuple[float, float] | None = None
 
 
 def _median_norm(v: np.ndarray) -> float:
@@ -307,6 +311,8 @@ def _gap(
         if built is not None:
             figures["proximal"] = spec.proximal
             figures["construction"] = (_median_norm(built - them), _median_norm(built - us))
+    if joint == "elbow":
+        figures |= _arm_plane(nexus, rows, p)
     if alternative is not None:
         figures["alternative"] = (alternative[0], _median_norm(alternative[1] - them),
                                   _median_norm(alternative[1] - us))  # fmt: skip
@@ -315,6 +321,24 @@ def _gap(
         distance=_median_norm(diff), components=np.nanmedian(comps, axis=0),
         components_sd=np.nanstd(comps, axis=0), **figures,  # type: ignore[arg-type]
     )  # fmt: skip
+
+
+def _arm_plane(nexus: NexusOutput, rows: np.ndarray, p: str) -> dict[str, object]:
+    """The tilt of Plug-in Gait's arm plane against Nexus's own centres' (side letter ``p``),
+    and its correlation with the elbow's flexion; empty without the points."""
+    names = [p + n for n in ("CLO", "HUO", "RAO", "ELB", "WRA", "WRB")]
+    if not nexus.has(*names):
+        return {}
+    sjc, ejc, wjc, elb, wra, wrb = (nexus.points[n][rows] for n in names)
+    marker_plane = unit(np.cross(sjc - elb, 0.5 * (wra + wrb) - elb))
+    centre_plane = unit(np.cross(sjc - ejc, wjc - ejc))
+    tilt = np.arccos(np.clip(np.abs(np.sum(marker_plane * centre_plane, axis=1)), 0.0, 1.0))
+    flexion = np.pi - _angle(sjc - ejc, wjc - ejc)
+    ok = np.isfinite(tilt) & np.isfinite(flexion)
+    if ok.sum() < 3 or np.std(tilt[ok]) == 0 or np.std(flexion[ok]) == 0:
+        return {}
+    return {"arm_plane": (float(np.median(tilt[ok])),
+                          float(np.corrcoef(tilt[ok], flexion[ok])[0, 1]))}  # fmt: skip
 
 
 def _bend_figures(bend: np.ndarray, diff: np.ndarray) -> dict[str, object]:
