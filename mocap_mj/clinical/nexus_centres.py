@@ -26,12 +26,13 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import ezc3d
 import numpy as np
 
 from ..errors import InputFileError, MocapError
-from ..io.formats.c3d import _point_labels, recording_first_frame
+from ..io.formats.c3d import _point_labels, read_parameters, recording_first_frame
 from ..io.units import metres_per_unit
 from . import centres
 from .geometry import chord, unit
@@ -95,20 +96,34 @@ class NexusOutput:
         return all(n in self.points for n in names)
 
 
+def _labels(point: dict[str, Any]) -> list[str]:
+    return [lab.split(":")[-1] for lab in _point_labels(point)]
+
+
+def has_bone_points(path: str | Path) -> bool:
+    """Whether the C3D ``path`` holds any joint-centre bone point of :data:`JOINTS` (its
+    parameters only are read, :func:`~mocap_mj.io.formats.c3d.read_parameters`)."""
+    try:
+        point = read_parameters(Path(path)).get("POINT", {})
+    except (RuntimeError, OSError) as exc:
+        raise InputFileError(f"{path}: cannot read as C3D ({exc})") from None
+    codes = {p + s.point for s in JOINTS.values() for p in "LR"}
+    return bool(codes & set(_labels(point)))
+
+
 def read_nexus(path: str | Path) -> NexusOutput | None:
     """Nexus's output in the C3D ``path``; None when it holds none of the joint-centre bone
     points of :data:`JOINTS`."""
+    if not has_bone_points(path):
+        return None
     try:
         c = ezc3d.c3d(str(path))
     except (RuntimeError, OSError) as exc:
         raise InputFileError(f"{path}: cannot read as C3D ({exc})") from None
     point = c["parameters"]["POINT"]
-    labels = [lab.split(":")[-1] for lab in _point_labels(point)]
+    labels = _labels(point)
     xyz = np.transpose(c["data"]["points"][:3], (2, 1, 0)).astype(float)
     xyz[np.all(xyz == 0.0, axis=2)] = np.nan
-    codes = {p + s.point for s in JOINTS.values() for p in "LR"}
-    if not codes & set(labels):
-        return None
     unit_name = str((point.get("UNITS", {}).get("value") or ["mm"])[0]).strip() or "mm"
     scale = metres_per_unit(unit_name)
     if scale is None:

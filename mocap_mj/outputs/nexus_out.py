@@ -18,6 +18,7 @@ from mocap_mj.skeleton.joint_centres import JOINT_CENTRE_NAMES, centre_bodies
 from ..clinical.centre_causes import entry, explanation, report_lines
 from ..clinical.nexus_centres import (
     centre_gaps,
+    has_bone_points,
     lab_from_ours,
     nexus_crosstalk,
     read_nexus,
@@ -38,13 +39,18 @@ def centres_vs_nexus(
     path = Path(str(fit.trials[0].name)) if fit.trials else None
     if path is None or path.suffix.lower() != ".c3d" or not path.is_file():
         return [], None
-    nexus = read_nexus(path)
+    title = ["## Joint centres against Plug-in Gait", ""]
+    try:
+        if not has_bone_points(path):
+            return [], None
+        if fit.motion is None:
+            return [*title, "Not compared: the motion was written in chunks (a long "
+                    "recording).", ""], None  # fmt: skip
+        nexus = read_nexus(path)
+    except MocapError as exc:
+        return [*title, f"Not compared: {exc}", ""], None
     if nexus is None:
         return [], None
-    title = ["## Joint centres against Plug-in Gait", ""]
-    if fit.motion is None:
-        return [*title, "Not compared: the motion was written in chunks (a long recording).",
-                ""], None  # fmt: skip
     m = fit.motion[0]
     model = fit.pset.model_for(fit.theta)
     centres = np.full((len(m.qpos), len(JOINT_CENTRE_NAMES), 3), np.nan)
