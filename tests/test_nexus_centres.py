@@ -104,6 +104,8 @@ def test_lab_frame_of_a_turned_recording() -> None:
     np.testing.assert_allclose(t, 0.2, atol=1e-9)
     with pytest.raises(MocapError, match="not the recording fitted"):
         lab_from_ours(nexus, np.arange(T), names, ours + rng.normal(0, 0.01, ours.shape))
+    with pytest.raises(MocapError, match="fewer than three of our markers"):
+        lab_from_ours(nexus, np.arange(T), ("X", "Y", "Z", "W"), ours)
 
 
 def test_rows_by_number_or_position() -> None:

@@ -147,8 +147,8 @@ def rows_for(frames: np.ndarray, nexus: NexusOutput) -> np.ndarray:
     """Rows of ``nexus`` (T,) for our frame numbers (T,), -1 where it has none: by number
     when most of ours are among its frames, else by position (frames counted from 0)."""
     frames = np.asarray(frames, dtype=int)
-    numbers = nexus.frames if np.mean(np.isin(frames, nexus.frames)) >= 0.5 else None
-    rows = frames - (nexus.frames[0] if numbers is not None else 0)
+    numbered = np.mean(np.isin(frames, nexus.frames)) >= 0.5
+    rows = frames - (int(nexus.frames[0]) if numbered else 0)
     return np.where((rows >= 0) & (rows < len(nexus.frames)), rows, -1)
 
 
@@ -160,11 +160,14 @@ def lab_from_ours(nexus: NexusOutput, rows: np.ndarray, names: tuple[str, ...],
     are shared or they disagree by more than 1 mm (other data than the file's)."""
     shared = [i for i, n in enumerate(names) if n in nexus.points]
     ok = rows >= 0
+    few = MocapError(f"{nexus.source}: fewer than three of our markers in its points")
+    if len(shared) < 3 or not ok.any():
+        raise few
     a = np.asarray(markers, dtype=float)[ok][:, shared].reshape(-1, 3)
     b = np.stack([nexus.points[names[i]][rows[ok]] for i in shared], axis=1).reshape(-1, 3)
     good = np.all(np.isfinite(a), axis=1) & np.all(np.isfinite(b), axis=1)
-    if len(shared) < 3 or good.sum() < 3:
-        raise MocapError(f"{nexus.source}: fewer than three of our markers in its points")
+    if good.sum() < 3:
+        raise few
     a, b = a[good], b[good]
     ca, cb = a.mean(axis=0), b.mean(axis=0)
     u, _, vt = np.linalg.svd((a - ca).T @ (b - cb))
