@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -29,6 +30,7 @@ from mocap_mj.clinical.nexus_centres import (
 )
 from mocap_mj.errors import MocapError
 from mocap_mj.io.formats.c3d_write import write_markers_c3d
+from mocap_mj.outputs.nexus_out import centres_vs_nexus
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 SKIP = "../shared/data/real not present: the Nexus comparison needs the shared folder"
@@ -142,11 +144,13 @@ def test_explanations() -> None:
 
 
 def test_c3d_with_and_without_bone_points(tmp_path: Path) -> None:
-    """A C3D holding only markers gives None (no section, no key); one holding LFEO gives
-    its points in metres."""
+    """A C3D holding only markers gives None, and identify's outputs no section and no
+    summary key; one holding LFEO gives its points in metres."""
     xyz = np.random.default_rng(3).normal(0, 1, (5, 2, 3))
     write_markers_c3d(tmp_path / "markers.c3d", xyz, ["LKNE", "LANK"], 100.0)
     assert read_nexus(tmp_path / "markers.c3d") is None
+    fit = SimpleNamespace(trials=[SimpleNamespace(name=str(tmp_path / "markers.c3d"))])
+    assert centres_vs_nexus(fit, {}) == ([], None)  # type: ignore[arg-type]
     write_markers_c3d(tmp_path / "nexus.c3d", xyz, ["LKNE", "Sub:LFEO"], 100.0)
     nexus = read_nexus(tmp_path / "nexus.c3d")
     assert nexus is not None
