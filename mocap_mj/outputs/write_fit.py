@@ -18,6 +18,7 @@ from mocap_mj.anatomy.tissue import SlidingModel, with_sliding_model
 from mocap_mj.capture.marker_quality import quality_lines
 from mocap_mj.io.strict_json import dumps, jsonable
 from mocap_mj.outputs.clinical_out import write_model_angles
+from mocap_mj.outputs.nexus_out import centres_vs_nexus
 from mocap_mj.pipeline.fit import Fit
 from mocap_mj.pipeline.motion import Motion, save_motion
 from mocap_mj.skeleton.exported import Layout
@@ -75,6 +76,10 @@ def write_result(
         )
         if compared is not None:
             summary["angles_vs_plug_in_gait"] = compared
+        more, centres = centres_vs_nexus(fit, summary)
+        lines += more
+        if centres is not None:
+            summary["joint_centres_vs_plug_in_gait"] = jsonable(centres)
         if lines:
             report = staging / "report.md"
             atomic_write_text(report, report.read_text() + "\n" + "\n".join(lines))
