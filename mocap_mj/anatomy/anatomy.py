@@ -16,8 +16,8 @@ roles take them (:mod:`mocap_mj.capture.roles`: ``L_FLE`` on the lateral femoral
 gets LKNE's rows).
 
 Marker classes (:func:`mocap_mj.capture.marker_set.marker_class`, from the marker-set file):
-*landmark* markers sit on a palpated bony landmark
-that the marker set defines relative to the joint centres: they get the rows of
+*landmark* markers sit on a palpated bony landmark that the marker set defines relative to
+the joint centres: they get the rows of
 :data:`LANDMARK_ROWS`; *cluster* and *free* markers (wands, free-placed THI, TIB, UPA, FRM,
 RBAK) get no anatomical row, only the weak prior of the LM toward the initial placement
 (``LMSettings.prior_sigma``, 50 mm).
@@ -137,6 +137,7 @@ from mocap_mj.anatomy.axis_rows import (
 from mocap_mj.anatomy.foot import foot_rows
 from mocap_mj.anatomy.hips import davis_rows
 from mocap_mj.anatomy.ranges import NOMINAL_HEIGHT
+from mocap_mj.anatomy.shoulders import pig_shoulder_offsets
 from mocap_mj.anatomy.trunk import T10Placement
 from mocap_mj.capture.roles import renamed, roles
 from mocap_mj.capture.subject import Subject
@@ -551,26 +552,34 @@ def _t10_carried(pset: ParameterSet, shift: float) -> dict[str, float]:
 def _shoulder_rows(
     rows: _Rows, pset: ParameterSet, subject: Subject, side: str, p: str, s: float
 ) -> None:
-    """The rows of one side's shoulder marker ``p``SHO (``p`` "L" or "R") on the acromion."""
+    """The rows of one side's shoulder marker ``p``SHO (``p`` "L" or "R") on the acromion:
+    shoulder_offset + r from the glenohumeral centre by Plug-in Gait's construction
+    (:mod:`mocap_mj.anatomy.shoulders`) where the set has its thorax markers, else above it."""
     lm = SIGMA_LANDMARK
     sign = 1.0 if side == "l" else -1.0
-    # SHO on the acromion, shoulder_offset + r above the glenohumeral centre.
     try:
         gh = pset.body_pos_nominal[pset.model.body(f"upperarm_{side}").id]
     except KeyError:  # a custom model without this body: no shoulder rows
         gh = np.full(3, np.nan)
     u = gh / np.linalg.norm(gh)
     off = subject.get(f"shoulder_offset_{side}")
+    pig = None
+    if off is not None:  # Plug-in Gait's construction, where the set has its thorax markers
+        d = {side: off + subject.marker_radius}
+        pig = pig_shoulder_offsets(pset, rows.name, d, s, subject.marker_radius).get(side)
     for ax, c in enumerate("xyz"):
         terms = {f"{p}SHO.{c}": 1.0, f"clavicle_length_{side}": -u[ax]}
-        if c == "z":
+        if pig is not None:
+            sig = SIGMA_MEASURED if c == "z" else SIGMA_CONVENTION
+            label = f"{p}SHO.{c} = GH.{c} {pig[ax] * 1e3:+.0f} mm (Plug-in Gait's centre)"
+            rows.add(terms, float(pig[ax]), sig, label)
+        elif c == "z":
             mean = (off + subject.marker_radius) if off is not None else 0.045 * s
             sig = SIGMA_MEASURED if off is not None else lm
             rows.add(terms, mean, sig, f"{p}SHO.z = GH.z + shoulder_offset + r")
         else:
             mean = (0.0, sign * 0.01 * s)[ax]
-            # GH under SHO, as Plug-in Gait defines its shoulder centre: a convention
-            # joint (the clavicle's end stands in for the scapula's glenoid).
+            # GH under SHO on the acromion (the clavicle's end stands in for the glenoid).
             rows.add(terms, mean, SIGMA_CONVENTION, f"{p}SHO.{c} = GH.{c} {mean * 1e3:+.0f} mm")
 
 
@@ -723,8 +732,7 @@ def _ankle_axis_placed(rows: _Rows, subject: Subject, side: str, p: str, paired:
 
 
 def _foot_rows(rows: _Rows, side: str, p: str, s: float, axis_placed: bool) -> None:
-    """One side's heel and toe rows (:func:`~mocap_mj.anatomy.foot.foot_rows`); the heel-toe
-    line turns about a placed ankle axis only where the set has a toe marker."""
+    """One side's heel and toe rows (:func:`~mocap_mj.anatomy.foot.foot_rows`)."""
     turn = axis_placed and rows.name(f"{p}TOE") in rows.pset.marker_names
     for row in foot_rows(rows.pset, side, p, s, turn, SIGMA_LANDMARK, SIGMA_SOFT):
         rows.add(*row)
