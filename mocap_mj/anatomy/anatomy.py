@@ -71,8 +71,8 @@ Widths (standard deviations, per row) and their sources:
   the pronation axis runs from the radial head to the ulnar head, so the point about which
   trials at different elbow angles turn the forearm moves with them (one model for a jump
   at 15-25 degrees and a pose at 90 put it 25-30 mm ahead of ELB at 10 mm); the
-  glenohumeral centre under SHO (SHO's front-back and lateral rows; its height is the
-  shoulder offset's row, measured or regressed): the model's glenohumeral centre is the end
+  glenohumeral centre from SHO (its rows: :mod:`~mocap_mj.anatomy.shoulders`, else under
+  SHO; the height the shoulder offset's): the model's glenohumeral centre is the end
   of a clavicle turning about its SC joint, standing in for a glenoid that the scapula
   carries as it turns and glides on the thorax with the arm, so the point about which a
   trial turns the humerus depends on that trial's arm motion; Plug-in Gait defines the

@@ -28,7 +28,7 @@ from ..errors import MocapError
 
 #: report.md's words for our source of each joint's centre (the hips' and the flexion axes'
 #: come from summary.json).
-SOURCES = {"shoulder": "under SHO (shoulder offset rows)", "wrist": "wrist bar rows"}
+SOURCES = {"shoulder": "SHO and the shoulder offset rows", "wrist": "wrist bar rows"}
 
 
 def centres_vs_nexus(
