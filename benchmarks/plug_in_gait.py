@@ -12,15 +12,12 @@ which miss the targets (1 deg RMS, 1 mm median). Reads the files only.
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from vicon_pig import _points
-
 from mocap_mj.clinical import pig_from_c3d, plug_in_gait
+from mocap_mj.clinical.nexus_centres import read_nexus
 from mocap_mj.io.load import load_markers
 
 ANGLE_TARGET = 1.0  # deg RMS
@@ -36,13 +33,15 @@ def compare(trial: Path, static: Path | None) -> tuple[list[str], list[str]]:
         stat = load_markers(static)
         subject = pig_from_c3d(static).update(subject)
     result = plug_in_gait(traj, subject, stat)
-    labels, xyz, _ = _points(trial)
+    out = read_nexus(trial)
+    if out is None:
+        raise SystemExit(f"{trial}: holds no Plug-in Gait bone points of Nexus's")
     lines, misses = [], []
     lines.append(f"{'angle component':28s} {'RMS deg':>8s} {'max deg':>8s}")
     for name in sorted(result.angles):
-        if name not in labels:
+        if name not in out.angles:
             continue
-        nexus = xyz[:, labels.index(name)]
+        nexus = out.angles[name]
         ours = np.degrees(result.angles[name])
         for k, axis in enumerate("XYZ"):
             d = np.degrees(np.angle(np.exp(1j * np.radians(ours[:, k] - nexus[:, k]))))
@@ -54,9 +53,9 @@ def compare(trial: Path, static: Path | None) -> tuple[list[str], list[str]]:
             lines.append(f"{name + '_' + axis:28s} {rms:8.3f} {worst:8.3f}{flag}")
     lines.append(f"{'bone point':28s} {'median mm':>9s}")
     for name in sorted(result.points):
-        if name not in labels:
+        if name not in out.points:
             continue
-        dist = np.linalg.norm(result.points[name] * 1e3 - xyz[:, labels.index(name)], axis=1)
+        dist = np.linalg.norm(result.points[name] - out.points[name], axis=1) * 1e3
         med = float(np.nanmedian(dist))
         flag = "" if med <= POINT_TARGET else "  MISS"
         if flag:
