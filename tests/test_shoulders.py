@@ -12,7 +12,7 @@ from mocap_mj.anatomy.anatomy import landmark_prior
 from mocap_mj.anatomy.shoulders import pig_shoulder_offsets
 from mocap_mj.capture.subject import Subject
 from mocap_mj.clinical.centres import shoulder
-from mocap_mj.clinical.geometry import frame_zx
+from mocap_mj.clinical.segments import Markers, trunk_frames
 
 RADIUS = 0.007
 
@@ -37,16 +37,9 @@ def test_rows_put_the_centre_where_plug_in_gait_does(offset: float) -> None:
     kin.set_theta(theta)
     frames = kin.forward(pset.model.qpos0[None].copy())
     site = {n: frames.site_xpos[0, k][None] for k, n in enumerate(pset.marker_names)}
-
-    def mid(a: str, b: str) -> np.ndarray:
-        return (site[a] + site[b]) / 2
-
-    thorax = frame_zx(
-        mid("STRN", "T10") - mid("CLAV", "C7"), mid("CLAV", "STRN") - mid("C7", "T10")
-    )
-    origin = site["CLAV"] - RADIUS * thorax[..., 0]
+    thorax = trunk_frames(Markers(site, 1), RADIUS, 0.0)["thorax"]
     for side, p in (("l", "L"), ("r", "R")):
-        pig = shoulder(thorax, origin, site[p + "SHO"], offset, RADIUS, side)[0]
+        pig = shoulder(thorax.axes, thorax.origin, site[p + "SHO"], offset, RADIUS, side)[0]
         gh = frames.xpos[0, pset.model.body(f"upperarm_{side}").id]
         # The rows are linearised on the nominal model: 1 mm for this model's own geometry.
         assert np.linalg.norm(pig - gh) < 1e-3, (side, pig - gh)

@@ -40,6 +40,7 @@ from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.priors import LinearGaussianPrior
 
+from ..clinical.compare import crosstalk
 from ..clinical.geometry import cardan_yxz, chord, frame_zy, relative, unit
 
 #: Width [deg] of the chord-plane row where Plug-in Gait's construction places the axis (the
@@ -137,7 +138,8 @@ def axis_decisions(
         var = float(a[free] @ np.linalg.lstsq(sub, a[free], rcond=None)[0]) * at**2
         return float(np.sqrt(max(var, 0.0)))
 
-    hess, hess_solved = hessian(noise), hessian(solved)
+    hess = hessian(noise)
+    hess_solved = hess if solved == noise else hessian(solved)
     out: dict[str, dict[str, Any]] = {}
     for joint, key, start, marker, arm in axis_rows(pset):
         row = _row(priors, start)
@@ -256,10 +258,6 @@ def axis_rmse(
             d["rmse_mm"][name] = float(np.sqrt(np.mean(sub**2)) * 1e3) if sub.size else None
 
 
-#: Knee flexion range [deg] (5th to 95th percentile) below which no crosstalk is reported.
-CROSSTALK_MIN_RANGE = 20.0
-
-
 def knee_crosstalk(
     pset: ParameterSet,
     theta: np.ndarray,
@@ -275,7 +273,8 @@ def knee_crosstalk(
     identified hip centre), the femur's frame from that axis and the hip and knee centres,
     the tibia's from the identified knee and ankle centres and shank (Plug-in Gait's Cardan
     sequence, :func:`~mocap_mj.clinical.geometry.cardan_yxz`). A well-placed flexion axis
-    shows little. Knees that flex less than :data:`CROSSTALK_MIN_RANGE` get None."""
+    shows little. Knees that flex less than
+    :data:`~mocap_mj.clinical.compare.CROSSTALK_MIN_RANGE` get None."""
     knees = {j: d for j, d in decisions.items() if j.startswith("knee")}
     if not knees:
         return
@@ -303,13 +302,9 @@ def knee_crosstalk(
 
 
 def _slope(flexion: np.ndarray, varus: np.ndarray) -> dict[str, float] | None:
-    """Correlation and slope [deg/deg] of ``varus`` on ``flexion`` (T,) [deg] over finite
-    frames; None when flexion spans less than :data:`CROSSTALK_MIN_RANGE`."""
-    ok = np.isfinite(flexion) & np.isfinite(varus)
-    f, v = flexion[ok], varus[ok]
-    if len(f) < 3 or np.ptp(np.percentile(f, [5, 95])) < CROSSTALK_MIN_RANGE:
-        return None
-    return {"corr": float(np.corrcoef(f, v)[0, 1]), "slope": float(np.polyfit(f, v, 1)[0])}
+    """:func:`~mocap_mj.clinical.compare.crosstalk` as summary.json records it."""
+    talk = crosstalk(flexion, varus)
+    return None if talk is None else {"corr": talk[0], "slope": talk[1]}
 
 
 #: Joint -> Plug-in Gait's construction of its flexion axis, as report.md names it.

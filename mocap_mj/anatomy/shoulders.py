@@ -19,7 +19,7 @@ from collections.abc import Callable
 import numpy as np
 
 from mocap_mj.clinical.centres import shoulder
-from mocap_mj.clinical.geometry import frame_zx
+from mocap_mj.clinical.segments import Markers, trunk_frames
 from mocap_mj.skeleton.parameters import ParameterSet
 
 #: The markers Plug-in Gait's thorax frame and origin need.
@@ -65,13 +65,7 @@ def pig_shoulder_offsets(
     if sites is None:
         return {}
     m = {r: s * sites[n][None] for r, n in roles.items()}
-
-    def mid(a: str, b: str) -> np.ndarray:
-        return (m[a] + m[b]) / 2
-
-    down, forward = mid("STRN", "T10") - mid("CLAV", "C7"), mid("CLAV", "STRN") - mid("C7", "T10")
-    thorax = frame_zx(down, forward)
-    origin = m["CLAV"] - radius * thorax[..., 0]
+    thorax = trunk_frames(Markers(m, 1), radius, 0.0)["thorax"]
     xpos = s * _nominal_world(pset)
     out = {}
     for side, p in (("l", "L"), ("r", "R")):
@@ -82,7 +76,8 @@ def pig_shoulder_offsets(
         except KeyError:  # a custom model without this body
             continue
         for _ in range(8):
-            offset = sho - shoulder(thorax, origin, sho, distance[side] - radius, radius, side)
+            offset = sho - shoulder(thorax.axes, thorax.origin, sho, distance[side] - radius,
+                                   radius, side)  # fmt: skip
             sho = gh + offset
         out[side] = offset[0]
     return out

@@ -1,6 +1,7 @@
 """Our model's angles beside Plug-in Gait's: reading the reference angles (Vicon Nexus'
 points in a C3D, or a ``mocap-mj plug-in-gait`` folder's angles.csv), aligning the frames,
-and the figures per component: RMS difference, constant offset and correlation.
+and the figures per component: RMS difference, constant offset and correlation; and a knee's
+varus-valgus / flexion crosstalk (:func:`crosstalk`).
 
 Angles are in radians inside, degrees in the tables and figures; a difference is wrapped to
 +-180 deg before it is averaged.
@@ -17,6 +18,9 @@ import numpy as np
 
 from ..errors import InputFileError, MocapError
 from ..io.formats.c3d import _point_labels, recording_first_frame
+
+#: Knee flexion range [deg] (5th to 95th percentile) below which no crosstalk is reported.
+CROSSTALK_MIN_RANGE = 20.0
 
 #: The angle names both tables carry, side letter first (``LKneeAngles``).
 ANGLE_SUFFIX = "Angles"
@@ -178,3 +182,14 @@ def comparison_section(
         "",
     ]
     return lines, rows
+
+
+def crosstalk(flexion: np.ndarray, varus: np.ndarray) -> tuple[float, float] | None:
+    """Correlation and slope [deg/deg] of ``varus`` on ``flexion`` (T,) [deg] over the
+    finite frames: the crosstalk a flexion axis placed off the joint's shows; None when
+    flexion spans less than :data:`CROSSTALK_MIN_RANGE`."""
+    ok = np.isfinite(flexion) & np.isfinite(varus)
+    f, v = flexion[ok], varus[ok]
+    if len(f) < 3 or np.ptp(np.percentile(f, [5, 95])) < CROSSTALK_MIN_RANGE:
+        return None
+    return float(np.corrcoef(f, v)[0, 1]), float(np.polyfit(f, v, 1)[0])

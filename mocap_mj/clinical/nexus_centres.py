@@ -34,7 +34,9 @@ import numpy as np
 from ..errors import InputFileError, MocapError
 from ..io.formats.c3d import _point_labels, read_parameters, recording_first_frame
 from ..io.units import metres_per_unit
+from ..skeleton.rigid import rigid_fit
 from . import centres
+from .compare import crosstalk
 from .geometry import chord, unit
 from .subject import PigSubject, pig_from_c3d
 
@@ -169,11 +171,8 @@ def lab_from_ours(nexus: NexusOutput, rows: np.ndarray, names: tuple[str, ...],
     if good.sum() < 3:
         raise few
     a, b = a[good], b[good]
-    ca, cb = a.mean(axis=0), b.mean(axis=0)
-    u, _, vt = np.linalg.svd((a - ca).T @ (b - cb))
-    d = np.sign(np.linalg.det(vt.T @ u.T))
-    rot = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
-    t = cb - rot @ ca
+    rots, shifts = rigid_fit(b[None], a)  # one rigid map for all the pooled samples
+    rot, t = rots[0], shifts[0]
     err = float(np.median(np.linalg.norm(a @ rot.T + t - b, axis=1)))
     if err > 1e-3:
         raise MocapError(
@@ -375,15 +374,10 @@ def _bend_figures(bend: np.ndarray, diff: np.ndarray) -> dict[str, object]:
 
 
 def nexus_crosstalk(nexus: NexusOutput, rows: np.ndarray, side: str) -> tuple[float, float] | None:
-    """Nexus's own knee varus-valgus / flexion crosstalk: correlation and slope [deg/deg]
-    of its KneeAngles' Y on X over ``rows`` (-1 skipped); None without the angles or when
-    the knee flexes less than 20 degrees."""
+    """Nexus's own knee varus-valgus / flexion crosstalk (:func:`~.compare.crosstalk`) of its
+    KneeAngles' Y on X over ``rows`` (-1 skipped); None without the angles."""
     a = nexus.angles.get(f"{side.upper()}KneeAngles")
     if a is None:
         return None
     a = a[rows[rows >= 0]]
-    ok = np.all(np.isfinite(a[:, :2]), axis=1)
-    if ok.sum() < 3 or np.ptp(a[ok, 0]) < 20:
-        return None
-    r = float(np.corrcoef(a[ok, 0], a[ok, 1])[0, 1])
-    return r, float(np.polyfit(a[ok, 0], a[ok, 1], 1)[0])
+    return crosstalk(a[:, 0], a[:, 1])
