@@ -12,11 +12,11 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-import ezc3d
 import numpy as np
 import pytest
 
 from mocap_mj.cli import main
+from mocap_mj.clinical.nexus_centres import read_nexus, rows_for
 
 STATIC = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "Static_trial.c3d"
 #: Our joint centre -> Nexus' bone point at it, and the largest median distance [m]. The
@@ -39,14 +39,12 @@ def centres(tmp_path_factory: pytest.TempPathFactory) -> tuple[list[dict[str, st
 
 def test_static_centres_are_plug_in_gaits(centres: tuple[list[dict[str, str]], Path]) -> None:
     rows, _ = centres
-    c = ezc3d.c3d(str(STATIC))
-    labels = list(c["parameters"]["POINT"]["LABELS"]["value"])
-    first = int(c["header"]["points"]["first_frame"]) + 1
-    xyz = np.transpose(c["data"]["points"][:3], (2, 1, 0)) * 1e-3
-    frames = np.array([int(r["frame"]) - first for r in rows])
+    nexus = read_nexus(STATIC)
+    assert nexus is not None
+    at = rows_for(np.array([int(r["frame"]) for r in rows]), nexus)
     for joint, (point, limit) in TARGETS.items():
         for side, p in (("l", "L"), ("r", "R")):
             ours = np.array([[float(r[f"{joint}_{side}_{a}_mm"]) for a in "xyz"] for r in rows])
-            theirs = xyz[frames, labels.index(p + point)]
+            theirs = nexus.points[p + point][at]
             d = float(np.median(np.linalg.norm(ours * 1e-3 - theirs, axis=1)))
             assert d < limit, (joint, side, d)
