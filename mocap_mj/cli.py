@@ -7,11 +7,11 @@ default ``func(args)`` returns an exit code.
 
 Every error derived from :class:`mocap_mj.MocapError` becomes one line on stderr and exit
 status 2; no traceback is shown for bad input. An operating-system error (disk full,
-permission denied) is one line and exit status 1; Ctrl-C or SIGTERM exits with 130 / 143. A
-result that the tool's own checks call implausible (a summary whose ``implausible`` list is
-not empty) is written for inspection, the reasons printed in one line, and the command exits
-with :data:`~mocap_mj.commands.common.EXIT_IMPLAUSIBLE` (3), which summary.json records as
-``exit_status``. Commands write their output folder with
+permission denied) is one line and exit status 1; Ctrl-C, SIGTERM or SIGHUP exits with
+130 / 143 / 129. A result that the tool's own checks call implausible (a summary whose
+``implausible`` list is not empty) is written for inspection, the reasons printed in one line,
+and the command exits with :data:`~mocap_mj.commands.common.EXIT_IMPLAUSIBLE` (3), which
+summary.json records as ``exit_status``. Commands write their output folder with
 :func:`mocap_mj.io.atomic.atomic_folder` (see :func:`~mocap_mj.commands.common.output_folder`),
 so an interrupted or failed run leaves no folder that looks like a result. Before any work,
 an ``--out`` that is an input or holds one is refused (:mod:`mocap_mj.commands._inputs`): an
@@ -51,6 +51,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _interrupted("mocap-mj")
     atexit.unregister(_ignore_late_interrupts)
     atexit.register(_ignore_late_interrupts)
+    from .io.ownership import set_command
+
+    set_command(" ".join(["mocap-mj", *(sys.argv[1:] if argv is None else argv)]))
     try:
         with _sigterm_as_exit(), one_blas_thread():
             refuse_out_holding_inputs(args)  # before any work: an input is never touched
@@ -105,20 +108,32 @@ def _ignore_late_interrupts() -> None:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+#: Signals that end a command as Ctrl-C does (its folders cleaned up): SIGTERM, and SIGHUP
+#: (the terminal closed), where the platform has them.
+_ENDING = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name))
+
+
 @contextlib.contextmanager
 def _sigterm_as_exit() -> Iterator[None]:
-    """SIGTERM raises SystemExit(143), so output folders are cleaned up as on Ctrl-C."""
+    """SIGTERM and SIGHUP raise SystemExit(128 + signal number: 143, 129), so output folders
+    are cleaned up as on Ctrl-C; one the caller ignores stays ignored."""
 
     def handler(signum: int, frame: object) -> None:
         print("mocap-mj: terminated", file=sys.stderr)
         raise SystemExit(128 + signum)
 
     try:
-        previous = signal.signal(signal.SIGTERM, handler)
+        # A signal the caller ignores (``nohup`` ignores SIGHUP) stays ignored.
+        previous = [
+            (sig, signal.signal(sig, handler))
+            for sig in _ENDING
+            if signal.getsignal(sig) is not signal.SIG_IGN
+        ]
     except ValueError:  # not the main thread: leave signals alone
         yield
         return
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for sig, action in previous:
+            signal.signal(sig, action)

@@ -99,30 +99,63 @@ def test_interrupted_identify_leaves_no_partial_result(
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".out.")] == []
 
 
-def test_stale_temporaries_are_removed_and_ignored(tmp_path: Path) -> None:
+def _stale_staging(folder: Path, pid: int) -> None:
+    """``folder`` as a run of process ``pid`` leaves it when killed: marked ``staging``."""
+    import json
+    import socket
+
+    from mocap_mj.io.ownership import FORMAT, MARKER
+
+    folder.mkdir()
+    record = {"format": FORMAT, "kind": "staging", "pid": pid, "host": socket.gethostname()}
+    (folder / MARKER).write_text(json.dumps(record))
+
+
+def test_stale_staging_is_removed_and_look_alikes_are_kept(tmp_path: Path) -> None:
+    """A killed run's staging folder (the tool's marker, its process gone) is removed; a file
+    or folder that merely bears a staging name is the user's: kept, byte for byte."""
     dead = _dead_pid()
     out = tmp_path / "out"
-    out.mkdir()
-    (out / f".summary.tmp-{dead}-abcd1234.json").write_text("{")  # a killed file write
     stale_dir = tmp_path / f".out.partial-{dead}-abcd1234"
-    stale_dir.mkdir()
+    _stale_staging(stale_dir, dead)
     (stale_dir / "model.xml").write_text("<mujoco/>")
-    with atomic_folder(out) as staging:  # not refused as "not empty"
+    alike = tmp_path / f".out.partial-{dead}-00000000"  # the user's, no marker
+    alike.mkdir()
+    (alike / "notes.txt").write_text("mine")
+    (tmp_path / f".out.old-{dead}-abcd1234").write_text("mine too")
+    with atomic_folder(out) as staging:
         (staging / "summary.json").write_text("{}")
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
-    assert [p.name for p in out.iterdir()] == ["summary.json"]
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert left == sorted(["out", alike.name, f".out.old-{dead}-abcd1234"])
+    assert (alike / "notes.txt").read_text() == "mine"
+    assert sorted(p.name for p in out.iterdir()) == [".mocap-mj-folder.json", "summary.json"]
+    # Inside --out: a stale staging folder does not make it "not empty"; a file named like a
+    # killed write's temporary does, and is kept.
+    inner = tmp_path / "inner"
+    inner.mkdir()
+    _stale_staging(inner / f".x.partial-{dead}-abcd1234", dead)
+    with atomic_folder(inner) as staging:
+        (staging / "summary.json").write_text("{}")
+    assert sorted(p.name for p in inner.iterdir()) == [".mocap-mj-folder.json", "summary.json"]
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / f".summary.tmp-{dead}-abcd1234.json").write_text("{")
+    with pytest.raises(OutputFolderError, match="not empty"), atomic_folder(mine):
+        pass
+    assert [p.name for p in mine.iterdir()] == [f".summary.tmp-{dead}-abcd1234.json"]
 
 
 def test_failed_block_leaves_the_old_folder(tmp_path: Path) -> None:
     out = tmp_path / "out"
-    out.mkdir()
-    (out / "summary.json").write_text("{}")  # a result, which --force may replace
-    (out / "old.txt").write_text("old")
+    with atomic_folder(out) as staging:  # a result, which --force may replace
+        (staging / "summary.json").write_text("{}")
+        (staging / "old.txt").write_text("old")
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
     with pytest.raises(KeyboardInterrupt), atomic_folder(out, force=True) as staging:
         (staging / "new.txt").write_text("new")
         raise KeyboardInterrupt
     assert [p.name for p in tmp_path.iterdir()] == ["out"]
-    assert sorted(p.name for p in out.iterdir()) == ["old.txt", "summary.json"]
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
     with pytest.raises(OutputFolderError, match="not empty"), atomic_folder(out):
         pass
 

@@ -25,6 +25,7 @@ import pytest
 from mocap_mj.cli import main
 from mocap_mj.errors import OutputFolderError
 from mocap_mj.io.atomic import atomic_folder, atomic_path
+from mocap_mj.io.ownership import MARKER
 from mocap_mj.skeleton.mjcf import model_path
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
@@ -160,7 +161,7 @@ def test_out_holding_an_input_is_refused_before_any_work(
     before = hashes(folder)
     code, lines = cli(capsys, *argv)
     line = refused(code, lines, 2, "--out", named)
-    assert "is the input" in line or "holds the input" in line
+    assert any(what in line for what in ("is the input", "holds the input", "is a file of the input"))
     assert hashes(folder) == before
     assert not (folder / "summary.json").exists() or case.startswith(("export", "batch"))
     assert staging_left(folder) == []
@@ -176,7 +177,7 @@ def test_force_replaces_only_an_empty_folder_or_a_result(
     (mine / "sub" / "data.bin").write_bytes(b"\x00\x01")
     before = hashes(mine)
     code, lines = cli(capsys, "ik", "--markers", data["markers"], "--out", mine, "--force")
-    refused(code, lines, 2, mine, "not a mocap-mj result folder", "--force")
+    refused(code, lines, 2, mine, "not a folder mocap-mj wrote", "--force")
     assert hashes(mine) == before
     assert staging_left(mine) == []
     out = tmp_path / "out"  # empty, then an earlier result: replaced
@@ -216,7 +217,7 @@ def test_a_result_renamed_into_place_meanwhile_is_kept(tmp_path: Path, existing:
             with atomic_folder(out) as fast:  # checked now: still new or empty
                 (fast / "summary.json").write_text("fast\n")
     assert (out / "summary.json").read_text() == "fast\n"
-    assert [p.name for p in out.iterdir()] == ["summary.json"]
+    assert sorted(p.name for p in out.iterdir()) == sorted([MARKER, "summary.json"])
     assert staging_left(out) == []
 
 
@@ -415,8 +416,9 @@ def test_a_symlinked_out_stays_a_link_to_the_result(
 
 
 def test_batch_replaces_only_its_own_subject_folders(tmp_path: Path) -> None:
-    """A subject folder of ``batch --out`` is replaced only if a batch wrote it (subject.json);
-    a folder of the user's that bears a subject's name is kept and the subject fails."""
+    """A subject folder of ``batch --out`` is replaced only if a batch wrote it (its marker,
+    or an earlier batch's subject.json with nothing but the batch's folders beside it); a
+    folder of the user's that bears a subject's name is kept and the subject fails."""
     from mocap_mj.batch.dataset import Subject
     from mocap_mj.batch.run import RECORD, execute
 
@@ -429,10 +431,16 @@ def test_batch_replaces_only_its_own_subject_folders(tmp_path: Path) -> None:
     before = hashes(tmp_path / "S1")
     record = execute(job, Subject("S1", ("t.csv",)), str(tmp_path), "h")
     assert record["status"] == "failed"
-    assert str(tmp_path / "S1") in record["error"] and RECORD in record["error"]
+    assert str(tmp_path / "S1") in record["error"] and MARKER in record["error"]
     assert hashes(tmp_path / "S1") == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["S1"]
-    (tmp_path / "S1" / RECORD).write_text("{}")  # now an earlier batch's subject folder
+    (tmp_path / "S1" / RECORD).write_text("{}")  # a subject.json beside the user's notes
+    before = hashes(tmp_path / "S1")
+    assert execute(job, Subject("S1", ("t.csv",)), str(tmp_path), "h")["status"] == "failed"
+    assert hashes(tmp_path / "S1") == before
+    (tmp_path / "S1" / "notes.txt").unlink()  # now an earlier batch's subject folder
     assert execute(job, Subject("S1", ("t.csv",)), str(tmp_path), "h")["status"] == "ok"
-    assert sorted(p.name for p in (tmp_path / "S1").iterdir()) == sorted([RECORD, "result.txt"])
+    assert sorted(p.name for p in (tmp_path / "S1").iterdir()) == sorted(
+        [MARKER, RECORD, "result.txt"]
+    )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["S1"]

@@ -60,6 +60,9 @@ RECIPE_OPTIONS = {"init": "init", "loss": "loss", "max_iterations": "max_iterati
 TRIAL_SUFFIXES = (".c3d", ".trc", ".csv")
 SUBJECT_FILES = ("subject.yaml", "subject.yml")
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+#: The files a batch writes into its ``--out`` beside the subjects' folders: no subject may
+#: bear one of these names (compared without case, as some file systems do).
+BATCH_FILES = ("summary.csv", "summary.json", "report.md", "segments.png", "rmse_per_trial.png")
 
 
 @dataclass(frozen=True)
@@ -195,6 +198,11 @@ def _name(name: str, where: str) -> str:
     if not _NAME.match(name):
         raise InputFileError(
             f"{where}: subject name {name!r} must be a folder name (letters, digits, '_.-')"
+        )
+    if name.lower() in BATCH_FILES:
+        raise InputFileError(
+            f"{where}: subject name {name!r} is the name of a file the batch writes into --out "
+            f"({', '.join(BATCH_FILES)}); rename the subject"
         )
     return name
 

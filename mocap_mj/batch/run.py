@@ -13,6 +13,12 @@ folder to ``OUT/<subject>``: a subject folder is complete or absent, never half-
   process that runs it: this one, serially, or the Ray worker) and recorded as failed, its
   trials ``timed out``; the batch goes on. A job inside compiled code is stopped when it
   returns to Python.
+* Ownership: ``OUT`` carries the tool's ``batch`` marker (:mod:`mocap_mj.io.ownership`); a
+  batch writes only into an absent or empty folder or one that marker names (or a batch folder
+  written before the marker existed: nothing but the batch's files and subject folders), and
+  never inside the dataset. Each subject folder carries a ``subject`` marker and is replaced
+  only when it does; the temporary folders carry a ``staging`` marker and are removed only
+  once the process that made them is gone.
 * Resume: each ``subject.json`` carries the content hash of the subject's inputs and options
   (:func:`mocap_mj.batch.dataset.content_hash`); a subject whose folder holds a record with the
   same hash and status ``ok`` is not run again.
@@ -38,9 +44,10 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from ..errors import MocapError
+from ..errors import MocapError, OutputFolderError
 from ..io.atomic import atomic_write_text
-from .dataset import Subject, content_hash
+from ..io.ownership import MARKER, alive, folder_mark, mark_folder, remove_stale
+from .dataset import BATCH_FILES, Subject, content_hash
 
 Job = Callable[[Subject, Path], dict[str, Any]]
 
@@ -132,9 +139,10 @@ def execute(
     """
     t0 = time.perf_counter()
     root = Path(out)
-    tmp = root / f"{_TMP}{subject.name}-{secrets.token_hex(4)}"
+    tmp = root / f"{_TMP}{subject.name}-p{os.getpid()}-{secrets.token_hex(4)}"
     try:
         tmp.mkdir()
+        mark_folder(tmp, "staging")
         with time_limit(timeout):
             record = dict(job(subject, tmp))
         record.update(
@@ -144,6 +152,7 @@ def execute(
             seconds=time.perf_counter() - t0,
         )
         atomic_write_text(tmp / RECORD, json.dumps(record, indent=2, default=float) + "\n")
+        mark_folder(tmp, "subject")
         _commit(tmp, root / subject.name)
         return record
     except Exception as exc:
@@ -155,19 +164,32 @@ def execute(
         return failed_record(subject, digest, error, time.perf_counter() - t0, status)
 
 
+def _subject_folder(folder: Path) -> bool:
+    """A subject folder of a batch: its ``subject`` marker, or (written before the marker
+    existed) :data:`RECORD` with nothing but ``identify`` and ``ik`` beside it."""
+    if folder.is_symlink() or not folder.is_dir():
+        return False
+    mark = folder_mark(folder)
+    if mark is not None:
+        return mark["kind"] == "subject"
+    names = {p.name for p in folder.iterdir()}
+    return RECORD in names and names <= {RECORD, "identify", "ik"}
+
+
 def _commit(tmp: Path, final: Path) -> None:
     """Rename ``tmp`` to ``final``; an older ``final`` is moved aside first, then removed.
-    Only a subject folder of a batch (holding :data:`RECORD`) is replaced: anything else at
+    Only a subject folder of a batch (:func:`_subject_folder`) is replaced: anything else at
     ``final`` is the user's and is refused, kept as it is."""
     old = None
-    if (final.exists() or final.is_symlink()) and not (final / RECORD).is_file():
+    if (final.exists() or final.is_symlink()) and not _subject_folder(final):
         raise MocapError(
-            f"{final}: exists and is not a subject folder of a batch (no {RECORD}); it is "
+            f"{final}: exists and is not a subject folder of a batch (no {MARKER}); it is "
             "kept, choose another --out or move it away"
         )
     if final.exists():
         old = final.with_name(f"{_OLD}{final.name}-{secrets.token_hex(4)}")
         os.replace(final, old)
+        mark_folder(old, "staging")  # a kill now leaves it for the next run to remove
     os.replace(tmp, final)
     if old is not None:
         shutil.rmtree(old, ignore_errors=True)
@@ -185,10 +207,81 @@ def completed(out: Path, subject: Subject, digest: str) -> dict[str, Any] | None
 
 
 def clean_leftovers(out: Path) -> None:
-    """Remove temporary folders of interrupted runs (never results: see :func:`execute`)."""
-    for p in out.iterdir():
-        if p.is_dir() and p.name.startswith((_TMP, _OLD)):
-            shutil.rmtree(p, ignore_errors=True)
+    """Remove the temporary folders of runs that no longer run: only folders holding the
+    tool's staging marker (never results, never a folder that merely bears such a name)."""
+    for prefix in (_TMP, _OLD):
+        remove_stale(out, prefix)
+    with contextlib.suppress(OSError):  # a run killed between mkdir and its marker
+        for p in out.iterdir():
+            pid = _pid_of(p.name)
+            if p.name.startswith(_TMP) and pid is not None and not alive(pid):
+                with contextlib.suppress(OSError):
+                    p.rmdir()  # only if empty
+
+
+def _pid_of(name: str) -> int | None:
+    """The process id in a temporary folder's name, if it has one."""
+    head = name.rsplit("-", 1)[0]
+    tail = head.rsplit("-p", 1)
+    return int(tail[1]) if len(tail) == 2 and tail[1].isdigit() else None
+
+
+def prepare_out(out: Path, subjects: Sequence[Subject], dataset: str | Path) -> None:
+    """Make ``out`` the batch's folder, refusing one the batch may not write into.
+
+    Refused (one line, nothing touched): an empty name; a file; a folder inside the dataset
+    (a tree's root, or the folder of any subject's trial or subject file); a folder holding a
+    trial; a non-empty folder that is not a batch's (its marker, or the batch's files and
+    subject folders only). Otherwise ``out`` is created if needed and marked.
+    """
+    if not str(out).strip():
+        raise OutputFolderError("--out: expected a folder, got an empty name")
+    target = Path(os.path.realpath(out))
+    if target.exists() and not target.is_dir():
+        raise OutputFolderError(f"{out}: exists and is not a folder; choose another --out")
+    roots = [Path(os.path.realpath(dataset))] if Path(dataset).is_dir() else []
+    for s in subjects:
+        for f in (*s.trials, *([s.subject_file] if s.subject_file else [])):
+            real = Path(os.path.realpath(f))
+            if real == target or target in real.parents:
+                raise OutputFolderError(
+                    f"--out {out} holds the input {f}; an input is never replaced or deleted, "
+                    "so choose another --out"
+                )
+            roots.append(real.parent)
+    for root in roots:
+        if target == root or root in target.parents:
+            raise OutputFolderError(
+                f"--out {out} lies inside the dataset ({root}); the batch writes its results "
+                "outside the dataset, so choose another --out"
+            )
+    if target.is_dir() and not _batch_folder(target, subjects):
+        first = min(p.name for p in target.iterdir())
+        raise OutputFolderError(
+            f"{out}: not a folder a batch wrote (no {MARKER}; holds {first!r}, ...); a batch "
+            "writes into an empty folder or resumes its own, so choose another --out"
+        )
+    target.mkdir(parents=True, exist_ok=True)
+    mark = folder_mark(target)
+    if mark is None:
+        mark_folder(target, "batch")
+
+
+def _batch_folder(folder: Path, subjects: Sequence[Subject]) -> bool:
+    """Empty, marked ``batch``, or a batch folder written before the marker: nothing but the
+    batch's files, subject folders and the temporaries of its runs."""
+    mark = folder_mark(folder)
+    if mark is not None:
+        return mark["kind"] == "batch"
+    for entry in folder.iterdir():
+        if entry.is_symlink():
+            return False
+        if entry.is_dir():
+            if not (_subject_folder(entry) or entry.name.startswith((_TMP, _OLD))):
+                return False
+        elif entry.name not in BATCH_FILES:
+            return False
+    return True
 
 
 def have_ray() -> bool:
@@ -220,6 +313,8 @@ def run_batch(
     ``timeout``: seconds a subject's job may run (None: no limit; see :func:`execute`).
     """
     out.mkdir(parents=True, exist_ok=True)
+    if folder_mark(out) is None:
+        mark_folder(out, "batch")
     clean_leftovers(out)
     todo: list[tuple[Subject, str]] = []
     outcomes: dict[str, Outcome] = {}

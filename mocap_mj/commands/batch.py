@@ -27,7 +27,7 @@ from mocap_mj.skeleton.parameters import ParameterSet
 
 from ..batch.dataset import FLAGS, OPTION_KEYS, Subject, load_dataset
 from ..batch.report import write_report, write_summary_csv
-from ..batch.run import have_ray, one_line, run_batch
+from ..batch.run import have_ray, one_line, prepare_out, run_batch
 from ..errors import MocapError
 from ._inputs import refuse_out_holding_inputs
 from ._markers import load_trial
@@ -60,7 +60,8 @@ def register(sub: Any) -> None:
         "--out",
         required=True,
         metavar="FOLDER",
-        help="output folder (re-used: finished subjects kept)",
+        help="output folder: absent, empty, or a batch's own (its marker; re-used: finished "
+        "subjects kept); never inside the dataset",
     )
     p.add_argument(
         "--address", metavar="HOST:PORT", help="join this Ray cluster (default: start a local Ray)"
@@ -118,8 +119,7 @@ def run(args: argparse.Namespace) -> int:
     from .. import __version__
 
     out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise MocapError(f"{out}: exists and is not a folder")
+    prepare_out(out, subjects, args.dataset)
     t0 = time.perf_counter()
     with _stdout_to_stderr():  # Ray's processes and log lines: stdout is the summary alone
         outcomes = run_batch(

@@ -62,9 +62,10 @@ def add_force_flag(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--force",
         action="store_true",
-        help="replace an existing --out: a file, or a folder if it is a mocap-mj result "
-        "(holds summary.json) or empty; any other folder is refused, so that nothing but a "
-        "result is deleted, and an --out that is or holds an input is always refused "
+        help="replace an existing --out: a file, or a folder if it is empty or wholly "
+        "written by mocap-mj (its marker .mocap-mj-folder.json and only the files it lists); "
+        "any other folder is refused, so that nothing but the tool's own output is deleted, "
+        "and an --out that is, holds or lies among the files of an input is always refused "
         "(default: refuse an existing file or a non-empty folder)",
     )
 

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -34,6 +33,7 @@ from mocap_mj.capture.checks import check_markers
 from mocap_mj.capture.marker_quality import Finding
 from mocap_mj.capture.subject import Subject
 from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder
+from mocap_mj.io.ownership import scratch_folder
 from mocap_mj.outputs.write_fit import frame_range, result_text, write_result
 from mocap_mj.pipeline.api import identify, select_count
 from mocap_mj.pipeline.recipe import Recipe
@@ -118,7 +118,7 @@ def _add_fit_options(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     # Long C3D recordings are read chunk by chunk into memory maps in a scratch folder that
     # lives as long as the command (load_trial).
-    with tempfile.TemporaryDirectory(prefix="mocap-mj-identify-") as scratch:
+    with scratch_folder(prefix="mocap-mj-identify-") as scratch:
         return _run(args, Path(scratch))
 
 
@@ -218,7 +218,7 @@ def _identify(
     # Every frame's motion of a long recording is written chunk by chunk into a folder beside
     # the output (one file system: write_result moves the files in).
     with (
-        tempfile.TemporaryDirectory(dir=out.parent, prefix=".mocap-mj-motion-") as sink,
+        scratch_folder(out.parent, prefix=".mocap-mj-motion-") as sink,
         progress_bar("identify (LM)", enabled=not args.json) as progress,
         frames_bar(
             "IK of every frame", total, enabled=count is not None and not args.json

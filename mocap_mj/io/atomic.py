@@ -16,6 +16,17 @@ import shutil
 from collections.abc import Iterator
 from pathlib import Path
 
+from .ownership import (
+    MARKER,
+    alive,
+    files_below,
+    folder_mark,
+    foreign_files,
+    is_tool_folder,
+    mark_folder,
+    stale_entries,
+)
+
 __all__ = [
     "RESULT_MARKER",
     "atomic_folder",
@@ -107,39 +118,35 @@ def atomic_write_text(path: str | os.PathLike[str], text: str, encoding: str = "
 
 # ------------------------------------------------------------------ whole folders
 #: Hidden siblings of a folder being written (``.<name>.partial-<pid>-<hex>``) or replaced
-#: (``.<name>.old-<pid>-<hex>``); a file being written has ``.<stem>.tmp-<pid>-<hex>``.
-_STAGING = re.compile(r"^\.(?P<name>.+)\.(?P<kind>partial|old|tmp)-(?P<pid>\d+)-[0-9a-f]+")
-
-
-def _alive(pid: int) -> bool:
-    if pid == os.getpid():
-        return True
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:  # exists, owned by someone else
-        return True
-    return True
+#: (``.<name>.old-<pid>-<hex>``), each holding the tool's marker
+#: (:mod:`mocap_mj.io.ownership`); a file being written has ``.<stem>.tmp-<pid>-<hex>``.
+_STAGING = re.compile(r"^\.(?P<name>.+)\.(?P<kind>partial|old)-(?P<pid>\d+)-[0-9a-f]+$")
 
 
 def stale_temporaries(directory: Path, name: str | None = None) -> list[Path]:
-    """This package's temporaries in ``directory`` left by processes that no longer run.
+    """The staging folders in ``directory`` of runs that no longer run (``name``: those of
+    one ``--out`` name only).
 
-    ``name`` limits them to those of one entry (a folder's or file's name, a file's stem).
+    Only folders holding the tool's staging marker count, whatever their names: a file or
+    folder of a user's that merely looks like a temporary is never one.
     """
     found = []
+    for entry in stale_entries(directory):
+        m = _STAGING.match(entry.name)
+        if name is None or (m is not None and m["name"] == name):
+            found.append(entry)
+    return sorted(found)
+
+
+def _remove_unmarked_empty(directory: Path, name: str) -> None:
+    """Remove the empty staging folders of ``name`` that a run killed before it could mark
+    them left (:func:`os.rmdir` removes only an empty folder: nothing is lost)."""
     with contextlib.suppress(OSError):
         for entry in directory.iterdir():
             m = _STAGING.match(entry.name)
-            if m is None or _alive(int(m["pid"])):
-                continue
-            base = m["name"]
-            while (inner := _STAGING.match(base)) is not None:  # a temporary of a temporary
-                base = inner["name"]
-            if name is None or base in (name, Path(name).stem):
-                found.append(entry)
-    return found
+            if m is not None and m["name"] == name and not alive(int(m["pid"])):
+                with contextlib.suppress(OSError):
+                    os.rmdir(entry)
 
 
 def _remove(path: Path) -> None:
@@ -151,28 +158,39 @@ def _remove(path: Path) -> None:
 
 
 def _is_empty(folder: Path) -> bool:
-    """No entries but stale temporaries of this package (which are removed)."""
-    stale = set(stale_temporaries(folder))
+    """No entries but the tool's marker and the stale staging folders of killed runs (which
+    are removed)."""
+    stale = stale_entries(folder)
     for path in stale:
         _remove(path)
-    return not any(entry not in stale for entry in folder.iterdir())
+    mark = folder / MARKER if folder_mark(folder) is not None else None
+    return not any(entry not in stale and entry != mark for entry in folder.iterdir())
 
 
-#: The file every mocap-mj command writes into its result folder: a folder holding it is a
-#: result, which ``force`` may replace; any other non-empty folder is never deleted.
-RESULT_MARKER = "summary.json"
+#: The marker of a folder mocap-mj wrote (:mod:`mocap_mj.io.ownership`): ``force`` replaces
+#: such a folder, or an empty one; any other non-empty folder is never deleted.
+RESULT_MARKER = MARKER
 
 
 def _check_replaceable(final: Path, path: str | os.PathLike[str]) -> None:
-    """``force``: refuse unless ``final`` is empty or a result folder (holds RESULT_MARKER)."""
+    """``force``: refuse unless ``final`` is empty or wholly the tool's (its marker, and no
+    file the marker does not list; or a result written before the marker existed)."""
     from ..errors import OutputFolderError
 
-    if (final / RESULT_MARKER).is_file() or _is_empty(final):
+    if _is_empty(final) or is_tool_folder(final):
         return
+    if folder_mark(final) is not None:
+        extra = foreign_files(final)
+        shown = ", ".join(repr(name) for name in extra[:3]) + (", ..." if len(extra) > 3 else "")
+        raise OutputFolderError(
+            f"{path}: holds {shown}, which mocap-mj did not write; --force replaces only a "
+            "folder wholly written by mocap-mj (or an empty one), so move those files away or "
+            "choose another --out"
+        )
     first = min(entry.name for entry in final.iterdir())
     raise OutputFolderError(
-        f"{path}: not a mocap-mj result folder (no {RESULT_MARKER}; holds {first!r}, ...); "
-        "--force replaces only an empty folder or a result, so choose another --out"
+        f"{path}: not a folder mocap-mj wrote (no {MARKER}; holds {first!r}, ...); --force "
+        "replaces only an empty folder or one mocap-mj wrote, so choose another --out"
     )
 
 
@@ -218,22 +236,33 @@ def _rename_new(staging: Path, final: Path, path: str | os.PathLike[str]) -> Non
 
 
 def _rename_over(staging: Path, final: Path, path: str | os.PathLike[str], tag: str) -> None:
-    """``force``: move the folder at ``final`` (if any, still empty or a result) aside,
-    rename ``staging`` to ``final``, then delete the old folder; put it back on failure."""
+    """``force``: move the folder at ``final`` (if any, still empty or the tool's) aside,
+    rename ``staging`` to ``final``, then delete the old folder; put it back on failure.
+
+    The folder moved aside is marked ``staging`` of this run while it waits to be deleted,
+    so that a kill at that moment leaves it for the next run to remove; on failure its own
+    marker (or none) is put back with it."""
     old = final.parent / f".{final.name}.old-{tag}"
     if final.is_symlink() or not final.is_dir():  # nothing of ours to replace
         _rename_new(staging, final, path)
         return
     _check_replaceable(final, path)
+    marker = final / MARKER
+    kept = marker.read_bytes() if folder_mark(final) is not None else None
     try:
         os.rename(final, old)
     except FileNotFoundError:
         _rename_new(staging, final, path)
         return
     try:
+        mark_folder(old, "staging")
         _rename_new(staging, final, path)
     except BaseException:
         with contextlib.suppress(OSError):
+            if kept is None:
+                (old / MARKER).unlink()
+            else:
+                (old / MARKER).write_bytes(kept)
             os.rename(old, final)
         raise
     _remove(old)
@@ -256,11 +285,14 @@ def atomic_folder(path: str | os.PathLike[str], *, force: bool = False) -> Itera
     A reader therefore sees either no folder (or the previous one) or the complete result,
     never a half-written one: on an exception or Ctrl-C (``KeyboardInterrupt``) the temporary
     folder is deleted, and one left by a killed process is deleted by the next call for the
-    same ``path``. Everything that can make the final rename fail is checked before the
-    block runs (before the work): ``path`` is a file, a non-empty folder without ``force``,
-    a read-only folder, or its parent cannot be written. ``force`` replaces only an empty
-    folder or a result folder (one holding :data:`RESULT_MARKER`); a folder with other files
-    is refused, so that nothing but a result is ever deleted. Without ``force`` a result
+    same ``path`` (a folder holding the tool's staging marker, never one that merely bears
+    such a name). Everything that can make the final rename fail is checked before the
+    block runs (before the work): ``path`` is empty, a file, a non-empty folder without
+    ``force``, a read-only folder, or its parent cannot be written. The finished folder
+    carries the tool's marker listing every file written (:mod:`mocap_mj.io.ownership`).
+    ``force`` replaces only an empty folder or one wholly the tool's (its marker and only
+    the files it lists, or a result written before the marker existed); any other folder is
+    refused, so that nothing but the tool's own output is ever deleted. Without ``force`` a result
     that another run renamed into place meanwhile is kept and this one is refused. A
     symlink ``path`` stays a link: the folder is written where it points.
 
@@ -273,23 +305,29 @@ def atomic_folder(path: str | os.PathLike[str], *, force: bool = False) -> Itera
     """
     from ..errors import OutputFolderError
 
+    if not os.fspath(path).strip():
+        raise OutputFolderError("--out: expected a folder, got an empty name")
     final = Path(os.path.realpath(os.fspath(path)))
     parent = final.parent
     _check_out(final, path, force)
     for stale in stale_temporaries(parent, final.name):
         _remove(stale)
+    _remove_unmarked_empty(parent, final.name)
     tag = f"{os.getpid()}-{secrets.token_hex(4)}"
     staging = parent / f".{final.name}.partial-{tag}"
     try:
         parent.mkdir(parents=True, exist_ok=True)
         staging.mkdir()
+        mark_folder(staging, "staging")
     except OSError as exc:
+        _remove(staging)
         reason = exc.strerror or type(exc).__name__
         raise OutputFolderError(
             f"{path}: cannot create the folder ({reason}); choose another --out"
         ) from None
     try:
         yield staging
+        mark_folder(staging, "result", files=files_below(staging) or [])
         if force:
             _rename_over(staging, final, path, tag)
         else:

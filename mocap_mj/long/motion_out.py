@@ -16,7 +16,6 @@ when complete (:func:`mocap_mj.io.atomic.atomic_path`)."""
 from __future__ import annotations
 
 import contextlib
-import tempfile
 import time
 import zipfile
 from collections.abc import Callable, Iterator, Sequence
@@ -38,6 +37,7 @@ from mocap_mj.solve.lm import LMSettings, solver_joint_range
 from mocap_mj.solve.problem import TrialData
 
 from ..io.atomic import atomic_path
+from ..io.ownership import scratch_folder
 
 #: LM iterations of each frame started from the refinement's poses (``start``): those are
 #: the converged IK under a model a fraction of a millimetre from the written one, and one
@@ -224,7 +224,7 @@ def every_frame_motion(
 def _written_solver(pset: ParameterSet, theta: np.ndarray, settings: LMSettings) -> IKSolver:
     """The IK of the model as ``identify`` writes it: parameters theta (P,) [m], the joint
     limits the solver used (:func:`solver_joint_range`), read back from its MJCF."""
-    with tempfile.TemporaryDirectory(prefix="mocap-mj-") as tmp:
+    with scratch_folder() as tmp:
         path = Path(tmp) / "model.xml"
         pset.export_mjcf(path, theta, joint_range=solver_joint_range(pset.model, settings))
         written = ParameterSet(path)

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -29,6 +28,7 @@ from mocap_mj.io.formats.c3d_check import (
     check_c3d,
 )
 from mocap_mj.io.formats.c3d_probe import ezc3d_failure
+from mocap_mj.io.ownership import scratch_folder
 from mocap_mj.io.units import metres_per_unit
 
 #: POINT parameters that list non-marker points (model outputs), as Vicon writes them.
@@ -290,7 +290,7 @@ def open_chunks(path: Path) -> C3DChunks | str:
     frame_bytes = layout.data_bytes // layout.n_frames
     frames = _long_frames(path, layout, frame_bytes)
     probe = min(layout.n_frames, PROBE_FRAMES)
-    with tempfile.TemporaryDirectory(prefix="mocap-mj-") as tmp:
+    with scratch_folder() as tmp:
         head = Path(tmp) / "head.c3d"
         with open(path, "rb") as src, open(head, "wb") as dst:
             dst.write(src.read(layout.data_offset + probe * frame_bytes))
@@ -329,7 +329,7 @@ def read_parameters(path: Path) -> dict[str, Any]:
     if layout is None or layout.n_frames == 0:
         return dict(ezc3d.c3d(str(path), extract_forceplat_data=False)["parameters"])
     frame_bytes = layout.data_bytes // layout.n_frames
-    with tempfile.TemporaryDirectory(prefix="mocap-mj-") as tmp:
+    with scratch_folder() as tmp:
         head = Path(tmp) / "head.c3d"
         with open(path, "rb") as src, open(head, "wb") as dst:
             dst.write(

@@ -13,7 +13,6 @@ of those frames.
 
 from __future__ import annotations
 
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -22,6 +21,7 @@ import numpy as np
 
 from mocap_mj.io.atomic import atomic_path
 from mocap_mj.io.formats.c3d_check import check_c3d
+from mocap_mj.io.ownership import scratch_folder
 
 #: The header's largest frame count (16 bits).
 HEADER_FRAMES = 65_535
@@ -68,7 +68,7 @@ def write_markers_c3d(
     missing = ~np.all(np.isfinite(first), axis=2).T
     c3d["data"]["points"] = data
     c3d["data"]["meta_points"]["residuals"] = np.where(missing, -1.0, 0.0)[np.newaxis]
-    with tempfile.TemporaryDirectory(prefix="mocap-mj-") as tmp:
+    with scratch_folder() as tmp:
         written = Path(tmp) / "head.c3d"
         c3d.write(str(written))
         layout = check_c3d(written)
