@@ -161,7 +161,8 @@ def test_out_holding_an_input_is_refused_before_any_work(
     before = hashes(folder)
     code, lines = cli(capsys, *argv)
     line = refused(code, lines, 2, "--out", named)
-    assert any(what in line for what in ("is the input", "holds the input", "is a file of the input"))
+    whats = ("is the input", "holds the input", "is a file of the input")
+    assert any(what in line for what in whats)
     assert hashes(folder) == before
     assert not (folder / "summary.json").exists() or case.startswith(("export", "batch"))
     assert staging_left(folder) == []
