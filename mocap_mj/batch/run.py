@@ -255,7 +255,7 @@ def prepare_out(out: Path, subjects: Sequence[Subject], dataset: str | Path) -> 
                 f"--out {out} lies inside the dataset ({root}); the batch writes its results "
                 "outside the dataset, so choose another --out"
             )
-    if target.is_dir() and not _batch_folder(target, subjects):
+    if target.is_dir() and not _batch_folder(target):
         first = min(p.name for p in target.iterdir())
         raise OutputFolderError(
             f"{out}: not a folder a batch wrote (no {MARKER}; holds {first!r}, ...); a batch "
@@ -267,13 +267,26 @@ def prepare_out(out: Path, subjects: Sequence[Subject], dataset: str | Path) -> 
         mark_folder(target, "batch")
 
 
-def _batch_folder(folder: Path, subjects: Sequence[Subject]) -> bool:
-    """Empty, marked ``batch``, or a batch folder written before the marker: nothing but the
-    batch's files, subject folders and the temporaries of its runs."""
+def _legacy_summary(path: Path) -> bool:
+    """``path`` is a batch's summary.json (its ``dataset`` and ``subjects_done`` fields)."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(data, dict) and {"dataset", "subjects_done"} <= data.keys()
+
+
+def _batch_folder(folder: Path) -> bool:
+    """Empty, marked ``batch``, or a batch folder written before the marker: a batch's
+    summary.json and nothing but the batch's files, subject folders and the temporaries of
+    its runs."""
     mark = folder_mark(folder)
     if mark is not None:
         return mark["kind"] == "batch"
-    for entry in folder.iterdir():
+    entries = list(folder.iterdir())
+    if entries and not _legacy_summary(folder / "summary.json"):
+        return False
+    for entry in entries:
         if entry.is_symlink():
             return False
         if entry.is_dir():

@@ -132,10 +132,21 @@ def stale_temporaries(directory: Path, name: str | None = None) -> list[Path]:
     """
     found = []
     for entry in stale_entries(directory):
-        m = _STAGING.match(entry.name)
-        if name is None or (m is not None and m["name"] == name):
+        if name is None or _base_name(entry.name) == name:
             found.append(entry)
     return sorted(found)
+
+
+def _base_name(entry: str) -> str | None:
+    """The ``--out`` name a staging name belongs to (through a staging of a staging, as a
+    nested result folder makes), or None if ``entry`` is no staging name."""
+    m = _STAGING.match(entry)
+    if m is None:
+        return None
+    base = m["name"]
+    while (inner := _STAGING.match(base)) is not None:
+        base = inner["name"]
+    return base
 
 
 def _remove_unmarked_empty(directory: Path, name: str) -> None:
@@ -144,7 +155,7 @@ def _remove_unmarked_empty(directory: Path, name: str) -> None:
     with contextlib.suppress(OSError):
         for entry in directory.iterdir():
             m = _STAGING.match(entry.name)
-            if m is not None and m["name"] == name and not alive(int(m["pid"])):
+            if m is not None and _base_name(entry.name) == name and not alive(int(m["pid"])):
                 with contextlib.suppress(OSError):
                     os.rmdir(entry)
 
