@@ -26,6 +26,7 @@ from mocap_mj.batch import content_hash, load_dataset
 from mocap_mj.cli import main
 from mocap_mj.errors import InputFileError
 from mocap_mj.io import save_csv
+from mocap_mj.io.ownership import MARKER
 from mocap_synth import SynthConfig, synthesize
 
 FRAMES = 60
@@ -177,7 +178,7 @@ def test_serial_batch_isolates_bad_files_and_resumes(
         ("S02", "rom.csv"): "False",
     }
     assert model.stat().st_mtime_ns == stamp
-    assert not [p for p in out.iterdir() if p.name.startswith(".")]
+    assert not [p for p in out.iterdir() if p.name.startswith(".") and p.name != MARKER]
 
 
 # ---------------------------------------------------------------- a real Ray cluster
@@ -280,4 +281,4 @@ def test_ray_cluster_survives_a_killed_worker(tmp_path: Path) -> None:
     for i in range(3):
         assert (out / f"S{i:02d}" / "identify" / "model.xml").is_file()
         assert (out / f"S{i:02d}" / "ik" / "rom.csv" / "motion.npz").is_file()
-    assert not [p for p in out.iterdir() if p.name.startswith(".")]
+    assert not [p for p in out.iterdir() if p.name.startswith(".") and p.name != MARKER]
