@@ -1,0 +1,266 @@
+"""Force plates: the shared recordings' plates (loads, centres of pressure under the feet,
+Nexus's own ground reactions) and synthetic plates written from a known force and centre of
+pressure (C3D type 2, OpenSim .mot), read back."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import ezc3d
+import numpy as np
+import pytest
+
+from mocap_mj.capture.contacts import PIG_FEET, assign_feet, contacts
+from mocap_mj.errors import InputFileError
+from mocap_mj.io import load_markers
+from mocap_mj.io.plates import read_grf_mot, read_plates
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+REAL, VENDORS = SHARED / "real", SHARED / "vendors"
+SKIP = "../shared/data not present: the force-plate checks on real files need the shared folder"
+G = 9.80665  # [m/s^2]
+#: Qualisys.c3d's foot markers (no toe marker: the first and fifth metatarsal heads).
+QUALISYS_FEET = {"left": ("LHEE", "LANK", "L_FM1", "L_FM5"),
+                 "right": ("RHEE", "RANK", "R_FM1", "R_FM5")}  # fmt: skip
+#: file -> (plates, mass [kg] or None)
+READABLE = {
+    REAL / "Movement_trial.c3d": (4, 85.0),  # PROCESSING:Bodymass
+    VENDORS / "Qualisys.c3d": (2, None),
+    VENDORS / "FP_Type3.c3d": (2, None),
+    VENDORS / "Kistler.c3d": (2, None),
+}
+
+
+def _need(path: Path) -> Path:
+    if not path.is_file():
+        pytest.skip(SKIP)
+    return path
+
+
+@pytest.mark.parametrize("path", list(READABLE), ids=[p.name for p in READABLE])
+def test_every_plate_read_with_a_plausible_peak_and_its_cop_on_the_plate(path: Path) -> None:
+    n_plates, mass = READABLE[_need(path)]
+    plates = read_plates(path)
+    assert len(plates) == n_plates
+    loaded = [p for p in plates if p.loaded.any()]
+    assert loaded, "no plate of the file is loaded"
+    for plate in plates:
+        assert plate.force.shape == plate.cop.shape == plate.free_moment.shape
+        assert plate.corners.shape == (4, 3)
+        assert np.all(plate.free_moment[~plate.loaded] == 0)
+    for plate in loaded:
+        peak = float(plate.force[:, 2].max())
+        if mass is not None:
+            assert 0.8 <= peak / (mass * G) <= 3.0, (plate.name, peak)
+        else:
+            assert 200.0 <= peak <= 3000.0, (plate.name, peak)
+        # the centre of pressure lies on the plate (3 cm margin: at touch-down and lift-off
+        # the centre of pressure of a few tens of newtons is uncertain by a centimetre or two)
+        lo, hi = plate.corners.min(axis=0) - 0.03, plate.corners.max(axis=0) + 0.03
+        cop = plate.cop[plate.loaded]
+        assert np.all((cop[:, :2] >= lo[:2]) & (cop[:, :2] <= hi[:2])), plate.name
+        np.testing.assert_allclose(cop[:, 2], plate.corners[:, 2].mean(), atol=1e-9)
+
+
+def test_fp_type1_is_refused_naming_the_plate_with_corrupt_corners() -> None:
+    # FP_Type1.c3d's plates 2-4 hold corners of 1e-38 .. 1e24 m: not a plate's rectangle
+    path = _need(VENDORS / "FP_Type1.c3d")
+    with pytest.raises(InputFileError, match=r"FP_Type1\.c3d: group FORCE_PLATFORM:CORNERS: plate 2"):
+        read_plates(path)
+
+
+@pytest.mark.parametrize(
+    ("path", "feet"),
+    [(REAL / "Movement_trial.c3d", PIG_FEET), (VENDORS / "Qualisys.c3d", QUALISYS_FEET)],
+    ids=["Movement_trial", "Qualisys"],
+)
+def test_cop_lies_under_the_assigned_foot(path: Path, feet: dict[str, tuple[str, ...]]) -> None:
+    """The plates come out in the markers' frame: every counted contact's centre of pressure
+    lies within 5 cm of its foot markers' horizontal outline, at every frame, and at least
+    10 cm from the other foot's."""
+    traj = load_markers(_need(path))
+    plates = read_plates(path)
+    found = contacts(plates, traj, feet=feet)
+    counted = [c for c in found if c.reason is None]
+    assert len(counted) == len(plates)  # each plate: one stance of one foot, alone on it
+    for c in counted:
+        assert c.side is not None
+        frames = slice(c.start, c.stop)
+        cop = plates[c.plate].cop[frames, :2]
+        foot = traj.select(list(feet[c.side]))[frames, :, :2]
+        lo, hi = np.nanmin(foot, axis=1) - 0.05, np.nanmax(foot, axis=1) + 0.05
+        inside = np.all((cop >= lo) & (cop <= hi), axis=1)
+        assert inside.mean() >= 0.98, (plates[c.plate].name, inside.mean())
+        other = traj.select(list(feet["right" if c.side == "left" else "left"]))[frames]
+        gap = np.linalg.norm(cop[:, None] - other[:, :, :2], axis=2).min()
+        assert gap >= 0.10, (plates[c.plate].name, gap)
+
+
+def test_movement_trial_sides_alternate_down_the_stairs() -> None:
+    """Movement_trial descends four instrumented steps: right on plate 4, left on 3, right
+    on 2, left on 1 (the feet's markers say so)."""
+    path = _need(REAL / "Movement_trial.c3d")
+    found = contacts(read_plates(path), load_markers(path))
+    assert [(c.plate + 1, c.side) for c in found] == [
+        (1, "left"), (2, "right"), (3, "left"), (4, "right"),
+    ]  # fmt: skip
+
+
+def _nexus_point(path: Path, name: str) -> np.ndarray:
+    c3d = ezc3d.c3d(str(path))
+    point = c3d["parameters"]["POINT"]
+    labels = [s.strip() for s in point["LABELS"]["value"] + point.get("LABELS2", {}).get("value", [])]
+    k = labels.index(name)
+    values = np.asarray(c3d["data"]["points"][:3, k].T, dtype=float)
+    values[c3d["data"]["meta_points"]["residuals"][0, k] < 0] = np.nan
+    return values
+
+
+def test_ground_reaction_agrees_with_nexus() -> None:
+    """Nexus's LGroundReactionForce / RGroundReactionForce of Movement_trial.c3d are the
+    force on the foot in the lab frame divided by the body mass (N/kg, although
+    POINT:FORCE_UNITS says N), at the marker frames: a least-squares fit of them on our
+    force / mass gives a near-identity map. Measured RMS differences: 0.21 / 0.25 N/kg
+    vertical (1.5 % of the 13-14 N/kg peaks), 0.05-0.07 N/kg horizontal; Nexus takes the
+    first analog sample of each frame (RMS 0.11 N/kg against it) where we average the
+    frame's nine samples."""
+    path = _need(REAL / "Movement_trial.c3d")
+    mass = 85.0
+    left, right = assign_feet(read_plates(path), load_markers(path))
+    for foot, name in ((left, "LGroundReactionForce"), (right, "RGroundReactionForce")):
+        nexus = _nexus_point(path, name)
+        both = np.isfinite(nexus).all(axis=1) & foot.on_plate
+        assert both.sum() >= 60
+        ours = foot.force[both] / mass
+        rms = np.sqrt(np.mean((nexus[both] - ours) ** 2, axis=0))
+        assert rms[2] < 0.35 and np.all(rms[:2] < 0.12), (name, rms)
+        peak_ratio = nexus[both, 2].max() / ours[:, 2].max()
+        assert abs(peak_ratio - 1.0) < 0.03, (name, peak_ratio)
+
+
+# --- synthetic plates -----------------------------------------------------------------------
+
+RATE, ANALOG_RATE, FRAMES = 100.0, 1000.0, 120
+PER = int(ANALOG_RATE / RATE)
+#: Movement_trial's corner order (C3D: plate x = c1 - c2, y = c1 - c4, z into the plate)
+CORNERS_MM = np.array([[900.0, 700.0, 0.0], [900.0, 100.0, 0.0], [500.0, 100.0, 0.0],
+                       [500.0, 700.0, 0.0]])  # fmt: skip
+ORIGIN_MM = np.array([1.5, -0.8, -40.0])  # sensor origin -> surface centre, plate axes
+
+
+def _truth() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Force on the subject (T, 3) [N], its centre of pressure (T, 3) [m], free moment
+    (T,) [N m] and the loaded frames (T,): unloaded for 0.3 s, then a stance."""
+    t = np.arange(FRAMES) / RATE
+    s = np.clip((t - 0.3) / 0.8, 0.0, 1.0)
+    on = (s > 0) & (s < 1)
+    bump = np.sin(np.pi * s) * on
+    force = np.stack([60 * np.sin(2 * np.pi * s), -25 * bump, 900 * bump + 1e-12], axis=1)
+    force[~on] = 0.0
+    cop = np.stack([0.60 + 0.25 * s, 0.35 + 0.05 * s, np.zeros_like(s)], axis=1)
+    free = 4.0 * np.sin(2 * np.pi * s) * on
+    return force, cop, free, on
+
+
+def _write_type2(path: Path, plate_type: int = 2) -> None:
+    """A C3D with one plate of ``plate_type`` whose channels (N, N mm) measure the force on
+    the plate about the sensor origin, with offsets, constant within each marker frame."""
+    force, cop, free, _ = _truth()
+    corners = CORNERS_MM * 1e-3
+    centre = corners.mean(axis=0)
+    x, y = corners[0] - corners[1], corners[0] - corners[3]
+    rot = np.stack([x / np.linalg.norm(x), y / np.linalg.norm(y)], axis=1)
+    rot = np.column_stack([rot, np.cross(rot[:, 0], rot[:, 1])])  # columns: plate axes in lab
+    action = -force  # on the plate
+    moment_c = np.cross(cop - centre, action) - free[:, None] * np.array([0.0, 0.0, 1.0])
+    f_p = action @ rot  # plate axes
+    m_c = moment_c @ rot
+    m_o = m_c + np.cross(ORIGIN_MM * 1e-3, f_p)  # about the sensor origin
+    channels = np.concatenate([f_p, m_o * 1e3], axis=1)  # N, N mm
+    channels += np.array([12.0, -7.0, 15.0, 800.0, -500.0, 90.0])  # amplifier offsets
+    analogs = np.repeat(channels, PER, axis=0).T  # (6, N)
+    c3d = ezc3d.c3d()
+    c3d["parameters"]["POINT"]["RATE"]["value"] = np.array([RATE])
+    c3d["parameters"]["POINT"]["LABELS"]["value"] = ["M1"]
+    c3d["parameters"]["POINT"]["UNITS"]["value"] = ["mm"]
+    points = np.ones((4, 1, FRAMES))
+    points[:3, 0] = np.array([[500.0], [500.0], [1000.0]])
+    c3d["data"]["points"] = points
+    c3d["parameters"]["ANALOG"]["RATE"]["value"] = np.array([ANALOG_RATE])
+    c3d["parameters"]["ANALOG"]["LABELS"]["value"] = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
+    c3d["parameters"]["ANALOG"]["UNITS"]["value"] = ["N", "N", "N", "Nmm", "Nmm", "Nmm"]
+    c3d["data"]["analogs"] = analogs[np.newaxis]
+    c3d.add_parameter("FORCE_PLATFORM", "USED", [1])
+    c3d.add_parameter("FORCE_PLATFORM", "TYPE", [plate_type])
+    c3d.add_parameter("FORCE_PLATFORM", "ZERO", [1, 0])
+    c3d.add_parameter("FORCE_PLATFORM", "CORNERS", CORNERS_MM.T.reshape(3, 4, 1))
+    c3d.add_parameter("FORCE_PLATFORM", "ORIGIN", ORIGIN_MM.reshape(3, 1))
+    c3d.add_parameter("FORCE_PLATFORM", "CHANNEL", np.arange(1, 7).reshape(6, 1))
+    c3d.write(str(path))
+
+
+def test_synthetic_type2_plate_reads_back_its_force_and_cop(tmp_path: Path) -> None:
+    path = tmp_path / "plate.c3d"
+    _write_type2(path)
+    before = path.read_bytes()
+    (plate,) = read_plates(path, up="z")
+    assert path.read_bytes() == before  # the file is only read
+    force, cop, free, on = _truth()
+    assert plate.name == "plate 1" and plate.plate_type == 2 and plate.rate == RATE
+    np.testing.assert_allclose(plate.corners, CORNERS_MM * 1e-3, atol=1e-9)
+    strong = force[:, 2] > 100.0
+    # force and centre of pressure within 0.5 % of the truth (of the peak force, of the
+    # plate's size), offsets removed from the unloaded start
+    np.testing.assert_allclose(plate.force, force, atol=0.005 * 900.0)
+    size = 0.6
+    np.testing.assert_allclose(plate.cop[strong], cop[strong], atol=0.005 * size)
+    np.testing.assert_allclose(plate.free_moment[strong, 2], free[strong], atol=0.005 * 4.0 + 1e-3)
+    assert np.array_equal(plate.loaded, force[:, 2] > 20.0)
+
+
+def test_synthetic_plate_at_another_marker_rate_averages_its_frames(tmp_path: Path) -> None:
+    path = tmp_path / "plate.c3d"
+    _write_type2(path)
+    (plate,) = read_plates(path, up="z", marker_rate=50.0)
+    force = _truth()[0]
+    assert plate.force.shape == (FRAMES // 2, 3) and plate.rate == 50.0
+    np.testing.assert_allclose(plate.force, (force[0::2] + force[1::2]) / 2, atol=4.5)
+
+
+def test_plate_of_a_type_ezc3d_does_not_read_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "plate.c3d"
+    _write_type2(path, plate_type=5)
+    with pytest.raises(InputFileError, match=r"plate\.c3d: group FORCE_PLATFORM:TYPE: plate 1: .*got type 5"):
+        read_plates(path, up="z")
+
+
+def test_grf_mot_reads_opensim_forces_into_the_z_up_frame(tmp_path: Path) -> None:
+    """An OpenSim ground-reaction file (Y up, N, m, N m): the force, centre of pressure and
+    free moment come out rotated onto +Z (x, y, z) -> (x, -z, y), as the marker loader
+    rotates a Y-up file."""
+    force, cop, free, _ = _truth()
+    rot = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])  # z-up -> y-up: inverse of the loader's
+    f_y, p_y = force @ rot.T, cop @ rot.T
+    torque = np.outer(free, [0.0, 1.0, 0.0])
+    names = [f"1_ground_force_v{a}" for a in "xyz"] + [f"1_ground_force_p{a}" for a in "xyz"]
+    names += [f"1_ground_torque_{a}" for a in "xyz"]
+    rows = np.column_stack([np.arange(FRAMES) / RATE, f_y, p_y, torque])
+    text = f"grf.mot\nversion=1\nnRows={FRAMES}\nnColumns=10\ninDegrees=no\nendheader\n"
+    text += "\t".join(["time", *names]) + "\n"
+    text += "\n".join("\t".join(f"{v:.9f}" for v in row) for row in rows) + "\n"
+    path = tmp_path / "grf.mot"
+    path.write_text(text)
+    (plate,) = read_grf_mot(path)
+    strong = force[:, 2] > 100.0
+    assert plate.plate_type == 0 and np.isnan(plate.corners).all()
+    np.testing.assert_allclose(plate.force, force, atol=1e-6)
+    np.testing.assert_allclose(plate.cop[strong], cop[strong], atol=1e-6)
+    np.testing.assert_allclose(plate.free_moment[strong, 2], free[strong], atol=1e-6)
+    assert np.isnan(plate.cop[~(force[:, 2] > 20.0)]).all()
+
+
+def test_grf_mot_without_its_nine_columns_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "grf.mot"
+    path.write_text("grf\nendheader\ntime\tground_force_vx\tground_force_vy\n0\t1\t2\n")
+    with pytest.raises(InputFileError, match=r"grf\.mot: column names: .*missing ground_force_vz"):
+        read_grf_mot(path)
