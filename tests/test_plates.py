@@ -59,7 +59,8 @@ def test_every_plate_read_with_a_plausible_peak_and_its_cop_on_the_plate(path: P
         lo, hi = plate.corners.min(axis=0) - 0.03, plate.corners.max(axis=0) + 0.03
         cop = plate.cop[plate.loaded]
         assert np.all((cop[:, :2] >= lo[:2]) & (cop[:, :2] <= hi[:2])), plate.name
-        np.testing.assert_allclose(cop[:, 2], plate.corners[:, 2].mean(), atol=1e-9)
+        # on the surface's plane (FP_Type3.c3d's corners tilt by a millimetre)
+        np.testing.assert_allclose(cop[:, 2], plate.corners[:, 2].mean(), atol=0.002)
 
 
 def test_fp_type1_is_refused_naming_the_plate_with_corrupt_corners() -> None:
@@ -162,6 +163,14 @@ def _truth() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     return force, cop, free, on
 
 
+def _int_parameter(c3d: ezc3d.c3d, name: str, values: list[int], shape: list[int]) -> None:
+    """An integer FORCE_PLATFORM parameter (ezc3d's ``add_parameter`` stores numbers as
+    floats; its plate reader wants integers), ``values`` in Fortran order."""
+    param = ezc3d.ezc3d.Parameter(name, "")
+    param.set(ezc3d.ezc3d.VecInt(values), ezc3d.ezc3d.VecUInt(shape))
+    c3d["parameters"].add_parameter("FORCE_PLATFORM", param)
+
+
 def _write_type2(path: Path, plate_type: int = 2) -> None:
     """A C3D with one plate of ``plate_type`` whose channels (N, N mm) measure the force on
     the plate about the sensor origin, with offsets, constant within each marker frame."""
@@ -190,12 +199,12 @@ def _write_type2(path: Path, plate_type: int = 2) -> None:
     c3d["parameters"]["ANALOG"]["LABELS"]["value"] = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
     c3d["parameters"]["ANALOG"]["UNITS"]["value"] = ["N", "N", "N", "Nmm", "Nmm", "Nmm"]
     c3d["data"]["analogs"] = analogs[np.newaxis]
-    c3d.add_parameter("FORCE_PLATFORM", "USED", [1])
-    c3d.add_parameter("FORCE_PLATFORM", "TYPE", [plate_type])
-    c3d.add_parameter("FORCE_PLATFORM", "ZERO", [1, 0])
+    _int_parameter(c3d, "USED", [1], [1])
+    _int_parameter(c3d, "TYPE", [plate_type], [1])
+    _int_parameter(c3d, "ZERO", [1, 0], [2])
     c3d.add_parameter("FORCE_PLATFORM", "CORNERS", CORNERS_MM.T.reshape(3, 4, 1))
     c3d.add_parameter("FORCE_PLATFORM", "ORIGIN", ORIGIN_MM.reshape(3, 1))
-    c3d.add_parameter("FORCE_PLATFORM", "CHANNEL", np.arange(1, 7).reshape(6, 1))
+    _int_parameter(c3d, "CHANNEL", list(range(1, 7)), [6, 1])
     c3d.write(str(path))
 
 
@@ -240,7 +249,7 @@ def test_grf_mot_reads_opensim_forces_into_the_z_up_frame(tmp_path: Path) -> Non
     rotates a Y-up file."""
     force, cop, free, _ = _truth()
     rot = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])  # z-up -> y-up: inverse of the loader's
-    f_y, p_y = force @ rot.T, cop @ rot.T
+    f_y, p_y = force @ rot, cop @ rot  # rows: R^T p
     torque = np.outer(free, [0.0, 1.0, 0.0])
     names = [f"1_ground_force_v{a}" for a in "xyz"] + [f"1_ground_force_p{a}" for a in "xyz"]
     names += [f"1_ground_torque_{a}" for a in "xyz"]

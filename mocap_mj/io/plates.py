@@ -13,8 +13,9 @@ The rules, in the order they apply to a C3D plate:
   axes, for plate types 1-4; any other type is refused naming the plate.
 - **Offsets.** The analog offset of a plate is the median force and moment of its quietest
   unloaded stretch: of the 0.1 s windows of analog samples, the one whose median force is
-  smallest, when that force is below ``threshold_n``; a plate loaded throughout (no such
-  window) keeps its samples as they are.
+  smallest, when that force is below :data:`OFFSET_LIMIT` (100 N: an amplifier's offset
+  is smaller, a foot's load larger); a plate loaded throughout (no such window) keeps its
+  samples as they are.
 - **Sign.** A plate pushes and never pulls: vendors write either the force on the plate or
   the force on the subject, so when a plate's largest vertical sample points down, its force
   and moment are negated (a plate that is never loaded takes the sign of the file's loaded
@@ -51,6 +52,7 @@ from mocap_mj.io.orientation import normalize_up, rotation_to_z_up
 from mocap_mj.io.units import metres_per_unit
 
 __all__ = [
+    "OFFSET_LIMIT",
     "OFFSET_WINDOW",
     "SUPPORTED_TYPES",
     "PlateRecord",
@@ -63,6 +65,8 @@ __all__ = [
 SUPPORTED_TYPES = (1, 2, 3, 4)
 #: Length of the windows the offset is taken from [s].
 OFFSET_WINDOW = 0.1
+#: The largest median force [N] of a window taken for the unloaded plate's offset.
+OFFSET_LIMIT = 100.0
 #: A plate's sides must measure within this range [m] (the smallest commercial plates are
 #: 0.1 m wide, treadmill belts some 3 m long).
 SIDE_RANGE = (0.05, 5.0)
@@ -167,8 +171,7 @@ def read_plates(
     n_point_frames = int(np.asarray(plain["data"]["points"]).shape[2])
     rate = _marker_rate(file, params, marker_rate, analog_rate, n_point_frames, plain)
     raw = [
-        _RawPlate.of(file, k, pf, params, scale_pos, scale_force, threshold_n)
-        for k, pf in enumerate(platforms)
+        _RawPlate.of(file, k, pf, params, scale_pos, scale_force) for k, pf in enumerate(platforms)
     ]
     rotation = rotation_to_z_up(_up_axis(file, up, raw, n_point_frames))
     vertical = rotation[2]  # the up direction in the file's axes
@@ -266,7 +269,6 @@ class _RawPlate:
         params: dict[str, Any],
         scale_pos: float,
         scale_force: float,
-        threshold_n: float,
     ) -> _RawPlate:
         kind = int(_values(params, "FORCE_PLATFORM", "TYPE")[k])
         corners = np.asarray(pf["corners"], dtype=float).T * scale_pos  # (4, 3)
@@ -286,16 +288,16 @@ class _RawPlate:
                 f"finite forces and moments, got NaN or infinity"
             )
         analog_rate = _analog_rate(file, params)
-        f_off, m_off = _offsets(force, moment, analog_rate, threshold_n)
+        f_off, m_off = _offsets(force, moment, analog_rate)
         return cls(kind, corners, force - f_off, moment - m_off)
 
 
 def _offsets(
-    force: np.ndarray, moment: np.ndarray, analog_rate: float, threshold_n: float
+    force: np.ndarray, moment: np.ndarray, analog_rate: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The offsets (3,) [N], (3,) [N m] of a plate's samples: the median force and moment of
-    the quietest ``OFFSET_WINDOW`` window (smallest median force) when that force is below
-    ``threshold_n``; zeros otherwise (a plate loaded throughout)."""
+    """The offsets (3,) [N], (3,) [N m] of a plate's samples (N, 3): the median force and
+    moment of the quietest ``OFFSET_WINDOW`` window (smallest median force) when that force
+    is below ``OFFSET_LIMIT``; zeros otherwise (a plate loaded throughout)."""
     width = max(1, round(OFFSET_WINDOW * analog_rate))
     n_windows = len(force) // width
     if n_windows == 0:
@@ -303,7 +305,7 @@ def _offsets(
     f = force[: n_windows * width].reshape(n_windows, width, 3)
     medians = np.median(f, axis=1)
     best = int(np.argmin(np.linalg.norm(medians, axis=1)))
-    if np.linalg.norm(medians[best]) >= threshold_n:
+    if np.linalg.norm(medians[best]) >= OFFSET_LIMIT:
         return np.zeros(3), np.zeros(3)
     m = moment[: n_windows * width].reshape(n_windows, width, 3)
     return medians[best], np.median(m[best], axis=0)
