@@ -12,8 +12,8 @@ import pytest
 
 from mocap_mj.capture.contacts import PIG_FEET, assign_feet, contacts
 from mocap_mj.errors import InputFileError
-from mocap_mj.io import load_markers
-from mocap_mj.io.plates import read_grf_mot, read_plates
+from mocap_mj.io import MarkerTrajectory, load_markers
+from mocap_mj.io.plates import PlateRecord, read_grf_mot, read_plates
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 REAL, VENDORS = SHARED / "real", SHARED / "vendors"
@@ -66,7 +66,9 @@ def test_every_plate_read_with_a_plausible_peak_and_its_cop_on_the_plate(path: P
 def test_fp_type1_is_refused_naming_the_plate_with_corrupt_corners() -> None:
     # FP_Type1.c3d's plates 2-4 hold corners of 1e-38 .. 1e24 m: not a plate's rectangle
     path = _need(VENDORS / "FP_Type1.c3d")
-    with pytest.raises(InputFileError, match=r"FP_Type1\.c3d: group FORCE_PLATFORM:CORNERS: plate 2"):
+    with pytest.raises(
+        InputFileError, match=r"FP_Type1\.c3d: group FORCE_PLATFORM:CORNERS: plate 2"
+    ):
         read_plates(path)
 
 
@@ -110,7 +112,9 @@ def test_movement_trial_sides_alternate_down_the_stairs() -> None:
 def _nexus_point(path: Path, name: str) -> np.ndarray:
     c3d = ezc3d.c3d(str(path))
     point = c3d["parameters"]["POINT"]
-    labels = [s.strip() for s in point["LABELS"]["value"] + point.get("LABELS2", {}).get("value", [])]
+    labels = [
+        s.strip() for s in point["LABELS"]["value"] + point.get("LABELS2", {}).get("value", [])
+    ]
     k = labels.index(name)
     values = np.asarray(c3d["data"]["points"][:3, k].T, dtype=float)
     values[c3d["data"]["meta_points"]["residuals"][0, k] < 0] = np.nan
@@ -214,7 +218,7 @@ def test_synthetic_type2_plate_reads_back_its_force_and_cop(tmp_path: Path) -> N
     before = path.read_bytes()
     (plate,) = read_plates(path, up="z")
     assert path.read_bytes() == before  # the file is only read
-    force, cop, free, on = _truth()
+    force, cop, free, _ = _truth()
     assert plate.name == "plate 1" and plate.plate_type == 2 and plate.rate == RATE
     np.testing.assert_allclose(plate.corners, CORNERS_MM * 1e-3, atol=1e-9)
     strong = force[:, 2] > 100.0
@@ -239,7 +243,9 @@ def test_synthetic_plate_at_another_marker_rate_averages_its_frames(tmp_path: Pa
 def test_plate_of_a_type_ezc3d_does_not_read_is_refused(tmp_path: Path) -> None:
     path = tmp_path / "plate.c3d"
     _write_type2(path, plate_type=5)
-    with pytest.raises(InputFileError, match=r"plate\.c3d: group FORCE_PLATFORM:TYPE: plate 1: .*got type 5"):
+    with pytest.raises(
+        InputFileError, match=r"plate\.c3d: group FORCE_PLATFORM:TYPE: plate 1: .*got type 5"
+    ):
         read_plates(path, up="z")
 
 
@@ -273,3 +279,72 @@ def test_grf_mot_without_its_nine_columns_is_refused(tmp_path: Path) -> None:
     path.write_text("grf\nendheader\ntime\tground_force_vx\tground_force_vy\n0\t1\t2\n")
     with pytest.raises(InputFileError, match=r"grf\.mot: column names: .*missing ground_force_vz"):
         read_grf_mot(path)
+
+
+# --- feet on plates (synthetic) -------------------------------------------------------------
+
+T_FEET = 50
+LOADED = slice(10, 40)
+
+
+def _feet(left: tuple[float, float], right: tuple[float, float]) -> MarkerTrajectory:
+    """Both feet standing still (heel at the given (x, y) [m], toe 0.2 m ahead along +x,
+    ankle 5 cm above the heel), 100 Hz."""
+    names, columns = [], []
+    for side, (x, y) in (("L", left), ("R", right)):
+        for marker, offset in (("HEE", (0.0, 0.0, 0.05)), ("TOE", (0.2, 0.0, 0.04)),
+                               ("ANK", (0.05, 0.03, 0.09))):  # fmt: skip
+            names.append(side + marker)
+            columns.append(np.array([x, y, 0.0]) + offset)
+    positions = np.broadcast_to(np.array(columns), (T_FEET, len(names), 3))
+    return MarkerTrajectory(np.arange(T_FEET) / 100.0, positions, tuple(names), 100.0)
+
+
+def _plate(name: str, x0: float, cop_xy: tuple[float, float], fz: float = 700.0) -> PlateRecord:
+    """A 0.5 x 0.5 m plate from x0 along x, loaded by ``fz`` [N] at ``cop_xy`` in LOADED."""
+    corners = np.array([[x0 + 0.5, 0.5, 0], [x0 + 0.5, 0, 0], [x0, 0, 0], [x0, 0.5, 0.0]])
+    force = np.zeros((T_FEET, 3))
+    force[LOADED, 2] = fz
+    cop = np.full((T_FEET, 3), np.nan)
+    if fz > 20.0:
+        cop[LOADED] = [*cop_xy, 0.0]
+    return PlateRecord(name, 2, corners, force, cop, np.zeros((T_FEET, 3)), 100.0)
+
+
+def test_a_foot_alone_on_a_plate_takes_its_load() -> None:
+    traj = _feet(left=(0.1, 0.1), right=(1.2, 0.3))
+    plates = [_plate("plate 1", 0.0, (0.2, 0.1)), _plate("plate 2", 0.5, (0.0, 0.0), fz=0.0)]
+    left, right = assign_feet(plates, traj)
+    assert left.on_plate[LOADED].all() and left.on_plate.sum() == 30
+    np.testing.assert_array_equal(left.force, plates[0].force)
+    assert not right.on_plate.any() and np.all(right.force == 0) and np.isnan(right.cop).all()
+    assert left.excluded == right.excluded == ()
+
+
+def test_two_feet_on_one_plate_are_left_out() -> None:
+    traj = _feet(left=(0.05, 0.1), right=(0.1, 0.35))
+    left, right = assign_feet([_plate("plate 1", 0.0, (0.15, 0.2))], traj)
+    assert not left.on_plate.any() and not right.on_plate.any()
+    assert left.excluded == ("plate 1, frames 11-40: both feet on the plate",)
+
+
+def test_a_foot_straddling_two_plates_is_left_out_on_both() -> None:
+    traj = _feet(left=(0.4, 0.2), right=(2.0, 0.2))  # heel on plate 1, toe on plate 2
+    plates = [
+        _plate("plate 1", 0.0, (0.45, 0.2), 400.0),
+        _plate("plate 2", 0.5, (0.58, 0.2), 300.0),
+    ]
+    left, _ = assign_feet(plates, traj)
+    assert not left.on_plate.any()
+    assert len(left.excluded) == 2
+    assert all(
+        "the left foot straddles plate 1 and plate 2 (frames 11-40)" in r for r in left.excluded
+    )
+
+
+def test_a_load_no_foot_is_near_is_left_out() -> None:
+    traj = _feet(left=(1.5, 0.1), right=(1.5, 0.4))
+    left, right = assign_feet([_plate("plate 1", 0.0, (0.25, 0.25))], traj)
+    assert not left.on_plate.any() and not right.on_plate.any()
+    reason = "plate 1, frames 11-40: no foot's markers within 0.1 m of the centre of pressure"
+    assert left.excluded == right.excluded == (reason,)

@@ -64,9 +64,10 @@ class FootLoads:
 
 @dataclass(frozen=True)
 class Contact:
-    """A run of loaded frames [start, stop) of plate ``plate`` (index), the foot nearest its
-    centre of pressure (``side``, None if none is near enough) and why it is left out
-    (``reason``, None when it counts)."""
+    """A run of loaded rows [start, stop) (indices into the trajectory's frames) of plate
+    ``plate`` (index), the foot nearest its centre of pressure (``side``, None if none is
+    near enough) and why it is left out (``reason``, None when it counts; it names frames by
+    the recording's numbers)."""
 
     plate: int
     start: int
@@ -96,13 +97,16 @@ def contacts(
                 f"{plate.name}: expected {n} frames (the trajectory's), got {len(plate.force)}"
             )
     speed = {s: _speed(p, trajectory.rate) for s, p in points.items()}
+    first = trajectory.first_frame or 1  # the recording's number of row 0
     found: list[Contact] = []
     for k, plate in enumerate(plates):
         for start, stop in _runs(plate.loaded):
             frames = slice(start, stop)
-            dist = {s: _median(_cop_distance(plate.cop[frames], p[frames])) for s, p in points.items()}
+            dist = {
+                s: _median(_cop_distance(plate.cop[frames], p[frames])) for s, p in points.items()
+            }
             side = min(dist, key=lambda s: dist[s])
-            where = f"{plate.name}, frames {start + 1}-{stop}"
+            where = f"{plate.name}, frames {first + start}-{first + stop - 1}"
             if dist[side] > cop_tolerance_m:
                 found.append(Contact(k, start, stop, None, (
                     f"{where}: no foot's markers within {cop_tolerance_m:g} m of the centre "
@@ -116,7 +120,7 @@ def contacts(
                 found.append(Contact(k, start, stop, side, f"{where}: both feet on the plate"))
                 continue
             found.append(Contact(k, start, stop, side, None))
-    return _straddles(found, plates)
+    return _straddles(found, plates, first)
 
 
 def assign_feet(
@@ -242,8 +246,9 @@ def _stands(
     return bool(np.any(inside & low & still))
 
 
-def _straddles(found: list[Contact], plates: Sequence[PlateRecord]) -> list[Contact]:
-    """Contacts of one foot on two plates at once, marked left out (both of them)."""
+def _straddles(found: list[Contact], plates: Sequence[PlateRecord], first: int) -> list[Contact]:
+    """Contacts of one foot on two plates at once, marked left out (both of them); ``first``:
+    the recording's number of frame 0, for the reasons."""
     out = list(found)
     for a, b in combinations(range(len(found)), 2):
         ca, cb = found[a], found[b]
@@ -253,9 +258,9 @@ def _straddles(found: list[Contact], plates: Sequence[PlateRecord]) -> list[Cont
         if start >= stop:
             continue
         names = f"{plates[ca.plate].name} and {plates[cb.plate].name}"
-        why = f"the {ca.side} foot straddles {names} (frames {start + 1}-{stop})"
+        why = f"the {ca.side} foot straddles {names} (frames {first + start}-{first + stop - 1})"
         for i, c in ((a, ca), (b, cb)):
             if out[i].reason is None:
-                where = f"{plates[c.plate].name}, frames {c.start + 1}-{c.stop}"
+                where = f"{plates[c.plate].name}, frames {first + c.start}-{first + c.stop - 1}"
                 out[i] = Contact(c.plate, c.start, c.stop, c.side, f"{where}: {why}")
     return out

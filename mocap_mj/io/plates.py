@@ -221,12 +221,15 @@ def read_grf_mot(
     times = table[:, columns.index("time")]
     if len(times) > 1 and np.any(np.diff(times) <= 0):
         row = int(np.argmax(np.diff(times) <= 0)) + 2
-        raise InputFileError(f"{file}: data row {row}: expected increasing times, got {times[row - 1]}")
+        raise InputFileError(
+            f"{file}: data row {row}: expected increasing times, got {times[row - 1]}"
+        )
     file_rate = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else 1.0
     rate = float(marker_rate) if marker_rate is not None else file_rate
     rotation = rotation_to_z_up(normalize_up(up))
     records = []
     for k, prefix in enumerate(_mot_prefixes(file, columns)):
+
         def cols(stem: str, *, p: str = prefix) -> np.ndarray:
             return table[:, [columns.index(f"{p}{stem}{a}") for a in "xyz"]]
 
@@ -409,7 +412,7 @@ def _check_declared(file: Path, params: dict[str, Any], n_plates: int) -> None:
             )
         if kind == 4:
             cal = params["FORCE_PLATFORM"].get("CAL_MATRIX", {}).get("value")
-            shape = np.shape(cal) if cal is not None else ()
+            shape: tuple[int, ...] = np.shape(cal) if cal is not None else ()
             if len(shape) < 3 or shape[2] <= k:
                 raise InputFileError(
                     f"{file}: group FORCE_PLATFORM:CAL_MATRIX: {name}: expected a 6 x 6 "
@@ -560,7 +563,8 @@ def _mot_table(file: Path) -> tuple[list[str], np.ndarray]:
             values = []
         if len(values) != len(columns) or not all(math.isfinite(v) for v in values):
             raise InputFileError(
-                f"{file}: line {i}: expected {len(columns)} finite numbers, got {line.strip()[:60]!r}"
+                f"{file}: line {i}: expected {len(columns)} finite numbers, "
+                f"got {line.strip()[:60]!r}"
             )
         rows.append(values)
     if not rows:
