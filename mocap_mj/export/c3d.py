@@ -10,8 +10,10 @@ Points, in this order, all in the MJCF world frame (z up, as the lab of the inpu
 
 Parameters a reader expects: ``POINT:RATE``, ``POINT:UNITS`` = mm, ``POINT:ANGLES`` with
 ``POINT:ANGLE_UNITS`` = deg, ``POINT:MODELED_MARKERS`` (model markers and joint centres),
-``POINT:TYPE_GROUPS``, ``POINT:DESCRIPTIONS``. Missing samples (a marker not seen, a frame not
-solved) are written as invalid points (residual -1), which readers return as NaN.
+``POINT:TYPE_GROUPS``, ``POINT:DESCRIPTIONS``; the EVENT group holds the gait events the
+caller passes (:func:`mocap_mj.capture.events.add_events`), none by default. Missing
+samples (a marker not seen, a frame not solved) are written as invalid points (residual -1),
+which readers return as NaN.
 """
 
 from __future__ import annotations

@@ -26,7 +26,9 @@ The rules, in the order they apply to a C3D plate:
 - **Centre of pressure and free moment.** From the force F and the moment M about the
   surface centre c, on the surface plane (unit normal n, up): ``cop = c + n x M / (n . F)``,
   free moment ``(n . (M - (cop - c) x F)) n``. A frame is loaded while ``n . F`` exceeds
-  ``threshold_n``; elsewhere the centre of pressure is NaN and the free moment 0.
+  ``threshold_n``; elsewhere the centre of pressure is NaN and the free moment 0. Kistler's
+  polynomial correction of a type-3 centre of pressure (FORCE_PLATFORM:FPCOPPOLY) is not
+  applied: it moves FP_Type3.c3d's by under a millimetre.
 
 Lengths are read in POINT:UNITS (millimetres when the file is silent, as the marker loader
 reads them), forces in FORCE_PLATFORM:UNITS (N when silent), moments in their channels'
