@@ -175,9 +175,35 @@ def _int_parameter(c3d: ezc3d.c3d, name: str, values: list[int], shape: list[int
     c3d["parameters"].add_parameter("FORCE_PLATFORM", param)
 
 
-def _write_type2(path: Path, plate_type: int = 2) -> None:
-    """A C3D with one plate of ``plate_type`` whose channels (N, N mm) measure the force on
-    the plate about the sensor origin, with offsets, constant within each marker frame."""
+#: Type 3's sensor offsets a, b and the surface's height above the sensors [mm] (Kistler's)
+KISTLER_ORIGIN_MM = np.array([210.0, 260.0, -41.0])
+#: Type 4's calibration matrix (channels -> forces and moments), away from the identity
+CAL = np.eye(6) + 0.02 * np.arange(36).reshape(6, 6) / 36.0
+
+
+def _channels(plate_type: int, f_p: np.ndarray, m_c: np.ndarray) -> np.ndarray:
+    """The analog channels (T, 6 or 8) [N, N mm] of a plate of ``plate_type`` that measures
+    the force ``f_p`` (T, 3) [N] and moment ``m_c`` (T, 3) [N m] about its surface centre,
+    in plate axes, as ezc3d decodes them."""
+    if plate_type == 3:
+        a, b, c = KISTLER_ORIGIN_MM * 1e-3
+        m_s = m_c - np.cross(f_p, [0.0, 0.0, c])  # about the sensors' plane
+        fz = np.linalg.solve(
+            np.array([[1, 1, 1, 1], [b, b, -b, -b], [-a, a, a, -a], [1, -1, 1, -1.0]]),
+            np.stack([f_p[:, 2], m_s[:, 0], m_s[:, 1], np.zeros(len(f_p))]),
+        ).T
+        fx34_minus_fx12 = m_s[:, 2] / b
+        fx12 = (f_p[:, 0] - fx34_minus_fx12) / 2
+        fy = f_p[:, 1] / 2
+        return np.column_stack([fx12, fx12 + fx34_minus_fx12, fy, fy, fz])
+    m_o = m_c + np.cross(ORIGIN_MM * 1e-3, f_p)  # about the sensor origin
+    six = np.concatenate([f_p, m_o * 1e3], axis=1)  # N, N mm
+    return six @ np.linalg.inv(CAL).T if plate_type == 4 else six
+
+
+def _write_plate(path: Path, plate_type: int = 2) -> None:
+    """A C3D with one plate of ``plate_type`` whose channels measure the force on the plate
+    (:func:`_channels`), with offsets, constant within each marker frame."""
     force, cop, free, _ = _truth()
     corners = CORNERS_MM * 1e-3
     centre = corners.mean(axis=0)
@@ -186,12 +212,10 @@ def _write_type2(path: Path, plate_type: int = 2) -> None:
     rot = np.column_stack([rot, np.cross(rot[:, 0], rot[:, 1])])  # columns: plate axes in lab
     action = -force  # on the plate
     moment_c = np.cross(cop - centre, action) - free[:, None] * np.array([0.0, 0.0, 1.0])
-    f_p = action @ rot  # plate axes
-    m_c = moment_c @ rot
-    m_o = m_c + np.cross(ORIGIN_MM * 1e-3, f_p)  # about the sensor origin
-    channels = np.concatenate([f_p, m_o * 1e3], axis=1)  # N, N mm
-    channels += np.array([12.0, -7.0, 15.0, 800.0, -500.0, 90.0])  # amplifier offsets
-    analogs = np.repeat(channels, PER, axis=0).T  # (6, N)
+    channels = _channels(plate_type, action @ rot, moment_c @ rot)
+    n_channels = channels.shape[1]
+    channels = channels + np.linspace(-12.0, 15.0, n_channels)  # amplifier offsets
+    analogs = np.repeat(channels, PER, axis=0).T  # (channels, N)
     c3d = ezc3d.c3d()
     c3d["parameters"]["POINT"]["RATE"]["value"] = np.array([RATE])
     c3d["parameters"]["POINT"]["LABELS"]["value"] = ["M1"]
@@ -200,26 +224,33 @@ def _write_type2(path: Path, plate_type: int = 2) -> None:
     points[:3, 0] = np.array([[500.0], [500.0], [1000.0]])
     c3d["data"]["points"] = points
     c3d["parameters"]["ANALOG"]["RATE"]["value"] = np.array([ANALOG_RATE])
-    c3d["parameters"]["ANALOG"]["LABELS"]["value"] = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
-    c3d["parameters"]["ANALOG"]["UNITS"]["value"] = ["N", "N", "N", "Nmm", "Nmm", "Nmm"]
+    c3d["parameters"]["ANALOG"]["LABELS"]["value"] = [f"ch{k + 1}" for k in range(n_channels)]
+    units = ["N"] * n_channels if plate_type == 3 else ["N", "N", "N", "Nmm", "Nmm", "Nmm"]
+    c3d["parameters"]["ANALOG"]["UNITS"]["value"] = units
     c3d["data"]["analogs"] = analogs[np.newaxis]
     _int_parameter(c3d, "USED", [1], [1])
     _int_parameter(c3d, "TYPE", [plate_type], [1])
     _int_parameter(c3d, "ZERO", [1, 0], [2])
     c3d.add_parameter("FORCE_PLATFORM", "CORNERS", CORNERS_MM.T.reshape(3, 4, 1))
-    c3d.add_parameter("FORCE_PLATFORM", "ORIGIN", ORIGIN_MM.reshape(3, 1))
-    _int_parameter(c3d, "CHANNEL", list(range(1, 7)), [6, 1])
+    origin = KISTLER_ORIGIN_MM if plate_type == 3 else ORIGIN_MM
+    c3d.add_parameter("FORCE_PLATFORM", "ORIGIN", origin.reshape(3, 1))
+    _int_parameter(c3d, "CHANNEL", list(range(1, n_channels + 1)), [n_channels, 1])
+    if plate_type == 4:
+        c3d.add_parameter("FORCE_PLATFORM", "CAL_MATRIX", CAL.reshape(6, 6, 1))
     c3d.write(str(path))
 
 
-def test_synthetic_type2_plate_reads_back_its_force_and_cop(tmp_path: Path) -> None:
+@pytest.mark.parametrize("plate_type", [2, 3, 4])
+def test_synthetic_plate_reads_back_its_force_and_cop(tmp_path: Path, plate_type: int) -> None:
+    """Types 2 (six channels), 3 (Kistler's eight) and 4 (six through a calibration
+    matrix), written from a known force, centre of pressure and free moment."""
     path = tmp_path / "plate.c3d"
-    _write_type2(path)
+    _write_plate(path, plate_type)
     before = path.read_bytes()
     (plate,) = read_plates(path, up="z")
     assert path.read_bytes() == before  # the file is only read
     force, cop, free, _ = _truth()
-    assert plate.name == "plate 1" and plate.plate_type == 2 and plate.rate == RATE
+    assert plate.name == "plate 1" and plate.plate_type == plate_type and plate.rate == RATE
     np.testing.assert_allclose(plate.corners, CORNERS_MM * 1e-3, atol=1e-9)
     strong = force[:, 2] > 100.0
     # force and centre of pressure within 0.5 % of the truth (of the peak force, of the
@@ -233,7 +264,7 @@ def test_synthetic_type2_plate_reads_back_its_force_and_cop(tmp_path: Path) -> N
 
 def test_synthetic_plate_at_another_marker_rate_averages_its_frames(tmp_path: Path) -> None:
     path = tmp_path / "plate.c3d"
-    _write_type2(path)
+    _write_plate(path)
     (plate,) = read_plates(path, up="z", marker_rate=50.0)
     force = _truth()[0]
     assert plate.force.shape == (FRAMES // 2, 3) and plate.rate == 50.0
@@ -242,7 +273,7 @@ def test_synthetic_plate_at_another_marker_rate_averages_its_frames(tmp_path: Pa
 
 def test_plate_of_a_type_ezc3d_does_not_read_is_refused(tmp_path: Path) -> None:
     path = tmp_path / "plate.c3d"
-    _write_type2(path, plate_type=5)
+    _write_plate(path, plate_type=5)
     with pytest.raises(
         InputFileError, match=r"plate\.c3d: group FORCE_PLATFORM:TYPE: plate 1: .*got type 5"
     ):

@@ -285,7 +285,9 @@ class _RawPlate:
             tz = np.asarray(pf["Tz"], dtype=float).T * _moment_scale(file, k, params, 5)
             moment = np.cross(cop - corners.mean(axis=0), force) + tz
         else:
-            moment = np.asarray(pf["moment"], dtype=float).T * _moment_scale(file, k, params, 3)
+            # type 3's moments are its forces times ORIGIN's lever arms (length units)
+            scale = scale_force * scale_pos if kind == 3 else _moment_scale(file, k, params, 3)
+            moment = np.asarray(pf["moment"], dtype=float).T * scale
         bad = ~np.isfinite(np.concatenate([force, moment], axis=1)).all(axis=1)
         if bad.any():
             raise InputFileError(
