@@ -182,9 +182,14 @@ CAL = np.eye(6) + 0.02 * np.arange(36).reshape(6, 6) / 36.0
 
 
 def _channels(plate_type: int, f_p: np.ndarray, m_c: np.ndarray) -> np.ndarray:
-    """The analog channels (T, 6 or 8) [N, N mm] of a plate of ``plate_type`` that measures
-    the force ``f_p`` (T, 3) [N] and moment ``m_c`` (T, 3) [N m] about its surface centre,
-    in plate axes, as ezc3d decodes them."""
+    """The analog channels (T, 6 or 8) [N, N mm; type 1: N, mm, N mm] of a plate of
+    ``plate_type`` that measures the force ``f_p`` (T, 3) [N] and moment ``m_c`` (T, 3)
+    [N m] about its surface centre, in plate axes, as ezc3d decodes them."""
+    if plate_type == 1:  # Fx Fy Fz, the centre of pressure's x y, the free moment
+        fz = np.where(np.abs(f_p[:, 2]) > 1e-6, f_p[:, 2], np.inf)
+        x, y = -m_c[:, 1] / fz, m_c[:, 0] / fz  # on the surface (plate z = 0)
+        tz = m_c[:, 2] - (x * f_p[:, 1] - y * f_p[:, 0])
+        return np.column_stack([f_p, x * 1e3, y * 1e3, tz * 1e3])
     if plate_type == 3:
         a, b, c = KISTLER_ORIGIN_MM * 1e-3
         m_s = m_c - np.cross(f_p, [0.0, 0.0, c])  # about the sensors' plane
@@ -214,7 +219,10 @@ def _write_plate(path: Path, plate_type: int = 2) -> None:
     moment_c = np.cross(cop - centre, action) - free[:, None] * np.array([0.0, 0.0, 1.0])
     channels = _channels(plate_type, action @ rot, moment_c @ rot)
     n_channels = channels.shape[1]
-    channels = channels + np.linspace(-12.0, 15.0, n_channels)  # amplifier offsets
+    offsets = np.linspace(-12.0, 15.0, n_channels)  # amplifier offsets
+    if plate_type == 1:
+        offsets[3:5] = 0.0  # a position channel has none
+    channels = channels + offsets
     analogs = np.repeat(channels, PER, axis=0).T  # (channels, N)
     c3d = ezc3d.c3d()
     c3d["parameters"]["POINT"]["RATE"]["value"] = np.array([RATE])
@@ -226,6 +234,8 @@ def _write_plate(path: Path, plate_type: int = 2) -> None:
     c3d["parameters"]["ANALOG"]["RATE"]["value"] = np.array([ANALOG_RATE])
     c3d["parameters"]["ANALOG"]["LABELS"]["value"] = [f"ch{k + 1}" for k in range(n_channels)]
     units = ["N"] * n_channels if plate_type == 3 else ["N", "N", "N", "Nmm", "Nmm", "Nmm"]
+    if plate_type == 1:
+        units = ["N", "N", "N", "mm", "mm", "Nmm"]
     c3d["parameters"]["ANALOG"]["UNITS"]["value"] = units
     c3d["data"]["analogs"] = analogs[np.newaxis]
     _int_parameter(c3d, "USED", [1], [1])
@@ -240,10 +250,11 @@ def _write_plate(path: Path, plate_type: int = 2) -> None:
     c3d.write(str(path))
 
 
-@pytest.mark.parametrize("plate_type", [2, 3, 4])
+@pytest.mark.parametrize("plate_type", [1, 2, 3, 4])
 def test_synthetic_plate_reads_back_its_force_and_cop(tmp_path: Path, plate_type: int) -> None:
-    """Types 2 (six channels), 3 (Kistler's eight) and 4 (six through a calibration
-    matrix), written from a known force, centre of pressure and free moment."""
+    """Types 1 (force, centre of pressure, free moment), 2 (six channels), 3 (Kistler's
+    eight) and 4 (six through a calibration matrix), written from a known force, centre of
+    pressure and free moment."""
     path = tmp_path / "plate.c3d"
     _write_plate(path, plate_type)
     before = path.read_bytes()

@@ -280,42 +280,46 @@ class _RawPlate:
         _check_corners(file, k, corners)
         force = np.asarray(pf["force"], dtype=float).T * scale_force  # (N, 3)
         if kind == 1:
-            # ezc3d's type 1 moment is not about the centre: build it from its COP and Tz
             cop = np.asarray(pf["center_of_pressure"], dtype=float).T * scale_pos
-            tz = np.asarray(pf["Tz"], dtype=float).T * _moment_scale(file, k, params, 5)
-            moment = np.cross(cop - corners.mean(axis=0), force) + tz
+            turn = np.asarray(pf["Tz"], dtype=float).T * _moment_scale(file, k, params, 5)
         else:
             # type 3's moments are its forces times ORIGIN's lever arms (length units)
             scale = scale_force * scale_pos if kind == 3 else _moment_scale(file, k, params, 3)
-            moment = np.asarray(pf["moment"], dtype=float).T * scale
-        bad = ~np.isfinite(np.concatenate([force, moment], axis=1)).all(axis=1)
+            turn = np.asarray(pf["moment"], dtype=float).T * scale
+        bad = ~np.isfinite(np.concatenate([force, turn], axis=1)).all(axis=1)
         if bad.any():
             raise InputFileError(
                 f"{file}: plate {k + 1}: analog sample {int(np.argmax(bad)) + 1}: expected "
                 f"finite forces and moments, got NaN or infinity"
             )
-        analog_rate = _analog_rate(file, params)
-        f_off, m_off = _offsets(force, moment, analog_rate)
-        return cls(kind, corners, force - f_off, moment - m_off)
+        quiet = _quiet(force, _analog_rate(file, params))
+        force = force - _offset(force, quiet)
+        turn = turn - _offset(turn, quiet)
+        if kind == 1:
+            # ezc3d's type 1 moment is not about the centre: build it from its COP and Tz
+            cop = np.where(np.isfinite(cop), cop, corners.mean(axis=0))
+            return cls(kind, corners, force, np.cross(cop - corners.mean(axis=0), force) + turn)
+        return cls(kind, corners, force, turn)
 
 
-def _offsets(
-    force: np.ndarray, moment: np.ndarray, analog_rate: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """The offsets (3,) [N], (3,) [N m] of a plate's samples (N, 3): the median force and
-    moment of the quietest ``OFFSET_WINDOW`` window (smallest median force) when that force
-    is below ``OFFSET_LIMIT``; zeros otherwise (a plate loaded throughout)."""
+def _quiet(force: np.ndarray, analog_rate: float) -> slice | None:
+    """The analog samples the offsets are taken from: of the ``OFFSET_WINDOW`` windows of
+    ``force`` (N, 3) [N], the one with the smallest median force, when that force is below
+    ``OFFSET_LIMIT``; None for a plate loaded throughout."""
     width = max(1, round(OFFSET_WINDOW * analog_rate))
     n_windows = len(force) // width
     if n_windows == 0:
-        return np.zeros(3), np.zeros(3)
-    f = force[: n_windows * width].reshape(n_windows, width, 3)
-    medians = np.median(f, axis=1)
+        return None
+    medians = np.median(force[: n_windows * width].reshape(n_windows, width, 3), axis=1)
     best = int(np.argmin(np.linalg.norm(medians, axis=1)))
     if np.linalg.norm(medians[best]) >= OFFSET_LIMIT:
-        return np.zeros(3), np.zeros(3)
-    m = moment[: n_windows * width].reshape(n_windows, width, 3)
-    return medians[best], np.median(m[best], axis=0)
+        return None
+    return slice(best * width, (best + 1) * width)
+
+
+def _offset(samples: np.ndarray, quiet: slice | None) -> np.ndarray:
+    """(3,): the median of ``samples`` (N, 3) over ``quiet``; zeros without one."""
+    return np.zeros(3) if quiet is None else np.asarray(np.median(samples[quiet], axis=0))
 
 
 def _sign(plate: _RawPlate, vertical: np.ndarray, threshold_n: float) -> int:
