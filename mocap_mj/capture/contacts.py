@@ -220,8 +220,11 @@ def _speed(points: np.ndarray, rate: float) -> np.ndarray:
     """(T,) [m/s]: the mean speed of the markers ``points`` (T, K, 3) (central differences)."""
     if len(points) < 2:
         return np.zeros(len(points))
-    v = np.gradient(points, 1.0 / rate, axis=0)
-    return np.asarray(np.nanmean(np.linalg.norm(v, axis=2), axis=1))
+    speeds = np.linalg.norm(np.gradient(points, 1.0 / rate, axis=0), axis=2)  # (T, K)
+    seen = np.isfinite(speeds)
+    total = np.where(seen, speeds, 0.0).sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.asarray(total / seen.sum(axis=1))  # NaN where no marker is seen
 
 
 def _stands(
