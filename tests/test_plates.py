@@ -212,17 +212,19 @@ def _channels(plate_type: int, f_p: np.ndarray, m_c: np.ndarray) -> np.ndarray:
     return six @ np.linalg.inv(CAL).T if plate_type == 4 else six
 
 
-def _write_plate(path: Path, plate_type: int = 2) -> None:
+def _write_plate(path: Path, plate_type: int = 2, *, on_subject: bool = False) -> None:
     """A C3D with one plate of ``plate_type`` whose channels measure the force on the plate
-    (:func:`_channels`), with offsets, constant within each marker frame."""
+    (on the subject with ``on_subject``; :func:`_channels`), with offsets, constant within
+    each marker frame."""
     force, cop, free, _ = _truth()
     corners = CORNERS_MM * 1e-3
     centre = corners.mean(axis=0)
     x, y = corners[0] - corners[1], corners[0] - corners[3]
     rot = np.stack([x / np.linalg.norm(x), y / np.linalg.norm(y)], axis=1)
     rot = np.column_stack([rot, np.cross(rot[:, 0], rot[:, 1])])  # columns: plate axes in lab
-    action = -force  # on the plate
-    moment_c = np.cross(cop - centre, action) - free[:, None] * np.array([0.0, 0.0, 1.0])
+    sign = 1.0 if on_subject else -1.0  # on the plate, as most vendors write it
+    action = sign * force
+    moment_c = np.cross(cop - centre, action) + sign * free[:, None] * np.array([0.0, 0.0, 1.0])
     channels = _channels(plate_type, action @ rot, moment_c @ rot)
     n_channels = channels.shape[1]
     offsets = np.linspace(-12.0, 15.0, n_channels)  # amplifier offsets
@@ -277,6 +279,19 @@ def test_synthetic_plate_reads_back_its_force_and_cop(tmp_path: Path, plate_type
     np.testing.assert_allclose(plate.cop[strong], cop[strong], atol=0.005 * size)
     np.testing.assert_allclose(plate.free_moment[strong, 2], free[strong], atol=0.005 * 4.0 + 1e-3)
     assert np.array_equal(plate.loaded, force[:, 2] > 20.0)
+
+
+def test_a_plate_written_as_the_force_on_the_subject_reads_the_same(tmp_path: Path) -> None:
+    """Vendors write either the force on the plate or on the subject: a plate pushes, so
+    both read as the force on the subject."""
+    _write_plate(tmp_path / "on_plate.c3d")
+    _write_plate(tmp_path / "on_subject.c3d", on_subject=True)
+    (a,) = read_plates(tmp_path / "on_plate.c3d", up="z")
+    (b,) = read_plates(tmp_path / "on_subject.c3d", up="z")
+    np.testing.assert_allclose(b.force, a.force, atol=1e-3)
+    np.testing.assert_allclose(b.cop, a.cop, atol=1e-6)
+    np.testing.assert_allclose(b.free_moment, a.free_moment, atol=1e-5)
+    assert b.force[:, 2].max() > 800.0
 
 
 def test_synthetic_plate_at_another_marker_rate_averages_its_frames(tmp_path: Path) -> None:
