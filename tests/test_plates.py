@@ -411,3 +411,13 @@ def test_a_load_no_foot_is_near_is_left_out() -> None:
     assert not left.on_plate.any() and not right.on_plate.any()
     reason = "plate 1, frames 11-40: no foot's markers within 0.1 m of the centre of pressure"
     assert left.excluded == right.excluded == (reason,)
+
+
+def test_a_file_that_is_not_a_c3d_is_refused_in_one_line(tmp_path: Path) -> None:
+    path = tmp_path / "walk.c3d"
+    path.write_text("PathFileType\t4\t(X/Y/Z)\twalk.trc\n")
+    with pytest.raises(InputFileError, match=r"walk\.c3d: ezc3d could not read it") as err:
+        read_plates(path)
+    assert "\n" not in str(err.value)
+    with pytest.raises(InputFileError, match=r"absent\.c3d: no such file"):
+        read_plates(tmp_path / "absent.c3d")
