@@ -50,6 +50,7 @@ import ezc3d
 import numpy as np
 
 from mocap_mj.errors import InputFileError, MocapError
+from mocap_mj.io.formats.c3d import read_parameters
 from mocap_mj.io.orientation import normalize_up, rotation_to_z_up
 from mocap_mj.io.units import metres_per_unit
 
@@ -152,30 +153,30 @@ def read_plates(
         raise InputFileError(f"{file}: no such file")
     if threshold_n <= 0 or not math.isfinite(threshold_n):
         raise InputFileError(f"{file}: threshold_n: expected a positive force, got {threshold_n}")
-    try:
-        plain = ezc3d.c3d(str(file))
+    try:  # the parameters first (a copy of the file's start): what ezc3d would refuse
+        header = read_parameters(file)
     except Exception as exc:  # ezc3d raises RuntimeError, OSError, ValueError...
         raise InputFileError(f"{file}: ezc3d could not read it: {_one_line(exc)}") from exc
-    params = plain["parameters"]
-    n_plates = _plates_used(params)
+    n_plates = _plates_used(header)
     if n_plates == 0:
         return []
-    _check_declared(file, params, n_plates)
+    _check_declared(file, header, n_plates)
     try:
-        platforms = ezc3d.c3d(str(file), extract_forceplat_data=True)["data"]["platform"]
+        whole = ezc3d.c3d(str(file), extract_forceplat_data=True)
     except Exception as exc:
         raise InputFileError(
             f"{file}: group FORCE_PLATFORM: ezc3d could not extract the plates: {_one_line(exc)}"
         ) from exc
+    params = whole["parameters"]
     scale_pos = _length_scale(file, params)
     scale_force = _force_scale(file, params)
     analog_rate = _analog_rate(file, params)
-    n_point_frames = int(np.asarray(plain["data"]["points"]).shape[2])
-    rate = _marker_rate(file, params, marker_rate, analog_rate, n_point_frames, plain)
+    rate = _marker_rate(file, params, marker_rate, analog_rate, whole)
     raw = [
-        _RawPlate.of(file, k, pf, params, scale_pos, scale_force) for k, pf in enumerate(platforms)
+        _RawPlate.of(file, k, pf, params, scale_pos, scale_force)
+        for k, pf in enumerate(whole["data"]["platform"])
     ]
-    rotation = rotation_to_z_up(_up_axis(file, up, raw, n_point_frames))
+    rotation = rotation_to_z_up(_up_axis(file, up, raw))
     vertical = rotation[2]  # the up direction in the file's axes
     signs = [_sign(p, vertical, threshold_n) for p in raw]
     loaded_signs = {s for s in signs if s != 0}
@@ -495,9 +496,10 @@ def _marker_rate(
     params: dict[str, Any],
     marker_rate: float | None,
     analog_rate: float,
-    n_point_frames: int,
     c3d: Any,
 ) -> float:
+    """``marker_rate`` checked; default POINT:RATE, else (no marker points) the analog rate
+    over the analog samples per frame of ``c3d`` (ezc3d's reading)."""
     if marker_rate is not None:
         if not (math.isfinite(marker_rate) and 0 < marker_rate <= analog_rate):
             raise InputFileError(
@@ -509,13 +511,14 @@ def _marker_rate(
     rate = float(values[0]) if values else 0.0
     if math.isfinite(rate) and rate > 0:
         return rate
+    n_point_frames = int(np.asarray(c3d["data"]["points"]).shape[2])
     n_analog = int(np.asarray(c3d["data"]["analogs"]).shape[2])
     if n_point_frames > 0 and n_analog >= n_point_frames:
         return analog_rate * n_point_frames / n_analog
     return analog_rate
 
 
-def _up_axis(file: Path, up: str | None, plates: Sequence[_RawPlate], n_point_frames: int) -> str:
+def _up_axis(file: Path, up: str | None, plates: Sequence[_RawPlate]) -> str:
     """``up`` normalised; None: the marker loader's axis for ``file``, else the plates'."""
     if up is not None:
         return normalize_up(up)
