@@ -10,17 +10,21 @@ Points, in this order, all in the MJCF world frame (z up, as the lab of the inpu
 
 Parameters a reader expects: ``POINT:RATE``, ``POINT:UNITS`` = mm, ``POINT:ANGLES`` with
 ``POINT:ANGLE_UNITS`` = deg, ``POINT:MODELED_MARKERS`` (model markers and joint centres),
-``POINT:TYPE_GROUPS``, ``POINT:DESCRIPTIONS``. Missing samples (a marker not seen, a frame not
-solved) are written as invalid points (residual -1), which readers return as NaN.
+``POINT:TYPE_GROUPS``, ``POINT:DESCRIPTIONS``; the EVENT group holds the gait events the
+caller passes (:func:`mocap_mj.capture.events.add_events`), none by default. Missing
+samples (a marker not seen, a frame not solved) are written as invalid points (residual -1),
+which readers return as NaN.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import ezc3d
 import numpy as np
 
+from mocap_mj.capture.events import GaitEvent, add_events
 from mocap_mj.export.read_result import ExportSource
 from mocap_mj.skeleton.joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
 
@@ -53,8 +57,9 @@ def c3d_points(src: ExportSource) -> tuple[list[str], list[str], np.ndarray]:
     return labels, desc, values
 
 
-def write_c3d(path: str | Path, src: ExportSource) -> None:
-    """Write the C3D of ``src`` (see the module doc), atomically."""
+def write_c3d(path: str | Path, src: ExportSource, *, events: Sequence[GaitEvent] = ()) -> None:
+    """Write the C3D of ``src`` (see the module doc), atomically, with ``events`` (gait
+    events, :mod:`mocap_mj.capture.events`) in its EVENT group when given."""
     labels, desc, values = c3d_points(src)
     n_markers = len(src.motion.marker_names)
     write_points_c3d(
@@ -66,6 +71,7 @@ def write_c3d(path: str | Path, src: ExportSource) -> None:
         angle_labels=labels[n_markers * 2 + len(JOINT_CENTRE_NAMES) :],
         modeled=labels[n_markers : n_markers * 2 + len(JOINT_CENTRE_NAMES)],
         first_frame=src.motion.first_frame,
+        events=events,
     )
 
 
@@ -79,11 +85,13 @@ def write_points_c3d(
     angle_labels: list[str],
     modeled: list[str],
     first_frame: int = 1,
+    events: Sequence[GaitEvent] = (),
 ) -> None:
     """Write points ``values`` (T, N, 3) (mm, degrees for ``angle_labels``) as a C3D,
     atomically; NaN samples are written as invalid points. ``first_frame``: the recording's
     number of frame 0 as a C3D header numbers frames (from 1; also written as
-    ``TRIAL:ACTUAL_START_FIELD``); below 1, the file's frames are numbered from 1."""
+    ``TRIAL:ACTUAL_START_FIELD``); below 1, the file's frames are numbered from 1.
+    ``events``: gait events written into the EVENT group (none by default)."""
     c3d = ezc3d.c3d()
     point = c3d["parameters"]["POINT"]
     point["RATE"]["value"] = np.array([rate])
@@ -104,6 +112,7 @@ def write_points_c3d(
     residuals = np.where(missing, -1.0, 0.0)[np.newaxis]
     c3d["data"]["meta_points"]["residuals"] = residuals
     c3d["data"]["meta_points"]["camera_masks"] = np.zeros((7, *missing.shape), dtype=bool)
+    add_events(c3d, events)
     target = Path(path)
     tmp = target.with_name(f".{target.stem}.tmp.c3d")  # ezc3d wants the suffix
     try:
