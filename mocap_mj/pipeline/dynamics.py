@@ -46,6 +46,9 @@ from mocap_mj.skeleton import rolling
 CUTOFF_HZ = 6.0
 #: Order of the filter run in each direction (twice that after both passes).
 PASS_ORDER = 2
+#: The filter's ends are padded by this many periods of the cutoff (odd extension: a line
+#: continues as a line), so that its start-up transient settles before the data begin.
+PAD_PERIODS = 3.0
 #: Relative spread of the time steps tolerated as uniform sampling.
 STEP_TOLERANCE = 1e-3
 
@@ -160,13 +163,14 @@ def frame_step(times: np.ndarray) -> float:
 def lowpass(x: np.ndarray, rate: float, cutoff_hz: float) -> np.ndarray:
     """x (T, ...) filtered along axis 0 by a zero-lag Butterworth low-pass (order
     :data:`PASS_ORDER` each way, cutoff ``cutoff_hz`` [Hz] the single pass's -3 dB point),
-    sampled at ``rate`` [Hz]. Needs more than 9 samples."""
+    sampled at ``rate`` [Hz], the ends padded (:data:`PAD_PERIODS`). Needs 10 samples or more."""
     if not 0 < cutoff_hz < rate / 2:
         raise MocapError(
             f"cutoff: expected 0 < cutoff < {rate / 2:g} Hz (half the frame rate), got {cutoff_hz}"
         )
     b, a = signal.butter(PASS_ORDER, cutoff_hz / (rate / 2))
-    return np.asarray(signal.filtfilt(b, a, x, axis=0))
+    pad = min(len(x) - 1, max(9, round(PAD_PERIODS * rate / cutoff_hz)))
+    return np.asarray(signal.filtfilt(b, a, x, axis=0, padlen=pad))
 
 
 def derivatives(u: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -343,6 +347,7 @@ def inverse_dynamics(
 
 __all__ = [
     "CUTOFF_HZ",
+    "PAD_PERIODS",
     "PASS_ORDER",
     "STEP_TOLERANCE",
     "BodyLoad",
