@@ -124,6 +124,17 @@ def test_root_residual_is_the_wrench_the_motion_needs(
     np.testing.assert_array_less(np.abs(free.root_moment - moment)[inner], 0.5)
 
 
+def test_fast_path_equals_mj_inverse(model: mujoco.MjModel, free: dy.Dynamics) -> None:
+    """mj_rne with the acceleration (the loop's) against a plain mj_inverse loop."""
+    dyn = dy.dynamics_model(model)
+    data = mujoco.MjData(dyn)
+    for t in range(0, len(free.times), 7):
+        data.qpos[:], data.qvel[:], data.qacc[:] = free.qpos[t], free.qvel[t], free.qacc[t]
+        mujoco.mj_inverse(dyn, data)
+        scale = np.abs(data.qfrc_inverse).max()
+        np.testing.assert_allclose(free.tau[t], data.qfrc_inverse, rtol=0, atol=1e-12 * scale)
+
+
 def _chain(model: mujoco.MjModel, body: int) -> set[int]:
     """The degrees of freedom between the root and ``body`` (the root's included)."""
     dofs: set[int] = set()

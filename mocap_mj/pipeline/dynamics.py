@@ -21,9 +21,11 @@ Steps (docs/dynamics.md):
    qpos rebuilt from the smoothed u by ``mj_integratePos``;
 3. qvel and qacc by central differences of the smoothed u (second order, one-sided at the
    ends);
-4. ``mj_inverse`` with contacts, constraints (joint limits, the knees' equalities: qpos
-   already holds the exact coupling), springs and dampers off and the joints' armature at
-   0 (a model-stability device, not a property of the body): qfrc_inverse is M qacc + bias;
+4. MuJoCo's inverse dynamics (``mj_inverse``'s qfrc_inverse, computed by ``mj_rne`` with the
+   acceleration, :func:`_generalised_forces`) with contacts, constraints (joint limits, the
+   knees' equalities: qpos already holds the exact coupling), springs and dampers off and
+   the joints' armature at 0 (a model-stability device, not a property of the body):
+   M qacc + bias;
 5. the measured external loads (:class:`BodyLoad`) as generalised forces through
    ``mj_applyFT`` (force at the centre of pressure, plus the free moment), subtracted:
    tau = qfrc_inverse - J^T f. The root's share of tau is the residual: the wrench the free
@@ -250,6 +252,61 @@ def _check_loads(model: mujoco.MjModel, loads: Sequence[BodyLoad], frames: int) 
     return ids
 
 
+def _generalised_forces(
+    model: mujoco.MjModel,
+    qpos: np.ndarray,
+    qvel: np.ndarray,
+    qacc: np.ndarray,
+    loads: Sequence[BodyLoad],
+    bodies: list[int],
+    frames: list[int],
+) -> tuple[np.ndarray, np.ndarray]:
+    """tau (T, nv) = M qacc + bias - J^T f of the loads, and the root body's orientation
+    (T, 9), on the given frames (NaN elsewhere).
+
+    Per frame: ``mj_kinematics``, ``mj_comPos``, ``mj_comVel`` and ``mj_rne`` with the
+    acceleration, which is ``mj_inverse``'s qfrc_inverse on :func:`dynamics_model` (no
+    constraint, passive force or armature) without the mass matrix and its factorisation
+    that ``mj_inverse`` also computes (``tests/test_dynamics.py`` checks the two agree); then
+    ``mj_applyFT`` for each load with a finite point and force.
+    """
+    dyn = dynamics_model(model)
+    data = mujoco.MjData(dyn)
+    n = len(qpos)
+    tau = np.full((n, model.nv), np.nan)
+    rot = np.full((n, 9), np.nan)
+    root = int(model.jnt_bodyid[0]) if model.njnt else 0
+    out = np.zeros(model.nv)
+    applied = np.zeros(model.nv)
+    forces = [np.ascontiguousarray(ld.force, dtype=float) for ld in loads]
+    points = [np.ascontiguousarray(ld.point, dtype=float) for ld in loads]
+    moments = [np.nan_to_num(np.asarray(ld.moment, dtype=float)) for ld in loads]
+    active = np.stack(
+        [np.all(np.isfinite(p), axis=1) & np.all(np.isfinite(f), axis=1)
+         for p, f in zip(points, forces, strict=True)] or [np.zeros(n, dtype=bool)]
+    )  # fmt: skip
+    loaded: np.ndarray = np.any(active, axis=0)
+    for t in frames:
+        data.qpos[:] = qpos[t]
+        data.qvel[:] = qvel[t]
+        data.qacc[:] = qacc[t]
+        mujoco.mj_kinematics(dyn, data)
+        mujoco.mj_comPos(dyn, data)
+        mujoco.mj_comVel(dyn, data)
+        mujoco.mj_rne(dyn, data, 1, out)
+        if loaded[t]:
+            applied[:] = 0.0
+            for k, body in enumerate(bodies):
+                if active[k, t]:
+                    mujoco.mj_applyFT(
+                        dyn, data, forces[k][t], moments[k][t], points[k][t], body, applied
+                    )
+            out -= applied
+        tau[t] = out
+        rot[t] = data.xmat[root]
+    return tau, rot
+
+
 def inverse_dynamics(
     model: mujoco.MjModel,
     qpos: np.ndarray,
@@ -295,39 +352,13 @@ def inverse_dynamics(
     for a, b in runs:
         q_out[a:b], vel[a:b], acc[a:b] = smoothed(model, q_in[a:b], dt, cutoff_hz)
 
-    dyn = dynamics_model(model)
-    data = mujoco.MjData(dyn)
-    tau = np.full((frames, nv), np.nan)
     free = model.njnt > 0 and model.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE
-    root_body = int(model.jnt_bodyid[0]) if free else 0
-    rot = np.full((frames, 3, 3), np.nan)
-    applied = np.zeros(nv)
-    forces = [np.asarray(ld.force, float) for ld in loads]
-    points = [np.asarray(ld.point, float) for ld in loads]
-    moments = [np.asarray(ld.moment, float) for ld in loads]
-    active = [np.all(np.isfinite(p), axis=1) & np.all(np.isfinite(f), axis=1)
-              for p, f in zip(points, forces, strict=True)]  # fmt: skip
-    for a, b in runs:
-        for t in range(a, b):
-            data.qpos[:] = q_out[t]
-            data.qvel[:] = vel[t]
-            data.qacc[:] = acc[t]
-            mujoco.mj_inverse(dyn, data)
-            tau[t] = data.qfrc_inverse
-            if bodies:
-                applied[:] = 0.0
-                for k, body in enumerate(bodies):
-                    if active[k][t]:
-                        mujoco.mj_applyFT(
-                            dyn, data, forces[k][t], np.nan_to_num(moments[k][t]),
-                            points[k][t], body, applied,
-                        )  # fmt: skip
-                tau[t] -= applied
-            if free:
-                rot[t] = data.xmat[root_body].reshape(3, 3)
+    frames_run = [t for a, b in runs for t in range(a, b)]
+    tau, rot = _generalised_forces(model, q_out, vel, acc, loads, bodies, frames_run)
     if free:
         adr = int(model.jnt_dofadr[0])
         root_force = tau[:, adr : adr + 3].copy()
+        rot = rot.reshape(frames, 3, 3)
         root_moment = np.einsum("tij,tj->ti", rot, tau[:, adr + 3 : adr + 6])
     else:
         root_force = np.full((frames, 3), np.nan)
