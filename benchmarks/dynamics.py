@@ -26,7 +26,7 @@ from mocap_mj.pipeline.dynamics import CUTOFF_HZ, BodyLoad, inverse_dynamics, sm
 from mocap_mj.skeleton import exported
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from _motion import smooth_motion  # noqa: E402
+from _motion import smooth_motion
 
 
 def best_of(fn: Callable[[], object], repeat: int) -> float:

@@ -5,7 +5,7 @@ benchmarks/ carry no history words: work sessions, git branches, numbered issues
 merges, commit hashes or machine-load timings (history belongs in git and CHANGELOG.md's
 one-line entries). (b) Every markdown link of README.md and docs/*.md, and every
 ``docs/<page>.md#anchor`` named in those sources, points to an existing file and heading
-(GitHub's heading slugs). (c) docs/ holds at most 3,000 lines, no page more than 500.
+(GitHub's heading slugs). (c) docs/ holds at most 3,200 lines, no page more than 500.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 CODE_DIRS = ("mocap_mj", "synth", "viewer", "benchmarks")
-DOCS_LINES = 3000
+DOCS_LINES = 3200
 PAGE_LINES = 500
 
 ORDINALS = "first|second|third|fourth|fifth|sixth|seventh|eighth|ninth|tenth|eleventh|twelfth"

@@ -13,8 +13,6 @@ And the smoothing: a sinusoid's derivative through the filter, a ball joint's sp
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import mujoco
 import numpy as np
 import pytest

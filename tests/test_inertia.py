@@ -130,6 +130,7 @@ def test_bad_input_is_one_clear_error(model: mujoco.MjModel) -> None:
     with pytest.raises(MocapError, match="sex: expected one of male, female"):
         ina.segment_inertia(model, MASS, sex="robot")  # type: ignore[arg-type]
     spec = mujoco.MjSpec.from_file(str(model_path()))
-    spec.worldbody.add_body(name="prop").add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.05, 0, 0])
+    sphere = mujoco.mjtGeom.mjGEOM_SPHERE
+    spec.worldbody.add_body(name="prop").add_geom(type=sphere, size=[0.05, 0, 0])
     with pytest.raises(MocapError, match="unknown: prop"):
         ina.segment_inertia(spec.compile(), MASS)
