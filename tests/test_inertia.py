@@ -122,6 +122,12 @@ def test_mjspec_model_and_written_mjcf_hold_the_figures(tmp_path: Path) -> None:
     assert compiled.nq == 59  # the knees' slide joints are kept
     with pytest.raises(MocapError, match="another file"):
         ina.write_inertial_model(source, source, MASS)
+    # written again from the inertial file for another mass: each body's inertial replaced
+    again = tmp_path / "again.xml"
+    heavier = ina.write_inertial_model(dest, again, 2 * MASS, sex="female")
+    assert again.read_text().count("<inertial ") == len(heavier.bodies)
+    _check_compiled(mujoco.MjModel.from_xml_path(str(again)), heavier)
+    np.testing.assert_allclose(heavier.mass, 2 * written.mass, rtol=1e-12)
 
 
 def test_bad_input_is_one_clear_error(model: mujoco.MjModel) -> None:
