@@ -113,14 +113,15 @@ def main() -> None:
     pct = 100 * np.linalg.norm(dyn.root_force, axis=1) / weight
     moment = np.linalg.norm(dyn.root_moment, axis=1)
     loaded = contact.any(axis=0) & np.isfinite(pct)
-    for name, rows in (
-        ("frames with a load", loaded),
-        ("frames without", ~loaded & np.isfinite(pct)),
-    ):
+    rest = ~loaded & np.isfinite(pct)
+    for name, rows in (("frames with a load", loaded), ("frames without", rest)):
         if rows.any():
-            print(f"  root residual force, {name} ({rows.sum()}): median {np.median(pct[rows]):.1f} "
-                  f"%BW, 95th percentile {np.percentile(pct[rows], 95):.1f} %BW; moment median "
-                  f"{np.median(moment[rows]):.1f} N m")  # fmt: skip
+            print(
+                f"  root residual force, {name} ({rows.sum()}): median "
+                f"{np.median(pct[rows]):.1f} %BW, 95th percentile "
+                f"{np.percentile(pct[rows], 95):.1f} %BW; moment median "
+                f"{np.median(moment[rows]):.1f} N m"
+            )
     for joint, (ours, theirs) in MOMENTS.items():
         for s, side in (("l", "L"), ("r", "R")):
             name = theirs.format(S=side)
@@ -132,9 +133,11 @@ def main() -> None:
             stance = np.isfinite(nexus(f"{side}GroundReactionForce")[:, 2])
             ok = np.isfinite(a) & np.isfinite(b) & stance
             r = np.corrcoef(a[ok], b[ok])[0, 1]
-            print(f"  {joint}_{s} ({ok.sum()} stance frames): ours {ours.format(s=s)} vs Nexus's {name}_X: r {r:+.2f}, "
-                  f"peak |ours| {np.abs(a[ok]).max():.2f}, |Nexus| {np.abs(b[ok]).max():.2f} "
-                  f"N m/kg")  # fmt: skip
+            print(
+                f"  {joint}_{s} ({ok.sum()} stance frames): ours {ours.format(s=s)} vs "
+                f"Nexus's {name}_X: r {r:+.2f}, peak |ours| {np.abs(a[ok]).max():.2f}, "
+                f"|Nexus| {np.abs(b[ok]).max():.2f} N m/kg"
+            )
 
 
 if __name__ == "__main__":
