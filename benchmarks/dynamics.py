@@ -1,8 +1,9 @@
 """Inverse dynamics throughput (frames per second) on the bundled humanoid as written.
 
-Times :func:`mocap_mj.pipeline.dynamics.inverse_dynamics` on a smooth motion of every joint at
-100 Hz with a load on each foot (the whole call: tangent coordinates, the 6 Hz filter,
-differences, ``mj_inverse`` and ``mj_applyFT`` every frame) and, apart, the smoothing alone.
+Times :func:`mocap_mj.pipeline.dynamics.inverse_dynamics` on a synthetic walk
+(``mocap_synth.motion.walk``) at 100 Hz with a load on each foot (the whole call: tangent
+coordinates, the 6 Hz filter, differences, MuJoCo's inverse dynamics and ``mj_applyFT`` every
+frame) and, apart, the smoothing alone.
 Best of ``--repeat`` runs; the machine's load average is printed beside the figures.
 
 Run: python benchmarks/dynamics.py [--frames 10000] [--repeat 3]
@@ -12,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import tempfile
 import time
 from collections.abc import Callable
@@ -20,13 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
-from mocap_mj import Kinematics, ParameterSet
+from mocap_mj import ParameterSet
 from mocap_mj.anatomy.inertia import inertial_model
 from mocap_mj.pipeline.dynamics import CUTOFF_HZ, BodyLoad, inverse_dynamics, smoothed
 from mocap_mj.skeleton import exported
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from _motion import smooth_motion
+from mocap_synth.motion import walk
 
 
 def best_of(fn: Callable[[], object], repeat: int) -> float:
@@ -49,7 +47,8 @@ def main() -> None:
         path = Path(scratch) / "model.xml"
         path.write_text(pset.to_xml(pset.nominal))
         model = inertial_model(path, 75.0)
-    qpos = exported.Layout.of(pset.model).written(smooth_motion(Kinematics(pset), args.frames))
+    motion = walk(pset.model, args.frames, 100.0, np.random.default_rng(0))
+    qpos = exported.Layout.of(pset.model).written(motion)
     times = np.arange(args.frames) / 100.0
     half = np.tile([0.0, 0.0, 0.5 * 75.0 * 9.81], (args.frames, 1))
     loads = [
