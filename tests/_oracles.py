@@ -5,6 +5,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from mocap_mj.capture.checks import frame_floor
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.solve.ik import IKResult, IKSolver, Status
 from mocap_mj.solve.problem import IdentificationProblem
@@ -108,7 +109,10 @@ def numpy_solve_frames(
     n_present = np.count_nonzero(w > 0, axis=1)
     status = np.full(n, Status.MAX_ITERATIONS, dtype=int)
     iterations = np.zeros(n, dtype=int)
-    few = n_present < st.min_markers
+    floor = st.min_markers
+    if floor is None:  # the solver's default: frame_floor of the markers recorded
+        floor = frame_floor(int(np.count_nonzero(present.any(axis=0))))
+    few = n_present < floor
     status[few] = Status.TOO_FEW_MARKERS
     qpos[few] = np.nan
     active = np.flatnonzero(~few)

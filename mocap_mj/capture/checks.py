@@ -1,13 +1,14 @@
 """Refusing marker data a solver cannot use, before any work, with one line saying why.
 
 A frame is usable when at least ``min_markers`` of the model's markers are present (finite)
-in it (the IK rule, :class:`mocap_mj.solve.ik.IKSettings`). Without a usable frame ``ik`` would
-write a motion of NaN; with fewer residuals (3 per present marker of the usable frames) than
-unknowns (the joint dofs each usable frame's present markers determine,
-:func:`mocap_mj.capture.marker_set.measured_dofs`, plus the free model parameters) ``identify``
-would report bounds of a problem the data cannot determine. Both are refused here. The dofs of a
-body no present marker determines (the arms of a lower-body marker set) are not counted: the
-solver holds them, so they are not unknowns.
+in it (the IK rule, :class:`mocap_mj.solve.ik.IKSettings`; by default :func:`frame_floor` of
+the markers the trial records, so a partial set is not held to a full set's count). Without a
+usable frame ``ik`` would write a motion of NaN; with fewer residuals (3 per present marker of
+the usable frames) than unknowns (the joint dofs each usable frame's present markers
+determine, :func:`mocap_mj.capture.marker_set.measured_dofs`, plus the free model
+parameters) ``identify`` would report bounds of a problem the data cannot determine. Both are
+refused here. The dofs of a body no present marker determines (the arms of a lower-body
+marker set) are not counted: the solver holds them, so they are not unknowns.
 """
 
 from __future__ import annotations
@@ -20,7 +21,30 @@ import numpy as np
 from mocap_mj.capture.marker_set import measured_dofs
 from mocap_mj.errors import SolverError
 
-__all__ = ["check_determined", "check_markers", "usable_frames"]
+__all__ = ["check_determined", "check_markers", "frame_floor", "recorded_floor", "usable_frames"]
+
+#: Present markers a frame of a full marker set needs to be solved.
+FULL_SET_FLOOR = 16
+#: Fewest present markers any frame needs (three on a segment fix its pose; one more checks).
+LEAST_FLOOR = 4
+#: Share of the recorded markers a frame needs where the set records fewer than
+#: ``FULL_SET_FLOOR / FRACTION``: a frame missing a quarter of a partial set's markers is
+#: solved (its unobserved joints held), one missing more is not.
+FRACTION = 0.75
+
+
+def frame_floor(recorded: int) -> int:
+    """Present markers a frame needs when the recording records ``recorded`` of the model's
+    markers (any sample in the trial): ``min(16, max(4, ceil(0.75 * recorded)))``. A full
+    Plug-in Gait set (39) keeps 16; a lower-body set (16) needs 12, so one occluded marker
+    does not cost the frame."""
+    return min(FULL_SET_FLOOR, max(LEAST_FLOOR, int(np.ceil(FRACTION * recorded))))
+
+
+def recorded_floor(markers: np.ndarray) -> int:
+    """:func:`frame_floor` of the markers (T, M, 3) [m] of a trial (NaN where missing)."""
+    present = np.any(np.all(np.isfinite(markers), axis=2), axis=0)
+    return frame_floor(int(np.count_nonzero(present)))
 
 
 def usable_frames(markers: np.ndarray, min_markers: int) -> np.ndarray:

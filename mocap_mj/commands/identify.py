@@ -29,7 +29,7 @@ from typing import Any, get_args
 import numpy as np
 
 from mocap_mj.anatomy.plausibility import plausibility_text
-from mocap_mj.capture.checks import check_markers
+from mocap_mj.capture.checks import check_markers, recorded_floor
 from mocap_mj.capture.marker_quality import Finding
 from mocap_mj.capture.subject import Subject
 from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder
@@ -40,7 +40,6 @@ from mocap_mj.pipeline.recipe import Recipe
 from mocap_mj.pipeline.steps import t10_check
 from mocap_mj.skeleton import prewarm
 from mocap_mj.skeleton.parameters import ParameterSet
-from mocap_mj.solve.ik import IKSettings
 from mocap_mj.solve.losses import LossName
 from mocap_mj.solve.problem import TrialData
 
@@ -139,7 +138,9 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
         ranges.append([t.first_frame + sl.start, t.first_frame + sl.stop])
         markers = drop_excluded(t.markers[sl], pset, excluded)
         trials.append(TrialData(t.path, markers, t.times[sl]))
-        check_markers(t.path, pset.marker_names, trials[-1].markers, IKSettings().min_markers)
+        check_markers(
+            t.path, pset.marker_names, trials[-1].markers, recorded_floor(trials[-1].markers)
+        )
     to_check = [
         (t.path, d.markers, t.rate, r[0]) for t, d, r in zip(loaded, trials, ranges, strict=True)
     ]

@@ -25,7 +25,7 @@ import numpy as np
 
 from mocap_mj.anatomy.plausibility import AT_LIMIT_PRINT, joints_at_limit, limits_text
 from mocap_mj.anatomy.tissue import recorded_sliding_model
-from mocap_mj.capture.checks import check_markers
+from mocap_mj.capture.checks import check_markers, recorded_floor
 from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder, number
 from mocap_mj.outputs.write_fit import frame_range
 from mocap_mj.pipeline.motion import save_motion
@@ -107,9 +107,11 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--min-markers",
         type=number(int, least=1),
-        default=16,
+        default=None,
         metavar="N",
-        help="present markers a frame needs to be solved (default: 16)",
+        help="present markers a frame needs to be solved (default: 16, or three quarters of "
+        "the markers the trial records where it records fewer than 22, at least 4: a partial "
+        "set's frame with one marker occluded is solved)",
     )
     add_quality_options(p)
     add_force_flag(p)
@@ -142,6 +144,8 @@ def run(args: argparse.Namespace) -> int:
         raise MocapError(f"{trial.path}: --frames {args.frames} selects no frame")
     excluded = parse_marker_list(args.exclude_markers, pset.marker_names)
     trial = trial._replace(markers=drop_excluded(trial.markers, pset, excluded))
+    if args.min_markers is None:
+        args.min_markers = recorded_floor(trial.markers[sl])
     check_markers(trial.path, pset.marker_names, trial.markers[sl], args.min_markers)
     # frames in the recording's own numbering (tables, messages, summary)
     first = trial.first_frame + sl.start

@@ -21,7 +21,7 @@ from mocap_mj.anatomy.partial import Unmeasured, freeze_unmeasured, on_measured
 from mocap_mj.anatomy.ranges import NOMINAL_HEIGHT, kappa_ranges, theta_bounds
 from mocap_mj.anatomy.tissue import SLIDES, Slide, SlidingModel, sliding_weights
 from mocap_mj.anatomy.trunk import T10Placement, t10_placement
-from mocap_mj.capture.checks import check_determined
+from mocap_mj.capture.checks import check_determined, recorded_floor
 from mocap_mj.capture.subject import Subject
 from mocap_mj.long.chunks import Robust, Weigh, robust_loss, scratch_array
 from mocap_mj.long.long import result_at
@@ -30,7 +30,6 @@ from mocap_mj.pipeline.recipe import Recipe
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.consistency import pooled_correlation_time, trial_residuals
-from mocap_mj.solve.ik import IKSettings
 from mocap_mj.solve.lm import LMSettings, identify_lm
 from mocap_mj.solve.noise import (
     SOFT_TISSUE_SIGMA,
@@ -245,7 +244,7 @@ def _check_inputs(trials: Sequence[TrialData], pset: ParameterSet) -> None:
     check_determined(
         [t.name for t in trials],
         [t.markers for t in trials],
-        IKSettings().min_markers,
+        min(recorded_floor(t.markers) for t in trials),
         pset.model,
         int(np.sum(~pset.frozen)),
     )

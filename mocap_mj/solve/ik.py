@@ -45,6 +45,7 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from mocap_mj.capture.checks import frame_floor
 from mocap_mj.errors import MocapError, ShapeError, SolverError, check_shape
 from mocap_mj.kernels import _tree, _tree_ik
 from mocap_mj.kernels._threads import single_blas_thread
@@ -128,8 +129,10 @@ class IKSettings:
         Initial Marquardt damping (dimensionless, relative to diag(H)) of the adaptive rule.
     wbar : float
         Sugihara's constant damping term [m^2].
-    min_markers : int
+    min_markers : int or None
         Frames with fewer present markers are reported (status TOO_FEW_MARKERS), not solved.
+        None (default): :func:`mocap_mj.capture.checks.frame_floor` of the markers the call's
+        frames record (16 for a full set, three quarters of a partial set's, at least 4).
     chain_length : int
         Frames per chain (0: automatic: T / 16 clipped to [4, 32]).
     """
@@ -141,7 +144,7 @@ class IKSettings:
     tol_rmse: float = 1e-3
     mu0: float = 1e-6
     wbar: float = 1e-6
-    min_markers: int = 16
+    min_markers: int | None = None
     chain_length: int = 0
 
     def __post_init__(self) -> None:
@@ -149,7 +152,7 @@ class IKSettings:
             raise MocapError(f"damping must be 'adaptive' or 'sugihara', got {self.damping!r}")
         if self.max_iterations < 1:
             raise MocapError("iteration limits must be at least 1")
-        if self.min_markers < 1:
+        if self.min_markers is not None and self.min_markers < 1:
             raise MocapError("min_markers must be at least 1")
 
 
@@ -200,6 +203,12 @@ class IKSolver:
         self._pelvis_idx = _pelvis_markers(kin)
 
     # ------------------------------------------------------------------ input
+    def _floor(self, w: np.ndarray) -> int:
+        """Present markers a frame of these weights (T, M) needs (:class:`IKSettings`)."""
+        if self.settings.min_markers is not None:
+            return self.settings.min_markers
+        return frame_floor(int(np.count_nonzero(np.any(w > 0, axis=0))))
+
     def _prepare(
         self, markers: np.ndarray, weights: np.ndarray | None
     ) -> tuple[np.ndarray, np.ndarray]:
@@ -275,7 +284,7 @@ class IKSolver:
             qpos,
             limit,
             *self._kernel_settings(),
-            st.min_markers,
+            self._floor(w),
             min_block=min_block,
         )
         return IKResult(qpos, rmse, iterations, status, n_present)
@@ -430,7 +439,7 @@ class IKSolver:
                 ends[b : b + block] - s0,
                 st.max_iterations,
                 *settings,
-                st.min_markers,
+                self._floor(w),
             )
             qpos[rows], rmse[rows], iters[rows], status[rows] = q, r, it, stat
             if progress is not None:
@@ -476,7 +485,7 @@ class IKSolver:
         # Frames the chains' kernel starts from ``cold``: heads without a pose, and frames
         # after an unsolved one (too few markers).
         npres = np.count_nonzero(w > 0, axis=1)
-        few = npres < st.min_markers
+        few = npres < self._floor(w)
         needs = np.zeros(n, dtype=bool)
         needs[starts] = ~np.all(np.isfinite(cold[starts]), axis=1)
         needs[1:] |= few[:-1]
@@ -491,7 +500,7 @@ class IKSolver:
             ends,
             st.max_iterations,
             *self._kernel_settings(),
-            st.min_markers,
+            self._floor(w),
         )
         self._repair(markers, w, q, rmse, iters, status, npres)
         return IKResult(q, rmse, iters, status, npres)
@@ -576,7 +585,7 @@ class IKSolver:
             seams,
             st.max_iterations,
             *self._kernel_settings(),
-            st.min_markers,
+            self._floor(w),
         )
 
     def _seams(
