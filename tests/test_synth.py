@@ -12,6 +12,7 @@ from mocap_mj import MocapError, ParameterSet
 from mocap_mj.anatomy.anatomy import landmark_prior
 from mocap_mj.capture.marker_set import marker_class
 from mocap_mj.io import MarkerTrajectory, load_markers
+from mocap_mj.io.ownership import MARKER
 from mocap_mj.pipeline.motion import load_motion
 from mocap_mj.skeleton import rolling
 from mocap_mj.skeleton.exported import Layout
@@ -111,7 +112,7 @@ def test_same_seed_same_bytes(tmp_path: Path, corrupt: Experiment) -> None:
     a, b = tmp_path / "a", tmp_path / "b"
     summary = write_experiment(corrupt, a)
     write_experiment(synthesize(CORRUPT), b)
-    assert sorted(p.name for p in a.iterdir()) == sorted(FILES)
+    assert sorted(p.name for p in a.iterdir()) == sorted([*FILES, MARKER])  # + the marker
     for name in FILES:
         assert (a / name).read_bytes() == (b / name).read_bytes(), name
     assert summary["swapped"] and summary["files"] == list(FILES)

@@ -27,6 +27,7 @@ from mocap_mj.capture.marker_quality import (
 )
 from mocap_mj.capture.subject import Subject
 from mocap_mj.io.strict_json import jsonable
+from mocap_mj.kernels._threads import single_blas_thread
 from mocap_mj.long.motion_out import every_frame_motion, write_every_frame_motion
 from mocap_mj.pipeline.fit import Fit
 from mocap_mj.pipeline.motion import Motion
@@ -59,6 +60,7 @@ AUTO_SELECT_COUNT = 1000
 DEFAULT_RECIPE = Recipe()
 
 
+@single_blas_thread  # the command's arithmetic, bit for bit, whatever the caller's BLAS pool
 def identify(
     trials: Sequence[TrialData],
     recipe: Recipe = DEFAULT_RECIPE,
