@@ -55,13 +55,3 @@ def check_shape(name: str, array: object, shape: tuple[int | None, ...]) -> None
 
 class OutputFolderError(MocapError):
     """An output folder that cannot be written (a file, not empty, read-only, no permission)."""
-
-
-def yaml_problem(exc: Exception) -> str:
-    """A YAML parser's error as one line: ``line L, column C: <problem> (<context>)`` where
-    the parser marks the place (PyYAML's multi-line message quotes the text around it)."""
-    mark = getattr(exc, "problem_mark", None)
-    problem = getattr(exc, "problem", None) or " ".join(str(exc).split())
-    context = getattr(exc, "context", None)
-    where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
-    return where + str(problem) + (f" ({context})" if context else "")

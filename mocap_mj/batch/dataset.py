@@ -34,9 +34,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from ..errors import InputFileError, yaml_problem
+from ..errors import InputFileError, MocapError
+from ..io.yaml_file import read_yaml
 
 #: Per-subject options a manifest (or the ``batch`` command line) may set, with their type.
 OPTION_KEYS: dict[str, type] = {
@@ -77,9 +76,9 @@ class Subject:
         if self.subject_file is None:
             return None
         try:
-            data = yaml.safe_load(Path(self.subject_file).read_text())
+            data = read_yaml(self.subject_file, "subject file")
             value = float(data["height"]) if isinstance(data, dict) else None
-        except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError):
+        except (MocapError, KeyError, TypeError, ValueError):
             return None
         return value
 
@@ -164,12 +163,7 @@ def _from_csv(path: Path, base: dict[str, Any]) -> list[Subject]:
 
 
 def _from_yaml(path: Path, base: dict[str, Any]) -> list[Subject]:
-    try:
-        data = yaml.safe_load(path.read_text())
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputFileError(f"{path}: cannot read the manifest ({exc})") from None
-    except yaml.YAMLError as exc:
-        raise InputFileError(f"{path}: expected a YAML manifest: {yaml_problem(exc)}") from None
+    data = read_yaml(path, "manifest")
     if not isinstance(data, dict) or not isinstance(data.get("subjects"), list):
         raise InputFileError(f"{path}: expected a mapping with a 'subjects' list")
     given = data.get("options") or {}

@@ -29,7 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from mocap_mj.errors import InputFileError, MocapError, yaml_problem
+from mocap_mj.errors import InputFileError, MocapError
+from mocap_mj.io.yaml_file import read_yaml
 
 
 def sided(rows: Sequence[tuple[str, str, str]]) -> dict[str, tuple[str, str]]:
@@ -293,14 +294,7 @@ def parse_value(raw: Any, name: str, source: str, units: Mapping[str, float] = _
 def read_mapping(path: str | Path) -> Mapping[Any, Any]:
     """A YAML file's top-level mapping; one-line errors for an unreadable file or another
     shape."""
-    import yaml
-
-    try:
-        data = yaml.safe_load(Path(path).read_text())
-    except OSError as exc:
-        raise InputFileError(f"{path}: cannot read the subject file: {exc}") from None
-    except yaml.YAMLError as exc:
-        raise InputFileError(f"{path}: expected a YAML subject file: {yaml_problem(exc)}") from None
+    data = read_yaml(path, "subject file")
     if not isinstance(data, Mapping):
         raise InputFileError(f"{path}: expected a mapping of measurement names to values")
     return data

@@ -27,6 +27,7 @@ from mocap_mj.solve.losses import LossName
 
 from ..errors import InputFileError, MocapError
 from ..io.atomic import atomic_write_text
+from ..io.yaml_file import excerpt, read_yaml
 
 Init = Literal["placed", "scaled", "nominal"]
 #: Initial models (:attr:`Recipe.init`).
@@ -164,14 +165,13 @@ class Recipe:
         """The recipe in the YAML file ``path``: a mapping of field names to values; fields
         not named keep their defaults. Raises :class:`InputFileError` naming the file and
         the field for an unknown field or a value of the wrong kind."""
-        try:
-            data = yaml.safe_load(Path(path).read_text())
-        except (OSError, yaml.YAMLError) as exc:
-            raise InputFileError(f"{path}: cannot read the recipe ({exc})") from None
+        data = read_yaml(path, "recipe")
         if data is None:
             data = {}
         if not isinstance(data, dict):
-            raise InputFileError(f"{path}: expected a mapping of recipe fields, got {data!r}")
+            raise InputFileError(
+                f"{path}: expected a mapping of recipe fields, got {excerpt(data)}"
+            )
         return cls.from_dict(data, source=str(path))
 
     @classmethod
