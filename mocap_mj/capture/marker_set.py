@@ -41,9 +41,9 @@ import numpy as np
 import yaml
 
 from mocap_mj.capture.landmarks import LANDMARKS
-from mocap_mj.errors import InputFileError, UnknownNameError
+from mocap_mj.errors import InputFileError, UnknownNameError, excerpt
 from mocap_mj.io.atomic import atomic_write_text
-from mocap_mj.io.yaml_file import excerpt, read_yaml
+from mocap_mj.io.yaml_file import read_yaml
 from mocap_mj.skeleton.exported import internal_spec
 from mocap_mj.skeleton.mjcf import load_model, model_path
 

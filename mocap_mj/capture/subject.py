@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from mocap_mj.errors import InputFileError, MocapError
-from mocap_mj.io.yaml_file import excerpt, read_yaml
+from mocap_mj.errors import InputFileError, MocapError, excerpt
+from mocap_mj.io.yaml_file import read_yaml
 
 
 def sided(rows: Sequence[tuple[str, str, str]]) -> dict[str, tuple[str, str]]:

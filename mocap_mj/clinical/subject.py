@@ -36,8 +36,7 @@ from mocap_mj.capture.subject import (
     sided,
 )
 
-from ..errors import InputFileError, MocapError
-from ..io.yaml_file import excerpt
+from ..errors import InputFileError, MocapError, excerpt
 
 #: Plug-in Gait values that are not body measurements: name -> (unit inside, description).
 PIG_VALUES: dict[str, tuple[str, str]] = {

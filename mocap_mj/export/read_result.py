@@ -16,8 +16,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from mocap_mj.io.strict_json import read_object
-from mocap_mj.pipeline.motion import Motion, ResultDir, load_motion
+from mocap_mj.pipeline.motion import Motion, ResultDir, load_motion, read_summary
 from mocap_mj.skeleton import rolling
 from mocap_mj.skeleton.mjcf import load_model
 
@@ -85,5 +84,5 @@ def load_result(path: str | Path, motion_path: str | Path | None = None) -> Expo
         raise InputFileError(f"{rd.motion}: marker names differ from the sites of {rd.model}")
     summary: dict[str, Any] = {}
     if (rd.root / "summary.json").is_file():
-        summary = read_object(rd.root / "summary.json", "the result's summary (a JSON object)")
+        summary = read_summary(rd.root / "summary.json")
     return ExportSource(rd.root, rd.model, model, motion, summary)

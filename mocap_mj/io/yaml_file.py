@@ -13,7 +13,8 @@ never is, before the parser or the caller sees it:
 - a syntax error: the parser's message as one line ``line L, column C: problem`` without the
   parser's excerpt of the text.
 
-No message echoes the document: :func:`excerpt` caps any value a caller quotes.
+No message echoes the document: :func:`mocap_mj.errors.excerpt` caps any value a caller
+quotes.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from typing import Any
 
 import yaml
 
-from ..errors import InputFileError
+from ..errors import EXCERPT, InputFileError
 
 #: Largest YAML file read [bytes] (1 MiB).
 MAX_BYTES = 1 << 20
@@ -32,10 +33,8 @@ MAX_BYTES = 1 << 20
 MAX_DEPTH = 64
 #: Most values (scalars, sequences, mappings) a document stands for, aliases expanded.
 MAX_VALUES = 200_000
-#: Longest excerpt of a value or message quoted in an error [characters].
-EXCERPT = 80
 
-__all__ = ["EXCERPT", "MAX_BYTES", "MAX_DEPTH", "MAX_VALUES", "excerpt", "parse_yaml", "read_yaml"]
+__all__ = ["MAX_BYTES", "MAX_DEPTH", "MAX_VALUES", "parse_yaml", "read_text", "read_yaml"]
 
 
 class _Refused(Exception):
@@ -61,30 +60,6 @@ class _GuardedLoader(yaml.SafeLoader):
             return super().compose_node(parent, index)
         finally:
             self._depth -= 1
-
-
-def excerpt(value: object, limit: int = EXCERPT) -> str:
-    """``repr(value)`` on one line, cut to ``limit`` characters with "..." when longer.
-
-    A container is shown by its type and length alone when its repr would be long, so that a
-    document of shared (aliased) values is never expanded into a message."""
-    if isinstance(value, dict | list | tuple | set) and len(value) > 8:
-        return f"a {type(value).__name__} of {len(value)} entries"
-    try:
-        text = " ".join(_short_repr(value).split())
-    except RecursionError:
-        return f"a {type(value).__name__}"
-    return text if len(text) <= limit else text[: limit - 3] + "..."
-
-
-def _short_repr(value: object) -> str:
-    """A bounded repr: at most a few entries per container and levels deep."""
-    import reprlib
-
-    short = reprlib.Repr()
-    short.maxlevel, short.maxlist, short.maxdict, short.maxstring = 3, 6, 6, 60
-    short.maxother = 60
-    return short.repr(value)
 
 
 def _expanded(node: yaml.Node) -> int:

@@ -26,7 +26,7 @@ from mocap_mj.capture.marker_set import marked_bodies
 from mocap_mj.errors import InputFileError
 from mocap_mj.io.strict_json import read_object
 from mocap_mj.kernels._threads import single_blas_thread
-from mocap_mj.pipeline.motion import Motion, load_motion
+from mocap_mj.pipeline.motion import Motion, load_motion, read_summary
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.centres import joint_centre_bound
@@ -97,7 +97,7 @@ def score(
     truth_motion = load_motion(truth_dir / "truth_motion.npz", pset.model)
     theta_hat = pset.load_json(result_dir / "theta.json")
     # a result folder is whole only with its summary (a damaged one is named, not scored)
-    read_object(result_dir / "summary.json", "the result's summary (a JSON object)")
+    read_summary(result_dir / "summary.json")
     motion = load_motion(result_dir / "motion.npz", pset.model)
     idf = Identifiability.from_json(
         pset,

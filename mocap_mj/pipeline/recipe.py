@@ -24,9 +24,9 @@ import yaml
 from mocap_mj.solve.lm import LMSettings, Performance, Tolerances
 from mocap_mj.solve.losses import LossName
 
-from ..errors import InputFileError, MocapError
+from ..errors import InputFileError, MocapError, excerpt
 from ..io.atomic import atomic_write_text
-from ..io.yaml_file import excerpt, read_yaml
+from ..io.yaml_file import read_yaml
 
 Init = Literal["placed", "scaled", "nominal"]
 #: Initial models (:attr:`Recipe.init`).
