@@ -103,7 +103,28 @@ def load_dataset(path: str | Path, defaults: Mapping[str, Any] | None = None) ->
         raise InputFileError(f"{root}: expected a folder, a .csv or a .yaml manifest")
     if not subjects:
         raise InputFileError(f"{root}: no subject found")
+    check_files(subjects)
     return sorted(subjects, key=lambda s: s.name)
+
+
+def check_files(subjects: list[Subject]) -> None:
+    """Read every recipe, marker map and YAML subject file the subjects name, each once,
+    before any work: a bad file is refused up front with its one line (naming it), not in
+    every subject it would fail."""
+    from mocap_mj.capture.subject import from_yaml
+    from mocap_mj.io.names import load_marker_map
+    from mocap_mj.pipeline.recipe import Recipe
+
+    readers: dict[str, Any] = {"recipe": Recipe.load, "marker_map": load_marker_map}
+    seen: set[tuple[str, str]] = set()
+    for subject in subjects:
+        files = [(key, subject.options.get(key)) for key in readers]
+        if subject.subject_file and Path(subject.subject_file).suffix.lower() in (".yaml", ".yml"):
+            files.append(("subject_file", subject.subject_file))
+        for key, path in files:
+            if path and (key, str(path)) not in seen:
+                seen.add((key, str(path)))
+                (from_yaml if key == "subject_file" else readers[key])(path)
 
 
 def _from_tree(root: Path, base: dict[str, Any]) -> list[Subject]:
