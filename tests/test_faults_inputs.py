@@ -28,7 +28,7 @@ import tempfile
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import pytest
@@ -420,12 +420,23 @@ def motion_fault(draw: st.DrawFn, good: dict[str, np.ndarray]) -> tuple[str, byt
     return kind, npz_bytes(a)
 
 
+class Fault(NamedTuple):
+    """A damaged file of a result folder: its name, what was done, its bytes (not shown)."""
+
+    name: str
+    how: str
+    content: bytes
+
+    def __repr__(self) -> str:
+        return f"Fault({self.name!r}, {self.how!r}, {len(self.content)} bytes)"
+
+
 def _truncated(raw: bytes, fraction: float) -> bytes:
     return raw[: int(len(raw) * fraction)]
 
 
 @st.composite
-def folder_fault(draw: st.DrawFn, folder: Path, reads: tuple[str, ...]) -> tuple[str, str, bytes]:
+def folder_fault(draw: st.DrawFn, folder: Path, reads: tuple[str, ...]) -> Fault:
     """(file, what was done, its damaged bytes) for one of the files ``reads`` of ``folder``."""
     name = draw(st.sampled_from(reads))
     raw = (folder / name).read_bytes()
@@ -433,38 +444,48 @@ def folder_fault(draw: st.DrawFn, folder: Path, reads: tuple[str, ...]) -> tuple
     if name == "motion.npz":
         how = draw(st.sampled_from(["truncated", "arrays"]))
         if how == "truncated":
-            return name, "truncated", _truncated(raw, cut)
+            return Fault(name, "truncated", _truncated(raw, cut))
         kind, content = draw(motion_fault(_arrays(folder / name)))
-        return name, kind, content
+        return Fault(name, kind, content)
     if name == "model.xml":
         how = draw(st.sampled_from(["truncated", "other model", "binary"]))
         if how == "truncated":
-            return name, how, _truncated(raw, cut)
+            return Fault(name, how, _truncated(raw, cut))
         if how == "binary":
-            return name, how, b"\x00\x01\xff" * draw(st.integers(1, 100))
+            return Fault(name, how, b"\x00\x01\xff" * draw(st.integers(1, 100)))
         other = (
             '<mujoco><worldbody><body name="b"><freejoint/><geom size="0.1"/>'
             '<site name="s"/></body></worldbody></mujoco>'
         )
-        return name, how, other.encode()
+        return Fault(name, how, other.encode())
     how = draw(st.sampled_from(["truncated", "wrong types", "not an object"]))
     if how == "truncated":
-        return name, how, _truncated(raw, cut)
+        return Fault(name, how, _truncated(raw, cut))
     if how == "not an object":
-        return name, how, draw(st.sampled_from([b"[]", b"1", b'"x"', b"null"]))
+        return Fault(name, how, draw(st.sampled_from([b"[]", b"1", b'"x"', b"null"])))
     value = draw(st.sampled_from(["x", [1], None, 1e30, True]))
-    return name, how, json.dumps(dict.fromkeys(json.loads(raw), value)).encode()
+    return Fault(name, how, json.dumps(dict.fromkeys(json.loads(raw), value)).encode())
 
 
-def _render_runs(result: Path) -> bool:
-    """Whether ``render`` works here (an OpenGL context offscreen), on the good result."""
-    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+def _render(result: Path) -> subprocess.CompletedProcess[str]:
+    """``render`` of frame 0 of ``result`` in its own process, offscreen (MUJOCO_GL=egl unless
+    set: the platform is chosen when MuJoCo's renderer first loads)."""
+    gl = os.environ.get("MUJOCO_GL", "egl")
+    env = {**os.environ, "MUJOCO_GL": gl, "PYOPENGL_PLATFORM": gl}
     with tempfile.TemporaryDirectory() as folder:
-        proc = subprocess.run(
+        return subprocess.run(
             [sys.executable, "-m", "mocap_mj", "render", str(result), "--frame", "0",
              "--out", str(Path(folder) / "x.png")],
             capture_output=True, text=True, timeout=300, env=env,
         )  # fmt: skip
+
+
+def _render_runs(result: Path) -> bool:
+    """Whether ``render`` works here on the good result; False only when no OpenGL context
+    opens (any other failure fails the calling test)."""
+    proc = _render(result)
+    if proc.returncode != 0:
+        assert "cannot render" in proc.stderr, proc.stderr
     return proc.returncode == 0
 
 
@@ -492,13 +513,12 @@ def test_corrupted_result_folders_are_refused(
     if command == "render":
         if not _render_runs(data["result"]):
             pytest.skip("render cannot open an OpenGL context here (MUJOCO_GL=egl)")
-        os.environ.setdefault("MUJOCO_GL", "egl")
     work = data["root"] / "corrupt"
 
     @FUZZ
     @given(fault=folder_fault(data["result"], reads))
-    def check(fault: tuple[str, str, bytes]) -> None:
-        name, how, content = fault
+    def check(fault: Fault) -> None:
+        name, how, content = fault.name, fault.how, fault.content
         shutil.rmtree(work, ignore_errors=True)
         result = work / "result"
         shutil.copytree(data["result"], result)
@@ -519,9 +539,12 @@ def test_corrupted_result_folders_are_refused(
 def test_the_good_result_folder_is_read(
     command: str, data: dict[str, Path], capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
-    """The control: the folder the faults are made from passes every command."""
-    if command == "render" and not _render_runs(data["result"]):
-        pytest.skip("render cannot open an OpenGL context here (MUJOCO_GL=egl)")
+    """The control: the folder the faults are made from passes every command (render in its
+    own process, which chooses the OpenGL platform)."""
+    if command == "render":
+        if not _render_runs(data["result"]):
+            pytest.skip("render cannot open an OpenGL context here (MUJOCO_GL=egl)")
+        return
     result = tmp_path / "result"
     shutil.copytree(data["result"], result)
     out = tmp_path / "out"
@@ -541,7 +564,7 @@ def _value(action: argparse.Action) -> str:
     """A value ``action`` accepts."""
     if action.choices:
         return str(next(iter(action.choices)))
-    for candidate in ("1", "0:10", "x", "a.yaml"):
+    for candidate in ("1", "0:10", "640x480", "x", "a.yaml"):
         try:
             convert = action.type
             if convert is None or (callable(convert) and convert(candidate) is not None):
@@ -584,7 +607,13 @@ def test_a_repeated_option_is_refused_or_accumulates(
     parser = _subparsers()[command]
     flag, value = action.option_strings[0], _value(action)
     if action.nargs in ("+", "*"):
-        args, _ = parser.parse_known_args([flag, value, flag, value, value])
+        others = [
+            part
+            for a in parser._actions
+            if a.required and a.option_strings and a.dest != action.dest
+            for part in (a.option_strings[0], _value(a))
+        ]
+        args, _ = parser.parse_known_args([*others, flag, value, flag, value, value])
         assert getattr(args, action.dest) == [action.type(value) if action.type else value] * 3
         return
     with pytest.raises(SystemExit) as info:

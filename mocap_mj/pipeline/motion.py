@@ -211,11 +211,12 @@ def check_motion_arrays(arrays: dict[str, np.ndarray], source: str) -> Motion:
 def _check_quaternions(model: mujoco.MjModel, qpos: np.ndarray, source: str) -> None:
     """Refuse a free or ball joint's quaternion that is not of unit norm in a solved frame."""
     solved = qpos[np.isfinite(qpos).all(axis=1)]
+    free, ball = int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_BALL)
     for j in range(model.njnt):
-        kind = model.jnt_type[j]
-        if kind not in (mujoco.mjtJoint.mjJNT_FREE, mujoco.mjtJoint.mjJNT_BALL):
+        kind = int(model.jnt_type[j])
+        if kind not in (free, ball):
             continue
-        start = model.jnt_qposadr[j] + (3 if kind == mujoco.mjtJoint.mjJNT_FREE else 0)
+        start = int(model.jnt_qposadr[j]) + (3 if kind == free else 0)
         norm = np.linalg.norm(solved[:, start : start + 4], axis=1)
         if np.any(np.abs(norm - 1.0) > QUAT_TOLERANCE):
             raise InputFileError(
