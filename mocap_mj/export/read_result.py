@@ -78,7 +78,7 @@ def load_result(path: str | Path, motion_path: str | Path | None = None) -> Expo
     if motion_path is not None:
         rd = ResultDir(rd.root, rd.model, Path(motion_path))
     model = load_model(rd.model)
-    motion = load_motion(rd.motion, model)
+    motion = load_motion(rd.motion, model, rd.model)
     sites = tuple(model.site(i).name for i in range(model.nsite))
     if motion.marker_names != sites:
         raise InputFileError(f"{rd.motion}: marker names differ from the sites of {rd.model}")

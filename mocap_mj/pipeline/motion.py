@@ -110,7 +110,9 @@ MOTION_LIMIT = 1e3
 QUAT_TOLERANCE = 1e-3
 
 
-def load_motion(path: str | Path, model: mujoco.MjModel | None = None) -> Motion:
+def load_motion(
+    path: str | Path, model: mujoco.MjModel | None = None, model_path: str | Path | None = None
+) -> Motion:
     """Read a :class:`Motion` written by :func:`save_motion`. With ``model`` (the tool's
     model, :func:`mocap_mj.skeleton.mjcf.load_model`), qpos is converted to its layout
     (:meth:`mocap_mj.skeleton.exported.Layout.read`: the written slide columns dropped; a motion
@@ -119,7 +121,8 @@ def load_motion(path: str | Path, model: mujoco.MjModel | None = None) -> Motion
     Every array is checked before it is used (:func:`check_motion_arrays`): a truncated file,
     another dtype or shape, values beyond :data:`MOTION_LIMIT`, times that do not increase
     or no frame raise :class:`~mocap_mj.errors.InputFileError`, one line naming the file and
-    what was expected."""
+    what was expected; ``model_path`` (the file of ``model``) is named too when the motion's
+    columns are not of that model."""
     path = Path(path)
     try:
         with np.load(path) as data:
@@ -134,7 +137,12 @@ def load_motion(path: str | Path, model: mujoco.MjModel | None = None) -> Motion
     motion = check_motion_arrays(arrays, str(path))
     if model is None:
         return motion
-    qpos = Layout.of(model).read(motion.qpos, str(path))
+    try:
+        qpos = Layout.of(model).read(motion.qpos, str(path))
+    except InputFileError as exc:
+        if model_path is None:
+            raise
+        raise InputFileError(f"{exc}: {model_path} is not this motion's model") from None
     _check_quaternions(model, qpos, str(path))
     return Motion(qpos, motion.times, motion.markers, motion.marker_names, None, motion.first_frame)
 
