@@ -4,7 +4,7 @@ A recipe, a subject file, a marker set, a marker map or a batch manifest is a sm
 file written by a person. The loader refuses, with one line naming the file, what such a file
 never is, before the parser or the caller sees it:
 
-- more than :data:`MAX_BYTES` (1 MiB: the largest bundled marker set is about 10 kB);
+- more than :data:`MAX_BYTES` (1 MiB: the largest bundled marker set is about 7 kB);
 - binary (a NUL byte) or not UTF-8 text (a latin-1 file names its first bad byte and offset);
 - collections nested deeper than :data:`MAX_DEPTH` levels (the parser's composer recurses once
   per level, so a deep file would otherwise end in Python's recursion limit);
