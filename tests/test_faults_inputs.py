@@ -441,13 +441,13 @@ def folder_fault(draw: st.DrawFn, folder: Path, reads: tuple[str, ...]) -> Fault
     name = draw(st.sampled_from(reads))
     raw = (folder / name).read_bytes()
     cut = draw(st.floats(0.0, 0.95))
-    if name == "motion.npz":
+    if name.endswith(".npz"):
         how = draw(st.sampled_from(["truncated", "arrays"]))
         if how == "truncated":
             return Fault(name, "truncated", _truncated(raw, cut))
         kind, content = draw(motion_fault(_arrays(folder / name)))
         return Fault(name, kind, content)
-    if name == "model.xml":
+    if name.endswith(".xml"):
         how = draw(st.sampled_from(["truncated", "other model", "binary"]))
         if how == "truncated":
             return Fault(name, how, _truncated(raw, cut))
@@ -489,18 +489,23 @@ def _render_runs(result: Path) -> bool:
     return proc.returncode == 0
 
 
-#: Each command reading a result folder: (the files it reads, argv given the folder and an
-#: output path).
-RESULT_COMMANDS: dict[str, tuple[tuple[str, ...], Callable[[Path, Path, Path], list[Any]]]] = {
-    "export mot": (("model.xml", "motion.npz", "summary.json"),
+#: Each command reading a result folder: (the folder damaged, "result" or the synthetic truth
+#: "synth"; the files of it the command reads; argv given the result, the truth and an output
+#: folder).
+RESULT_COMMANDS: dict[
+    str, tuple[str, tuple[str, ...], Callable[[Path, Path, Path], list[Any]]]
+] = {
+    "export mot": ("result", ("model.xml", "motion.npz", "summary.json"),
                    lambda r, s, o: ["export", r, "--to", "mot", "--out", o / "x.mot"]),
-    "export trc": (("model.xml", "motion.npz", "summary.json"),
+    "export trc": ("result", ("model.xml", "motion.npz", "summary.json"),
                    lambda r, s, o: ["export", r, "--to", "trc", "--out", o / "x.trc"]),
-    "export c3d": (("model.xml", "motion.npz", "summary.json"),
+    "export c3d": ("result", ("model.xml", "motion.npz", "summary.json"),
                    lambda r, s, o: ["export", r, "--to", "c3d", "--out", o / "x.c3d"]),
-    "score": (("motion.npz", "summary.json", "theta.json", "identifiability.json"),
+    "score": ("result", ("motion.npz", "summary.json", "theta.json", "identifiability.json"),
               lambda r, s, o: ["score", "--truth", s, "--result", r]),
-    "render": (("model.xml", "motion.npz"),
+    "score truth": ("synth", ("truth.json", "truth_motion.npz"),
+                    lambda r, s, o: ["score", "--truth", s, "--result", r]),
+    "render": ("result", ("model.xml", "motion.npz"),
                lambda r, s, o: ["render", r, "--frame", "0", "--out", o / "x.png"]),
 }  # fmt: skip
 
@@ -509,24 +514,25 @@ RESULT_COMMANDS: dict[str, tuple[tuple[str, ...], Callable[[Path, Path, Path], l
 def test_corrupted_result_folders_are_refused(
     command: str, data: dict[str, Path], capsys: pytest.CaptureFixture[str]
 ) -> None:
-    reads, argv = RESULT_COMMANDS[command]
+    damaged, reads, argv = RESULT_COMMANDS[command]
     if command == "render":
         if not _render_runs(data["result"]):
             pytest.skip("render cannot open an OpenGL context here (MUJOCO_GL=egl)")
     work = data["root"] / "corrupt"
 
     @FUZZ
-    @given(fault=folder_fault(data["result"], reads))
+    @given(fault=folder_fault(data[damaged], reads))
     def check(fault: Fault) -> None:
         name, how, content = fault.name, fault.how, fault.content
         shutil.rmtree(work, ignore_errors=True)
-        result = work / "result"
+        result, truth = work / "result", work / "synth"
         shutil.copytree(data["result"], result)
-        (result / name).write_bytes(content)
+        shutil.copytree(data["synth"], truth)
+        (work / damaged / name).write_bytes(content)
         out = work / "out"
         out.mkdir()
-        code, lines = cli(capsys, *argv(result, data["synth"], out))
-        line = refused(code, lines, result / name)
+        code, lines = cli(capsys, *argv(result, truth, out))
+        line = refused(code, lines, work / damaged / name)
         if how == "other model":  # named beside the motion that does not fit it
             assert str(result / "motion.npz") in line, line
         assert list(out.iterdir()) == [], how
@@ -549,7 +555,7 @@ def test_the_good_result_folder_is_read(
     shutil.copytree(data["result"], result)
     out = tmp_path / "out"
     out.mkdir()
-    code, lines = cli(capsys, *RESULT_COMMANDS[command][1](result, data["synth"], out))
+    code, lines = cli(capsys, *RESULT_COMMANDS[command][2](result, data["synth"], out))
     assert code == 0, lines
 
 
