@@ -190,6 +190,10 @@ YAML_COMMANDS: dict[str, Callable[[Path, dict[str, Path], Path], list[str | Path
                                        "--serial"],
     "plug-in-gait --subject-file": lambda f, d, o: ["plug-in-gait", "--markers", d["markers"],
                                                     "--subject-file", f, "--out", o],
+    "marker-sets --marker-set": lambda f, d, o: ["marker-sets", "--check", d["markers"],
+                                                 "--marker-set", f],
+    "marker-sets --marker-map": lambda f, d, o: ["marker-sets", "--check", d["markers"],
+                                                 "--marker-map", f],
 }  # fmt: skip
 
 
