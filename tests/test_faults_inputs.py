@@ -304,6 +304,23 @@ def test_a_hostile_recipe_number_through_identify(
     assert not out.exists()
 
 
+@FUZZ
+@given(
+    frames=st.one_of(
+        st.sampled_from(["abc", "1", "1:2:3", "a:b", "1.5:3", "0:10:2", "--1", "0;10"]),
+        st.from_regex(r"[a-z]{1,6}(:[a-z0-9]{0,3})?", fullmatch=True),
+    )
+)
+def test_batch_refuses_bad_frames_before_any_subject(
+    frames: str, data: dict[str, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = data["root"] / "batch-frames"
+    code, lines = cli(capsys, "batch", data["dataset"], f"--frames={frames}", "--out", out,
+                      "--serial")  # fmt: skip
+    refused(code, lines, "--frames")
+    assert not out.exists()
+
+
 @st.composite
 def hostile_measurement(draw: st.DrawFn) -> tuple[str, Any]:
     """(measurement, a YAML value no person has: out of range, NaN, inf, a unit of another

@@ -248,7 +248,20 @@ def _checked_options(where: str, options: Mapping[str, Any], base: Path) -> dict
             raise InputFileError(f"{where}: option {key!r} expects {kind}, got {value!r}") from None
         if key in PATH_OPTIONS:
             out[key] = _resolve(base, out[key])
+        _check_value(where, key, out[key])
     return out
+
+
+def _check_value(where: str, key: str, value: Any) -> None:
+    """Refuse a ``frames`` text that is not ``A:B`` before any subject runs (its bounds are
+    checked against each trial)."""
+    if key == "frames":
+        from mocap_mj.outputs.write_fit import frame_range
+
+        try:
+            frame_range(value, 1 << 62)
+        except MocapError as exc:
+            raise InputFileError(f"{where}: {exc}") from None
 
 
 # ----------------------------------------------------------------------------- hashing
