@@ -191,14 +191,14 @@ def check_motion_arrays(arrays: dict[str, np.ndarray], source: str) -> Motion:
         k = int(np.argmin(np.diff(times) > 0))
         raise InputFileError(
             f"{source}: times: expected strictly increasing seconds, got {times[k]:.6g} then "
-            f"{times[k + 1]:.6g} at frames {k}, {k + 1}"
+            f"{times[k + 1]:.6g} in rows {k}, {k + 1}"
         )
     rows = np.isfinite(qpos)
     partial = np.flatnonzero(rows.any(axis=1) & ~rows.all(axis=1))
     if len(partial) or np.isinf(qpos).any():
         k = int(partial[0]) if len(partial) else int(np.flatnonzero(np.isinf(qpos).any(axis=1))[0])
         raise InputFileError(
-            f"{source}: qpos: frame {k}: expected every value finite (or NaN only: not solved)"
+            f"{source}: qpos: row {k}: expected every value finite (or NaN only: not solved)"
         )
     if not rows.all(axis=1).any():
         raise InputFileError(f"{source}: qpos: expected at least one solved frame, got none")
