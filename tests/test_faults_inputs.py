@@ -3,7 +3,8 @@
 1. Hostile YAML (binary, latin-1, nested thousands deep, alias bombs, oversized, syntax
    errors) against every command that reads a YAML file.
 2. Hostile numbers (0, 1e-300, inf, NaN, negative, out of range, of another unit) in every
-   numeric recipe field and every subject measurement.
+   numeric recipe field, every subject measurement and Plug-in Gait value; malformed
+   ``batch --frames``.
 3. Corrupted result folders (truncated or foreign model.xml, motion.npz with bad dtypes,
    shapes, non-finite or huge values, bad times, no frames; summary.json and the other JSON
    files truncated or of wrong types) against ``export``, ``score`` and ``render``.
