@@ -6,7 +6,11 @@ Every error the library raises on bad input derives from :class:`MocapError`, so
 
 from __future__ import annotations
 
+import reprlib
 from collections.abc import Iterable
+
+#: Longest excerpt of a value or message quoted in an error [characters].
+EXCERPT = 80
 
 
 class MocapError(Exception):
@@ -57,11 +61,23 @@ class OutputFolderError(MocapError):
     """An output folder that cannot be written (a file, not empty, read-only, no permission)."""
 
 
-def yaml_problem(exc: Exception) -> str:
-    """A YAML parser's error as one line: ``line L, column C: <problem> (<context>)`` where
-    the parser marks the place (PyYAML's multi-line message quotes the text around it)."""
-    mark = getattr(exc, "problem_mark", None)
-    problem = getattr(exc, "problem", None) or " ".join(str(exc).split())
-    context = getattr(exc, "context", None)
-    where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
-    return where + str(problem) + (f" ({context})" if context else "")
+def excerpt(value: object, limit: int = EXCERPT) -> str:
+    """``repr(value)`` on one line, cut to ``limit`` characters with "..." when longer.
+
+    A container is shown by its type and length alone when its repr would be long, so that a
+    document of shared (aliased) values is never expanded into a message."""
+    if isinstance(value, dict | list | tuple | set) and len(value) > 8:
+        return f"a {type(value).__name__} of {len(value)} entries"
+    try:
+        text = " ".join(_short_repr(value).split())
+    except RecursionError:
+        return f"a {type(value).__name__}"
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _short_repr(value: object) -> str:
+    """A bounded repr: at most a few entries per container and levels deep."""
+    short = reprlib.Repr()
+    short.maxlevel, short.maxlist, short.maxdict, short.maxstring = 3, 6, 6, 60
+    short.maxother = 60
+    return short.repr(value)

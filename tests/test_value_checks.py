@@ -144,9 +144,11 @@ def _identify(markers: Path, out: Path, *flags: str) -> tuple[int, str, str]:
         (["--subject-file", "{s}"], "{s}: knee_width_r: expected a distance between the femoral "
          "epicondyles (right) within 30..300 mm (any person), got 5000 mm"),
         (["--mass", "nan"], "--mass: expected a body mass within 2..650 kg (any person), got nan"),
-        (["--recipe", "{r0}"], "{r0}: observable_std: expected a number > 0, got 0"),
-        (["--recipe", "{r1}"], "{r1}: observable_std: expected a number > 0, got -0.001"),
-        (["--recipe", "{r2}"], "{r2}: symmetric: expected a width > 0 m, got 0"),
+        (["--recipe", "{r0}"], "{r0}: observable_std: expected a standard deviation in m "
+                               "within 1e-05..1, got 0"),
+        (["--recipe", "{r1}"], "{r1}: observable_std: expected a standard deviation in m "
+                               "within 1e-05..1, got -0.001"),
+        (["--recipe", "{r2}"], "{r2}: symmetric: expected a width in m within 0.0001..1, got 0"),
     ],
 )  # fmt: skip
 def test_values_no_person_has_are_refused_naming_the_flag_and_range(

@@ -214,7 +214,7 @@ def load_playback(
             raise MocapError("give either a result folder or --model/--motion/--markers")
         res = ResultDir.open(result_dir)
         mj_model = load_model(res.model)
-        motion_ = load_motion(res.motion, mj_model)
+        motion_ = load_motion(res.motion, mj_model, res.model)
         return _from_motion(mj_model, res.model, motion_, str(res.root), True)
     if motion is None and markers is None:
         raise MocapError("nothing to show: give a result folder, --motion or --markers")
@@ -234,7 +234,7 @@ def load_playback(
         )
         traj_times = np.asarray(traj.times, dtype=float)
     if motion is not None:
-        pb = _from_motion(mj_model, path, load_motion(motion, mj_model), str(motion), True)
+        pb = _from_motion(mj_model, path, load_motion(motion, mj_model, path), str(motion), True)
         if traj_pos is None:
             return pb
         if len(traj_pos) != pb.n_frames:

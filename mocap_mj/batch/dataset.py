@@ -34,9 +34,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from ..errors import InputFileError, yaml_problem
+from ..errors import InputFileError, MocapError
+from ..io.yaml_file import read_yaml
 
 #: Per-subject options a manifest (or the ``batch`` command line) may set, with their type.
 OPTION_KEYS: dict[str, type] = {
@@ -80,9 +79,9 @@ class Subject:
         if self.subject_file is None:
             return None
         try:
-            data = yaml.safe_load(Path(self.subject_file).read_text())
+            data = read_yaml(self.subject_file, "subject file")
             value = float(data["height"]) if isinstance(data, dict) else None
-        except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError):
+        except (MocapError, KeyError, TypeError, ValueError):
             return None
         return value
 
@@ -107,7 +106,28 @@ def load_dataset(path: str | Path, defaults: Mapping[str, Any] | None = None) ->
         raise InputFileError(f"{root}: expected a folder, a .csv or a .yaml manifest")
     if not subjects:
         raise InputFileError(f"{root}: no subject found")
+    check_files(subjects)
     return sorted(subjects, key=lambda s: s.name)
+
+
+def check_files(subjects: list[Subject]) -> None:
+    """Read every recipe, marker map and YAML subject file the subjects name, each once,
+    before any work: a bad file is refused up front with its one line (naming it), not in
+    every subject it would fail."""
+    from mocap_mj.capture.subject import from_yaml
+    from mocap_mj.io.names import load_marker_map
+    from mocap_mj.pipeline.recipe import Recipe
+
+    readers: dict[str, Any] = {"recipe": Recipe.load, "marker_map": load_marker_map}
+    seen: set[tuple[str, str]] = set()
+    for subject in subjects:
+        files = [(key, subject.options.get(key)) for key in readers]
+        if subject.subject_file and Path(subject.subject_file).suffix.lower() in (".yaml", ".yml"):
+            files.append(("subject_file", subject.subject_file))
+        for key, path in files:
+            if path and (key, str(path)) not in seen:
+                seen.add((key, str(path)))
+                (from_yaml if key == "subject_file" else readers[key])(path)
 
 
 def _from_tree(root: Path, base: dict[str, Any]) -> list[Subject]:
@@ -167,12 +187,7 @@ def _from_csv(path: Path, base: dict[str, Any]) -> list[Subject]:
 
 
 def _from_yaml(path: Path, base: dict[str, Any]) -> list[Subject]:
-    try:
-        data = yaml.safe_load(path.read_text())
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputFileError(f"{path}: cannot read the manifest ({exc})") from None
-    except yaml.YAMLError as exc:
-        raise InputFileError(f"{path}: expected a YAML manifest: {yaml_problem(exc)}") from None
+    data = read_yaml(path, "manifest")
     if not isinstance(data, dict) or not isinstance(data.get("subjects"), list):
         raise InputFileError(f"{path}: expected a mapping with a 'subjects' list")
     given = data.get("options") or {}
@@ -241,7 +256,20 @@ def _checked_options(where: str, options: Mapping[str, Any], base: Path) -> dict
             raise InputFileError(f"{where}: option {key!r} expects {kind}, got {value!r}") from None
         if key in PATH_OPTIONS:
             out[key] = _resolve(base, out[key])
+        _check_value(where, key, out[key])
     return out
+
+
+def _check_value(where: str, key: str, value: Any) -> None:
+    """Refuse a ``frames`` text that is not ``A:B`` before any subject runs (its bounds are
+    checked against each trial)."""
+    if key == "frames":
+        from mocap_mj.outputs.write_fit import frame_range
+
+        try:
+            frame_range(value, 1 << 62)
+        except MocapError as exc:
+            raise InputFileError(f"{where}: {exc}") from None
 
 
 # ----------------------------------------------------------------------------- hashing

@@ -41,8 +41,9 @@ import numpy as np
 import yaml
 
 from mocap_mj.capture.landmarks import LANDMARKS
-from mocap_mj.errors import InputFileError, UnknownNameError
+from mocap_mj.errors import InputFileError, UnknownNameError, excerpt
 from mocap_mj.io.atomic import atomic_write_text
+from mocap_mj.io.yaml_file import read_yaml
 from mocap_mj.skeleton.exported import internal_spec
 from mocap_mj.skeleton.mjcf import load_model, model_path
 
@@ -138,15 +139,11 @@ def load_marker_set(path: str | os.PathLike[str]) -> MarkerSet:
         the file, the entry's position and name, and what was expected).
     """
     file = Path(path)
-    try:
-        data = yaml.safe_load(file.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputFileError(f"{file}: cannot read the marker set: {exc}") from exc
-    except yaml.YAMLError as exc:
-        first = " ".join(str(exc).split())[:120]
-        raise InputFileError(f"{file}: expected a YAML marker set, got {first}") from exc
+    data = read_yaml(file, "marker set")
     if not isinstance(data, dict) or not isinstance(data.get("markers"), list):
-        raise InputFileError(f"{file}: expected a mapping with a 'markers' list, got {data!r:.60}")
+        raise InputFileError(
+            f"{file}: expected a mapping with a 'markers' list, got {excerpt(data)}"
+        )
     markers = tuple(_marker(file, k, entry) for k, entry in enumerate(data["markers"]))
     names = [m.name for m in markers]
     dupes = sorted({n for n in names if names.count(n) > 1})

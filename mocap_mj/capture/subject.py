@@ -29,7 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from mocap_mj.errors import InputFileError, MocapError, yaml_problem
+from mocap_mj.errors import InputFileError, MocapError, excerpt
+from mocap_mj.io.yaml_file import read_yaml
 
 
 def sided(rows: Sequence[tuple[str, str, str]]) -> dict[str, tuple[str, str]]:
@@ -119,6 +120,8 @@ for _base, _nexus in (
             _C3D_NAMES[(_p + _nexus).upper()] = (f"{_base}_{_side}", 1e-3)
 
 _UNITS = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "kg": 1.0}
+#: What each unit measures, by its SI unit: a length given in kg (or a mass in mm) is refused.
+UNIT_KINDS = {"mm": "m", "cm": "m", "m": "m", "kg": "kg", "rad": "rad", "deg": "rad"}
 
 
 @dataclass(frozen=True)
@@ -232,7 +235,7 @@ class Subject:
 def _check_name(name: str, source: str) -> None:
     if name not in MEASUREMENTS:
         raise MocapError(
-            f"{source}: unknown measurement {name!r}; known: {', '.join(MEASUREMENTS)}"
+            f"{source}: unknown measurement {excerpt(name)}; known: {', '.join(MEASUREMENTS)}"
         )
 
 
@@ -271,18 +274,29 @@ def c3d_numbers(path: str | Path) -> Iterator[tuple[str, str, float]]:
                 yield group, str(key), value
 
 
-def parse_value(raw: Any, name: str, source: str, units: Mapping[str, float] = _UNITS) -> float:
+def parse_value(
+    raw: Any,
+    name: str,
+    source: str,
+    units: Mapping[str, float] = _UNITS,
+    kind: str | None = None,
+) -> float:
     """A number, or a string ``"<number> <unit>"`` with a unit of ``units`` (unit -> factor
-    to SI), in SI units; a clear error otherwise."""
-    if isinstance(raw, bool):
-        raise MocapError(f"{source}: {name}: expected a number, got {raw!r}")
+    to SI), in SI units; a clear error otherwise. ``kind`` ("m", "kg", "rad"; default: the
+    measurement's own unit when ``name`` is one of :data:`MEASUREMENTS`) is what the value
+    measures: a unit of another kind ("1.7 kg" for a height) is refused."""
+    if kind is None and name in MEASUREMENTS:
+        kind = MEASUREMENTS[name][0]
+    if isinstance(raw, bool) or not isinstance(raw, int | float | str):
+        raise MocapError(f"{source}: {name}: expected a number, got {excerpt(raw)}")
     if isinstance(raw, int | float):
         return float(raw)
-    m = re.fullmatch(r"\s*([-+0-9.eE]+)\s*([a-z]+)\s*", str(raw))
-    if m is None or m.group(2) not in units:
+    allowed = [u for u in units if kind is None or UNIT_KINDS.get(u) == kind]
+    m = re.fullmatch(r"\s*([-+0-9.eE]+)\s*([a-z]+)\s*", raw)
+    if m is None or m.group(2) not in allowed:
         raise MocapError(
             f"{source}: {name}: expected a number in SI units or "
-            f"'<number> {'|'.join(units)}', got {raw!r}"
+            f"'<number> {'|'.join(allowed)}', got {excerpt(raw)}"
         )
     try:
         return float(m.group(1)) * units[m.group(2)]
@@ -293,14 +307,7 @@ def parse_value(raw: Any, name: str, source: str, units: Mapping[str, float] = _
 def read_mapping(path: str | Path) -> Mapping[Any, Any]:
     """A YAML file's top-level mapping; one-line errors for an unreadable file or another
     shape."""
-    import yaml
-
-    try:
-        data = yaml.safe_load(Path(path).read_text())
-    except OSError as exc:
-        raise InputFileError(f"{path}: cannot read the subject file: {exc}") from None
-    except yaml.YAMLError as exc:
-        raise InputFileError(f"{path}: expected a YAML subject file: {yaml_problem(exc)}") from None
+    data = read_yaml(path, "subject file")
     if not isinstance(data, Mapping):
         raise InputFileError(f"{path}: expected a mapping of measurement names to values")
     return data

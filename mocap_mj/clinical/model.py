@@ -88,6 +88,26 @@ def _as_static(m: Markers, trial_type: str, has_static: bool, where: str) -> boo
     return trial_type == "static"
 
 
+def _refuse_moving_static(m: Markers, static: MarkerTrajectory, where: str) -> None:
+    """Refuse a static trial whose pelvis and leg markers move (``trial-type auto``'s rule,
+    :func:`~mocap_mj.clinical.static.trial_kind`): its offsets would be a walk's. The message
+    names both files, and says they are swapped when the trial itself is the static one. A
+    trial whose markers cannot tell (a still marker absent) is taken as given."""
+    there = str(static.source.get("path", "static trial"))
+    if static_mod.trial_kind(_markers(static)) != "dynamic":
+        return
+    rule = f"pelvis and leg markers move more than {static_mod.STILL_RADIUS:g} m"
+    if static_mod.trial_kind(m) == "static":
+        raise MocapError(
+            f"the static {there} is a dynamic trial ({rule}) and the trial {where} a static "
+            "one: the two are swapped"
+        )
+    raise MocapError(
+        f"the static {there} is a dynamic trial ({rule}), expected a standing trial for "
+        f"the trial {where}"
+    )
+
+
 def calibrate(static: MarkerTrajectory, subject: PigSubject) -> PigSubject:
     """The subject with the offsets, inter-ASIS distance and leg lengths a static trial
     gives (measured values are kept; the offsets always come from the static trial)."""
@@ -155,6 +175,7 @@ def plug_in_gait(
     if override is not None:  # the measurements first, for the calibrations
         subject = subject.update(override)
     if static is not None:
+        _refuse_moving_static(m, static, where)
         subject = calibrate(static, subject)
     notes = []
     as_static = _as_static(m, trial_type, static is not None, where)

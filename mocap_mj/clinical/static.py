@@ -19,15 +19,24 @@ STILL_RADIUS = 0.1
 
 def is_static(m: Markers) -> bool:
     """True when the pelvis and leg markers barely move (a standing calibration trial)."""
+    return trial_kind(m) == "static"
+
+
+def trial_kind(m: Markers) -> str | None:
+    """ "static" when every one of :data:`STILL_MARKERS` stays within :data:`STILL_RADIUS` of
+    its median position in 99 % of the frames that show it, "dynamic" when one moves farther,
+    None when one has no sample (or is absent): then the markers cannot tell."""
     spread = []
     for name in STILL_MARKERS:
+        if name not in m:
+            return None
         p = m[name]
         ok = np.all(np.isfinite(p), axis=1)
         if ok.sum() < 1:
-            return False
+            return None
         d = np.linalg.norm(p[ok] - np.median(p[ok], axis=0), axis=1)
         spread.append(np.percentile(d, 99))
-    return bool(max(spread) < STILL_RADIUS)
+    return "static" if max(spread) < STILL_RADIUS else "dynamic"
 
 
 def foot_offsets(raw: np.ndarray, static: np.ndarray, side: str) -> tuple[float, float]:

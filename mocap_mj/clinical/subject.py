@@ -36,7 +36,7 @@ from mocap_mj.capture.subject import (
     sided,
 )
 
-from ..errors import InputFileError, MocapError
+from ..errors import InputFileError, MocapError, excerpt
 
 #: Plug-in Gait values that are not body measurements: name -> (unit inside, description).
 PIG_VALUES: dict[str, tuple[str, str]] = {
@@ -49,6 +49,29 @@ PIG_VALUES: dict[str, tuple[str, str]] = {
     ),
     "head_offset": ("rad", "head pitch offset (0: the head markers' own frame)"),
 }
+
+#: The range of each Plug-in Gait value [rad], both ends included; a value outside is refused,
+#: naming where it came from. A foot's static offsets and a tibial torsion beyond 60 degrees
+#: are no person's (Nexus's static offsets are some -20 to 30 degrees, torsions 0 to 40), and
+#: they catch degrees typed as radians; a head pitched more than 90 degrees is no head.
+PIG_RANGES: dict[str, tuple[float, float]] = {
+    **{name: (-math.pi / 3, math.pi / 3) for name in PIG_VALUES if name != "head_offset"},
+    "head_offset": (-math.pi / 2, math.pi / 2),
+}
+
+
+def checked_pig_value(name: str, value: float, source: str) -> float:
+    """``value`` [rad] of the Plug-in Gait value ``name``, or an error naming ``source``, the
+    value in degrees and :data:`PIG_RANGES`' range (NaN included)."""
+    low, high = PIG_RANGES[name]
+    if not low <= value <= high:
+        raise MocapError(
+            f"{source}: expected a {PIG_VALUES[name][1]} within {math.degrees(low):g}.."
+            f"{math.degrees(high):g} deg, got {math.degrees(value):.4g} deg "
+            "(a number without a unit is in rad)"
+        )
+    return float(value)
+
 
 #: Required measurements of the lower body (both sides) and of the upper body.
 LOWER = ("leg_length", "knee_width", "ankle_width")
@@ -142,7 +165,9 @@ def pig_from_c3d(path: str | Path) -> PigSubject:
         spec = _pig_name(key)
         if spec is None:
             continue  # not a Plug-in Gait value
-        values[spec[0]], sources[spec[0]] = value * spec[1], f"{path}: {group}:{key}"
+        where = f"{path}: {group}:{key}"
+        values[spec[0]] = checked_pig_value(spec[0], value * spec[1], where)
+        sources[spec[0]] = where
     return PigSubject(from_c3d(path), values, sources)
 
 
@@ -162,11 +187,12 @@ def pig_from_yaml(path: str | Path) -> PigSubject:
     for raw_name, raw in read_mapping(path).items():
         name = str(raw_name)
         if name in PIG_VALUES:
-            values[name] = parse_value(raw, name, str(path), _UNITS)
+            value = parse_value(raw, name, str(path), _UNITS, kind=PIG_VALUES[name][0])
+            values[name] = checked_pig_value(name, value, f"{path}: {name}")
         elif name in MEASUREMENTS:
             measures.append((name, parse_value(raw, name, str(path))))
         else:
             known = ", ".join([*MEASUREMENTS, *PIG_VALUES])
-            raise InputFileError(f"{path}: unknown subject value {name!r}; known: {known}")
+            raise InputFileError(f"{path}: unknown subject value {excerpt(name)}; known: {known}")
     subject = from_values(measures, str(path))
     return PigSubject(subject, values, {k: f"{path}: {k}" for k in values})

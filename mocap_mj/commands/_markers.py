@@ -33,7 +33,11 @@ def add_marker_options(parser: argparse.ArgumentParser, *, several: bool = False
         required=True,
         nargs="+" if several else None,
         metavar="FILE",
-        help=("marker files, one or more" if several else "marker file")
+        help=(
+            "marker files, one or more (--markers A B is --markers A --markers B)"
+            if several
+            else "marker file"
+        )
         + ": C3D, TRC, mocap-mj CSV, Vicon Nexus or OptiTrack Motive CSV",
     )
     parser.add_argument(

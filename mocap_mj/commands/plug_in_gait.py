@@ -31,8 +31,10 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--static",
         metavar="STATIC",
-        help="static trial: its foot offsets replace the trial's (default: the trial's "
-        "PROCESSING values; a trial that is itself static gives its own)",
+        help="static trial: its foot offsets replace the trial's; refused when its pelvis "
+        "and leg markers move (--trial-type auto's rule), as a walk given for the static "
+        "or the two files swapped (default: the trial's PROCESSING values; a trial that is "
+        "itself static gives its own)",
     )
     p.add_argument(
         "--subject-file",

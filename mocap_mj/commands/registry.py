@@ -36,8 +36,54 @@ def _registrars() -> list[Callable[[Any], None]]:
     return regs
 
 
+class _StoreOnce(argparse._StoreAction):
+    """An option's value, given at most once: argparse would keep the last of ``--out A --out
+    B`` and drop A without a word. An option of one or more values (``nargs="+"``, such as
+    ``identify --markers``) accumulates instead: ``--markers A --markers B`` is ``--markers A
+    B``."""
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        if not self.option_strings:  # a positional argument is given once by its place
+            setattr(namespace, self.dest, values)
+            return
+        given: set[str] = namespace.__dict__.setdefault(GIVEN, set())
+        if self.nargs in ("+", "*"):
+            before = list(getattr(namespace, self.dest) or []) if self.dest in given else []
+            setattr(namespace, self.dest, before + list(values))
+        elif self.dest in given:
+            raise argparse.ArgumentError(
+                self,
+                f"given twice ({getattr(namespace, self.dest)!s:.80} and {values!s:.80}); "
+                "give it once",
+            )
+        else:
+            setattr(namespace, self.dest, values)
+        given.add(self.dest)
+
+
+#: The namespace attribute holding the options given on the command line (their ``dest``).
+GIVEN = "_given_options"
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser whose plain options (no ``action=``) are :class:`_StoreOnce`: a
+    repeated option is refused, or accumulates when it takes one or more values; the
+    subcommands' parsers (the add-ons' too) are of this class."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.register("action", None, _StoreOnce)
+        self.register("action", "store", _StoreOnce)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="mocap-mj",
         description="Identify subject-specific MuJoCo human models from motion-capture markers.",
     )

@@ -16,8 +16,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from mocap_mj.io.strict_json import read_object
-from mocap_mj.pipeline.motion import Motion, ResultDir, load_motion
+from mocap_mj.pipeline.motion import Motion, ResultDir, load_motion, read_summary
 from mocap_mj.skeleton import rolling
 from mocap_mj.skeleton.mjcf import load_model
 
@@ -79,11 +78,11 @@ def load_result(path: str | Path, motion_path: str | Path | None = None) -> Expo
     if motion_path is not None:
         rd = ResultDir(rd.root, rd.model, Path(motion_path))
     model = load_model(rd.model)
-    motion = load_motion(rd.motion, model)
+    motion = load_motion(rd.motion, model, rd.model)
     sites = tuple(model.site(i).name for i in range(model.nsite))
     if motion.marker_names != sites:
         raise InputFileError(f"{rd.motion}: marker names differ from the sites of {rd.model}")
     summary: dict[str, Any] = {}
     if (rd.root / "summary.json").is_file():
-        summary = read_object(rd.root / "summary.json", "the result's summary (a JSON object)")
+        summary = read_summary(rd.root / "summary.json")
     return ExportSource(rd.root, rd.model, model, motion, summary)

@@ -8,10 +8,9 @@ import re
 from collections.abc import Collection, Mapping
 from pathlib import Path
 
-import yaml
-
 from mocap_mj.errors import InputFileError
 from mocap_mj.io.marker_names import MARKER_NAMES
+from mocap_mj.io.yaml_file import parse_yaml, read_text
 
 #: Names of points that are not markers: Plug-in Gait model outputs and unlabelled points.
 _NON_MARKER = re.compile(
@@ -52,18 +51,19 @@ def load_marker_map(marker_map: Mapping[str, str] | str | os.PathLike[str]) -> d
     else:
         path = Path(marker_map)
         where = str(path)
-        try:
-            text = path.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as exc:
-            raise InputFileError(f"{path}: cannot read the marker map: {exc}") from exc
-        try:
-            if path.suffix.lower() == ".json":
+        text = read_text(path, "marker map")
+        if path.suffix.lower() == ".json":
+            try:
                 raw = json.loads(text)
-            else:
-                raw = yaml.safe_load(text)
-        except (ValueError, yaml.YAMLError) as exc:
-            first = " ".join(str(exc).split())[:120] or type(exc).__name__
-            raise InputFileError(f"{path}: expected a YAML or JSON mapping, got {first}") from exc
+            except ValueError as exc:
+                first = " ".join(str(exc).split())[:120] or type(exc).__name__
+                raise InputFileError(f"{path}: expected a JSON marker map: {first}") from None
+            except RecursionError:
+                raise InputFileError(
+                    f"{path}: expected a JSON marker map: nested too deep"
+                ) from None
+        else:
+            raw = parse_yaml(text, str(path), "marker map")
     if not isinstance(raw, dict):
         raise InputFileError(
             f"{where}: expected a mapping of lab names to model names, got {type(raw).__name__}"

@@ -23,10 +23,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from mocap_mj.capture.marker_set import marked_bodies
-from mocap_mj.errors import InputFileError
+from mocap_mj.errors import InputFileError, excerpt
 from mocap_mj.io.strict_json import read_object
 from mocap_mj.kernels._threads import single_blas_thread
-from mocap_mj.pipeline.motion import Motion, load_motion
+from mocap_mj.pipeline.motion import Motion, load_motion, read_summary
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.centres import joint_centre_bound
@@ -94,14 +94,24 @@ def score(
     pset = pset or ParameterSet()
     theta_true = pset.load_json(truth_dir / "truth.json")
     truth_info = read_object(truth_dir / "truth.json", "the synthetic truth (a JSON object)")
+    sigma_true = truth_info.get("sigma_m")
+    if sigma_true is not None and (
+        isinstance(sigma_true, bool)
+        or not isinstance(sigma_true, int | float)
+        or not 0 <= sigma_true <= 1
+    ):
+        raise InputFileError(
+            f"{truth_dir / 'truth.json'}: sigma_m: expected the marker noise in m within 0..1, "
+            f"got {excerpt(sigma_true)}"
+        )
     truth_motion = load_motion(truth_dir / "truth_motion.npz", pset.model)
     theta_hat = pset.load_json(result_dir / "theta.json")
     # a result folder is whole only with its summary (a damaged one is named, not scored)
-    read_object(result_dir / "summary.json", "the result's summary (a JSON object)")
+    read_summary(result_dir / "summary.json")
     motion = load_motion(result_dir / "motion.npz", pset.model)
+    idf_path = result_dir / "identifiability.json"
     idf = Identifiability.from_json(
-        pset,
-        read_object(result_dir / "identifiability.json", "the identifiability (a JSON object)"),
+        pset, read_object(idf_path, "the identifiability (a JSON object)"), str(idf_path)
     )
 
     a = fitted_start(truth_motion, motion)

@@ -15,7 +15,6 @@ Lengths are in metres in the file as in the code.
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, get_args
@@ -25,8 +24,9 @@ import yaml
 from mocap_mj.solve.lm import LMSettings, Performance, Tolerances
 from mocap_mj.solve.losses import LossName
 
-from ..errors import InputFileError, MocapError
+from ..errors import InputFileError, MocapError, excerpt
 from ..io.atomic import atomic_write_text
+from ..io.yaml_file import read_yaml
 
 Init = Literal["placed", "scaled", "nominal"]
 #: Initial models (:attr:`Recipe.init`).
@@ -40,6 +40,19 @@ _SETTINGS_CHOICES = (
 )  # fmt: skip
 #: ``select``'s words besides a number of frames.
 SELECT_WORDS = ("auto", "all")
+#: The range of every numeric field, (low, high, what it is), both ends included: beyond them
+#: a solve is meaningless or its arithmetic fails (a weak prior of 1e-300 m overflows its
+#: weight (prior_noise / prior_sigma)^2; a noise of 0 divides by zero). A width below 0.1 mm
+#: is finer than any marker system measures, a noise above 10 cm is not a marker's.
+NUMERIC_RANGES: dict[str, tuple[float, float, str]] = {
+    "loss_scale": (0.1, 100.0, "a threshold in noise sigmas"),
+    "max_iterations": (1, 100_000, "a number of iterations"),
+    "prior_sigma": (1e-4, 10.0, "a width in m"),
+    "prior_noise": (1e-5, 0.1, "a marker noise in m"),
+    "observable_std": (1e-5, 1.0, "a standard deviation in m"),
+    "symmetric": (1e-4, 1.0, "a width in m"),
+    "select": (1, 10**9, "a number of frames"),
+}
 
 
 @dataclass(frozen=True)
@@ -119,12 +132,18 @@ class Recipe:
             raise MocapError(
                 f"hip_centre must be one of {', '.join(HIP_CENTRES)}; got {self.hip_centre!r}"
             )
-        if self.symmetric is not None and not 0 < self.symmetric < math.inf:
-            raise MocapError(f"symmetric: expected a width > 0 m, got {self.symmetric}")
-        for name in ("observable_std", "loss_scale"):
+        for name, (low, high, what) in NUMERIC_RANGES.items():
             value = getattr(self, name)
-            if not 0 < value < math.inf:  # NaN fails too
-                raise MocapError(f"{name}: expected a number > 0, got {value}")
+            if value is None or isinstance(value, str):
+                continue  # symmetric not used; select's words
+            whole = name in ("max_iterations", "select")
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, int | float)
+                or (whole and not float(value).is_integer())
+                or not low <= value <= high  # NaN fails too
+            ):
+                raise MocapError(f"{name}: expected {what} within {low:g}..{high:g}, got {value!r}")
         self.settings()  # the solver's own checks (loss, prior widths, iterations)
 
     def settings(
@@ -164,14 +183,13 @@ class Recipe:
         """The recipe in the YAML file ``path``: a mapping of field names to values; fields
         not named keep their defaults. Raises :class:`InputFileError` naming the file and
         the field for an unknown field or a value of the wrong kind."""
-        try:
-            data = yaml.safe_load(Path(path).read_text())
-        except (OSError, yaml.YAMLError) as exc:
-            raise InputFileError(f"{path}: cannot read the recipe ({exc})") from None
+        data = read_yaml(path, "recipe")
         if data is None:
             data = {}
         if not isinstance(data, dict):
-            raise InputFileError(f"{path}: expected a mapping of recipe fields, got {data!r}")
+            raise InputFileError(
+                f"{path}: expected a mapping of recipe fields, got {excerpt(data)}"
+            )
         return cls.from_dict(data, source=str(path))
 
     @classmethod
@@ -181,7 +199,8 @@ class Recipe:
         for name, value in data.items():
             if name not in fields:
                 raise InputFileError(
-                    f"{source}: unknown recipe field {name!r} (expected one of {', '.join(fields)})"
+                    f"{source}: unknown recipe field {excerpt(name)} "
+                    f"(expected one of {', '.join(fields)})"
                 )
             _check_kind(source, name, value, cls.__dataclass_fields__[name].default)
         try:
@@ -206,5 +225,6 @@ def _check_kind(source: str, name: str, value: Any, default: Any) -> None:
         ok = isinstance(value, str)
     if not ok:
         raise InputFileError(
-            f"{source}: recipe field {name!r}: expected a value like {default!r}, got {value!r}"
+            f"{source}: recipe field {name!r}: expected a value like {default!r}, "
+            f"got {excerpt(value)}"
         )

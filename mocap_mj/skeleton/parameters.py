@@ -24,7 +24,14 @@ from xml.etree import ElementTree
 import mujoco
 import numpy as np
 
-from mocap_mj.errors import InputFileError, MocapError, ShapeError, UnknownNameError, check_shape
+from mocap_mj.errors import (
+    InputFileError,
+    MocapError,
+    ShapeError,
+    UnknownNameError,
+    check_shape,
+    excerpt,
+)
 from mocap_mj.io.atomic import atomic_write_text
 from mocap_mj.io.strict_json import read_object
 from mocap_mj.skeleton import exported, rolling
@@ -326,10 +333,15 @@ class ParameterSet:
             kappa_d, off_d = data["kappa"], data["offsets"]
         except (KeyError, TypeError):
             raise MocapError(f"{source}: expected keys 'kappa' and 'offsets'") from None
+        for key, value in (("kappa", kappa_d), ("offsets", off_d)):
+            if not isinstance(value, Mapping):
+                raise MocapError(
+                    f"{source}: {key}: expected a mapping of names to metres, got {excerpt(value)}"
+                )
         unknown = [n for n in kappa_d if n not in self.kappa_names]
         unknown += [n for n in off_d if n not in self.marker_names]
         if unknown:
-            raise MocapError(f"{source}: unknown names {unknown}")
+            raise MocapError(f"{source}: unknown names {excerpt(unknown)}")
         # A file written before the alignment parameters existed held them at 0 by
         # construction (the knee centre below the hip centre, the ankle below the knee).
         kappa_d = {**{n: 0.0 for n in ALIGNMENT_NAMES if n in self._index}, **kappa_d}
@@ -337,10 +349,18 @@ class ParameterSet:
         missing += [n for n in self.marker_names if n not in off_d]
         if missing:
             raise MocapError(f"{source}: missing names {missing}")
+        for name in self.kappa_names:
+            _check_length(source, f"kappa {name}", kappa_d[name])
+        for name in self.marker_names:
+            value = off_d[name]
+            if not isinstance(value, list) or len(value) != 3:
+                raise MocapError(
+                    f"{source}: offsets {name}: expected 3 numbers [m], got {excerpt(value)}"
+                )
+            for c in value:
+                _check_length(source, f"offsets {name}", c)
         kappa = np.array([float(kappa_d[n]) for n in self.kappa_names])
         offsets = np.array([[float(c) for c in off_d[n]] for n in self.marker_names])
-        if offsets.shape != (self.n_markers, 3):
-            raise MocapError(f"{source}: every marker offset needs 3 numbers [m]")
         return self.check(self.join(kappa, offsets))
 
     def save_json(
@@ -426,3 +446,20 @@ class ParameterSet:
     ) -> None:
         """Write an MJCF file of the model with theta, atomically (see :meth:`to_xml`)."""
         atomic_write_text(path, self.to_xml(theta, joint_range=joint_range))
+
+
+#: Largest magnitude of a parameter read from a file [m]: no segment or marker offset of a
+#: body is 10 m long; a larger value is a damaged or foreign file.
+THETA_LIMIT = 10.0
+
+
+def _check_length(source: str, name: str, value: Any) -> None:
+    """Refuse a parameter value that is not a number within :data:`THETA_LIMIT` [m]."""
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or not -THETA_LIMIT <= value <= THETA_LIMIT
+    ):
+        raise MocapError(
+            f"{source}: {name}: expected a number within +-{THETA_LIMIT:g} m, got {excerpt(value)}"
+        )

@@ -28,7 +28,7 @@ from mocap_mj.capture.marker_set import marked_bodies
 from mocap_mj.kernels._threads import one_blas_thread
 from mocap_mj.skeleton.parameters import ParameterSet
 
-from ..errors import check_shape
+from ..errors import InputFileError, check_shape, excerpt
 
 _log = logging.getLogger(__name__)
 
@@ -193,14 +193,37 @@ class Identifiability:
         return (v * lam) @ v.T
 
     @classmethod
-    def from_json(cls, pset: ParameterSet, data: dict[str, Any]) -> Identifiability:
-        info = np.array(data["information"], dtype=float)
+    def from_json(
+        cls, pset: ParameterSet, data: dict[str, Any], source: str = "identifiability"
+    ) -> Identifiability:
+        """The identifiability ``identifiability.json`` holds (:meth:`to_json`), each field
+        checked: ``information`` (P, P) finite numbers, ``sigma_m``, ``observable_std_m`` and
+        ``weak_std_m`` [m] numbers within 0..10 m (0 excluded);
+        :class:`~mocap_mj.errors.InputFileError` naming ``source`` and the field otherwise."""
+        widths = {}
+        for key in ("sigma_m", "observable_std_m", "weak_std_m"):
+            value = data.get(key)
+            if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value <= 10:
+                raise InputFileError(
+                    f"{source}: {key}: expected a width in m within 0..10, got {excerpt(value)}"
+                )
+            widths[key] = float(value)
+        raw = data.get("information")
+        try:
+            info = np.array(raw, dtype=float)
+        except (TypeError, ValueError):
+            info = np.zeros(0)
+        if info.shape != (pset.size, pset.size) or not np.all(np.isfinite(info)):
+            raise InputFileError(
+                f"{source}: information: expected ({pset.size}, {pset.size}) finite numbers, "
+                f"got {excerpt(raw) if info.size == 0 else f'shape {info.shape}'}"
+            )
         return cls(
             pset,
             info,
-            float(data["sigma_m"]),
-            observable_std=float(data["observable_std_m"]),
-            weak_std=float(data["weak_std_m"]),
+            widths["sigma_m"],
+            observable_std=widths["observable_std_m"],
+            weak_std=widths["weak_std_m"],
         )
 
     def report_lines(self) -> list[str]:
