@@ -12,6 +12,7 @@ from mocap_mj.anatomy.anatomy import ASYMMETRY_SIGMA
 from mocap_mj.anatomy.axes import widths
 from mocap_mj.anatomy.ball_centres import centre_report, row_spreads
 from mocap_mj.anatomy.initial import marker_stature, segment_scales
+from mocap_mj.anatomy.joint_checks import checks_summary, joint_checks, violations
 from mocap_mj.anatomy.partial import Unmeasured
 from mocap_mj.anatomy.plausibility import (
     implausible_reasons,
@@ -66,6 +67,10 @@ def fit_report(
         int(np.sum(~pset.frozen[: pset.n_kappa])),
         marker_stature(segment_scales(pset, [t.markers for t in trials])),
     )
+    checks = joint_checks(pset, result.theta, solved.subject, solved.landmarks,
+                          solved.weighting.get("joint_axes"))  # fmt: skip
+    summary["anatomy_checks"] = checks_summary(checks)
+    summary["implausible"] += violations(checks)
     fitted = [q[used] for q, used in zip(result.qpos, result.used, strict=True)]
     summary["joints_at_limit"] = joints_at_limit(
         pset.model, solver_joint_range(pset.model, settings), fitted
