@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import re
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -36,7 +37,7 @@ def _processing(path: Path) -> dict[str, float]:
     return out
 
 
-def _write_vsk(path: Path, values: dict[str, float | str]) -> Path:
+def _write_vsk(path: Path, values: Mapping[str, object]) -> Path:
     rows = "\n".join(
         f'      <Parameter NAME="{k}" VALUE="{v}" PRIOR="0"/>' for k, v in values.items()
     )
@@ -49,7 +50,7 @@ def _write_vsk(path: Path, values: dict[str, float | str]) -> Path:
     return path
 
 
-def _write_mp(path: Path, values: dict[str, float | str]) -> Path:
+def _write_mp(path: Path, values: Mapping[str, object]) -> Path:
     path.write_text("".join(f"${k} = {v}\n" for k, v in values.items()))
     return path
 

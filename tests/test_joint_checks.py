@@ -1,0 +1,249 @@
+"""The anatomical checks of an identified skeleton (:mod:`mocap_mj.anatomy.joint_checks`): a
+correct synthetic fit passes every one; a knee centre on the far side of KNE, an elbow centre
+in front of ELB and hips outside the pelvis are refused, naming the joint and the distance
+constructed, and ``identify`` then exits 3 with the result written for inspection."""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from mocap_mj.anatomy.joint_checks import (
+    MIN_TOLERANCE,
+    Check,
+    checks_summary,
+    joint_checks,
+    violations,
+)
+from mocap_mj.capture.subject import Subject
+from mocap_mj.cli import main
+from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_synth import Experiment, SynthConfig, synthesize, write_experiment
+
+FRAMES = 80
+
+
+@pytest.fixture(scope="module")
+def pset() -> ParameterSet:
+    return ParameterSet()
+
+
+@pytest.fixture(scope="module")
+def experiment(pset: ParameterSet) -> Experiment:
+    return synthesize(SynthConfig(frames=FRAMES, seed=3), pset)
+
+
+@pytest.fixture(scope="module")
+def symmetric(pset: ParameterSet) -> Experiment:
+    """A truth whose left and right sides mirror each other (the refusals' starting point)."""
+    return synthesize(SynthConfig(frames=FRAMES, seed=3, symmetric=True), pset)
+
+
+@pytest.fixture(scope="module")
+def fitted(tmp_path_factory: pytest.TempPathFactory, experiment: Experiment) -> Path:
+    """A synthetic trial identified with the default recipe."""
+    root = tmp_path_factory.mktemp("checks")
+    write_experiment(experiment, root / "synth")
+    out = root / "fit"
+    status = main(["identify", "--markers", str(root / "synth" / "markers.csv"), "--out",
+                   str(out), "--json"])  # fmt: skip
+    assert status == 0
+    return out
+
+
+def _check(checks: list[Check], joint: str, start: str) -> Check:
+    (found,) = [c for c in checks if c.joint == joint and c.what.startswith(start)]
+    return found
+
+
+def _offset_index(pset: ParameterSet, marker: str, axis: int) -> int:
+    return pset.n_kappa + 3 * pset.marker_index(marker) + axis
+
+
+def _centre(pset: ParameterSet, theta: np.ndarray, body: str) -> np.ndarray:
+    return pset.body_pos(theta)[pset.model.body(body).id]
+
+
+def _flipped_knee(pset: ParameterSet, theta: np.ndarray) -> np.ndarray:
+    """``theta`` with LKNE mirrored about the knee centre along the knee axis: the centre
+    then lies lateral of LKNE by the distance it lay medial of it."""
+    out = theta.copy()
+    k = _offset_index(pset, "LKNE", 1)
+    out[k] = 2 * _centre(pset, theta, "shank_l")[1] - theta[k]
+    return out
+
+
+#: How far [m] the wrong-side elbow's centre sits in front of LELB.
+ELBOW_FORWARD = 0.040
+
+
+def _forward_elbow(pset: ParameterSet, theta: np.ndarray) -> np.ndarray:
+    """``theta`` with LELB moved behind the elbow centre by :data:`ELBOW_FORWARD`."""
+    out = theta.copy()
+    out[_offset_index(pset, "LELB", 0)] = _centre(pset, theta, "ulna_l")[0] - ELBOW_FORWARD
+    return out
+
+
+def test_a_correct_synthetic_fit_passes_every_check(fitted: Path, pset: ParameterSet) -> None:
+    summary = json.loads((fitted / "summary.json").read_text())
+    assert summary["implausible"] == [] and summary["exit_status"] == 0
+    entries = [c for cs in summary["anatomy_checks"].values() for c in cs]
+    assert entries and not any(c["violated"] for c in entries)
+    # every joint of the full Plug-in Gait set is checked
+    joints = {f"{j}_{s}" for j in ("knee", "ankle", "elbow", "wrist", "hip") for s in "lr"}
+    assert joints | {"hips", "knee_lr"} <= set(summary["anatomy_checks"])
+    theta = pset.load_json(fitted / "theta.json")
+    checks = joint_checks(pset, theta, Subject())
+    assert checks_summary(checks).keys() >= {"knee_l", "hips"}
+    knee = _check(checks, "knee_l", "centre medial of LKNE")
+    offsets, centre = pset.split(theta)[1], _centre(pset, theta, "shank_l")
+    assert knee.value == pytest.approx(offsets[pset.marker_index("LKNE")][1] - centre[1])
+
+
+def test_a_symmetric_truth_passes_every_check_and_an_asymmetric_one_only_the_mirror(
+    experiment: Experiment, symmetric: Experiment, pset: ParameterSet
+) -> None:
+    assert violations(joint_checks(pset, symmetric.theta_true, Subject())) == []
+    theta = experiment.theta_true
+    checks = joint_checks(pset, theta, Subject())
+    left, right = (_centre(pset, theta, f"foot_{s}") for s in "lr")
+    gap = float(np.hypot(left[0] - right[0], left[1] + right[1]))  # the right one mirrored
+    ankle = _check(checks, "ankle_lr", "left centre")
+    assert ankle.value == pytest.approx(gap, abs=1e-12) and gap > 0.03
+    assert [c.joint for c in checks if c.violated] == ["ankle_lr"]
+
+
+def test_a_flipped_knee_is_caught_with_the_distance_constructed(
+    fitted: Path, pset: ParameterSet
+) -> None:
+    theta = pset.load_json(fitted / "theta.json")
+    before = _check(joint_checks(pset, theta, Subject()), "knee_l", "centre medial")
+    checks = joint_checks(pset, _flipped_knee(pset, theta), Subject())
+    after = _check(checks, "knee_l", "centre medial")
+    assert before.value > 0.03  # medial of LKNE
+    assert after.value == pytest.approx(-before.value, abs=1e-12)  # as far lateral
+    assert after.low is not None and after.violated
+    assert after.margin == pytest.approx(after.value - after.low)
+    lines = violations(checks)
+    assert len(lines) == 1 and lines[0].startswith("joint outside the body: knee_l:"), lines
+    assert f"{after.value * 1e3:.0f} mm" in lines[0]
+    # a measured width narrows the limits to 15 mm about width/2 + r
+    subject = Subject()
+    subject.set("knee_width_l", 0.100, "test")
+    measured = _check(joint_checks(pset, theta, subject), "knee_l", "centre medial")
+    assert measured.low == pytest.approx(0.050 + subject.marker_radius - MIN_TOLERANCE)
+    assert measured.high == pytest.approx(0.050 + subject.marker_radius + MIN_TOLERANCE)
+
+
+def test_a_wrong_side_elbow_is_caught(fitted: Path, pset: ParameterSet) -> None:
+    theta = pset.load_json(fitted / "theta.json")
+    checks = joint_checks(pset, _forward_elbow(pset, theta), Subject())
+    forward = _check(checks, "elbow_l", "centre anterior of LELB")
+    assert forward.value == pytest.approx(ELBOW_FORWARD, abs=1e-12)
+    assert forward.violated and forward.high == MIN_TOLERANCE
+    lines = violations(checks)
+    assert len(lines) == 1 and "elbow_l: centre anterior of LELB 40 mm" in lines[0], lines
+
+
+def test_hips_outside_the_pelvis_are_caught(fitted: Path, pset: ParameterSet) -> None:
+    theta = pset.load_json(fitted / "theta.json")
+    wide = theta.copy()
+    for side in "lr":
+        wide[pset.index(f"hip_width_{side}")] += 0.057
+    before, after = joint_checks(pset, theta, Subject()), joint_checks(pset, wide, Subject())
+    for side in "lr":
+        a, b = (_check(c, f"hip_{side}", "centre medial of") for c in (before, after))
+        assert b.value == pytest.approx(a.value - 0.057, abs=1e-12) and b.value < 0
+        assert b.violated
+    a, b = (_check(c, "hips", "distance between") for c in (before, after))
+    gap = _centre(pset, theta, "thigh_l") - _centre(pset, theta, "thigh_r")
+    gap[1] += 0.114  # each hip 57 mm further out
+    assert b.value == pytest.approx(float(np.linalg.norm(gap)), abs=1e-12) and b.violated
+    assert not a.violated
+    assert {line.split(":")[1].strip() for line in violations(after)} == {"hip_l", "hip_r", "hips"}
+    # a hip above the ASIS plane is outside the pelvis too
+    high = theta.copy()
+    high[pset.index("hip_height_l")] = -0.010  # the centre 10 mm above the hip's body origin
+    up = _check(joint_checks(pset, high, Subject()), "hip_l", "centre below the ASIS plane")
+    assert up.violated
+
+
+def test_an_axis_far_from_the_construction_is_refused_unless_the_data_place_it(
+    fitted: Path, pset: ParameterSet
+) -> None:
+    theta = pset.load_json(fitted / "theta.json")
+    decision = {"joint": "elbow_l", "wand": "LELB", "marker": "LELB", "source": "plug-in-gait"}
+    turned = theta.copy()  # ELB turned 45 degrees forward about the elbow centre
+    centre = _centre(pset, theta, "ulna_l")
+    k = [_offset_index(pset, "LELB", a) for a in (0, 1)]
+    lateral = float(np.hypot(*(theta[i] - centre[j] for i, j in zip(k, (0, 1), strict=True))))
+    turned[k[0]] = centre[0] + lateral * np.sin(np.radians(45))
+    turned[k[1]] = centre[1] + lateral * np.cos(np.radians(45))
+    axis = _check(joint_checks(pset, turned, Subject(), decisions={"elbow_l": decision}),
+                  "elbow_l", "flexion axis")  # fmt: skip
+    assert axis.value == pytest.approx(45.0, abs=0.5) and axis.violated
+    functional = {"elbow_l": {**decision, "source": "functional"}}
+    reported = _check(joint_checks(pset, turned, Subject(), decisions=functional),
+                      "elbow_l", "flexion axis")  # fmt: skip
+    assert reported.value == pytest.approx(axis.value) and not reported.violated
+
+
+def _refused(
+    root: Path,
+    experiment: Experiment,
+    pset: ParameterSet,
+    theta: np.ndarray,
+    capsys: pytest.CaptureFixture[str],
+) -> tuple[int, dict[str, Any], list[str]]:
+    """``identify`` of markers the model ``theta`` carries in the synthetic motion (with the
+    experiment's noise), started from that model without the anatomical priors: a fit that
+    ends where the model is, with a small marker RMSE."""
+    kin = Kinematics(pset)
+    kin.set_theta(theta)
+    exp = experiment
+    clean = kin.marker_positions(exp.qpos)
+    noisy = clean + (exp.markers - exp.markers_clean)
+    write_experiment(replace(exp, theta_true=theta, markers_clean=clean, markers=noisy), root)
+    pset.export_mjcf(root / "start.xml", theta)
+    (root / "recipe.yaml").write_text("init: nominal\nanatomy: false\n")
+    capsys.readouterr()
+    status = main(["identify", "--markers", str(root / "markers.csv"), "--model",
+                   str(root / "start.xml"), "--recipe", str(root / "recipe.yaml"),
+                   "--out", str(root / "fit")])  # fmt: skip
+    err = [line for line in capsys.readouterr().err.splitlines() if "implausible" in line]
+    return status, json.loads((root / "fit" / "summary.json").read_text()), err
+
+
+def test_identify_refuses_a_flipped_knee_with_exit_3(
+    tmp_path: Path, symmetric: Experiment, pset: ParameterSet, capsys: pytest.CaptureFixture[str]
+) -> None:
+    theta = _flipped_knee(pset, symmetric.theta_true)
+    status, summary, err = _refused(tmp_path, symmetric, pset, theta, capsys)
+    assert status == 3 and summary["exit_status"] == 3
+    assert summary["marker_rmse_mm"] < 2.0  # the markers fit: only the anatomy tells
+    (entry,) = [c for c in summary["anatomy_checks"]["knee_l"] if c["what"].startswith("centre")]
+    truth = _check(joint_checks(pset, theta, Subject()), "knee_l", "centre medial")
+    assert entry["violated"] and entry["value_mm"] == pytest.approx(truth.value * 1e3, abs=3.0)
+    assert len(err) == 1 and re.search(
+        r"knee_l: centre medial of LKNE .* -\d+ mm \(limits", err[0]
+    ), err
+    assert all("knee_l" in r for r in summary["implausible"]), summary["implausible"]
+
+
+def test_identify_refuses_a_wrong_side_elbow_with_exit_3(
+    tmp_path: Path, symmetric: Experiment, pset: ParameterSet, capsys: pytest.CaptureFixture[str]
+) -> None:
+    theta = _forward_elbow(pset, symmetric.theta_true)
+    status, summary, err = _refused(tmp_path, symmetric, pset, theta, capsys)
+    assert status == 3
+    (entry,) = [c for c in summary["anatomy_checks"]["elbow_l"] if "anterior" in c["what"]]
+    assert entry["violated"] and entry["value_mm"] == pytest.approx(40.0, abs=3.0)
+    assert len(err) == 1 and "elbow_l: centre anterior of LELB" in err[0], err
+    assert all("elbow_l" in r for r in summary["implausible"]), summary["implausible"]
