@@ -202,21 +202,18 @@ def _refused(
     theta: np.ndarray,
     capsys: pytest.CaptureFixture[str],
 ) -> tuple[int, dict[str, Any], list[str]]:
-    """``identify`` of markers the model ``theta`` carries in the synthetic motion (with the
-    experiment's noise), started from that model without the anatomical priors: a fit that
-    ends where the model is, with a small marker RMSE."""
+    """``identify`` (the default recipe: anatomical priors on) of the markers the model
+    ``theta`` carries in the synthetic motion, with the experiment's noise: the markers
+    hold the joint where ``theta`` has it, against the priors, with a small marker RMSE."""
     kin = Kinematics(pset)
     kin.set_theta(theta)
     exp = experiment
     clean = kin.marker_positions(exp.qpos)
     noisy = clean + (exp.markers - exp.markers_clean)
     write_experiment(replace(exp, theta_true=theta, markers_clean=clean, markers=noisy), root)
-    pset.export_mjcf(root / "start.xml", theta)
-    (root / "recipe.yaml").write_text("init: nominal\nanatomy: false\n")
     capsys.readouterr()
-    status = main(["identify", "--markers", str(root / "markers.csv"), "--model",
-                   str(root / "start.xml"), "--recipe", str(root / "recipe.yaml"),
-                   "--out", str(root / "fit")])  # fmt: skip
+    out = ["--out", str(root / "fit")]
+    status = main(["identify", "--markers", str(root / "markers.csv"), *out])
     err = [line for line in capsys.readouterr().err.splitlines() if "implausible" in line]
     return status, json.loads((root / "fit" / "summary.json").read_text()), err
 
@@ -230,7 +227,7 @@ def test_identify_refuses_a_flipped_knee_with_exit_3(
     assert summary["marker_rmse_mm"] < 2.0  # the markers fit: only the anatomy tells
     (entry,) = [c for c in summary["anatomy_checks"]["knee_l"] if c["what"].startswith("centre")]
     truth = _check(joint_checks(pset, theta, Subject()), "knee_l", "centre medial")
-    assert entry["violated"] and entry["value_mm"] == pytest.approx(truth.value * 1e3, abs=3.0)
+    assert entry["violated"] and entry["value_mm"] == pytest.approx(truth.value * 1e3, abs=5.0)
     assert len(err) == 1 and re.search(
         r"knee_l: centre medial of LKNE .* -\d+ mm \(limits", err[0]
     ), err
@@ -244,6 +241,6 @@ def test_identify_refuses_a_wrong_side_elbow_with_exit_3(
     status, summary, err = _refused(tmp_path, symmetric, pset, theta, capsys)
     assert status == 3
     (entry,) = [c for c in summary["anatomy_checks"]["elbow_l"] if "anterior" in c["what"]]
-    assert entry["violated"] and entry["value_mm"] == pytest.approx(40.0, abs=3.0)
+    assert entry["violated"] and entry["value_mm"] == pytest.approx(ELBOW_FORWARD * 1e3, abs=5.0)
     assert len(err) == 1 and "elbow_l: centre anterior of LELB" in err[0], err
     assert all("elbow_l" in r for r in summary["implausible"]), summary["implausible"]
