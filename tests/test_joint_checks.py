@@ -107,17 +107,23 @@ def test_a_correct_synthetic_fit_passes_every_check(fitted: Path, pset: Paramete
     assert knee.value == pytest.approx(offsets[pset.marker_index("LKNE")][1] - centre[1])
 
 
-def test_a_symmetric_truth_passes_every_check_and_an_asymmetric_one_only_the_mirror(
+def test_the_truths_pass_every_check_and_a_knee_thrown_to_one_side_fails_the_mirror(
     experiment: Experiment, symmetric: Experiment, pset: ParameterSet
 ) -> None:
     assert violations(joint_checks(pset, symmetric.theta_true, Subject())) == []
-    theta = experiment.theta_true
-    checks = joint_checks(pset, theta, Subject())
+    theta = experiment.theta_true  # its sides differ as the synthetic perturbation has them
+    assert violations(joint_checks(pset, theta, Subject())) == []
     left, right = (_centre(pset, theta, f"foot_{s}") for s in "lr")
-    gap = float(np.hypot(left[0] - right[0], left[1] + right[1]))  # the right one mirrored
-    ankle = _check(checks, "ankle_lr", "left centre")
-    assert ankle.value == pytest.approx(gap, abs=1e-12) and gap > 0.03
-    assert [c.joint for c in checks if c.violated] == ["ankle_lr"]
+    ankle = _check(joint_checks(pset, theta, Subject()), "ankle_lr", "left centre")
+    assert ankle.value == pytest.approx(abs(left[1] + right[1]), abs=1e-12)  # right mirrored
+    thrown = theta.copy()  # the left knee centre and everything below it 120 mm lateral
+    thrown[pset.index("knee_lateral_l")] += 0.120
+    checks = joint_checks(pset, thrown, Subject())
+    knee = _check(checks, "knee_lr", "left centre")
+    left, right = (_centre(pset, thrown, f"shank_{s}") for s in "lr")
+    assert left[1] - _centre(pset, theta, "shank_l")[1] == pytest.approx(0.120, abs=1e-12)
+    assert knee.value == pytest.approx(abs(left[1] + right[1]), abs=1e-12) and knee.violated
+    assert {c.joint for c in checks if c.violated} == {"knee_l", "knee_lr"}
 
 
 def test_a_flipped_knee_is_caught_with_the_distance_constructed(

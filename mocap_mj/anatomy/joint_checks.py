@@ -30,9 +30,13 @@ ankle, elbow, wrist and hip figures hold in every frame):
   et al. (2007) on the ASIS markers' distance PW, 0.66 PW + 14.6 mm, within the larger of
   :data:`MIN_TOLERANCE` and :data:`TOLERANCE_SD` standard deviations (two hips of
   :data:`~mocap_mj.anatomy.anatomy.SIGMA_HJC` each);
-* left and right: each centre's position in its parent frame, the right one mirrored,
-  within :data:`MIRROR_TOLERANCE` (the limbs' normal to the segment: a length differing
-  left to right is a subject's, and its own figure, ``left_right_differences``).
+* left and right: the hip centres in the pelvis frame, the right one mirrored, within
+  :data:`TOLERANCE_SD` standard deviations of the difference of two Harrington centres
+  (per axis); the knee and ankle centres' lateral place in their parent frames likewise,
+  against the frontal-plane alignment's spread (:data:`~mocap_mj.anatomy.anatomy.ALIGNMENT`,
+  3 degrees of the segment each side: some 95 mm at the knee, so this catches a centre
+  thrown to one side, not a subject's asymmetry; lengths differing left to right are a
+  subject's, and :func:`~mocap_mj.anatomy.plausibility.left_right_differences` reports them).
 
 A check the set's markers cannot make (no KNE, no medial marker, no decision) is left out.
 Each violation is one line naming the joint, side, the figure and its limit
@@ -48,7 +52,13 @@ from typing import Any
 
 import numpy as np
 
-from mocap_mj.anatomy.anatomy import SIGMA_HJC, SIGMA_MEASURED, SIGMA_REGRESSED, WIDTH_RATIO
+from mocap_mj.anatomy.anatomy import (
+    ALIGNMENT,
+    SIGMA_HJC,
+    SIGMA_MEASURED,
+    SIGMA_REGRESSED,
+    WIDTH_RATIO,
+)
 from mocap_mj.anatomy.axes import angle_to_pig
 from mocap_mj.anatomy.axis_rows import MEDIAL_LANDMARKS
 from mocap_mj.capture.roles import medial_markers, roles
@@ -68,25 +78,18 @@ TOLERANCE_SD = 3.0
 AXIS_LIMIT_DEG = 30.0
 #: Harrington et al. (2007)'s hip centre's lateral offset from mid-ASIS: 0.33 PW + 7.3 mm.
 HARRINGTON_WIDTH = (0.33, 0.0073)
-#: The largest distance [m] between a left joint centre and the mirrored right one, in
-#: their parent frames: twice :data:`MIN_TOLERANCE`, the two sides' own tolerances (a
-#: healthy adult's left and right segments differ by some 5 mm, ASYMMETRY_SIGMA, and their
-#: frontal-plane alignment by a few degrees, 10-20 mm at the knee).
-MIRROR_TOLERANCE = 2 * MIN_TOLERANCE
-
 #: Joint (side removed) -> (lateral marker role, width, parent body, child body).
 WIDTH_JOINTS: dict[str, tuple[str, str, str, str]] = {
     "knee": ("KNE", "knee_width", "thigh", "shank"),
     "ankle": ("ANK", "ankle_width", "shank", "foot"),
     "elbow": ("ELB", "elbow_width", "upperarm", "ulna"),
 }
-#: Joint (side removed) -> (parent body, child body) of the mirror check.
+#: Joint (side removed) -> (child body, the alignment parameter placing its centre along
+#: the flexion axis, :data:`~mocap_mj.anatomy.anatomy.ALIGNMENT`) of the mirror check. The
+#: elbow and wrist centres have no lateral parameter: mirror images by construction.
 MIRRORED: dict[str, tuple[str, str]] = {
-    "hip": ("pelvis", "thigh"),
-    "knee": ("thigh", "shank"),
-    "ankle": ("shank", "foot"),
-    "elbow": ("upperarm", "ulna"),
-    "wrist": ("radius", "hand"),
+    "knee": ("shank", "knee_lateral"),
+    "ankle": ("foot", "ankle_lateral"),
 }
 _MIRROR = np.array([1.0, -1.0, 1.0])
 
@@ -341,11 +344,24 @@ def _axis_checks(
 
 
 def _mirror_checks(pset: ParameterSet, theta: np.ndarray) -> list[Check]:
-    out = []
-    for joint, (parent, child) in MIRRORED.items():
-        gap = _centre(pset, theta, f"{child}_l") - _MIRROR * _centre(pset, theta, f"{child}_r")
-        if parent != "pelvis":
-            gap = gap[:2]  # normal to the segment: its length is the lengths' own check
-        out.append(Check(f"{joint}_lr", "left centre from the mirrored right one",
-                         float(np.linalg.norm(gap)), None, MIRROR_TOLERANCE))  # fmt: skip
+    def centre(body: str, side: str) -> np.ndarray:
+        return _centre(pset, theta, f"{body}_{side}")
+
+    gap = np.abs(centre("thigh", "l") - _MIRROR * centre("thigh", "r"))
+    out = [Check("hip_lr", "left centre from the mirrored right one (largest axis)",
+                 float(gap.max()), None, _mirror_tolerance(SIGMA_HJC))]  # fmt: skip
+    for joint, (child, parameter) in MIRRORED.items():
+        length, _, sd_deg = ALIGNMENT[parameter]
+        mean = 0.5 * sum(float(theta[pset.index(f"{length}_{s}")]) for s in "lr")
+        lateral = abs(float(centre(child, "l")[1] + centre(child, "r")[1]))  # y mirrored
+        limit = _mirror_tolerance(float(np.tan(np.radians(sd_deg))) * mean)
+        out.append(Check(f"{joint}_lr", "left centre from the mirrored right one (lateral)",
+                         lateral, None, limit))  # fmt: skip
     return out
+
+
+def _mirror_tolerance(sd_side: float) -> float:
+    """The limit [m] of a left-right difference of two figures of standard deviation
+    ``sd_side`` [m] each: :data:`TOLERANCE_SD` sd of their difference, at least
+    :data:`MIN_TOLERANCE`."""
+    return max(MIN_TOLERANCE, TOLERANCE_SD * float(np.sqrt(2.0)) * sd_side)
