@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from mocap_mj.anatomy.joint_checks import (
+    AXIS_DETERMINED_DEG,
     MIN_TOLERANCE,
     Check,
     checks_summary,
@@ -185,7 +186,8 @@ def test_an_axis_far_from_the_construction_is_refused_unless_the_data_place_it(
     fitted: Path, pset: ParameterSet
 ) -> None:
     theta = pset.load_json(fitted / "theta.json")
-    decision = {"joint": "elbow_l", "wand": "LELB", "marker": "LELB", "source": "plug-in-gait"}
+    decision = {"joint": "elbow_l", "wand": "LELB", "marker": "LELB", "source": "plug-in-gait",
+                "data_sd_deg": 2 * AXIS_DETERMINED_DEG}  # fmt: skip
     turned = theta.copy()  # ELB turned 45 degrees forward about the elbow centre
     centre = _centre(pset, theta, "ulna_l")
     k = [_offset_index(pset, "LELB", a) for a in (0, 1)]
@@ -195,10 +197,11 @@ def test_an_axis_far_from_the_construction_is_refused_unless_the_data_place_it(
     axis = _check(joint_checks(pset, turned, Subject(), decisions={"elbow_l": decision}),
                   "elbow_l", "flexion axis")  # fmt: skip
     assert axis.value == pytest.approx(45.0, abs=0.5) and axis.violated
-    functional = {"elbow_l": {**decision, "source": "functional"}}
-    reported = _check(joint_checks(pset, turned, Subject(), decisions=functional),
-                      "elbow_l", "flexion axis")  # fmt: skip
-    assert reported.value == pytest.approx(axis.value) and not reported.violated
+    for placed in ({"source": "functional"}, {"data_sd_deg": AXIS_DETERMINED_DEG}):
+        by_data = {"elbow_l": {**decision, **placed}}
+        reported = _check(joint_checks(pset, turned, Subject(), decisions=by_data),
+                          "elbow_l", "flexion axis")  # fmt: skip
+        assert reported.value == pytest.approx(axis.value) and not reported.violated
 
 
 def _refused(

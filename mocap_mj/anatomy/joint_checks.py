@@ -23,8 +23,9 @@ ankle, elbow, wrist and hip figures hold in every frame):
   centre's projection on the bar inside the bar);
 * flexion axes (knee, ankle, elbow, wrist): within :data:`AXIS_LIMIT_DEG` of Plug-in Gait's
   construction (:func:`~mocap_mj.anatomy.axes.angle_to_pig`) unless the data determine the
-  axis (its decision ``functional``, :func:`~mocap_mj.anatomy.axes.axis_decisions`: the
-  markers place it better than the construction's row), which is then reported only;
+  axis (its decision ``functional``, :func:`~mocap_mj.anatomy.axes.axis_decisions`, or the
+  markers' own standard deviation within :data:`AXIS_DETERMINED_DEG`), which is then
+  reported only;
 * hips: inside the pelvis (medial of the ASIS marker, behind the ASIS line and in front of
   the PSIS markers' midpoint, below the ASIS plane), and their distance that of Harrington
   et al. (2007) on the ASIS markers' distance PW, 0.66 PW + 14.6 mm, within the larger of
@@ -76,6 +77,13 @@ TOLERANCE_SD = 3.0
 #: the construction's row holds it to 4-8 degrees (:data:`~mocap_mj.anatomy.axes.SIGMA_PIG_AXIS`,
 #: :data:`~mocap_mj.anatomy.axis_rows.SIGMA_WAND_ANGLE`), so beyond 30 the axis is another.
 AXIS_LIMIT_DEG = 30.0
+#: The data determine a flexion axis when they place it to this standard deviation [deg] or
+#: better (``data_sd_deg`` of :func:`~mocap_mj.anatomy.axes.axis_decisions`, the markers'
+#: own, the construction's row taken out): :data:`TOLERANCE_SD` of them fit inside
+#: :data:`AXIS_LIMIT_DEG`, so such an axis far from the construction is the markers' finding
+#: (a wand placed off the plane, on the jump of the shared Movement_trial 39-59 degrees),
+#: reported, not refused.
+AXIS_DETERMINED_DEG = AXIS_LIMIT_DEG / TOLERANCE_SD
 #: Harrington et al. (2007)'s hip centre's lateral offset from mid-ASIS: 0.33 PW + 7.3 mm.
 HARRINGTON_WIDTH = (0.33, 0.0073)
 #: Joint (side removed) -> (lateral marker role, width, parent body, child body).
@@ -335,11 +343,13 @@ def _axis_checks(
     out = []
     for joint, d in decisions.items():
         angle = abs(angle_to_pig(pset, theta, d))
-        functional = d.get("source") == "functional"
-        what = "flexion axis from Plug-in Gait's construction" + (
-            " (the data determine it: reported only)" if functional else ""
+        placed = d.get("source") == "functional" or (
+            float(d.get("data_sd_deg", np.inf)) <= AXIS_DETERMINED_DEG
         )
-        out.append(Check(joint, what, angle, None, AXIS_LIMIT_DEG, "deg", not functional))
+        what = "flexion axis from Plug-in Gait's construction" + (
+            " (the data determine it: reported only)" if placed else ""
+        )
+        out.append(Check(joint, what, angle, None, AXIS_LIMIT_DEG, "deg", not placed))
     return out
 
 
