@@ -100,6 +100,10 @@ def test_a_correct_synthetic_fit_passes_every_check(fitted: Path, pset: Paramete
     # every joint of the full Plug-in Gait set is checked
     joints = {f"{j}_{s}" for j in ("knee", "ankle", "elbow", "wrist", "hip") for s in "lr"}
     assert joints | {"hips", "knee_lr"} <= set(summary["anatomy_checks"])
+    n = sum(c["enforced"] for c in entries)
+    assert f"- joints against the body (docs/model.md#flexion-axes): {n} checks pass" in (
+        (fitted / "report.md").read_text()
+    )
     theta = pset.load_json(fitted / "theta.json")
     checks = joint_checks(pset, theta, Subject())
     assert checks_summary(checks).keys() >= {"knee_l", "hips"}
@@ -253,3 +257,5 @@ def test_identify_refuses_a_wrong_side_elbow_with_exit_3(
     assert entry["violated"] and entry["value_mm"] == pytest.approx(ELBOW_FORWARD * 1e3, abs=5.0)
     assert len(err) == 1 and "elbow_l: centre anterior of LELB" in err[0], err
     assert all("elbow_l" in r for r in summary["implausible"]), summary["implausible"]
+    report = (tmp_path / "fit" / "report.md").read_text()
+    assert "- joints outside the body (exit status 3): elbow_l centre anterior of LELB" in report

@@ -197,6 +197,30 @@ def checks_summary(checks: list[Check]) -> dict[str, list[dict[str, Any]]]:
     return out
 
 
+def report_line(entries: Mapping[str, list[Mapping[str, Any]]] | None) -> str:
+    """report.md's line on summary.json's ``anatomy_checks`` (:func:`checks_summary`): the
+    violated checks, else how many passed and the least margin of the distances and of the
+    angles; "" without checks."""
+    flat = [(j, e) for j, es in (entries or {}).items() for e in es if e.get("enforced")]
+    if not flat:
+        return ""
+    bad = [f"{j} {e['what']}" for j, e in flat if e.get("violated")]
+    if bad:
+        return "- joints outside the body (exit status 3): " + "; ".join(bad)
+    least = []
+    for unit in ("mm", "deg"):
+        some = [
+            (float(e[f"margin_{unit}"]), j, e["what"]) for j, e in flat if f"margin_{unit}" in e
+        ]
+        if some:
+            value, joint, what = min(some)
+            least.append(f"{value:.1f} {unit} ({joint}: {what})")
+    return (
+        f"- joints against the body (docs/model.md#flexion-axes): {len(flat)} checks pass; "
+        f"least margin {', '.join(least)}"
+    )
+
+
 def _marker(pset: ParameterSet, alias: Mapping[str, str], role: str) -> str | None:
     """The marker of ``pset`` filling ``role`` (``LKNE``...), None when none does."""
     if role in pset.marker_names:
