@@ -16,16 +16,22 @@ import pytest
 
 from mocap_mj.anatomy.joint_checks import (
     AXIS_DETERMINED_DEG,
+    HOLD_FACTOR,
+    HOLD_RMSE_RATIO,
     MIN_TOLERANCE,
     Check,
     checks_summary,
+    held_joints,
     joint_checks,
     violations,
 )
 from mocap_mj.capture.subject import Subject
 from mocap_mj.cli import main
+from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.pipeline.steps import _held_at_construction, anatomical_priors, solve_trials
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.problem import TrialData
 from mocap_synth import Experiment, SynthConfig, synthesize, write_experiment
 
 FRAMES = 80
@@ -245,6 +251,10 @@ def test_identify_refuses_a_flipped_knee_with_exit_3(
         r"knee_l: centre medial of LKNE .* -\d+ mm \(limits", err[0]
     ), err
     assert all("knee_l" in r for r in summary["implausible"]), summary["implausible"]
+    held = summary["held_at_construction"]  # re-solved held: the markers fit far worse
+    assert held["joints"] == ["knee_l"] and not held["kept"]
+    assert held["marker_rmse_mm"][1] > HOLD_RMSE_RATIO * held["marker_rmse_mm"][0]
+    assert "held at its construction the markers fit at" in err[0]
 
 
 def test_identify_refuses_a_wrong_side_elbow_with_exit_3(
@@ -257,5 +267,64 @@ def test_identify_refuses_a_wrong_side_elbow_with_exit_3(
     assert entry["violated"] and entry["value_mm"] == pytest.approx(ELBOW_FORWARD * 1e3, abs=5.0)
     assert len(err) == 1 and "elbow_l: centre anterior of LELB" in err[0], err
     assert all("elbow_l" in r for r in summary["implausible"]), summary["implausible"]
+    assert summary["held_at_construction"]["joints"] == ["elbow_l"]
+    assert not summary["held_at_construction"]["kept"]
     report = (tmp_path / "fit" / "report.md").read_text()
     assert "- joints outside the body (exit status 3): elbow_l centre anterior of LELB" in report
+
+
+def test_holding_a_joint_narrows_its_construction_rows_only(pset: ParameterSet) -> None:
+    subject = Subject()
+    subject.set("knee_width_l", 0.100, "test")
+    axes = {"LTHI": 0.005}
+    free = anatomical_priors(pset, subject, symmetric=0.005, axes=axes)
+    joints = ["knee_l", "hip_r"]
+    held = anatomical_priors(pset, subject, symmetric=0.005, axes=axes, held=joints)
+    changed = {}
+    for a, b in zip(free, held, strict=True):
+        for label, s0, s1 in zip(a.labels, a.sigma, b.sigma, strict=True):
+            if s0 != s1:
+                changed[label] = s1 / s0
+    assert all(v == pytest.approx(HOLD_FACTOR) for v in changed.values())
+    assert set(changed) == {
+        "LKNE.x = 0 (on the joint axis)", "LKNE.z = -thigh_length",
+        "LKNE.y = centre + knee_width/2 + r",
+        "LTHI in the plane of the joint centre and LKNE (Plug-in Gait's chord)",
+        "hip_depth_r = 0.24 PD + 9.9 mm (Harrington 2007)",
+        "hip_width_r = 0.33 PW + 7.3 mm (Harrington 2007)",
+        "hip_height_r = 0.30 PW + 10.9 mm (Harrington 2007)",
+    }  # fmt: skip
+    checks = [Check(j, "d", 1.0, None, 0.0) for j in ("hips", "ankle_lr", "elbow_l")]
+    checks.append(Check("knee_r", "d", 0.0, None, 1.0))  # passes: not held
+    assert held_joints(checks) == ["ankle_l", "ankle_r", "elbow_l", "hip_l", "hip_r"]
+
+
+def test_a_joint_the_markers_leave_free_is_held_at_its_construction(
+    symmetric: Experiment,
+) -> None:
+    """A result with the left knee centre thrown 120 mm lateral (the markers barely see the
+    knee centre along its axis): re-solved with both knees held, the knees come back inside
+    the body and the markers fit as well, so the held solve is kept."""
+    recipe = Recipe()
+    settings = recipe.settings()
+    trials = [TrialData("synthetic", symmetric.markers, symmetric.times)]
+    solved = solve_trials(trials, ParameterSet(), settings, recipe, None, None, None)
+    pset, first = solved.pset, solved.result
+    thrown = first.theta.copy()
+    thrown[pset.index("knee_lateral_l")] += 0.120
+    bad = replace(first, theta=thrown)
+    assert held_joints(joint_checks(pset, thrown, solved.subject)) == ["knee_l", "knee_r"]
+    result, weighting = _held_at_construction(
+        trials, bad, dict(solved.weighting), pset=pset, theta0=first.theta0, settings=settings,
+        progress=None, slides=solved.slides, trial_weights=True, subject=solved.subject,
+        size=solved.size, symmetric=solved.symmetric, t10=solved.t10_prior,
+        hip_centre="harrington", landmarks=None, anatomical=True,
+    )  # fmt: skip
+    record = weighting["held_at_construction"]
+    assert record["joints"] == ["knee_l", "knee_r"] and record["kept"]
+    assert weighting["held_joints"] == ["knee_l", "knee_r"]
+    assert record["marker_rmse_mm"][1] <= HOLD_RMSE_RATIO * record["marker_rmse_mm"][0]
+    assert violations(joint_checks(pset, result.theta, solved.subject)) == []
+    # the knee centre is back where the construction puts it, within the row's width
+    knee = _check(joint_checks(pset, result.theta, solved.subject), "knee_l", "centre medial")
+    assert abs(knee.value - 0.5 * (knee.low + knee.high)) < 0.005  # type: ignore[operator]

@@ -47,8 +47,9 @@ them to the fit's implausible reasons (exit status 3).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass
+import re
+from collections.abc import Collection, Mapping
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -65,6 +66,7 @@ from mocap_mj.anatomy.axis_rows import MEDIAL_LANDMARKS
 from mocap_mj.capture.roles import medial_markers, roles
 from mocap_mj.capture.subject import Subject
 from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.priors import LinearGaussianPrior
 
 #: The least tolerance [m] of a centre's distance from its marker: soft tissue moves a skin
 #: marker by 5-15 mm against the bone (Cappozzo et al. 1996), and a marker placed on the
@@ -180,13 +182,11 @@ def joint_checks(
     return out
 
 
-def violations(checks: list[Check]) -> list[str]:
-    """One line per violated check (:meth:`Check.line`), for the implausible reasons."""
-    return [
-        "joint outside the body: " + c.line() + " (markers misplaced or the fit flipped?)"
-        for c in checks
-        if c.violated
-    ]
+def violations(checks: list[Check], note: str = "") -> list[str]:
+    """One line per violated check (:meth:`Check.line`), for the implausible reasons;
+    ``note`` (default: a question on the markers) ends each."""
+    end = note or " (markers misplaced or the fit flipped?)"
+    return ["joint outside the body: " + c.line() + end for c in checks if c.violated]
 
 
 def checks_summary(checks: list[Check]) -> dict[str, list[dict[str, Any]]]:
@@ -195,6 +195,66 @@ def checks_summary(checks: list[Check]) -> dict[str, list[dict[str, Any]]]:
     for c in checks:
         out.setdefault(c.joint, []).append(c.to_json())
     return out
+
+
+#: A held joint's construction rows are this many times narrower than in the first solve.
+HOLD_FACTOR = 0.1
+#: A re-solve with a joint held at its construction is kept when every check of the joint
+#: then passes and the marker RMSE grows by at most this factor: the markers fit the held
+#: model as well (they were silent on where the joint lies), so the construction places it.
+HOLD_RMSE_RATIO = 1.1
+#: Joint (side removed) -> the roles whose rows (any row naming the marker: its offset's
+#: rows, the chord plane's, a landmark pair's) are the joint's construction.
+HOLD_ROLES: dict[str, tuple[str, ...]] = {
+    "knee": ("KNE",), "ankle": ("ANK",), "elbow": ("ELB",), "wrist": ("WRA", "WRB"),
+}  # fmt: skip
+
+
+def held_joints(checks: list[Check]) -> list[str]:
+    """The joints (``knee_l``, ``hip_r``...) whose construction a re-solve holds for the
+    violated ``checks``: the joint of a violated check; both hips for their distance; both
+    sides of a mirror check (which side is wrong, the check cannot tell)."""
+    out: set[str] = set()
+    for c in checks:
+        if not c.violated:
+            continue
+        if c.joint == "hips":
+            out |= {"hip_l", "hip_r"}
+        elif c.joint.endswith("_lr"):
+            out |= {c.joint[:-3] + "_l", c.joint[:-3] + "_r"}
+        else:
+            out.add(c.joint)
+    return sorted(out)
+
+
+def hold(
+    prior: LinearGaussianPrior,
+    pset: ParameterSet,
+    landmarks: Mapping[str, str] | None,
+    joints: Collection[str],
+) -> LinearGaussianPrior:
+    """``prior`` with the construction rows of ``joints`` (:func:`held_joints`) narrowed by
+    :data:`HOLD_FACTOR`: for a knee, ankle, elbow or wrist every row whose label names its
+    lateral marker (:data:`HOLD_ROLES`, or the set's marker of that role), for a hip its
+    centre's rows (``hip_depth_l``...)."""
+    alias = roles(pset, landmarks)
+    words = []
+    for joint in joints:
+        name, side = joint[:-2], joint[-1]
+        if name == "hip":
+            words += [f"hip_{axis}_{side}" for axis in ("depth", "width", "height")]
+            continue
+        for role in HOLD_ROLES.get(name, ()):
+            marker = _marker(pset, alias, side.upper() + role)
+            words += [side.upper() + role] + ([marker] if marker else [])
+    if not words or len(prior.labels) != len(prior.sigma):
+        return prior
+    pattern = re.compile(r"\b(" + "|".join(re.escape(w) for w in sorted(set(words))) + r")\b")
+    held = np.array([bool(pattern.search(label)) for label in prior.labels], dtype=bool)
+    if not held.any():
+        return prior
+    sigma = np.where(held, np.asarray(prior.sigma, dtype=float) * HOLD_FACTOR, prior.sigma)
+    return replace(prior, sigma=sigma)
 
 
 def report_line(entries: Mapping[str, list[Mapping[str, Any]]] | None) -> str:
