@@ -276,7 +276,7 @@ def test_identify_refuses_a_wrong_side_elbow_with_exit_3(
 def test_holding_a_joint_narrows_its_construction_rows_only(pset: ParameterSet) -> None:
     subject = Subject()
     subject.set("knee_width_l", 0.100, "test")
-    axes = {"LTHI": 0.005}
+    axes: dict[str, float | None] = {"LTHI": 0.005}
     free = anatomical_priors(pset, subject, symmetric=0.005, axes=axes)
     joints = ["knee_l", "hip_r"]
     held = anatomical_priors(pset, subject, symmetric=0.005, axes=axes, held=joints)
