@@ -40,9 +40,12 @@ ankle, elbow, wrist and hip figures hold in every frame):
   subject's, and :func:`~mocap_mj.anatomy.plausibility.left_right_differences` reports them).
 
 A check the set's markers cannot make (no KNE, no medial marker, no decision) is left out.
-Each violation is one line naming the joint, side, the figure and its limit
-(:func:`violations`); :func:`mocap_mj.anatomy.plausibility.implausible_reasons`'s caller adds
-them to the fit's implausible reasons (exit status 3).
+A joint that fails is re-solved once with its construction rows narrowed (:func:`hold`,
+:func:`held_joints`; :func:`mocap_mj.pipeline.steps.solve_trials` keeps the re-solve when
+the joint then passes and the markers fit as well, :data:`HOLD_RMSE_RATIO`). Each violation
+that persists is one line naming the joint, side, the figure and its limit
+(:func:`violations`), among the fit's implausible reasons (exit status 3) beside those of
+:func:`mocap_mj.anatomy.plausibility.implausible_reasons`.
 """
 
 from __future__ import annotations
