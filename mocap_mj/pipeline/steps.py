@@ -493,9 +493,8 @@ def solve_anatomical(
     landmarks: Mapping[str, str] | None = None,
     held: Collection[str] = (),
 ) -> tuple[IdentificationResult, dict[str, Any]]:
-    """The joint LM with anatomical ranges as bounds and the anatomical priors
-    (``t10``, ``held``: see :func:`anatomical_priors`; ``trial_weights``: False weighs every
-    trial 1).
+    """The joint LM with anatomical ranges as bounds and the anatomical priors (``t10``,
+    ``held``: :func:`anatomical_priors`; ``trial_weights``: False weighs every trial 1).
 
     The priors are weighed against the markers' effective noise: a first solve uses the
     nominal marker noise (``settings.prior_noise``, 1 mm); when the artefact's noise of one
