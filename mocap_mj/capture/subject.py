@@ -8,8 +8,10 @@ centre half a knee width plus a marker radius medial to KNE, ...) and scales the
    ``PROCESSING`` group (``Height``, ``Bodymass``, ``LKneeWidth``, ... in mm and kg; pyCGM2
    and the Vicon VSK spell them ``LeftKneeWidth``, also accepted), other software into
    ``SUBJECTS`` (same names). A value of 0 means "not entered" in Nexus and is ignored;
-2. a YAML file (``--subject-file``): ``name: value`` with the names of :data:`MEASUREMENTS`,
-   a number in SI units (m, kg) or a string with a unit (``"144 mm"``, ``"1.68 m"``);
+2. a subject file (``--subject-file``): a YAML file, ``name: value`` with the names of
+   :data:`MEASUREMENTS`, a number in SI units (m, kg) or a string with a unit (``"144 mm"``,
+   ``"1.68 m"``); or Vicon's ``.vsk`` or ``.mp`` file, in the C3D group's names and units
+   (:mod:`mocap_mj.capture.vicon_subject`);
 3. command-line flags (mm and kg, as Nexus shows them).
 
 When the height is not measured, the identification estimates the stature from the markers
@@ -245,12 +247,27 @@ def from_c3d(path: str | Path) -> Subject:
     PROCESSING wins over SUBJECTS where both hold a value; zeros (Nexus' "not entered") and
     names that are not measurements (model outputs such as ``UpperLegLength``) are ignored.
     """
+    return subject_from_numbers(c3d_numbers(path), path)
+
+
+def subject_from_numbers(numbers: Iterable[tuple[str, str, float]], path: str | Path) -> Subject:
+    """The measurements among (group, name, value) numbers in Nexus's names and units (mm,
+    kg), later ones winning: a C3D file's (:func:`c3d_numbers`) or a Vicon subject file's
+    (:func:`mocap_mj.capture.vicon_subject.vicon_numbers`); each recorded with the source
+    ``FILE: GROUP:NAME``. Zeros (Nexus' "not entered") and names that are not measurements
+    are ignored."""
     subject = Subject()
-    for group, key, value in c3d_numbers(path):
+    for group, key, value in numbers:
         spec = _C3D_NAMES.get(key.upper())
         if spec is not None and value > 0:
             subject.set(spec[0], value * spec[1], f"{path}: {group}:{key}")
     return subject
+
+
+def is_known_number(key: str) -> bool:
+    """Whether ``key`` (any case) is the Nexus name of a measurement (``LKneeWidth``,
+    ``LeftKneeWidth``, ``Bodymass``...)."""
+    return key.upper() in _C3D_NAMES
 
 
 def c3d_numbers(path: str | Path) -> Iterator[tuple[str, str, float]]:

@@ -7,7 +7,7 @@ an identified MuJoCo model (:mod:`.from_model`); see ``docs/clinical.md``.
 
 from .from_model import model_angles
 from .model import PigResult, calibrate, plug_in_gait
-from .subject import PigSubject, pig_from_c3d, pig_from_yaml
+from .subject import PigSubject, pig_from_c3d, pig_from_file, pig_from_yaml
 
 __all__ = [
     "PigResult",
@@ -15,6 +15,7 @@ __all__ = [
     "calibrate",
     "model_angles",
     "pig_from_c3d",
+    "pig_from_file",
     "pig_from_yaml",
     "plug_in_gait",
 ]

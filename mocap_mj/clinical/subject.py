@@ -6,7 +6,9 @@ Sources, later ones overriding earlier ones:
    through :func:`mocap_mj.capture.subject.from_c3d` (``LLegLength``, ``LKneeWidth``, ...) and the
    Plug-in Gait values that are not body measurements (``LStaticPlantFlex``,
    ``LStaticRotOff``, ``LTibialTorsion``; radians, as Nexus stores them);
-2. a YAML file: ``name: value``, the names of :data:`mocap_mj.capture.subject.MEASUREMENTS` (SI or
+2. a subject file (``--subject-file``): a Vicon ``.vsk`` or ``.mp`` file, in the names and
+   units of the PROCESSING group (:mod:`mocap_mj.capture.vicon_subject`), or a YAML file:
+   ``name: value``, the names of :data:`mocap_mj.capture.subject.MEASUREMENTS` (SI or
    with a unit, ``"877 mm"``) and of :data:`PIG_VALUES` (metres or radians, or with a unit,
    ``"14.5 deg"``, ``"64 mm"``);
 3. the static trial (:mod:`mocap_mj.clinical.static`): the static plantar-flexion and
@@ -20,7 +22,7 @@ and torsion 0, the marker diameter 14 mm.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -29,12 +31,14 @@ from mocap_mj.capture.subject import (
     MEASUREMENTS,
     Subject,
     c3d_numbers,
-    from_c3d,
     from_values,
+    is_known_number,
     parse_value,
     read_mapping,
     sided,
+    subject_from_numbers,
 )
+from mocap_mj.capture.vicon_subject import is_vicon_file, vicon_numbers
 
 from ..errors import InputFileError, MocapError, excerpt
 
@@ -159,16 +163,48 @@ class PigSubject:
 
 def pig_from_c3d(path: str | Path) -> PigSubject:
     """The Plug-in Gait subject values stored in a C3D file (PROCESSING, then SUBJECTS)."""
+    return pig_from_numbers(list(c3d_numbers(path)), path)
+
+
+def pig_from_numbers(numbers: Sequence[tuple[str, str, float]], path: str | Path) -> PigSubject:
+    """The measurements and Plug-in Gait values among (group, name, value) numbers in
+    Nexus's names and units (mm, kg, rad): a C3D file's PROCESSING group or a Vicon
+    subject file's parameters (:func:`mocap_mj.capture.vicon_subject.vicon_numbers`)."""
     values: dict[str, float] = {}
     sources: dict[str, str] = {}
-    for group, key, value in c3d_numbers(path):
+    for group, key, value in numbers:
         spec = _pig_name(key)
         if spec is None:
             continue  # not a Plug-in Gait value
         where = f"{path}: {group}:{key}"
         values[spec[0]] = checked_pig_value(spec[0], value * spec[1], where)
         sources[spec[0]] = where
-    return PigSubject(from_c3d(path), values, sources)
+    return PigSubject(subject_from_numbers(numbers, path), values, sources)
+
+
+def pig_from_vicon(path: str | Path) -> PigSubject:
+    """The measurements and Plug-in Gait values of a Vicon ``.vsk`` or ``.mp`` subject file
+    (:mod:`mocap_mj.capture.vicon_subject`)."""
+    numbers = vicon_numbers(path, _known)
+    for _, key, value in numbers:
+        spec = _pig_name(key)
+        if spec is not None and PIG_VALUES[spec[0]][0] == "rad" and abs(value) > math.pi:
+            raise InputFileError(
+                f"{path}: parameter {key}: expected an angle in radians (as Nexus stores it "
+                f"in the .vsk, the .mp and the C3D's PROCESSING group), got {value:g}"
+            )
+    return pig_from_numbers(numbers, path)
+
+
+def pig_from_file(path: str | Path) -> PigSubject:
+    """A ``--subject-file``'s values: a Vicon ``.vsk`` or ``.mp`` file (by its suffix),
+    else a YAML mapping (:func:`pig_from_yaml`)."""
+    return pig_from_vicon(path) if is_vicon_file(path) else pig_from_yaml(path)
+
+
+def _known(key: str) -> bool:
+    """Whether ``key`` is the Nexus name of a measurement or of a Plug-in Gait value."""
+    return is_known_number(key) or _pig_name(key) is not None
 
 
 def _pig_name(key: str) -> tuple[str, float] | None:

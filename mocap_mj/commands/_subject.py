@@ -1,6 +1,6 @@
-"""Command-line options for the subject's measurements (:mod:`mocap_mj.capture.subject`): a YAML
-``--subject-file`` holding any of them, and the two that a person knows by heart,
-``--height`` and ``--mass``."""
+"""Command-line options for the subject's measurements (:mod:`mocap_mj.capture.subject`): a
+``--subject-file`` holding any of them (YAML, or Vicon's ``.vsk`` / ``.mp``), and the two
+that a person knows by heart, ``--height`` and ``--mass``."""
 
 from __future__ import annotations
 
@@ -12,7 +12,8 @@ from typing import Any
 from mocap_mj.capture.landmarks import disagreements, measured_widths
 from mocap_mj.capture.marker_set import load_marker_set
 from mocap_mj.capture.marker_sets import on_bundled_model
-from mocap_mj.capture.subject import Subject, from_c3d, from_values, from_yaml
+from mocap_mj.capture.subject import Subject, from_c3d, from_values
+from mocap_mj.capture.vicon_subject import from_file
 
 
 def add_subject_options(p: Any) -> None:
@@ -23,9 +24,10 @@ def add_subject_options(p: Any) -> None:
     g.add_argument(
         "--subject-file",
         metavar="FILE",
-        help="YAML file of measurements, name: value in SI units or with a unit "
-        "('knee_width_l: 105 mm'); names as in summary.json's 'measurements' and "
-        "docs/cli.md#subject-file (default: none)",
+        help="subject measurements: a YAML file, name: value in SI units or with a unit "
+        "('knee_width_l: 105 mm'), names as in summary.json's 'measurements'; or Vicon's "
+        ".vsk or .mp subject file (Plug-in Gait's names, mm and kg, as in the C3D's "
+        "PROCESSING group); docs/cli.md#subject-file (default: none)",
     )
     g.add_argument(
         "--height",
@@ -49,7 +51,7 @@ def subject_from_args(args: argparse.Namespace, c3d_paths: Sequence[str]) -> Sub
             found = from_c3d(path)
             subject = found.update(subject)  # earlier files win
     if args.subject_file:
-        subject = subject.update(from_yaml(args.subject_file))
+        subject = subject.update(from_file(args.subject_file))
     flags: list[tuple[str, str, float | None]] = [
         ("--height", "height", None if args.height is None else args.height * 1e-3),
         ("--mass", "mass", args.mass),

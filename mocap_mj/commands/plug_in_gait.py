@@ -39,9 +39,11 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--subject-file",
         metavar="FILE",
-        help="YAML of subject values (mm/kg measurements as in summary.json, and "
-        "static_plantar_flex_l, static_rot_off_l, asis_trochanter_l, tibial_torsion_l, "
-        "head_offset with a unit) overriding the file's (default: none)",
+        help="subject values overriding the file's: a YAML file (measurements as in "
+        "summary.json, and static_plantar_flex_l, static_rot_off_l, asis_trochanter_l, "
+        "tibial_torsion_l, head_offset with a unit), or Vicon's .vsk or .mp subject file "
+        "(Plug-in Gait's names and the C3D PROCESSING group's units: mm, kg, rad) "
+        "(default: none)",
     )
     p.add_argument(
         "--trial-type",
@@ -61,7 +63,7 @@ def register(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from mocap_mj.outputs.plug_in_gait import write_all
 
-    from ..clinical import pig_from_yaml, plug_in_gait
+    from ..clinical import pig_from_file, plug_in_gait
     from ..io.load import load_markers
 
     trial = load_markers(args.markers)
@@ -70,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
     if args.static:
         static = load_markers(args.static)
         subject = _file_subject(args.static).update(subject)
-    extra = pig_from_yaml(args.subject_file) if args.subject_file else None
+    extra = pig_from_file(args.subject_file) if args.subject_file else None
     rotation = np.asarray(trial.source.get("rotation", np.eye(3)), dtype=float)
     frames = trial.first_frame + np.arange(trial.n_frames)
     result = plug_in_gait(

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from mocap_mj.anatomy.axes import report_lines as axis_lines
+from mocap_mj.anatomy.joint_checks import report_line
 from mocap_mj.anatomy.plausibility import limits_text
 from mocap_mj.anatomy.segments import SegmentRow, uncertainty_lines, write_segments_csv
 from mocap_mj.anatomy.tissue import SlidingModel, with_sliding_model
@@ -345,6 +346,9 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
         "- joints held at a limit of their range (share of the fitted frames): "
         + (limits_text(held) or "none")
     )
+    checks = report_line(summary.get("anatomy_checks"))
+    if checks:
+        lines.append(checks)
     return lines
 
 

@@ -166,7 +166,8 @@ def _described(
                           t10=solved.t10_prior, hip_centre=recipe.hip_centre,
                           axes=widths(pset, solved.weighting.get("joint_axes")),
                           landmarks=solved.landmarks,
-                          centres=solved.weighting.get("centre_widths"))
+                          centres=solved.weighting.get("centre_widths"),
+                          held=solved.weighting.get("held_joints", ()))
         if recipe.anatomy
         else []
     )  # fmt: skip

@@ -7,7 +7,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import time
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from functools import partial
 from typing import Any, NamedTuple
 
@@ -17,6 +17,7 @@ from mocap_mj.anatomy.anatomy import ASYMMETRY_SIGMA, landmark_prior, symmetric_
 from mocap_mj.anatomy.axes import angle_to_pig, axis_decisions, axis_rmse, widths
 from mocap_mj.anatomy.ball_centres import centre_widths, row_spreads
 from mocap_mj.anatomy.initial import estimate_stature, place_markers, scaled_theta, segment_scales
+from mocap_mj.anatomy.joint_checks import HOLD_RMSE_RATIO, held_joints, hold, joint_checks
 from mocap_mj.anatomy.partial import Unmeasured, freeze_unmeasured, on_measured
 from mocap_mj.anatomy.ranges import NOMINAL_HEIGHT, kappa_ranges, theta_bounds
 from mocap_mj.anatomy.tissue import SLIDES, Slide, SlidingModel, sliding_weights
@@ -121,6 +122,11 @@ def solve_trials(
             trials, pset=pset, theta0=theta0, settings=settings, progress=progress,
             slides=slides, trial_weights=recipe.trial_weights, **options,
         )  # fmt: skip
+        if recipe.anatomy:
+            result, weighting = _held_at_construction(
+                trials, result, weighting, pset=pset, theta0=theta0, settings=settings,
+                progress=progress, slides=slides, trial_weights=recipe.trial_weights, **options,
+            )  # fmt: skip
     refined: dict[str, Any] = {}
     if recipe.refine and whole is not None:
         result, refined = refine_on_every_frame(
@@ -139,6 +145,43 @@ def solve_trials(
         options["symmetric"], t10, ranges, init_used, scales, missing,
         time.perf_counter() - t0, log, landmarks,
     )  # fmt: skip
+
+
+def _held_at_construction(
+    trials: Sequence[TrialData],
+    result: IdentificationResult,
+    weighting: dict[str, Any],
+    **solve: Any,
+) -> tuple[IdentificationResult, dict[str, Any]]:
+    """``result`` checked against the body (:func:`~mocap_mj.anatomy.joint_checks.joint_checks`);
+    a joint outside it re-solved once (:func:`solve_anatomical` with ``solve``'s arguments)
+    with its construction rows narrowed (:func:`~mocap_mj.anatomy.joint_checks.hold`). The
+    re-solve is kept when the joints' checks then pass and the marker RMSE grows by at most
+    :data:`~mocap_mj.anatomy.joint_checks.HOLD_RMSE_RATIO` (the markers were silent on where
+    the joint lies), its weighting recording ``held_joints``; otherwise the first result
+    stands, and its checks report what persists. Either way the weighting records
+    ``held_at_construction``: the joints, both marker RMSEs [mm] and whether it was kept."""
+    solve.pop("anatomical", None)
+    subject, landmarks = solve["subject"], solve.get("landmarks")
+    pset = solve["pset"]
+    checks = joint_checks(pset, result.theta, subject, landmarks, weighting.get("joint_axes"))
+    joints = held_joints(checks)
+    if not joints:
+        return result, weighting
+    held, held_weighting = solve_anatomical(trials, held=joints, **solve)
+    after = joint_checks(pset, held.theta, subject, landmarks, held_weighting.get("joint_axes"))
+    fixed = not any(set(held_joints([c])) & set(joints) for c in after if c.violated)
+    kept = fixed and held.marker_rmse <= HOLD_RMSE_RATIO * result.marker_rmse
+    record = {"joints": joints, "marker_rmse_mm": [result.marker_rmse * 1e3,
+              held.marker_rmse * 1e3], "kept": bool(kept)}  # fmt: skip
+    logger.info(
+        "%s held at the construction: marker RMSE %.2f -> %.2f mm, %s", ", ".join(joints),
+        result.marker_rmse * 1e3, held.marker_rmse * 1e3,
+        "kept" if kept else "not kept (the markers place the joint there)",
+    )  # fmt: skip
+    if kept:
+        return held, {**held_weighting, "held_joints": joints, "held_at_construction": record}
+    return result, {**weighting, "held_at_construction": record}
 
 
 def refine_on_every_frame(
@@ -182,6 +225,7 @@ def refine_on_every_frame(
             pset, subject, size=size, symmetric=symmetric, noise=noise, t10=t10,
             hip_centre=hip_centre, landmarks=landmarks,
             axes=widths(pset, weighting.get("joint_axes")), centres=weighting.get("centre_widths"),
+            held=weighting.get("held_joints", ()),
         )  # fmt: skip
         box = theta_bounds(pset, subject)
     qpos = [scratch_array((len(t.markers), pset.model.nq)) for t in motion_trials]
@@ -387,6 +431,7 @@ def anatomical_priors(
     landmarks: Mapping[str, str] | None = None,
     axes: dict[str, float | None] | None = None,
     centres: Mapping[str, float] | None = None,
+    held: Collection[str] = (),
 ) -> list[LinearGaussianPrior]:
     """Landmark priors and, with ``symmetric`` [m], the left/right length prior; without the
     rows on ``pset``'s frozen parameters (:func:`~mocap_mj.anatomy.partial.on_measured`).
@@ -396,7 +441,8 @@ def anatomical_priors(
     :func:`~mocap_mj.anatomy.axes.widths`): see
     :func:`~mocap_mj.anatomy.anatomy.landmark_prior`; ``centres``: a ball-joint centre
     row's label -> its width factor (:func:`~mocap_mj.anatomy.ball_centres.centre_widths`,
-    decided by :func:`solve_anatomical`; default none)."""
+    decided by :func:`solve_anatomical`; default none); ``held``: joints held at their
+    construction (:func:`~mocap_mj.anatomy.joint_checks.hold`; default none)."""
     landmark = landmark_prior(
         pset,
         subject,
@@ -407,6 +453,8 @@ def anatomical_priors(
         axis_widths=axes,
         landmarks=landmarks,
     )
+    if held:
+        landmark = hold(landmark, pset, landmarks, held)
     priors = [centre_widths(landmark, centres or {})]  # fmt: skip
     if symmetric is not None:
         priors.append(symmetric_prior(pset, symmetric, noise=noise))
@@ -442,9 +490,10 @@ def solve_anatomical(
     trial_weights: bool = True,
     hip_centre: str = "harrington",
     landmarks: Mapping[str, str] | None = None,
+    held: Collection[str] = (),
 ) -> tuple[IdentificationResult, dict[str, Any]]:
-    """The joint LM with anatomical ranges as bounds and the anatomical priors
-    (``t10``: see :func:`anatomical_priors`; ``trial_weights``: False weighs every trial 1).
+    """The joint LM with anatomical ranges as bounds and the anatomical priors (``t10``,
+    ``held``: :func:`anatomical_priors`; ``trial_weights``: False weighs every trial 1).
 
     The priors are weighed against the markers' effective noise: a first solve uses the
     nominal marker noise (``settings.prior_noise``, 1 mm); when the artefact's noise of one
@@ -466,7 +515,7 @@ def solve_anatomical(
     lower, upper = theta_bounds(pset, subject)
     options: dict[str, Any] = {
         "size": size, "symmetric": symmetric, "noise": settings.prior_noise, "t10": t10,
-        "hip_centre": hip_centre, "landmarks": landmarks,
+        "hip_centre": hip_centre, "landmarks": landmarks, "held": held,
     }  # fmt: skip
     priors = anatomical_priors(pset, subject, **options)
     start = pset.nominal if theta0 is None else theta0

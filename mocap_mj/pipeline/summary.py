@@ -12,6 +12,7 @@ from mocap_mj.anatomy.anatomy import ASYMMETRY_SIGMA
 from mocap_mj.anatomy.axes import widths
 from mocap_mj.anatomy.ball_centres import centre_report, row_spreads
 from mocap_mj.anatomy.initial import marker_stature, segment_scales
+from mocap_mj.anatomy.joint_checks import checks_summary, joint_checks, violations
 from mocap_mj.anatomy.partial import Unmeasured
 from mocap_mj.anatomy.plausibility import (
     implausible_reasons,
@@ -66,6 +67,16 @@ def fit_report(
         int(np.sum(~pset.frozen[: pset.n_kappa])),
         marker_stature(segment_scales(pset, [t.markers for t in trials])),
     )
+    checks = joint_checks(pset, result.theta, solved.subject, solved.landmarks,
+                          solved.weighting.get("joint_axes"))  # fmt: skip
+    summary["anatomy_checks"] = checks_summary(checks)
+    held = summary["held_at_construction"] = solved.weighting.get("held_at_construction")
+    note = ""
+    if held and not held["kept"]:
+        fitted, holding = held["marker_rmse_mm"]
+        note = (f"; held at its construction the markers fit at {holding:.2f} mm RMSE "
+                f"({fitted:.2f} as fitted): they place it there, a marker misplaced?")  # fmt: skip
+    summary["implausible"] += violations(checks, note)
     fitted = [q[used] for q, used in zip(result.qpos, result.used, strict=True)]
     summary["joints_at_limit"] = joints_at_limit(
         pset.model, solver_joint_range(pset.model, settings), fitted
@@ -101,7 +112,11 @@ def _prior_fields(
     """The priors part of the summary (standard deviations in millimetres)."""
     return {
         "anatomical_priors": anatomical,
-        "prior_weighting": {k: v for k, v in weighting.items() if k != "joint_axes"},
+        "prior_weighting": {
+            k: v
+            for k, v in weighting.items()
+            if k not in ("joint_axes", "held_joints", "held_at_construction")
+        },
         "joint_axes": weighting.get("joint_axes") or {},
         "symmetric_mm": None if symmetric is None else symmetric * 1e3,
         "asymmetry_prior_mm": (
@@ -234,6 +249,7 @@ def centre_fields(solved: Solved, settings: LMSettings, recipe: Recipe) -> dict[
     options: dict[str, Any] = {
         "size": solved.size, "symmetric": solved.symmetric, "t10": solved.t10_prior,
         "landmarks": solved.landmarks, "axes": widths(pset, w.get("joint_axes")),
+        "held": w.get("held_joints", ()),
     }  # fmt: skip
     noise = w.get("noise_mm", settings.prior_noise * 1e3) * 1e-3
     priors = [p.with_noise(noise) for p in anatomical_priors(pset, solved.subject, **options,
