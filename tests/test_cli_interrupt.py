@@ -123,6 +123,9 @@ def test_stale_staging_is_removed_and_look_alikes_are_kept(tmp_path: Path) -> No
     alike.mkdir()
     (alike / "notes.txt").write_text("mine")
     (tmp_path / f".out.old-{dead}-abcd1234").write_text("mine too")
+    half = tmp_path / f".out.partial-{dead}-0000beef"  # killed while writing its marker
+    half.mkdir()
+    (half / f".mocap-mj-folder.json.{dead}.new").write_text('{"form')
     with atomic_folder(out) as staging:
         (staging / "summary.json").write_text("{}")
     left = sorted(p.name for p in tmp_path.iterdir())

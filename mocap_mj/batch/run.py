@@ -216,6 +216,9 @@ def clean_leftovers(out: Path) -> None:
             pid = _pid_of(p.name)
             if p.name.startswith(_TMP) and pid is not None and not alive(pid):
                 with contextlib.suppress(OSError):
+                    half = p / f"{MARKER}.{pid}.new"  # that process's half-written marker
+                    if [e.name for e in p.iterdir()] == [half.name]:
+                        half.unlink()
                     p.rmdir()  # only if empty
 
 

@@ -150,14 +150,20 @@ def _base_name(entry: str) -> str | None:
 
 
 def _remove_unmarked_empty(directory: Path, name: str) -> None:
-    """Remove the empty staging folders of ``name`` that a run killed before it could mark
-    them left (:func:`os.rmdir` removes only an empty folder: nothing is lost)."""
+    """Remove the staging folders of ``name`` that a run killed before it had marked them
+    left: empty, or holding only that same process's half-written marker
+    (``<MARKER>.<pid>.new``, the pid of the folder's name). :func:`os.rmdir` removes only an
+    empty folder, so nothing else is ever lost."""
     with contextlib.suppress(OSError):
         for entry in directory.iterdir():
             m = _STAGING.match(entry.name)
-            if m is not None and _base_name(entry.name) == name and not alive(int(m["pid"])):
-                with contextlib.suppress(OSError):
-                    os.rmdir(entry)
+            if m is None or _base_name(entry.name) != name or alive(int(m["pid"])):
+                continue
+            with contextlib.suppress(OSError):
+                half = entry / f"{MARKER}.{m['pid']}.new"
+                if [p.name for p in entry.iterdir()] == [half.name] and not half.is_symlink():
+                    half.unlink()
+                os.rmdir(entry)
 
 
 def _remove(path: Path) -> None:
