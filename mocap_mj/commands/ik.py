@@ -57,7 +57,10 @@ from ._quality import (
     quality_text,
     without_ghosts,
 )
+from ._kinetics import Prepared, add_kinetics_options, add_mass_options, prepare, write_trial
+from ._kinetics import summary_of, text_of
 from ._removed import add_removed_flags
+from ._subject import subject_from_args
 
 
 def register(sub: Any) -> None:
@@ -112,6 +115,8 @@ def register(sub: Any) -> None:
         help="present markers a frame needs to be solved (default: 16)",
     )
     add_quality_options(p)
+    add_kinetics_options(p, several=False)
+    add_mass_options(p)
     add_force_flag(p)
     add_json_flag(p)
     add_removed_flags(p, "ik")
@@ -151,7 +156,11 @@ def run(args: argparse.Namespace) -> int:
     trial = trial._replace(
         markers=without_ghosts(trial.markers, pset, found, trial.path, trial.first_frame)
     )
-    return into_out_folder(args, lambda out: _solve_and_write(args, pset, trial, sl, out, quality))
+    mass = subject_from_args(args, [args.markers]).get("mass")
+    kinetics = prepare(args, [str(trial.path)], mass)  # the plates' bad input before output
+    return into_out_folder(
+        args, lambda out: _solve_and_write(args, pset, trial, sl, out, quality, kinetics)
+    )
 
 
 def _solve_and_write(
@@ -161,6 +170,7 @@ def _solve_and_write(
     sl: slice,
     out: Path,
     quality: dict[str, Any] | None = None,
+    kinetics: Prepared | None = None,
 ) -> tuple[dict[str, Any], str]:
     markers, times = trial.markers[sl], trial.times[sl]
     first = trial.first_frame + sl.start
@@ -187,6 +197,11 @@ def _solve_and_write(
     write_motion_csv(out / "motion.csv", load_written(out / "model.xml"), times, written, first)
     write_joint_centres_csv(out / "joint_centres.csv", model, times, result.qpos, first_frame=first)
     write_angles_csv(out / "angles.csv", model, times, result.qpos, first_frame=first)
+    kinetic_files: list[str] = []
+    section = None
+    if kinetics is not None:
+        entry, kinetic_files = write_trial(args, kinetics, 0, out, "motion.npz", sl)
+        section = summary_of(kinetics, [entry])
     n = len(markers)
     skipped = np.flatnonzero(result.status == Status.TOO_FEW_MARKERS)
     seen = np.any(np.all(np.isfinite(markers), axis=2), axis=0)
@@ -212,6 +227,7 @@ def _solve_and_write(
         "markers_without_data": never,
         "marker_quality": quality,
         "joints_at_limit": joints_at_limit(model, model.jnt_range, [result.qpos]),
+        "kinetics": section,
     }
     held = limits_text(summary["joints_at_limit"], AT_LIMIT_PRINT)
     text = (
@@ -229,7 +245,9 @@ def _solve_and_write(
         + (f"\nmarkers in the file without a valid sample: {', '.join(never)}" if never else "")
         + ("" if quality is None else f"\n{quality_text(quality)}")
         + (f"\njoints held at a limit of their range: {held}" if held else "")
+        + (f"\n{kin_text}" if section is not None and (kin_text := text_of(section)) else "")
         + f"\nwrote {args.out}/motion.csv, joint_centres.csv, angles.csv, motion.npz, "
-        "model.xml, summary.json"
+        + "".join(f"{f}, " for f in kinetic_files)
+        + "model.xml, summary.json"
     )
     return summary, text
