@@ -33,12 +33,15 @@ from mocap_mj.capture.checks import check_markers
 from mocap_mj.capture.marker_quality import Finding
 from mocap_mj.capture.subject import Subject
 from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder
+from mocap_mj.anatomy.inertia import segment_inertia, with_inertials
+from mocap_mj.io.atomic import atomic_write_text
 from mocap_mj.io.ownership import scratch_folder
 from mocap_mj.outputs.write_fit import frame_range, result_text, write_result
 from mocap_mj.pipeline.api import identify, select_count
 from mocap_mj.pipeline.recipe import Recipe
 from mocap_mj.pipeline.steps import t10_check
 from mocap_mj.skeleton import prewarm
+from mocap_mj.skeleton.mjcf import load_model
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.ik import IKSettings
 from mocap_mj.solve.losses import LossName
@@ -60,6 +63,8 @@ from ._quality import (
     quality_text,
     without_ghosts,
 )
+from ._kinetics import Prepared, add_kinetics_options, prepare, report_section, summary_of
+from ._kinetics import text_of, write_trial
 from ._removed import add_removed_flags
 from ._subject import (
     add_subject_options,
@@ -85,6 +90,7 @@ def register(sub: Any) -> None:
     _add_fit_options(p)
     add_quality_options(p)
     add_subject_options(p)
+    add_kinetics_options(p, several=True)
     add_removed_flags(p, "identify")
     add_force_flag(p)
     add_json_flag(p)
@@ -145,6 +151,7 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
     ]
     subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
     subject = with_measured_widths(args, pset.marker_names, trials, subject)
+    kinetics = prepare(args, [str(t.path) for t in loaded], subject.get("mass"))
     recipe = recipe_from_args(args)
     count = select_count(recipe.select, sum(len(t.markers) for t in trials), len(trials))
     found, quality = check_trials(args, pset, to_check, excluded)  # after every bad-input error
@@ -154,7 +161,8 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
     return into_out_folder(
         args,
         lambda out: _identify(
-            args, recipe, pset, loaded, trials, ranges, subject, out, count, read_seconds, quality
+            args, recipe, pset, loaded, trials, ranges, subject, out, count, read_seconds, quality,
+            kinetics,
         ),
     )
 
@@ -198,6 +206,32 @@ def _inputs(args: argparse.Namespace, loaded: list[Any], seconds: float | None) 
     }
 
 
+def _write_kinetics(
+    args: argparse.Namespace, kinetics: Prepared, loaded: list[Any], out: Path
+) -> dict[str, Any]:
+    """Every trial's events and kinetics (:mod:`._kinetics`) into ``out``; with a known body
+    mass, model.xml with de Leva's inertial parameters in its ``<inertial>`` elements (a
+    dynamic MuJoCo model; the kinematics are unchanged). summary.json's ``kinetics``."""
+    if kinetics.mass is not None:
+        model_xml = out / "model.xml"
+        inertia = segment_inertia(load_model(model_xml), kinetics.mass, sex=args.sex)
+        atomic_write_text(model_xml, with_inertials(model_xml.read_text(), inertia))
+    entries, files = [], []
+    for i, t in enumerate(loaded):
+        sl = frame_range(args.frames, len(t.markers), t.path)
+        motion = "motion.npz" if i == 0 else f"motion_{i}.npz"
+        entry, written = write_trial(args, kinetics, i, out, motion, sl)
+        entries.append(entry)
+        files += written
+    section = summary_of(kinetics, entries)
+    section["files"] = files
+    section["inertials_in_model"] = kinetics.mass is not None
+    report = out / "report.md"
+    if report.is_file():
+        atomic_write_text(report, report.read_text() + report_section(section))
+    return section
+
+
 def _identify(
     args: argparse.Namespace,
     recipe: Recipe,
@@ -210,6 +244,7 @@ def _identify(
     count: int | None = None,
     read_seconds: float | None = None,
     quality: dict[str, Any] | None = None,
+    kinetics: Prepared | None = None,
 ) -> tuple[dict[str, Any], str]:
     prewarm.start()  # the identification kernels compile on the other core meanwhile
     from .progress import frames_bar, progress_bar
@@ -237,6 +272,11 @@ def _identify(
             landmarks=set_landmarks(args)[0],
         )
         summary = write_result(fit, out, inputs=_inputs(args, loaded, read_seconds), force=True)
+    kinetic_text = ""
+    if kinetics is not None:
+        summary["kinetics"] = _write_kinetics(args, kinetics, loaded, out)
+        kinetic_text = text_of(summary["kinetics"])
+        kinetic_text += f"\nwrote {Path(args.out)}/{', '.join(summary['kinetics']['files'])}"
     print_marker_set(args)  # after the fit: a refusal stays one line
     for f in (summary.get("marker_quality") or {}).get("findings", []):
         if f["kind"] == "placement":  # found in the identification, after the stature
@@ -270,6 +310,8 @@ def _identify(
         )
     if quality is not None:
         text += quality_text(quality) + "\n"
+    if kinetic_text:
+        text += kinetic_text + "\n"
     plaus = plausibility_text(
         pset,
         per_marker,
