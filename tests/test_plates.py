@@ -233,7 +233,11 @@ def _channels(plate_type: int, f_p: np.ndarray, m_c: np.ndarray) -> np.ndarray:
 
 
 def _write_plate(
-    path: Path, plate_type: int = 2, *, on_subject: bool = False, corners_mm: np.ndarray = CORNERS_MM
+    path: Path,
+    plate_type: int = 2,
+    *,
+    on_subject: bool = False,
+    corners_mm: np.ndarray = CORNERS_MM,
 ) -> None:
     """A C3D with one plate of ``plate_type`` whose channels measure the force on the plate
     (on the subject with ``on_subject``; :func:`_channels`), with offsets, constant within

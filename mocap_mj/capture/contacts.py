@@ -33,7 +33,15 @@ from mocap_mj.errors import MocapError, ShapeError
 from mocap_mj.io.plates import PlateRecord
 from mocap_mj.io.trajectory import MarkerTrajectory
 
-__all__ = ["PIG_FEET", "STILL_SPEED", "Contact", "FootLoads", "assign_feet", "contacts", "foot_speeds"]
+__all__ = [
+    "PIG_FEET",
+    "STILL_SPEED",
+    "Contact",
+    "FootLoads",
+    "assign_feet",
+    "contacts",
+    "foot_speeds",
+]
 
 #: Plug-in Gait's foot markers per side: heel, toe (second metatarsal head), lateral malleolus.
 PIG_FEET: dict[str, tuple[str, ...]] = {

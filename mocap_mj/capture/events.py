@@ -38,9 +38,9 @@ from mocap_mj.io.formats.c3d import read_parameters
 from mocap_mj.io.trajectory import MarkerTrajectory
 
 __all__ = [
+    "EVENTS_HEADER",
     "SOURCES",
     "GaitEvent",
-    "EVENTS_HEADER",
     "add_events",
     "events_csv",
     "events_from_c3d",

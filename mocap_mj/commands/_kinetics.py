@@ -21,8 +21,14 @@ from typing import Any
 
 import numpy as np
 
-from mocap_mj.capture.contacts import STILL_SPEED, Contact, FootLoads, assign_feet, contacts
-from mocap_mj.capture.contacts import foot_speeds
+from mocap_mj.capture.contacts import (
+    STILL_SPEED,
+    Contact,
+    FootLoads,
+    assign_feet,
+    contacts,
+    foot_speeds,
+)
 from mocap_mj.capture.events import GaitEvent, events_csv, gait_events
 from mocap_mj.errors import MocapError
 from mocap_mj.io.atomic import atomic_write_text
@@ -274,10 +280,15 @@ def write_trial(
         "forces_file": trial.source,
         "plates": list(trial.plates),
         "plates_per_foot": {
-            f.side: sorted({trial.plates[c.plate] for c in trial.found
-                            if c.reason is None and c.side == f.side})
+            f.side: sorted(
+                {
+                    trial.plates[c.plate]
+                    for c in trial.found
+                    if c.reason is None and c.side == f.side
+                }
+            )
             for f in feet
-        },  # fmt: skip
+        },
         "frames_on_plate": {f.side: int(f.on_plate.sum()) for f in feet},
         "excluded_contacts": excluded,
         "body_mass_kg": mass,
@@ -352,7 +363,11 @@ def report_section(section: dict[str, Any]) -> str:
     body = text_of(section)
     if not body:
         return ""
-    return "\n## Kinetics\n\n" + "\n".join(
-        f"- {line.strip()}" if not line.startswith("  ") else f"  - {line.strip()}"
-        for line in body.splitlines()
-    ) + "\n"
+    return (
+        "\n## Kinetics\n\n"
+        + "\n".join(
+            f"- {line.strip()}" if not line.startswith("  ") else f"  - {line.strip()}"
+            for line in body.splitlines()
+        )
+        + "\n"
+    )

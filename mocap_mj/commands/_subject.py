@@ -51,7 +51,11 @@ def subject_from_args(args: argparse.Namespace, c3d_paths: Sequence[str]) -> Sub
     if getattr(args, "subject_file", None):
         subject = subject.update(from_yaml(args.subject_file))
     flags: list[tuple[str, str, float | None]] = [
-        ("--height", "height", None if getattr(args, "height", None) is None else args.height * 1e-3),
+        (
+            "--height",
+            "height",
+            None if getattr(args, "height", None) is None else args.height * 1e-3,
+        ),
         ("--mass", "mass", args.mass),
     ]
     for flag, name, value in flags:  # each checked against its human range, named by its flag

@@ -28,12 +28,12 @@ from typing import Any, get_args
 
 import numpy as np
 
+from mocap_mj.anatomy.inertia import segment_inertia, with_inertials
 from mocap_mj.anatomy.plausibility import plausibility_text
 from mocap_mj.capture.checks import check_markers
 from mocap_mj.capture.marker_quality import Finding
 from mocap_mj.capture.subject import Subject
 from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder
-from mocap_mj.anatomy.inertia import segment_inertia, with_inertials
 from mocap_mj.io.atomic import atomic_write_text
 from mocap_mj.io.ownership import scratch_folder
 from mocap_mj.outputs.write_fit import frame_range, result_text, write_result
@@ -48,6 +48,15 @@ from mocap_mj.solve.losses import LossName
 from mocap_mj.solve.problem import TrialData
 
 from ..errors import MocapError
+from ._kinetics import (
+    Prepared,
+    add_kinetics_options,
+    prepare,
+    report_section,
+    summary_of,
+    text_of,
+    write_trial,
+)
 from ._markers import (
     add_marker_options,
     choose_marker_set,
@@ -63,8 +72,6 @@ from ._quality import (
     quality_text,
     without_ghosts,
 )
-from ._kinetics import Prepared, add_kinetics_options, prepare, report_section, summary_of
-from ._kinetics import text_of, write_trial
 from ._removed import add_removed_flags
 from ._subject import (
     add_subject_options,
@@ -161,7 +168,17 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
     return into_out_folder(
         args,
         lambda out: _identify(
-            args, recipe, pset, loaded, trials, ranges, subject, out, count, read_seconds, quality,
+            args,
+            recipe,
+            pset,
+            loaded,
+            trials,
+            ranges,
+            subject,
+            out,
+            count,
+            read_seconds,
+            quality,
             kinetics,
         ),
     )

@@ -42,6 +42,15 @@ from mocap_mj.solve.problem import TrialData
 from ..errors import MocapError
 from ..export.tables import write_angles_csv
 from ..io.atomic import atomic_write_text
+from ._kinetics import (
+    Prepared,
+    add_kinetics_options,
+    add_mass_options,
+    prepare,
+    summary_of,
+    text_of,
+    write_trial,
+)
 from ._markers import (
     add_marker_options,
     choose_marker_set,
@@ -57,8 +66,6 @@ from ._quality import (
     quality_text,
     without_ghosts,
 )
-from ._kinetics import Prepared, add_kinetics_options, add_mass_options, prepare, write_trial
-from ._kinetics import summary_of, text_of
 from ._removed import add_removed_flags
 from ._subject import subject_from_args
 

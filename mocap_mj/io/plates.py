@@ -187,8 +187,8 @@ def read_plates(
             refused.append(exc)
     if not raw:
         raise refused[0]
-    for exc in refused:  # one plate's bad geometry or samples leave the others readable
-        _log.warning("%s; that plate is skipped, the file's other plates are read", exc)
+    for why in refused:  # one plate's bad geometry or samples leave the others readable
+        _log.warning("%s; that plate is skipped, the file's other plates are read", why)
     rotation = rotation_to_z_up(_up_axis(file, up, list(raw.values())))
     vertical = rotation[2]  # the up direction in the file's axes
     signs = {k: _sign(p, vertical, threshold_n) for k, p in raw.items()}

@@ -106,6 +106,7 @@ def dynamics_of_result(
     """The inverse dynamics of the result folder ``result_dir`` (``mocap-mj ik``'s or
     ``identify``'s: model.xml and motion.npz) under ``loads`` (each (T, 3) over motion.npz's
     frames) for a subject of ``mass`` [kg] (:func:`dynamics_of_files`)."""
+    _check_mass(mass)
     rd = ResultDir.open(result_dir)
     return dynamics_of_files(rd.model, rd.motion, loads, mass, sex=sex, cutoff_hz=cutoff_hz)
 
