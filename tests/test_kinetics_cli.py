@@ -31,7 +31,8 @@ import ezc3d
 import numpy as np
 import pytest
 
-from mocap_mj.capture.events import read_events_csv
+from mocap_mj.capture.events import GaitEvent, events_csv, events_from_c3d, read_events_csv
+from mocap_mj.errors import InputFileError
 
 MOVEMENT = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "Movement_trial.c3d"
 SKIP = "../shared/data/real/Movement_trial.c3d absent: the kinetics checks need the shared data"
@@ -189,3 +190,27 @@ def test_identify_writes_kinetics_and_a_dynamic_model(tmp_path: Path) -> None:
     assert ik_entry["residual_force_rms_n"] == pytest.approx(
         entry["residual_force_rms_n"], rel=0.02
     )
+
+
+@needs_data
+def test_export_c3d_holds_the_results_events(ik_out: Path, tmp_path: Path) -> None:
+    path = tmp_path / "result.c3d"
+    proc = run("export", str(ik_out), "--to", "c3d", "--out", str(path))
+    assert proc.returncode == 0, proc.stderr
+    ours = read_events_csv(ik_out / "events.csv")
+    back = events_from_c3d(path)
+    assert len(ours) >= 4
+    assert [(e.side, e.kind, e.frame) for e in back] == [(e.side, e.kind, e.frame) for e in ours]
+
+
+def test_events_csv_reads_back_and_refuses_a_bad_row(tmp_path: Path) -> None:
+    events = [
+        GaitEvent("left", "foot_strike", 1.25, 31, "force plate"),
+        GaitEvent("right", "foot_off", 1.5, 37, "kinematics (Zeni et al. 2008)"),
+    ]
+    path = tmp_path / "events.csv"
+    path.write_text(events_csv(events))
+    assert read_events_csv(path) == events
+    path.write_text(events_csv(events) + "left,heel_rise,40,1.6,force plate\n")
+    with pytest.raises(InputFileError, match=r"events\.csv: line 4: expected side"):
+        read_events_csv(path)

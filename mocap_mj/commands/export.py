@@ -29,6 +29,7 @@ from mocap_mj.skeleton.mjcf import load_model
 
 from ..clinical.compare import comparison_section, folder_angles, numbered_like
 from ..errors import MocapError
+from ..capture.events import read_events_csv
 from ..export.c3d import write_c3d
 from ..export.clinical import clinical_angles
 from ..export.ik_setup import write_ik_setup
@@ -88,7 +89,8 @@ def _write(fmt: str, path: Path, src: ExportSource, args: argparse.Namespace) ->
         fitted, _ = marker_residuals(model, motion.qpos, motion.markers)
         write_trc(path, motion.marker_names, motion.times, fitted, up=args.up, first_frame=first)
     elif fmt == "c3d":
-        write_c3d(path, src)
+        events = src.root / "events.csv"  # ik's and identify's gait events, when written
+        write_c3d(path, src, events=read_events_csv(events) if events.is_file() else ())
     elif fmt == "angles":
         write_angles_csv(path, model, motion.times, motion.qpos, first)
     elif fmt == "residuals":
