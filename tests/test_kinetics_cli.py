@@ -214,3 +214,25 @@ def test_events_csv_reads_back_and_refuses_a_bad_row(tmp_path: Path) -> None:
     path.write_text(events_csv(events) + "left,heel_rise,40,1.6,force plate\n")
     with pytest.raises(InputFileError, match=r"events\.csv: line 4: expected side"):
         read_events_csv(path)
+
+
+@needs_data
+def test_without_a_mass_kinetics_are_refused_with_one_warning(tmp_path: Path) -> None:
+    c3d = ezc3d.c3d(str(MOVEMENT))
+    c3d["parameters"]["PROCESSING"]["Bodymass"]["value"] = np.array([0.0])  # Nexus: not entered
+    path = tmp_path / "no_mass.c3d"
+    c3d.write(str(path))
+    out = tmp_path / "r"
+    proc = run("ik", "--markers", str(path), "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    warned = [ln for ln in proc.stderr.splitlines() if "no body mass" in ln]
+    assert len(warned) == 1 and "--mass" in warned[0], proc.stderr
+    assert not (out / "dynamics.csv").exists() and not (out / "grf.csv").exists()
+    assert (out / "motion.npz").is_file() and (out / "events.csv").is_file()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["kinetics"]["trials"] == [] and "no body mass" in summary["kinetics"]["refused"]
+    given = tmp_path / "given"
+    proc = run("ik", "--markers", str(path), "--out", str(given), "--mass", "85")
+    assert proc.returncode == 0, proc.stderr
+    (entry,) = json.loads((given / "summary.json").read_text())["kinetics"]["trials"]
+    assert entry["body_mass_kg"] == 85.0 and (given / "dynamics.csv").is_file()
