@@ -183,7 +183,11 @@ def _trial_loads(
         feet = assign_feet(plates, traj)
         speeds = foot_speeds(traj)
     except MocapError as exc:
-        raise MocapError(f"{path}: the feet on the force plates of {source}: {exc}") from None
+        why = f"{path}: the feet on the force plates of {source}: {exc}"
+        if forces:  # asked for: refused; a C3D's own plates: no kinetics, one warning
+            raise MocapError(why) from None
+        _warn(args, f"{why}: no kinetics for this trial")
+        return None
     events = _events(args, path, traj, feet)
     return TrialLoads(
         path, source, tuple(p.name for p in plates), tuple(found), feet, speeds, traj.times, events
