@@ -27,9 +27,9 @@ from mocap_mj.export.read_result import ExportSource, load_result
 from mocap_mj.pipeline.motion import ResultDir
 from mocap_mj.skeleton.mjcf import load_model
 
+from ..capture.events import read_events_csv
 from ..clinical.compare import comparison_section, folder_angles, numbered_like
 from ..errors import MocapError
-from ..capture.events import read_events_csv
 from ..export.c3d import write_c3d
 from ..export.clinical import clinical_angles
 from ..export.ik_setup import write_ik_setup
