@@ -236,3 +236,43 @@ def test_without_a_mass_kinetics_are_refused_with_one_warning(tmp_path: Path) ->
     assert proc.returncode == 0, proc.stderr
     (entry,) = json.loads((given / "summary.json").read_text())["kinetics"]["trials"]
     assert entry["body_mass_kg"] == 85.0 and (given / "dynamics.csv").is_file()
+
+
+def write_grf_mot(path: Path, plates: list[Any], times: np.ndarray) -> None:
+    """An OpenSim ground-reaction .mot of ``plates`` (PlateRecords, Z up) at ``times`` [s]:
+    OpenSim's Y up, force on the subject, its point the centre of pressure and the torque
+    the free moment there (zeros where unloaded)."""
+    from mocap_mj.io.orientation import rotation_to_z_up
+
+    to_z_up = rotation_to_z_up("y")  # the reader's: z_up = y_up @ to_z_up.T
+    columns = ["time"]
+    blocks = [times[:, None]]
+    for k, p in enumerate(plates):
+        prefix = f"{k + 1}_ground_"
+        for stem, values in (("force_v", p.force), ("force_p", np.nan_to_num(p.cop)),
+                             ("torque_", p.free_moment)):  # fmt: skip
+            columns += [f"{prefix}{stem}{a}" for a in "xyz"]
+            blocks.append(values @ to_z_up)
+    rows = np.concatenate(blocks, axis=1)
+    header = f"grf\nversion=1\nnRows={len(rows)}\nnColumns={len(columns)}\nendheader\n"
+    body = "\n".join("\t".join(f"{v:.9g}" for v in row) for row in rows)
+    path.write_text(header + "\t".join(columns) + "\n" + body + "\n")
+
+
+@needs_data
+def test_forces_from_a_grf_mot_give_the_c3d_plates_kinetics(ik_out: Path, tmp_path: Path) -> None:
+    from mocap_mj.io import load_markers
+    from mocap_mj.io.plates import read_plates
+
+    traj = load_markers(MOVEMENT)
+    mot = tmp_path / "grf.mot"
+    write_grf_mot(mot, read_plates(MOVEMENT), traj.times)
+    out = tmp_path / "r"
+    proc = run("ik", "--markers", str(MOVEMENT), "--out", str(out), "--forces", str(mot))
+    assert proc.returncode == 0, proc.stderr
+    (ours,) = json.loads((out / "summary.json").read_text())["kinetics"]["trials"]
+    (c3d,) = json.loads((ik_out / "summary.json").read_text())["kinetics"]["trials"]
+    assert ours["forces_file"] == str(mot)
+    assert ours["plates_per_foot"] == c3d["plates_per_foot"]
+    for key in ("residual_force_rms_n", "residual_moment_rms_nm", "peak_grf_n"):
+        assert ours[key] == pytest.approx(c3d[key], rel=1e-4), key
