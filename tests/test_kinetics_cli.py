@@ -276,3 +276,18 @@ def test_forces_from_a_grf_mot_give_the_c3d_plates_kinetics(ik_out: Path, tmp_pa
     assert ours["plates_per_foot"] == c3d["plates_per_foot"]
     for key in ("residual_force_rms_n", "residual_moment_rms_nm", "peak_grf_n"):
         assert ours[key] == pytest.approx(c3d[key], rel=1e-4), key
+
+
+STATIC = MOVEMENT.with_name("Static_trial.c3d")
+
+
+@pytest.mark.skipif(not STATIC.is_file(), reason=SKIP)
+def test_plates_no_foot_stands_on_give_a_note_and_no_tables(tmp_path: Path) -> None:
+    # Static_trial.c3d declares plates, but the subject stands beside them
+    out = tmp_path / "r"
+    proc = run("ik", "--markers", str(STATIC), "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    (entry,) = json.loads((out / "summary.json").read_text())["kinetics"]["trials"]
+    assert entry["stance_frames"] == 0 and "no foot stands alone on a plate" in entry["note"]
+    assert not (out / "dynamics.csv").exists() and (out / "events.csv").is_file()
+    assert "no joint moments" in proc.stdout

@@ -264,6 +264,18 @@ def write_trial(
         _warn(args, f"{out / 'model.xml'}: no foot body {', '.join(missing)}: no kinetics")
         return None, written
     feet = tuple(sliced(f, frames) for f in trial.feet)
+    excluded = sorted({r for f in trial.feet for r in f.excluded})
+    if not any(f.on_plate.any() for f in feet):  # no load to compute joint moments under
+        return {
+            "markers_file": trial.markers,
+            "forces_file": trial.source,
+            "plates": list(trial.plates),
+            "plates_per_foot": {f.side: [] for f in feet},
+            "excluded_contacts": excluded,
+            "stance_frames": 0,
+            "files": written,
+            "note": "no foot stands alone on a plate in the frames: no joint moments",
+        }, written
     t0 = time.perf_counter()
     dyn, force_dofs = dynamics_of_files(
         out / "model.xml", out / motion_file, body_loads(feet), mass, sex=args.sex
@@ -278,7 +290,6 @@ def write_trial(
     for f in feet:  # a still foot off the counted plates stands on something unmeasured
         stance &= f.on_plate | ~(trial.speeds[f.side][frames] < STILL_SPEED)
     fig = residual_figures(dyn, feet, mass, stance)
-    excluded = sorted({r for f in trial.feet for r in f.excluded})
     entry = {
         "markers_file": trial.markers,
         "forces_file": trial.source,
@@ -344,6 +355,10 @@ def text_of(section: dict[str, Any]) -> str:
     foot, the residual figures over stance and one line per excluded contact."""
     lines = []
     for e in section["trials"]:
+        if "note" in e:
+            lines.append(f"kinetics of {Path(e['markers_file']).name}: {e['note']}")
+            lines += [f"  excluded contact: {r}" for r in e["excluded_contacts"]]
+            continue
         per_foot = "; ".join(
             f"{side} foot {', '.join(p) or 'none'}" for side, p in e["plates_per_foot"].items()
         )
