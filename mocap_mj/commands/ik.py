@@ -10,7 +10,9 @@ fewer than --min-markers present markers are left unsolved (empty in motion.csv)
 identify with the landmarks' soft-tissue sliding model (recorded in its model.xml) weighs
 them as identify did, so that its RMSE reproduces the fit (--no-sliding-landmarks: every
 marker alike). The marker data are checked first, as by identify (warnings; --strict,
---exclude-markers).
+--exclude-markers). With force plates (a C3D's own, or --forces) and a body mass (the C3D's
+PROCESSING Bodymass, --subject-file, --mass), the joint moments: dynamics.csv, grf.csv (each
+foot's load) and root_residuals.csv (docs/dynamics.md); the gait events go to events.csv.
 """
 
 from __future__ import annotations
