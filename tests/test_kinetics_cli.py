@@ -291,3 +291,17 @@ def test_plates_no_foot_stands_on_give_a_note_and_no_tables(tmp_path: Path) -> N
     assert entry["stance_frames"] == 0 and "no foot stands alone on a plate" in entry["note"]
     assert not (out / "dynamics.csv").exists() and (out / "events.csv").is_file()
     assert "no joint moments" in proc.stdout
+
+
+@needs_data
+def test_frames_take_the_plates_of_those_frames(ik_out: Path, tmp_path: Path) -> None:
+    out = tmp_path / "r"
+    proc = run("ik", "--markers", str(MOVEMENT), "--out", str(out), "--frames", "100:250")
+    assert proc.returncode == 0, proc.stderr
+    part, whole = table(out / "grf.csv"), table(ik_out / "grf.csv")
+    assert len(part) == 150
+    np.testing.assert_allclose(part["time_s"], whole["time_s"][100:250])
+    for column in ("left_force_Z_N", "right_force_Z_N", "left_on_plate", "right_on_plate"):
+        np.testing.assert_array_equal(part[column], whole[column][100:250])
+    times = [e.time for e in read_events_csv(out / "events.csv")]
+    assert times and all(whole["time_s"][100] <= t <= whole["time_s"][249] for t in times)
