@@ -362,13 +362,18 @@ def text_of(section: dict[str, Any]) -> str:
         per_foot = "; ".join(
             f"{side} foot {', '.join(p) or 'none'}" for side, p in e["plates_per_foot"].items()
         )
+        if e["stance_frames"]:
+            residual = (
+                f"root residual over {e['stance_frames']} stance frames: force RMS "
+                f"{e['residual_force_rms_n']:.0f} N ({e['residual_force_rms_pct_bw']:.1f} % "
+                f"body weight, {e['residual_force_rms_pct_peak_grf']:.1f} % of the peak ground "
+                f"reaction), moment RMS {e['residual_moment_rms_nm']:.1f} N m"
+            )
+        else:  # every loaded frame has a still foot off the plates (root_residuals.csv: all)
+            residual = "no stance frame (a still foot off the plates on every loaded frame)"
         lines.append(
             f"kinetics of {Path(e['markers_file']).name} ({e['forces_file']}): {per_foot}; "
-            f"root residual over {e['stance_frames']} stance frames: force RMS "
-            f"{e['residual_force_rms_n']:.0f} N ({e['residual_force_rms_pct_bw']:.1f} % body "
-            f"weight, {e['residual_force_rms_pct_peak_grf']:.1f} % of the peak ground "
-            f"reaction), moment RMS {e['residual_moment_rms_nm']:.1f} N m; smoothing "
-            f"{e['smoothing']['order']}th-order zero-lag Butterworth, "
+            f"{residual}; smoothing {e['smoothing']['order']}th-order zero-lag Butterworth, "
             f"{e['smoothing']['cutoff_hz']:g} Hz"
         )
         lines += [f"  excluded contact: {r}" for r in e["excluded_contacts"]]
