@@ -47,6 +47,7 @@ from mocap_mj.outputs.kinetics_out import (
     write_grf,
 )
 from mocap_mj.pipeline.dynamics import CUTOFF_HZ, PASS_ORDER
+from mocap_mj.skeleton.mjcf import load_written
 
 EVENTS_CSV = "events.csv"
 
@@ -124,6 +125,7 @@ class Prepared:
     times: tuple[np.ndarray, ...]
     mass: float | None
     refused: str | None
+    events_missing: tuple[str, ...] = ()
 
 
 def prepare(args: argparse.Namespace, markers: list[str], mass: float | None) -> Prepared:
@@ -139,6 +141,7 @@ def prepare(args: argparse.Namespace, markers: list[str], mass: float | None) ->
     loads: list[TrialLoads | None] = []
     events: list[tuple[GaitEvent, ...]] = []
     times: list[np.ndarray] = []
+    missing: list[str] = []
     for i, path in enumerate(markers):
         traj = load_markers(
             path,
@@ -150,7 +153,10 @@ def prepare(args: argparse.Namespace, markers: list[str], mass: float | None) ->
         trial = None if args.no_forces else _trial_loads(args, path, forces, i, traj)
         loads.append(trial)
         times.append(traj.times)
-        events.append(trial.events if trial is not None else _events(args, path, traj, None))
+        found, why = (trial.events, None) if trial is not None else _events(args, path, traj, None)
+        events.append(found)
+        if why is not None:
+            missing.append(why)
     refused = None
     if not any(t is not None for t in loads):
         refused = "no force plates" if not args.no_forces else "--no-forces"
@@ -160,7 +166,7 @@ def prepare(args: argparse.Namespace, markers: list[str], mass: float | None) ->
             "no kinetics (dynamics.csv, grf.csv, root_residuals.csv)"
         )
         _warn(args, refused)
-    return Prepared(tuple(loads), tuple(events), tuple(times), mass, refused)
+    return Prepared(tuple(loads), tuple(events), tuple(times), mass, refused, tuple(missing))
 
 
 def _trial_loads(
@@ -188,7 +194,7 @@ def _trial_loads(
             raise MocapError(why) from None
         _warn(args, f"{why}: no kinetics for this trial")
         return None
-    events = _events(args, path, traj, feet)
+    events, _ = _events(args, path, traj, feet)  # without heels and toes: none
     return TrialLoads(
         path, source, tuple(p.name for p in plates), tuple(found), feet, speeds, traj.times, events
     )
@@ -226,13 +232,13 @@ def _fit_frames(p: PlateRecord, frames: int) -> PlateRecord:
 
 def _events(
     args: argparse.Namespace, path: str, traj: MarkerTrajectory, feet: Any
-) -> tuple[GaitEvent, ...]:
-    """The trial's gait events (none, with a warning, when the markers cannot tell)."""
+) -> tuple[tuple[GaitEvent, ...], str | None]:
+    """The trial's gait events and, when the markers cannot tell (a marker set without heels
+    and toes), none and why (summary.json's ``kinetics`` ``events_missing``)."""
     try:
-        return tuple(gait_events(path, traj, loads=feet))
+        return tuple(gait_events(path, traj, loads=feet)), None
     except MocapError as exc:
-        _warn(args, f"{path}: no gait events: {exc}")
-        return ()
+        return (), f"{path}: {exc}"
 
 
 def _warn(args: argparse.Namespace, line: str) -> None:
@@ -259,7 +265,12 @@ def write_trial(
     if trial is None or prepared.mass is None:
         return None, written
     mass = prepared.mass
-    missing = [b for b in FOOT_BODIES.values() if f'name="{b}"' not in _text(out / "model.xml")]
+    bodies = (
+        {str(model.body(b).name) for b in range(model.nbody)}
+        if (model := _written(out / "model.xml"))
+        else set()
+    )
+    missing = [b for b in FOOT_BODIES.values() if b not in bodies]
     if missing:
         _warn(args, f"{out / 'model.xml'}: no foot body {', '.join(missing)}: no kinetics")
         return None, written
@@ -334,11 +345,12 @@ def _in_frames(
     return [e for e in events if times[0] - 1e-9 <= e.time <= times[-1] + 1e-9]
 
 
-def _text(path: Path) -> str:
+def _written(path: Path) -> Any:
+    """The model file ``path`` as plain MuJoCo compiles it (None if it cannot)."""
     try:
-        return path.read_text()
-    except OSError:
-        return ""
+        return load_written(path)
+    except (MocapError, ValueError, OSError):
+        return None
 
 
 def summary_of(prepared: Prepared, entries: list[dict[str, Any] | None]) -> dict[str, Any]:
@@ -347,6 +359,7 @@ def summary_of(prepared: Prepared, entries: list[dict[str, Any] | None]) -> dict
         "trials": [e for e in entries if e is not None],
         "refused": prepared.refused,
         "body_mass_kg": prepared.mass,
+        "events_missing": list(prepared.events_missing),
     }
 
 
