@@ -1,4 +1,4 @@
-"""The kinetics of ``ik`` and ``identify``: ``--forces``, ``--no-forces``, ``--sex``; the
+"""The kinetics of ``ik`` and ``identify``: ``--forces``; the
 plates read before the solve (bad input is refused before any output), the joint moments
 computed and written after it (docs/dynamics.md).
 
@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from mocap_mj.anatomy.inertia import Sex
 from mocap_mj.capture.contacts import (
     STILL_SPEED,
     Contact,
@@ -50,51 +51,42 @@ from mocap_mj.pipeline.dynamics import CUTOFF_HZ, PASS_ORDER
 from mocap_mj.skeleton.mjcf import load_written
 
 EVENTS_CSV = "events.csv"
+#: Where each command takes the body mass from, in its order.
+MASS_SOURCES = {
+    "identify": "--mass, --subject-file's mass or the C3D's PROCESSING Bodymass",
+    "ik": "the C3D's PROCESSING Bodymass or a --model that identify wrote with a mass",
+}
+#: de Leva's table the commands use (the women's is mocap_mj.anatomy.inertia's sex="female").
+SEX: Sex = "male"
 
 
 def add_kinetics_options(p: Any, *, several: bool) -> None:
-    """``--forces``, ``--no-forces`` and ``--sex``."""
-    g = p.add_argument_group("kinetics (force plates to joint moments: docs/dynamics.md)")
+    """``--forces``."""
     each = "one per marker file, in order" if several else "for the marker file"
-    g.add_argument(
+    p.add_argument(
         "--forces",
         nargs="+",
         metavar="FILE",
         help=f"force-plate files, {each}: a C3D with FORCE_PLATFORM plates or an OpenSim "
-        "ground-reaction .mot, frame k of the plates at marker frame k (default: a C3D "
-        "marker file's own plates, when it has any)",
-    )
-    g.add_argument(
-        "--no-forces",
-        action="store_true",
-        help="compute no kinetics even when the marker files hold force plates (default: "
-        "kinetics for every trial with plates and a known body mass)",
-    )
-    g.add_argument(
-        "--sex",
-        choices=("male", "female"),
-        default="male",
-        help="de Leva's (1996) table of segment masses and inertias the joint moments use "
-        "(default: male)",
+        "ground-reaction .mot, frame k of the plates at marker frame k; 'none': no kinetics "
+        "(default: a C3D marker file's own plates, when it has any; docs/dynamics.md)",
     )
 
 
-def add_mass_options(p: Any) -> None:
-    """``--mass`` and ``--subject-file`` for a command without the other measurements."""
-    g = p.add_argument_group("subject (the body mass the joint moments need)")
-    g.add_argument(
-        "--mass",
-        type=float,
-        metavar="KG",
-        help="body mass [kg] (default: from the subject file or the C3D's PROCESSING "
-        "Bodymass, else no kinetics)",
-    )
-    g.add_argument(
-        "--subject-file",
-        metavar="FILE",
-        help="YAML file of measurements, of which the body mass is used "
-        "(docs/cli.md#subject-file; default: none)",
-    )
+def model_mass(path: str | Path | None) -> float | None:
+    """The body mass [kg] a model file carries: the sum of its bodies' masses when every body
+    has an ``<inertial>`` (a model.xml written by identify with a known mass); else None."""
+    if path is None:
+        return None
+    try:
+        text = Path(path).read_text()
+    except OSError:
+        return None
+    bodies = text.count("<body ")
+    if bodies == 0 or text.count("<inertial ") < bodies:
+        return None
+    model = _written(Path(path))
+    return None if model is None else float(np.sum(model.body_mass))
 
 
 @dataclass(frozen=True)
@@ -132,8 +124,11 @@ def prepare(args: argparse.Namespace, markers: list[str], mass: float | None) ->
     """Read every trial's plates and events (bad input raises MocapError here, before any
     output is written)."""
     forces = getattr(args, "forces", None)
-    if forces and args.no_forces:
-        raise MocapError("--forces and --no-forces: expected one of them, got both")
+    no_forces = forces is not None and [f.lower() for f in forces] == ["none"]
+    if no_forces:
+        forces = None
+    elif forces and "none" in [f.lower() for f in forces]:
+        raise MocapError("--forces: expected 'none' alone or one file per marker file")
     if forces and len(forces) != len(markers):
         raise MocapError(
             f"--forces: expected one file per marker file ({len(markers)}), got {len(forces)}"
@@ -150,7 +145,7 @@ def prepare(args: argparse.Namespace, markers: list[str], mass: float | None) ->
             up=getattr(args, "up", None),
             units=getattr(args, "units", None),
         )
-        trial = None if args.no_forces else _trial_loads(args, path, forces, i, traj)
+        trial = None if no_forces else _trial_loads(args, path, forces, i, traj)
         loads.append(trial)
         times.append(traj.times)
         found, why = (trial.events, None) if trial is not None else _events(args, path, traj, None)
@@ -159,11 +154,11 @@ def prepare(args: argparse.Namespace, markers: list[str], mass: float | None) ->
             missing.append(why)
     refused = None
     if not any(t is not None for t in loads):
-        refused = "no force plates" if not args.no_forces else "--no-forces"
+        refused = "no force plates" if not no_forces else "--forces none"
     elif mass is None:
         refused = (
-            "no body mass (the C3D's PROCESSING Bodymass, --mass or --subject-file's mass): "
-            "no kinetics (dynamics.csv, grf.csv, root_residuals.csv)"
+            f"no body mass ({MASS_SOURCES[args.command]}): no kinetics (dynamics.csv, grf.csv, "
+            "root_residuals.csv)"
         )
         _warn(args, refused)
     return Prepared(tuple(loads), tuple(events), tuple(times), mass, refused, tuple(missing))
@@ -289,7 +284,7 @@ def write_trial(
         }, written
     t0 = time.perf_counter()
     dyn, force_dofs = dynamics_of_files(
-        out / "model.xml", out / motion_file, body_loads(feet), mass, sex=args.sex
+        out / "model.xml", out / motion_file, body_loads(feet), mass, sex=SEX
     )
     seconds = time.perf_counter() - t0
     files = write_dynamics(out, dyn, mass, force_dofs, suffix=suffix)
@@ -318,7 +313,7 @@ def write_trial(
         "frames_on_plate": {f.side: int(f.on_plate.sum()) for f in feet},
         "excluded_contacts": excluded,
         "body_mass_kg": mass,
-        "sex": args.sex,
+        "sex": SEX,
         "smoothing": {
             "filter": "Butterworth low-pass, zero lag (forward and backward)",
             "order": 2 * PASS_ORDER,
@@ -390,7 +385,7 @@ def text_of(section: dict[str, Any]) -> str:
             f"{e['smoothing']['cutoff_hz']:g} Hz"
         )
         lines += [f"  excluded contact: {r}" for r in e["excluded_contacts"]]
-    if section["refused"] and section["refused"] not in ("no force plates", "--no-forces"):
+    if section["refused"] and section["refused"] not in ("no force plates", "--forces none"):
         lines.append(f"kinetics: {section['refused']}")
     return "\n".join(lines)
 

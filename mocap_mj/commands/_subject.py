@@ -56,7 +56,7 @@ def subject_from_args(args: argparse.Namespace, c3d_paths: Sequence[str]) -> Sub
             "height",
             None if getattr(args, "height", None) is None else args.height * 1e-3,
         ),
-        ("--mass", "mass", args.mass),
+        ("--mass", "mass", getattr(args, "mass", None)),
     ]
     for flag, name, value in flags:  # each checked against its human range, named by its flag
         subject = subject.update(from_values([(name, value)], flag))

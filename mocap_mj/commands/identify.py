@@ -53,6 +53,7 @@ from mocap_mj.solve.problem import TrialData
 
 from ..errors import MocapError
 from ._kinetics import (
+    SEX,
     Prepared,
     add_kinetics_options,
     prepare,
@@ -235,7 +236,7 @@ def _write_kinetics(
     dynamic MuJoCo model; the kinematics are unchanged). summary.json's ``kinetics``."""
     if kinetics.mass is not None:
         model_xml = out / "model.xml"
-        inertia = segment_inertia(load_model(model_xml), kinetics.mass, sex=args.sex)
+        inertia = segment_inertia(load_model(model_xml), kinetics.mass, sex=SEX)
         atomic_write_text(model_xml, with_inertials(model_xml.read_text(), inertia))
     entries, files = [], []
     for i, t in enumerate(loaded):

@@ -11,8 +11,9 @@ identify with the landmarks' soft-tissue sliding model (recorded in its model.xm
 them as identify did, so that its RMSE reproduces the fit (--no-sliding-landmarks: every
 marker alike). The marker data are checked first, as by identify (warnings; --strict,
 --exclude-markers). With force plates (a C3D's own, or --forces) and a body mass (the C3D's
-PROCESSING Bodymass, --subject-file, --mass), the joint moments: dynamics.csv, grf.csv (each
-foot's load) and root_residuals.csv (docs/dynamics.md); the gait events go to events.csv.
+PROCESSING Bodymass, else a --model identify wrote with a mass), the joint moments:
+dynamics.csv, grf.csv (each foot's load) and root_residuals.csv (docs/dynamics.md); the gait
+events go to events.csv.
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ from ..io.atomic import atomic_write_text
 from ._kinetics import (
     Prepared,
     add_kinetics_options,
-    add_mass_options,
+    model_mass,
     prepare,
     summary_of,
     text_of,
@@ -125,7 +126,6 @@ def register(sub: Any) -> None:
     )
     add_quality_options(p)
     add_kinetics_options(p, several=False)
-    add_mass_options(p)
     add_force_flag(p)
     add_json_flag(p)
     add_removed_flags(p, "ik")
@@ -165,7 +165,8 @@ def run(args: argparse.Namespace) -> int:
     trial = trial._replace(
         markers=without_ghosts(trial.markers, pset, found, trial.path, trial.first_frame)
     )
-    mass = subject_from_args(args, [args.markers]).get("mass")
+    # the C3D's PROCESSING Bodymass, else the model's own (identify's, with a mass)
+    mass = subject_from_args(args, [args.markers]).get("mass") or model_mass(args.model)
     kinetics = prepare(args, [str(trial.path)], mass)  # the plates' bad input before output
     return into_out_folder(
         args, lambda out: _solve_and_write(args, pset, trial, sl, out, quality, kinetics)
