@@ -6,9 +6,9 @@ residual moment RMS and the time of the inverse dynamics.
 
 Runs ``mocap-mj ik --markers FILE --out TMP`` (the bundled humanoid unless --model) on the
 shared Movement_trial.c3d (its PROCESSING:Bodymass, 85 kg) and Qualisys.c3d, which records no
-mass: ``--qualisys-mass`` gives it (default 75 kg, an assumption: the residual in per cent of
-body weight scales with it, the one in per cent of the peak ground reaction does not), and
-prints summary.json's ``kinetics`` figures.
+mass: ``--qualisys-mass`` gives it, written into a copy's PROCESSING:Bodymass (default 75
+kg, an assumption: the residual in per cent of body weight scales with it, the one in per
+cent of the peak ground reaction does not), and prints summary.json's ``kinetics`` figures.
 """
 
 from __future__ import annotations
@@ -19,6 +19,8 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+import ezc3d
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data"
@@ -51,8 +53,12 @@ def main() -> None:
             ]
             if args.model:
                 cmd += ["--model", args.model]
-            if name == "Qualisys":
-                cmd += ["--mass", str(args.qualisys_mass)]
+            if name == "Qualisys":  # a copy with the assumed mass as PROCESSING:Bodymass
+                c3d = ezc3d.c3d(str(path))
+                c3d.add_parameter("PROCESSING", "Bodymass", [args.qualisys_mass])
+                copy = Path(tmp) / path.name
+                c3d.write(str(copy))
+                cmd[cmd.index(str(path))] = str(copy)
             proc = subprocess.run(cmd, capture_output=True, text=True)
             if proc.returncode != 0:
                 print(f"{name}: ik failed: {proc.stderr.strip().splitlines()[-1:]}")

@@ -142,15 +142,15 @@ def test_ik_writes_the_kinetics_of_the_plates(ik_out: Path) -> None:
 
 
 @needs_data
-def test_no_forces_writes_no_kinetics(tmp_path: Path) -> None:
+def test_forces_none_writes_no_kinetics(tmp_path: Path) -> None:
     out = tmp_path / "r"
-    proc = run("ik", "--markers", str(MOVEMENT), "--out", str(out), "--no-forces")
+    proc = run("ik", "--markers", str(MOVEMENT), "--out", str(out), "--forces", "none")
     assert proc.returncode == 0, proc.stderr
     assert not (out / "dynamics.csv").exists() and not (out / "grf.csv").exists()
     assert (out / "events.csv").is_file()  # the kinematic events (Zeni) all the same
     summary = json.loads((out / "summary.json").read_text())
     assert summary["kinetics"]["trials"] == []
-    assert summary["kinetics"]["refused"] == "--no-forces"
+    assert summary["kinetics"]["refused"] == "--forces none"
 
 
 @needs_data
@@ -190,6 +190,12 @@ def test_identify_writes_kinetics_and_a_dynamic_model(tmp_path: Path) -> None:
     assert ik_entry["residual_force_rms_n"] == pytest.approx(
         entry["residual_force_rms_n"], rel=0.02
     )
+    # without a mass in the recording, ik takes the identified model's
+    proc = run("ik", "--markers", str(without_mass(tmp_path)), "--model",
+               str(out / "model.xml"), "--out", str(tmp_path / "model_mass"))  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "model_mass" / "summary.json").read_text())
+    assert summary["kinetics"]["trials"][0]["body_mass_kg"] == pytest.approx(MASS, rel=1e-9)
 
 
 @needs_data
@@ -216,26 +222,27 @@ def test_events_csv_reads_back_and_refuses_a_bad_row(tmp_path: Path) -> None:
         read_events_csv(path)
 
 
+def without_mass(folder: Path) -> Path:
+    """A copy of Movement_trial.c3d whose PROCESSING:Bodymass is 0 (Nexus: not entered)."""
+    c3d = ezc3d.c3d(str(MOVEMENT))
+    c3d["parameters"]["PROCESSING"]["Bodymass"]["value"] = np.array([0.0])
+    path = folder / "no_mass.c3d"
+    c3d.write(str(path))
+    return path
+
+
 @needs_data
 def test_without_a_mass_kinetics_are_refused_with_one_warning(tmp_path: Path) -> None:
-    c3d = ezc3d.c3d(str(MOVEMENT))
-    c3d["parameters"]["PROCESSING"]["Bodymass"]["value"] = np.array([0.0])  # Nexus: not entered
-    path = tmp_path / "no_mass.c3d"
-    c3d.write(str(path))
+    path = without_mass(tmp_path)
     out = tmp_path / "r"
     proc = run("ik", "--markers", str(path), "--out", str(out))
     assert proc.returncode == 0, proc.stderr
     warned = [ln for ln in proc.stderr.splitlines() if "no body mass" in ln]
-    assert len(warned) == 1 and "--mass" in warned[0], proc.stderr
+    assert len(warned) == 1 and "PROCESSING Bodymass" in warned[0], proc.stderr
     assert not (out / "dynamics.csv").exists() and not (out / "grf.csv").exists()
     assert (out / "motion.npz").is_file() and (out / "events.csv").is_file()
     summary = json.loads((out / "summary.json").read_text())
     assert summary["kinetics"]["trials"] == [] and "no body mass" in summary["kinetics"]["refused"]
-    given = tmp_path / "given"
-    proc = run("ik", "--markers", str(path), "--out", str(given), "--mass", "85")
-    assert proc.returncode == 0, proc.stderr
-    (entry,) = json.loads((given / "summary.json").read_text())["kinetics"]["trials"]
-    assert entry["body_mass_kg"] == 85.0 and (given / "dynamics.csv").is_file()
 
 
 def write_grf_mot(path: Path, plates: list[Any], times: np.ndarray) -> None:
