@@ -1,6 +1,6 @@
-"""The kinetics of ``ik`` and ``identify``: ``--forces``; the
-plates read before the solve (bad input is refused before any output), the joint moments
-computed and written after it (docs/dynamics.md).
+"""The kinetics of ``ik`` and ``identify`` (``--forces``): the plates read before the solve
+(bad input is refused before any output), the joint moments computed and written after it
+(docs/dynamics.md).
 
 Per trial with loads: the plates (its ``--forces`` file, else the marker file's own when it is
 a C3D with plates) -> each foot's load from the plates it alone stands on
@@ -270,18 +270,10 @@ def write_trial(
         _warn(args, f"{out / 'model.xml'}: no foot body {', '.join(missing)}: no kinetics")
         return None, written
     feet = tuple(sliced(f, frames) for f in trial.feet)
-    excluded = sorted({r for f in trial.feet for r in f.excluded})
+    head = _trial_head(trial, feet)
     if not any(f.on_plate.any() for f in feet):  # no load to compute joint moments under
-        return {
-            "markers_file": trial.markers,
-            "forces_file": trial.source,
-            "plates": list(trial.plates),
-            "plates_per_foot": {f.side: [] for f in feet},
-            "excluded_contacts": excluded,
-            "stance_frames": 0,
-            "files": written,
-            "note": "no foot stands alone on a plate in the frames: no joint moments",
-        }, written
+        note = "no foot stands alone on a plate in the frames: no joint moments"
+        return {**head, "stance_frames": 0, "files": written, "note": note}, written
     t0 = time.perf_counter()
     dyn, force_dofs = dynamics_of_files(
         out / "model.xml", out / motion_file, body_loads(feet), mass, sex=SEX
@@ -290,28 +282,13 @@ def write_trial(
     files = write_dynamics(out, dyn, mass, force_dofs, suffix=suffix)
     grf = write_grf(out / GRF_CSV.replace(".csv", f"{suffix}.csv"), dyn.times, feet)
     written += [f.name for f in files] + [grf.name]
-    n = len(trial.times)
-    off = excluded_frames(trial.found, n)[frames]
-    stance = stance_frames(feet, off)
+    stance = stance_frames(feet, excluded_frames(trial.found, len(trial.times))[frames])
     for f in feet:  # a still foot off the counted plates stands on something unmeasured
         stance &= f.on_plate | ~(trial.speeds[f.side][frames] < STILL_SPEED)
     fig = residual_figures(dyn, feet, mass, stance)
-    entry = {
-        "markers_file": trial.markers,
-        "forces_file": trial.source,
-        "plates": list(trial.plates),
-        "plates_per_foot": {
-            f.side: sorted(
-                {
-                    trial.plates[c.plate]
-                    for c in trial.found
-                    if c.reason is None and c.side == f.side
-                }
-            )
-            for f in feet
-        },
+    return {
+        **head,
         "frames_on_plate": {f.side: int(f.on_plate.sum()) for f in feet},
-        "excluded_contacts": excluded,
         "body_mass_kg": mass,
         "sex": SEX,
         "smoothing": {
@@ -327,8 +304,27 @@ def write_trial(
         "residual_moment_rms_nm": fig.moment_rms_nm,
         "inverse_dynamics_seconds": seconds,
         "files": written,
+    }, written
+
+
+def _trial_head(trial: TrialLoads, feet: tuple[FootLoads, ...]) -> dict[str, Any]:
+    """A trial's kinetics entry's first fields: its files, plates, each foot's counted plates
+    and the contacts left out (one reason each)."""
+    per_foot = {
+        f.side: sorted(
+            {trial.plates[c.plate] for c in trial.found if c.reason is None and c.side == f.side}
+        )
+        for f in feet
     }
-    return entry, written
+    if not any(f.on_plate.any() for f in feet):
+        per_foot = {f.side: [] for f in feet}
+    return {
+        "markers_file": trial.markers,
+        "forces_file": trial.source,
+        "plates": list(trial.plates),
+        "plates_per_foot": per_foot,
+        "excluded_contacts": sorted({r for f in trial.feet for r in f.excluded}),
+    }
 
 
 def _in_frames(

@@ -228,6 +228,29 @@ def _inputs(args: argparse.Namespace, loaded: list[Any], seconds: float | None) 
     }
 
 
+def _measured_text(summary: dict[str, Any]) -> str:
+    """The output's line of the subject measurements (mm and kg) with their sources."""
+    measured = "; ".join(
+        f"{n} {m['value'] * (1 if m['unit'] == 'kg' else 1e3):g} "
+        f"{'kg' if m['unit'] == 'kg' else 'mm'} ({m['source']})"
+        for n, m in summary["measurements"].items()
+    )
+    return f"measurements: {measured or 'none (regressions from the markers)'}\n"
+
+
+def _kinetics_into(
+    args: argparse.Namespace,
+    kinetics: Prepared,
+    loaded: list[Any],
+    out: Path,
+    summary: dict[str, Any],
+) -> str:
+    """:func:`_write_kinetics` into ``out`` and ``summary``; the output's kinetics lines."""
+    section = summary["kinetics"] = _write_kinetics(args, kinetics, loaded, out)
+    lines = text_of(section)
+    return f"{lines}\nwrote {Path(args.out)}/{', '.join(section['files'])}\n".lstrip("\n")
+
+
 def _write_kinetics(
     args: argparse.Namespace, kinetics: Prepared, loaded: list[Any], out: Path
 ) -> dict[str, Any]:
@@ -294,11 +317,7 @@ def _identify(
             landmarks=set_landmarks(args)[0],
         )
         summary = write_result(fit, out, inputs=_inputs(args, loaded, read_seconds), force=True)
-    kinetic_text = ""
-    if kinetics is not None:
-        summary["kinetics"] = _write_kinetics(args, kinetics, loaded, out)
-        kinetic_text = text_of(summary["kinetics"])
-        kinetic_text += f"\nwrote {Path(args.out)}/{', '.join(summary['kinetics']['files'])}"
+    kinetic_text = "" if kinetics is None else _kinetics_into(args, kinetics, loaded, out, summary)
     print_marker_set(args)  # after the fit: a refusal stays one line
     for f in (summary.get("marker_quality") or {}).get("findings", []):
         if f["kind"] == "placement":  # found in the identification, after the stature
@@ -318,12 +337,7 @@ def _identify(
             f"frame by IK with the identified model, marker RMSE "
             f"{summary['motion_marker_rmse_mm']:.3f} mm\n"
         )
-    measured = "; ".join(
-        f"{n} {m['value'] * (1 if m['unit'] == 'kg' else 1e3):g} "
-        f"{'kg' if m['unit'] == 'kg' else 'mm'} ({m['source']})"
-        for n, m in summary["measurements"].items()
-    )
-    text += f"measurements: {measured or 'none (regressions from the markers)'}\n"
+    text += _measured_text(summary)
     est = summary.get("stature_estimate")
     if est:
         text += (
@@ -332,8 +346,7 @@ def _identify(
         )
     if quality is not None:
         text += quality_text(quality) + "\n"
-    if kinetic_text:
-        text += kinetic_text + "\n"
+    text += kinetic_text
     plaus = plausibility_text(
         pset,
         per_marker,

@@ -173,6 +173,28 @@ def run(args: argparse.Namespace) -> int:
     )
 
 
+def _write_files(pset: ParameterSet, motion: Any, qpos: np.ndarray, out: Path, first: int) -> None:
+    """model.xml, motion.npz, motion.csv, joint_centres.csv and angles.csv of the IK's qpos
+    (T, nq) [internal layout] into ``out``, frames numbered from ``first``."""
+    model, times = pset.model, motion.times
+    pset.export_mjcf(out / "model.xml", pset.nominal)
+    written = Layout.of(model).written(qpos)
+    save_motion(out / "motion.npz", replace(motion, qpos=written, first_frame=first))
+    write_motion_csv(out / "motion.csv", load_written(out / "model.xml"), times, written, first)
+    write_joint_centres_csv(out / "joint_centres.csv", model, times, qpos, first_frame=first)
+    write_angles_csv(out / "angles.csv", model, times, qpos, first_frame=first)
+
+
+def _kinetics_of(
+    args: argparse.Namespace, kinetics: Prepared | None, out: Path, sl: slice
+) -> tuple[dict[str, Any] | None, list[str]]:
+    """summary.json's ``kinetics`` of the trial (:mod:`._kinetics`) and the files written."""
+    if kinetics is None:
+        return None, []
+    entry, files = write_trial(args, kinetics, 0, out, "motion.npz", sl)
+    return summary_of(kinetics, [entry]), files
+
+
 def _solve_and_write(
     args: argparse.Namespace,
     pset: ParameterSet,
@@ -201,17 +223,8 @@ def _solve_and_write(
     result, model = motion.ik, pset.model
     assert result is not None  # solve_motion's motion carries its IK
     sliding = None if args.no_sliding_landmarks else recorded_sliding_model(model)
-    pset.export_mjcf(out / "model.xml", pset.nominal)
-    written = Layout.of(model).written(result.qpos)
-    save_motion(out / "motion.npz", replace(motion, qpos=written, first_frame=first))
-    write_motion_csv(out / "motion.csv", load_written(out / "model.xml"), times, written, first)
-    write_joint_centres_csv(out / "joint_centres.csv", model, times, result.qpos, first_frame=first)
-    write_angles_csv(out / "angles.csv", model, times, result.qpos, first_frame=first)
-    kinetic_files: list[str] = []
-    section = None
-    if kinetics is not None:
-        entry, kinetic_files = write_trial(args, kinetics, 0, out, "motion.npz", sl)
-        section = summary_of(kinetics, [entry])
+    _write_files(pset, motion, result.qpos, out, first)
+    section, kinetic_files = _kinetics_of(args, kinetics, out, sl)
     n = len(markers)
     skipped = np.flatnonzero(result.status == Status.TOO_FEW_MARKERS)
     seen = np.any(np.all(np.isfinite(markers), axis=2), axis=0)

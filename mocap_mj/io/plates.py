@@ -167,28 +167,13 @@ def read_plates(
     if n_plates == 0:
         return []
     _check_declared(file, header, n_plates)
-    try:
-        whole = ezc3d.c3d(str(file), extract_forceplat_data=True)
-    except Exception as exc:
-        raise InputFileError(
-            f"{file}: group FORCE_PLATFORM: ezc3d could not extract the plates: {_one_line(exc)}"
-        ) from exc
+    whole = _extracted(file)
     params = whole["parameters"]
     scale_pos = _length_scale(file, params)
     scale_force = _force_scale(file, params)
     analog_rate = _analog_rate(file, params)
     rate = _marker_rate(file, params, marker_rate, analog_rate, whole)
-    raw: dict[int, _RawPlate] = {}
-    refused: list[InputFileError] = []
-    for k, pf in enumerate(whole["data"]["platform"]):
-        try:
-            raw[k] = _RawPlate.of(file, k, pf, params, scale_pos, scale_force)
-        except InputFileError as exc:
-            refused.append(exc)
-    if not raw:
-        raise refused[0]
-    for why in refused:  # one plate's bad geometry or samples leave the others readable
-        _log.warning("%s; that plate is skipped, the file's other plates are read", why)
+    raw = _readable(file, whole, params, scale_pos, scale_force)
     rotation = rotation_to_z_up(_up_axis(file, up, list(raw.values())))
     vertical = rotation[2]  # the up direction in the file's axes
     signs = {k: _sign(p, vertical, threshold_n) for k, p in raw.items()}
@@ -203,6 +188,36 @@ def read_plates(
         cop, free = _cop(force, moment, corners, threshold_n)
         records.append(PlateRecord(f"plate {k + 1}", plate.type, corners, force, cop, free, rate))
     return records
+
+
+def _extracted(file: Path) -> Any:
+    """The file as ezc3d reads it with its plates extracted."""
+    try:
+        return ezc3d.c3d(str(file), extract_forceplat_data=True)
+    except Exception as exc:  # ezc3d raises RuntimeError, OSError, ValueError...
+        raise InputFileError(
+            f"{file}: group FORCE_PLATFORM: ezc3d could not extract the plates: {_one_line(exc)}"
+        ) from exc
+
+
+def _readable(
+    file: Path, whole: Any, params: dict[str, Any], scale_pos: float, scale_force: float
+) -> dict[int, _RawPlate]:
+    """Plate index -> its :class:`_RawPlate`, of the plates that can be read; one warning
+    per plate skipped (naming the file, the plate and why); the first refusal raised when
+    none can be read."""
+    raw: dict[int, _RawPlate] = {}
+    refused: list[InputFileError] = []
+    for k, pf in enumerate(whole["data"]["platform"]):
+        try:
+            raw[k] = _RawPlate.of(file, k, pf, params, scale_pos, scale_force)
+        except InputFileError as exc:
+            refused.append(exc)
+    if not raw:
+        raise refused[0]
+    for why in refused:  # one plate's bad geometry or samples leave the others readable
+        _log.warning("%s; that plate is skipped, the file's other plates are read", why)
+    return raw
 
 
 def read_grf_mot(
