@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
 from mocap_mj.commands._removed import add_removed_flags
@@ -72,6 +73,20 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--symmetric", action="store_true", help="perturb left and right alike (mirror images)"
     )
+    p.add_argument(
+        "--plates",
+        action="store_true",
+        help="the subject leans onto its right foot, and plates.c3d holds the markers and a "
+        "type-2 force plate under that foot with the ground reaction the truth motion needs "
+        "(the truth model's inverse dynamics, de Leva's segments for --mass): a ground truth "
+        "for the kinetics of ik and identify (default: no plates)",
+    )
+    p.add_argument(
+        "--mass",
+        metavar="KG",
+        help="body mass of the truth model for --plates, written as PROCESSING:Bodymass "
+        "(default: 75)",
+    )
     add_force_flag(p)
     add_json_flag(p)
     add_removed_flags(p, "synth")
@@ -109,8 +124,20 @@ def config_from_args(args: argparse.Namespace) -> SynthConfig:
 
 def run(args: argparse.Namespace) -> int:
     cfg = config_from_args(args)
+    mass = 75.0 if args.mass is None else _parse("--mass", float, args.mass)
+    if not 0 < mass < 500:
+        raise ConfigError(f"--mass: expected a body mass in (0, 500) kg, got {args.mass}")
     exp = synthesize(cfg)
-    summary = write_experiment(exp, args.out, force=args.force)
+    extra = None
+    if args.plates:
+        from .plates import leaning, write_plate_c3d
+
+        exp = leaning(exp, mass)
+
+        def extra(out: Path) -> list[str]:
+            return [write_plate_c3d(out / "plates.c3d", exp, out / "truth_model.xml", mass).name]
+
+    summary = write_experiment(exp, args.out, force=args.force, extra=extra)
     lines = [
         f"wrote {args.out}: {', '.join(summary['files'])}",
         f"motion {cfg.motion}: {cfg.frames} frames at {cfg.rate:g} Hz ({cfg.duration:.2f} s), "

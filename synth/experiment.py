@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -233,7 +233,12 @@ def summarize(exp: Experiment) -> dict[str, Any]:
     }
 
 
-def write_experiment(exp: Experiment, out_dir: str | Path, force: bool = False) -> dict[str, Any]:
+def write_experiment(
+    exp: Experiment,
+    out_dir: str | Path,
+    force: bool = False,
+    extra: Callable[[Path], list[str]] | None = None,
+) -> dict[str, Any]:
     """Write the experiment's files into ``out_dir`` (each atomically) and return the summary.
 
     Files (:data:`FILES`): ``markers.csv`` and ``markers.trc`` (the measured markers, mm),
@@ -248,6 +253,9 @@ def write_experiment(exp: Experiment, out_dir: str | Path, force: bool = False) 
         Created if needed, whole at the end (:func:`mocap_mj.io.atomic.atomic_folder`); an
         existing non-empty folder is refused unless ``force``, and then replaced.
     force : bool
+    extra : callable, optional
+        Writes further files into the folder (given its path) after the truth files; returns
+        their names, added to the summary's ``files``.
 
     Returns
     -------
@@ -278,5 +286,7 @@ def write_experiment(exp: Experiment, out_dir: str | Path, force: bool = False) 
         truth = exp.truth_motion()
         written = Layout.of(pset.model).written(truth.qpos)
         save_motion(out / "truth_motion.npz", dataclasses.replace(truth, qpos=written))
+        if extra is not None:
+            summary["files"] = [*summary["files"], *extra(out)]
         atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     return summary

@@ -4,6 +4,7 @@ pressure (C3D type 2, OpenSim .mot), read back."""
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import ezc3d
@@ -64,11 +65,47 @@ def test_every_plate_read_with_a_plausible_peak_and_its_cop_on_the_plate(path: P
         np.testing.assert_allclose(cop[:, 2], plate.corners[:, 2].mean(), atol=0.002)
 
 
-def test_fp_type1_is_refused_naming_the_plate_with_corrupt_corners() -> None:
-    # FP_Type1.c3d's plates 2-4 hold corners of 1e-38 .. 1e24 m: not a plate's rectangle
+class _Lines(logging.Handler):
+    """The messages a logger emits (whatever the command line did to its propagation)."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.WARNING)
+        self.lines: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.lines.append(record.getMessage())
+
+
+def test_fp_type1_reads_plate_1_and_skips_the_plates_with_corrupt_corners() -> None:
+    # FP_Type1.c3d's plates 2-4 hold corners of 1e-38 .. 1e24 m: not a plate's rectangle;
+    # plate 1's are a 0.40 x 0.60 m plate, never loaded in this file (under 7 N throughout)
     path = _need(VENDORS / "FP_Type1.c3d")
+    logger, seen = logging.getLogger("mocap_mj.io.plates"), _Lines()
+    # a logging configuration run earlier in this process (import-linter's, by test_layers)
+    # disables the loggers that existed then
+    disabled, logger.disabled = logger.disabled, False
+    logger.addHandler(seen)
+    try:
+        plates = read_plates(path)
+    finally:
+        logger.removeHandler(seen)
+        logger.disabled = disabled
+    assert [p.name for p in plates] == ["plate 1"]
+    sides = np.linalg.norm(plates[0].corners - np.roll(plates[0].corners, -1, axis=0), axis=1)
+    np.testing.assert_allclose(sorted(sides), [0.40, 0.40, 0.60, 0.60], atol=0.01)
+    assert plates[0].force.shape == (634, 3) and np.isfinite(plates[0].force).all()
+    lines = seen.lines
+    assert len(lines) == 3, lines  # one line per skipped plate
+    for k, line in zip((2, 3, 4), lines, strict=True):
+        assert "FP_Type1.c3d" in line and f"plate {k}:" in line and "CORNERS" in line, line
+        assert "skipped" in line and "\n" not in line
+
+
+def test_a_file_none_of_whose_plates_can_be_read_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "bad_corners.c3d"
+    _write_plate(path, 2, corners_mm=np.full((4, 3), 1e-20))
     with pytest.raises(
-        InputFileError, match=r"FP_Type1\.c3d: group FORCE_PLATFORM:CORNERS: plate 2"
+        InputFileError, match=r"bad_corners\.c3d: group FORCE_PLATFORM:CORNERS: plate 1"
     ):
         read_plates(path)
 
@@ -212,10 +249,16 @@ def _channels(plate_type: int, f_p: np.ndarray, m_c: np.ndarray) -> np.ndarray:
     return six @ np.linalg.inv(CAL).T if plate_type == 4 else six
 
 
-def _write_plate(path: Path, plate_type: int = 2, *, on_subject: bool = False) -> None:
+def _write_plate(
+    path: Path,
+    plate_type: int = 2,
+    *,
+    on_subject: bool = False,
+    corners_mm: np.ndarray = CORNERS_MM,
+) -> None:
     """A C3D with one plate of ``plate_type`` whose channels measure the force on the plate
     (on the subject with ``on_subject``; :func:`_channels`), with offsets, constant within
-    each marker frame."""
+    each marker frame; ``corners_mm`` (4, 3) [mm]: the corners declared."""
     force, cop, free, _ = _truth()
     corners = CORNERS_MM * 1e-3
     centre = corners.mean(axis=0)
@@ -249,7 +292,7 @@ def _write_plate(path: Path, plate_type: int = 2, *, on_subject: bool = False) -
     _int_parameter(c3d, "USED", [1], [1])
     _int_parameter(c3d, "TYPE", [plate_type], [1])
     _int_parameter(c3d, "ZERO", [1, 0], [2])
-    c3d.add_parameter("FORCE_PLATFORM", "CORNERS", CORNERS_MM.T.reshape(3, 4, 1))
+    c3d.add_parameter("FORCE_PLATFORM", "CORNERS", corners_mm.T.reshape(3, 4, 1))
     origin = KISTLER_ORIGIN_MM if plate_type == 3 else ORIGIN_MM
     c3d.add_parameter("FORCE_PLATFORM", "ORIGIN", origin.reshape(3, 1))
     _int_parameter(c3d, "CHANNEL", list(range(1, n_channels + 1)), [n_channels, 1])

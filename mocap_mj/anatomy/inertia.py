@@ -303,6 +303,9 @@ def apply_inertia(spec: mujoco.MjSpec, inertia: BodyInertia) -> None:
             raise MocapError(f"segment inertia: the model has no body {name!r}")
         body.mass = float(inertia.mass[i])
         body.ipos = inertia.com[i]
+        # a file's own <inertial> (a written model's diagonal form) gives way to the full tensor
+        body.inertia = np.zeros(3)
+        body.iquat = np.array([1.0, 0.0, 0.0, 0.0])
         body.fullinertia = _full(inertia.inertia[i])
         body.explicitinertial = True
 

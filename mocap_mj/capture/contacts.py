@@ -33,7 +33,15 @@ from mocap_mj.errors import MocapError, ShapeError
 from mocap_mj.io.plates import PlateRecord
 from mocap_mj.io.trajectory import MarkerTrajectory
 
-__all__ = ["PIG_FEET", "FootLoads", "assign_feet", "contacts"]
+__all__ = [
+    "PIG_FEET",
+    "STILL_SPEED",
+    "Contact",
+    "FootLoads",
+    "assign_feet",
+    "contacts",
+    "foot_speeds",
+]
 
 #: Plug-in Gait's foot markers per side: heel, toe (second metatarsal head), lateral malleolus.
 PIG_FEET: dict[str, tuple[str, ...]] = {
@@ -41,6 +49,9 @@ PIG_FEET: dict[str, tuple[str, ...]] = {
     "right": ("RHEE", "RTOE", "RANK"),
 }
 SIDES = ("left", "right")
+#: A foot whose markers' mean speed is under this [m/s] is still (standing); a swinging foot
+#: moves at 1-5 m/s.
+STILL_SPEED = 0.5
 
 
 @dataclass(frozen=True)
@@ -164,6 +175,14 @@ def assign_feet(
             on[frames] = True
         out.append(FootLoads(side, force, cop, free, on, tuple(reasons)))
     return out[0], out[1]
+
+
+def foot_speeds(
+    trajectory: MarkerTrajectory, feet: Mapping[str, Sequence[str]] | None = None
+) -> dict[str, np.ndarray]:
+    """Side -> the mean speed (T,) [m/s] of its foot markers (``feet``, default
+    :data:`PIG_FEET`; central differences; NaN where none is seen)."""
+    return {s: _speed(p, trajectory.rate) for s, p in _foot_points(trajectory, feet).items()}
 
 
 def _foot_points(

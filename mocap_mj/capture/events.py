@@ -38,13 +38,16 @@ from mocap_mj.io.formats.c3d import read_parameters
 from mocap_mj.io.trajectory import MarkerTrajectory
 
 __all__ = [
+    "EVENTS_HEADER",
     "SOURCES",
     "GaitEvent",
     "add_events",
+    "events_csv",
     "events_from_c3d",
     "events_from_kinematics",
     "events_from_loads",
     "gait_events",
+    "read_events_csv",
 ]
 
 #: Each event's ``source``, by the rule that found it.
@@ -215,6 +218,53 @@ def add_events(c3d: Any, events: Sequence[GaitEvent]) -> None:
             label=_VICON_LABELS[e.kind],
             description=e.source,
         )
+
+
+#: events.csv's columns: side, kind, the recording's frame number, time [s], source.
+EVENTS_HEADER = ("side", "kind", "frame", "time_s", "source")
+
+
+def events_csv(events: Sequence[GaitEvent]) -> str:
+    """events.csv's text: a header (:data:`EVENTS_HEADER`) and a row per event, in order."""
+    lines = [",".join(EVENTS_HEADER)]
+    for e in events:
+        lines.append(f"{e.side},{e.kind},{e.frame},{e.time:.6f},{e.source}")
+    return "\n".join(lines) + "\n"
+
+
+def read_events_csv(path: str | os.PathLike[str]) -> list[GaitEvent]:
+    """The events of an events.csv file (:func:`events_csv`).
+
+    Raises
+    ------
+    InputFileError
+        The file cannot be read, its header is not :data:`EVENTS_HEADER`, or a row is not a
+        side, a kind, a frame number, a time and a source (the message names the row).
+    """
+    file = Path(path)
+    try:
+        lines = file.read_text(encoding="utf-8").splitlines()
+    except OSError as exc:
+        raise InputFileError(f"{file}: cannot read: {exc.strerror or exc}") from None
+    if not lines or tuple(lines[0].split(",")) != EVENTS_HEADER:
+        raise InputFileError(f"{file}: line 1: expected the header {','.join(EVENTS_HEADER)}")
+    out = []
+    for i, line in enumerate(lines[1:], start=2):
+        if not line.strip():
+            continue
+        cells = line.split(",", 4)
+        try:
+            side, kind, frame, time, source = cells
+            event = GaitEvent(side, kind, time=float(time), frame=int(frame), source=source)
+        except ValueError:
+            event = None
+        if event is None or event.side not in ("left", "right") or event.kind not in KINDS:
+            raise InputFileError(
+                f"{file}: line {i}: expected side (left/right), kind (foot_strike/foot_off), "
+                f"frame, time_s and source, got {line[:60]!r}"
+            )
+        out.append(event)
+    return out
 
 
 def _event(side: str, kind: str, time: float, rate: float, source: str) -> GaitEvent:

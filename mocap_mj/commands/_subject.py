@@ -50,11 +50,15 @@ def subject_from_args(args: argparse.Namespace, c3d_paths: Sequence[str]) -> Sub
         if str(path).lower().endswith(".c3d"):
             found = from_c3d(path)
             subject = found.update(subject)  # earlier files win
-    if args.subject_file:
+    if getattr(args, "subject_file", None):
         subject = subject.update(from_file(args.subject_file))
     flags: list[tuple[str, str, float | None]] = [
-        ("--height", "height", None if args.height is None else args.height * 1e-3),
-        ("--mass", "mass", args.mass),
+        (
+            "--height",
+            "height",
+            None if getattr(args, "height", None) is None else args.height * 1e-3,
+        ),
+        ("--mass", "mass", getattr(args, "mass", None)),
     ]
     for flag, name, value in flags:  # each checked against its human range, named by its flag
         subject = subject.update(from_values([(name, value)], flag))

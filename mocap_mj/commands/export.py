@@ -27,6 +27,7 @@ from mocap_mj.export.read_result import ExportSource, load_result
 from mocap_mj.pipeline.motion import ResultDir
 from mocap_mj.skeleton.mjcf import load_model
 
+from ..capture.events import read_events_csv
 from ..clinical.compare import comparison_section, folder_angles, numbered_like
 from ..errors import MocapError
 from ..export.c3d import write_c3d
@@ -88,7 +89,8 @@ def _write(fmt: str, path: Path, src: ExportSource, args: argparse.Namespace) ->
         fitted, _ = marker_residuals(model, motion.qpos, motion.markers)
         write_trc(path, motion.marker_names, motion.times, fitted, up=args.up, first_frame=first)
     elif fmt == "c3d":
-        write_c3d(path, src)
+        events = src.root / "events.csv"  # ik's and identify's gait events, when written
+        write_c3d(path, src, events=read_events_csv(events) if events.is_file() else ())
     elif fmt == "angles":
         write_angles_csv(path, model, motion.times, motion.qpos, first)
     elif fmt == "residuals":

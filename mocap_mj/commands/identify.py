@@ -15,6 +15,10 @@ Before the fit the marker data are checked for markers that do not move with the
 on stderr and in summary.json and report.md (--strict: refused); --exclude-markers drops
 markers' data. The anatomical fit also checks T10's placement against the stature (a
 ``placement`` finding, a warning like the others; --strict refuses it too, before the fit).
+With force plates (a C3D's own, or --forces, one file per marker file) and a body mass, every
+such trial's joint moments (dynamics.csv, grf.csv, root_residuals.csv; _<i> for a later
+trial) and model.xml with the segments' masses and inertias (docs/dynamics.md); every trial's
+gait events go to events.csv.
 """
 
 from __future__ import annotations
@@ -28,22 +32,35 @@ from typing import Any, get_args
 
 import numpy as np
 
+from mocap_mj.anatomy.inertia import segment_inertia, with_inertials
 from mocap_mj.anatomy.plausibility import plausibility_text
 from mocap_mj.capture.checks import check_markers, recorded_floor
 from mocap_mj.capture.marker_quality import Finding
 from mocap_mj.capture.subject import Subject
 from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder
+from mocap_mj.io.atomic import atomic_write_text
 from mocap_mj.io.ownership import scratch_folder
 from mocap_mj.outputs.write_fit import frame_range, result_text, write_result
 from mocap_mj.pipeline.api import identify, select_count
 from mocap_mj.pipeline.recipe import Recipe
 from mocap_mj.pipeline.steps import t10_check
 from mocap_mj.skeleton import prewarm
+from mocap_mj.skeleton.mjcf import load_model
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.losses import LossName
 from mocap_mj.solve.problem import TrialData
 
 from ..errors import MocapError
+from ._kinetics import (
+    SEX,
+    Prepared,
+    add_kinetics_options,
+    prepare,
+    report_section,
+    summary_of,
+    text_of,
+    write_trial,
+)
 from ._markers import (
     add_marker_options,
     choose_marker_set,
@@ -84,6 +101,7 @@ def register(sub: Any) -> None:
     _add_fit_options(p)
     add_quality_options(p)
     add_subject_options(p)
+    add_kinetics_options(p, several=True)
     add_removed_flags(p, "identify")
     add_force_flag(p)
     add_json_flag(p)
@@ -146,6 +164,7 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
     ]
     subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
     subject = with_measured_widths(args, pset.marker_names, trials, subject)
+    kinetics = prepare(args, [str(t.path) for t in loaded], subject.get("mass"))
     recipe = recipe_from_args(args)
     count = select_count(recipe.select, sum(len(t.markers) for t in trials), len(trials))
     found, quality = check_trials(args, pset, to_check, excluded)  # after every bad-input error
@@ -155,7 +174,18 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
     return into_out_folder(
         args,
         lambda out: _identify(
-            args, recipe, pset, loaded, trials, ranges, subject, out, count, read_seconds, quality
+            args,
+            recipe,
+            pset,
+            loaded,
+            trials,
+            ranges,
+            subject,
+            out,
+            count,
+            read_seconds,
+            quality,
+            kinetics,
         ),
     )
 
@@ -199,6 +229,55 @@ def _inputs(args: argparse.Namespace, loaded: list[Any], seconds: float | None) 
     }
 
 
+def _measured_text(summary: dict[str, Any]) -> str:
+    """The output's line of the subject measurements (mm and kg) with their sources."""
+    measured = "; ".join(
+        f"{n} {m['value'] * (1 if m['unit'] == 'kg' else 1e3):g} "
+        f"{'kg' if m['unit'] == 'kg' else 'mm'} ({m['source']})"
+        for n, m in summary["measurements"].items()
+    )
+    return f"measurements: {measured or 'none (regressions from the markers)'}\n"
+
+
+def _kinetics_into(
+    args: argparse.Namespace,
+    kinetics: Prepared,
+    loaded: list[Any],
+    out: Path,
+    summary: dict[str, Any],
+) -> str:
+    """:func:`_write_kinetics` into ``out`` and ``summary``; the output's kinetics lines."""
+    section = summary["kinetics"] = _write_kinetics(args, kinetics, loaded, out)
+    lines = text_of(section)
+    return f"{lines}\nwrote {Path(args.out)}/{', '.join(section['files'])}\n".lstrip("\n")
+
+
+def _write_kinetics(
+    args: argparse.Namespace, kinetics: Prepared, loaded: list[Any], out: Path
+) -> dict[str, Any]:
+    """Every trial's events and kinetics (:mod:`._kinetics`) into ``out``; with a known body
+    mass, model.xml with de Leva's inertial parameters in its ``<inertial>`` elements (a
+    dynamic MuJoCo model; the kinematics are unchanged). summary.json's ``kinetics``."""
+    if kinetics.mass is not None:
+        model_xml = out / "model.xml"
+        inertia = segment_inertia(load_model(model_xml), kinetics.mass, sex=SEX)
+        atomic_write_text(model_xml, with_inertials(model_xml.read_text(), inertia))
+    entries, files = [], []
+    for i, t in enumerate(loaded):
+        sl = frame_range(args.frames, len(t.markers), t.path)
+        motion = "motion.npz" if i == 0 else f"motion_{i}.npz"
+        entry, written = write_trial(args, kinetics, i, out, motion, sl)
+        entries.append(entry)
+        files += written
+    section = summary_of(kinetics, entries)
+    section["files"] = files
+    section["inertials_in_model"] = kinetics.mass is not None
+    report = out / "report.md"
+    if report.is_file():
+        atomic_write_text(report, report.read_text() + report_section(section))
+    return section
+
+
 def _identify(
     args: argparse.Namespace,
     recipe: Recipe,
@@ -211,6 +290,7 @@ def _identify(
     count: int | None = None,
     read_seconds: float | None = None,
     quality: dict[str, Any] | None = None,
+    kinetics: Prepared | None = None,
 ) -> tuple[dict[str, Any], str]:
     prewarm.start()  # the identification kernels compile on the other core meanwhile
     from .progress import frames_bar, progress_bar
@@ -238,6 +318,7 @@ def _identify(
             landmarks=set_landmarks(args)[0],
         )
         summary = write_result(fit, out, inputs=_inputs(args, loaded, read_seconds), force=True)
+    kinetic_text = "" if kinetics is None else _kinetics_into(args, kinetics, loaded, out, summary)
     print_marker_set(args)  # after the fit: a refusal stays one line
     for f in (summary.get("marker_quality") or {}).get("findings", []):
         if f["kind"] == "placement":  # found in the identification, after the stature
@@ -257,12 +338,7 @@ def _identify(
             f"frame by IK with the identified model, marker RMSE "
             f"{summary['motion_marker_rmse_mm']:.3f} mm\n"
         )
-    measured = "; ".join(
-        f"{n} {m['value'] * (1 if m['unit'] == 'kg' else 1e3):g} "
-        f"{'kg' if m['unit'] == 'kg' else 'mm'} ({m['source']})"
-        for n, m in summary["measurements"].items()
-    )
-    text += f"measurements: {measured or 'none (regressions from the markers)'}\n"
+    text += _measured_text(summary)
     est = summary.get("stature_estimate")
     if est:
         text += (
@@ -271,6 +347,7 @@ def _identify(
         )
     if quality is not None:
         text += quality_text(quality) + "\n"
+    text += kinetic_text
     plaus = plausibility_text(
         pset,
         per_marker,

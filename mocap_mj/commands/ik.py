@@ -10,7 +10,10 @@ fewer than --min-markers present markers are left unsolved (empty in motion.csv)
 identify with the landmarks' soft-tissue sliding model (recorded in its model.xml) weighs
 them as identify did, so that its RMSE reproduces the fit (--no-sliding-landmarks: every
 marker alike). The marker data are checked first, as by identify (warnings; --strict,
---exclude-markers).
+--exclude-markers). With force plates (a C3D's own, or --forces) and a body mass (the C3D's
+PROCESSING Bodymass, else a --model identify wrote with a mass), the joint moments:
+dynamics.csv, grf.csv (each foot's load) and root_residuals.csv (docs/dynamics.md); the gait
+events go to events.csv.
 """
 
 from __future__ import annotations
@@ -42,6 +45,15 @@ from mocap_mj.solve.problem import TrialData
 from ..errors import MocapError
 from ..export.tables import write_angles_csv
 from ..io.atomic import atomic_write_text
+from ._kinetics import (
+    Prepared,
+    add_kinetics_options,
+    model_mass,
+    prepare,
+    summary_of,
+    text_of,
+    write_trial,
+)
 from ._markers import (
     add_marker_options,
     choose_marker_set,
@@ -58,6 +70,7 @@ from ._quality import (
     without_ghosts,
 )
 from ._removed import add_removed_flags
+from ._subject import subject_from_args
 
 
 def register(sub: Any) -> None:
@@ -114,6 +127,7 @@ def register(sub: Any) -> None:
         "set's frame with one marker occluded is solved)",
     )
     add_quality_options(p)
+    add_kinetics_options(p, several=False)
     add_force_flag(p)
     add_json_flag(p)
     add_removed_flags(p, "ik")
@@ -155,7 +169,34 @@ def run(args: argparse.Namespace) -> int:
     trial = trial._replace(
         markers=without_ghosts(trial.markers, pset, found, trial.path, trial.first_frame)
     )
-    return into_out_folder(args, lambda out: _solve_and_write(args, pset, trial, sl, out, quality))
+    # the C3D's PROCESSING Bodymass, else the model's own (identify's, with a mass)
+    mass = subject_from_args(args, [args.markers]).get("mass") or model_mass(args.model)
+    kinetics = prepare(args, [str(trial.path)], mass)  # the plates' bad input before output
+    return into_out_folder(
+        args, lambda out: _solve_and_write(args, pset, trial, sl, out, quality, kinetics)
+    )
+
+
+def _write_files(pset: ParameterSet, motion: Any, qpos: np.ndarray, out: Path, first: int) -> None:
+    """model.xml, motion.npz, motion.csv, joint_centres.csv and angles.csv of the IK's qpos
+    (T, nq) [internal layout] into ``out``, frames numbered from ``first``."""
+    model, times = pset.model, motion.times
+    pset.export_mjcf(out / "model.xml", pset.nominal)
+    written = Layout.of(model).written(qpos)
+    save_motion(out / "motion.npz", replace(motion, qpos=written, first_frame=first))
+    write_motion_csv(out / "motion.csv", load_written(out / "model.xml"), times, written, first)
+    write_joint_centres_csv(out / "joint_centres.csv", model, times, qpos, first_frame=first)
+    write_angles_csv(out / "angles.csv", model, times, qpos, first_frame=first)
+
+
+def _kinetics_of(
+    args: argparse.Namespace, kinetics: Prepared | None, out: Path, sl: slice
+) -> tuple[dict[str, Any] | None, list[str]]:
+    """summary.json's ``kinetics`` of the trial (:mod:`._kinetics`) and the files written."""
+    if kinetics is None:
+        return None, []
+    entry, files = write_trial(args, kinetics, 0, out, "motion.npz", sl)
+    return summary_of(kinetics, [entry]), files
 
 
 def _solve_and_write(
@@ -165,6 +206,7 @@ def _solve_and_write(
     sl: slice,
     out: Path,
     quality: dict[str, Any] | None = None,
+    kinetics: Prepared | None = None,
 ) -> tuple[dict[str, Any], str]:
     markers, times = trial.markers[sl], trial.times[sl]
     first = trial.first_frame + sl.start
@@ -185,12 +227,8 @@ def _solve_and_write(
     result, model = motion.ik, pset.model
     assert result is not None  # solve_motion's motion carries its IK
     sliding = None if args.no_sliding_landmarks else recorded_sliding_model(model)
-    pset.export_mjcf(out / "model.xml", pset.nominal)
-    written = Layout.of(model).written(result.qpos)
-    save_motion(out / "motion.npz", replace(motion, qpos=written, first_frame=first))
-    write_motion_csv(out / "motion.csv", load_written(out / "model.xml"), times, written, first)
-    write_joint_centres_csv(out / "joint_centres.csv", model, times, result.qpos, first_frame=first)
-    write_angles_csv(out / "angles.csv", model, times, result.qpos, first_frame=first)
+    _write_files(pset, motion, result.qpos, out, first)
+    section, kinetic_files = _kinetics_of(args, kinetics, out, sl)
     n = len(markers)
     skipped = np.flatnonzero(result.status == Status.TOO_FEW_MARKERS)
     seen = np.any(np.all(np.isfinite(markers), axis=2), axis=0)
@@ -216,6 +254,7 @@ def _solve_and_write(
         "markers_without_data": never,
         "marker_quality": quality,
         "joints_at_limit": joints_at_limit(model, model.jnt_range, [result.qpos]),
+        "kinetics": section,
     }
     held = limits_text(summary["joints_at_limit"], AT_LIMIT_PRINT)
     text = (
@@ -233,7 +272,9 @@ def _solve_and_write(
         + (f"\nmarkers in the file without a valid sample: {', '.join(never)}" if never else "")
         + ("" if quality is None else f"\n{quality_text(quality)}")
         + (f"\njoints held at a limit of their range: {held}" if held else "")
+        + (f"\n{kin_text}" if section is not None and (kin_text := text_of(section)) else "")
         + f"\nwrote {args.out}/motion.csv, joint_centres.csv, angles.csv, motion.npz, "
-        "model.xml, summary.json"
+        + "".join(f"{f}, " for f in kinetic_files)
+        + "model.xml, summary.json"
     )
     return summary, text

@@ -38,6 +38,7 @@ ANALOG:UNITS (else force times length). The vertical axis is the loader's for th
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import re
@@ -73,6 +74,8 @@ OFFSET_LIMIT = 100.0
 #: A plate's sides must measure within this range [m] (the smallest commercial plates are
 #: 0.1 m wide, treadmill belts some 3 m long).
 SIDE_RANGE = (0.05, 5.0)
+
+_log = logging.getLogger(__name__)
 
 _MOMENT_UNITS = {"nmm": 1e-3, "n.mm": 1e-3, "n*mm": 1e-3, "n mm": 1e-3, "nm": 1.0, "n.m": 1.0,
                  "n*m": 1.0, "n m": 1.0}  # fmt: skip
@@ -138,15 +141,18 @@ def read_plates(
     Returns
     -------
     list of PlateRecord
-        One per plate of FORCE_PLATFORM:USED, in order; empty for a file without plates.
+        One per plate of FORCE_PLATFORM:USED that can be read, in order (each keeps its
+        name "plate k" by its place in the file); empty for a file without plates. A plate
+        whose corners are not a plate's rectangle or whose samples are not finite is
+        skipped with one warning (logger ``mocap_mj.io.plates``) naming the file, the plate
+        and why: one damaged plate does not make the file's others unreadable.
 
     Raises
     ------
     InputFileError
         The file is not a C3D ezc3d reads, or a plate is of a type ezc3d does not extract,
-        names analog channels the file does not hold, lacks its calibration matrix (type 4),
-        has corners that are not a plate's rectangle, or holds non-finite samples (the
-        message names the file and the plate).
+        names analog channels the file does not hold or lacks its calibration matrix (type
+        4), or none of its plates can be read (the message names the file and the plate).
     """
     file = Path(path)
     if not file.is_file():
@@ -161,28 +167,20 @@ def read_plates(
     if n_plates == 0:
         return []
     _check_declared(file, header, n_plates)
-    try:
-        whole = ezc3d.c3d(str(file), extract_forceplat_data=True)
-    except Exception as exc:
-        raise InputFileError(
-            f"{file}: group FORCE_PLATFORM: ezc3d could not extract the plates: {_one_line(exc)}"
-        ) from exc
+    whole = _extracted(file)
     params = whole["parameters"]
     scale_pos = _length_scale(file, params)
     scale_force = _force_scale(file, params)
     analog_rate = _analog_rate(file, params)
     rate = _marker_rate(file, params, marker_rate, analog_rate, whole)
-    raw = [
-        _RawPlate.of(file, k, pf, params, scale_pos, scale_force)
-        for k, pf in enumerate(whole["data"]["platform"])
-    ]
-    rotation = rotation_to_z_up(_up_axis(file, up, raw))
+    raw = _readable(file, whole, params, scale_pos, scale_force)
+    rotation = rotation_to_z_up(_up_axis(file, up, list(raw.values())))
     vertical = rotation[2]  # the up direction in the file's axes
-    signs = [_sign(p, vertical, threshold_n) for p in raw]
-    loaded_signs = {s for s in signs if s != 0}
+    signs = {k: _sign(p, vertical, threshold_n) for k, p in raw.items()}
+    loaded_signs = {s for s in signs.values() if s != 0}
     default = loaded_signs.pop() if len(loaded_signs) == 1 else 1
     records = []
-    for k, plate in enumerate(raw):
+    for k, plate in raw.items():
         sign = signs[k] or default
         force = _frames(plate.force * sign, analog_rate, rate) @ rotation.T
         moment = _frames(plate.moment * sign, analog_rate, rate) @ rotation.T
@@ -190,6 +188,36 @@ def read_plates(
         cop, free = _cop(force, moment, corners, threshold_n)
         records.append(PlateRecord(f"plate {k + 1}", plate.type, corners, force, cop, free, rate))
     return records
+
+
+def _extracted(file: Path) -> Any:
+    """The file as ezc3d reads it with its plates extracted."""
+    try:
+        return ezc3d.c3d(str(file), extract_forceplat_data=True)
+    except Exception as exc:  # ezc3d raises RuntimeError, OSError, ValueError...
+        raise InputFileError(
+            f"{file}: group FORCE_PLATFORM: ezc3d could not extract the plates: {_one_line(exc)}"
+        ) from exc
+
+
+def _readable(
+    file: Path, whole: Any, params: dict[str, Any], scale_pos: float, scale_force: float
+) -> dict[int, _RawPlate]:
+    """Plate index -> its :class:`_RawPlate`, of the plates that can be read; one warning
+    per plate skipped (naming the file, the plate and why); the first refusal raised when
+    none can be read."""
+    raw: dict[int, _RawPlate] = {}
+    refused: list[InputFileError] = []
+    for k, pf in enumerate(whole["data"]["platform"]):
+        try:
+            raw[k] = _RawPlate.of(file, k, pf, params, scale_pos, scale_force)
+        except InputFileError as exc:
+            refused.append(exc)
+    if not raw:
+        raise refused[0]
+    for why in refused:  # one plate's bad geometry or samples leave the others readable
+        _log.warning("%s; that plate is skipped, the file's other plates are read", why)
+    return raw
 
 
 def read_grf_mot(

@@ -74,14 +74,25 @@ def residuals_table(dyn: Dynamics, mass: float) -> str:
 
 
 def write_dynamics(
-    folder: str | Path, dyn: Dynamics, mass: float, force_dofs: np.ndarray
+    folder: str | Path,
+    dyn: Dynamics,
+    mass: float,
+    force_dofs: np.ndarray,
+    *,
+    suffix: str = "",
 ) -> list[Path]:
-    """Write dynamics.csv and root_residuals.csv into ``folder`` (atomically); their paths."""
+    """Write dynamics.csv and root_residuals.csv into ``folder`` (atomically; ``suffix``
+    before the extension, e.g. "_1" for a result's second trial); their paths."""
     folder = Path(folder)
-    out = [folder / DYNAMICS_CSV, folder / RESIDUALS_CSV]
+    out = [folder / _suffixed(DYNAMICS_CSV, suffix), folder / _suffixed(RESIDUALS_CSV, suffix)]
     atomic_write_text(out[0], dynamics_table(dyn, mass, force_dofs))
     atomic_write_text(out[1], residuals_table(dyn, mass))
     return out
+
+
+def _suffixed(name: str, suffix: str) -> str:
+    stem, ext = name.rsplit(".", 1)
+    return f"{stem}{suffix}.{ext}"
 
 
 def dynamics_of_result(
@@ -94,18 +105,34 @@ def dynamics_of_result(
 ) -> tuple[Dynamics, np.ndarray]:
     """The inverse dynamics of the result folder ``result_dir`` (``mocap-mj ik``'s or
     ``identify``'s: model.xml and motion.npz) under ``loads`` (each (T, 3) over motion.npz's
-    frames) for a subject of ``mass`` [kg]: model.xml as plain MuJoCo compiles it with de
-    Leva's inertial parameters (:func:`mocap_mj.anatomy.inertia.inertial_model`), the motion
-    in its written layout. Returns the :class:`Dynamics` and the translation flags (nv,) for
-    :func:`write_dynamics`."""
+    frames) for a subject of ``mass`` [kg] (:func:`dynamics_of_files`)."""
     _check_mass(mass)
     rd = ResultDir.open(result_dir)
-    model = inertial_model(rd.model, mass, sex=sex)
-    motion = load_motion(rd.motion)
+    return dynamics_of_files(rd.model, rd.motion, loads, mass, sex=sex, cutoff_hz=cutoff_hz)
+
+
+def dynamics_of_files(
+    model_path: str | Path,
+    motion_path: str | Path,
+    loads: Sequence[BodyLoad],
+    mass: float,
+    *,
+    sex: Sex = "male",
+    cutoff_hz: float | None = CUTOFF_HZ,
+) -> tuple[Dynamics, np.ndarray]:
+    """The inverse dynamics of the motion file ``motion_path`` (a result's motion.npz or
+    motion_<i>.npz) on the model file ``model_path`` (its model.xml) under ``loads`` (each
+    (T, 3) over the motion's frames) for a subject of ``mass`` [kg]: the model as plain
+    MuJoCo compiles it with de Leva's inertial parameters
+    (:func:`mocap_mj.anatomy.inertia.inertial_model`), the motion in its written layout.
+    Returns the :class:`Dynamics` and the translation flags (nv,) for :func:`write_dynamics`."""
+    _check_mass(mass)
+    model = inertial_model(model_path, mass, sex=sex)
+    motion = load_motion(motion_path)
     if motion.qpos.shape[1] != model.nq:
         raise MocapError(
-            f"{rd.motion}: qpos has {motion.qpos.shape[1]} columns, expected nq = {model.nq} "
-            f"of {rd.model} as written (the knees' slide joints included)"
+            f"{motion_path}: qpos has {motion.qpos.shape[1]} columns, expected nq = {model.nq} "
+            f"of {model_path} as written (the knees' slide joints included)"
         )
     dyn = inverse_dynamics(model, motion.qpos, motion.times, loads, cutoff_hz=cutoff_hz)
     return dyn, translational(model)
@@ -120,6 +147,7 @@ __all__ = [
     "DYNAMICS_CSV",
     "RESIDUALS_CSV",
     "STANDARD_GRAVITY",
+    "dynamics_of_files",
     "dynamics_of_result",
     "dynamics_table",
     "residuals_table",
