@@ -112,6 +112,7 @@ def read_plates(
     marker_rate: float | None = None,
     threshold_n: float = 20.0,
     up: str | None = None,
+    window: str = "frame",
 ) -> list[PlateRecord]:
     """Every force plate a C3D file declares, per marker frame, in SI units and the frame
     :func:`~mocap_mj.io.load.load_markers` gives the file's markers.
@@ -153,6 +154,8 @@ def read_plates(
         raise InputFileError(f"{file}: no such file")
     if threshold_n <= 0 or not math.isfinite(threshold_n):
         raise InputFileError(f"{file}: threshold_n: expected a positive force, got {threshold_n}")
+    if window not in ("frame", "centred"):
+        raise MocapError(f"plate window {window!r}: expected frame or centred")
     try:  # the parameters first (a copy of the file's start): what ezc3d would refuse
         header = read_parameters(file)
     except Exception as exc:  # ezc3d raises RuntimeError, OSError, ValueError...
@@ -184,8 +187,8 @@ def read_plates(
     records = []
     for k, plate in enumerate(raw):
         sign = signs[k] or default
-        force = _frames(plate.force * sign, analog_rate, rate) @ rotation.T
-        moment = _frames(plate.moment * sign, analog_rate, rate) @ rotation.T
+        force = _frames(plate.force * sign, analog_rate, rate, window) @ rotation.T
+        moment = _frames(plate.moment * sign, analog_rate, rate, window) @ rotation.T
         corners = plate.corners @ rotation.T
         cop, free = _cop(force, moment, corners, threshold_n)
         records.append(PlateRecord(f"plate {k + 1}", plate.type, corners, force, cop, free, rate))
@@ -335,9 +338,20 @@ def _sign(plate: _RawPlate, vertical: np.ndarray, threshold_n: float) -> int:
     return 1 if peak > 0 else -1
 
 
-def _frames(samples: np.ndarray, analog_rate: float, rate: float) -> np.ndarray:
-    """(T, 3): ``samples`` (N, 3) averaged per marker frame (module docstring)."""
-    bins = np.floor(np.arange(len(samples)) * rate / analog_rate + 1e-6).astype(int)
+def _frames(
+    samples: np.ndarray, analog_rate: float, rate: float, window: str = "frame"
+) -> np.ndarray:
+    """(T, 3): ``samples`` (N, 3) averaged per marker frame (module docstring); ``window``
+    "centred": the samples within half a frame of each frame's instant instead."""
+    at = np.arange(len(samples)) * rate / analog_rate
+    bins = np.floor(at + 1e-6).astype(int)
+    if window == "centred" and len(bins):
+        n = int(bins.max()) + 1
+        centred = np.floor(at + 0.5 + 1e-6).astype(int)
+        keep = centred < n
+        out = np.full((n, 3), np.nan)
+        out[: int(centred[keep].max()) + 1] = _average(samples[keep], centred[keep])
+        return out
     return _average(samples, bins)
 
 

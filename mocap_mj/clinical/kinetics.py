@@ -1,0 +1,342 @@
+"""Plug-in Gait's lower-body kinetics: joint forces, moments and powers, as Vicon Nexus writes them.
+
+The kinetic model is Plug-in Gait's (Vicon's Plug-in Gait reference guide, "Kinetic
+modelling"): each segment's mass is a fraction of the body mass, its centre of mass lies a
+fraction of the way from its distal joint centre (the segment's origin) towards its proximal
+one, and its principal moments of inertia about the transverse axes are m (k L)^2 with the
+radius of gyration k a fraction of the segment length L (none about the long axis z). The
+fractions are Dempster's (1955) as Plug-in Gait tabulates them (:data:`DEMPSTER`):
+
+========  ============  =========================  ===============  ==========================
+segment   mass / body   centre of mass from distal radius of gyr.   length L (its median)
+========  ============  =========================  ===============  ==========================
+foot      0.0145        0.5                        0.690            toe marker to ankle centre
+tibia     0.0465        0.567                      0.528            ankle to knee centre
+femur     0.100         0.567                      0.540            knee to hip centre
+========  ============  =========================  ===============  ==========================
+
+The recursion runs bottom-up (Newton-Euler) in the lab, from the ground reaction under the
+foot (force, centre of pressure, free moment) through foot, tibia and femur: for each segment
+``F_prox = m (a - g) - F_dist`` and ``M_prox = dH/dt - M_dist - (p_prox - c) x F_prox -
+(p_dist - c) x F_dist`` (c its centre of mass, H its angular momentum about c, g = 9.81 m/s^2
+down), the next segment's distal load being the joint's reaction. Velocities and
+accelerations are five-point central differences at the marker rate applied twice
+(positions -> velocities -> accelerations; the frame's rotation -> angular velocity ->
+angular acceleration) with no other filter: Nexus computes its kinetics from the
+trajectories as stored, and its outputs start and end four frames in, as these do (a frame
+whose stencil meets a missing marker is NaN).
+
+Reported as Nexus does (determined against the Nexus outputs of a Plug-in Gait trial): the
+force and moment the proximal segment exerts on the distal one at the joint, divided by the
+body mass, in the distal segment's frame (the foot's for the ankle, the untorsioned tibia's
+for the knee, the femur's for the hip), components and signs in :data:`MOMENT_AXES` and
+:data:`FORCE_SIGNS`: X the sagittal moment, Y the frontal, Z the transverse, the right
+side's Y and Z mirrored. A joint's power is its moment dotted with the distal segment's
+angular velocity less the proximal's, written in Z. Where the foot stands on no counted plate
+its ground reaction is zero and the moments come from the segments' motion alone, as Nexus
+writes them; the ground reaction itself is written only on a counted plate.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from mocap_mj.capture.contacts import assign_feet
+from mocap_mj.io.plates import PlateRecord
+from mocap_mj.io.trajectory import MarkerTrajectory
+
+from ..errors import MocapError
+from .segments import Segment
+
+__all__ = [
+    "DEMPSTER",
+    "FORCE_SIGNS",
+    "GRAVITY",
+    "MOMENT_AXES",
+    "Body",
+    "LegLoads",
+    "angular_velocity",
+    "derivative",
+    "leg_loads",
+    "newton_euler",
+    "pig_kinetics",
+    "trial_kinetics",
+]
+
+#: Standard gravity [m/s^2], the value Nexus normalises the ground reaction with.
+GRAVITY = 9.81
+
+
+@dataclass(frozen=True)
+class Body:
+    """Dempster's parameters of one segment as Plug-in Gait scales them: ``mass`` (fraction of
+    the body mass), ``com`` (the centre of mass's fraction of the way from the distal joint
+    centre to the proximal one), ``gyration`` (radius of gyration about the transverse axes,
+    fraction of the segment length)."""
+
+    mass: float
+    com: float
+    gyration: float
+
+
+#: Plug-in Gait's segment parameters (Dempster 1955; Vicon's Plug-in Gait reference guide).
+DEMPSTER: dict[str, Body] = {
+    "foot": Body(0.0145, 0.5, 0.690),
+    "tibia": Body(0.0465, 0.567, 0.528),
+    "femur": Body(0.100, 0.567, 0.540),
+}
+
+
+def derivative(x: np.ndarray, rate: float) -> np.ndarray:
+    """Five-point central difference along axis 0: x (T, ...) -> dx/dt (T, ...) [unit/s],
+    NaN in the first and last two rows (and wherever the stencil meets a NaN)."""
+    x = np.asarray(x, dtype=float)
+    d = np.full_like(x, np.nan)
+    if len(x) >= 5:
+        d[2:-2] = (x[:-4] - 8.0 * x[1:-3] + 8.0 * x[3:-1] - x[4:]) * (rate / 12.0)
+    return d
+
+
+def angular_velocity(axes: np.ndarray, rate: float) -> np.ndarray:
+    """A frame's angular velocity in the lab, axes (T, 3, 3) (columns its x, y, z) ->
+    (T, 3) [rad/s]: the axial vector of dR/dt R^T."""
+    w = derivative(axes, rate) @ np.swapaxes(axes, 1, 2)
+    return 0.5 * np.stack(
+        [w[:, 2, 1] - w[:, 1, 2], w[:, 0, 2] - w[:, 2, 0], w[:, 1, 0] - w[:, 0, 1]], axis=1
+    )
+
+
+def newton_euler(
+    *,
+    mass: float,
+    com: np.ndarray,
+    inertia: np.ndarray,
+    axes: np.ndarray,
+    rate: float,
+    proximal: np.ndarray,
+    distal: np.ndarray,
+    force: np.ndarray,
+    moment: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The force and moment the proximal segment exerts on this one at its proximal joint.
+
+    ``mass`` [kg]; ``com`` (T, 3) [m] the centre of mass in the lab; ``inertia`` (3,)
+    [kg m^2] the principal moments about the segment's own x, y, z through the centre of
+    mass; ``axes`` (T, 3, 3) the segment's frame; ``rate`` [Hz]; ``proximal`` (T, 3) [m] the
+    joint centre the result acts at; ``distal`` (T, 3) [m] where the distal load ``force``
+    (T, 3) [N] and ``moment`` (T, 3) [N m] (what the segment receives there) act. Returns
+    force (T, 3) [N], moment (T, 3) [N m] about ``proximal``, in the lab, gravity -Z.
+    """
+    acc = derivative(derivative(com, rate), rate)
+    omega = angular_velocity(axes, rate)
+    alpha = derivative(omega, rate)
+    # the inertia tensor in the lab: R diag(I) R^T
+    tensor = np.einsum("tij,j,tkj->tik", axes, np.asarray(inertia, dtype=float), axes)
+    h_dot = np.einsum("tij,tj->ti", tensor, alpha) + np.cross(
+        omega, np.einsum("tij,tj->ti", tensor, omega)
+    )
+    weight = np.array([0.0, 0.0, -GRAVITY * mass])
+    f_prox = mass * acc - weight - force
+    m_prox = h_dot - moment - np.cross(proximal - com, f_prox) - np.cross(distal - com, force)
+    return f_prox, m_prox
+
+
+@dataclass(frozen=True)
+class LegLoads:
+    """The joint loads of one leg in the lab: per joint (``ankle``, ``knee``, ``hip``) the force
+    (T, 3) [N] and moment (T, 3) [N m] the proximal segment exerts on the distal one at the
+    joint centre, and the angular velocity (T, 3) [rad/s] of each segment (``foot``,
+    ``tibia``, ``femur``, ``pelvis``)."""
+
+    force: dict[str, np.ndarray]
+    moment: dict[str, np.ndarray]
+    omega: dict[str, np.ndarray]
+
+
+def _inertia(body: Body, mass: float, length: np.ndarray) -> np.ndarray:
+    """(T, 3) [kg m^2]: m (k L)^2 about x and y, none about the long axis z."""
+    i = mass * (body.gyration * length) ** 2
+    return np.stack([i, i, np.zeros_like(i)], axis=1)
+
+
+def leg_loads(
+    segs: Mapping[str, Segment],
+    centres: Mapping[str, np.ndarray],
+    side: str,
+    *,
+    body_mass: float,
+    rate: float,
+    grf: np.ndarray,
+    cop: np.ndarray,
+    free_moment: np.ndarray,
+) -> LegLoads:
+    """The bottom-up recursion of one leg (``side`` "l" or "r").
+
+    ``segs``, ``centres``: :func:`~mocap_mj.clinical.segments.lower_body`'s segments and joint
+    centres (T frames, [m]); ``body_mass`` [kg]; ``rate`` [Hz]; ``grf`` (T, 3) [N] the force
+    on the foot (zero off the plates), ``cop`` (T, 3) [m] where it acts (NaN off the plates),
+    ``free_moment`` (T, 3) [N m]. The segment lengths are each segment's median joint-centre
+    distance over the trial (a rigid segment has one length).
+    """
+    toe = segs[f"foot_{side}"].origin
+    ankle, knee, hip = (centres[f"{j}_{side}"] for j in ("ankle", "knee", "hip"))
+    foot_axes = segs[f"foot_{side}"].axes
+    chain = (
+        ("foot", "ankle", toe, ankle, foot_axes),
+        ("tibia", "knee", ankle, knee, segs[f"tibia_{side}"].axes),
+        ("femur", "hip", knee, hip, segs[f"femur_{side}"].axes),
+    )
+    force = np.asarray(grf, dtype=float)
+    moment = np.asarray(free_moment, dtype=float)
+    point = np.where(np.isfinite(cop), cop, toe)  # no load off the plates: any point will do
+    out_f: dict[str, np.ndarray] = {}
+    out_m: dict[str, np.ndarray] = {}
+    omega: dict[str, np.ndarray] = {}
+    for name, joint, distal, proximal, axes in chain:
+        body = DEMPSTER[name]
+        mass = body.mass * body_mass
+        length = float(np.nanmedian(np.linalg.norm(proximal - distal, axis=1)))
+        inertia = _inertia(body, mass, np.array([length]))[0]
+        com = distal + body.com * (proximal - distal)
+        f, m = newton_euler(
+            mass=mass,
+            com=com,
+            inertia=inertia,
+            axes=axes,
+            rate=rate,
+            proximal=proximal,
+            distal=point,
+            force=force,
+            moment=moment,
+        )
+        out_f[joint], out_m[joint] = f, m
+        omega[name] = angular_velocity(axes, rate)
+        force, moment, point = -f, -m, proximal
+    omega["pelvis"] = angular_velocity(segs["pelvis"].axes, rate)
+    return LegLoads(out_f, out_m, omega)
+
+
+#: Per joint: its distal and proximal segments, then Nexus' moment components X, Y, Z as
+#: (axis of the distal frame, sign); the Y and Z signs are mirrored on the right.
+MOMENT_AXES: dict[str, tuple[str, str, tuple[tuple[int, float], ...]]] = {
+    "Ankle": ("foot", "tibia", ((1, 1.0), (2, -1.0), (0, 1.0))),
+    "Knee": ("tibia", "femur", ((1, -1.0), (0, 1.0), (2, 1.0))),
+    "Hip": ("femur", "pelvis", ((1, 1.0), (0, 1.0), (2, 1.0))),
+}
+#: Nexus' joint-force components in the distal frame (the same on both sides).
+FORCE_SIGNS: dict[str, tuple[float, float, float]] = {
+    "Ankle": (-1.0, 1.0, -1.0),
+    "Knee": (1.0, 1.0, 1.0),
+    "Hip": (1.0, 1.0, 1.0),
+}
+
+
+def pig_kinetics(
+    segs: Mapping[str, Segment],
+    centres: Mapping[str, np.ndarray],
+    loads: Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
+    *,
+    body_mass: float,
+    rate: float,
+    progression: np.ndarray,
+    to_lab: np.ndarray | None = None,
+) -> dict[str, np.ndarray]:
+    """Plug-in Gait's kinetic outputs under Vicon's names, each (T, 3), normalised by the body
+    mass as Nexus writes them.
+
+    ``segs``, ``centres``: :func:`~mocap_mj.clinical.segments.lower_body`'s (Z-up frame);
+    ``loads``: per side ("l", "r") the ground reaction under the foot: force (T, 3) [N]
+    (zero off the plates), centre of pressure (T, 3) [m], free moment (T, 3) [N m] and
+    on_plate (T,) bool (the frames of a counted plate); ``body_mass`` [kg]; ``rate`` [Hz];
+    ``progression`` (3,) the direction of progression in the Z-up frame; ``to_lab`` (3, 3)
+    the rotation back to the recording's lab frame (default identity).
+
+    Returns ``LAnkleMoment``, ``LKneeMoment``, ``LHipMoment`` [N m/kg], ``LAnkleForce``...
+    [N/kg] (the distal segment's frame, components in :data:`MOMENT_AXES`,
+    :data:`FORCE_SIGNS`), ``LAnklePower``... [W/kg] (in Z; X and Y 0), ``LGroundReactionForce``
+    [N/kg] (the lab frame), ``LNormalisedGRF`` [% body weight] (the progression frame: X
+    forward, Y medial, Z up) and the right side's; a frame off the plates has NaN ground
+    reactions, a frame whose derivatives cannot be taken NaN everywhere.
+    """
+    if not body_mass > 0:
+        raise ValueError(f"body mass {body_mass!r}: expected a positive mass in kg")
+    rot = np.eye(3) if to_lab is None else np.asarray(to_lab, dtype=float)
+    fwd = np.asarray(progression, dtype=float).copy()
+    fwd[2] = 0.0
+    fwd /= np.linalg.norm(fwd)
+    up = np.array([0.0, 0.0, 1.0])
+    walk = np.stack([fwd, np.cross(up, fwd), up])  # rows: forward, left, up
+    out: dict[str, np.ndarray] = {}
+    for s, (grf, cop, free, on_plate) in loads.items():
+        p, lat = s.upper(), (1.0 if s == "l" else -1.0)
+        legs = leg_loads(
+            segs, centres, s, body_mass=body_mass, rate=rate, grf=grf, cop=cop, free_moment=free
+        )
+        for joint, (distal, proximal, axes) in MOMENT_AXES.items():
+            key = {"Ankle": "ankle", "Knee": "knee", "Hip": "hip"}[joint]
+            frame = segs[f"{distal}_{s}"].axes
+            local_m = np.einsum("tji,tj->ti", frame, legs.moment[key]) / body_mass
+            local_f = np.einsum("tji,tj->ti", frame, legs.force[key]) / body_mass
+            out[f"{p}{joint}Moment"] = np.stack(
+                [sign * local_m[:, a] * (lat if c else 1.0) for c, (a, sign) in enumerate(axes)],
+                axis=1,
+            )
+            out[f"{p}{joint}Force"] = local_f * np.asarray(FORCE_SIGNS[joint])
+            relative = legs.omega[distal] - legs.omega[proximal]
+            power = np.einsum("ti,ti->t", legs.moment[key], relative) / body_mass
+            out[f"{p}{joint}Power"] = np.stack(
+                [np.where(np.isfinite(power), 0.0, np.nan)] * 2 + [power], axis=1
+            )
+        mask = np.where(np.asarray(on_plate, dtype=bool)[:, None], 1.0, np.nan)
+        force = np.asarray(grf, dtype=float) * mask / body_mass
+        out[f"{p}GroundReactionForce"] = force @ rot.T
+        normal = force @ walk.T * (100.0 / GRAVITY)
+        normal[:, 1] *= -lat
+        out[f"{p}NormalisedGRF"] = normal
+    return out
+
+
+def trial_kinetics(
+    segs: Mapping[str, Segment],
+    centres: Mapping[str, np.ndarray],
+    plates: Sequence[PlateRecord],
+    trajectory: MarkerTrajectory,
+    *,
+    body_mass: float,
+    progression: np.ndarray,
+    to_lab: np.ndarray | None = None,
+    counted: Collection[int] | None = None,
+) -> tuple[dict[str, np.ndarray], list[str]]:
+    """:func:`pig_kinetics` with the ground reactions of ``plates`` (read at ``trajectory``'s
+    frames) under the foot that alone stands on each (:func:`~mocap_mj.capture.contacts.
+    assign_feet`). ``counted``: the plate numbers (from 1) whose contacts count (default
+    all). Returns the outputs and one note per contact left out."""
+    numbers = {p.name: k + 1 for k, p in enumerate(plates)}
+    if counted is not None:
+        unknown = sorted(set(counted) - set(numbers.values()))
+        if unknown:
+            raise MocapError(
+                f"plates {unknown}: the trial has plates 1..{len(plates)}; expected some of those"
+            )
+    kept = [p for p in plates if counted is None or numbers[p.name] in counted]
+    feet = assign_feet(kept, trajectory) if kept else []
+    n = trajectory.n_frames
+    loads = {s[0]: (np.zeros((n, 3)), np.full((n, 3), np.nan), np.zeros((n, 3)),
+                    np.zeros(n, dtype=bool)) for s in ("left", "right")}  # fmt: skip
+    notes: list[str] = []
+    for foot in feet:
+        loads[foot.side[0]] = (foot.force, foot.cop, foot.free_moment, foot.on_plate)
+        notes += [f"{foot.side} foot: {why}" for why in foot.excluded]
+    out = pig_kinetics(
+        segs,
+        centres,
+        loads,
+        body_mass=body_mass,
+        rate=trajectory.rate,
+        progression=progression,
+        to_lab=to_lab,
+    )
+    return out, notes
