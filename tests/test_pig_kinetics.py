@@ -194,3 +194,29 @@ def test_uncounted_plates_leave_no_ground_reaction(stripped: Path) -> None:
     assert np.isfinite(ours["LGroundReactionForce"]).any()
     with pytest.raises(MocapError, match="plates \\[9\\]"):
         _ours(stripped, {9})
+
+
+def test_command_writes_kinetics(stripped: Path, tmp_path: Path) -> None:
+    """plug-in-gait on a trial with plates writes kinetics.csv (per kg, SI) and the same
+    points in result.c3d in Vicon's units; the trial is not modified; a bad --plates is a
+    one-line error with a non-zero exit."""
+    from mocap_mj.cli import main
+
+    before = stripped.read_bytes()
+    out = tmp_path / "pig"
+    args = ["plug-in-gait", "--markers", str(stripped), "--plates", "1,4"]
+    assert main([*args, "--out", str(out)]) == 0
+    assert stripped.read_bytes() == before
+    lines = (out / "kinetics.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    assert header[:2] == ["frame", "time_s"] and "LKneeMoment_X" in header
+    assert len(lines) == 1 + 323
+    col = header.index("LAnkleMoment_X")
+    cells = [row.split(",")[col] for row in lines[1:]]
+    assert cells[:4] == [""] * 4 and cells[4] != ""  # the derivatives' four frames
+    written = _nexus(out / "result.c3d")
+    table = np.array([float(v) for v in cells[4:-4]])
+    np.testing.assert_allclose(written["LAnkleMoment"][4:-4, 0], table * 1e3, atol=0.05)
+    c3d = ezc3d.c3d(str(out / "result.c3d"))
+    assert c3d["parameters"]["POINT"]["MOMENT_UNITS"]["value"] == ["Nmm/kg"]
+    assert main([*args[:3], "--plates", "one", "--out", str(tmp_path / "bad")]) == 2
