@@ -149,7 +149,7 @@ def _ours(path: Path, counted: set[int] | None) -> dict[str, np.ndarray]:
     out, _ = trial_kinetics(
         result.segments,
         result.centres,
-        read_plates(path, window="centred"),
+        read_plates(path, window="centred", offsets="none"),
         traj,
         body_mass=subject.require("mass"),
         progression=result.progression,

@@ -318,8 +318,10 @@ def trial_kinetics(
     if counted is not None:
         unknown = sorted(set(counted) - set(numbers.values()))
         if unknown:
+            where = trajectory.source.get("path", "trial")
             raise MocapError(
-                f"plates {unknown}: the trial has plates 1..{len(plates)}; expected some of those"
+                f"{where}: plates {unknown}: the trial has plates 1..{len(plates)}; expected "
+                "some of those"
             )
     kept = [p for p in plates if counted is None or numbers[p.name] in counted]
     feet = assign_feet(kept, trajectory) if kept else []

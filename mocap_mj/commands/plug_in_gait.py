@@ -136,7 +136,7 @@ def _kinetics(
     counted = _counted(args.plates)
     if counted == set() or Path(args.markers).suffix.lower() != ".c3d":
         return None, []
-    plates = read_plates(args.markers, marker_rate=trial.rate, window="centred")
+    plates = read_plates(args.markers, marker_rate=trial.rate, window="centred", offsets="none")
     if not plates:
         return None, ["no kinetics: the trial has no force plates"]
     mass = result.subject.measured("mass")

@@ -113,6 +113,7 @@ def read_plates(
     threshold_n: float = 20.0,
     up: str | None = None,
     window: str = "frame",
+    offsets: str = "quiet",
 ) -> list[PlateRecord]:
     """Every force plate a C3D file declares, per marker frame, in SI units and the frame
     :func:`~mocap_mj.io.load.load_markers` gives the file's markers.
@@ -156,6 +157,8 @@ def read_plates(
         raise InputFileError(f"{file}: threshold_n: expected a positive force, got {threshold_n}")
     if window not in ("frame", "centred"):
         raise MocapError(f"plate window {window!r}: expected frame or centred")
+    if offsets not in ("quiet", "none"):
+        raise MocapError(f"plate offsets {offsets!r}: expected quiet or none")
     try:  # the parameters first (a copy of the file's start): what ezc3d would refuse
         header = read_parameters(file)
     except Exception as exc:  # ezc3d raises RuntimeError, OSError, ValueError...
@@ -176,7 +179,7 @@ def read_plates(
     analog_rate = _analog_rate(file, params)
     rate = _marker_rate(file, params, marker_rate, analog_rate, whole)
     raw = [
-        _RawPlate.of(file, k, pf, params, scale_pos, scale_force)
+        _RawPlate.of(file, k, pf, params, scale_pos, scale_force, zero=offsets == "quiet")
         for k, pf in enumerate(whole["data"]["platform"])
     ]
     rotation = rotation_to_z_up(_up_axis(file, up, raw))
@@ -278,6 +281,8 @@ class _RawPlate:
         params: dict[str, Any],
         scale_pos: float,
         scale_force: float,
+        *,
+        zero: bool = True,
     ) -> _RawPlate:
         kind = int(_values(params, "FORCE_PLATFORM", "TYPE")[k])
         corners = np.asarray(pf["corners"], dtype=float).T * scale_pos  # (4, 3)
@@ -296,7 +301,7 @@ class _RawPlate:
                 f"{file}: plate {k + 1}: analog sample {int(np.argmax(bad)) + 1}: expected "
                 f"finite forces and moments, got NaN or infinity"
             )
-        quiet = _quiet(force, _analog_rate(file, params))
+        quiet = _quiet(force, _analog_rate(file, params)) if zero else None
         force = force - _offset(force, quiet)
         turn = turn - _offset(turn, quiet)
         if kind == 1:
