@@ -166,9 +166,10 @@ def _rms(a: np.ndarray, b: np.ndarray) -> float:
 
 def test_movement_trial_against_nexus_kinetics(stripped: Path) -> None:
     """With the plates Nexus counted on this trial (1 and 4), on the trial stripped of
-    Nexus' outputs: every moment component within 0.05 N m/kg RMS of Nexus', every power
-    within 0.1 W/kg, the ground reactions within 1 % of their peak (measured: moments
-    0.002-0.044, powers 0.03-0.053, ground reactions 0.14-0.78 %)."""
+    Nexus' outputs: every moment component within 0.035 N m/kg RMS of Nexus' (the target
+    0.05), every power within 0.06 W/kg (0.1), the ground reactions within 0.1 % of their
+    peak (1 %). Measured: moments 0.001-0.029 N m/kg, powers 0.031-0.054 W/kg, ground
+    reactions 0 (Nexus' own samples)."""
     theirs = _nexus(TRIAL)
     ours = _ours(stripped, {1, 4})
     assert not any(n.endswith(("Moment", "Power")) for n in _nexus(stripped))
@@ -177,13 +178,13 @@ def test_movement_trial_against_nexus_kinetics(stripped: Path) -> None:
             moment = f"{side}{joint}Moment"
             for k in range(3):
                 rms = _rms(ours[moment][:, k], theirs[moment][:, k] * 1e-3)
-                assert rms < 0.05, (moment, "XYZ"[k], rms)
+                assert rms < 0.035, (moment, "XYZ"[k], rms)
             power = f"{side}{joint}Power"
-            assert _rms(ours[power][:, 2], theirs[power][:, 2]) < 0.1, power
+            assert _rms(ours[power][:, 2], theirs[power][:, 2]) < 0.06, power
         for name in (f"{side}GroundReactionForce", f"{side}NormalisedGRF"):
             peak = np.nanmax(np.abs(theirs[name][:, 2]))
             for k in range(3):
-                assert _rms(ours[name][:, k], theirs[name][:, k]) < 0.01 * peak, (name, k)
+                assert _rms(ours[name][:, k], theirs[name][:, k]) < 1e-3 * peak, (name, k)
 
 
 def test_uncounted_plates_leave_no_ground_reaction(stripped: Path) -> None:
