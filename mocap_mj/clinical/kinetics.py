@@ -57,8 +57,9 @@ __all__ = [
     "GRAVITY",
     "MOMENT_AXES",
     "Body",
-    "LegLoads",
+    "ChainLoads",
     "angular_velocity",
+    "arm_loads",
     "derivative",
     "leg_loads",
     "newton_euler",
@@ -87,6 +88,9 @@ DEMPSTER: dict[str, Body] = {
     "foot": Body(0.0145, 0.5, 0.690),
     "tibia": Body(0.0465, 0.567, 0.528),
     "femur": Body(0.100, 0.567, 0.540),
+    "hand": Body(0.006, 0.6205, 0.440),
+    "radius": Body(0.016, 0.57, 0.526),
+    "humerus": Body(0.028, 0.564, 0.542),
 }
 
 
@@ -145,21 +149,67 @@ def newton_euler(
 
 
 @dataclass(frozen=True)
-class LegLoads:
-    """The joint loads of one leg in the lab: per joint (``ankle``, ``knee``, ``hip``) the force
-    (T, 3) [N] and moment (T, 3) [N m] the proximal segment exerts on the distal one at the
-    joint centre, and the angular velocity (T, 3) [rad/s] of each segment (``foot``,
-    ``tibia``, ``femur``, ``pelvis``)."""
+class ChainLoads:
+    """The joint loads of one limb in the lab: per joint (``ankle``, ``knee``, ``hip``;
+    ``wrist``, ``elbow``, ``shoulder``) the force (T, 3) [N] and moment (T, 3) [N m] the
+    proximal segment exerts on the distal one at the joint centre, and the angular velocity
+    (T, 3) [rad/s] of each segment (``foot``, ``tibia``, ``femur``, ``pelvis``; ``hand``,
+    ``radius``, ``humerus``, ``thorax``)."""
 
     force: dict[str, np.ndarray]
     moment: dict[str, np.ndarray]
     omega: dict[str, np.ndarray]
 
 
-def _inertia(body: Body, mass: float, length: np.ndarray) -> np.ndarray:
-    """(T, 3) [kg m^2]: m (k L)^2 about x and y, none about the long axis z."""
+#: A link of a chain: segment, its proximal joint, its distal and proximal points (T, 3) [m].
+_Link = tuple[str, str, np.ndarray, np.ndarray]
+
+
+def _inertia(body: Body, mass: float, length: float) -> np.ndarray:
+    """(3,) [kg m^2]: m (k L)^2 about x and y, none about the long axis z."""
     i = mass * (body.gyration * length) ** 2
-    return np.stack([i, i, np.zeros_like(i)], axis=1)
+    return np.array([i, i, 0.0])
+
+
+def _chain(
+    segs: Mapping[str, Segment],
+    side: str,
+    links: Sequence[_Link],
+    top: str,
+    *,
+    body_mass: float,
+    rate: float,
+    force: np.ndarray,
+    moment: np.ndarray,
+    point: np.ndarray,
+) -> ChainLoads:
+    """The recursion up ``links`` (distal first) from the load ``force`` (T, 3) [N],
+    ``moment`` (T, 3) [N m] at ``point`` (T, 3) [m] on the first; ``top``: the segment above
+    the last joint (for its angular velocity)."""
+    out_f: dict[str, np.ndarray] = {}
+    out_m: dict[str, np.ndarray] = {}
+    omega: dict[str, np.ndarray] = {}
+    for name, joint, distal, proximal in links:
+        body = DEMPSTER[name]
+        mass = body.mass * body_mass
+        axes = segs[f"{name}_{side}"].axes
+        length = float(np.nanmedian(np.linalg.norm(proximal - distal, axis=1)))
+        f, m = newton_euler(
+            mass=mass,
+            com=distal + body.com * (proximal - distal),
+            inertia=_inertia(body, mass, length),
+            axes=axes,
+            rate=rate,
+            proximal=proximal,
+            distal=point,
+            force=force,
+            moment=moment,
+        )
+        out_f[joint], out_m[joint] = f, m
+        omega[name] = angular_velocity(axes, rate)
+        force, moment, point = -f, -m, proximal
+    omega[top] = angular_velocity(segs[top].axes, rate)
+    return ChainLoads(out_f, out_m, omega)
 
 
 def leg_loads(
@@ -172,7 +222,7 @@ def leg_loads(
     grf: np.ndarray,
     cop: np.ndarray,
     free_moment: np.ndarray,
-) -> LegLoads:
+) -> ChainLoads:
     """The bottom-up recursion of one leg (``side`` "l" or "r").
 
     ``segs``, ``centres``: :func:`~mocap_mj.clinical.segments.lower_body`'s segments and joint
@@ -183,40 +233,51 @@ def leg_loads(
     """
     toe = segs[f"foot_{side}"].origin
     ankle, knee, hip = (centres[f"{j}_{side}"] for j in ("ankle", "knee", "hip"))
-    foot_axes = segs[f"foot_{side}"].axes
-    chain = (
-        ("foot", "ankle", toe, ankle, foot_axes),
-        ("tibia", "knee", ankle, knee, segs[f"tibia_{side}"].axes),
-        ("femur", "hip", knee, hip, segs[f"femur_{side}"].axes),
+    links = (("foot", "ankle", toe, ankle), ("tibia", "knee", ankle, knee),
+             ("femur", "hip", knee, hip))  # fmt: skip
+    return _chain(
+        segs,
+        side,
+        links,
+        "pelvis",
+        body_mass=body_mass,
+        rate=rate,
+        force=np.asarray(grf, dtype=float),
+        moment=np.asarray(free_moment, dtype=float),
+        point=np.where(np.isfinite(cop), cop, toe),  # no load off the plates: any point
     )
-    force = np.asarray(grf, dtype=float)
-    moment = np.asarray(free_moment, dtype=float)
-    point = np.where(np.isfinite(cop), cop, toe)  # no load off the plates: any point will do
-    out_f: dict[str, np.ndarray] = {}
-    out_m: dict[str, np.ndarray] = {}
-    omega: dict[str, np.ndarray] = {}
-    for name, joint, distal, proximal, axes in chain:
-        body = DEMPSTER[name]
-        mass = body.mass * body_mass
-        length = float(np.nanmedian(np.linalg.norm(proximal - distal, axis=1)))
-        inertia = _inertia(body, mass, np.array([length]))[0]
-        com = distal + body.com * (proximal - distal)
-        f, m = newton_euler(
-            mass=mass,
-            com=com,
-            inertia=inertia,
-            axes=axes,
-            rate=rate,
-            proximal=proximal,
-            distal=point,
-            force=force,
-            moment=moment,
-        )
-        out_f[joint], out_m[joint] = f, m
-        omega[name] = angular_velocity(axes, rate)
-        force, moment, point = -f, -m, proximal
-    omega["pelvis"] = angular_velocity(segs["pelvis"].axes, rate)
-    return LegLoads(out_f, out_m, omega)
+
+
+def arm_loads(
+    segs: Mapping[str, Segment],
+    centres: Mapping[str, np.ndarray],
+    side: str,
+    *,
+    body_mass: float,
+    rate: float,
+) -> ChainLoads:
+    """The recursion of one arm from the free hand: hand (from the hand's far end, twice the
+    wrist-to-hand-centre distance beyond the wrist centre, as Plug-in Gait's hand bone), radius
+    and humerus, the thorax above (``segs``, ``centres``: :func:`~mocap_mj.clinical.segments.
+    upper_limbs`' and the thorax)."""
+    wrist, elbow, shoulder, hand = (
+        centres[f"{j}_{side}"] for j in ("wrist", "elbow", "shoulder", "hand")
+    )
+    tip = wrist + 2.0 * (hand - wrist)
+    links = (("hand", "wrist", tip, wrist), ("radius", "elbow", wrist, elbow),
+             ("humerus", "shoulder", elbow, shoulder))  # fmt: skip
+    zero = np.zeros_like(tip)
+    return _chain(
+        segs,
+        side,
+        links,
+        "thorax",
+        body_mass=body_mass,
+        rate=rate,
+        force=zero,
+        moment=zero,
+        point=tip,
+    )
 
 
 #: Per joint: its distal and proximal segments, then Nexus' moment components X, Y, Z as
@@ -225,12 +286,18 @@ MOMENT_AXES: dict[str, tuple[str, str, tuple[tuple[int, float], ...]]] = {
     "Ankle": ("foot", "tibia", ((1, 1.0), (2, -1.0), (0, 1.0))),
     "Knee": ("tibia", "femur", ((1, -1.0), (0, 1.0), (2, 1.0))),
     "Hip": ("femur", "pelvis", ((1, 1.0), (0, 1.0), (2, 1.0))),
+    "Wrist": ("hand", "radius", ((1, -1.0), (0, -1.0), (2, -1.0))),
+    "Elbow": ("radius", "humerus", ((1, -1.0), (0, -1.0), (2, -1.0))),
+    "Shoulder": ("humerus", "thorax", ((1, -1.0), (0, -1.0), (2, -1.0))),
 }
 #: Nexus' joint-force components in the distal frame (the same on both sides).
 FORCE_SIGNS: dict[str, tuple[float, float, float]] = {
     "Ankle": (-1.0, 1.0, -1.0),
     "Knee": (1.0, 1.0, 1.0),
     "Hip": (1.0, 1.0, 1.0),
+    "Wrist": (1.0, 1.0, 1.0),
+    "Elbow": (1.0, 1.0, 1.0),
+    "Shoulder": (1.0, 1.0, 1.0),
 }
 
 
@@ -254,7 +321,9 @@ def pig_kinetics(
     ``progression`` (3,) the direction of progression in the Z-up frame; ``to_lab`` (3, 3)
     the rotation back to the recording's lab frame (default identity).
 
-    Returns ``LAnkleMoment``, ``LKneeMoment``, ``LHipMoment`` [N m/kg], ``LAnkleForce``...
+    Returns ``LAnkleMoment``, ``LKneeMoment``, ``LHipMoment`` (and ``LWristMoment``,
+    ``LElbowMoment``, ``LShoulderMoment`` when ``segs`` holds the arms and the thorax, the
+    hand free of loads) [N m/kg], ``LAnkleForce``...
     [N/kg] (the distal segment's frame, components in :data:`MOMENT_AXES`,
     :data:`FORCE_SIGNS`), ``LAnklePower``... [W/kg] (in Z; X and Y 0), ``LGroundReactionForce``
     [N/kg] (the lab frame), ``LNormalisedGRF`` [% body weight] (the progression frame: X
@@ -272,24 +341,33 @@ def pig_kinetics(
     out: dict[str, np.ndarray] = {}
     for s, (grf, cop, free, on_plate) in loads.items():
         p, lat = s.upper(), (1.0 if s == "l" else -1.0)
-        legs = leg_loads(
-            segs, centres, s, body_mass=body_mass, rate=rate, grf=grf, cop=cop, free_moment=free
-        )
-        for joint, (distal, proximal, axes) in MOMENT_AXES.items():
-            key = {"Ankle": "ankle", "Knee": "knee", "Hip": "hip"}[joint]
-            frame = segs[f"{distal}_{s}"].axes
-            local_m = np.einsum("tji,tj->ti", frame, legs.moment[key]) / body_mass
-            local_f = np.einsum("tji,tj->ti", frame, legs.force[key]) / body_mass
-            out[f"{p}{joint}Moment"] = np.stack(
-                [sign * local_m[:, a] * (lat if c else 1.0) for c, (a, sign) in enumerate(axes)],
-                axis=1,
+        limbs = [
+            leg_loads(
+                segs, centres, s, body_mass=body_mass, rate=rate, grf=grf, cop=cop,
+                free_moment=free,
             )
-            out[f"{p}{joint}Force"] = local_f * np.asarray(FORCE_SIGNS[joint])
-            relative = legs.omega[distal] - legs.omega[proximal]
-            power = np.einsum("ti,ti->t", legs.moment[key], relative) / body_mass
-            out[f"{p}{joint}Power"] = np.stack(
-                [np.where(np.isfinite(power), 0.0, np.nan)] * 2 + [power], axis=1
-            )
+        ]  # fmt: skip
+        if f"hand_{s}" in segs and "thorax" in segs:
+            limbs.append(arm_loads(segs, centres, s, body_mass=body_mass, rate=rate))
+        for limb in limbs:
+            for joint, (distal, proximal, axes) in MOMENT_AXES.items():
+                if joint.lower() not in limb.moment:
+                    continue
+                frame = segs[f"{distal}_{s}"].axes
+                moment, force = limb.moment[joint.lower()], limb.force[joint.lower()]
+                local_m = np.einsum("tji,tj->ti", frame, moment) / body_mass
+                local_f = np.einsum("tji,tj->ti", frame, force) / body_mass
+                out[f"{p}{joint}Moment"] = np.stack(
+                    [sign * local_m[:, a] * (lat if c else 1.0)
+                     for c, (a, sign) in enumerate(axes)],
+                    axis=1,
+                )  # fmt: skip
+                out[f"{p}{joint}Force"] = local_f * np.asarray(FORCE_SIGNS[joint])
+                relative = limb.omega[distal] - limb.omega[proximal]
+                power = np.einsum("ti,ti->t", moment, relative) / body_mass
+                out[f"{p}{joint}Power"] = np.stack(
+                    [np.where(np.isfinite(power), 0.0, np.nan)] * 2 + [power], axis=1
+                )
         mask = np.where(np.asarray(on_plate, dtype=bool)[:, None], 1.0, np.nan)
         force = np.asarray(grf, dtype=float) * mask / body_mass
         out[f"{p}GroundReactionForce"] = force @ rot.T
