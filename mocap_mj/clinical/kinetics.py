@@ -1,4 +1,4 @@
-"""Plug-in Gait's lower-body kinetics: joint forces, moments and powers, as Vicon Nexus writes them.
+"""Plug-in Gait's kinetics of legs and arms: joint forces, moments, powers, as Nexus writes them.
 
 The kinetic model is Plug-in Gait's (Vicon's Plug-in Gait reference guide, "Kinetic
 modelling"): each segment's mass is a fraction of the body mass, its centre of mass lies a
@@ -13,7 +13,13 @@ segment   mass / body   centre of mass from distal radius of gyr.   length L (it
 foot      0.0145        0.5                        0.690            toe marker to ankle centre
 tibia     0.0465        0.567                      0.528            ankle to knee centre
 femur     0.100         0.567                      0.540            knee to hip centre
+hand      0.006         0.6205                     0.440            hand's end to wrist centre
+radius    0.016         0.57                       0.526            wrist to elbow centre
+humerus   0.028         0.564                      0.542            elbow to shoulder centre
 ========  ============  =========================  ===============  ==========================
+
+The hand's far end is Plug-in Gait's hand bone origin, twice the wrist-to-hand-centre distance
+beyond the wrist centre. The arms' recursion starts from the free hand (no load).
 
 The recursion runs bottom-up (Newton-Euler) in the lab, from the ground reaction under the
 foot (force, centre of pressure, free moment) through foot, tibia and femur: for each segment
