@@ -18,8 +18,11 @@ radius    0.016         0.57                       0.526            wrist to elb
 humerus   0.028         0.564                      0.542            elbow to shoulder centre
 ========  ============  =========================  ===============  ==========================
 
-The hand's far end is Plug-in Gait's hand bone origin, twice the wrist-to-hand-centre distance
-beyond the wrist centre. The arms' recursion starts from the free hand (no load).
+The foot's long axis is its frame's z (after the static offsets) through the ankle centre, its
+length the toe marker's distance from the ankle centre (Nexus' swing-phase ankle moment about
+that axis is zero, as this makes it). The hand's far end is Plug-in Gait's hand bone origin,
+twice the wrist-to-hand-centre distance beyond the wrist centre. The arms' recursion starts
+from the free hand (no load).
 
 The recursion runs bottom-up (Newton-Euler) in the lab, from the ground reaction under the
 foot (force, centre of pressure, free moment) through foot, tibia and femur: for each segment
@@ -239,7 +242,11 @@ def leg_loads(
     """
     toe = segs[f"foot_{side}"].origin
     ankle, knee, hip = (centres[f"{j}_{side}"] for j in ("ankle", "knee", "hip"))
-    links = (("foot", "ankle", toe, ankle), ("tibia", "knee", ankle, knee),
+    # the foot's long axis is its frame's z (after the static offsets) through the ankle
+    # centre, its length the toe marker's distance from the ankle centre
+    length = float(np.nanmedian(np.linalg.norm(ankle - toe, axis=1)))
+    tip = ankle - length * segs[f"foot_{side}"].axes[:, :, 2]
+    links = (("foot", "ankle", tip, ankle), ("tibia", "knee", ankle, knee),
              ("femur", "hip", knee, hip))  # fmt: skip
     return _chain(
         segs,
