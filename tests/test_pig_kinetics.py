@@ -231,3 +231,31 @@ def test_command_writes_kinetics(stripped: Path, tmp_path: Path) -> None:
     c3d = ezc3d.c3d(str(out / "result.c3d"))
     assert c3d["parameters"]["POINT"]["MOMENT_UNITS"]["value"] == ["Nmm/kg"]
     assert main([*args[:3], "--plates", "one", "--out", str(tmp_path / "bad")]) == 2
+
+
+def test_missing_marker_empties_only_the_frames_it_reaches(stripped: Path) -> None:
+    """LTOE missing for 5 frames: the left leg's kinetics are empty there and within the
+    derivatives' reach (4 frames), never carried over from another frame; the right leg's
+    are unchanged, the left's elsewhere within 1e-3 N m/kg."""
+    from dataclasses import replace
+
+    traj = load_markers(stripped)
+    positions = traj.positions.copy()
+    positions[100:105, traj.names.index("LTOE")] = np.nan
+    gappy = replace(traj, positions=positions)
+    subject = pig_from_c3d(stripped)
+    plates = read_plates(stripped, window="centred", offsets="none")
+    runs = []
+    for tr in (traj, gappy):
+        result = plug_in_gait(tr, subject)
+        out, _ = trial_kinetics(result.segments, result.centres, plates, tr, body_mass=85.0,
+                                progression=result.progression)  # fmt: skip
+        runs.append(out)
+    whole, gap = runs
+    empty = np.isnan(gap["LAnkleMoment"][:, 0])
+    assert empty[96:109].all() and not empty[4:96].any() and not empty[109:-4].any()
+    np.testing.assert_allclose(gap["RKneeMoment"], whole["RKneeMoment"], equal_nan=True)
+    # elsewhere the same but for the foot's length, a median over the frames it is seen in
+    np.testing.assert_allclose(
+        gap["LAnkleMoment"][~empty], whole["LAnkleMoment"][~empty], rtol=0, atol=1e-3
+    )
