@@ -96,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
     kinetics, kinetic_notes = _kinetics(args, trial, result, rotation.T)
 
     def work(out: Path) -> tuple[Mapping[str, Any], str]:
-        write_all(out, result, trial.rate, str(args.markers), kinetics)
+        write_all(out, result, trial.rate, str(args.markers), kinetics, kinetic_notes)
         summary = {"markers": str(args.markers), "static": args.static, "out": str(args.out)}
         summary |= result.summary()
         summary["kinetics"] = sorted(kinetics) if kinetics else []

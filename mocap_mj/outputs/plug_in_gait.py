@@ -10,6 +10,7 @@ weight); result.c3d holds them in Vicon's (moments in N mm/kg).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -90,8 +91,14 @@ def write_result_c3d(
     )
 
 
-def report_md(result: PigResult, source: str) -> str:
-    """report.md: what was computed, from which values, and the angle ranges."""
+def report_md(
+    result: PigResult,
+    source: str,
+    kinetics: dict[str, np.ndarray] | None = None,
+    notes: Sequence[str] = (),
+) -> str:
+    """report.md: what was computed, from which values, the angle ranges and, with
+    ``kinetics``, the peak moments and powers (``notes``: why contacts were left out)."""
     lines = [
         f"# Plug-in Gait: {source}",
         "",
@@ -118,7 +125,24 @@ def report_md(result: PigResult, source: str) -> str:
             col = a[:, k][np.isfinite(a[:, k])]
             cells.append(f"{col.min():.1f} / {col.max():.1f}" if len(col) else "n/a")
         lines.append(f"| {name} | {' | '.join(cells)} |")
+    lines += _kinetics_lines(kinetics, notes)
     return "\n".join(lines) + "\n"
+
+
+def _kinetics_lines(kinetics: dict[str, np.ndarray] | None, notes: Sequence[str]) -> list[str]:
+    """report.md's kinetics section: min / max of each moment [N m/kg] and power [W/kg]."""
+    lines = ["", "## Kinetics (kinetics.csv): min / max over the trial", ""]
+    if not kinetics:
+        return [*lines, *(f"- {n}" for n in notes or ["no force plates: no kinetics"])]
+    lines += [*(f"- {n}" for n in notes), *([""] if notes else [])]
+    lines += ["| output | X | Y | Z |", "|---|---|---|---|"]
+    for name in sorted(n for n in kinetics if n.endswith(("Moment", "Power"))):
+        cells = []
+        for k in range(3):
+            col = kinetics[name][:, k][np.isfinite(kinetics[name][:, k])]
+            cells.append(f"{col.min():.3f} / {col.max():.3f}" if len(col) else "n/a")
+        lines.append(f"| {name} | {' | '.join(cells)} |")
+    return lines
 
 
 def write_all(
@@ -127,11 +151,13 @@ def write_all(
     rate: float,
     source: str,
     kinetics: dict[str, np.ndarray] | None = None,
+    notes: Sequence[str] = (),
 ) -> None:
-    """Every result file into the folder ``out`` (kinetics.csv when ``kinetics`` is given)."""
+    """Every result file into the folder ``out`` (kinetics.csv when ``kinetics`` is given;
+    ``notes``: the kinetics' notes for report.md)."""
     atomic_write_text(out / "angles.csv", angles_csv(result))
     atomic_write_text(out / "joint_centres.csv", centres_csv(result))
     if kinetics:
         atomic_write_text(out / "kinetics.csv", kinetics_csv(result, kinetics))
     write_result_c3d(out / "result.c3d", result, rate, kinetics)
-    atomic_write_text(out / "report.md", report_md(result, source))
+    atomic_write_text(out / "report.md", report_md(result, source, kinetics, notes))
