@@ -53,7 +53,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mocap_mj.capture.contacts import assign_feet
+from mocap_mj.capture.contacts import contacts
 from mocap_mj.io.plates import PlateRecord
 from mocap_mj.io.trajectory import MarkerTrajectory
 
@@ -402,9 +402,10 @@ def trial_kinetics(
     counted: Collection[int] | None = None,
 ) -> tuple[dict[str, np.ndarray], list[str]]:
     """:func:`pig_kinetics` with the ground reactions of ``plates`` (read at ``trajectory``'s
-    frames) under the foot that alone stands on each (:func:`~mocap_mj.capture.contacts.
-    assign_feet`). ``counted``: the plate numbers (from 1) whose contacts count (default
-    all). Returns the outputs and one note per contact left out."""
+    frames) under the foot that alone stands on each (the rules of
+    :func:`~mocap_mj.capture.contacts.assign_feet`, applied to every plate). ``counted``: the
+    plate numbers (from 1) whose contacts give loads (default all). Returns the outputs and
+    one note per contact the rules leave out."""
     numbers = {p.name: k + 1 for k, p in enumerate(plates)}
     if counted is not None:
         unknown = sorted(set(counted) - set(numbers.values()))
@@ -414,15 +415,23 @@ def trial_kinetics(
                 f"{where}: plates {unknown}: the trial has plates 1..{len(plates)}; expected "
                 "some of those"
             )
-    kept = [p for p in plates if counted is None or numbers[p.name] in counted]
-    feet = assign_feet(kept, trajectory) if kept else []
     n = trajectory.n_frames
-    loads = {s[0]: (np.zeros((n, 3)), np.full((n, 3), np.nan), np.zeros((n, 3)),
-                    np.zeros(n, dtype=bool)) for s in ("left", "right")}  # fmt: skip
+    loads = {s: (np.zeros((n, 3)), np.full((n, 3), np.nan), np.zeros((n, 3)),
+                 np.zeros(n, dtype=bool)) for s in ("l", "r")}  # fmt: skip
     notes: list[str] = []
-    for foot in feet:
-        loads[foot.side[0]] = (foot.force, foot.cop, foot.free_moment, foot.on_plate)
-        notes += [f"{foot.side} foot: {why}" for why in foot.excluded]
+    # every plate takes part in the rules (two feet on one plate, a foot on two), the
+    # uncounted ones' contacts then give no load
+    for c in contacts(plates, trajectory):
+        if c.reason is not None:
+            notes.append(f"{c.side or 'no'} foot: {c.reason}")
+            continue
+        if c.side is None or (counted is not None and c.plate + 1 not in counted):
+            continue
+        force, cop, free, on = loads[c.side[0]]
+        plate, rows = plates[c.plate], slice(c.start, c.stop)
+        force[rows], cop[rows], free[rows], on[rows] = (
+            plate.force[rows], plate.cop[rows], plate.free_moment[rows], True
+        )  # fmt: skip
     out = pig_kinetics(
         segs,
         centres,
