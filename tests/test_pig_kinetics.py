@@ -210,7 +210,7 @@ def test_uncounted_plates_leave_no_ground_reaction(stripped: Path) -> None:
 def test_command_writes_kinetics(stripped: Path, tmp_path: Path) -> None:
     """plug-in-gait on a trial with plates writes kinetics.csv (per kg, SI) and the same
     points in result.c3d in Vicon's units; the trial is not modified; a bad --plates is a
-    one-line error with a non-zero exit."""
+    one-line error with a non-zero exit; --plates none writes no kinetics."""
     from mocap_mj.cli import main
 
     before = stripped.read_bytes()
@@ -231,6 +231,8 @@ def test_command_writes_kinetics(stripped: Path, tmp_path: Path) -> None:
     c3d = ezc3d.c3d(str(out / "result.c3d"))
     assert c3d["parameters"]["POINT"]["MOMENT_UNITS"]["value"] == ["Nmm/kg"]
     assert main([*args[:3], "--plates", "one", "--out", str(tmp_path / "bad")]) == 2
+    assert main([*args[:3], "--plates", "none", "--out", str(tmp_path / "none")]) == 0
+    assert not (tmp_path / "none" / "kinetics.csv").exists()
 
 
 def test_missing_marker_empties_only_the_frames_it_reaches(stripped: Path) -> None:
