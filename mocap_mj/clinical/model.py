@@ -20,7 +20,7 @@ from ..io.trajectory import MarkerTrajectory
 from . import static as static_mod
 from .angles import all_angles, progression_frame
 from .bones import bone_points
-from .segments import SIDES, Markers, lower_body, static_foot, trunk, upper_limbs
+from .segments import SIDES, Markers, Segment, lower_body, static_foot, trunk, upper_limbs
 from .subject import UPPER, PigSubject
 
 _log = logging.getLogger(__name__)
@@ -40,7 +40,9 @@ class PigResult:
     point name (``LFEO``...) -> (T, 3) [m] in the recording's lab frame; ``times`` (T,) [s];
     ``frames`` (T,) the recording's own frame numbers; ``progression`` (3,) the direction
     of progression in the lab; ``static``: whether the trial was processed as a static one
-    (its own offsets and the static model's foot).
+    (its own offsets and the static model's foot); ``segments`` (name -> :class:`Segment`)
+    and ``centres`` (``hip_l``... -> (T, 3) [m]) in the trajectory's Z-up frame, what the
+    kinetics (:mod:`.kinetics`) start from.
     """
 
     times: np.ndarray
@@ -51,6 +53,8 @@ class PigResult:
     progression: np.ndarray
     static: bool
     notes: list[str] = field(default_factory=list)
+    segments: dict[str, Segment] = field(default_factory=dict)
+    centres: dict[str, np.ndarray] = field(default_factory=dict)
 
     def summary(self) -> dict[str, Any]:
         return {
@@ -212,4 +216,6 @@ def plug_in_gait(
         progression=rot @ prog[:, 0],
         static=as_static,
         notes=notes,
+        segments=segs,
+        centres=jc,
     )

@@ -12,6 +12,7 @@ import numpy as np
 from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder
 
 from ..clinical.subject import PigSubject
+from ..errors import MocapError
 
 
 def register(sub: Any) -> None:
@@ -25,7 +26,10 @@ def register(sub: Any) -> None:
         "values come from the C3D's PROCESSING group, then --static (offsets, inter-ASIS "
         "distance, leg lengths from the markers), then --subject-file. Writes OUT/angles.csv "
         "[deg], OUT/joint_centres.csv [mm, lab frame], OUT/result.c3d (Vicon's point "
-        "names), OUT/summary.json and OUT/report.md; frames keep the recording's numbers.",
+        "names), OUT/summary.json and OUT/report.md; frames keep the recording's numbers. "
+        "A C3D trial with force plates and a body mass also gives OUT/kinetics.csv: Plug-in "
+        "Gait's joint moments, powers and forces and the ground reactions per kg (also in "
+        "result.c3d under Vicon's names and units).",
     )
     p.add_argument("--markers", required=True, metavar="TRIAL", help="the trial (C3D, TRC...)")
     p.add_argument(
@@ -53,6 +57,14 @@ def register(sub: Any) -> None:
         "Nexus' static pipeline); dynamic: the offsets of the PROCESSING group, --static or "
         "--subject-file; auto (default): static when no --static is given and the pelvis "
         "and leg markers stay within 0.1 m of their median positions",
+    )
+    p.add_argument(
+        "--plates",
+        default="all",
+        metavar="LIST",
+        help="the force plates whose contacts count for the kinetics: all (default: each "
+        "plate while one foot alone stands on it), none (no kinetics), or plate numbers "
+        "from 1, e.g. 1,4 (a lab's choice of valid strikes)",
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     add_force_flag(p)
@@ -85,18 +97,70 @@ def run(args: argparse.Namespace) -> int:
         trial_type=args.trial_type,
     )
 
+    kinetics, kinetic_notes = _kinetics(args, trial, result, rotation.T)
+
     def work(out: Path) -> tuple[Mapping[str, Any], str]:
-        write_all(out, result, trial.rate, str(args.markers))
+        write_all(out, result, trial.rate, str(args.markers), kinetics, kinetic_notes)
         summary = {"markers": str(args.markers), "static": args.static, "out": str(args.out)}
         summary |= result.summary()
+        summary["kinetics"] = sorted(kinetics) if kinetics else []
+        summary["kinetics_notes"] = kinetic_notes
         text = (
             f"plug-in-gait: {len(result.angles)} angles, {len(result.points)} bone points, "
-            f"{trial.n_frames} frames ({'static' if result.static else 'dynamic'} trial) "
-            f"-> {args.out}"
+            f"{len(kinetics or {})} kinetic outputs, {trial.n_frames} frames "
+            f"({'static' if result.static else 'dynamic'} trial) -> {args.out}"
         )
         return summary, text
 
     return into_out_folder(args, work)
+
+
+def _counted(text: str) -> set[int] | None:
+    """--plates: None for all, the empty set for none, else the plate numbers."""
+    if text == "all":
+        return None
+    if text == "none":
+        return set()
+    try:
+        numbers = {int(v) for v in text.split(",")}
+    except ValueError:
+        numbers = {0}
+    if min(numbers) < 1:
+        raise MocapError(f"--plates {text!r}: expected all, none or plate numbers such as 1,4")
+    return numbers
+
+
+def _kinetics(
+    args: argparse.Namespace, trial: Any, result: Any, to_lab: np.ndarray
+) -> tuple[dict[str, np.ndarray] | None, list[str]]:
+    """The kinetic outputs when the trial is a C3D with plates and the subject a mass."""
+    from ..clinical.kinetics import trial_kinetics
+    from ..io.plates import read_plates
+
+    counted = _counted(args.plates)
+    if counted == set() or Path(args.markers).suffix.lower() != ".c3d":
+        return None, []
+    plates = read_plates(args.markers, marker_rate=trial.rate, window="centred", offsets="none")
+    if not plates:
+        return None, ["no kinetics: the trial has no force plates"]
+    mass = result.subject.measured("mass")
+    if mass is None:
+        return None, ["no kinetics: no body mass (PROCESSING:Bodymass, or mass in --subject-file)"]
+    if len(plates[0].force) != trial.n_frames:
+        raise MocapError(
+            f"{args.markers}: the plates hold {len(plates[0].force)} frames, the markers "
+            f"{trial.n_frames}; expected the same frames"
+        )
+    return trial_kinetics(
+        result.segments,
+        result.centres,
+        plates,
+        trial,
+        body_mass=mass,
+        progression=result.progression @ to_lab,
+        to_lab=to_lab,
+        counted=counted,
+    )
 
 
 def _file_subject(path: str) -> PigSubject:

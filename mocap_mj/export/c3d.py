@@ -18,7 +18,7 @@ which readers return as NaN.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import ezc3d
@@ -86,12 +86,15 @@ def write_points_c3d(
     modeled: list[str],
     first_frame: int = 1,
     events: Sequence[GaitEvent] = (),
+    kinetic: Mapping[str, tuple[list[str], str]] | None = None,
 ) -> None:
     """Write points ``values`` (T, N, 3) (mm, degrees for ``angle_labels``) as a C3D,
     atomically; NaN samples are written as invalid points. ``first_frame``: the recording's
     number of frame 0 as a C3D header numbers frames (from 1; also written as
     ``TRIAL:ACTUAL_START_FIELD``); below 1, the file's frames are numbered from 1.
-    ``events``: gait events written into the EVENT group (none by default)."""
+    ``events``: gait events written into the EVENT group (none by default). ``kinetic``:
+    Vicon's kinetic point groups, e.g. ``{"MOMENTS": (labels, "Nmm/kg")}`` (FORCES,
+    MOMENTS, POWERS), written as ``POINT:MOMENTS`` and ``POINT:MOMENT_UNITS``."""
     c3d = ezc3d.c3d()
     point = c3d["parameters"]["POINT"]
     point["RATE"]["value"] = np.array([rate])
@@ -101,7 +104,12 @@ def write_points_c3d(
     c3d.add_parameter("POINT", "ANGLES", angle_labels)
     c3d.add_parameter("POINT", "ANGLE_UNITS", ["deg"])
     c3d.add_parameter("POINT", "MODELED_MARKERS", modeled)
-    c3d.add_parameter("POINT", "TYPE_GROUPS", ["ANGLES", "ANGLE", "MODELED_MARKERS", "MODELED"])
+    groups = ["ANGLES", "ANGLE", "MODELED_MARKERS", "MODELED"]
+    for group, (names, unit) in (kinetic or {}).items():
+        c3d.add_parameter("POINT", group, names)
+        c3d.add_parameter("POINT", f"{group[:-1]}_UNITS", [unit])
+        groups += [group, group[:-1]]
+    c3d.add_parameter("POINT", "TYPE_GROUPS", groups)
     data = np.ones((4, len(labels), len(values)))
     data[:3] = np.transpose(values, (2, 1, 0))
     c3d["data"]["points"] = data

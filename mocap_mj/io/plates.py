@@ -115,6 +115,8 @@ def read_plates(
     marker_rate: float | None = None,
     threshold_n: float = 20.0,
     up: str | None = None,
+    window: str = "frame",
+    offsets: str = "quiet",
 ) -> list[PlateRecord]:
     """Every force plate a C3D file declares, per marker frame, in SI units and the frame
     :func:`~mocap_mj.io.load.load_markers` gives the file's markers.
@@ -159,6 +161,10 @@ def read_plates(
         raise InputFileError(f"{file}: no such file")
     if threshold_n <= 0 or not math.isfinite(threshold_n):
         raise InputFileError(f"{file}: threshold_n: expected a positive force, got {threshold_n}")
+    if window not in ("frame", "centred"):
+        raise MocapError(f"plate window {window!r}: expected frame or centred")
+    if offsets not in ("quiet", "none"):
+        raise MocapError(f"plate offsets {offsets!r}: expected quiet or none")
     try:  # the parameters first (a copy of the file's start): what ezc3d would refuse
         header = read_parameters(file)
     except Exception as exc:  # ezc3d raises RuntimeError, OSError, ValueError...
@@ -173,7 +179,7 @@ def read_plates(
     scale_force = _force_scale(file, params)
     analog_rate = _analog_rate(file, params)
     rate = _marker_rate(file, params, marker_rate, analog_rate, whole)
-    raw = _readable(file, whole, params, scale_pos, scale_force)
+    raw = _readable(file, whole, params, scale_pos, scale_force, zero=offsets == "quiet")
     rotation = rotation_to_z_up(_up_axis(file, up, list(raw.values())))
     vertical = rotation[2]  # the up direction in the file's axes
     signs = {k: _sign(p, vertical, threshold_n) for k, p in raw.items()}
@@ -182,8 +188,8 @@ def read_plates(
     records = []
     for k, plate in raw.items():
         sign = signs[k] or default
-        force = _frames(plate.force * sign, analog_rate, rate) @ rotation.T
-        moment = _frames(plate.moment * sign, analog_rate, rate) @ rotation.T
+        force = _frames(plate.force * sign, analog_rate, rate, window) @ rotation.T
+        moment = _frames(plate.moment * sign, analog_rate, rate, window) @ rotation.T
         corners = plate.corners @ rotation.T
         cop, free = _cop(force, moment, corners, threshold_n)
         records.append(PlateRecord(f"plate {k + 1}", plate.type, corners, force, cop, free, rate))
@@ -201,16 +207,22 @@ def _extracted(file: Path) -> Any:
 
 
 def _readable(
-    file: Path, whole: Any, params: dict[str, Any], scale_pos: float, scale_force: float
+    file: Path,
+    whole: Any,
+    params: dict[str, Any],
+    scale_pos: float,
+    scale_force: float,
+    *,
+    zero: bool = True,
 ) -> dict[int, _RawPlate]:
     """Plate index -> its :class:`_RawPlate`, of the plates that can be read; one warning
     per plate skipped (naming the file, the plate and why); the first refusal raised when
-    none can be read."""
+    none can be read. ``zero``: the analog offsets removed (the quiet window's)."""
     raw: dict[int, _RawPlate] = {}
     refused: list[InputFileError] = []
     for k, pf in enumerate(whole["data"]["platform"]):
         try:
-            raw[k] = _RawPlate.of(file, k, pf, params, scale_pos, scale_force)
+            raw[k] = _RawPlate.of(file, k, pf, params, scale_pos, scale_force, zero=zero)
         except InputFileError as exc:
             refused.append(exc)
     if not raw:
@@ -303,6 +315,8 @@ class _RawPlate:
         params: dict[str, Any],
         scale_pos: float,
         scale_force: float,
+        *,
+        zero: bool = True,
     ) -> _RawPlate:
         kind = int(_values(params, "FORCE_PLATFORM", "TYPE")[k])
         corners = np.asarray(pf["corners"], dtype=float).T * scale_pos  # (4, 3)
@@ -321,7 +335,7 @@ class _RawPlate:
                 f"{file}: plate {k + 1}: analog sample {int(np.argmax(bad)) + 1}: expected "
                 f"finite forces and moments, got NaN or infinity"
             )
-        quiet = _quiet(force, _analog_rate(file, params))
+        quiet = _quiet(force, _analog_rate(file, params)) if zero else None
         force = force - _offset(force, quiet)
         turn = turn - _offset(turn, quiet)
         if kind == 1:
@@ -363,9 +377,20 @@ def _sign(plate: _RawPlate, vertical: np.ndarray, threshold_n: float) -> int:
     return 1 if peak > 0 else -1
 
 
-def _frames(samples: np.ndarray, analog_rate: float, rate: float) -> np.ndarray:
-    """(T, 3): ``samples`` (N, 3) averaged per marker frame (module docstring)."""
-    bins = np.floor(np.arange(len(samples)) * rate / analog_rate + 1e-6).astype(int)
+def _frames(
+    samples: np.ndarray, analog_rate: float, rate: float, window: str = "frame"
+) -> np.ndarray:
+    """(T, 3): ``samples`` (N, 3) averaged per marker frame (module docstring); ``window``
+    "centred": the samples within half a frame of each frame's instant instead."""
+    at = np.arange(len(samples)) * rate / analog_rate
+    bins = np.floor(at + 1e-6).astype(int)
+    if window == "centred" and len(bins):
+        n = int(bins.max()) + 1
+        centred = np.floor(at + 0.5 + 1e-6).astype(int)
+        keep = centred < n
+        out = np.full((n, 3), np.nan)
+        out[: int(centred[keep].max()) + 1] = _average(samples[keep], centred[keep])
+        return out
     return _average(samples, bins)
 
 

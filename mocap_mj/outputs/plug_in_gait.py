@@ -3,11 +3,14 @@ under Vicon's names, and the report. Conversion to mm and degrees happens here o
 
 Tables: ``frame`` (the recording's own frame number), ``time_s``, then ``<Name>_X``,
 ``_Y``, ``_Z`` per angle [deg] or per point [mm, the recording's lab frame]; an empty cell
-where a value could not be computed (a marker missing in that frame).
+where a value could not be computed (a marker missing in that frame). ``kinetics.csv``: the
+kinetic outputs normalised by the body mass, in SI units (N m/kg, W/kg, N/kg, % body
+weight); result.c3d holds them in Vicon's (moments in N mm/kg).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -37,30 +40,65 @@ def centres_csv(result: PigResult) -> str:
     return series_table(result.frames, result.times, pts, 1e3)
 
 
-def write_result_c3d(path: Path, result: PigResult, rate: float) -> None:
-    """result.c3d: the bone points [mm] and the angles [deg] under Vicon's names."""
+#: Kinetic outputs per Vicon group: the name endings, its unit in result.c3d and the scale
+#: from ours (N/kg, N m/kg, W/kg) to it.
+C3D_KINETIC = {
+    "FORCES": (("Force", "GRF"), "N/kg", 1.0),
+    "MOMENTS": (("Moment",), "Nmm/kg", 1e3),
+    "POWERS": (("Power",), "W/kg", 1.0),
+}
+
+
+def kinetics_csv(result: PigResult, kinetics: dict[str, np.ndarray]) -> str:
+    """kinetics.csv text: every kinetic output in its SI unit per kg (% body weight for
+    ``NormalisedGRF``)."""
+    return series_table(result.frames, result.times, dict(sorted(kinetics.items())), 1.0)
+
+
+def _kinetic_description(name: str) -> str:
+    unit = "% body weight" if name.endswith("NormalisedGRF") else "per kg body mass"
+    return f"Plug-in Gait kinetics, {unit}"
+
+
+def write_result_c3d(
+    path: Path, result: PigResult, rate: float, kinetics: dict[str, np.ndarray] | None = None
+) -> None:
+    """result.c3d: the bone points [mm], the angles [deg] and the kinetic outputs (Vicon's
+    units: N/kg, N mm/kg, W/kg) under Vicon's names."""
     points = sorted(result.points)
     angles = sorted(result.angles)
-    values = np.concatenate(
-        [np.stack([result.points[n] * 1e3 for n in points], axis=1),
-         np.stack([np.degrees(result.angles[n]) for n in angles], axis=1)],
-        axis=1,
-    )  # fmt: skip
+    columns = [result.points[n] * 1e3 for n in points]
+    columns += [np.degrees(result.angles[n]) for n in angles]
+    groups: dict[str, tuple[list[str], str]] = {}
+    for group, (endings, unit, scale) in C3D_KINETIC.items():
+        names = sorted(n for n in kinetics or {} if n.endswith(endings))
+        if names:
+            groups[group] = (names, unit)
+            columns += [(kinetics or {})[n] * scale for n in names]
+    extra = [n for names, _ in groups.values() for n in names]
     write_points_c3d(
         path,
-        labels=points + angles,
+        labels=points + angles + extra,
         descriptions=["Plug-in Gait bone point"] * len(points)
-        + ["Plug-in Gait angle"] * len(angles),
-        values=values,
+        + ["Plug-in Gait angle"] * len(angles)
+        + [_kinetic_description(n) for n in extra],
+        values=np.stack(columns, axis=1),
         rate=rate,
         angle_labels=angles,
         modeled=points,
         first_frame=int(result.frames[0]) if len(result.frames) else 0,
+        kinetic=groups,
     )
 
 
-def report_md(result: PigResult, source: str) -> str:
-    """report.md: what was computed, from which values, and the angle ranges."""
+def report_md(
+    result: PigResult,
+    source: str,
+    kinetics: dict[str, np.ndarray] | None = None,
+    notes: Sequence[str] = (),
+) -> str:
+    """report.md: what was computed, from which values, the angle ranges and, with
+    ``kinetics``, the peak moments and powers (``notes``: why contacts were left out)."""
     lines = [
         f"# Plug-in Gait: {source}",
         "",
@@ -87,12 +125,39 @@ def report_md(result: PigResult, source: str) -> str:
             col = a[:, k][np.isfinite(a[:, k])]
             cells.append(f"{col.min():.1f} / {col.max():.1f}" if len(col) else "n/a")
         lines.append(f"| {name} | {' | '.join(cells)} |")
+    lines += _kinetics_lines(kinetics, notes)
     return "\n".join(lines) + "\n"
 
 
-def write_all(out: Path, result: PigResult, rate: float, source: str) -> None:
-    """Every result file into the folder ``out``."""
+def _kinetics_lines(kinetics: dict[str, np.ndarray] | None, notes: Sequence[str]) -> list[str]:
+    """report.md's kinetics section: min / max of each moment [N m/kg] and power [W/kg]."""
+    lines = ["", "## Kinetics (kinetics.csv): min / max over the trial", ""]
+    if not kinetics:
+        return [*lines, *(f"- {n}" for n in notes or ["no force plates: no kinetics"])]
+    lines += [*(f"- {n}" for n in notes), *([""] if notes else [])]
+    lines += ["| output | X | Y | Z |", "|---|---|---|---|"]
+    for name in sorted(n for n in kinetics if n.endswith(("Moment", "Power"))):
+        cells = []
+        for k in range(3):
+            col = kinetics[name][:, k][np.isfinite(kinetics[name][:, k])]
+            cells.append(f"{col.min():.3f} / {col.max():.3f}" if len(col) else "n/a")
+        lines.append(f"| {name} | {' | '.join(cells)} |")
+    return lines
+
+
+def write_all(
+    out: Path,
+    result: PigResult,
+    rate: float,
+    source: str,
+    kinetics: dict[str, np.ndarray] | None = None,
+    notes: Sequence[str] = (),
+) -> None:
+    """Every result file into the folder ``out`` (kinetics.csv when ``kinetics`` is given;
+    ``notes``: the kinetics' notes for report.md)."""
     atomic_write_text(out / "angles.csv", angles_csv(result))
     atomic_write_text(out / "joint_centres.csv", centres_csv(result))
-    write_result_c3d(out / "result.c3d", result, rate)
-    atomic_write_text(out / "report.md", report_md(result, source))
+    if kinetics:
+        atomic_write_text(out / "kinetics.csv", kinetics_csv(result, kinetics))
+    write_result_c3d(out / "result.c3d", result, rate, kinetics)
+    atomic_write_text(out / "report.md", report_md(result, source, kinetics, notes))

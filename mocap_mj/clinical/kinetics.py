@@ -1,0 +1,444 @@
+"""Plug-in Gait's kinetics of legs and arms: joint forces, moments, powers, as Nexus writes them.
+
+The kinetic model is Plug-in Gait's (Vicon's Plug-in Gait reference guide, "Kinetic
+modelling"): each segment's mass is a fraction of the body mass, its centre of mass lies a
+fraction of the way from its distal joint centre (the segment's origin) towards its proximal
+one, and its principal moments of inertia about the transverse axes are m (k L)^2 with the
+radius of gyration k a fraction of the segment length L (none about the long axis z). The
+fractions are Dempster's (1955) as Plug-in Gait tabulates them (:data:`DEMPSTER`):
+
+========  ============  =========================  ===============  ==========================
+segment   mass / body   centre of mass from distal radius of gyr.   length L (its median)
+========  ============  =========================  ===============  ==========================
+foot      0.0145        0.5                        0.690            toe marker to ankle centre
+tibia     0.0465        0.567                      0.528            ankle to knee centre
+femur     0.100         0.567                      0.540            knee to hip centre
+hand      0.006         0.6205                     0.440            hand's end to wrist centre
+radius    0.016         0.57                       0.526            wrist to elbow centre
+humerus   0.028         0.564                      0.542            elbow to shoulder centre
+========  ============  =========================  ===============  ==========================
+
+The foot's long axis is its frame's z (after the static offsets) through the ankle centre, its
+length the toe marker's distance from the ankle centre (Nexus' swing-phase ankle moment about
+that axis is zero, as this makes it). The hand's far end is Plug-in Gait's hand bone origin,
+twice the wrist-to-hand-centre distance beyond the wrist centre. The arms' recursion starts
+from the free hand (no load).
+
+The recursion runs bottom-up (Newton-Euler) in the lab, from the ground reaction under the
+foot (force, centre of pressure, free moment) through foot, tibia and femur: for each segment
+``F_prox = m (a - g) - F_dist`` and ``M_prox = dH/dt - M_dist - (p_prox - c) x F_prox -
+(p_dist - c) x F_dist`` (c its centre of mass, H its angular momentum about c, g = 9.81 m/s^2
+down), the next segment's distal load being the joint's reaction. Velocities and
+accelerations are five-point central differences at the marker rate applied twice
+(positions -> velocities -> accelerations; the frame's rotation -> angular velocity ->
+angular acceleration) with no other filter: Nexus computes its kinetics from the
+trajectories as stored, and its outputs start and end four frames in, as these do (a frame
+whose stencil meets a missing marker is NaN).
+
+Reported as Nexus does (determined against the Nexus outputs of a Plug-in Gait trial): the
+force and moment the proximal segment exerts on the distal one at the joint, divided by the
+body mass, in the distal segment's frame (the foot's for the ankle, the untorsioned tibia's
+for the knee, the femur's for the hip), components and signs in :data:`MOMENT_AXES` and
+:data:`FORCE_SIGNS`: X the sagittal moment, Y the frontal, Z the transverse, the right
+side's Y and Z mirrored. A joint's power is its moment dotted with the distal segment's
+angular velocity less the proximal's, written in Z. Where the foot stands on no counted plate
+its ground reaction is zero and the moments come from the segments' motion alone, as Nexus
+writes them; the ground reaction itself is written only on a counted plate.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from mocap_mj.capture.contacts import contacts
+from mocap_mj.io.plates import PlateRecord
+from mocap_mj.io.trajectory import MarkerTrajectory
+
+from ..errors import MocapError
+from .segments import Segment
+
+__all__ = [
+    "DEMPSTER",
+    "FORCE_SIGNS",
+    "GRAVITY",
+    "MOMENT_AXES",
+    "Body",
+    "ChainLoads",
+    "angular_velocity",
+    "arm_loads",
+    "derivative",
+    "leg_loads",
+    "newton_euler",
+    "pig_kinetics",
+    "trial_kinetics",
+]
+
+#: Standard gravity [m/s^2], the value Nexus normalises the ground reaction with.
+GRAVITY = 9.81
+
+
+@dataclass(frozen=True)
+class Body:
+    """Dempster's parameters of one segment as Plug-in Gait scales them: ``mass`` (fraction of
+    the body mass), ``com`` (the centre of mass's fraction of the way from the distal joint
+    centre to the proximal one), ``gyration`` (radius of gyration about the transverse axes,
+    fraction of the segment length)."""
+
+    mass: float
+    com: float
+    gyration: float
+
+
+#: Plug-in Gait's segment parameters (Dempster 1955; Vicon's Plug-in Gait reference guide).
+DEMPSTER: dict[str, Body] = {
+    "foot": Body(0.0145, 0.5, 0.690),
+    "tibia": Body(0.0465, 0.567, 0.528),
+    "femur": Body(0.100, 0.567, 0.540),
+    "hand": Body(0.006, 0.6205, 0.440),
+    "radius": Body(0.016, 0.57, 0.526),
+    "humerus": Body(0.028, 0.564, 0.542),
+}
+
+
+def derivative(x: np.ndarray, rate: float) -> np.ndarray:
+    """Five-point central difference along axis 0: x (T, ...) -> dx/dt (T, ...) [unit/s],
+    NaN in the first and last two rows (and wherever the stencil meets a NaN)."""
+    x = np.asarray(x, dtype=float)
+    d = np.full_like(x, np.nan)
+    if len(x) >= 5:
+        d[2:-2] = (x[:-4] - 8.0 * x[1:-3] + 8.0 * x[3:-1] - x[4:]) * (rate / 12.0)
+    return d
+
+
+def angular_velocity(axes: np.ndarray, rate: float) -> np.ndarray:
+    """A frame's angular velocity in the lab, axes (T, 3, 3) (columns its x, y, z) ->
+    (T, 3) [rad/s]: the axial vector of dR/dt R^T."""
+    w = derivative(axes, rate) @ np.swapaxes(axes, 1, 2)
+    return 0.5 * np.stack(
+        [w[:, 2, 1] - w[:, 1, 2], w[:, 0, 2] - w[:, 2, 0], w[:, 1, 0] - w[:, 0, 1]], axis=1
+    )
+
+
+def newton_euler(
+    *,
+    mass: float,
+    com: np.ndarray,
+    inertia: np.ndarray,
+    axes: np.ndarray,
+    rate: float,
+    proximal: np.ndarray,
+    distal: np.ndarray,
+    force: np.ndarray,
+    moment: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The force and moment the proximal segment exerts on this one at its proximal joint.
+
+    ``mass`` [kg]; ``com`` (T, 3) [m] the centre of mass in the lab; ``inertia`` (3,)
+    [kg m^2] the principal moments about the segment's own x, y, z through the centre of
+    mass; ``axes`` (T, 3, 3) the segment's frame; ``rate`` [Hz]; ``proximal`` (T, 3) [m] the
+    joint centre the result acts at; ``distal`` (T, 3) [m] where the distal load ``force``
+    (T, 3) [N] and ``moment`` (T, 3) [N m] (what the segment receives there) act. Returns
+    force (T, 3) [N], moment (T, 3) [N m] about ``proximal``, in the lab, gravity -Z.
+    """
+    acc = derivative(derivative(com, rate), rate)
+    omega = angular_velocity(axes, rate)
+    alpha = derivative(omega, rate)
+    # the inertia tensor in the lab: R diag(I) R^T
+    tensor = np.einsum("tij,j,tkj->tik", axes, np.asarray(inertia, dtype=float), axes)
+    h_dot = np.einsum("tij,tj->ti", tensor, alpha) + np.cross(
+        omega, np.einsum("tij,tj->ti", tensor, omega)
+    )
+    weight = np.array([0.0, 0.0, -GRAVITY * mass])
+    f_prox = mass * acc - weight - force
+    m_prox = h_dot - moment - np.cross(proximal - com, f_prox) - np.cross(distal - com, force)
+    return f_prox, m_prox
+
+
+@dataclass(frozen=True)
+class ChainLoads:
+    """The joint loads of one limb in the lab: per joint (``ankle``, ``knee``, ``hip``;
+    ``wrist``, ``elbow``, ``shoulder``) the force (T, 3) [N] and moment (T, 3) [N m] the
+    proximal segment exerts on the distal one at the joint centre, and the angular velocity
+    (T, 3) [rad/s] of each segment (``foot``, ``tibia``, ``femur``, ``pelvis``; ``hand``,
+    ``radius``, ``humerus``, ``thorax``)."""
+
+    force: dict[str, np.ndarray]
+    moment: dict[str, np.ndarray]
+    omega: dict[str, np.ndarray]
+
+
+#: A link of a chain: segment, its proximal joint, its distal and proximal points (T, 3) [m].
+_Link = tuple[str, str, np.ndarray, np.ndarray]
+
+
+def _inertia(body: Body, mass: float, length: float) -> np.ndarray:
+    """(3,) [kg m^2]: m (k L)^2 about x and y, none about the long axis z."""
+    i = mass * (body.gyration * length) ** 2
+    return np.array([i, i, 0.0])
+
+
+def _chain(
+    segs: Mapping[str, Segment],
+    side: str,
+    links: Sequence[_Link],
+    top: str,
+    *,
+    body_mass: float,
+    rate: float,
+    force: np.ndarray,
+    moment: np.ndarray,
+    point: np.ndarray,
+) -> ChainLoads:
+    """The recursion up ``links`` (distal first) from the load ``force`` (T, 3) [N],
+    ``moment`` (T, 3) [N m] at ``point`` (T, 3) [m] on the first; ``top``: the segment above
+    the last joint (for its angular velocity)."""
+    out_f: dict[str, np.ndarray] = {}
+    out_m: dict[str, np.ndarray] = {}
+    omega: dict[str, np.ndarray] = {}
+    for name, joint, distal, proximal in links:
+        body = DEMPSTER[name]
+        mass = body.mass * body_mass
+        axes = segs[f"{name}_{side}"].axes
+        length = float(np.nanmedian(np.linalg.norm(proximal - distal, axis=1)))
+        f, m = newton_euler(
+            mass=mass,
+            com=distal + body.com * (proximal - distal),
+            inertia=_inertia(body, mass, length),
+            axes=axes,
+            rate=rate,
+            proximal=proximal,
+            distal=point,
+            force=force,
+            moment=moment,
+        )
+        out_f[joint], out_m[joint] = f, m
+        omega[name] = angular_velocity(axes, rate)
+        force, moment, point = -f, -m, proximal
+    omega[top] = angular_velocity(segs[top].axes, rate)
+    return ChainLoads(out_f, out_m, omega)
+
+
+def leg_loads(
+    segs: Mapping[str, Segment],
+    centres: Mapping[str, np.ndarray],
+    side: str,
+    *,
+    body_mass: float,
+    rate: float,
+    grf: np.ndarray,
+    cop: np.ndarray,
+    free_moment: np.ndarray,
+) -> ChainLoads:
+    """The bottom-up recursion of one leg (``side`` "l" or "r").
+
+    ``segs``, ``centres``: :func:`~mocap_mj.clinical.segments.lower_body`'s segments and joint
+    centres (T frames, [m]); ``body_mass`` [kg]; ``rate`` [Hz]; ``grf`` (T, 3) [N] the force
+    on the foot (zero off the plates), ``cop`` (T, 3) [m] where it acts (NaN off the plates),
+    ``free_moment`` (T, 3) [N m]. The segment lengths are each segment's median joint-centre
+    distance over the trial (a rigid segment has one length).
+    """
+    toe = segs[f"foot_{side}"].origin
+    ankle, knee, hip = (centres[f"{j}_{side}"] for j in ("ankle", "knee", "hip"))
+    # the foot's long axis is its frame's z (after the static offsets) through the ankle
+    # centre, its length the toe marker's distance from the ankle centre
+    length = float(np.nanmedian(np.linalg.norm(ankle - toe, axis=1)))
+    tip = ankle - length * segs[f"foot_{side}"].axes[:, :, 2]
+    links = (("foot", "ankle", tip, ankle), ("tibia", "knee", ankle, knee),
+             ("femur", "hip", knee, hip))  # fmt: skip
+    return _chain(
+        segs,
+        side,
+        links,
+        "pelvis",
+        body_mass=body_mass,
+        rate=rate,
+        force=np.asarray(grf, dtype=float),
+        moment=np.asarray(free_moment, dtype=float),
+        point=np.where(np.isfinite(cop), cop, toe),  # no load off the plates: any point
+    )
+
+
+def arm_loads(
+    segs: Mapping[str, Segment],
+    centres: Mapping[str, np.ndarray],
+    side: str,
+    *,
+    body_mass: float,
+    rate: float,
+) -> ChainLoads:
+    """The recursion of one arm from the free hand: hand (from the hand's far end, twice the
+    wrist-to-hand-centre distance beyond the wrist centre, as Plug-in Gait's hand bone), radius
+    and humerus, the thorax above (``segs``, ``centres``: :func:`~mocap_mj.clinical.segments.
+    upper_limbs`' and the thorax)."""
+    wrist, elbow, shoulder, hand = (
+        centres[f"{j}_{side}"] for j in ("wrist", "elbow", "shoulder", "hand")
+    )
+    tip = wrist + 2.0 * (hand - wrist)
+    links = (("hand", "wrist", tip, wrist), ("radius", "elbow", wrist, elbow),
+             ("humerus", "shoulder", elbow, shoulder))  # fmt: skip
+    zero = np.zeros_like(tip)
+    return _chain(
+        segs,
+        side,
+        links,
+        "thorax",
+        body_mass=body_mass,
+        rate=rate,
+        force=zero,
+        moment=zero,
+        point=tip,
+    )
+
+
+#: Per joint: its distal and proximal segments, then Nexus' moment components X, Y, Z as
+#: (axis of the distal frame, sign); the Y and Z signs are mirrored on the right.
+MOMENT_AXES: dict[str, tuple[str, str, tuple[tuple[int, float], ...]]] = {
+    "Ankle": ("foot", "tibia", ((1, 1.0), (2, -1.0), (0, 1.0))),
+    "Knee": ("tibia", "femur", ((1, -1.0), (0, 1.0), (2, 1.0))),
+    "Hip": ("femur", "pelvis", ((1, 1.0), (0, 1.0), (2, 1.0))),
+    "Wrist": ("hand", "radius", ((1, -1.0), (0, -1.0), (2, -1.0))),
+    "Elbow": ("radius", "humerus", ((1, -1.0), (0, -1.0), (2, -1.0))),
+    "Shoulder": ("humerus", "thorax", ((1, -1.0), (0, -1.0), (2, -1.0))),
+}
+#: Nexus' joint-force components in the distal frame (the same on both sides).
+FORCE_SIGNS: dict[str, tuple[float, float, float]] = {
+    "Ankle": (-1.0, 1.0, -1.0),
+    "Knee": (1.0, 1.0, 1.0),
+    "Hip": (1.0, 1.0, 1.0),
+    "Wrist": (1.0, 1.0, 1.0),
+    "Elbow": (1.0, 1.0, 1.0),
+    "Shoulder": (1.0, 1.0, 1.0),
+}
+
+
+def pig_kinetics(
+    segs: Mapping[str, Segment],
+    centres: Mapping[str, np.ndarray],
+    loads: Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
+    *,
+    body_mass: float,
+    rate: float,
+    progression: np.ndarray,
+    to_lab: np.ndarray | None = None,
+) -> dict[str, np.ndarray]:
+    """Plug-in Gait's kinetic outputs under Vicon's names, each (T, 3), normalised by the body
+    mass as Nexus writes them.
+
+    ``segs``, ``centres``: :func:`~mocap_mj.clinical.segments.lower_body`'s (Z-up frame);
+    ``loads``: per side ("l", "r") the ground reaction under the foot: force (T, 3) [N]
+    (zero off the plates), centre of pressure (T, 3) [m], free moment (T, 3) [N m] and
+    on_plate (T,) bool (the frames of a counted plate); ``body_mass`` [kg]; ``rate`` [Hz];
+    ``progression`` (3,) the direction of progression in the Z-up frame; ``to_lab`` (3, 3)
+    the rotation back to the recording's lab frame (default identity).
+
+    Returns ``LAnkleMoment``, ``LKneeMoment``, ``LHipMoment`` (and ``LWristMoment``,
+    ``LElbowMoment``, ``LShoulderMoment`` when ``segs`` holds the arms and the thorax, the
+    hand free of loads) [N m/kg], ``LAnkleForce``...
+    [N/kg] (the distal segment's frame, components in :data:`MOMENT_AXES`,
+    :data:`FORCE_SIGNS`), ``LAnklePower``... [W/kg] (in Z; X and Y 0), ``LGroundReactionForce``
+    [N/kg] (the lab frame), ``LNormalisedGRF`` [% body weight] (the progression frame: X
+    forward, Y medial, Z up) and the right side's; a frame off the plates has NaN ground
+    reactions, a frame whose derivatives cannot be taken NaN everywhere.
+    """
+    if not body_mass > 0:
+        raise ValueError(f"body mass {body_mass!r}: expected a positive mass in kg")
+    rot = np.eye(3) if to_lab is None else np.asarray(to_lab, dtype=float)
+    fwd = np.asarray(progression, dtype=float).copy()
+    fwd[2] = 0.0
+    fwd /= np.linalg.norm(fwd)
+    up = np.array([0.0, 0.0, 1.0])
+    walk = np.stack([fwd, np.cross(up, fwd), up])  # rows: forward, left, up
+    out: dict[str, np.ndarray] = {}
+    for s, (grf, cop, free, on_plate) in loads.items():
+        p, lat = s.upper(), (1.0 if s == "l" else -1.0)
+        limbs = [
+            leg_loads(
+                segs, centres, s, body_mass=body_mass, rate=rate, grf=grf, cop=cop,
+                free_moment=free,
+            )
+        ]  # fmt: skip
+        if f"hand_{s}" in segs and "thorax" in segs:
+            limbs.append(arm_loads(segs, centres, s, body_mass=body_mass, rate=rate))
+        for limb in limbs:
+            for joint, (distal, proximal, axes) in MOMENT_AXES.items():
+                if joint.lower() not in limb.moment:
+                    continue
+                frame = segs[f"{distal}_{s}"].axes
+                moment, force = limb.moment[joint.lower()], limb.force[joint.lower()]
+                local_m = np.einsum("tji,tj->ti", frame, moment) / body_mass
+                local_f = np.einsum("tji,tj->ti", frame, force) / body_mass
+                out[f"{p}{joint}Moment"] = np.stack(
+                    [sign * local_m[:, a] * (lat if c else 1.0)
+                     for c, (a, sign) in enumerate(axes)],
+                    axis=1,
+                )  # fmt: skip
+                out[f"{p}{joint}Force"] = local_f * np.asarray(FORCE_SIGNS[joint])
+                relative = limb.omega[distal] - limb.omega[proximal]
+                power = np.einsum("ti,ti->t", moment, relative) / body_mass
+                out[f"{p}{joint}Power"] = np.stack(
+                    [np.where(np.isfinite(power), 0.0, np.nan)] * 2 + [power], axis=1
+                )
+        mask = np.where(np.asarray(on_plate, dtype=bool)[:, None], 1.0, np.nan)
+        force = np.asarray(grf, dtype=float) * mask / body_mass
+        out[f"{p}GroundReactionForce"] = force @ rot.T
+        normal = force @ walk.T * (100.0 / GRAVITY)
+        normal[:, 1] *= -lat
+        out[f"{p}NormalisedGRF"] = normal
+    return out
+
+
+def trial_kinetics(
+    segs: Mapping[str, Segment],
+    centres: Mapping[str, np.ndarray],
+    plates: Sequence[PlateRecord],
+    trajectory: MarkerTrajectory,
+    *,
+    body_mass: float,
+    progression: np.ndarray,
+    to_lab: np.ndarray | None = None,
+    counted: Collection[int] | None = None,
+) -> tuple[dict[str, np.ndarray], list[str]]:
+    """:func:`pig_kinetics` with the ground reactions of ``plates`` (read at ``trajectory``'s
+    frames) under the foot that alone stands on each (the rules of
+    :func:`~mocap_mj.capture.contacts.assign_feet`, applied to every plate). ``counted``: the
+    plate numbers (from 1) whose contacts give loads (default all). Returns the outputs and
+    one note per contact the rules leave out."""
+    numbers = {p.name: k + 1 for k, p in enumerate(plates)}
+    if counted is not None:
+        unknown = sorted(set(counted) - set(numbers.values()))
+        if unknown:
+            where = trajectory.source.get("path", "trial")
+            raise MocapError(
+                f"{where}: plates {unknown}: the trial has plates 1..{len(plates)}; expected "
+                "some of those"
+            )
+    n = trajectory.n_frames
+    loads = {s: (np.zeros((n, 3)), np.full((n, 3), np.nan), np.zeros((n, 3)),
+                 np.zeros(n, dtype=bool)) for s in ("l", "r")}  # fmt: skip
+    notes: list[str] = []
+    # every plate takes part in the rules (two feet on one plate, a foot on two), the
+    # uncounted ones' contacts then give no load
+    for c in contacts(plates, trajectory):
+        if c.reason is not None:
+            notes.append(f"{c.side or 'no'} foot: {c.reason}")
+            continue
+        if c.side is None or (counted is not None and c.plate + 1 not in counted):
+            continue
+        force, cop, free, on = loads[c.side[0]]
+        plate, rows = plates[c.plate], slice(c.start, c.stop)
+        force[rows], cop[rows], free[rows], on[rows] = (
+            plate.force[rows], plate.cop[rows], plate.free_moment[rows], True
+        )  # fmt: skip
+    out = pig_kinetics(
+        segs,
+        centres,
+        loads,
+        body_mass=body_mass,
+        rate=trajectory.rate,
+        progression=progression,
+        to_lab=to_lab,
+    )
+    return out, notes
