@@ -139,6 +139,14 @@ def read_plates(
         ``load_markers`` chooses for this file; for a file whose markers cannot tell (none,
         or several subjects), the plates' own (their surface normal: a C3D plate's z axis
         points into the plate).
+    window : {"frame", "centred"}
+        Which analog samples make a marker frame's value: "frame" (default) the mean of the
+        frame's own samples; "centred" the samples within half a frame of the frame's
+        instant.
+    offsets : {"quiet", "none"}
+        "quiet" (default): each channel's offset, the median of its quietest unloaded
+        window, removed; "none": the samples as the file holds them (with "centred", the
+        ground reaction Nexus stores beside them, to 1e-5 N on Movement_trial.c3d).
 
     Returns
     -------
@@ -157,14 +165,7 @@ def read_plates(
         4), or none of its plates can be read (the message names the file and the plate).
     """
     file = Path(path)
-    if not file.is_file():
-        raise InputFileError(f"{file}: no such file")
-    if threshold_n <= 0 or not math.isfinite(threshold_n):
-        raise InputFileError(f"{file}: threshold_n: expected a positive force, got {threshold_n}")
-    if window not in ("frame", "centred"):
-        raise MocapError(f"plate window {window!r}: expected frame or centred")
-    if offsets not in ("quiet", "none"):
-        raise MocapError(f"plate offsets {offsets!r}: expected quiet or none")
+    _check_options(file, threshold_n, window, offsets)
     try:  # the parameters first (a copy of the file's start): what ezc3d would refuse
         header = read_parameters(file)
     except Exception as exc:  # ezc3d raises RuntimeError, OSError, ValueError...
@@ -194,6 +195,18 @@ def read_plates(
         cop, free = _cop(force, moment, corners, threshold_n)
         records.append(PlateRecord(f"plate {k + 1}", plate.type, corners, force, cop, free, rate))
     return records
+
+
+def _check_options(file: Path, threshold_n: float, window: str, offsets: str) -> None:
+    """:func:`read_plates`' arguments, each refused in one line."""
+    if not file.is_file():
+        raise InputFileError(f"{file}: no such file")
+    if threshold_n <= 0 or not math.isfinite(threshold_n):
+        raise InputFileError(f"{file}: threshold_n: expected a positive force, got {threshold_n}")
+    if window not in ("frame", "centred"):
+        raise MocapError(f"plate window {window!r}: expected frame or centred")
+    if offsets not in ("quiet", "none"):
+        raise MocapError(f"plate offsets {offsets!r}: expected quiet or none")
 
 
 def _extracted(file: Path) -> Any:
