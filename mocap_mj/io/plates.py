@@ -140,22 +140,14 @@ def read_plates(
         or several subjects), the plates' own (their surface normal: a C3D plate's z axis
         points into the plate).
     window : {"frame", "centred"}
-        Which analog samples make a marker frame's value: "frame" (default) the mean of the
-        frame's own samples; "centred" the samples within half a frame of the frame's
-        instant.
+        A frame's analog samples: its own (default) or those within half a frame of it.
     offsets : {"quiet", "none"}
-        "quiet" (default): each channel's offset, the median of its quietest unloaded
-        window, removed; "none": the samples as the file holds them (with "centred", the
-        ground reaction Nexus stores beside them, to 1e-5 N on Movement_trial.c3d).
-
+        Each channel's offset removed (default: its quietest unloaded window) or not.
     Returns
     -------
     list of PlateRecord
-        One per plate of FORCE_PLATFORM:USED that can be read, in order (each keeps its
-        name "plate k" by its place in the file); empty for a file without plates. A plate
-        whose corners are not a plate's rectangle or whose samples are not finite is
-        skipped with one warning (logger ``mocap_mj.io.plates``) naming the file, the plate
-        and why: one damaged plate does not make the file's others unreadable.
+        One per readable plate of FORCE_PLATFORM:USED, named "plate k" by its place in the
+        file; a plate with bad corners or samples is skipped with one warning naming it.
 
     Raises
     ------
