@@ -174,7 +174,13 @@ def _trial_loads(
     source = forces[i] if forces else path
     if not forces and Path(path).suffix.lower() != ".c3d":
         return None
-    plates = _read(source, traj)
+    try:
+        plates = _read(source, traj)
+    except MocapError as exc:
+        if forces:  # asked for: refused; a C3D's own plates: no kinetics, one warning
+            raise
+        _warn(args, f"{exc}: no kinetics for this trial")
+        return None
     if not plates:
         if forces:
             raise MocapError(f"{source}: --forces: expected force plates, the file has none")

@@ -152,7 +152,8 @@ _LEGACY = re.compile(
     r"report\.md|recipe\.yaml|result\.c3d|coordinates\.mot|markers\.(trc|csv)|"
     r"model_markers\.trc|residuals\.csv|scale\.csv|subject\.(osim|json)|ik_setup\.xml|"
     r"truth(_model\.xml|_motion\.npz|\.json)|score\.json|table1\.(json|csv)|traces\.json|"
-    r"frame_error\.csv|summary\.csv|(marker_error|parameter_errors|residual_per_marker|"
+    r"frame_error\.csv|summary\.csv|kinetics\.csv|"
+    r"(events|dynamics|grf|root_residuals)(_\d+)?\.csv|(marker_error|parameter_errors|residual_per_marker|"
     r"rmse_per_trial|convergence|fig3|fig4|angles_vs_plug_in_gait)\.png|"
     r"[A-Za-z0-9_.-]+_vs_plug_in_gait\.(md|png))"
 )
