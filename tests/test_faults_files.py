@@ -10,7 +10,6 @@ second process is the point (concurrent runs, kill -9).
 from __future__ import annotations
 
 import errno
-import hashlib
 import os
 import shutil
 import signal
@@ -21,8 +20,8 @@ from pathlib import Path
 
 import mujoco
 import pytest
+from _cli import cli, hashes
 
-from mocap_mj.cli import main
 from mocap_mj.errors import OutputFolderError
 from mocap_mj.io.atomic import atomic_folder, atomic_path
 from mocap_mj.io.ownership import MARKER
@@ -33,19 +32,6 @@ FRAMES = 30
 
 
 # ------------------------------------------------------------------------------ helpers
-def cli(capsys: pytest.CaptureFixture[str], *argv: str | Path) -> tuple[int, list[str]]:
-    """Run ``mocap-mj ARGV`` here; its exit status and stderr lines (add-on notices aside)."""
-    code = main([str(a) for a in argv])
-    err = capsys.readouterr().err
-    assert "Traceback" not in err, err
-    lines = [
-        line
-        for line in err.splitlines()
-        if line.strip() and not line.startswith(("mocap-mj: command ", "mocap-mj: compiling"))
-    ]
-    return code, lines
-
-
 def refused(code: int, lines: list[str], status: int, *needles: str | Path) -> str:
     """Exit ``status`` with exactly one stderr line holding every needle."""
     assert code == status, lines
@@ -53,12 +39,6 @@ def refused(code: int, lines: list[str], status: int, *needles: str | Path) -> s
     for needle in needles:
         assert str(needle) in lines[0], lines[0]
     return lines[0]
-
-
-def hashes(path: Path) -> dict[str, str]:
-    """SHA-256 of every file under ``path`` (or of the file), by relative path."""
-    files = [path] if path.is_file() else sorted(p for p in path.rglob("*") if p.is_file())
-    return {str(f.relative_to(path)): hashlib.sha256(f.read_bytes()).hexdigest() for f in files}
 
 
 def staging_left(out: Path) -> list[str]:

@@ -34,11 +34,11 @@ from typing import Any, NamedTuple
 import numpy as np
 import pytest
 import yaml
+from _cli import cli
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
 from mocap_mj.capture.subject import HUMAN_RANGES, MEASUREMENTS, from_yaml
-from mocap_mj.cli import main
 from mocap_mj.clinical.subject import PIG_RANGES, pig_from_yaml
 from mocap_mj.commands.registry import build_parser
 from mocap_mj.errors import MocapError
@@ -61,20 +61,6 @@ FUZZ = settings(
 
 
 # ------------------------------------------------------------------------------ helpers
-def cli(capsys: pytest.CaptureFixture[str], *argv: str | Path) -> tuple[int, list[str]]:
-    """Run ``mocap-mj ARGV`` in this process; its exit status and stderr lines (the notices
-    that precede any work, compiling and marker-set detection, aside)."""
-    code = main([str(a) for a in argv])
-    err = capsys.readouterr().err
-    assert "Traceback" not in err, err
-    lines = [
-        line
-        for line in err.splitlines()
-        if line.strip() and not line.startswith(("mocap-mj: command ", "mocap-mj: compiling"))
-    ]
-    return code, lines
-
-
 def refused(code: int, lines: list[str], *needles: str | Path) -> str:
     """Exit 2 with exactly one stderr line (< 500 characters) holding one of the needles."""
     assert code == 2, lines

@@ -10,7 +10,6 @@ the killed run behind (beside ``--out`` or in the temporary folder).
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import shutil
@@ -22,8 +21,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _cli import cli as run_cli
+from _cli import dead_pid, hashes
 
-from mocap_mj.cli import main
 from mocap_mj.io.ownership import FORMAT, MARKER, folder_mark
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
@@ -31,17 +31,7 @@ FRAMES = 30
 
 
 def cli(capsys: pytest.CaptureFixture[str], *argv: str | Path) -> tuple[int, list[str]]:
-    code = main([str(a) for a in argv])
-    err = capsys.readouterr().err
-    assert "Traceback" not in err, err
-    lines = [
-        line
-        for line in err.splitlines()
-        if line.strip()
-        and not line.startswith(("mocap-mj: command ", "mocap-mj: compiling"))
-        and "marker set" not in line
-    ]
-    return code, lines
+    return run_cli(capsys, *argv, drop=("marker set",))
 
 
 def refused(code: int, lines: list[str], *needles: str | Path) -> None:
@@ -49,23 +39,6 @@ def refused(code: int, lines: list[str], *needles: str | Path) -> None:
     assert len(lines) == 1, lines
     for needle in needles:
         assert str(needle) in lines[0], lines[0]
-
-
-def hashes(path: Path) -> dict[str, str]:
-    """SHA-256 of every file under ``path`` (or of the file), by relative path."""
-    files = [path] if path.is_file() else sorted(p for p in path.rglob("*") if p.is_file())
-    return {str(f.relative_to(path)): hashlib.sha256(f.read_bytes()).hexdigest() for f in files}
-
-
-def dead_pid() -> int:
-    proc = subprocess.Popen([sys.executable, "-c", "pass"])
-    proc.wait()
-    try:
-        os.kill(proc.pid, 0)
-    except ProcessLookupError:
-        return proc.pid
-    pytest.skip("could not find a pid that is not running")
-    raise AssertionError  # unreachable
 
 
 @pytest.fixture(scope="module")
