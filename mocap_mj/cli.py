@@ -45,7 +45,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         from .commands._inputs import refuse_out_holding_inputs
     except KeyboardInterrupt:
         return _interrupted("mocap-mj")
-    except ImportError as exc:  # a compiled module reports a Ctrl-C in its loading so
+    except (ImportError, RuntimeError) as exc:  # a Ctrl-C in a module's loading, reported so
         if not _from_interrupt(exc):
             raise
         return _interrupted("mocap-mj")
@@ -66,7 +66,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     except KeyboardInterrupt:
         return _interrupted(f"mocap-mj {args.command}")
-    except ImportError as exc:
+    except (ImportError, RuntimeError) as exc:  # as above, in a lazy import
         if not _from_interrupt(exc):
             raise
         return _interrupted(f"mocap-mj {args.command}")
@@ -74,7 +74,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _from_interrupt(exc: BaseException) -> bool:
     """Whether ``exc`` was raised while handling a Ctrl-C (``KeyboardInterrupt`` among its
-    causes: a compiled module's "initialization failed")."""
+    causes: a compiled module's "initialization failed", or the RuntimeError a class's
+    creation raises when the Ctrl-C lands in a field's ``__set_name__``)."""
     seen: set[int] = set()
     cause: BaseException | None = exc
     while cause is not None and id(cause) not in seen:
