@@ -48,3 +48,20 @@ def dead_pid() -> int:
         return proc.pid
     pytest.skip("could not find a pid that is not running")
     raise AssertionError  # unreachable
+
+
+def identified_trial(root: Path, frames: int, seed: int) -> dict[str, Path]:
+    """A synthetic trial of ``frames`` frames in ``root/synth`` and its identification in
+    ``root/result`` (``mocap-mj identify`` in a process of its own): the paths by name
+    (``root``, ``synth``, ``markers``, ``result``)."""
+    from mocap_synth import SynthConfig, synthesize, write_experiment
+
+    write_experiment(synthesize(SynthConfig(frames=frames, seed=seed)), root / "synth")
+    markers, result = root / "synth" / "markers.csv", root / "result"
+    proc = subprocess.run(
+        [sys.executable, "-m", "mocap_mj", "identify", "--markers", str(markers),
+         "--out", str(result), "--json"],
+        capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    return {"root": root, "synth": root / "synth", "markers": markers, "result": result}

@@ -20,13 +20,12 @@ from pathlib import Path
 
 import mujoco
 import pytest
-from _cli import cli, hashes
+from _cli import cli, hashes, identified_trial
 
 from mocap_mj.errors import OutputFolderError
 from mocap_mj.io.atomic import atomic_folder, atomic_path
 from mocap_mj.io.ownership import MARKER
 from mocap_mj.skeleton.mjcf import model_path
-from mocap_synth import SynthConfig, synthesize, write_experiment
 
 FRAMES = 30
 
@@ -76,17 +75,7 @@ def start(*argv: str | Path) -> subprocess.Popen[str]:
 @pytest.fixture(scope="module")
 def data(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """A synthetic trial (``synth``, its ``markers.csv``) and its identification (``result``)."""
-    root = tmp_path_factory.mktemp("faults")
-    write_experiment(synthesize(SynthConfig(frames=FRAMES, seed=3)), root / "synth")
-    result = root / "result"
-    proc = subprocess.run(
-        [sys.executable, "-m", "mocap_mj", "identify", "--markers",
-         str(root / "synth" / "markers.csv"), "--out", str(result), "--json"],
-        capture_output=True, text=True, timeout=600,
-    )  # fmt: skip
-    assert proc.returncode == 0, proc.stderr
-    return {"root": root, "synth": root / "synth", "markers": root / "synth" / "markers.csv",
-            "result": result}  # fmt: skip
+    return identified_trial(tmp_path_factory.mktemp("faults"), FRAMES, seed=3)
 
 
 def copy_of(src: Path, dest: Path) -> Path:

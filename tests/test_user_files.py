@@ -22,10 +22,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _cli import cli as run_cli
-from _cli import dead_pid, hashes
+from _cli import dead_pid, hashes, identified_trial
 
 from mocap_mj.io.ownership import FORMAT, MARKER, folder_mark
-from mocap_synth import SynthConfig, synthesize, write_experiment
 
 FRAMES = 30
 
@@ -44,16 +43,7 @@ def refused(code: int, lines: list[str], *needles: str | Path) -> None:
 @pytest.fixture(scope="module")
 def data(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """A synthetic trial (``markers``) and its identification (``result``)."""
-    root = tmp_path_factory.mktemp("user_files")
-    write_experiment(synthesize(SynthConfig(frames=FRAMES, seed=5)), root / "synth")
-    result = root / "result"
-    proc = subprocess.run(
-        [sys.executable, "-m", "mocap_mj", "identify", "--markers",
-         str(root / "synth" / "markers.csv"), "--out", str(result), "--json"],
-        capture_output=True, text=True, timeout=600,
-    )  # fmt: skip
-    assert proc.returncode == 0, proc.stderr
-    return {"markers": root / "synth" / "markers.csv", "result": result}
+    return identified_trial(tmp_path_factory.mktemp("user_files"), FRAMES, seed=5)
 
 
 def users_folder(where: Path) -> Path:
