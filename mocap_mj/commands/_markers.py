@@ -6,22 +6,18 @@ import argparse
 import dataclasses
 import hashlib
 import sys
-import tempfile
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
-from mocap_mj.capture.marker_set import (
-    load_marker_set,
-    model_with_marker_set,
-    undetermined_segments,
-)
-from mocap_mj.capture.marker_sets import DEFAULT, bundled_names, detect, on_bundled_model, resolve
+from mocap_mj.capture.marker_set import load_marker_set, undetermined_segments
+from mocap_mj.capture.marker_sets import DEFAULT, bundled_names, detect, resolve
+from mocap_mj.pipeline.marker_model import model_file
 from mocap_mj.skeleton.mjcf import load_model
 
 from ..errors import MocapError
-from ..io import MarkerReport, MarkerTrajectory, atomic_write_text, load_markers
+from ..io import MarkerReport, MarkerTrajectory, load_markers
 from ..io.labels import file_labels
 from ..io.names import load_marker_map
 from ..io.stream import CHUNK, open_markers
@@ -138,29 +134,9 @@ def load_trial(
 
 def model_for(args: argparse.Namespace) -> str | None:
     """The MJCF file the command's model comes from: ``--model`` (None: the bundled humanoid),
-    its sites replaced by the markers of ``--marker-set`` when given.
-
-    The model built from a marker set is written once, under the temporary folder, in a file
-    named by a hash of the set and base model, so that ``ParameterSet`` can read it and the
-    result can name it.
-    """
-    base = getattr(args, "model", None)
-    marker_set = set_file(args)
-    if marker_set is None:
-        return base
-    chosen = load_marker_set(marker_set)
-    if base is None and on_bundled_model(chosen):
-        return None  # Plug-in Gait or part of it: the bundled humanoid's own sites
-    xml = model_with_marker_set(chosen, base).to_xml()
-    digest = hashlib.sha256(xml.encode()).hexdigest()[:16]
-    # "mocap-mj-models", not "mocap_mj": a folder named like the package in the temporary
-    # folder would shadow it for any Python started there.
-    folder = Path(tempfile.gettempdir()) / "mocap-mj-models"
-    path = folder / f"model_{Path(marker_set).stem}_{digest}.xml"
-    if not path.is_file():
-        path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(path, xml)
-    return str(path)
+    its sites replaced by the markers of ``--marker-set`` when given
+    (:func:`mocap_mj.pipeline.marker_model.model_file`)."""
+    return model_file(set_file(args), getattr(args, "model", None))
 
 
 def set_file(args: argparse.Namespace) -> Path | None:

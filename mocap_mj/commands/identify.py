@@ -34,26 +34,21 @@ import numpy as np
 
 from mocap_mj.anatomy.inertia import segment_inertia, with_inertials
 from mocap_mj.anatomy.plausibility import plausibility_text
-from mocap_mj.capture.checks import check_markers, recorded_floor
-from mocap_mj.capture.marker_quality import Finding
-from mocap_mj.capture.subject import Subject
 from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder
 from mocap_mj.io.atomic import atomic_write_text
 from mocap_mj.io.ownership import scratch_folder
 from mocap_mj.outputs.write_fit import frame_range, result_text, write_result
-from mocap_mj.pipeline.api import identify, select_count
+from mocap_mj.pipeline.api import Hooks, identify_prepared, select_count
+from mocap_mj.pipeline.prepare import ModelChoice, Prepared, Recording
+from mocap_mj.pipeline.prepare import prepare as prepare_trials
 from mocap_mj.pipeline.recipe import Recipe
-from mocap_mj.pipeline.steps import t10_check
 from mocap_mj.skeleton import prewarm
 from mocap_mj.skeleton.mjcf import load_model
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.losses import LossName
-from mocap_mj.solve.problem import TrialData
 
-from ..errors import MocapError
 from ._kinetics import (
     SEX,
-    Prepared,
     add_kinetics_options,
     prepare,
     report_section,
@@ -61,28 +56,18 @@ from ._kinetics import (
     text_of,
     write_trial,
 )
+from ._kinetics import Prepared as KineticsPrepared
 from ._markers import (
     add_marker_options,
     choose_marker_set,
     load_trial,
     model_for,
     print_marker_set,
+    set_file,
 )
-from ._quality import (
-    add_quality_options,
-    check_trials,
-    drop_excluded,
-    parse_marker_list,
-    quality_text,
-    without_ghosts,
-)
+from ._quality import add_quality_options, notices_to_stderr, quality_text
 from ._removed import add_removed_flags
-from ._subject import (
-    add_subject_options,
-    set_landmarks,
-    subject_from_args,
-    with_measured_widths,
-)
+from ._subject import add_subject_options, subject_from_args
 
 
 def register(sub: Any) -> None:
@@ -141,83 +126,47 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace, scratch: Path) -> int:
     t0 = time.perf_counter()
+    recipe = recipe_from_args(args)
+    # the recipe's choices where the command reads them (the model, the frames of kinetics)
+    args.model, args.marker_set, args.frames = recipe.model, recipe.marker_set, recipe.frames
     args.marker_set_record = choose_marker_set(args, list(args.markers))
-    pset = ParameterSet(model_for(args))
+    model = ModelChoice(ParameterSet(model_for(args)), set_file(args))
+    pset = model.pset
     loaded = [load_trial(path, pset.marker_names, args, scratch) for path in args.markers]
     read_seconds = time.perf_counter() - t0
-    excluded = parse_marker_list(args.exclude_markers, pset.marker_names)
-    trials = []
-    ranges = []
-    for t in loaded:
-        sl = frame_range(args.frames, len(t.markers), t.path)
-        if sl.stop - sl.start < 1:
-            raise MocapError(f"{t.path}: --frames {args.frames} selects no frame")
-        # each trial's frames in the recording's own numbering (tables, messages, summary)
-        ranges.append([t.first_frame + sl.start, t.first_frame + sl.stop])
-        markers = drop_excluded(t.markers[sl], pset, excluded)
-        trials.append(TrialData(t.path, markers, t.times[sl]))
-        check_markers(
-            t.path, pset.marker_names, trials[-1].markers, recorded_floor(trials[-1].markers)
-        )
-    to_check = [
-        (t.path, d.markers, t.rate, r[0]) for t, d, r in zip(loaded, trials, ranges, strict=True)
-    ]
     subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
-    subject = with_measured_widths(args, pset.marker_names, trials, subject)
     kinetics = prepare(args, [str(t.path) for t in loaded], subject.get("mass"))
-    recipe = recipe_from_args(args)
-    count = select_count(recipe.select, sum(len(t.markers) for t in trials), len(trials))
-    found, quality = check_trials(args, pset, to_check, excluded)  # after every bad-input error
-    trials = _without_ghosts(pset, trials, ranges, found)
-    if args.strict and recipe.anatomy:
-        _refuse_misplaced_t10(pset, trials, subject)
+    recordings = [
+        Recording(t.path, t.markers, t.times, t.rate, t.first_frame, own=True) for t in loaded
+    ]  # the command's own copies: labels are corrected, ghosts dropped in them
+    with notices_to_stderr(args.command):  # after every bad-input error but the library's
+        prepared = prepare_trials(recordings, recipe, subject, model)
+    count = select_count(recipe.select, sum(len(t.markers) for t in prepared.trials),
+                         len(prepared.trials))  # fmt: skip
     return into_out_folder(
         args,
-        lambda out: _identify(
-            args,
-            recipe,
-            pset,
-            loaded,
-            trials,
-            ranges,
-            subject,
-            out,
-            count,
-            read_seconds,
-            quality,
-            kinetics,
-        ),
+        lambda out: _identify(args, prepared, loaded, out, count, read_seconds, kinetics),
     )
 
 
-def _without_ghosts(
-    pset: ParameterSet, trials: list[TrialData], ranges: list[list[int]], found: list[Finding]
-) -> list[TrialData]:
-    """The trials with the samples their ``ghost`` and ``jump`` findings name missing (they
-    are not the marker, and a least-squares fit would follow them)."""
-    return [
-        t._replace(markers=without_ghosts(t.markers, pset, found, t.name, r[0]))
-        for t, r in zip(trials, ranges, strict=True)
-    ]
-
-
-def _refuse_misplaced_t10(pset: ParameterSet, trials: list[TrialData], subject: Subject) -> None:
-    """``--strict``: refuse the trials when T10's placement finding (found in the fit, from
-    the stature: :func:`mocap_mj.pipeline.steps.t10_check`) would be reported, as the
-    marker-data findings are: --strict refuses whatever the run would warn about."""
-    placement = t10_check(pset, trials, subject)
-    if placement is not None and placement.finding is not None:
-        raise MocapError(
-            f"{placement.finding.message}; --strict refuses a placement finding (re-place "
-            "the marker, drop it with --exclude-markers T10, or run without --strict)"
-        )
-
-
 def recipe_from_args(args: argparse.Namespace) -> Recipe:
-    """The recipe of ``--recipe`` (default: :class:`Recipe`'s defaults), its loss replaced
-    by ``--loss`` when given."""
+    """The recipe of ``--recipe`` (default: :class:`Recipe`'s defaults), each of its fields
+    that a flag sets replaced by the flag's value when given (``--loss``, ``--model``,
+    ``--marker-set``, ``--exclude-markers``, ``--frames``; ``--no-relabel`` and ``--strict``
+    when given)."""
     recipe = Recipe.load(args.recipe) if args.recipe else Recipe()
-    return recipe if args.loss is None else replace(recipe, loss=args.loss)
+    given: dict[str, Any] = {
+        "loss": args.loss,
+        "model": getattr(args, "model", None),
+        "marker_set": getattr(args, "marker_set", None),
+        "frames": args.frames,
+        "exclude_markers": None
+        if args.exclude_markers is None
+        else tuple(n.strip() for n in args.exclude_markers.split(",") if n.strip()),
+        "relabel": False if args.no_relabel else None,
+        "strict": True if args.strict else None,
+    }
+    return replace(recipe, **{k: v for k, v in given.items() if v is not None})
 
 
 def _inputs(args: argparse.Namespace, loaded: list[Any], seconds: float | None) -> dict[str, Any]:
@@ -241,7 +190,7 @@ def _measured_text(summary: dict[str, Any]) -> str:
 
 def _kinetics_into(
     args: argparse.Namespace,
-    kinetics: Prepared,
+    kinetics: KineticsPrepared,
     loaded: list[Any],
     out: Path,
     summary: dict[str, Any],
@@ -253,7 +202,7 @@ def _kinetics_into(
 
 
 def _write_kinetics(
-    args: argparse.Namespace, kinetics: Prepared, loaded: list[Any], out: Path
+    args: argparse.Namespace, kinetics: KineticsPrepared, loaded: list[Any], out: Path
 ) -> dict[str, Any]:
     """Every trial's events and kinetics (:mod:`._kinetics`) into ``out``; with a known body
     mass, model.xml with de Leva's inertial parameters in its ``<inertial>`` elements (a
@@ -280,22 +229,18 @@ def _write_kinetics(
 
 def _identify(
     args: argparse.Namespace,
-    recipe: Recipe,
-    pset: ParameterSet,
+    prepared: Prepared,
     loaded: list[Any],
-    trials: list[TrialData],
-    ranges: list[list[int]],
-    subject: Subject,
     out: Path,
-    count: int | None = None,
-    read_seconds: float | None = None,
-    quality: dict[str, Any] | None = None,
-    kinetics: Prepared | None = None,
+    count: int | None,
+    read_seconds: float | None,
+    kinetics: KineticsPrepared | None,
 ) -> tuple[dict[str, Any], str]:
     prewarm.start()  # the identification kernels compile on the other core meanwhile
     from .progress import frames_bar, progress_bar
 
-    total = sum(len(t.markers) for t in trials) if count is not None else 0
+    pset, quality = prepared.pset, prepared.quality
+    total = sum(len(t.markers) for t in prepared.trials) if count is not None else 0
     # Every frame's motion of a long recording is written chunk by chunk into a folder beside
     # the output (one file system: write_result moves the files in).
     with (
@@ -305,18 +250,8 @@ def _identify(
             "IK of every frame", total, enabled=count is not None and not args.json
         ) as motion_progress,
     ):
-        fit = identify(
-            trials,
-            recipe,
-            subject,
-            pset=pset,
-            first_frames=[r[0] for r in ranges],
-            quality=quality,
-            progress=progress,
-            motion_progress=motion_progress,
-            motion_sink=Path(sink),
-            landmarks=set_landmarks(args)[0],
-        )
+        hooks = Hooks(progress, motion_progress, Path(sink))
+        fit = identify_prepared(prepared, None, prepared.recipe.settings(), hooks)
         summary = write_result(fit, out, inputs=_inputs(args, loaded, read_seconds), force=True)
     kinetic_text = "" if kinetics is None else _kinetics_into(args, kinetics, loaded, out, summary)
     print_marker_set(args)  # after the fit: a refusal stays one line

@@ -32,6 +32,7 @@ from mocap_mj.capture.checks import check_markers, recorded_floor
 from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder, number
 from mocap_mj.outputs.write_fit import frame_range
 from mocap_mj.pipeline.motion import save_motion
+from mocap_mj.pipeline.quality import Checked
 from mocap_mj.pipeline.robust_ik import solve_motion
 from mocap_mj.skeleton.angles import angle_columns, joint_angle_table
 from mocap_mj.skeleton.exported import Layout
@@ -65,7 +66,9 @@ from ._quality import (
     add_quality_options,
     check_trials,
     drop_excluded,
+    notices_to_stderr,
     parse_marker_list,
+    policy_of,
     quality_text,
     without_ghosts,
 )
@@ -163,9 +166,11 @@ def run(args: argparse.Namespace) -> int:
     check_markers(trial.path, pset.marker_names, trial.markers[sl], args.min_markers)
     # frames in the recording's own numbering (tables, messages, summary)
     first = trial.first_frame + sl.start
-    found, quality = check_trials(
-        args, pset, [(trial.path, trial.markers[sl], trial.rate, first)], excluded
-    )
+    with notices_to_stderr(args.command):
+        found, quality = check_trials(
+            pset, [Checked(trial.path, trial.markers[sl], trial.rate, first)], excluded,
+            policy_of(args),
+        )  # fmt: skip
     trial = trial._replace(
         markers=without_ghosts(trial.markers, pset, found, trial.path, trial.first_frame)
     )

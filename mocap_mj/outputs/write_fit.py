@@ -22,6 +22,7 @@ from mocap_mj.outputs.clinical_out import write_model_angles
 from mocap_mj.outputs.nexus_out import centres_vs_nexus
 from mocap_mj.pipeline.fit import Fit
 from mocap_mj.pipeline.motion import Motion, save_motion
+from mocap_mj.pipeline.recipe import frame_range as frame_range
 from mocap_mj.skeleton.exported import Layout
 from mocap_mj.skeleton.joint_centre_table import write_joint_centres_csv
 from mocap_mj.skeleton.kinematics import Kinematics
@@ -350,41 +351,6 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
     if checks:
         lines.append(checks)
     return lines
-
-
-def frame_range(
-    text: str | None, n: int, source: str = "the recording", *, stride: bool = False
-) -> slice:
-    """The frames of a ``--frames`` text over ``n`` frames: the one parser of every command.
-
-    ``"A:B"`` is a Python slice of frames, B exclusive, negative from the end, an empty part
-    the slice's default (``":"`` every frame); with ``stride``, ``"A:B:S"`` also takes every
-    S-th frame (S positive). None or "" -> every frame. Returns the slice with its bounds
-    resolved (0 <= start <= stop <= n). A bound past the ``n`` frames of ``source`` is
-    refused, naming its frame count: a range silently shortened would use other frames than
-    the ones asked for.
-    """
-    from ..errors import MocapError
-
-    if not text:
-        return slice(0, n)
-    form = "A:B or A:B:S" if stride else "A:B"
-    parts = text.split(":")
-    try:
-        if len(parts) not in ((2, 3) if stride else (2,)):
-            raise ValueError
-        a, b, *s = (int(p) if p.strip() else None for p in parts)
-    except ValueError:
-        raise MocapError(f"--frames: expected {form} (e.g. 0:500), got {text!r}") from None
-    step = s[0] if s else None
-    if step is not None and step <= 0:
-        raise MocapError(f"--frames {text}: the step S must be positive, got {step}")
-    if any(v is not None and not -n <= v <= n for v in (a, b)):
-        raise MocapError(
-            f"{source}: --frames {text}: past the end, the recording has {n} frames (0 to {n - 1})"
-        )
-    start, stop, _ = slice(a, b).indices(n)
-    return slice(start, max(start, stop), step)
 
 
 def expected_rmse(sigma: float, n_unknowns: int, n_residuals: int) -> float:

@@ -1,11 +1,13 @@
 """:func:`identify`: the whole identification of ``mocap-mj identify``, in memory.
 
-From the trials' markers to a :class:`~mocap_mj.pipeline.fit.Fit`: the marker-data quality
-check (ghost and jump samples dropped), the frames to identify on (all, or a pose-diverse
-selection of a long recording), the initial model, the joint LM with the anatomical priors and
-ranges and the trials' weights (:func:`~mocap_mj.pipeline.steps.solve_anatomical`), the
-refinement on every frame of a selected recording and the motion of every frame. Nothing is
-written: :func:`mocap_mj.outputs.write_fit.write_result` writes a fit as a result folder.
+From the recordings' markers to a :class:`~mocap_mj.pipeline.fit.Fit`: the trials as the recipe
+makes them (:mod:`~mocap_mj.pipeline.prepare`: marker set, frames, exclusions, widths, the
+quality check and the labels' correction, ghost and jump samples dropped), the frames to
+identify on (all, or a pose-diverse selection of a long recording), the initial model, the joint
+LM with the anatomical priors and ranges and the trials' weights
+(:func:`~mocap_mj.pipeline.steps.solve_anatomical`), the refinement on every frame of a selected
+recording and the motion of every frame. Nothing is written:
+:func:`mocap_mj.outputs.write_fit.write_result` writes a fit as a result folder.
 """
 
 from __future__ import annotations
@@ -14,24 +16,27 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from mocap_mj.anatomy.axes import knee_crosstalk, widths
-from mocap_mj.capture.marker_quality import (
-    check_trials_quality,
-    drop_ghosts,
-    marker_segments,
-    quality_entry,
-)
 from mocap_mj.capture.subject import Subject
 from mocap_mj.io.strict_json import jsonable
 from mocap_mj.kernels._threads import single_blas_thread
 from mocap_mj.long.motion_out import every_frame_motion, write_every_frame_motion
 from mocap_mj.pipeline.fit import Fit
+from mocap_mj.pipeline.marker_model import set_path
 from mocap_mj.pipeline.motion import Motion
-from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.pipeline.prepare import (
+    ModelChoice,
+    Prepared,
+    Source,
+    choose_model,
+    prepare,
+    recording,
+)
+from mocap_mj.pipeline.recipe import Recipe, check_select
 from mocap_mj.pipeline.steps import (
     Solved,
     anatomical_priors,
@@ -48,8 +53,6 @@ from mocap_mj.solve.problem import TrialData
 from mocap_mj.solve.selection import select_in_trials
 from mocap_mj.solve.solver_result import ProgressCallback
 
-from ..errors import MocapError
-
 #: ``select="auto"``: above this many frames in all the trials, identify on a pose-diverse
 #: subset. The cost of an LM iteration grows with the frames while an hour of motion repeats
 #: a few thousand poses (docs/method.md#long-recordings).
@@ -62,7 +65,7 @@ DEFAULT_RECIPE = Recipe()
 
 @single_blas_thread  # the command's arithmetic, bit for bit, whatever the caller's BLAS pool
 def identify(
-    trials: Sequence[TrialData],
+    recordings: Sequence[Source],
     recipe: Recipe = DEFAULT_RECIPE,
     subject: Subject | None = None,
     *,
@@ -70,7 +73,6 @@ def identify(
     theta0: np.ndarray | None = None,
     first_frames: Sequence[int] | None = None,
     rates: Sequence[float] | None = None,
-    quality: dict[str, Any] | None = None,
     tolerances: Tolerances | None = None,
     performance: Performance | None = None,
     progress: ProgressCallback | None = None,
@@ -78,21 +80,24 @@ def identify(
     motion_sink: Path | None = None,
     landmarks: Mapping[str, str] | None = None,
 ) -> Fit:
-    """Identify the subject's model and motion from ``trials`` (markers (T_i, M, 3) [m] in
-    ``pset``'s marker order, NaN where missing; times (T_i,) [s]) as ``recipe`` says.
+    """Identify the subject's model and motion from ``recordings`` as ``recipe`` says: the
+    whole pipeline of ``mocap-mj identify`` (:func:`~mocap_mj.pipeline.prepare.prepare`, then
+    :func:`identify_prepared`), the same theta to the last bit on the same markers.
 
     Parameters
     ----------
-    trials : the marker trials, one model for all of them.
+    recordings : what :func:`mocap_mj.io.load_markers` returns (a trajectory, its labels
+        matched to the model's markers by name), or TrialData with markers (T_i, M, 3) [m]
+        in ``pset``'s marker order (NaN where missing) and times (T_i,) [s], or
+        :class:`~mocap_mj.pipeline.prepare.Recording`; one model for all of them. The
+        caller's arrays are never changed.
     recipe : the choices (default: those of ``mocap-mj identify``).
     subject : the subject's measurements (default: none; the stature is then estimated).
-    pset : the parameters to identify (default: the bundled humanoid's).
+    pset : the parameters to identify (default: the recipe's model and marker set, the set
+        detected from the labels when the recipe names none).
     theta0 : (P,) [m] the initial model (default: from ``recipe.init``).
-    first_frames : each trial's first frame in its file (default 0): report and table rows.
-    rates : each trial's frame rate [Hz] for the quality check (default: from its times).
-    quality : summary.json's ``marker_quality`` entry of a check already run by the caller
-        on these trials, their ghost and jump samples already dropped (the command line's,
-        which prints the findings and honours ``--strict``); default None: checked here.
+    first_frames : a TrialData's first frame in its file (default 0): report and table rows.
+    rates : a TrialData's frame rate [Hz] for the quality check (default: from its times).
     tolerances, performance : the solver's (default: theirs); they do not change the problem.
     progress : called with every LM iteration's trace entry.
     motion_progress : called with the frames done of the motion of every frame.
@@ -101,25 +106,69 @@ def identify(
         joint_centres*.csv; the memory then does not grow with the recording) and
         ``Fit.motion`` is None (``Fit.motion_files`` names the files). Default None: the
         motion is held in memory (poses (T, nq) per trial).
-    landmarks : marker -> the anatomical landmark it sits on (:mod:`mocap_mj.capture.landmarks`, a
-        marker set's ``landmark:`` entries): epicondyle and malleolus pairs give their joint's
-        axis and centre (:func:`~mocap_mj.anatomy.anatomy.landmark_prior`). Default none.
+    landmarks : marker -> the anatomical landmark it sits on, for a ``pset`` of the caller's
+        (default: the recipe's marker set's ``landmark:`` entries).
+
+    Notices (each label corrected, each quality warning) go to the logger
+    ``mocap_mj.notices`` as they are found (:mod:`mocap_mj.pipeline.quality`); the fit's
+    ``report`` records them.
 
     Returns
     -------
     Fit : theta (P,) [m], every frame's motion, identifiability, segment table, checks.
     """
-    pset = ParameterSet() if pset is None else pset
-    trials = list(trials)
-    firsts = [0] * len(trials) if first_frames is None else [int(f) for f in first_frames]
-    settings = recipe.settings(tolerances, performance)
-    if quality is None:
-        trials, quality = checked(trials, pset, firsts, rates)
+    model = (
+        choose_model(recipe, recordings)
+        if pset is None
+        else ModelChoice(pset, set_path(recipe.marker_set))
+    )
+    firsts = list(first_frames or [0] * len(recordings))
+    rate_of: list[float | None] = [None] * len(recordings) if rates is None else list(rates)
+    prepared = prepare(
+        [
+            recording(r, model.pset, f, q)
+            for r, f, q in zip(recordings, firsts, rate_of, strict=True)
+        ],
+        recipe,
+        subject,
+        model,
+    )
+    if landmarks is not None:
+        prepared = replace(prepared, landmarks=landmarks)
+    hooks = Hooks(progress, motion_progress, motion_sink)
+    return identify_prepared(prepared, theta0, recipe.settings(tolerances, performance), hooks)
+
+
+class Hooks(NamedTuple):
+    """What an identification reports to and writes into while it runs: ``progress`` (each
+    LM iteration's trace entry), ``motion_progress`` (the frames done of every frame's
+    motion), ``motion_sink`` (a folder for a long recording's motion, chunk by chunk)."""
+
+    progress: ProgressCallback | None = None
+    motion_progress: Callable[[int], None] | None = None
+    motion_sink: Path | None = None
+
+
+@single_blas_thread
+def identify_prepared(
+    prepared: Prepared,
+    theta0: np.ndarray | None = None,
+    settings: LMSettings | None = None,
+    hooks: Hooks | None = None,
+) -> Fit:
+    """The fit of :func:`~mocap_mj.pipeline.prepare.prepare`'s trials: the frames to identify
+    on (all, or a pose-diverse selection of a long recording), the solve
+    (:func:`~mocap_mj.pipeline.steps.solve_trials`), the refinement on every frame of a
+    selected recording and the motion of every frame."""
+    recipe, pset, trials = prepared.recipe, prepared.pset, prepared.trials
+    firsts = list(prepared.first_frames)
+    settings = settings or recipe.settings()
+    hooks = hooks or Hooks()
     report: dict[str, Any] = {
         "frames_fitted_range": [
             [f, f + len(t.markers)] for f, t in zip(firsts, trials, strict=True)
         ],
-        "marker_quality": quality,
+        "marker_quality": prepared.quality,
     }
     count = select_count(recipe.select, sum(len(t.markers) for t in trials), len(trials))
     fitted, whole = trials, None
@@ -130,12 +179,13 @@ def identify(
         report["frames_selected"] = kept
         whole = trials
     solved = solve_trials(
-        fitted, pset, settings, recipe, subject, theta0, progress, whole, landmarks=landmarks
-    )
+        fitted, pset, settings, recipe, prepared.subject, theta0, hooks.progress, whole,
+        landmarks=prepared.landmarks or None,
+    )  # fmt: skip
     fit = _described(solved, fitted, settings, recipe, report, firsts)
     if whole is None:
         return fit
-    return _with_every_frame(fit, solved, whole, motion_sink, motion_progress)
+    return _with_every_frame(fit, solved, whole, hooks.motion_sink, hooks.motion_progress)
 
 
 def _described(
@@ -242,40 +292,6 @@ def _with_every_frame(
     return replace(fit, report=jsonable(report), motion=motion, motion_files=files)
 
 
-def checked(
-    trials: list[TrialData],
-    pset: ParameterSet,
-    first_frames: Sequence[int],
-    rates: Sequence[float] | None = None,
-) -> tuple[list[TrialData], dict[str, Any]]:
-    """The marker-data quality check of the trials (:func:`check_trials_quality`; rates
-    [Hz], default from each trial's times) and the trials with the samples the ``ghost`` and
-    ``jump`` findings name dropped (copies: the caller's arrays are left as they are)."""
-    if rates is None:
-        rates = [_rate(t.times) for t in trials]
-    found = check_trials_quality(
-        [t.name for t in trials],
-        pset.marker_names,
-        [t.markers for t in trials],
-        rates,
-        marker_segments(pset.model),
-        first_frames,
-    )
-    kept = [
-        t._replace(
-            markers=drop_ghosts(t.markers, pset.marker_names, found, t.name, first_frame=f)[0]
-        )
-        for t, f in zip(trials, first_frames, strict=True)
-    ]
-    return kept, quality_entry(found, [])
-
-
-def _rate(times: np.ndarray) -> float:
-    """Frame rate [Hz] of times (T,) [s] (their median step); 100 Hz for a single frame."""
-    steps = np.diff(np.asarray(times, dtype=float))
-    return float(1.0 / np.median(steps)) if len(steps) and np.median(steps) > 0 else 100.0
-
-
 def select_count(select: int | str, frames: int, n_trials: int) -> int | None:
     """Frames to identify on for ``Recipe.select`` (None: every frame) over ``frames``
     frames in ``n_trials`` trials."""
@@ -283,9 +299,8 @@ def select_count(select: int | str, frames: int, n_trials: int) -> int | None:
         return None
     if select == "auto":
         return AUTO_SELECT_COUNT if frames > AUTO_SELECT_ABOVE else None
+    check_select(select, n_trials)
     count = int(select)
-    if count < n_trials:
-        raise MocapError(f"select: expected at least one frame per trial ({n_trials}), got {count}")
     return count if count < frames else None
 
 

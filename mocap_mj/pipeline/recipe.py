@@ -1,13 +1,16 @@
 """The choices of an identification, as one value: :class:`Recipe`, read from and written to YAML.
 
-A recipe states what ``mocap-mj identify`` (and :func:`mocap_mj.identify`) solves: the initial
-model, the anatomical priors and ranges, the left/right prior, the soft-tissue sliding model,
-the trials' weights, the loss, the frames it identifies on for a long recording and the
-refinement on every frame, the iterations and the weak prior. Every result folder holds the
-recipe it was made with (``recipe.yaml``); ``mocap-mj identify --recipe DIR/recipe.yaml`` on
-the same trials gives the same theta. How the solver gets there (its
-:class:`~mocap_mj.solve.settings.Tolerances`, the command's are the defaults) and how it uses memory
-(:class:`~mocap_mj.solve.settings.Performance`) are not part of a recipe.
+A recipe states what ``mocap-mj identify`` (and :func:`mocap_mj.identify`) solves: the model and
+its marker set, the markers excluded, the frames, the correction of exchanged labels and the
+refusal of suspect data, the initial model, the anatomical priors and ranges, the left/right
+prior, the soft-tissue sliding model, the trials' weights, the loss, the frames it identifies on
+for a long recording and the refinement on every frame, the iterations and the weak prior. Every
+result folder holds the recipe it was made with (``recipe.yaml``); ``mocap-mj identify --recipe
+DIR/recipe.yaml`` on the same trials gives the same theta. How the solver gets there (its
+:class:`~mocap_mj.solve.settings.Tolerances`, the command's are the defaults) and how it uses
+memory (:class:`~mocap_mj.solve.settings.Performance`) are not part of a recipe, nor how the
+marker files are read (their vertical axis, units, label map and subject prefix: flags of the
+commands).
 
 Lengths are in metres in the file as in the code.
 """
@@ -101,6 +104,23 @@ class Recipe:
     hip_centre : "harrington" or "davis"
         With anatomy: the hip centres' regression, Harrington et al. 2007 (closer to
         imaging) or Davis et al. 1991 (Plug-in Gait's; needs both leg lengths).
+    model : str or None
+        The base MJCF file (None: the bundled humanoid).
+    marker_set : str or None
+        A bundled marker set's name or a set's YAML file, whose markers replace the model's
+        sites and whose landmarks (epicondyles, malleoli) measure joint widths and give
+        joint axes (None: the bundled set the labels fit, without ``model``; the model's own
+        sites with it). A fit records the set it used.
+    exclude_markers : tuple of str
+        Model markers whose data are dropped (missing in every frame).
+    frames : str or None
+        The frames fitted of every trial, ``"A:B"`` as ``--frames`` (None: all).
+    relabel : bool
+        Correct labels exchanged by mistake in the pipeline's copy of the markers (False:
+        only warn).
+    strict : bool
+        Refuse the data when the quality check finds anything, a label needs correcting or
+        T10's placement is suspect (False: warn and carry on).
     """
 
     init: Init = "placed"
@@ -118,8 +138,24 @@ class Recipe:
     prior_noise: float = 0.001
     observable_std: float = 0.005
     hip_centre: HipCentre = "harrington"
+    model: str | None = None
+    marker_set: str | None = None
+    exclude_markers: tuple[str, ...] = ()
+    frames: str | None = None
+    relabel: bool = True
+    strict: bool = False
 
     def __post_init__(self) -> None:
+        names = self.exclude_markers
+        if isinstance(names, str) or not all(isinstance(n, str) and n for n in names):
+            raise MocapError(f"exclude_markers: expected a list of marker names, got {names!r}")
+        object.__setattr__(self, "exclude_markers", tuple(names))
+        for name in ("model", "marker_set", "frames"):
+            value = getattr(self, name)
+            if value is not None and not (isinstance(value, str) and value):
+                raise MocapError(f"{name}: expected a text or none, got {value!r}")
+        if self.frames is not None:
+            frame_range(self.frames, 1 << 62)  # its form; its frames are checked per trial
         if self.init not in INITS:
             raise MocapError(f"init must be one of {', '.join(INITS)}; got {self.init!r}")
         if isinstance(self.select, str) and self.select not in SELECT_WORDS:
@@ -171,7 +207,9 @@ class Recipe:
 
     def to_yaml(self) -> str:
         """The recipe as YAML (every field, lengths in metres), with a header line."""
-        body = yaml.safe_dump(dataclasses.asdict(self), sort_keys=False)
+        fields = dataclasses.asdict(self)
+        fields["exclude_markers"] = list(self.exclude_markers)
+        body = yaml.safe_dump(fields, sort_keys=False)
         return "# mocap-mj recipe: the choices of an identification (lengths in m)\n" + body
 
     def save(self, path: str | Path) -> None:
@@ -215,6 +253,10 @@ def _check_kind(source: str, name: str, value: Any, default: Any) -> None:
         ok = isinstance(value, str) or (isinstance(value, int) and not isinstance(value, bool))
     elif name == "symmetric":
         ok = value is None or (isinstance(value, int | float) and not isinstance(value, bool))
+    elif name == "exclude_markers":
+        ok = isinstance(value, list | tuple) and all(isinstance(v, str) for v in value)
+    elif default is None:
+        ok = value is None or isinstance(value, str)
     elif isinstance(default, bool):
         ok = isinstance(value, bool)
     elif isinstance(default, int):
@@ -228,3 +270,47 @@ def _check_kind(source: str, name: str, value: Any, default: Any) -> None:
             f"{source}: recipe field {name!r}: expected a value like {default!r}, "
             f"got {excerpt(value)}"
         )
+
+
+def frame_range(
+    text: str | None, n: int, source: str = "the recording", *, stride: bool = False
+) -> slice:
+    """The frames of a ``--frames`` text over ``n`` frames: the one parser of every command.
+
+    ``"A:B"`` is a Python slice of frames, B exclusive, negative from the end, an empty part
+    the slice's default (``":"`` every frame); with ``stride``, ``"A:B:S"`` also takes every
+    S-th frame (S positive). None or "" -> every frame. Returns the slice with its bounds
+    resolved (0 <= start <= stop <= n). A bound past the ``n`` frames of ``source`` is
+    refused, naming its frame count: a range silently shortened would use other frames than
+    the ones asked for.
+    """
+    if not text:
+        return slice(0, n)
+    form = "A:B or A:B:S" if stride else "A:B"
+    parts = text.split(":")
+    try:
+        if len(parts) not in ((2, 3) if stride else (2,)):
+            raise ValueError
+        a, b, *s = (int(p) if p.strip() else None for p in parts)
+    except ValueError:
+        raise MocapError(f"--frames: expected {form} (e.g. 0:500), got {text!r}") from None
+    step = s[0] if s else None
+    if step is not None and step <= 0:
+        raise MocapError(f"--frames {text}: the step S must be positive, got {step}")
+    if any(v is not None and not -n <= v <= n for v in (a, b)):
+        raise MocapError(
+            f"{source}: --frames {text}: past the end, the recording has {n} frames (0 to {n - 1})"
+        )
+    start, stop, _ = slice(a, b).indices(n)
+    return slice(start, max(start, stop), step)
+
+
+def check_select(select: int | str, n_trials: int) -> int | None:
+    """``Recipe.select``'s number of frames (None for its words), refused below one frame
+    per trial of the ``n_trials``."""
+    if isinstance(select, str):
+        return None
+    count = int(select)
+    if count < n_trials:
+        raise MocapError(f"select: expected at least one frame per trial ({n_trials}), got {count}")
+    return count
