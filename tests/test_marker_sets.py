@@ -270,21 +270,18 @@ def test_each_set_recovers_its_joint_centres_within_1_5x_the_bound(
 
 
 def test_a_sets_marker_radius_is_the_subjects_unless_measured(tmp_path: Path) -> None:
-    import argparse
-
     from mocap_mj.capture.subject import Subject
-    from mocap_mj.commands._subject import with_set_radius
+    from mocap_mj.pipeline.marker_model import with_set_radius
 
     text = (SETS / "cmu_41.yaml").read_text()
     text = text.replace("marker_radius: 0.007", "marker_radius: 0.0045")
     path = tmp_path / "small.yaml"
     path.write_text(text)
-    args = argparse.Namespace(marker_set_file=path, model=None)
-    subject = with_set_radius(args, Subject())
+    subject = with_set_radius(path, Subject())
     assert subject.marker_radius == pytest.approx(0.0045)
     assert subject.to_dict()["marker_diameter"]["source"] == "marker set small.yaml"
     measured = Subject()
     measured.set("marker_diameter", 0.012, "PROCESSING:MarkerDiameter")
-    assert with_set_radius(args, measured).marker_radius == pytest.approx(0.006)
-    args.marker_set_file = SETS / "cmu_41.yaml"  # Plug-in Gait's 7 mm: nothing to record
-    assert "marker_diameter" not in with_set_radius(args, Subject()).to_dict()
+    assert with_set_radius(path, measured).marker_radius == pytest.approx(0.006)
+    # Plug-in Gait's 7 mm: nothing to record
+    assert "marker_diameter" not in with_set_radius(SETS / "cmu_41.yaml", Subject()).to_dict()

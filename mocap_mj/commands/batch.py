@@ -1,9 +1,10 @@
 """``mocap-mj batch``: identify and track every subject of a dataset, on Ray.
 
-Per subject: one identification from all its readable trials (``mocap-mj identify``), then
-IK of each trial with the identified model (``mocap-mj ik``), into ``OUT/<subject>/identify``
-and ``OUT/<subject>/ik/<trial>``; then ``OUT/summary.csv`` and ``OUT/report.md`` over the
-dataset. See :mod:`mocap_mj.batch.run` for isolation and resume, docs/batch.md for usage.
+Per subject: one identification from all its readable trials (:func:`mocap_mj.identify`'s
+pipeline, written as ``mocap-mj identify`` writes it), then IK of each trial with the identified
+model (``mocap-mj ik``), into ``OUT/<subject>/identify`` and ``OUT/<subject>/ik/<trial>``; then
+``OUT/summary.csv`` and ``OUT/report.md`` over the dataset. See :mod:`mocap_mj.batch.run` for
+isolation and resume, docs/batch.md for usage.
 """
 
 from __future__ import annotations
@@ -17,12 +18,28 @@ import os
 import sys
 import time
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from mocap_mj.commands.common import EXIT_IMPLAUSIBLE, add_json_flag, finish, number
+from mocap_mj.commands.common import (
+    EXIT_IMPLAUSIBLE,
+    add_json_flag,
+    finish,
+    number,
+    output_folder,
+    with_exit_status,
+    write_summary,
+)
 from mocap_mj.commands.registry import build_parser
+from mocap_mj.io import load_markers
+from mocap_mj.io.labels import file_labels
 from mocap_mj.kernels._threads import one_blas_thread
+from mocap_mj.outputs.write_fit import write_result
+from mocap_mj.pipeline.api import identify_prepared
+from mocap_mj.pipeline.fit import Fit
+from mocap_mj.pipeline.prepare import Recording, model_of, prepare
+from mocap_mj.pipeline.recipe import Recipe
 from mocap_mj.skeleton.parameters import ParameterSet
 
 from ..batch.dataset import FLAGS, OPTION_KEYS, Subject, load_dataset
@@ -31,7 +48,9 @@ from ..batch.run import have_ray, one_line, prepare_out, run_batch
 from ..errors import MocapError
 from ._inputs import refuse_out_holding_inputs
 from ._markers import load_trial
+from ._quality import notices_to_stderr
 from ._removed import add_removed_flags
+from ._subject import subject_from_args
 
 #: ``--timeout``: seconds one subject may take [s]. Generous: identifying a subject from a
 #: few trials and tracking them takes a few minutes on one core.
@@ -191,9 +210,9 @@ def _stdout_to_stderr() -> Iterator[None]:
 def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
     """One subject into ``folder``: identification from its readable trials, then IK of each.
 
-    The batch's only contact with identification and IK: they run as their commands do
-    (``identify`` and ``ik`` parsed by the command line's own parser), so the subject's
-    folders hold exactly what those commands write. A trial that cannot be read, or whose IK
+    The identification is the library's (:func:`_identify`), its folder written as
+    ``identify`` writes it; the IK of each trial runs as ``ik`` does (its options parsed by
+    the command line's own parser). A trial that cannot be read, or whose IK
     fails, becomes a failed row; no readable trial, or a failed identification, raises.
     """
     opts = dict(subject.options)
@@ -215,20 +234,16 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
             row["error"] = one_line(exc)
     if not readable:
         raise MocapError(f"no readable trial ({rows[subject.trials[0]]['error']})")
-    ident_opts = {k: v for k, v in opts.items() if k not in MARKER_OPTIONS}
-    passed = bool(subject.subject_file) and _accepts("identify", "--subject-file")
-    if passed:
-        ident_opts["subject_file"] = subject.subject_file
-    ident = _command("identify", folder / "identify", "--markers", *readable, *marker_args,
-                     *_flags(ident_opts))  # fmt: skip
-    at_bounds = sorted(ident.get("kappa_outside_bounds_mm", {}))
-    quality = ident.get("marker_quality") or {"findings": []}
+    passed = bool(subject.subject_file)
+    fit = _identify(opts, readable, subject.subject_file, folder / "identify")
+    at_bounds = sorted(n for n, out in zip(fit.pset.kappa_names, _outside(fit), strict=True) if out)
+    quality = fit.report.get("marker_quality") or {"findings": []}
     model = folder / "identify" / "model.xml"
     for path in readable:
         row = rows[path]
         row.update(
-            identify_rmse_mm=ident.get("marker_rmse_mm"),
-            identify_seconds=ident.get("seconds"),
+            identify_rmse_mm=fit.marker_rmse * 1e3,  # summary.csv's unit
+            identify_seconds=fit.result.seconds,
             parameters_at_bounds=at_bounds,
             marker_quality=_quality_cell(quality, path),
         )
@@ -245,18 +260,57 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
         "subject_file": subject.subject_file,
         "subject_file_passed_to_identify": passed,
         "identify": {
-            k: ident.get(k)
-            for k in (
-                "marker_rmse_mm",
-                "seconds",
-                "iterations",
-                "termination",
-                "kappa_mm",
-                "implausible",
-            )
+            "marker_rmse_mm": fit.marker_rmse * 1e3,  # the batch's tables are in mm
+            "seconds": fit.result.seconds,
+            "iterations": fit.result.iterations,
+            "termination": fit.result.termination.value,
+            "kappa_mm": {n: v * 1e3 for n, v in fit.kappa().items()},
+            "implausible": fit.report.get("implausible"),
         },
         "rows": [{"subject": subject.name, **rows[p]} for p in subject.trials],
     }
+
+
+def _identify(opts: dict[str, Any], paths: list[str], subject_file: str | None, out: Path) -> Fit:
+    """The subject's identification by the library (:func:`~mocap_mj.pipeline.prepare.prepare`,
+    :func:`~mocap_mj.pipeline.api.identify_prepared`) from the trials ``paths``, read with the
+    dataset's options (vertical axis, label map, the file's subject prefix), its recipe with
+    the options' model, frames and excluded markers; written into ``out`` as ``identify``
+    writes it, its notices on stderr as ``identify`` prints them."""
+    given: dict[str, Any] = {
+        "model": opts.get("model"),
+        "frames": opts.get("frames"),
+        "exclude_markers": None
+        if opts.get("exclude_markers") is None
+        else tuple(n.strip() for n in str(opts["exclude_markers"]).split(",") if n.strip()),
+    }
+    recipe = Recipe.load(opts["recipe"]) if opts.get("recipe") else Recipe()
+    recipe = replace(recipe, **{k: v for k, v in given.items() if v is not None})
+    reading = {"subject": opts.get("file_subject"), "marker_map": opts.get("marker_map")}
+    labels: list[str] = []
+    for path in paths:
+        labels += [n for n in file_labels(path, **reading) if n not in labels]
+    model = model_of(recipe, labels)
+    names = model.pset.marker_names
+    recordings = []
+    for path in paths:
+        traj = load_markers(path, **reading, up=opts.get("up"), model_names=names)
+        recordings.append(Recording(path, traj.select(names), traj.times, traj.rate,
+                                    traj.first_frame, own=True))  # fmt: skip
+    measured = subject_from_args(argparse.Namespace(subject_file=subject_file), paths)
+    with notices_to_stderr("identify"):
+        prepared = prepare(recordings, recipe, measured, model)
+    fit = identify_prepared(prepared, None, recipe.settings())
+    with output_folder(out) as staging:
+        summary = write_result(fit, staging, inputs={"markers_files": paths}, force=True)
+        write_summary(staging, with_exit_status(summary))
+    return fit
+
+
+def _outside(fit: Fit) -> list[bool]:
+    """Whether each kinematic parameter ended outside its anatomical range (with anatomy)."""
+    names = set(fit.report.get("kappa_outside_bounds_mm") or {})
+    return [n in names for n in fit.pset.kappa_names]
 
 
 def _quality_cell(quality: dict[str, Any], path: str) -> str:
@@ -288,15 +342,6 @@ def _command(command: str, out: Path, *options: str) -> dict[str, Any]:
 @functools.cache
 def _parser() -> argparse.ArgumentParser:
     return build_parser()
-
-
-def _accepts(command: str, flag: str) -> bool:
-    parser = _parser()
-    for action in parser._subparsers._group_actions if parser._subparsers else []:
-        sub = getattr(action, "choices", {}).get(command)
-        if sub is not None:
-            return flag in sub._option_string_actions
-    return False
 
 
 def _flags(options: dict[str, Any]) -> list[str]:

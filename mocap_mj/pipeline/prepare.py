@@ -112,25 +112,27 @@ Source = MarkerTrajectory | TrialData | Recording
 
 
 def choose_model(recipe: Recipe, recordings: Sequence[Source]) -> ModelChoice:
+    """:func:`model_of` the trajectories' labels (markers already in a model's order,
+    TrialData or :class:`Recording`, are the bundled humanoid's)."""
+    labels: list[str] | None = []
+    for r in recordings:
+        if not isinstance(r, MarkerTrajectory):
+            labels = None
+            break
+        labels += [n for n in r.names if n not in labels]  # type: ignore[operator]
+    return model_of(recipe, labels)
+
+
+def model_of(recipe: Recipe, labels: Sequence[str] | None) -> ModelChoice:
     """The parameters of ``recipe.model`` with ``recipe.marker_set``'s sites; with neither,
-    the bundled humanoid with the bundled set the recordings' labels fit."""
+    the bundled humanoid with the bundled set the ``labels`` fit (None: its own sites)."""
     name = recipe.marker_set
     if name is None and recipe.model is None:
-        labels: list[str] = []
-        for r in recordings:
-            for n in _labels(r):
-                if n not in labels:
-                    labels.append(n)
+        if labels is None:
+            return ModelChoice(ParameterSet(), None)
         name = detected_set(labels)
     path = set_path(name)
     return ModelChoice(ParameterSet(model_file(path, recipe.model)), path)
-
-
-def _labels(r: Source) -> tuple[str, ...]:
-    if isinstance(r, MarkerTrajectory):
-        return r.names
-    seen = np.any(np.isfinite(np.asarray(r.markers)), axis=(0, 2))
-    return tuple(n for n, s in zip(ParameterSet().marker_names, seen, strict=False) if s)
 
 
 def recording(
