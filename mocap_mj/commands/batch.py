@@ -243,7 +243,7 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
         row = rows[path]
         row.update(
             identify_rmse_mm=fit.marker_rmse * 1e3,  # summary.csv's unit
-            identify_seconds=fit.result.seconds,
+            identify_seconds=fit.timings.get("seconds"),
             parameters_at_bounds=at_bounds,
             marker_quality=_quality_cell(quality, path),
         )
@@ -261,7 +261,7 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
         "subject_file_passed_to_identify": passed,
         "identify": {
             "marker_rmse_mm": fit.marker_rmse * 1e3,  # the batch's tables are in mm
-            "seconds": fit.result.seconds,
+            "seconds": fit.timings.get("seconds"),
             "iterations": fit.result.iterations,
             "termination": fit.result.termination.value,
             "kappa_mm": {n: v * 1e3 for n, v in fit.kappa().items()},

@@ -45,7 +45,13 @@ from mocap_mj.pipeline.steps import (
     sliding_weigh,
     solve_trials,
 )
-from mocap_mj.pipeline.summary import add_checks, add_finding, centre_fields, fit_report
+from mocap_mj.pipeline.summary import (
+    add_checks,
+    add_finding,
+    centre_fields,
+    fit_report,
+    refinement_fields,
+)
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.identifiability import Identifiability
 from mocap_mj.solve.lm import LMSettings, Performance, Tolerances
@@ -257,16 +263,14 @@ def _with_every_frame(
     chunk, or held in memory without one."""
     report = dict(fit.report)
     report["motion_frames"] = [len(t.markers) for t in whole]
-    if solved.refined:
-        report["refinement"] = {
-            k: v for k, v in solved.refined.items() if k not in ("qpos", "robust")
-        }
-    pset = fit.pset
+    refined, pset = solved.refined, fit.pset
+    if refined is not None:
+        report["refinement"] = refinement_fields(pset, refined)
     args: dict[str, Any] = {
-        "start": solved.refined.get("qpos"),
+        "start": None if refined is None else refined.qpos,
         "progress": progress,
         "weigh": sliding_weigh(pset, solved.weighting, solved.slides),
-        "robust": solved.refined.get("robust")
+        "robust": (None if refined is None else refined.robust)
         or robust_for(pset, fit.result, fit.trials, fit.settings),
     }
     motion: tuple[Motion, ...] | None = None

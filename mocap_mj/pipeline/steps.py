@@ -8,8 +8,9 @@ import contextlib
 import logging
 import time
 from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
+from dataclasses import dataclass
 from functools import partial
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
@@ -45,19 +46,46 @@ from mocap_mj.solve.solver_result import IdentificationResult, ProgressCallback
 logger = logging.getLogger(__name__)
 
 
-class Solved(NamedTuple):
+@dataclass(frozen=True, eq=False)
+class Refined:
+    """The refinement on every frame of a selected recording (:func:`refine_on_every_frame`).
+
+    Attributes
+    ----------
+    steps_std : list of float [1]
+        Each refinement step's size in standard deviations.
+    seconds : dict of str to float [s]
+        The wall times of its parts.
+    subset_kappa : (K,) float [m]
+        The kinematic parameters the selected frames' solve found, before the refinement.
+    qpos : list of (T_i, nq) arrays
+        Every frame's pose under the subset's estimate, per motion trial: the start of the
+        motion's IK.
+    robust : Robust or None
+        The robust loss's threshold of the refinement (None: l2), for the motion's IK.
+    """
+
+    steps_std: Any
+    seconds: dict[str, float]
+    subset_kappa: np.ndarray
+    qpos: list[np.ndarray]
+    robust: Robust | None
+
+
+@dataclass(frozen=True, eq=False)
+class Solved:
     """The solve of :func:`solve_trials`: the parameter set solved with, the result, the
-    prior weighting (:func:`solve_anatomical`), the refinement on every frame's extras
-    (:func:`refine_on_every_frame`; empty without), the sliding model weighed with, the
-    subject (stature estimated when not measured) and what the report says of the solve:
-    prior scale ``size`` [1], left/right prior ``symmetric`` [m], T10's placement, the
-    kinematic ranges (K,) [m] (with anatomy), the initial model used, the segment scales,
-    the unmeasured parameters, the solve's wall time [s] and its log lines."""
+    prior weighting (:func:`solve_anatomical`), the refinement on every frame
+    (:func:`refine_on_every_frame`; None without), the sliding model weighed with and its
+    slides, the subject (stature estimated when not measured) and what the report says of
+    the solve: prior scale ``size`` [1], left/right prior ``symmetric`` [m], T10's placement,
+    the kinematic ranges (K,) [m] (with anatomy), the initial model used, the segment scales,
+    the unmeasured parameters, the solve's wall time [s], its log lines and the landmarks."""
 
     pset: ParameterSet
     result: IdentificationResult
     weighting: dict[str, Any]
-    refined: dict[str, Any]
+    refined: Refined | None
     sliding: SlidingModel | None
     slides: dict[str, Slide] | None
     subject: Subject
@@ -127,7 +155,7 @@ def solve_trials(
                 trials, result, weighting, pset=pset, theta0=theta0, settings=settings,
                 progress=progress, slides=slides, trial_weights=recipe.trial_weights, **options,
             )  # fmt: skip
-    refined: dict[str, Any] = {}
+    refined = None
     if recipe.refine and whole is not None:
         result, refined = refine_on_every_frame(
             result, trials, whole, pset=pset, settings=settings, weighting=weighting,
@@ -141,9 +169,10 @@ def solve_trials(
         sliding = SlidingModel(dict(slides), weighting["slide_base_mm"] * 1e-3)
     ranges = kappa_ranges(pset, subject) if recipe.anatomy else None
     return Solved(
-        pset, result, weighting, refined, sliding, slides, subject, options["size"],
-        options["symmetric"], t10, ranges, init_used, scales, missing,
-        time.perf_counter() - t0, log, landmarks,
+        pset=pset, result=result, weighting=weighting, refined=refined, sliding=sliding,
+        slides=slides, subject=subject, size=options["size"], symmetric=options["symmetric"],
+        t10=t10, ranges=ranges, init_used=init_used, scales=scales, missing=missing,
+        seconds=time.perf_counter() - t0, log=log, landmarks=landmarks,
     )  # fmt: skip
 
 
@@ -200,7 +229,7 @@ def refine_on_every_frame(
     t10: T10Placement | None = None,
     hip_centre: str = "harrington",
     landmarks: Mapping[str, str] | None = None,
-) -> tuple[IdentificationResult, dict[str, Any]]:
+) -> tuple[IdentificationResult, Refined]:
     """The identification on ``trials`` (frames selected from ``motion_trials``) refined on
     every frame of ``motion_trials`` (:func:`mocap_mj.long.refine.refine`) with the priors
     and bounds of its solve: with ``anatomical`` the landmark priors (and the left/right
@@ -208,15 +237,14 @@ def refine_on_every_frame(
     anatomical ranges as bounds; always the weak prior, toward the subset's estimate (the
     directions the subset barely determined keep its value unless every frame determines
     them). The result is described at the refined model (:func:`~mocap_mj.long.long.result_at`);
-    the dict holds the refinement's ``steps_std``, ``seconds``, the subset's own estimate
-    (``subset_kappa_mm``) and ``qpos``: every frame's pose under the sample's estimate per
-    motion trial (T_i, nq), the start of the motion's IK. When the solve weighed the sliding
+    :class:`Refined` holds the refinement's steps, time, the subset's own estimate and every
+    frame's pose under it, the start of the motion's IK. When the solve weighed the sliding
     landmarks (``slides``, and ``weighting`` has their ``slide_base_mm``), the refinement
     weighs them alike, by each frame's pose (:func:`~mocap_mj.long.refine.refine`'s
     ``weigh``): it minimises the cost the subset's solve minimised, over every frame. With a
     robust ``settings.loss`` it minimises that loss, its threshold first the subset's solve's
     last (:func:`robust_for`), then the sample's (in the dict as ``robust``, for the motion's
-    IK)."""
+    IK, :attr:`Refined.robust`)."""
     noise = weighting.get("noise_mm", settings.prior_noise * 1e3) * 1e-3
     priors: list[Prior] = [settings.weak_prior(result.theta)]
     box = None
@@ -244,15 +272,13 @@ def refine_on_every_frame(
         robust=robust,
     )
     refined = result_at(result, trials, pset, ref.theta, settings, box, robust)
-    info = {
-        "steps_std": ref.steps,
-        "seconds": ref.seconds,
-        "subset_kappa_mm": {
-            n: float(v) * 1e3 for n, v in zip(pset.kappa_names, result.theta, strict=False)
-        },
-        "qpos": qpos,
-        "robust": ref.robust,
-    }
+    info = Refined(
+        steps_std=ref.steps,
+        seconds=ref.seconds,
+        subset_kappa=np.array(result.theta[: pset.n_kappa], dtype=float),
+        qpos=qpos,
+        robust=ref.robust,
+    )
     return refined, info
 
 

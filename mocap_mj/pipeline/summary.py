@@ -26,7 +26,7 @@ from mocap_mj.anatomy.trunk import T10Placement
 from mocap_mj.capture.marker_quality import Finding
 from mocap_mj.capture.subject import Subject
 from mocap_mj.pipeline.recipe import Recipe
-from mocap_mj.pipeline.steps import REWEIGHT_RATIO, Solved, anatomical_priors
+from mocap_mj.pipeline.steps import REWEIGHT_RATIO, Refined, Solved, anatomical_priors
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.identifiability import Identifiability
 from mocap_mj.solve.lm import LMSettings, solver_joint_range
@@ -265,3 +265,15 @@ def centre_fields(solved: Solved, settings: LMSettings, recipe: Recipe) -> dict[
     except MocapError:  # Davis's rows need both leg lengths
         alt = None
     return centre_report(pset, result.theta, priors[0], spreads, {other: alt})
+
+
+def refinement_fields(pset: ParameterSet, refined: Refined) -> dict[str, Any]:
+    """summary.json's ``refinement``: its steps [sd], seconds and the subset's own kinematic
+    parameters (``subset_kappa_mm``, mm)."""
+    return {
+        "steps_std": refined.steps_std,
+        "seconds": refined.seconds,
+        "subset_kappa_mm": {
+            n: float(v) * 1e3 for n, v in zip(pset.kappa_names, refined.subset_kappa, strict=True)
+        },
+    }
