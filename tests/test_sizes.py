@@ -1,5 +1,7 @@
 """Size limits of the code: no function over 80 lines outside the numba kernels, no module
-over 800 lines, in the packages ``mocap_mj``, ``synth`` and ``viewer``.
+over 800 lines, no function over 8 parameters outside the numba kernels but those of
+:data:`MANY_PARAMETERS` (a list that only shrinks), in the packages ``mocap_mj``, ``synth``
+and ``viewer``.
 
 A function's length is its lines from the ``def`` (decorators aside) to its last line,
 docstring included. A numba kernel is exempt (one loop nest, which splitting would slow
@@ -17,6 +19,32 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("mocap_mj", "synth", "viewer")
 MAX_FUNCTION_LINES = 80
 MAX_MODULE_LINES = 800
+MAX_PARAMETERS = 8
+#: The functions that still take more than :data:`MAX_PARAMETERS` parameters (``self`` and
+#: ``cls`` aside): each is to take a typed value in place of several; a new one fails the
+#: test, and so does one listed here that no longer needs its place.
+MANY_PARAMETERS = frozenset(
+    {
+        "mocap_mj/long/refine.py:refine", "mocap_mj/long/long.py:identify_long",
+        "mocap_mj/long/motion_out.py:write_every_frame_motion",
+        "mocap_mj/long/motion_out.py:every_frame_motion",
+        "mocap_mj/clinical/kinetics.py:newton_euler", "mocap_mj/clinical/kinetics.py:_chain",
+        "mocap_mj/pipeline/relabel.py:_round", "mocap_mj/pipeline/api.py:identify",
+        "mocap_mj/pipeline/steps.py:solve_trials",
+        "mocap_mj/pipeline/steps.py:refine_on_every_frame", "mocap_mj/pipeline/steps.py:_solve",
+        "mocap_mj/pipeline/steps.py:anatomical_priors",
+        "mocap_mj/pipeline/steps.py:solve_anatomical", "mocap_mj/pipeline/steps.py:_decided",
+        "mocap_mj/pipeline/summary.py:_summary_fields",
+        "mocap_mj/export/c3d.py:write_points_c3d", "mocap_mj/export/osim.py:_custom_joint",
+        "mocap_mj/outputs/write_fit.py:write_files",
+        "mocap_mj/io/formats/c3d_check.py:_data_layout", "mocap_mj/batch/run.py:run_batch",
+        "mocap_mj/solve/problem.py:IdentificationProblem.__init__",
+        "mocap_mj/solve/lm.py:identify_lm", "mocap_mj/solve/lm.py:_solve_levels",
+        "mocap_mj/solve/ik.py:IKSolver._repair", "synth/paper.py:_paper_result",
+        "viewer/render.py:open_renderer", "viewer/output.py:render_to_file",
+        "mocap_mj/kernels/_tree_ik.py:walk",
+    }
+)  # fmt: skip
 #: Decorators that compile a function with numba.
 NUMBA_DECORATORS = frozenset(
     {"njit", "jit", "vectorize", "guvectorize", "cfunc", "_kernel", "_jit", "_inline"}
@@ -39,8 +67,9 @@ def is_numba(fn: ast.FunctionDef | ast.AsyncFunctionDef) -> bool:
     return any(_decorator_name(d) in NUMBA_DECORATORS for d in fn.decorator_list)
 
 
-def function_sizes(source: str, module: str) -> list[tuple[str, int]]:
-    """(module:qualified name, lines) of every function of ``source`` but numba kernels."""
+def function_sizes(source: str, module: str, measure: str = "lines") -> list[tuple[str, int]]:
+    """(module:qualified name, lines) of every function of ``source`` but numba kernels
+    (``measure="parameters"``: its parameters, ``self`` and ``cls`` aside)."""
     sizes = []
     stack: list[tuple[ast.AST, str]] = [(ast.parse(source), "")]
     while stack:
@@ -49,13 +78,34 @@ def function_sizes(source: str, module: str) -> list[tuple[str, int]]:
             if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef):
                 name = f"{prefix}{child.name}"
                 if not is_numba(child):
-                    sizes.append((f"{module}:{name}", (child.end_lineno or 0) - child.lineno + 1))
+                    n = (
+                        _parameters(child)
+                        if measure == "parameters"
+                        else (child.end_lineno or 0) - child.lineno + 1
+                    )
+                    sizes.append((f"{module}:{name}", n))
                 stack.append((child, f"{name}."))
             elif isinstance(child, ast.ClassDef):
                 stack.append((child, f"{prefix}{child.name}."))
             else:
                 stack.append((child, prefix))
     return sizes
+
+
+def _parameters(fn: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    a = fn.args
+    names = [p.arg for p in (*a.posonlyargs, *a.args, *a.kwonlyargs)]
+    return len(names) - (1 if names[:1] in (["self"], ["cls"]) else 0)
+
+
+def many_parameters() -> dict[str, int]:
+    """Every function over :data:`MAX_PARAMETERS` parameters, numba kernels aside."""
+    return {
+        name: n
+        for path in _modules()
+        for name, n in function_sizes(path.read_text(), str(path.relative_to(ROOT)), "parameters")
+        if n > MAX_PARAMETERS
+    }
 
 
 def long_functions() -> list[tuple[str, int]]:
@@ -82,6 +132,19 @@ def test_no_function_over_80_lines_outside_the_numba_kernels() -> None:
 def test_no_module_over_800_lines() -> None:
     over = long_modules()
     assert not over, f"over {MAX_MODULE_LINES} lines: " + ", ".join(f"{m} ({n})" for m, n in over)
+
+
+def test_no_new_function_over_8_parameters() -> None:
+    over = many_parameters()
+    new = {f: n for f, n in over.items() if f not in MANY_PARAMETERS}
+    assert not new, f"over {MAX_PARAMETERS} parameters (take a typed value): {new}"
+    gone = sorted(MANY_PARAMETERS - set(over))
+    assert not gone, f"no longer over {MAX_PARAMETERS} parameters, drop from the list: {gone}"
+
+
+def test_the_parameter_count_leaves_self_aside() -> None:
+    source = "def f(a, b, *, c):\n    pass\n\nclass C:\n    def m(self, a, /, b):\n        pass\n"
+    assert dict(function_sizes(source, "m", "parameters")) == {"m:f": 3, "m:C.m": 2}
 
 
 def test_the_measure_sees_the_code_and_a_long_function() -> None:
