@@ -18,9 +18,18 @@ import numpy as np
 from ..errors import MocapError
 from ..io.trajectory import MarkerTrajectory
 from . import static as static_mod
-from .angles import all_angles, progression_frame
+from .angles import abs_ankle_angles, all_angles, progression_frame
 from .bones import bone_points
-from .segments import SIDES, Markers, Segment, lower_body, static_foot, trunk, upper_limbs
+from .segments import (
+    SIDES,
+    Markers,
+    Segment,
+    lower_body,
+    static_foot,
+    trunk,
+    trunk_frames,
+    upper_limbs,
+)
 from .subject import UPPER, PigSubject
 
 _log = logging.getLogger(__name__)
@@ -112,25 +121,65 @@ def _refuse_moving_static(m: Markers, static: MarkerTrajectory, where: str) -> N
     )
 
 
+#: Given static offsets [rad] that the flat-foot calibration reproduces within this (and
+#: better than the plain one) tell that the static trial's foot was calibrated flat.
+FLAT_MATCH = 1e-3
+
+
 def calibrate(static: MarkerTrajectory, subject: PigSubject) -> PigSubject:
     """The subject with the offsets, inter-ASIS distance and leg lengths a static trial
-    gives (measured values are kept; the offsets always come from the static trial)."""
+    gives (measured values are kept; the offsets always come from the static trial).
+
+    Nexus's static options: a foot is calibrated flat (:func:`~.segments.static_foot`, with
+    the side's ``sole_delta``) when the subject's ``flat_foot`` says so, or, not given, when
+    the subject's given static offsets (the PROCESSING group's, Nexus's calibration of this
+    static) are the flat calibration's within :data:`FLAT_MATCH` and nearer than the plain
+    one's; ``head_level`` computes the head offset of a level head
+    (:func:`~.static.head_offset`), else the given head offset stands."""
     m = _markers(static)
     where = str(static.source.get("path", "static trial"))
     _require(m, (*LOWER_MARKERS, "LHEE", "RHEE"), where)
     subject = _with_marker_measures(m, subject, where)
     segs, _ = lower_body(m, subject, _inter_asis(m, subject))
-    values = {}
+    values, flats = {}, {}
     for s in SIDES:
-        tibia = segs[f"tibia_torsioned_{s}"].axes
-        foot = static_foot(m, s, tibia)
+        tibia, raw = segs[f"tibia_torsioned_{s}"].axes, segs[f"foot_raw_{s}"].axes
+        delta = subject.pig(f"sole_delta_{s}")
         try:
-            flex, rot = static_mod.foot_offsets(segs[f"foot_raw_{s}"].axes, foot, s)
+            plain = static_mod.foot_offsets(raw, static_foot(m, s, tibia), s)
+            flat = static_mod.foot_offsets(raw, static_foot(m, s, tibia, flat=True,
+                                                             sole_delta=delta), s)  # fmt: skip
         except ValueError as exc:
             raise MocapError(f"{where}: {exc}") from None
+        told = subject.flag(f"flat_foot_{s}")
+        if told is None:
+            told = _given_flat(subject, s, plain, flat)
+            flats[f"flat_foot_{s}"] = float(told)
+        flex, rot = flat if told else plain
         values[f"static_plantar_flex_{s}"] = flex
         values[f"static_rot_off_{s}"] = rot
-    return subject.with_values(values, f"{where}: static trial")
+    if subject.flag("head_level") and all(n in m for n in UPPER_MARKERS[4:8]):
+        try:
+            values["head_offset"] = static_mod.head_offset(trunk_frames(m, 0.0, 0.0)["head"].axes)
+        except ValueError as exc:
+            raise MocapError(f"{where}: {exc}") from None
+    subject = subject.with_values(values, f"{where}: static trial")
+    rule = "the given static offsets are its flat (or plain) calibration's"
+    return subject.with_values(flats, f"{where}: static trial ({rule})")
+
+
+def _given_flat(
+    subject: PigSubject, side: str, plain: tuple[float, float], flat: tuple[float, float]
+) -> bool:
+    """Whether the subject's given static offsets of ``side`` are the flat calibration's
+    (``flat``, within :data:`FLAT_MATCH`, nearer than ``plain``'s); False without them."""
+    names = (f"static_plantar_flex_{side}", f"static_rot_off_{side}")
+    if not all(n in subject.values for n in names):
+        return False
+    given = np.array([subject.pig(n) for n in names])
+    off_flat = float(np.max(np.abs(given - np.array(flat))))
+    off_plain = float(np.max(np.abs(given - np.array(plain))))
+    return off_flat <= FLAT_MATCH and off_flat < off_plain
 
 
 def _with_marker_measures(m: Markers, subject: PigSubject, where: str) -> PigSubject:
@@ -204,13 +253,14 @@ def plug_in_gait(
     widths = {s: subject.require(f"knee_width_{s}") for s in SIDES}
     feet = {s: static_mod.foot_length(m, s, subject.marker_radius) for s in SIDES}
     rot = np.eye(3) if to_lab is None else np.asarray(to_lab)
-    points = bone_points(segs, jc, widths, feet, upper=upper)
+    head = static_mod.head_size(m, subject.marker_radius)
+    points = bone_points(segs, jc, widths, feet, upper=upper, head_size=head)
     n = trajectory.n_frames
     numbers = trajectory.first_frame + np.arange(n) if frames is None else np.asarray(frames)
     return PigResult(
         times=np.asarray(trajectory.times),
         frames=numbers,
-        angles=all_angles(segs, prog),
+        angles=all_angles(segs, prog) | abs_ankle_angles(segs),
         points={k: v @ rot.T for k, v in points.items()},
         subject=subject,
         progression=rot @ prog[:, 0],
