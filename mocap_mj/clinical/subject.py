@@ -5,14 +5,17 @@ Sources, later ones overriding earlier ones:
 1. the C3D file's ``PROCESSING`` group, as Vicon Nexus writes it: the body measurements
    through :func:`mocap_mj.capture.subject.from_c3d` (``LLegLength``, ``LKneeWidth``, ...) and the
    Plug-in Gait values that are not body measurements (``LStaticPlantFlex``,
-   ``LStaticRotOff``, ``LTibialTorsion``; radians, as Nexus stores them);
+   ``LStaticRotOff``, ``LTibialTorsion``, ``HeadOffset``: radians, as Nexus stores them;
+   ``LSoleDelta`` in mm);
 2. a subject file (``--subject-file``): a Vicon ``.vsk`` or ``.mp`` file, in the names and
    units of the PROCESSING group (:mod:`mocap_mj.capture.vicon_subject`), or a YAML file:
    ``name: value``, the names of :data:`mocap_mj.capture.subject.MEASUREMENTS` (SI or
    with a unit, ``"877 mm"``) and of :data:`PIG_VALUES` (metres or radians, or with a unit,
-   ``"14.5 deg"``, ``"64 mm"``);
+   ``"14.5 deg"``, ``"64 mm"``; Nexus' static options ``flat_foot_l``, ``head_level``: true
+   or false, which no C3D records);
 3. the static trial (:mod:`mocap_mj.clinical.static`): the static plantar-flexion and
-   rotation offsets, and the inter-ASIS distance when none is given.
+   rotation offsets (flat or not: :func:`mocap_mj.clinical.model.calibrate`), the head
+   offset with ``head_level``, and the inter-ASIS distance when none is given.
 
 What is still missing takes Plug-in Gait's rule: the ASIS-trochanter distance (a
 measurement, :meth:`mocap_mj.capture.subject.Subject.asis_trochanter`) from the leg length, offsets
