@@ -238,3 +238,13 @@ def test_a_trial_whose_measurements_live_in_the_vsk_only(tmp_path):
     assert main(["plug-in-gait", "--markers", str(STATIC), "--out", str(tmp_path / "c3d")]) == 0
     ours = (tmp_path / "vsk" / "angles.csv").read_text()
     assert ours == (tmp_path / "c3d" / "angles.csv").read_text()
+
+
+def test_a_kad_offset_is_read_and_said_not_applied():
+    given = pig_from_numbers([("PROCESSING", "LThighRotation", 0.1)], "kad.c3d")
+    assert given.pig("thigh_rotation_l") == 0.1
+    res = plug_in_gait(_trajectory(_pose(5, 10, 15, 5)), _subject().update(given))
+    (note,) = [n for n in res.notes if "thigh_rotation_l" in n]
+    assert "5.73 deg (kad.c3d: PROCESSING:LThighRotation) is not applied" in note
+    plain = plug_in_gait(_trajectory(_pose(5, 10, 15, 5)), _subject())
+    assert not any("not applied" in n for n in plain.notes)

@@ -238,6 +238,7 @@ def plug_in_gait(
     if override is not None:  # and its offsets over the calibrations'
         subject = subject.update(override)
     subject = _with_marker_measures(m, subject, where)
+    notes += subject.not_applied()
     segs, jc = lower_body(m, subject, _inter_asis(m, subject), heel_foot=as_static)
     upper = all(n in m for n in UPPER_MARKERS) and all(
         subject.measured(f"{b}_{s}") is not None for b in UPPER for s in SIDES

@@ -54,6 +54,9 @@ PIG_VALUES: dict[str, tuple[str, str]] = {
             ("tibial_torsion", "rad", "tibial torsion"),
             ("sole_delta", "m", "heel's sole less the toe's (a flat foot's heel rise)"),
             ("flat_foot", "flag", "the static trial's foot stands flat (1) or not (0)"),
+            ("thigh_rotation", "rad", "thigh rotation offset (a KAD calibration's)"),
+            ("shank_rotation", "rad", "shank rotation offset (a KAD calibration's)"),
+            ("ankle_abadd", "rad", "ankle abduction offset (a KAD calibration's)"),
         )
     ),
     "head_offset": ("rad", "head pitch offset (0: the head markers' own frame)"),
@@ -102,7 +105,13 @@ _C3D_PIG = {
     "STATICROTOFF": ("static_rot_off", 1.0),
     "TIBIALTORSION": ("tibial_torsion", 1.0),
     "SOLEDELTA": ("sole_delta", 1e-3),
+    "THIGHROTATION": ("thigh_rotation", 1.0),
+    "SHANKROTATION": ("shank_rotation", 1.0),
+    "ANKLEABADD": ("ankle_abadd", 1.0),
 }
+#: Values read and reported but not applied: a KAD static's offsets of the knee and ankle
+#: chords, whose construction (Nexus's rotated chord) is not reproduced.
+NOT_APPLIED = ("thigh_rotation", "shank_rotation", "ankle_abadd")
 #: Plug-in Gait values without a side, by their Nexus name (upper case): name, scale to SI.
 _C3D_PIG_UNSIDED = {"HEADOFFSET": ("head_offset", 1.0)}
 #: Units of the Plug-in Gait values in a subject file.
@@ -176,6 +185,16 @@ class PigSubject:
                 "give it in the C3D PROCESSING group or --subject-file"
             )
         return value
+
+    def not_applied(self) -> list[str]:
+        """One line per non-zero value of :data:`NOT_APPLIED`, naming it and its source."""
+        return [
+            f"{name} {math.degrees(v):.3g} deg ({self.sources[name]}) is not applied: the "
+            "KAD's rotated knee and ankle chords are not reproduced (docs/clinical.md)"
+            for base in NOT_APPLIED
+            for name in (f"{base}_l", f"{base}_r")
+            if (v := self.values.get(name, 0.0)) != 0.0
+        ]
 
     def to_dict(self) -> dict[str, Any]:
         """Every value with its unit and source, for summary.json."""
