@@ -153,8 +153,8 @@ def calibrate(static: MarkerTrajectory, subject: PigSubject) -> PigSubject:
             raise MocapError(f"{where}: {exc}") from None
         told = subject.flag(f"flat_foot_{s}")
         if told is None:
-            told = _given_flat(subject, s, plain, flat)
-            flats[f"flat_foot_{s}"] = float(told)
+            told, why = _given_flat(subject, s, plain, flat)
+            flats[f"flat_foot_{s}"] = (float(told), why)
         flex, rot = flat if told else plain
         values[f"static_plantar_flex_{s}"] = flex
         values[f"static_rot_off_{s}"] = rot
@@ -164,22 +164,28 @@ def calibrate(static: MarkerTrajectory, subject: PigSubject) -> PigSubject:
         except ValueError as exc:
             raise MocapError(f"{where}: {exc}") from None
     subject = subject.with_values(values, f"{where}: static trial")
-    rule = "the given static offsets are its flat (or plain) calibration's"
-    return subject.with_values(flats, f"{where}: static trial ({rule})")
+    for name, (value, why) in flats.items():
+        subject = subject.with_values({name: value}, f"{where}: static trial ({why})")
+    return subject
 
 
 def _given_flat(
     subject: PigSubject, side: str, plain: tuple[float, float], flat: tuple[float, float]
-) -> bool:
+) -> tuple[bool, str]:
     """Whether the subject's given static offsets of ``side`` are the flat calibration's
-    (``flat``, within :data:`FLAT_MATCH`, nearer than ``plain``'s); False without them."""
+    (``flat``, within :data:`FLAT_MATCH`, nearer than ``plain``'s; False without them), and
+    why, for the value's source."""
     names = (f"static_plantar_flex_{side}", f"static_rot_off_{side}")
     if not all(n in subject.values for n in names):
-        return False
+        return False, "no static offsets given: not flat"
     given = np.array([subject.pig(n) for n in names])
     off_flat = float(np.max(np.abs(given - np.array(flat))))
     off_plain = float(np.max(np.abs(given - np.array(plain))))
-    return off_flat <= FLAT_MATCH and off_flat < off_plain
+    told = off_flat <= FLAT_MATCH and off_flat < off_plain
+    return told, (
+        f"the given offsets lie {off_flat:.1e} rad from its flat calibration, "
+        f"{off_plain:.1e} from its plain one"
+    )
 
 
 def _with_marker_measures(m: Markers, subject: PigSubject, where: str) -> PigSubject:
@@ -234,7 +240,10 @@ def plug_in_gait(
     as_static = _as_static(m, trial_type, static is not None, where)
     if as_static:
         subject = calibrate(trajectory, subject)
-        notes.append("static trial: its own offsets; the foot is the static model's (toe to heel)")
+        flat = [w for s, w in zip(SIDES, ("left", "right"), strict=True)
+                if subject.flag(f"flat_foot_{s}")]  # fmt: skip
+        foot = f"flat: {' and '.join(flat)}" if flat else "not flat"
+        notes.append(f"static trial: its own offsets; the foot is the static model's ({foot})")
     if override is not None:  # and its offsets over the calibrations'
         subject = subject.update(override)
     subject = _with_marker_measures(m, subject, where)
