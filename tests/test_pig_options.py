@@ -248,3 +248,27 @@ def test_a_kad_offset_is_read_and_said_not_applied():
     assert "5.73 deg (kad.c3d: PROCESSING:LThighRotation) is not applied" in note
     plain = plug_in_gait(_trajectory(_pose(5, 10, 15, 5)), _subject())
     assert not any("not applied" in n for n in plain.notes)
+
+
+@needs_shared
+def test_a_statics_processing_head_offset_turns_its_head(tmp_path):
+    import ezc3d
+
+    from mocap_mj.io.load import load_markers
+
+    copy = tmp_path / "head_offset.c3d"
+    c = ezc3d.c3d(str(STATIC))
+    c.add_parameter("PROCESSING", "HeadOffset", [0.29])
+    c.write(str(copy))
+    subject = pig_from_c3d(copy)
+    assert subject.pig("head_offset") == pytest.approx(0.29)
+    traj = load_markers(STATIC)
+    base, turned = plug_in_gait(traj, pig_from_c3d(STATIC)), plug_in_gait(traj, subject)
+    a, b = base.segments["head"].axes, turned.segments["head"].axes
+    np.testing.assert_allclose(b, a @ _ry(subject.pig("head_offset")), atol=1e-12)  # float32
+    tilt = np.degrees(
+        np.nanmean(turned.angles["LHeadAngles"][:, 0] - base.angles["LHeadAngles"][:, 0])
+    )
+    assert tilt == pytest.approx(-np.degrees(0.29), abs=0.5)  # the head stands nearly level
+    for name in ("LKneeAngles", "LThoraxAngles", "LShoulderAngles"):
+        np.testing.assert_array_equal(turned.angles[name], base.angles[name])
