@@ -272,3 +272,19 @@ def test_a_statics_processing_head_offset_turns_its_head(tmp_path):
     assert tilt == pytest.approx(-np.degrees(0.29), abs=0.5)  # the head stands nearly level
     for name in ("LKneeAngles", "LThoraxAngles", "LShoulderAngles"):
         np.testing.assert_array_equal(turned.angles[name], base.angles[name])
+
+
+def test_head_offset_turns_the_head_as_pycgm_does():
+    """pyCGM's ``headJC`` (cadop/pyCGM, its docstring's example: Sample_SM.vsk's HeadOffset on
+    four head markers [mm]) gives these axis points; pyCGM reproduces Nexus's head angles."""
+    head = {"RFHD": (325.82983398, 402.55450439, 1722.49816895),
+            "LFHD": (184.55158997, 409.68713379, 1721.34289551),
+            "RBHD": (304.39898682, 242.91339111, 1694.97497559),
+            "LBHD": (197.8621521, 251.28889465, 1696.90197754)}  # fmt: skip
+    m = Markers({k: np.array([v]) for k, v in head.items()}, 1)
+    seg = trunk_frames(m, 7.0, 0.2571990469310653)["head"]
+    pycgm = np.array([[255.21685583, 407.11593888, 1721.82538439],
+                      [254.19105385, 406.14680918, 1721.91767712],
+                      [255.1903437, 406.21600904, 1722.91599129]])  # fmt: skip
+    np.testing.assert_allclose(seg.origin[0], [255.19071198, 406.12081909, 1721.92053223])
+    np.testing.assert_allclose(seg.origin[0] + seg.axes[0].T, pycgm, atol=1e-7)
