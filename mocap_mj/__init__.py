@@ -38,7 +38,7 @@ __version__ = "0.1.0"
 #: The names imported on first use (PEP 562), so that ``import mocap_mj`` (and the command
 #: line's start, which must answer Ctrl-C from its first moment) does not load MuJoCo and
 #: the compiled kernels before they are needed. The identification API among them:
-#: ``mocap_mj.identify(trials, recipe, subject) -> Fit``
+#: ``mocap_mj.identify(recordings, recipe, subject) -> Fit``
 #: (:func:`mocap_mj.pipeline.api.identify`), ``write_result(fit, folder)``,
 #: ``solve_motion(model, trial) -> Motion``.
 _LAZY = {
