@@ -321,9 +321,9 @@ def test_a_joint_the_markers_leave_free_is_held_at_its_construction(
         hip_centre="harrington", landmarks=None, anatomical=True,
     )  # fmt: skip
     record = weighting["held_at_construction"]
-    assert record["joints"] == ["knee_l", "knee_r"] and record["kept"]
+    assert record.joints == ["knee_l", "knee_r"] and record.kept
     assert weighting["held_joints"] == ["knee_l", "knee_r"]
-    assert record["marker_rmse_mm"][1] <= HOLD_RMSE_RATIO * record["marker_rmse_mm"][0]
+    assert record.marker_rmse[1] <= HOLD_RMSE_RATIO * record.marker_rmse[0]
     assert violations(joint_checks(pset, result.theta, solved.subject)) == []
     # the knee centre is back where the construction puts it, within the row's width
     knee = _check(joint_checks(pset, result.theta, solved.subject), "knee_l", "centre medial")

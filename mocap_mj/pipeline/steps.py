@@ -72,6 +72,16 @@ class Refined:
     robust: Robust | None
 
 
+@dataclass(frozen=True)
+class HeldAtConstruction:
+    """A re-solve with joints held at their construction (:func:`_held_at_construction`):
+    the ``joints``, the marker RMSE [m] as first fitted and held, whether it was kept."""
+
+    joints: list[str]
+    marker_rmse: tuple[float, float]
+    kept: bool
+
+
 @dataclass(frozen=True, eq=False)
 class Solved:
     """The solve of :func:`solve_trials`: the parameter set solved with, the result, the
@@ -189,7 +199,7 @@ def _held_at_construction(
     :data:`~mocap_mj.anatomy.joint_checks.HOLD_RMSE_RATIO` (the markers were silent on where
     the joint lies), its weighting recording ``held_joints``; otherwise the first result
     stands, and its checks report what persists. Either way the weighting records
-    ``held_at_construction``: the joints, both marker RMSEs [mm] and whether it was kept."""
+    ``held_at_construction`` (:class:`HeldAtConstruction`)."""
     solve.pop("anatomical", None)
     subject, landmarks = solve["subject"], solve.get("landmarks")
     pset = solve["pset"]
@@ -201,8 +211,7 @@ def _held_at_construction(
     after = joint_checks(pset, held.theta, subject, landmarks, held_weighting.get("joint_axes"))
     fixed = not any(set(held_joints([c])) & set(joints) for c in after if c.violated)
     kept = fixed and held.marker_rmse <= HOLD_RMSE_RATIO * result.marker_rmse
-    record = {"joints": joints, "marker_rmse_mm": [result.marker_rmse * 1e3,
-              held.marker_rmse * 1e3], "kept": bool(kept)}  # fmt: skip
+    record = HeldAtConstruction(joints, (result.marker_rmse, held.marker_rmse), bool(kept))
     logger.info(
         "%s held at the construction: marker RMSE %.2f -> %.2f mm, %s", ", ".join(joints),
         result.marker_rmse * 1e3, held.marker_rmse * 1e3,

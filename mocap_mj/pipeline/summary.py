@@ -70,10 +70,14 @@ def fit_report(
     checks = joint_checks(pset, result.theta, solved.subject, solved.landmarks,
                           solved.weighting.get("joint_axes"))  # fmt: skip
     summary["anatomy_checks"] = checks_summary(checks)
-    held = summary["held_at_construction"] = solved.weighting.get("held_at_construction")
+    held = solved.weighting.get("held_at_construction")
+    summary["held_at_construction"] = None if held is None else {
+        "joints": held.joints, "marker_rmse_mm": [v * 1e3 for v in held.marker_rmse],
+        "kept": held.kept,
+    }  # fmt: skip
     note = ""
-    if held and not held["kept"]:
-        fitted, holding = held["marker_rmse_mm"]
+    if held and not held.kept:
+        fitted, holding = (v * 1e3 for v in held.marker_rmse)
         note = (f"; held at its construction the markers fit at {holding:.2f} mm RMSE "
                 f"({fitted:.2f} as fitted): they place it there, a marker misplaced?")  # fmt: skip
     summary["implausible"] += violations(checks, note)
