@@ -81,7 +81,9 @@ def register(sub: Any) -> None:
         "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
     )
     p.add_argument(
-        "--model", metavar="MJCF", help="initial MJCF model (default: the bundled humanoid)"
+        "--model",
+        metavar="MJCF",
+        help="initial MJCF model (default: the recipe's model, the bundled humanoid)",
     )
     _add_fit_options(p)
     add_quality_options(p)
@@ -98,16 +100,19 @@ def _add_fit_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--recipe",
         metavar="FILE",
-        help="YAML recipe: the identification's choices (initial model, anatomical priors "
-        "and ranges, left/right prior, frame selection, iterations, weak prior; "
+        help="YAML recipe: every choice of the identification (model, marker set, excluded "
+        "markers, frames, relabelling, strictness, initial model, anatomical priors and "
+        "ranges, left/right prior, frame selection, loss, iterations, weak prior; "
         "docs/cli.md#recipe); every result folder holds the recipe.yaml it was made with, so "
-        "--recipe DIR/recipe.yaml re-runs it (default: the defaults listed there)",
+        "--recipe DIR/recipe.yaml re-runs it bit for bit; a flag given (--model, "
+        "--marker-set, --exclude-markers, --frames, --loss, --no-relabel, --strict) replaces "
+        "its field (default: the defaults listed there)",
     )
     p.add_argument(
         "--frames",
         metavar="A:B",
         help="frames to fit, from A up to but excluding B, counted from 0 in every trial "
-        "(default: all)",
+        "(default: the recipe's frames, all)",
     )
     p.add_argument(
         "--loss",
