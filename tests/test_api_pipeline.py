@@ -6,7 +6,6 @@ the command bit for bit; a flag given overrides its recipe field."""
 
 from __future__ import annotations
 
-import json
 import logging
 from dataclasses import replace
 from pathlib import Path
@@ -119,3 +118,23 @@ def test_a_recipe_holds_frames_exclusions_and_loss_and_a_flag_overrides_it(
     written = mocap_mj.Recipe.load(tmp_path / "other" / "recipe.yaml")
     assert written == replace(recipe, frames="0:140")
     assert not np.array_equal(other, by_command)
+
+
+def test_the_recipes_run_fields_round_trip_and_bad_ones_are_one_line(tmp_path: Path) -> None:
+    recipe = mocap_mj.Recipe(
+        model="base.xml", marker_set="plug_in_gait_medial", exclude_markers=["RFIN", "LFIN"],
+        frames="10:-5", relabel=False, strict=True,
+    )  # fmt: skip
+    assert recipe.exclude_markers == ("RFIN", "LFIN")
+    recipe.save(tmp_path / "r.yaml")
+    assert mocap_mj.Recipe.load(tmp_path / "r.yaml") == recipe
+    for text, words in (
+        ("frames: 1-2\n", ["bad.yaml", "--frames", "1-2"]),
+        ("exclude_markers: RFIN\n", ["bad.yaml", "exclude_markers"]),
+        ("relabel: no way\n", ["bad.yaml", "relabel"]),
+        ("marker_set: 3\n", ["bad.yaml", "marker_set", "3"]),
+    ):
+        (tmp_path / "bad.yaml").write_text(text)
+        with pytest.raises(mocap_mj.InputFileError) as err:
+            mocap_mj.Recipe.load(tmp_path / "bad.yaml")
+        assert "\n" not in str(err.value) and all(w in str(err.value) for w in words), err.value
