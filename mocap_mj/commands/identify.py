@@ -39,8 +39,7 @@ from mocap_mj.io.atomic import atomic_write_text
 from mocap_mj.io.ownership import scratch_folder
 from mocap_mj.outputs.write_fit import frame_range, result_text, write_result
 from mocap_mj.pipeline.api import Hooks, identify_prepared, select_count
-from mocap_mj.pipeline.prepare import ModelChoice, Prepared, Recording
-from mocap_mj.pipeline.prepare import prepare as prepare_trials
+from mocap_mj.pipeline.prepare import ModelChoice, Prepared, Recording, checked, selected
 from mocap_mj.pipeline.recipe import Recipe
 from mocap_mj.skeleton import prewarm
 from mocap_mj.skeleton.mjcf import load_model
@@ -139,13 +138,14 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
     pset = model.pset
     loaded = [load_trial(path, pset.marker_names, args, scratch) for path in args.markers]
     read_seconds = time.perf_counter() - t0
-    subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
-    kinetics = prepare(args, [str(t.path) for t in loaded], subject.get("mass"))
     recordings = [
         Recording(t.path, t.markers, t.times, t.rate, t.first_frame, own=True) for t in loaded
     ]  # the command's own copies: labels are corrected, ghosts dropped in them
+    chosen = selected(recordings, recipe, pset)  # frames, exclusions, usable frames
+    subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
+    kinetics = prepare(args, [str(t.path) for t in loaded], subject.get("mass"))
     with notices_to_stderr(args.command):  # after every bad-input error but the library's
-        prepared = prepare_trials(recordings, recipe, subject, model)
+        prepared = checked(chosen, recipe, subject, model)
     count = select_count(recipe.select, sum(len(t.markers) for t in prepared.trials),
                          len(prepared.trials))  # fmt: skip
     return into_out_folder(

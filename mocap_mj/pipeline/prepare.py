@@ -1,17 +1,18 @@
 """The trials as :func:`mocap_mj.identify` fits them, from the recordings: :func:`prepare`.
 
 From each recording (what :func:`mocap_mj.io.load_markers` returns, a
-:class:`~mocap_mj.solve.problem.TrialData` in the model's marker order, or a
-:class:`Recording`) to the trials of the fit, as ``mocap-mj identify`` does it: the model of
-the recipe's marker set (:mod:`~mocap_mj.pipeline.marker_model`; detected from the labels
-when none is named), the recipe's frames and excluded markers, the bad-input checks, the joint
-widths the set's landmark pairs measure and its markers' radius, then the quality check with
-the correction of exchanged labels (:mod:`~mocap_mj.pipeline.quality`), the ghost and jump
-samples dropped, and under ``recipe.strict`` the refusal of a misplaced T10. Notices (each
-correction, each warning) go to the logger ``mocap_mj.notices`` as they are found.
+:class:`~mocap_mj.solve.problem.TrialData` in the model's marker order, or a :class:`Recording`)
+to the trials of the fit, as ``mocap-mj identify`` does it: the model of the recipe's marker set
+(:mod:`~mocap_mj.pipeline.marker_model`; detected from the labels when none is named), the
+recipe's frames and excluded markers, the bad-input checks (:func:`selected`), then
+(:func:`checked`) the joint widths the set's landmark pairs measure and its markers' radius,
+then the quality check with the correction of exchanged labels
+(:mod:`~mocap_mj.pipeline.quality`), the ghost and jump samples dropped, and under
+``recipe.strict`` the refusal of a misplaced T10. Notices (each correction, each warning) go to
+the logger ``mocap_mj.notices`` as they are found.
 
-A recording's markers are copied before they are corrected, unless a :class:`Recording`
-says they are the pipeline's own (the command line's scratch copy of a long recording).
+A recording's markers are copied before they are corrected, unless a :class:`Recording` says
+they are the pipeline's own (the command line's scratch copy of a long recording).
 """
 
 from __future__ import annotations
@@ -155,16 +156,33 @@ def _rate(times: np.ndarray) -> float:
     return float(1.0 / np.median(steps)) if len(steps) and np.median(steps) > 0 else 100.0
 
 
+class Selected(NamedTuple):
+    """The recipe's frames of each recording, its excluded markers' data dropped
+    (:func:`selected`): the trials, each one's first frame in its recording's numbering,
+    the recordings' rates [Hz] and the markers excluded."""
+
+    trials: list[TrialData]
+    first_frames: list[int]
+    rates: list[float]
+    excluded: tuple[str, ...]
+
+
 def prepare(
     recordings: Sequence[Recording],
     recipe: Recipe,
     subject: Subject | None,
     model: ModelChoice,
 ) -> Prepared:
-    """The trials of the fit of ``recordings`` as ``recipe`` says (the module's text): bad
-    input raises :class:`~mocap_mj.errors.MocapError` before the quality check notices
-    anything."""
-    pset = model.pset
+    """The trials of the fit of ``recordings`` as ``recipe`` says (the module's text):
+    :func:`selected`, then :func:`checked`. Bad input raises
+    :class:`~mocap_mj.errors.MocapError` before the quality check notices anything."""
+    return checked(selected(recordings, recipe, model.pset), recipe, subject, model)
+
+
+def selected(recordings: Sequence[Recording], recipe: Recipe, pset: ParameterSet) -> Selected:
+    """The recipe's frames and excluded markers of ``recordings`` (markers copied unless the
+    pipeline's own), each trial refused unless some frame is usable
+    (:func:`~mocap_mj.capture.checks.check_markers`)."""
     excluded = parse_marker_list(",".join(recipe.exclude_markers), pset.marker_names)
     trials, firsts = [], []
     for r in recordings:
@@ -177,16 +195,26 @@ def prepare(
                                 np.asarray(r.times[sl], dtype=float)))  # fmt: skip
         check_markers(r.name, pset.marker_names, trials[-1].markers,
                       recorded_floor(trials[-1].markers))  # fmt: skip
+    return Selected(trials, firsts, [r.rate for r in recordings], excluded)
+
+
+def checked(
+    chosen: Selected, recipe: Recipe, subject: Subject | None, model: ModelChoice
+) -> Prepared:
+    """``chosen``'s trials with the subject's widths the set's landmarks measure, then the
+    quality check and the labels' correction, the ghost and jump samples dropped, and under
+    ``recipe.strict`` a misplaced T10 refused."""
+    pset, trials, firsts = model.pset, chosen.trials, chosen.first_frames
     landmarks, bodies = set_landmarks(model.set_file, recipe.model)
     subject = with_set_radius(model.set_file, subject or Subject())
     subject = with_measured_widths(landmarks, bodies, pset.marker_names, trials, subject)
     check_select(recipe.select, len(trials))  # before any notice
-    checked = [
-        Checked(t.name, t.markers, r.rate, f)
-        for t, r, f in zip(trials, recordings, firsts, strict=True)
+    checks = [
+        Checked(t.name, t.markers, rate, f)
+        for t, rate, f in zip(trials, chosen.rates, firsts, strict=True)
     ]
     policy = Policy(strict=recipe.strict, relabel=recipe.relabel, one_model=True)
-    found, quality = check_trials(pset, checked, excluded, policy)
+    found, quality = check_trials(pset, checks, chosen.excluded, policy)
     trials = [
         t._replace(markers=without_ghosts(t.markers, pset, found, t.name, f))
         for t, f in zip(trials, firsts, strict=True)
