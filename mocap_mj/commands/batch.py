@@ -18,7 +18,6 @@ import os
 import sys
 import time
 from collections.abc import Iterator
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -32,14 +31,8 @@ from mocap_mj.commands.common import (
     write_summary,
 )
 from mocap_mj.commands.registry import build_parser
-from mocap_mj.io import load_markers
-from mocap_mj.io.labels import file_labels
 from mocap_mj.kernels._threads import one_blas_thread
-from mocap_mj.outputs.write_fit import write_result
-from mocap_mj.pipeline.api import identify_prepared
 from mocap_mj.pipeline.fit import Fit
-from mocap_mj.pipeline.prepare import Recording, model_of, prepare
-from mocap_mj.pipeline.recipe import Recipe
 from mocap_mj.skeleton.parameters import ParameterSet
 
 from ..batch.dataset import FLAGS, OPTION_KEYS, Subject, load_dataset
@@ -48,9 +41,7 @@ from ..batch.run import have_ray, one_line, prepare_out, run_batch
 from ..errors import MocapError
 from ._inputs import refuse_out_holding_inputs
 from ._markers import load_trial
-from ._quality import notices_to_stderr
 from ._removed import add_removed_flags
-from ._subject import subject_from_args
 
 #: ``--timeout``: seconds one subject may take [s]. Generous: identifying a subject from a
 #: few trials and tracking them takes a few minutes on one core.
@@ -272,38 +263,30 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
 
 
 def _identify(opts: dict[str, Any], paths: list[str], subject_file: str | None, out: Path) -> Fit:
-    """The subject's identification by the library (:func:`~mocap_mj.pipeline.prepare.prepare`,
-    :func:`~mocap_mj.pipeline.api.identify_prepared`) from the trials ``paths``, read with the
-    dataset's options (vertical axis, label map, the file's subject prefix), its recipe with
-    the options' model, frames and excluded markers; written into ``out`` as ``identify``
-    writes it, its notices on stderr as ``identify`` prints them."""
-    given: dict[str, Any] = {
-        "model": opts.get("model"),
-        "frames": opts.get("frames"),
-        "exclude_markers": None
-        if opts.get("exclude_markers") is None
-        else tuple(n.strip() for n in str(opts["exclude_markers"]).split(",") if n.strip()),
-    }
-    recipe = Recipe.load(opts["recipe"]) if opts.get("recipe") else Recipe()
-    recipe = replace(recipe, **{k: v for k, v in given.items() if v is not None})
-    reading = {"subject": opts.get("file_subject"), "marker_map": opts.get("marker_map")}
-    labels: list[str] = []
-    for path in paths:
-        labels += [n for n in file_labels(path, **reading) if n not in labels]
-    model = model_of(recipe, labels)
-    names = model.pset.marker_names
-    recordings = []
-    for path in paths:
-        traj = load_markers(path, **reading, up=opts.get("up"), model_names=names)
-        recordings.append(Recording(path, traj.select(names), traj.times, traj.rate,
-                                    traj.first_frame, own=True))  # fmt: skip
-    measured = subject_from_args(argparse.Namespace(subject_file=subject_file), paths)
-    with notices_to_stderr("identify"):
-        prepared = prepare(recordings, recipe, measured, model)
-    fit = identify_prepared(prepared, None, recipe.settings())
-    with output_folder(out) as staging:
-        summary = write_result(fit, staging, inputs={"markers_files": paths}, force=True)
-        write_summary(staging, with_exit_status(summary))
+    """The subject's identification from the trials ``paths``: the library's
+    (:func:`~mocap_mj.pipeline.api.identify_prepared`, through identify's reading and
+    writing, :func:`~mocap_mj.commands.identify.checked_inputs` and
+    :func:`~mocap_mj.commands.identify.identified`), with the dataset's options (vertical
+    axis, label map, the file's subject prefix; the recipe, its model, frames and excluded
+    markers); written into ``out`` as ``identify`` writes it, its notices on stderr."""
+    from mocap_mj.io.ownership import scratch_folder
+
+    from .identify import checked_inputs, identified, recipe_from_args
+
+    args = argparse.Namespace(
+        command="identify", markers=paths, out=str(out), json=True, force=False,
+        subject=opts.get("file_subject"), marker_map=opts.get("marker_map"), up=opts.get("up"),
+        units=None, model=opts.get("model"), marker_set=None, recipe=opts.get("recipe"),
+        loss=None, frames=opts.get("frames"), exclude_markers=opts.get("exclude_markers"),
+        no_relabel=False, strict=False, subject_file=subject_file, height=None, mass=None,
+        forces=None,
+    )  # fmt: skip
+    recipe = recipe_from_args(args)
+    with scratch_folder(prefix="mocap-mj-batch-") as scratch:
+        inputs = checked_inputs(args, recipe, Path(scratch))
+        with output_folder(out) as staging:
+            fit, summary, _ = identified(args, inputs, staging)
+            write_summary(staging, with_exit_status(summary))
     return fit
 
 

@@ -28,7 +28,7 @@ import sys
 import time
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, get_args
+from typing import Any, NamedTuple, get_args
 
 import numpy as np
 
@@ -39,6 +39,7 @@ from mocap_mj.io.atomic import atomic_write_text
 from mocap_mj.io.ownership import scratch_folder
 from mocap_mj.outputs.write_fit import frame_range, result_text, write_result
 from mocap_mj.pipeline.api import Hooks, identify_prepared, select_count
+from mocap_mj.pipeline.fit import Fit
 from mocap_mj.pipeline.prepare import ModelChoice, Prepared, Recording, checked, selected
 from mocap_mj.pipeline.recipe import Recipe
 from mocap_mj.skeleton import prewarm
@@ -129,8 +130,27 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace, scratch: Path) -> int:
+    inputs = checked_inputs(args, recipe_from_args(args), scratch)
+    return into_out_folder(args, lambda out: identified(args, inputs, out)[1:])
+
+
+class Inputs(NamedTuple):
+    """What :func:`checked_inputs` gives :func:`identified`: the fit's trials, the loaded
+    files, the frames to select (None: all), the reading time [s] and the plates."""
+
+    prepared: Prepared
+    loaded: list[Any]
+    frames_selected: int | None
+    read_seconds: float
+    kinetics: KineticsPrepared
+
+
+def checked_inputs(args: argparse.Namespace, recipe: Recipe, scratch: Path | None) -> Inputs:
+    """The marker files of ``args.markers`` read as the reading flags say (long ones chunk by
+    chunk into ``scratch``) and prepared for the fit as ``recipe`` says
+    (:mod:`mocap_mj.pipeline.prepare`), the subject's measurements and the plates read; every
+    bad input refused before the quality check's notices (on stderr)."""
     t0 = time.perf_counter()
-    recipe = recipe_from_args(args)
     # the recipe's choices where the command reads them (the model, the frames of kinetics)
     args.model, args.marker_set, args.frames = recipe.model, recipe.marker_set, recipe.frames
     args.marker_set_record = choose_marker_set(args, list(args.markers))
@@ -148,10 +168,7 @@ def _run(args: argparse.Namespace, scratch: Path) -> int:
         prepared = checked(chosen, recipe, subject, model)
     count = select_count(recipe.select, sum(len(t.markers) for t in prepared.trials),
                          len(prepared.trials))  # fmt: skip
-    return into_out_folder(
-        args,
-        lambda out: _identify(args, prepared, loaded, out, count, read_seconds, kinetics),
-    )
+    return Inputs(prepared, loaded, count, read_seconds, kinetics)
 
 
 def recipe_from_args(args: argparse.Namespace) -> Recipe:
@@ -232,15 +249,13 @@ def _write_kinetics(
     return section
 
 
-def _identify(
-    args: argparse.Namespace,
-    prepared: Prepared,
-    loaded: list[Any],
-    out: Path,
-    count: int | None,
-    read_seconds: float | None,
-    kinetics: KineticsPrepared | None,
-) -> tuple[dict[str, Any], str]:
+def identified(
+    args: argparse.Namespace, inputs: Inputs, out: Path
+) -> tuple[Fit, dict[str, Any], str]:
+    """The library's fit of ``inputs`` (:func:`~mocap_mj.pipeline.api.identify_prepared`)
+    written into ``out`` (:func:`~mocap_mj.outputs.write_fit.write_result`, the kinetics);
+    the fit, the summary and the output's text."""
+    prepared, loaded, count, read_seconds, kinetics = inputs
     prewarm.start()  # the identification kernels compile on the other core meanwhile
     from .progress import frames_bar, progress_bar
 
@@ -295,4 +310,4 @@ def _identify(
         at_bound=summary["kappa_at_bound"],
         at_limit=summary["joints_at_limit"],
     )
-    return summary, text + plaus
+    return fit, summary, text + plaus
