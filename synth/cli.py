@@ -140,7 +140,9 @@ def run(args: argparse.Namespace) -> int:
         if args.plates:
             from .plates import write_plate_c3d
 
-            files.append(write_plate_c3d(out / "plates.c3d", exp, out / "truth_model.xml", mass).name)
+            files.append(
+                write_plate_c3d(out / "plates.c3d", exp, out / "truth_model.xml", mass).name
+            )
         return files
 
     summary = write_experiment(exp, args.out, force=args.force, extra=extra)

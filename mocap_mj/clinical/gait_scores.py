@@ -50,6 +50,7 @@ GPS_VARIABLES = (
     ("FootProgressAngles_Z", "foot progression"),
 )  # fmt: skip
 PELVIS = ("PelvisAngles_X", "PelvisAngles_Y", "PelvisAngles_Z")
+SIDES = ("left", "right")
 
 
 def unit_scale(variable: str) -> float:
@@ -108,9 +109,9 @@ def read_normative(path: str | os.PathLike[str]) -> Normative:
     for name, rows in points.items():
         if len(rows) < 2:
             raise InputFileError(f"{file}: {name}: expected at least two points of the cycle")
-        pct, mean, sd = (np.array(c) for c in zip(*rows, strict=True))
+        at, means, sds = (np.array(c) for c in zip(*rows, strict=True))
         scale = unit_scale(name)
-        curves[name] = (np.interp(PERCENT, pct, mean) / scale, np.interp(PERCENT, pct, sd) / scale)
+        curves[name] = (np.interp(PERCENT, at, means) / scale, np.interp(PERCENT, at, sds) / scale)
     return Normative(str(file), curves)
 
 
@@ -123,9 +124,7 @@ class Scores:
     gps: dict[str, float]
 
 
-def scores(
-    curves: Mapping[tuple[str, int, str], np.ndarray], normative: Normative
-) -> Scores | str:
+def scores(curves: Mapping[tuple[str, int, str], np.ndarray], normative: Normative) -> Scores | str:
     """The GVS and GPS (module docstring) of the cycles' ``curves`` ((side, cycle, variable
     without its side's prefix, e.g. ``KneeAngles``) -> (101, 3) [rad], as
     :func:`~mocap_mj.clinical.cycles.resample_all` gives them) against ``normative``; a
@@ -134,7 +133,7 @@ def scores(
     if lacking:
         return f"{normative.source}: no normative curve of {', '.join(lacking)}: no GVS or GPS"
     gvs: dict[tuple[str, str], tuple[float, int]] = {}
-    for side in ("left", "right"):
+    for side in SIDES:
         for variable, _ in GPS_VARIABLES:
             if side == "right" and variable in PELVIS:
                 continue
@@ -147,7 +146,7 @@ def scores(
             ]
             gvs[(side, variable)] = (float(np.mean(values)) if values else np.nan, len(values))
     pelvis = [gvs[("left", v)][0] for v in PELVIS]
-    legs = {s: [gvs[(s, v)][0] for v, _ in GPS_VARIABLES if v not in PELVIS] for s in ("left", "right")}
+    legs = {s: [gvs[(s, v)][0] for v, _ in GPS_VARIABLES if v not in PELVIS] for s in SIDES}
 
     def rms(values: list[float]) -> float:
         return float(np.sqrt(np.mean(np.square(values))))

@@ -76,9 +76,7 @@ def gait_report_files(
     names = _names([r.path for r in runs])
     for i, run in enumerate(runs):
         found = list(events[i]) if events is not None else trial_events(run.path, run.trial)
-        trials.append(
-            trial_cycles(names[i], found, run.trial, run.result.angles, run.kinetics)
-        )
+        trials.append(trial_cycles(names[i], found, run.trial, run.result.angles, run.kinetics))
         notes += [f"{names[i]}: {n}" for n in run.notes]
     subject = runs[0].result.subject.to_dict() if runs else {}
     entry = write_gait_report(out, trials, normative, subject, notes)

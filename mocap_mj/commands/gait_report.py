@@ -79,9 +79,7 @@ def run(args: argparse.Namespace) -> int:
             "gait_report": entry,
         }
         counts = [n for t in entry["cycles"].values() for n in t.values()]
-        scores = entry["scores_omitted"] or (
-            f"GPS {entry['gps_deg']['overall']:.2f} deg overall"
-        )
+        scores = entry["scores_omitted"] or (f"GPS {entry['gps_deg']['overall']:.2f} deg overall")
         text = (
             f"gait-report: {sum(counts)} cycles of {len(runs)} trials "
             f"({len(entry['dropped'])} dropped or without kinetics); {scores} -> {args.out}"

@@ -148,11 +148,17 @@ def write_gait_report(
     files.append("report.html")
     return {
         "files": files,
-        "cycles": {t.name: {s: sum(c.side == s for c in t.cycles) for s in ("left", "right")}
-                   for t in trials},  # fmt: skip
+        "cycles": {t.name: _counts(t) for t in trials},
         "dropped": [d for t in trials for d in t.dropped],
         "normative": normative.source if normative else None,
         "scores_omitted": result if isinstance(result, str) else None,
-        "gps_deg": None if isinstance(result, str)
-        else {k: float(np.degrees(v)) for k, v in result.gps.items()},
+        "gps_deg": None if isinstance(result, str) else _degrees(result.gps),
     }
+
+
+def _counts(trial: TrialCycles) -> dict[str, int]:
+    return {s: sum(c.side == s for c in trial.cycles) for s in ("left", "right")}
+
+
+def _degrees(values: Mapping[str, float]) -> dict[str, float]:
+    return {k: float(np.degrees(v)) for k, v in values.items()}
