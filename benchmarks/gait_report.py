@@ -104,8 +104,10 @@ def command(frames: int) -> None:
         seconds = time.perf_counter() - t0
         html = folder / "r" / "report.html"
         size = html.stat().st_size / 1e3 if html.is_file() else float("nan")
-        print(f"gait-report on {frames} frames: exit {done.returncode}, {seconds:.1f} s wall "
-              f"(process start included), report.html {size:.0f} kB")
+        print(
+            f"gait-report on {frames} frames: exit {done.returncode}, {seconds:.1f} s wall "
+            f"(process start included), report.html {size:.0f} kB"
+        )
 
 
 def main() -> None:

@@ -4,6 +4,7 @@ parameters, curves against a normative band, the Gait Profile Score)."""
 from __future__ import annotations
 
 import argparse
+import shutil
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -11,6 +12,7 @@ from typing import Any
 from mocap_mj.commands._gait import add_events_option
 from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder
 from mocap_mj.commands.plug_in_gait import add_report_options
+from mocap_mj.errors import MocapError
 
 
 def register(sub: Any) -> None:
@@ -31,7 +33,15 @@ def register(sub: Any) -> None:
         required=True,
         nargs="+",
         metavar="TRIAL",
-        help="walking trials of one subject with the Plug-in Gait markers (C3D, TRC...)",
+        help="walking trials of one subject (C3D, TRC...): with Plug-in Gait's markers its "
+        "angles from them; with another set the angles, in Plug-in Gait's conventions, of the "
+        "model mocap-mj identify identifies on the trials (kept as OUT/model.xml)",
+    )
+    p.add_argument(
+        "--marker-set",
+        metavar="SET",
+        help="for a set other than Plug-in Gait's: the marker set of the identification, as "
+        "identify --marker-set (default: detected from the labels)",
     )
     p.add_argument(
         "--static",
@@ -61,29 +71,68 @@ def register(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ._gait import gait_report_files, read_inputs
-    from .plug_in_gait import pig_run
+    from ..io.load import load_markers
+    from ..io.ownership import scratch_folder
+    from ._gait import identified_trials, is_plug_in_gait, read_inputs
 
     normative, events = read_inputs(args, args.markers)
-    runs = [pig_run(args, path) for path in args.markers]
-
-    def work(out: Path) -> tuple[Mapping[str, Any], str]:
-        entry = gait_report_files(out, runs, normative, events)
-        summary = {
-            "command": "gait-report",
-            "markers": list(args.markers),
-            "static": args.static,
-            "out": str(args.out),
-            "angles": "Plug-in Gait's, from the markers",
-            "subject": runs[0].result.subject.to_dict(),
-            "gait_report": entry,
-        }
-        counts = [n for t in entry["cycles"].values() for n in t.values()]
-        scores = entry["scores_omitted"] or (f"GPS {entry['gps_deg']['overall']:.2f} deg overall")
-        text = (
-            f"gait-report: {sum(counts)} cycles of {len(runs)} trials "
-            f"({len(entry['dropped'])} dropped or without kinetics); {scores} -> {args.out}"
+    kinds = [is_plug_in_gait(load_markers(p)) for p in args.markers]
+    if any(kinds) and not all(kinds):
+        raise MocapError(
+            "--markers: expected trials of one marker set, got Plug-in Gait's in "
+            f"{', '.join(p for p, k in zip(args.markers, kinds, strict=True) if k)} only"
         )
-        return summary, text
+    with scratch_folder(prefix="mocap-mj-gait-") as scratch:
+        if all(kinds):
+            trials, subject, source = _pig_trials(args)
+        else:  # another set: the angles of the model identified on the trials
+            trials, source = identified_trials(args, args.markers, scratch)
+            subject = {}
+        return into_out_folder(
+            args, lambda out: _work(args, out, trials, subject, source, normative, events)
+        )
 
-    return into_out_folder(args, work)
+
+def _pig_trials(args: argparse.Namespace) -> tuple[list[Any], dict[str, Any], dict[str, Any]]:
+    from .plug_in_gait import gait_trial, pig_run
+
+    runs = [pig_run(args, path) for path in args.markers]
+    source = {"angles": "Plug-in Gait's, from the markers"}
+    return [gait_trial(r) for r in runs], runs[0].result.subject.to_dict(), source
+
+
+def _work(
+    args: argparse.Namespace,
+    out: Path,
+    trials: list[Any],
+    subject: dict[str, Any],
+    source: dict[str, Any],
+    normative: Any,
+    events: Any,
+) -> tuple[Mapping[str, Any], str]:
+    from ._gait import gait_report_files
+
+    notes = [f"angles: {source['angles']}"]
+    if "model" in source:  # the identified model, kept beside the report
+        shutil.copyfile(source["model"], out / "model.xml")
+        source = {**source, "model": "model.xml"}
+        rmse = source.get("marker_rmse_mm")
+        shown = f"{rmse:.2f} mm" if isinstance(rmse, float) else "unknown"
+        notes.append(f"the model identified on the trials (model.xml): marker RMSE {shown}")
+    entry = gait_report_files(out, trials, normative, events, subject, notes)
+    summary = {
+        "command": "gait-report",
+        "markers": list(args.markers),
+        "static": args.static,
+        "out": str(args.out),
+        **source,
+        "subject": subject,
+        "gait_report": entry,
+    }
+    counts = [n for t in entry["cycles"].values() for n in t.values()]
+    scores = entry["scores_omitted"] or f"GPS {entry['gps_deg']['overall']:.2f} deg overall"
+    text = (
+        f"gait-report: {sum(counts)} cycles of {len(trials)} trials "
+        f"({len(entry['dropped'])} dropped or without kinetics); {scores} -> {args.out}"
+    )
+    return summary, text

@@ -133,6 +133,13 @@ def pig_run(args: argparse.Namespace, path: str) -> PigRun:
     return PigRun(path, trial, result, kinetics, notes)
 
 
+def gait_trial(run: PigRun) -> Any:
+    """The run as a trial of the gait report (:class:`~mocap_mj.commands._gait.GaitTrial`)."""
+    from ._gait import GaitTrial
+
+    return GaitTrial(run.path, run.trial, run.result.angles, run.kinetics, tuple(run.notes))
+
+
 def run(args: argparse.Namespace) -> int:
     from mocap_mj.outputs.plug_in_gait import write_all
 
@@ -150,7 +157,9 @@ def run(args: argparse.Namespace) -> int:
         summary["kinetics"] = sorted(kinetics) if kinetics else []
         summary["kinetics_notes"] = kinetic_notes
         if report:
-            summary["gait_report"] = gait_report_files(out, [pig], normative, events)
+            subject = result.subject.to_dict()
+            entry = gait_report_files(out, [gait_trial(pig)], normative, events, subject)
+            summary["gait_report"] = entry
         text = (
             f"plug-in-gait: {len(result.angles)} angles, {len(result.points)} bone points, "
             f"{len(kinetics or {})} kinetic outputs, {trial.n_frames} frames "

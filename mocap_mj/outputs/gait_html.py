@@ -124,7 +124,12 @@ def report_html(
     parts.append("<h2>Scores (Baker et al. 2009)</h2>" + _scores(result))
     rows = [[n, _number(float(v["value"]), 6), str(v["unit"]), str(v["source"])]
             for n, v in subject.items()]  # fmt: skip
-    parts.append("<h2>Subject values</h2>" + _table(["name", "value", "unit", "source"], rows))
+    table = (
+        _table(["name", "value", "unit", "source"], rows)
+        if rows
+        else ("<p>None: the angles are the identified model's, which needs no measurement.</p>")
+    )
+    parts.append("<h2>Subject values</h2>" + table)
     return "".join(parts) + "</body></html>\n"
 
 
