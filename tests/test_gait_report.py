@@ -173,3 +173,41 @@ def test_plug_in_gait_report_with_kinetics_on_the_movement_trial(tmp_path: Path)
     html = (out / "report.html").read_text()
     assert 'alt="kinematics"' in html and 'alt="kinetics"' in html
     assert {"angles.csv", "kinetics.csv", "report.md"} <= {p.name for p in out.iterdir()}
+
+
+def test_marker_sets_told_apart_and_mixed_trials_refused(
+    walk: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A Plug-in Gait trial's angles come from its markers, another set's from an identified
+    model; trials of both in one report are refused before any output."""
+    from mocap_mj.commands._gait import is_plug_in_gait
+    from mocap_mj.io import load_markers, save_csv
+
+    pig = load_markers(walk / "synth" / "markers.trc")
+    assert is_plug_in_gait(pig)
+    keep = [i for i, n in enumerate(pig.names) if n not in ("LTHI", "SACR", "LPSI")]
+    other = pig.__class__(
+        pig.times, pig.positions[:, keep], tuple(pig.names[i] for i in keep), pig.rate
+    )
+    assert not is_plug_in_gait(other)
+    save_csv(tmp_path / "other.csv", other)
+    out = tmp_path / "out"
+    argv = ["gait-report", "--markers", str(walk / "synth" / "markers.trc"),
+            str(tmp_path / "other.csv"), "--out", str(out)]  # fmt: skip
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "expected trials of one marker set" in err[0]
+    assert not out.exists()
+
+
+def test_events_files_one_per_trial(
+    walk: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    synth = walk / "synth"
+    out = tmp_path / "out"
+    events = str(synth / "truth_events.csv")
+    argv = ["gait-report", "--markers", str(synth / "markers.trc"), "--events", events,
+            events, "--out", str(out)]  # fmt: skip
+    assert cli.main(argv) == 2
+    assert "--events: expected one events.csv per marker file (1), got 2" in capsys.readouterr().err
+    assert not out.exists()
