@@ -13,7 +13,7 @@ import pytest
 from mocap_mj.capture.events import GaitEvent, events_from_c3d, events_from_kinematics
 from mocap_mj.clinical.cycles import PERCENT, gait_cycles, resample
 from mocap_mj.clinical.gait_scores import GPS_VARIABLES, read_normative, scores
-from mocap_mj.clinical.spatiotemporal import cycle_parameters, summary_rows
+from mocap_mj.clinical.spatiotemporal import PARAMETERS, cycle_parameters, summary_rows
 from mocap_mj.errors import InputFileError
 from mocap_mj.io import load_markers
 
@@ -176,3 +176,22 @@ def test_bad_normative_file_names_the_line(tmp_path: Path, text: str, where: str
     path.write_text(text)
     with pytest.raises(InputFileError, match=where):
         read_normative(path)
+
+
+def test_implausible_cycles_are_said() -> None:
+    """A side whose mean stride lasts 5 s (a missed strike, a trial that is no walk) is
+    implausible; a usual stride is not."""
+    from mocap_mj.outputs.gait_report import TrialCycles, implausible
+
+    def trial(stride_s: float) -> TrialCycles:
+        cycle = gait_cycles(
+            [_e("left", "foot_strike", 0.1), _e("left", "foot_off", 0.1 + 0.6 * stride_s),
+             _e("left", "foot_strike", 0.1 + stride_s)], np.arange(0.0, 8.0, 0.01),
+        )[0][0]  # fmt: skip
+        params = {"stride_time_s": stride_s, "walking_speed_m_s": 1.3 / stride_s,
+                  "stance_pct": cycle.percent(cycle.foot_off)}  # fmt: skip
+        full = {n: params.get(n, np.nan) for n in PARAMETERS}
+        return TrialCycles("t", [cycle], [], {}, {}, [full])
+
+    assert implausible([trial(1.1)]) == []
+    assert implausible([trial(5.0)]) == ["left stride_time_s 5: expected 0.4 to 4"]

@@ -128,6 +128,7 @@ def _work(
         **source,
         "subject": subject,
         "gait_report": entry,
+        "implausible": entry["implausible"],
     }
     counts = [n for t in entry["cycles"].values() for n in t.values()]
     scores = entry["scores_omitted"] or f"GPS {entry['gps_deg']['overall']:.2f} deg overall"

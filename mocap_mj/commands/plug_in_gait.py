@@ -160,6 +160,7 @@ def run(args: argparse.Namespace) -> int:
             subject = result.subject.to_dict()
             entry = gait_report_files(out, [gait_trial(pig)], normative, events, subject)
             summary["gait_report"] = entry
+            summary["implausible"] = entry["implausible"]
         text = (
             f"plug-in-gait: {len(result.angles)} angles, {len(result.points)} bone points, "
             f"{len(kinetics or {})} kinetic outputs, {trial.n_frames} frames "

@@ -21,7 +21,7 @@ from mocap_mj.clinical.spatiotemporal import PARAMETERS, summary_rows
 from mocap_mj.io.atomic import atomic_write_text
 
 from .gait_figures import KINEMATIC_PANELS, KINETIC_PANELS, page_png
-from .gait_report import TrialCycles, cycles_csv, scores_csv, spatiotemporal_csv
+from .gait_report import TrialCycles, cycles_csv, implausible, scores_csv, spatiotemporal_csv
 
 __all__ = ["pooled_scores", "report_html", "write_gait_report"]
 
@@ -149,7 +149,9 @@ def write_gait_report(
     if not isinstance(result, str):
         atomic_write_text(out / "scores.csv", scores_csv(result))
         files.append("scores.csv")
-    atomic_write_text(out / "report.html", report_html(trials, normative, result, subject, notes))
+    bad = implausible(trials)
+    lines = [*(f"implausible: {b}" for b in bad), *notes]
+    atomic_write_text(out / "report.html", report_html(trials, normative, result, subject, lines))
     files.append("report.html")
     return {
         "files": files,
@@ -158,6 +160,7 @@ def write_gait_report(
         "normative": normative.source if normative else None,
         "scores_omitted": result if isinstance(result, str) else None,
         "gps_deg": None if isinstance(result, str) else _degrees(result.gps),
+        "implausible": bad,
     }
 
 

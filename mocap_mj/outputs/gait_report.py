@@ -28,8 +28,10 @@ from mocap_mj.clinical.spatiotemporal import PARAMETERS, cycle_parameters, summa
 from mocap_mj.io.trajectory import MarkerTrajectory
 
 __all__ = [
+    "PLAUSIBLE",
     "TrialCycles",
     "cycles_csv",
+    "implausible",
     "kinetic_kept",
     "scores_csv",
     "spatiotemporal_csv",
@@ -92,6 +94,28 @@ def trial_cycles(
                 )
     parameters = [cycle_parameters(c, trajectory) for c in cycles]
     return TrialCycles(name, cycles, dropped, curves, kinetic, parameters)
+
+
+#: The range of a side's mean parameter outside which the cycles are implausible (an event
+#: missed or misplaced, a trial that is not a walk): stride time [s], speed [m/s], stance [%].
+PLAUSIBLE = {
+    "stride_time_s": (0.4, 4.0),
+    "walking_speed_m_s": (0.0, 5.0),
+    "stance_pct": (20.0, 95.0),
+}
+
+
+def implausible(trials: Sequence[TrialCycles]) -> list[str]:
+    """One line per side whose mean parameter lies outside :data:`PLAUSIBLE` (the command
+    then exits with status 3)."""
+    rows = [(c.side, p) for t in trials for c, p in zip(t.cycles, t.parameters, strict=True)]
+    out = []
+    for side, stats in summary_rows(rows).items():
+        for name, (low, high) in PLAUSIBLE.items():
+            mean = stats[name][0]
+            if np.isfinite(mean) and not low <= mean <= high:
+                out.append(f"{side} {name} {mean:.3g}: expected {low:g} to {high:g}")
+    return out
 
 
 def cycles_csv(trials: Sequence[TrialCycles]) -> str:
