@@ -209,6 +209,37 @@ def test_export_c3d_holds_the_results_events(ik_out: Path, tmp_path: Path) -> No
     assert [(e.side, e.kind, e.frame) for e in back] == [(e.side, e.kind, e.frame) for e in ours]
 
 
+@needs_data
+def test_export_grf_and_osim_carry_the_loads_and_the_masses(ik_out: Path, tmp_path: Path) -> None:
+    """export --to grf: the .mot of grf.csv's loads in OpenSim's y-up ground and the
+    ExternalLoads beside it; --to osim: de Leva's bodies summing to the 85 kg the kinetics
+    used; a result without grf.csv is refused in one line, exit 2."""
+    import xml.etree.ElementTree as ET
+
+    from mocap_mj.export.mot import read_mot
+
+    mot = tmp_path / "walk.mot"
+    proc = run("export", str(ik_out), "--to", "grf", "--out", str(mot))
+    assert proc.returncode == 0, proc.stderr
+    assert "<datafile>walk.mot</datafile>" in (tmp_path / "walk_loads.xml").read_text()
+    names, times, values = read_mot(mot)
+    grf = table(ik_out / "grf.csv")
+    np.testing.assert_allclose(times, grf["time_s"], atol=1e-6)
+    vertical = values[:, names.index("ground_force_l_vy")]  # OpenSim's y is the lab's z
+    np.testing.assert_allclose(vertical, np.nan_to_num(grf["left_force_Z_N"]), rtol=1e-6)
+    osim = tmp_path / "subject.osim"
+    assert run("export", str(ik_out), "--to", "osim", "--out", str(osim)).returncode == 0
+    masses = [float(m.text or 0) for m in ET.parse(osim).iter("mass")]
+    assert sum(masses) == pytest.approx(MASS, rel=1e-6)
+    bare = tmp_path / "bare"
+    bare.mkdir()
+    for name in ("model.xml", "motion.npz"):
+        (bare / name).write_bytes((ik_out / name).read_bytes())
+    proc = run("export", str(bare), "--to", "grf", "--out", str(tmp_path / "none.mot"))
+    assert proc.returncode == 2 and "no ground reactions" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and not (tmp_path / "none.mot").exists()
+
+
 def test_events_csv_reads_back_and_refuses_a_bad_row(tmp_path: Path) -> None:
     events = [
         GaitEvent("left", "foot_strike", 1.25, 31, "force plate"),

@@ -4,7 +4,8 @@ Formats: OpenSim model (``osim``), motion (``mot``), TRC of the measured markers
 of the model markers (``trc-model``), C3D with markers, joint centres and angles (``c3d``),
 the model's angles in Plug-in Gait's conventions (``angles``, beside a ``plug-in-gait``
 folder's with ``--compare``), per-marker residuals (``residuals``) and segment scale factors
-(``scale``) as CSV, everything in one folder (``all``), and the
+(``scale``) as CSV, the ground reactions as OpenSim's external loads (``grf``: a ``.mot`` and
+its ``ExternalLoads`` ``<stem>_loads.xml``), everything in one folder (``all``), and the
 formats other packages register (:mod:`mocap_mj.export.registry`; the viewer adds ``glb``).
 Without ``--to`` the format follows the suffix of ``--out``.
 """
@@ -27,11 +28,13 @@ from mocap_mj.export.read_result import ExportSource, load_result
 from mocap_mj.pipeline.motion import ResultDir
 from mocap_mj.skeleton.mjcf import load_model
 
+from ..anatomy.inertia import Sex, segment_inertia
 from ..capture.events import read_events_csv
 from ..clinical.compare import comparison_section, folder_angles, numbered_like
 from ..errors import MocapError
 from ..export.c3d import write_c3d
 from ..export.clinical import clinical_angles
+from ..export.grf import loads_path, read_grf_csv, write_grf
 from ..export.ik_setup import write_ik_setup
 from ..export.mot import write_mot
 from ..export.osim import UP_ORIENTATION, write_osim
@@ -71,14 +74,47 @@ def _subject_mass(args: argparse.Namespace, src: ExportSource) -> float | None:
     value = measured.get("value") if isinstance(measured, dict) else None
     if isinstance(value, int | float) and measured.get("unit", "kg") == "kg":
         return float(value)
+    kinetics = src.summary.get("kinetics", {})  # ik's: the mass its inverse dynamics used
+    for trial in kinetics.get("trials", []) if isinstance(kinetics, dict) else []:
+        if isinstance(trial, dict) and isinstance(trial.get("body_mass_kg"), int | float):
+            return float(trial["body_mass_kg"])
     return None
+
+
+def _sex(src: ExportSource) -> Sex:
+    """The de Leva table the result's inverse dynamics used (its kinetics' ``sex``), else
+    the men's (the tool's default)."""
+    kinetics = src.summary.get("kinetics", {})
+    for trial in kinetics.get("trials", []) if isinstance(kinetics, dict) else []:
+        if isinstance(trial, dict) and trial.get("sex") == "female":
+            return "female"
+    return "male"
+
+
+def _grf_csv(src: ExportSource) -> Path:
+    """The result's ground reactions for its motion: grf.csv beside motion.npz, grf_<i>.csv
+    beside motion_<i>.npz; refused in one line when the result has none."""
+    stem = src.motion_path.stem if src.motion_path is not None else "motion"
+    suffix = stem[len("motion") :] if stem.startswith("motion") else ""
+    path = src.root / f"grf{suffix}.csv"
+    if not path.is_file():
+        raise MocapError(
+            f"{path}: no ground reactions for {stem}.npz (ik and identify write grf.csv for a "
+            "trial with force plates and a body mass)"
+        )
+    return path
 
 
 def _write(fmt: str, path: Path, src: ExportSource, args: argparse.Namespace) -> None:
     model, motion = src.model, src.motion
     first = motion.first_frame
     if fmt == "osim":
-        write_osim(path, model, up=args.up, mass=_subject_mass(args, src))
+        mass = _subject_mass(args, src)
+        # with a mass, the parameters the tool's inverse dynamics uses (de Leva's)
+        inertia = segment_inertia(model, mass, sex=_sex(src)) if mass is not None else None
+        write_osim(path, model, up=args.up, mass=mass, inertia=inertia)
+    elif fmt == "grf":
+        write_grf(path, read_grf_csv(_grf_csv(src)), up=args.up)
     elif fmt == "mot":
         write_mot(path, model, motion.times, motion.qpos)
     elif fmt == "trc":
@@ -107,7 +143,8 @@ def _builtin(fmt: str) -> Callable[[argparse.Namespace], dict[str, Any]]:
     def run(args: argparse.Namespace) -> dict[str, Any]:
         src = _source(args)
         out = Path(args.out)
-        for path in (out, *(_compare_files(out) if args.compare else ())):
+        extra = (loads_path(out),) if fmt == "grf" else ()
+        for path in (out, *extra, *(_compare_files(out) if args.compare else ())):
             refuse_replacing_file(path, force=args.force)
         _write(fmt, out, src, args)
         compared = _compare(out, src, args.compare) if args.compare else {}
@@ -189,6 +226,12 @@ def _source(args: argparse.Namespace) -> ExportSource:
 BUILTIN: tuple[Exporter, ...] = (
     Exporter("osim", ".osim", "OpenSim model of the subject", _builtin("osim")),
     Exporter("mot", ".mot", "OpenSim motion: coordinates in degrees", _builtin("mot")),
+    Exporter(
+        "grf",
+        "",
+        "OpenSim ground reactions (.mot) of grf.csv and their ExternalLoads (<stem>_loads.xml)",
+        _builtin("grf"),
+    ),
     Exporter("trc", ".trc", "TRC of the measured markers", _builtin("trc")),
     Exporter("trc-model", "", "TRC of the model markers (fitted)", _builtin("trc-model")),
     Exporter("c3d", ".c3d", "C3D: markers, model markers, joint centres, angles", _builtin("c3d")),
@@ -245,8 +288,9 @@ def register(sub: Any) -> None:
         "--mass",
         type=float,
         metavar="KG",
-        help="subject mass [kg] for the .osim body masses (default: the result's recorded "
-        "mass, else the model's own masses)",
+        help="subject mass [kg] for the .osim bodies: de Leva's segment parameters, as the "
+        "tool's inverse dynamics (default: the result's recorded mass, else the model's own "
+        "masses)",
     )
     p.add_argument(
         "--nominal",
