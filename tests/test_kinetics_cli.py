@@ -240,6 +240,33 @@ def test_export_grf_and_osim_carry_the_loads_and_the_masses(ik_out: Path, tmp_pa
     assert len(proc.stderr.strip().splitlines()) == 1 and not (tmp_path / "none.mot").exists()
 
 
+@needs_data
+def test_export_all_gives_an_inverse_dynamics_setup_opensim_runs(
+    ik_out: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """export --to all of a result with ground reactions: grf.mot, grf_loads.xml and
+    id_setup.xml, which OpenSim's InverseDynamicsTool runs in that folder (its ankle
+    moments then follow ours: r > 0.95; the exact agreement: tests/test_opensim_id.py)."""
+    osim = pytest.importorskip("opensim", reason="the [opensim] extra is not installed")
+    from mocap_mj.export.mot import read_mot
+
+    out = tmp_path / "all"
+    proc = run("export", str(ik_out), "--to", "all", "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    files = json.loads((out / "summary.json").read_text())["files"]
+    assert {"grf.mot", "grf_loads.xml", "id_setup.xml"} <= set(files)
+    monkeypatch.chdir(out)
+    assert osim.InverseDynamicsTool("id_setup.xml").run()
+    names, times, values = read_mot(out / "id.sto")
+    ours = table(ik_out / "dynamics.csv")
+    assert len(times) == len(ours)
+    for side in "lr":
+        theirs = values[:, names.index(f"ankle_{side}_moment")]
+        mine = ours[f"ankle_{side}_Nm"]
+        ok = np.isfinite(mine)
+        assert np.corrcoef(mine[ok][10:-10], theirs[ok][10:-10])[0, 1] > 0.95, side
+
+
 def test_events_csv_reads_back_and_refuses_a_bad_row(tmp_path: Path) -> None:
     events = [
         GaitEvent("left", "foot_strike", 1.25, 31, "force plate"),

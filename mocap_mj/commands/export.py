@@ -37,6 +37,7 @@ from ..export.clinical import clinical_angles
 from ..export.grf import loads_path, read_grf_csv, write_grf
 from ..export.ik_setup import write_ik_setup
 from ..export.mot import write_mot
+from ..export.opensim_id import id_setup_xml
 from ..export.osim import UP_ORIENTATION, write_osim
 from ..export.registry import Exporter, plugin_exporters
 from ..export.tables import (
@@ -47,6 +48,7 @@ from ..export.tables import (
 )
 from ..export.trc import write_trc
 from ..io.atomic import atomic_write_text
+from ..pipeline.dynamics import CUTOFF_HZ
 from ._inputs import refuse_overwriting, refuse_replacing_file
 
 #: File names of ``--to all``, per format.
@@ -62,6 +64,10 @@ ALL_FILES: dict[str, str] = {
 }
 #: OpenSim IK setup of ``--to all`` (subject.osim fitted to markers.trc, every weight 1).
 IK_SETUP = "ik_setup.xml"
+#: ``--to all`` of a result with ground reactions: them as OpenSim's external loads, and an
+#: InverseDynamicsTool setup (subject.osim moving as coordinates.mot under them, OpenSim's
+#: low-pass of the coordinates at the tool's own cutoff).
+GRF_MOT, ID_SETUP = "grf.mot", "id_setup.xml"
 
 
 def _subject_mass(args: argparse.Namespace, src: ExportSource) -> float | None:
@@ -91,16 +97,21 @@ def _sex(src: ExportSource) -> Sex:
     return "male"
 
 
-def _grf_csv(src: ExportSource) -> Path:
+def _grf_path(src: ExportSource) -> Path:
     """The result's ground reactions for its motion: grf.csv beside motion.npz, grf_<i>.csv
-    beside motion_<i>.npz; refused in one line when the result has none."""
+    beside motion_<i>.npz (which may not exist)."""
     stem = src.motion_path.stem if src.motion_path is not None else "motion"
     suffix = stem[len("motion") :] if stem.startswith("motion") else ""
-    path = src.root / f"grf{suffix}.csv"
+    return src.root / f"grf{suffix}.csv"
+
+
+def _grf_csv(src: ExportSource) -> Path:
+    """:func:`_grf_path`, refused in one line when the result has none."""
+    path = _grf_path(src)
     if not path.is_file():
         raise MocapError(
-            f"{path}: no ground reactions for {stem}.npz (ik and identify write grf.csv for a "
-            "trial with force plates and a body mass)"
+            f"{path}: no ground reactions for the result's motion (ik and identify write "
+            "grf.csv for a trial with force plates and a body mass)"
         )
     return path
 
@@ -190,11 +201,12 @@ def _run_all(args: argparse.Namespace) -> dict[str, Any]:
     end, with summary.json), as every command's result folder."""
     src = _source(args)
     times = src.motion.times
+    files = [*ALL_FILES.values(), IK_SETUP]
     summary = {
         "result": str(src.root),
         "format": "all",
         "out": str(args.out),
-        "files": [*ALL_FILES.values(), IK_SETUP],
+        "files": files,
         "frames": len(times),
     }
     with output_folder(args.out, force=args.force) as out:
@@ -207,6 +219,14 @@ def _run_all(args: argparse.Namespace) -> dict[str, Any]:
             marker_names=src.motion.marker_names,
             time_range=(float(times[0]), float(times[-1])),
         )
+        if _grf_path(src).is_file():
+            _, loads = write_grf(out / GRF_MOT, read_grf_csv(_grf_csv(src)), up=args.up)
+            atomic_write_text(out / ID_SETUP, id_setup_xml(
+                model_file=ALL_FILES["osim"], coordinates_file=ALL_FILES["mot"],
+                time_range=(float(times[0]), float(times[-1])), output_file="id.sto",
+                loads_file=loads.name, cutoff_hz=CUTOFF_HZ,
+            ))  # fmt: skip
+            files += [GRF_MOT, loads.name, ID_SETUP]
         write_summary(out, summary)
     return summary
 
