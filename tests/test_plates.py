@@ -495,6 +495,14 @@ def test_a_recorded_ground_reaction_that_differs_leaves_the_rules_to_decide() ->
     assert "20 % of its peak" in notes[0]
 
 
+def test_recorded_ground_reactions_of_other_frames_decide_nothing() -> None:
+    plates, found = _two_contacts()
+    out, notes = as_recorded(found, plates, {"left": np.zeros((T_FEET - 3, 3))}, body_mass=70.0)
+    assert out == found
+    assert notes == [f"the recording's ground reactions hold {T_FEET - 3} frames, the plates "
+                     f"{T_FEET}: the rules decide"]  # fmt: skip
+
+
 def test_movement_trial_s_recorded_choice_is_plates_1_and_4() -> None:
     """Nexus counted plates 1 (left) and 4 (right) of Movement_trial's four; its ground
     reactions in the file say so, and they match the plates' forces."""

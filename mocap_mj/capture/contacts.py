@@ -206,6 +206,11 @@ def as_recorded(
     (:func:`~mocap_mj.io.plates.recorded_ground_reactions`), per kg of ``body_mass`` [kg]
     or in N; ``first``: the recording's number of row 0. Returns the contacts (those the
     recording leaves out with that reason) and a note per contact it cannot decide."""
+    frames = len(plates[0].force) if plates else 0
+    if any(len(v) != frames for v in recorded.values()):
+        lengths = ", ".join(f"{len(v)}" for v in recorded.values())
+        note = f"the recording's ground reactions hold {lengths} frames, the plates {frames}"
+        return list(found), [f"{note}: the rules decide"]
     out, notes = [], []
     for c in found:
         values = recorded.get(c.side or "")
