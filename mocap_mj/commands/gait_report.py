@@ -57,10 +57,11 @@ def register(sub: Any) -> None:
     )
     p.add_argument(
         "--plates",
-        default="all",
+        default="auto",
         metavar="LIST",
-        help="the force plates whose contacts count for the kinetics: all (default), none, "
-        "or plate numbers from 1, e.g. 1,4",
+        help="the force plates whose contacts count for the kinetics, as plug-in-gait "
+        "--plates: auto (default: those the recording's own ground reactions count, else "
+        "all), all, none, or plate numbers from 1, e.g. 1,4",
     )
     add_report_options(p)
     add_events_option(p)
