@@ -29,6 +29,7 @@ MANY_PARAMETERS = frozenset(
         "mocap_mj/long/motion_out.py:write_every_frame_motion",
         "mocap_mj/long/motion_out.py:every_frame_motion",
         "mocap_mj/clinical/kinetics.py:newton_euler", "mocap_mj/clinical/kinetics.py:_chain",
+        "mocap_mj/clinical/kinetics.py:trial_kinetics",
         "mocap_mj/pipeline/relabel.py:_round", "mocap_mj/pipeline/api.py:identify",
         "mocap_mj/pipeline/steps.py:solve_trials",
         "mocap_mj/pipeline/steps.py:refine_on_every_frame", "mocap_mj/pipeline/steps.py:_solve",
