@@ -114,6 +114,7 @@ def synthetic(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return folder / "markers.csv"
 
 
+@pytest.mark.slow
 def test_recipe_and_subject_file_give_the_theta_of_the_removed_flags(
     synthetic: Path, tmp_path: Path
 ) -> None:

@@ -47,6 +47,8 @@ from mocap_mj.pipeline.motion import npz_bytes
 from mocap_mj.pipeline.recipe import NUMERIC_RANGES, Recipe
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
+pytestmark = pytest.mark.slow  # module fixtures run whole identifications
+
 FRAMES = 30
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 #: Generators are derandomised: the same examples on every run.

@@ -25,6 +25,8 @@ from mocap_mj.anatomy.inertia import inertial_model
 from mocap_mj.pipeline.dynamics import BodyLoad, inverse_dynamics, translational
 from mocap_mj.pipeline.motion import load_motion
 
+pytestmark = pytest.mark.slow  # module fixtures run whole identifications
+
 MASS = 68.0  # [kg]
 G = 9.80665  # [m/s^2]
 

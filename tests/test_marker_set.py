@@ -27,6 +27,7 @@ LANDMARKS = ("ASI", "PSI", "KNE", "ANK", "HEE", "TOE", "C7", "T10", "CLAV", "STR
 CLUSTERS = ("THI", "TIB", "UPA", "FRM", "RBAK")
 
 
+@pytest.mark.slow
 def test_bundled_plug_in_gait_is_the_models_sites() -> None:
     pig = plug_in_gait()
     model = load_model()
@@ -107,6 +108,7 @@ def test_marker_on_an_unknown_body_lists_the_bodies() -> None:
         model_with_marker_set(bad)
 
 
+@pytest.mark.slow
 def test_a_non_plug_in_gait_set_identifies_within_1_5x_its_bound(tmp_path: Path) -> None:
     """The bundled thigh/shank-cluster set: a synthetic trial (300 frames, 1 mm noise) is
     identified with kappa and offset errors (aligned along the null directions) within 1.5x

@@ -151,6 +151,7 @@ def _identify(markers: Path, out: Path, *flags: str) -> tuple[int, str, str]:
         (["--recipe", "{r2}"], "{r2}: symmetric: expected a width in m within 0.0001..1, got 0"),
     ],
 )  # fmt: skip
+@pytest.mark.slow
 def test_values_no_person_has_are_refused_naming_the_flag_and_range(
     synth_markers: Path, tmp_path: Path, flags: list[str], message: str
 ) -> None:
@@ -205,6 +206,7 @@ def test_broken_subject_file_is_one_line_naming_the_line(tmp_path: Path) -> None
 # ---------------------------------------------------------------- implausible fits
 
 
+@pytest.mark.slow
 def test_a_recording_in_centimetres_read_as_millimetres_exits_3(
     synth_markers: Path, tmp_path: Path
 ) -> None:
@@ -238,6 +240,7 @@ def test_implausible_reasons_thresholds() -> None:
     assert len(implausible_reasons(float("nan"), 0, 34, 3.0)) == 2
 
 
+@pytest.mark.slow
 def test_an_overflowed_fit_reports_nothing_observable_instead_of_failing() -> None:
     """A fit whose information overflowed (NaN) reports every direction unobservable: the
     report is written (the fit's checks then call it implausible), no SVD error."""
