@@ -60,19 +60,6 @@ MASS_SOURCES = {
 SEX: Sex = "male"
 
 
-def add_kinetics_options(p: Any, *, several: bool) -> None:
-    """``--forces``."""
-    each = "one per marker file, in order" if several else "for the marker file"
-    p.add_argument(
-        "--forces",
-        nargs="+",
-        metavar="FILE",
-        help=f"force-plate files, {each}: a C3D with FORCE_PLATFORM plates or an OpenSim "
-        "ground-reaction .mot, frame k of the plates at marker frame k; 'none': no kinetics "
-        "(default: a C3D marker file's own plates, when it has any; docs/dynamics.md)",
-    )
-
-
 def model_mass(path: str | Path | None) -> float | None:
     """The body mass [kg] a model file carries: the sum of its bodies' masses when every body
     has an ``<inertial>`` (a model.xml written by identify with a known mass); else None."""

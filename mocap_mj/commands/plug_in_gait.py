@@ -4,85 +4,33 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder
+from mocap_mj.commands.common import into_out_folder
+from mocap_mj.outputs.write_fit import frame_range
 
 from ..clinical.subject import PigSubject
 from ..errors import MocapError
-
-
-def register(sub: Any) -> None:
-    p = sub.add_parser(
-        "plug-in-gait",
-        help="Plug-in Gait angles and joint centres, as Vicon Nexus computes them",
-        description="Plug-in Gait (the Conventional Gait Model 1.0) from its published "
-        "definitions: Davis hip centres, chord knee, ankle, shoulder, elbow and hand "
-        "centres, the foot with the static offsets, Vicon's Cardan sequences and signs, "
-        "pelvis, foot, thorax and head angles in the direction of progression. Subject "
-        "values come from the C3D's PROCESSING group, then --static (offsets, inter-ASIS "
-        "distance, leg lengths from the markers), then --subject-file. Writes OUT/angles.csv "
-        "[deg], OUT/joint_centres.csv [mm, lab frame], OUT/result.c3d (Vicon's point "
-        "names), OUT/summary.json and OUT/report.md; frames keep the recording's numbers. "
-        "A C3D trial with force plates and a body mass also gives OUT/kinetics.csv: Plug-in "
-        "Gait's joint moments, powers and forces and the ground reactions per kg (also in "
-        "result.c3d under Vicon's names and units).",
-    )
-    p.add_argument("--markers", required=True, metavar="TRIAL", help="the trial (C3D, TRC...)")
-    p.add_argument(
-        "--static",
-        metavar="STATIC",
-        help="static trial: its foot offsets replace the trial's; refused when its pelvis "
-        "and leg markers move (--trial-type auto's rule), as a walk given for the static "
-        "or the two files swapped (default: the trial's PROCESSING values; a trial that is "
-        "itself static gives its own)",
-    )
-    p.add_argument(
-        "--subject-file",
-        metavar="FILE",
-        help="subject values overriding the file's: a YAML file (measurements as in "
-        "summary.json, and static_plantar_flex_l, static_rot_off_l, asis_trochanter_l, "
-        "tibial_torsion_l, head_offset with a unit), or Vicon's .vsk or .mp subject file "
-        "(Plug-in Gait's names and the C3D PROCESSING group's units: mm, kg, rad) "
-        "(default: none)",
-    )
-    p.add_argument(
-        "--trial-type",
-        choices=("auto", "static", "dynamic"),
-        default="auto",
-        help="static: the trial gives its own foot offsets and the static model's foot (as "
-        "Nexus' static pipeline); dynamic: the offsets of the PROCESSING group, --static or "
-        "--subject-file; auto (default): static when no --static is given and the pelvis "
-        "and leg markers stay within 0.1 m of their median positions",
-    )
-    p.add_argument(
-        "--plates",
-        default="all",
-        metavar="LIST",
-        help="the force plates whose contacts count for the kinetics: all (default: each "
-        "plate while one foot alone stands on it), none (no kinetics), or plate numbers "
-        "from 1, e.g. 1,4 (a lab's choice of valid strikes)",
-    )
-    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
-    add_force_flag(p)
-    add_json_flag(p)
-    p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from mocap_mj.outputs.plug_in_gait import write_all
 
     from ..clinical import pig_from_file, plug_in_gait
-    from ..io.load import load_markers
 
-    trial = load_markers(args.markers)
+    whole = _read(args, args.markers)
+    sl = frame_range(args.frames, whole.n_frames, args.markers)
+    if sl.stop - sl.start < 1:
+        raise MocapError(f"{args.markers}: --frames {args.frames} selects no frame")
+    trial = whole.slice(sl.start, sl.stop)
     subject = _file_subject(args.markers)
     static = None
     if args.static:
-        static = load_markers(args.static)
+        static = _read(args, args.static)
         subject = _file_subject(args.static).update(subject)
     extra = pig_from_file(args.subject_file) if args.subject_file else None
     rotation = np.asarray(trial.source.get("rotation", np.eye(3)), dtype=float)
@@ -97,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
         trial_type=args.trial_type,
     )
 
-    kinetics, kinetic_notes = _kinetics(args, trial, result, rotation.T)
+    kinetics, kinetic_notes = _kinetics(args, trial, result, rotation.T, (sl, whole.n_frames))
 
     def work(out: Path) -> tuple[Mapping[str, Any], str]:
         write_all(out, result, trial.rate, str(args.markers), kinetics, kinetic_notes)
@@ -130,27 +78,48 @@ def _counted(text: str) -> set[int] | None:
     return numbers
 
 
+def _read(args: argparse.Namespace, path: str) -> Any:
+    """The markers of ``path`` read with the command's input flags (a static as the trial)."""
+    from ..io.load import load_markers
+
+    return load_markers(
+        path, subject=args.subject, marker_map=args.marker_map, up=args.up, units=args.units
+    )
+
+
 def _kinetics(
-    args: argparse.Namespace, trial: Any, result: Any, to_lab: np.ndarray
+    args: argparse.Namespace,
+    trial: Any,
+    result: Any,
+    to_lab: np.ndarray,
+    frames: tuple[slice, int],
 ) -> tuple[dict[str, np.ndarray] | None, list[str]]:
-    """The kinetic outputs when the trial is a C3D with plates and the subject a mass."""
+    """The kinetic outputs when the trial is a C3D with plates and the subject a mass;
+    ``frames``: the rows of the recording's ``n_frames`` that ``--frames`` keeps."""
+    rows, n_frames = frames
     from ..clinical.kinetics import trial_kinetics
     from ..io.plates import read_plates
 
     counted = _counted(args.plates)
     if counted == set() or Path(args.markers).suffix.lower() != ".c3d":
         return None, []
-    plates = read_plates(args.markers, marker_rate=trial.rate, window="centred", offsets="none")
+    plates = read_plates(
+        args.markers, marker_rate=trial.rate, window="centred", offsets="none", up=args.up
+    )
     if not plates:
         return None, ["no kinetics: the trial has no force plates"]
     mass = result.subject.measured("mass")
     if mass is None:
         return None, ["no kinetics: no body mass (PROCESSING:Bodymass, or mass in --subject-file)"]
-    if len(plates[0].force) != trial.n_frames:
+    if len(plates[0].force) != n_frames:
         raise MocapError(
             f"{args.markers}: the plates hold {len(plates[0].force)} frames, the markers "
-            f"{trial.n_frames}; expected the same frames"
+            f"{n_frames}; expected the same frames"
         )
+    plates = [
+        replace(p, force=p.force[rows], cop=p.cop[rows], free_moment=p.free_moment[rows])
+        for p in plates
+    ]
     return trial_kinetics(
         result.segments,
         result.centres,

@@ -12,7 +12,8 @@ import argparse
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass
-from importlib.metadata import entry_points
+from functools import cache
+from importlib.metadata import EntryPoint, entry_points
 from typing import Any
 
 #: Entry-point group of exporters registered by other packages.
@@ -45,11 +46,20 @@ class Exporter:
     add_arguments: Callable[[argparse.ArgumentParser], None] | None = None
 
 
+@cache
+def entry_points_of(group: str) -> tuple[EntryPoint, ...]:
+    """The installed packages' entry points of ``group``, by name; every group read in one
+    scan of the installed packages (for the command line's start: the commands' and the
+    exporters' groups)."""
+    every = entry_points()
+    return tuple(sorted(every.select(group=group), key=lambda e: e.name))
+
+
 def plugin_exporters() -> list[Exporter]:
     """Exporters registered in :data:`ENTRY_POINT_GROUP`, by name; broken ones are reported
     on stderr and skipped, so that a broken add-on does not take the command down."""
     found = []
-    for ep in sorted(entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
+    for ep in entry_points_of(ENTRY_POINT_GROUP):
         try:
             exporter = ep.load()
         except ImportError as exc:
