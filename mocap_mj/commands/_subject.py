@@ -1,6 +1,6 @@
-"""Command-line options for the subject's measurements (:mod:`mocap_mj.capture.subject`): a
-``--subject-file`` holding any of them (YAML, or Vicon's ``.vsk`` / ``.mp``), and the two
-that a person knows by heart, ``--height`` and ``--mass``."""
+"""The subject's measurements of a command (:mod:`mocap_mj.capture.subject`): the C3D files',
+a ``--subject-file`` holding any of them (YAML, or Vicon's ``.vsk`` / ``.mp``), and the two
+that a person knows by heart, ``--height`` and ``--mass`` (the flags: :mod:`.options`)."""
 
 from __future__ import annotations
 
@@ -26,11 +26,7 @@ def subject_from_args(args: argparse.Namespace, c3d_paths: Sequence[str]) -> Sub
     if getattr(args, "subject_file", None):
         subject = subject.update(from_file(args.subject_file))
     flags: list[tuple[str, str, float | None]] = [
-        (
-            "--height",
-            "height",
-            None if getattr(args, "height", None) is None else args.height * 1e-3,
-        ),
+        ("--height", "height", getattr(args, "height", None)),  # [m]: options.HEIGHT
         ("--mass", "mass", getattr(args, "mass", None)),
     ]
     for flag, name, value in flags:  # each checked against its human range, named by its flag

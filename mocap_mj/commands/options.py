@@ -23,7 +23,7 @@ MARKER_UNITS = ("mm", "cm", "m")
 LOSSES = ("l2", "huber", "cauchy")
 #: ``--height``: a person's standing height [m], a bare number in mm (the range of
 #: :data:`mocap_mj.capture.subject.HUMAN_RANGES`, which the measurement is checked against too).
-HEIGHT = length("mm", least=0.5, most=2.75, example=1.75)
+HEIGHT = length("a standing height", "mm", least=0.5, most=2.75, example=1.75)
 
 _FORMATS = "C3D, TRC, mocap-mj CSV, Vicon Nexus or OptiTrack Motive CSV"
 
