@@ -210,3 +210,31 @@ def test_help_of_every_command_loads_no_numpy_mujoco_or_numba() -> None:
     for command, (heavy, length) in found.items():
         assert heavy == [], (command, heavy)
         assert length > 200, command  # the help was printed
+
+
+REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(
+    not REAL.is_dir(), reason="../shared/data/real not present: needs the shared Nexus trial"
+)
+def test_plug_in_gait_frames_are_the_whole_runs_rows(tmp_path: Path) -> None:
+    """``plug-in-gait --frames 100:300`` writes the rows of those frames, under the
+    recording's numbers, with the angles the whole trial's run gives them (Plug-in Gait's
+    angles are per frame); ``--up z`` (the trial's detected axis) changes nothing."""
+    import numpy as np
+
+    path = REAL / "Movement_trial.c3d"
+    whole, part = tmp_path / "whole", tmp_path / "part"
+    assert cli.main(["plug-in-gait", "--markers", str(path), "--out", str(whole)]) == 0
+    argv = ["plug-in-gait", "--markers", str(path), "--frames", "100:300", "--up", "z"]
+    assert cli.main([*argv, "--out", str(part)]) == 0
+    a = np.genfromtxt(whole / "angles.csv", delimiter=",", names=True)
+    b = np.genfromtxt(part / "angles.csv", delimiter=",", names=True)
+    assert len(b) == 200
+    np.testing.assert_array_equal(b["frame"], a["frame"][100:300])
+    for name in a.dtype.names or ():
+        np.testing.assert_allclose(b[name], a[name][100:300], atol=1e-9, err_msg=name)
+    summary = json.loads((part / "summary.json").read_text())
+    assert summary["markers"] == str(path)
