@@ -162,7 +162,7 @@ def _trial_loads(
     if not forces and Path(path).suffix.lower() != ".c3d":
         return None
     try:
-        plates = _read(source, traj)
+        plates = _read(source, traj, getattr(args, "up", None))
     except MocapError as exc:
         if forces:  # asked for: refused; a C3D's own plates: no kinetics, one warning
             raise
@@ -188,13 +188,14 @@ def _trial_loads(
     )
 
 
-def _read(source: str, traj: MarkerTrajectory) -> list[PlateRecord]:
+def _read(source: str, traj: MarkerTrajectory, up: str | None = None) -> list[PlateRecord]:
     """The plates of ``source`` at the trajectory's rate, frame k at its frame k (a .mot's
-    rows from its first: trimmed or padded with unloaded frames to the trajectory's)."""
+    rows from its first: trimmed or padded with unloaded frames to the trajectory's); a C3D's
+    rotated by ``--up`` when given, as its markers are."""
     if Path(source).suffix.lower() in (".mot", ".sto"):
         plates = read_grf_mot(source, marker_rate=traj.rate)
         return [_fit_frames(p, traj.n_frames) for p in plates]
-    plates = read_plates(source, marker_rate=traj.rate)
+    plates = read_plates(source, marker_rate=traj.rate, up=up)
     for p in plates:
         if len(p.force) != traj.n_frames:
             raise MocapError(

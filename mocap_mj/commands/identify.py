@@ -12,9 +12,10 @@ them. The folder appears
 only when the fit is complete; a fit that cannot be determined by the data is refused.
 Before the fit the marker data are checked for markers that do not move with their segment
 (mislabels, label swaps, re-stuck markers, impossible distances): each finding is a warning
-on stderr and in summary.json and report.md (--strict: refused); --exclude-markers drops
-markers' data. The anatomical fit also checks T10's placement against the stature (a
-``placement`` finding, a warning like the others; --strict refuses it too, before the fit).
+on stderr and in summary.json and report.md (--quality refuse: refused); --exclude-markers
+drops markers' data. The anatomical fit also checks T10's placement against the stature (a
+``placement`` finding, a warning like the others; --quality refuse refuses it too, before
+the fit).
 With force plates (a C3D's own, or --forces, one file per marker file) and a body mass, every
 such trial's joint moments (dynamics.csv, grf.csv, root_residuals.csv; _<i> for a later
 trial) and model.xml with the segments' masses and inertias (docs/dynamics.md); every trial's

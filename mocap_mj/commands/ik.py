@@ -9,7 +9,7 @@ angles in Plug-in Gait's conventions, the table `mocap-mj plug-in-gait` writes),
 fewer than --min-markers present markers are left unsolved (empty in motion.csv). A model written by
 identify with the landmarks' soft-tissue sliding model (recorded in its model.xml) weighs
 them as identify did, so that its RMSE reproduces the fit (--no-sliding-landmarks: every
-marker alike). The marker data are checked first, as by identify (warnings; --strict,
+marker alike). The marker data are checked first, as by identify (warnings; --quality,
 --exclude-markers). With force plates (a C3D's own, or --forces) and a body mass (the C3D's
 PROCESSING Bodymass, else a --model identify wrote with a mass), the joint moments:
 dynamics.csv, grf.csv (each foot's load) and root_residuals.csv (docs/dynamics.md); the gait
