@@ -77,7 +77,8 @@ def register(sub: Any) -> None:
         "--symmetric", action="store_true", help="perturb left and right alike (mirror images)"
     )
     p.add_argument(
-        "--plates",
+        "--with-plate",
+        dest="plates",
         action="store_true",
         help="the subject leans onto its right foot, and plates.c3d holds the markers and a "
         "type-2 force plate under that foot with the ground reaction the truth motion needs "
@@ -87,7 +88,7 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--mass",
         metavar="KG",
-        help="body mass of the truth model for --plates, written as PROCESSING:Bodymass "
+        help="body mass of the truth model for --with-plate, written as PROCESSING:Bodymass "
         "(default: 75)",
     )
     add_force_flag(p)

@@ -177,6 +177,25 @@ def test_export_up_is_renamed_out_up_and_keeps_working(
         parser.parse_args(["R", "--out", "x.osim", "--up", "x"])
 
 
+def test_plates_chooses_plates_and_synth_writes_one_with_with_plate(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """``--plates`` is plug-in-gait's choice of the plates that count; synth's switch that
+    writes a trial with a plate is ``--with-plate`` (``--plates`` still works, warned)."""
+    having = [c for c, p in _commands().items() if "--plates" in p._option_string_actions]
+    listed = [c for c in having if _action(_commands()[c], "--plates").help != argparse.SUPPRESS]
+    assert listed == ["plug-in-gait"]
+    synth = _commands()["synth"]
+    assert synth.parse_args(["--out", "o"]).plates is False
+    assert synth.parse_args(["--out", "o", "--with-plate"]).plates is True
+    assert capsys.readouterr().err == ""
+    assert synth.parse_args(["--out", "o", "--plates"]).plates is True
+    assert capsys.readouterr().err.strip().splitlines() == [
+        "mocap-mj synth: warning: --plates: renamed; use --with-plate (--plates chooses the "
+        "plates that count in plug-in-gait)"
+    ]
+
+
 #: Loaded by ``--help`` of no command.
 HEAVY = ("numpy", "scipy", "mujoco", "numba", "ezc3d", "yaml")
 

@@ -8,8 +8,9 @@ a ``--recipe``, another command) or its name now means one thing across commands
 without it would give a different result than the script asked for. The exceptions keep
 working with a warning: ``identify --solver lm``, which asks for what ``identify`` does
 anyway, and a flag merely renamed (:data:`RENAMED`: ``export --up`` is ``--out-up``, since
-``--up`` is the input markers' vertical axis everywhere else), whose value means what it
-meant. docs/cli.md holds the table of old and new spellings (:data:`REMOVED`).
+``--up`` is the input markers' vertical axis everywhere else; ``synth --plates`` is
+``--with-plate``, since ``--plates`` chooses plates in ``plug-in-gait``), whose value means
+what it meant. docs/cli.md holds the table of old and new spellings (:data:`REMOVED`).
 """
 
 from __future__ import annotations
@@ -76,6 +77,9 @@ RENAMED: dict[str, dict[str, tuple[str, str]]] = {
     "export": {
         "--up": ("--out-up", "--up is the vertical axis of the input markers in the other commands")
     },
+    "synth": {
+        "--plates": ("--with-plate", "--plates chooses the plates that count in plug-in-gait")
+    },
 }
 
 #: Command -> removed flag -> value -> warning: a value that keeps working, with the warning.
@@ -131,12 +135,18 @@ class _Renamed(argparse.Action):
         values: str | Sequence[Any] | None,
         option_string: str | None = None,
     ) -> None:
-        new = next(a for a in parser._actions if self.new in a.option_strings)
-        if new.choices is not None and values not in new.choices:
-            parser.error(f"argument {option_string}: invalid choice: {values!r} (see {self.new})")
+        new = parser._option_string_actions[self.new]
+        if self.nargs == 0:  # a switch: its new switch's value
+            values, shown = new.const, ""
+        else:
+            shown = f" {values}"
+            if new.choices is not None and values not in new.choices:
+                parser.error(
+                    f"argument {option_string}: invalid choice: {values!r} (see {self.new})"
+                )
         print(
-            f"mocap-mj {self.command}: warning: {option_string} {values}: renamed; use "
-            f"{self.new} {values} ({self.why})",
+            f"mocap-mj {self.command}: warning: {option_string}{shown}: renamed; use "
+            f"{self.new}{shown} ({self.why})",
             file=sys.stderr,
         )
         setattr(namespace, new.dest, values)
@@ -146,12 +156,14 @@ def add_removed_flags(parser: argparse.ArgumentParser, command: str) -> None:
     """Accept ``command``'s removed flags (any number of values) and renamed ones (their new
     flag's value), hidden from ``--help``; a renamed flag's new one is added before."""
     for flag, (new, why) in RENAMED.get(command, {}).items():
+        switch = parser._option_string_actions[new].nargs == 0
         parser.add_argument(
             flag,
             action=_Renamed,
             command=command,
             new=new,
             why=why,
+            **({"nargs": 0} if switch else {}),
             dest=f"renamed_{flag.removeprefix('--').replace('-', '_')}",
             default=argparse.SUPPRESS,
             help=argparse.SUPPRESS,
