@@ -70,8 +70,10 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
     )
-    for flag, field, _, text in _OPTIONS:
-        metavar = "N" if flag == "--frame-count" else flag.lstrip("-").split("-")[0].upper()
+    for flag, field, kind, text in _OPTIONS:
+        # the placeholders of the other commands: MM for a length in mm, N for a count
+        metavar = "MM" if flag.endswith("-mm") else "N" if kind is int else None
+        metavar = metavar or flag.lstrip("-").split("-")[0].upper()
         p.add_argument(flag, dest=field, metavar=metavar, help=text)
     p.add_argument(
         "--symmetric", action="store_true", help="perturb left and right alike (mirror images)"
