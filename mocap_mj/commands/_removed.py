@@ -157,13 +157,13 @@ def add_removed_flags(parser: argparse.ArgumentParser, command: str) -> None:
     flag's value), hidden from ``--help``; a renamed flag's new one is added before."""
     for flag, (new, why) in RENAMED.get(command, {}).items():
         switch = parser._option_string_actions[new].nargs == 0
-        parser.add_argument(
+        parser.add_argument(  # a switch renamed takes no value, as its new one
             flag,
             action=_Renamed,
             command=command,
             new=new,
             why=why,
-            **({"nargs": 0} if switch else {}),
+            nargs=0 if switch else None,
             dest=f"renamed_{flag.removeprefix('--').replace('-', '_')}",
             default=argparse.SUPPRESS,
             help=argparse.SUPPRESS,
