@@ -18,13 +18,13 @@ CORE_COMMANDS: tuple[str, ...] = (
 
 
 def _registrars(only: str | None = None) -> list[Callable[[Any], None]]:
-    from mocap_mj.export.registry import entry_points_of
-
     from . import parsers
 
     regs = [getattr(parsers, f"register_{name}") for name in CORE_COMMANDS]
     if only is not None:  # a core command's name: its parser alone, no add-on's
         return [regs[[n.replace("_", "-") for n in CORE_COMMANDS].index(only)]]
+    from mocap_mj.export.registry import entry_points_of  # importlib.metadata: ~0.1 s
+
     for ep in entry_points_of("mocap_mj.commands"):
         try:
             regs.append(ep.load())

@@ -13,8 +13,10 @@ import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
-from importlib.metadata import EntryPoint, entry_points
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from importlib.metadata import EntryPoint
 
 #: Entry-point group of exporters registered by other packages.
 ENTRY_POINT_GROUP = "mocap_mj.exporters"
@@ -51,6 +53,8 @@ def entry_points_of(group: str) -> tuple[EntryPoint, ...]:
     """The installed packages' entry points of ``group``, by name; every group read in one
     scan of the installed packages (for the command line's start: the commands' and the
     exporters' groups)."""
+    from importlib.metadata import entry_points  # its own import takes ~0.1 s: when needed
+
     every = entry_points()
     return tuple(sorted(every.select(group=group), key=lambda e: e.name))
 
