@@ -180,11 +180,12 @@ def test_export_up_is_renamed_out_up_and_keeps_working(
 def test_plates_chooses_plates_and_synth_writes_one_with_with_plate(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    """``--plates`` is plug-in-gait's choice of the plates that count; synth's switch that
+    """``--plates`` is the choice of the plates that count (plug-in-gait's, gait-report's);
+    synth's switch that
     writes a trial with a plate is ``--with-plate`` (``--plates`` still works, warned)."""
     having = [c for c, p in _commands().items() if "--plates" in p._option_string_actions]
     listed = [c for c in having if _action(_commands()[c], "--plates").help != argparse.SUPPRESS]
-    assert listed == ["plug-in-gait"]
+    assert sorted(listed) == ["gait-report", "plug-in-gait"]
     synth = _commands()["synth"]
     assert synth.parse_args(["--out", "o"]).plates is False
     assert synth.parse_args(["--out", "o", "--with-plate"]).plates is True

@@ -200,3 +200,23 @@ def add_output_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
     )
+
+
+def add_report_options(p: Any) -> None:
+    """``--normative`` and ``--events`` of the gait report (``gait-report``, ``plug-in-gait
+    --report``)."""
+    p.add_argument(
+        "--normative",
+        metavar="FILE",
+        help="normative set (CSV: variable,percent,mean,sd; docs/clinical.md): its band in "
+        "every plot, and the Gait Variable Scores and Gait Profile Score in scores.csv "
+        "(default: none; the plots show the two sides only and the scores are omitted)",
+    )
+    p.add_argument(
+        "--events",
+        nargs="+",
+        metavar="FILE",
+        help="gait events, one events.csv per marker file in order (side, kind, frame, "
+        "time_s, source: what ik, identify and synth write) (default: the C3D's EVENT "
+        "group, else its force plates, else the kinematics; docs/clinical.md)",
+    )

@@ -29,6 +29,7 @@ from .options import (
     add_output_options,
     add_quality_options,
     add_recipe_options,
+    add_report_options,
     add_subject_options,
 )
 
@@ -166,6 +167,11 @@ def register_score(sub: Any) -> None:
 EXPORT_FORMATS: tuple[tuple[str, str, str], ...] = (
     ("osim", ".osim", "OpenSim model of the subject"),
     ("mot", ".mot", "OpenSim motion: coordinates in degrees"),
+    (
+        "grf",
+        "",
+        "OpenSim ground reactions (.mot) of grf.csv and their ExternalLoads (<stem>_loads.xml)",
+    ),
     ("trc", ".trc", "TRC of the measured markers"),
     ("trc-model", "", "TRC of the model markers (fitted)"),
     ("c3d", ".c3d", "C3D: markers, model markers, joint centres, angles"),
@@ -174,7 +180,7 @@ EXPORT_FORMATS: tuple[tuple[str, str, str], ...] = (
     ("scale", "", "CSV of segment lengths and scale factors"),
     ("all", "", "every built-in format and an OpenSim IK setup into the folder --out"),
 )
-#: ``export --out-up``: the vertical axis of the written .osim ground and TRC files.
+#: ``export --out-up``: the vertical axis of the written .osim ground, TRC and GRF files.
 OUT_UP = ("y", "z")
 
 
@@ -211,15 +217,16 @@ def register_export(sub: Any) -> None:
         "--out-up",
         choices=OUT_UP,
         default="y",
-        help="vertical axis of the written .osim ground and TRC files (default y, OpenSim's "
-        "convention; the model's own is +Z)",
+        help="vertical axis of the written .osim ground, TRC and ground-reaction files "
+        "(default y, OpenSim's convention; the model's own is +Z)",
     )
     p.add_argument(
         "--mass",
         type=float,
         metavar="KG",
-        help="subject mass [kg] for the .osim body masses (default: the result's recorded "
-        "mass, else the model's own masses)",
+        help="subject mass [kg] for the .osim bodies: de Leva's segment parameters, as the "
+        "tool's inverse dynamics (default: the result's recorded mass, else the model's own "
+        "masses)",
     )
     p.add_argument(
         "--nominal",
@@ -352,9 +359,10 @@ def register_plug_in_gait(sub: Any) -> None:
         metavar="FILE",
         help="subject values overriding the file's: a YAML file (measurements as in "
         "summary.json, and static_plantar_flex_l, static_rot_off_l, asis_trochanter_l, "
-        "tibial_torsion_l, head_offset with a unit), or Vicon's .vsk or .mp subject file "
+        "tibial_torsion_l, sole_delta_l, head_offset with a unit; Nexus' static options "
+        "flat_foot_l, head_level: true or false), or Vicon's .vsk or .mp subject file "
         "(Plug-in Gait's names and the C3D PROCESSING group's units: mm, kg, rad) "
-        "(default: none)",
+        "(default: none; a static's flat foot is told by its given offsets)",
     )
     p.add_argument(
         "--trial-type",
@@ -367,16 +375,80 @@ def register_plug_in_gait(sub: Any) -> None:
     )
     p.add_argument(
         "--plates",
-        default="all",
+        default="auto",
         metavar="LIST",
-        help="the force plates whose contacts count for the kinetics: all (default: each "
-        "plate while one foot alone stands on it), none (no kinetics), or plate numbers "
-        "from 1, e.g. 1,4 (a lab's choice of valid strikes)",
+        help="the force plates whose contacts count for the kinetics: auto (default: the "
+        "contacts the recording's own ground reactions count, as Nexus' "
+        "LGroundReactionForce, its manual choices included; without them as all), all "
+        "(each plate while one foot alone stands on it), none (no kinetics), or plate "
+        "numbers from 1, e.g. 1,4 (a lab's choice of valid strikes)",
     )
+    p.add_argument(
+        "--report",
+        action="store_true",
+        help="also the gait report: OUT/cycles.csv, spatiotemporal.csv, scores.csv (with "
+        "--normative) and report.html, as gait-report writes them (default: off)",
+    )
+    add_report_options(p)
     add_output_options(p)
     add_force_flag(p)
     add_json_flag(p)
     p.set_defaults(func=Lazy("plug_in_gait"))
+
+
+def register_gait_report(sub: Any) -> None:
+    p = sub.add_parser(
+        "gait-report",
+        help="the gait report: cycles, spatiotemporal parameters, scores, report.html",
+        description="Each trial's gait events (the C3D's EVENT group, else its force plates, "
+        "else the kinematics, or --events), each side's cycles from one foot strike to the "
+        "next (incomplete ones dropped and said), every Plug-in Gait angle and, with force "
+        "plates and a body mass, every moment and power resampled to 101 points per cycle. "
+        "Writes OUT/cycles.csv (trial, side, cycle, variable, percent, value: degrees, N m/kg, "
+        "W/kg), OUT/spatiotemporal.csv (per cycle, each side's mean and sd), OUT/scores.csv "
+        "(with --normative: Gait Variable Scores and Gait Profile Score, Baker et al. 2009), "
+        "OUT/report.html (one self-contained page) and OUT/summary.json.",
+    )
+    p.add_argument(
+        "--markers",
+        required=True,
+        nargs="+",
+        metavar="TRIAL",
+        help="walking trials of one subject (C3D, TRC...): with Plug-in Gait's markers its "
+        "angles from them; with another set the angles, in Plug-in Gait's conventions, of the "
+        "model mocap-mj identify identifies on the trials (kept as OUT/model.xml)",
+    )
+    p.add_argument(
+        "--marker-set",
+        metavar="SET",
+        help="for a set other than Plug-in Gait's: the marker set of the identification, as "
+        "identify --marker-set (default: detected from the labels)",
+    )
+    p.add_argument(
+        "--static",
+        metavar="STATIC",
+        help="static trial for the subject values (foot offsets, leg lengths; as "
+        "plug-in-gait --static) (default: each trial's PROCESSING values)",
+    )
+    p.add_argument(
+        "--subject-file",
+        metavar="FILE",
+        help="subject values overriding the files' (as plug-in-gait --subject-file): YAML, "
+        "Vicon's .vsk or .mp (default: none)",
+    )
+    p.add_argument(
+        "--plates",
+        default="auto",
+        metavar="LIST",
+        help="the force plates whose contacts count for the kinetics, as plug-in-gait "
+        "--plates: auto (default: those the recording's own ground reactions count, else "
+        "all), all, none, or plate numbers from 1, e.g. 1,4",
+    )
+    add_report_options(p)
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    add_force_flag(p)
+    add_json_flag(p)
+    p.set_defaults(func=Lazy("gait_report"), trial_type="dynamic")
 
 
 def register_marker_sets(sub: Any) -> None:

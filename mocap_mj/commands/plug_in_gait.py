@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -17,17 +17,30 @@ from ..clinical.subject import PigSubject
 from ..errors import MocapError
 
 
-def run(args: argparse.Namespace) -> int:
-    from mocap_mj.outputs.plug_in_gait import write_all
+@dataclass(frozen=True)
+class PigRun:
+    """One trial through Plug-in Gait: the file, its trajectory, the result, its kinetic
+    outputs (None without plates or mass) and the kinetics' notes."""
 
+    path: str
+    trial: Any
+    result: Any
+    kinetics: dict[str, np.ndarray] | None
+    notes: list[str]
+
+
+def pig_run(args: argparse.Namespace, path: str) -> PigRun:
+    """Plug-in Gait on the trial ``path`` with the command's --static, --subject-file,
+    --trial-type and --plates, its markers read with the input flags the command has
+    (--subject, --marker-map, --up, --units) and cut to its --frames."""
     from ..clinical import pig_from_file, plug_in_gait
 
-    whole = _read(args, args.markers)
-    sl = frame_range(args.frames, whole.n_frames, args.markers)
-    if sl.stop - sl.start < 1:
-        raise MocapError(f"{args.markers}: --frames {args.frames} selects no frame")
-    trial = whole.slice(sl.start, sl.stop)
-    subject = _file_subject(args.markers)
+    whole = _read(args, path)
+    rows = frame_range(getattr(args, "frames", None), whole.n_frames, path)
+    if rows.stop - rows.start < 1:
+        raise MocapError(f"{path}: --frames {args.frames} selects no frame")
+    trial = whole.slice(rows.start, rows.stop)
+    subject = _file_subject(path)
     static = None
     if args.static:
         static = _read(args, args.static)
@@ -42,10 +55,29 @@ def run(args: argparse.Namespace) -> int:
         frames=frames,
         to_lab=rotation.T,
         override=extra,
-        trial_type=args.trial_type,
+        trial_type=getattr(args, "trial_type", "auto"),
     )
+    up = getattr(args, "up", None)
+    kinetics, notes = _kinetics(path, (args.plates, up), trial, result, rotation.T, (rows, whole))
+    return PigRun(path, trial, result, kinetics, notes)
 
-    kinetics, kinetic_notes = _kinetics(args, trial, result, rotation.T, (sl, whole.n_frames))
+
+def gait_trial(run: PigRun) -> Any:
+    """The run as a trial of the gait report (:class:`~mocap_mj.commands._gait.GaitTrial`)."""
+    from ._gait import GaitTrial
+
+    return GaitTrial(run.path, run.trial, run.result.angles, run.kinetics, tuple(run.notes))
+
+
+def run(args: argparse.Namespace) -> int:
+    from mocap_mj.outputs.plug_in_gait import write_all
+
+    from ._gait import gait_report_files, read_inputs
+
+    report = args.report or args.normative is not None or args.events is not None
+    normative, events = read_inputs(args, [args.markers]) if report else (None, None)
+    pig = pig_run(args, args.markers)
+    result, kinetics, kinetic_notes, trial = pig.result, pig.kinetics, pig.notes, pig.trial
 
     def work(out: Path) -> tuple[Mapping[str, Any], str]:
         write_all(out, result, trial.rate, str(args.markers), kinetics, kinetic_notes)
@@ -53,6 +85,11 @@ def run(args: argparse.Namespace) -> int:
         summary |= result.summary()
         summary["kinetics"] = sorted(kinetics) if kinetics else []
         summary["kinetics_notes"] = kinetic_notes
+        if report:
+            subject = result.subject.to_dict()
+            entry = gait_report_files(out, [gait_trial(pig)], normative, events, subject)
+            summary["gait_report"] = entry
+            summary["implausible"] = entry["implausible"]
         text = (
             f"plug-in-gait: {len(result.angles)} angles, {len(result.points)} bone points, "
             f"{len(kinetics or {})} kinetic outputs, {trial.n_frames} frames "
@@ -64,8 +101,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _counted(text: str) -> set[int] | None:
-    """--plates: None for all, the empty set for none, else the plate numbers."""
-    if text == "all":
+    """--plates: None for auto and all, the empty set for none, else the plate numbers."""
+    if text in ("auto", "all"):
         return None
     if text == "none":
         return set()
@@ -74,7 +111,9 @@ def _counted(text: str) -> set[int] | None:
     except ValueError:
         numbers = {0}
     if min(numbers) < 1:
-        raise MocapError(f"--plates {text!r}: expected all, none or plate numbers such as 1,4")
+        raise MocapError(
+            f"--plates {text!r}: expected auto, all, none or plate numbers such as 1,4"
+        )
     return numbers
 
 
@@ -83,52 +122,58 @@ def _read(args: argparse.Namespace, path: str) -> Any:
     from ..io.load import load_markers
 
     return load_markers(
-        path, subject=args.subject, marker_map=args.marker_map, up=args.up, units=args.units
+        path,
+        subject=getattr(args, "subject", None),
+        marker_map=getattr(args, "marker_map", None),
+        up=getattr(args, "up", None),
+        units=getattr(args, "units", None),
     )
 
 
 def _kinetics(
-    args: argparse.Namespace,
+    path: str,
+    plates: tuple[str, str | None],
     trial: Any,
     result: Any,
     to_lab: np.ndarray,
-    frames: tuple[slice, int],
+    frames: tuple[slice, Any],
 ) -> tuple[dict[str, np.ndarray] | None, list[str]]:
-    """The kinetic outputs when the trial is a C3D with plates and the subject a mass;
-    ``frames``: the rows of the recording's ``n_frames`` that ``--frames`` keeps."""
-    rows, n_frames = frames
+    """The kinetic outputs when the trial is a C3D with plates and the subject a mass:
+    ``plates`` (--plates, --up: the plates rotated as the markers); ``frames`` (the rows of
+    the ``whole`` recording that --frames keeps, ``trial``'s)."""
     from ..clinical.kinetics import trial_kinetics
-    from ..io.plates import read_plates
+    from ..io.plates import read_plates, recorded_ground_reactions
 
-    counted = _counted(args.plates)
-    if counted == set() or Path(args.markers).suffix.lower() != ".c3d":
+    (plates_text, up), (rows, whole) = plates, frames
+    counted = _counted(plates_text)
+    if counted == set() or Path(path).suffix.lower() != ".c3d":
         return None, []
-    plates = read_plates(
-        args.markers, marker_rate=trial.rate, window="centred", offsets="none", up=args.up
-    )
-    if not plates:
+    records = read_plates(path, marker_rate=trial.rate, window="centred", offsets="none", up=up)
+    if not records:
         return None, ["no kinetics: the trial has no force plates"]
     mass = result.subject.measured("mass")
     if mass is None:
         return None, ["no kinetics: no body mass (PROCESSING:Bodymass, or mass in --subject-file)"]
-    if len(plates[0].force) != n_frames:
+    if len(records[0].force) != whole.n_frames:
         raise MocapError(
-            f"{args.markers}: the plates hold {len(plates[0].force)} frames, the markers "
-            f"{n_frames}; expected the same frames"
+            f"{path}: the plates hold {len(records[0].force)} frames, the markers "
+            f"{whole.n_frames}; expected the same frames"
         )
-    plates = [
+    records = [
         replace(p, force=p.force[rows], cop=p.cop[rows], free_moment=p.free_moment[rows])
-        for p in plates
+        for p in records
     ]
+    recorded = recorded_ground_reactions(path) if plates_text == "auto" else None
     return trial_kinetics(
         result.segments,
         result.centres,
-        plates,
+        records,
         trial,
         body_mass=mass,
         progression=result.progression @ to_lab,
         to_lab=to_lab,
         counted=counted,
+        recorded=None if recorded is None else {k: v[rows] for k, v in recorded.items()},
     )
 
 

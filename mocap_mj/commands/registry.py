@@ -13,7 +13,8 @@ from typing import Any
 #: Core subcommands, in help order: each a ``register_<name>`` of :mod:`.parsers`, which
 #: defines the flags and loads ``mocap_mj.commands.<name>`` only when the command runs.
 CORE_COMMANDS: tuple[str, ...] = (
-    "info", "ik", "identify", "score", "export", "batch", "plug_in_gait", "marker_sets",
+    "info", "ik", "identify", "score", "export", "batch", "plug_in_gait", "gait_report",
+    "marker_sets",
 )  # fmt: skip
 
 
