@@ -20,7 +20,7 @@ import sys
 import time
 
 #: Every command of a full install (the add-ons' included), and the top-level help ("").
-COMMANDS = ("", "info", "ik", "identify", "score", "export", "batch", "plug-in-gait",
+COMMANDS = ("", "info", "ik", "identify", "score", "export", "batch", "plug-in-gait", "gait-report",
             "marker-sets", "demo", "experiment", "synth", "view", "render")  # fmt: skip
 TARGET_S = 0.3
 
