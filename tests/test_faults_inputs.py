@@ -580,7 +580,7 @@ def _value(action: argparse.Action) -> str:
     """A value ``action`` accepts."""
     if action.choices:
         return str(next(iter(action.choices)))
-    for candidate in ("1", "0:10", "640x480", "x", "a.yaml"):
+    for candidate in ("1", "0:10", "640x480", "x", "a.yaml", "1.75m"):
         try:
             convert = action.type
             if convert is None or (callable(convert) and convert(candidate) is not None):

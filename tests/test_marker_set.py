@@ -180,13 +180,14 @@ def test_cli_marker_report_names_undetermined_segments(tmp_path: Path) -> None:
 def test_marker_set_flag_builds_the_model_the_commands_use() -> None:
     import argparse
 
-    from mocap_mj.commands._markers import add_marker_options, model_for
+    from mocap_mj.commands._markers import model_for
+    from mocap_mj.commands.options import add_input_options, add_model_options
 
     parser = argparse.ArgumentParser()
-    add_marker_options(parser)
+    add_input_options(parser)
+    add_model_options(parser, model="MJCF model")
     yaml_path = str(model_path("marker_sets/pig_leg_clusters.yaml"))
     args = parser.parse_args(["--markers", "x.c3d", "--marker-set", yaml_path])
-    args.model = None
     path = model_for(args)
     assert path is not None and path == model_for(args)  # built once, named by content
     assert ParameterSet(path).marker_names == ParameterSet(path).marker_names

@@ -137,10 +137,12 @@ def _identify(markers: Path, out: Path, *flags: str) -> tuple[int, str, str]:
 @pytest.mark.parametrize(
     ("flags", "message"),
     [
-        (["--height", "5000"], "--height: expected a standing height within 500..2750 mm "
-         "(any person), got 5000 mm"),
-        (["--height", "10"], "--height: expected a standing height within 500..2750 mm"),
-        (["--height", "1e308"], "--height: expected a standing height within 500..2750 mm"),
+        (["--height", "5000"], "argument --height: expected a standing height within "
+         "0.5..2.75 m (any person), got '5000' = 5 m; a bare number is mm"),
+        (["--height", "1.75"], "argument --height: expected a standing height within "
+         "0.5..2.75 m (any person), got '1.75' = 0.00175 m; a bare number is mm: give the "
+         "unit, e.g. 1750mm, 175cm, 1.75m"),
+        (["--height", "1e308"], "argument --height: expected a standing height within"),
         (["--subject-file", "{s}"], "{s}: knee_width_r: expected a distance between the femoral "
          "epicondyles (right) within 30..300 mm (any person), got 5000 mm"),
         (["--mass", "nan"], "--mass: expected a body mass within 2..650 kg (any person), got nan"),
