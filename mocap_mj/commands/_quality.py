@@ -1,6 +1,7 @@
-"""``--exclude-markers``, ``--strict`` and ``--no-relabel`` of identify and ik: the marker-data
-quality check (:mod:`mocap_mj.pipeline.quality`) run on the loaded trials before any solve,
-its notices printed on stderr (:func:`notices_to_stderr`).
+"""``--exclude-markers`` and ``--quality`` (``--strict``, ``--no-relabel``) of identify and ik
+(the flags: :mod:`mocap_mj.commands.options`): the marker-data quality check
+(:mod:`mocap_mj.pipeline.quality`) run on the loaded trials before any solve, its notices
+printed on stderr (:func:`notices_to_stderr`).
 
 Findings are warnings by default (one line each on stderr, recorded in summary.json's
 ``marker_quality`` and in report.md), and the exit status stays 0: the check is evidence,
@@ -32,31 +33,6 @@ from mocap_mj.pipeline.quality import NOTICES, Policy
 from mocap_mj.pipeline.quality import check_trials as check_trials
 from mocap_mj.pipeline.quality import without_ghosts as without_ghosts
 from mocap_mj.skeleton.parameters import ParameterSet
-
-
-def add_quality_options(parser: argparse.ArgumentParser) -> None:
-    g = parser.add_argument_group("marker data quality (docs/recordings.md#marker-data-quality)")
-    g.add_argument(
-        "--exclude-markers",
-        metavar="NAMES",
-        help="comma-separated model marker names, e.g. RELB,RUPA: drop these markers' data "
-        "(treated as missing in every frame; their offsets are then not identified) "
-        "(default: none)",
-    )
-    g.add_argument(
-        "--strict",
-        action="store_true",
-        help="refuse the data (exit 2, no output) when the marker-data quality check finds "
-        "anything or a label needs correcting (default: warn on stderr and carry on)",
-    )
-    g.add_argument(
-        "--no-relabel",
-        action="store_true",
-        help="leave exchanged labels as they are and only warn: those the model shows "
-        "(within a segment, across neighbouring segments, left for right) and two tracks "
-        "that jump onto each other (default: correct them in the copy of the data that is "
-        "fitted, one line each on stderr; the files are never changed)",
-    )
 
 
 def policy_of(args: argparse.Namespace) -> Policy:

@@ -12,9 +12,10 @@ them. The folder appears
 only when the fit is complete; a fit that cannot be determined by the data is refused.
 Before the fit the marker data are checked for markers that do not move with their segment
 (mislabels, label swaps, re-stuck markers, impossible distances): each finding is a warning
-on stderr and in summary.json and report.md (--strict: refused); --exclude-markers drops
-markers' data. The anatomical fit also checks T10's placement against the stature (a
-``placement`` finding, a warning like the others; --strict refuses it too, before the fit).
+on stderr and in summary.json and report.md (--quality refuse: refused); --exclude-markers
+drops markers' data. The anatomical fit also checks T10's placement against the stature (a
+``placement`` finding, a warning like the others; --quality refuse refuses it too, before
+the fit).
 With force plates (a C3D's own, or --forces, one file per marker file) and a body mass, every
 such trial's joint moments (dynamics.csv, grf.csv, root_residuals.csv; _<i> for a later
 trial) and model.xml with the segments' masses and inertias (docs/dynamics.md); every trial's
@@ -28,13 +29,13 @@ import sys
 import time
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, NamedTuple, get_args
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from mocap_mj.anatomy.inertia import segment_inertia, with_inertials
 from mocap_mj.anatomy.plausibility import plausibility_text
-from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder
+from mocap_mj.commands.common import into_out_folder
 from mocap_mj.io.atomic import atomic_write_text
 from mocap_mj.io.ownership import scratch_folder
 from mocap_mj.outputs.write_fit import frame_range, result_text, write_result
@@ -45,11 +46,9 @@ from mocap_mj.pipeline.recipe import Recipe
 from mocap_mj.skeleton import prewarm
 from mocap_mj.skeleton.mjcf import load_model
 from mocap_mj.skeleton.parameters import ParameterSet
-from mocap_mj.solve.losses import LossName
 
 from ._kinetics import (
     SEX,
-    add_kinetics_options,
     prepare,
     report_section,
     summary_of,
@@ -58,68 +57,14 @@ from ._kinetics import (
 )
 from ._kinetics import Prepared as KineticsPrepared
 from ._markers import (
-    add_marker_options,
     choose_marker_set,
     load_trial,
     model_for,
     print_marker_set,
     set_file,
 )
-from ._quality import add_quality_options, notices_to_stderr, quality_text
-from ._removed import add_removed_flags
-from ._subject import add_subject_options, subject_from_args
-
-
-def register(sub: Any) -> None:
-    p = sub.add_parser(
-        "identify",
-        help="identify the subject's model from marker trials",
-        description=__doc__,
-    )
-    add_marker_options(p, several=True)
-    p.add_argument(
-        "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
-    )
-    p.add_argument(
-        "--model",
-        metavar="MJCF",
-        help="initial MJCF model (default: the recipe's model, the bundled humanoid)",
-    )
-    _add_fit_options(p)
-    add_quality_options(p)
-    add_subject_options(p)
-    add_kinetics_options(p, several=True)
-    add_removed_flags(p, "identify")
-    add_force_flag(p)
-    add_json_flag(p)
-    p.set_defaults(func=run)
-
-
-def _add_fit_options(p: argparse.ArgumentParser) -> None:
-    """The recipe, the frames and the loss of ``identify``."""
-    p.add_argument(
-        "--recipe",
-        metavar="FILE",
-        help="YAML recipe: every choice of the identification (model, marker set, excluded "
-        "markers, frames, relabelling, strictness, initial model, anatomical priors and "
-        "ranges, left/right prior, frame selection, loss, iterations, weak prior; "
-        "docs/cli.md#recipe); every result folder holds the recipe.yaml it was made with, so "
-        "--recipe DIR/recipe.yaml re-runs it bit for bit; a flag given (--model, "
-        "--marker-set, --exclude-markers, --frames, --loss, --no-relabel, --strict) replaces "
-        "its field (default: the defaults listed there)",
-    )
-    p.add_argument(
-        "--frames",
-        metavar="A:B",
-        help="frames to fit, from A up to but excluding B, counted from 0 in every trial "
-        "(default: the recipe's frames, all)",
-    )
-    p.add_argument(
-        "--loss",
-        choices=list(get_args(LossName)),
-        help="loss on each marker distance; huber and cauchy down-weight outliers; overrides "
-        "the recipe's loss (default: the recipe's, l2)",
-    )
+from ._quality import notices_to_stderr, quality_text
+from ._subject import subject_from_args
 
 
 def run(args: argparse.Namespace) -> int:
@@ -174,8 +119,8 @@ def checked_inputs(args: argparse.Namespace, recipe: Recipe, scratch: Path | Non
 def recipe_from_args(args: argparse.Namespace) -> Recipe:
     """The recipe of ``--recipe`` (default: :class:`Recipe`'s defaults), each of its fields
     that a flag sets replaced by the flag's value when given (``--loss``, ``--model``,
-    ``--marker-set``, ``--exclude-markers``, ``--frames``; ``--no-relabel`` and ``--strict``
-    when given)."""
+    ``--marker-set``, ``--exclude-markers``, ``--frames``; ``--quality`` warn or refuse,
+    ``--no-sliding-landmarks`` when given)."""
     recipe = Recipe.load(args.recipe) if args.recipe else Recipe()
     given: dict[str, Any] = {
         "loss": args.loss,
@@ -187,6 +132,7 @@ def recipe_from_args(args: argparse.Namespace) -> Recipe:
         else tuple(n.strip() for n in args.exclude_markers.split(",") if n.strip()),
         "relabel": False if args.no_relabel else None,
         "strict": True if args.strict else None,
+        "sliding_landmarks": False if getattr(args, "no_sliding_landmarks", None) else None,
     }
     return replace(recipe, **{k: v for k, v in given.items() if v is not None})
 
