@@ -26,47 +26,14 @@ Run: python benchmarks/skeleton_postures.py [--quick] [--poses NAME ...] [--head
 from __future__ import annotations
 
 import argparse
-import tempfile
-import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from mocap_mj import ParameterSet
-from mocap_mj.outputs.write_fit import write_result
-from mocap_mj.pipeline.api import identify
 from mocap_mj.pipeline.recipe import Recipe
-from mocap_mj.solve.problem import TrialData
-from mocap_synth import POSES, SynthConfig, synthesize, write_experiment
-from mocap_synth.truth_checks import skeleton_errors
-
-#: The targets of a case: joint-centre z RMS and largest, flexion-axis angle [deg].
-Z_RMS, Z_MAX, AXIS_DEG = 1.3, 4.0, 10.0
-
-
-def run_case(cfg: SynthConfig, pset: ParameterSet, recipe: Recipe) -> dict[str, Any]:
-    """Synthesize ``cfg``, identify it alone, score it: the figures of the module docstring."""
-    exp = synthesize(cfg, pset)
-    with tempfile.TemporaryDirectory() as tmp:
-        d = Path(tmp)
-        write_experiment(exp, d / "synth")
-        t0 = time.perf_counter()
-        trial = TrialData(cfg.motion, np.asarray(exp.markers), np.asarray(exp.times))
-        fit = identify([trial], recipe, pset=pset)
-        seconds = time.perf_counter() - t0
-        summary = write_result(fit, d / "result", force=True)
-        out = skeleton_errors(d / "synth", d / "result", pset)
-    out["seconds"] = seconds
-    out["marker_rmse_mm"] = summary["marker_rmse_mm"]
-    out["implausible"] = list(summary.get("implausible") or [])
-    out["ok"] = (
-        out["z_rms"] <= Z_RMS
-        and out["z_max"] <= Z_MAX
-        and out["axis_max_deg"] <= AXIS_DEG
-        and not out["flips"]
-    )
-    return out
+from mocap_synth import POSES, SynthConfig
+from mocap_synth.truth_checks import AXIS_DEG, Z_MAX, Z_RMS, identify_and_check
 
 
 def _line(label: str, r: dict[str, Any]) -> str:
@@ -104,7 +71,7 @@ def main() -> None:
             for movement, n in movements:
                 cfg = SynthConfig(frames=n, motion=movement, pose=pose, heading_deg=heading,
                                   seed=args.seed)  # fmt: skip
-                r = run_case(cfg, pset, recipe)
+                r = identify_and_check(cfg, pset, recipe)
                 results.append(r)
                 print(_line(f"{pose} {heading:g} deg {movement} {n}", r), flush=True)
     bad = sum(not r["ok"] for r in results)

@@ -20,17 +20,40 @@ the result fitted:
 
 from __future__ import annotations
 
+import tempfile
+import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from mocap_mj.outputs.score import fitted_start, score
+from mocap_mj.outputs.write_fit import write_result
+from mocap_mj.pipeline.api import identify
 from mocap_mj.pipeline.motion import load_motion
+from mocap_mj.pipeline.recipe import Recipe
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.problem import TrialData
 
-__all__ = ["FLEXION", "FLIP_MIN", "FLIP_TOL", "LANDMARKS", "skeleton_errors"]
+from .experiment import synthesize, write_experiment
+
+if TYPE_CHECKING:
+    from .config import SynthConfig
+
+__all__ = [
+    "AXIS_DEG",
+    "FLEXION",
+    "FLIP_MIN",
+    "FLIP_TOL",
+    "LANDMARKS",
+    "Z_MAX",
+    "Z_RMS",
+    "axis_errors",
+    "flipped_joints",
+    "identify_and_check",
+    "skeleton_errors",
+]
 
 #: The flexion hinges compared, by base name (``_l``/``_r`` added).
 FLEXION: tuple[str, ...] = ("knee_flex", "ankle", "elbow")
@@ -46,6 +69,9 @@ FLIP_MIN = 0.010
 #: ... and is flipped when the estimate's lies beyond this [m] on the other side.
 FLIP_TOL = 0.005
 _AXES = {0: ("posterior", "anterior"), 2: ("below", "above")}
+#: The targets of an identification on a synthetic truth: joint-centre z RMS over bodies and
+#: largest z, largest flexion-axis angle [deg]; and no flipped joint.
+Z_RMS, Z_MAX, AXIS_DEG = 1.3, 4.0, 10.0
 
 
 def _kin(pset: ParameterSet, theta: np.ndarray) -> Kinematics:
@@ -54,7 +80,7 @@ def _kin(pset: ParameterSet, theta: np.ndarray) -> Kinematics:
     return kin
 
 
-def _axis_errors(
+def axis_errors(
     kins: tuple[Kinematics, Kinematics], qs: tuple[np.ndarray, np.ndarray]
 ) -> dict[str, float]:
     """RMS over frames of the angle [deg] between the truth's and the estimate's world-frame
@@ -82,7 +108,7 @@ def _side_words(side: str, axis: int, sign: float) -> str:
     return _AXES[axis][int(sign > 0)]
 
 
-def _flips(
+def flipped_joints(
     pset: ParameterSet, kins: tuple[Kinematics, Kinematics], qs: tuple[np.ndarray, np.ndarray]
 ) -> list[str]:
     """One line per joint centre on the wrong side of its landmark marker (module docstring)."""
@@ -142,7 +168,7 @@ def skeleton_errors(
         _kin(pset, pset.load_json(truth_dir / "truth.json")),
         _kin(pset, pset.load_json(result_dir / "theta.json")),
     )
-    axes = _axis_errors(kins, qs)
+    axes = axis_errors(kins, qs)
     worst_z = max(z, key=lambda n: z[n])
     worst_axis = max(axes, key=lambda n: axes[n])
     return {
@@ -154,5 +180,36 @@ def skeleton_errors(
         "axis_deg": axes,
         "axis_max_deg": axes[worst_axis],
         "axis_worst": worst_axis,
-        "flips": _flips(pset, kins, qs),
+        "flips": flipped_joints(pset, kins, qs),
     }
+
+
+def identify_and_check(
+    cfg: SynthConfig, pset: ParameterSet | None = None, recipe: Recipe | None = None
+) -> dict[str, Any]:
+    """Synthesize ``cfg``, identify its trial alone with ``mocap_mj.identify`` (``recipe``,
+    default: ``identify``'s own), write the result folder and check it against the truth:
+    :func:`skeleton_errors` plus ``seconds`` (the identification's), ``marker_rmse_mm``,
+    ``implausible`` (the fit's own reasons, those that exit 3) and ``ok`` (the targets
+    :data:`Z_RMS`, :data:`Z_MAX`, :data:`AXIS_DEG` met, no flipped joint)."""
+    pset = pset or ParameterSet()
+    exp = synthesize(cfg, pset)
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        write_experiment(exp, d / "synth")
+        t0 = time.perf_counter()
+        trial = TrialData(cfg.motion, np.asarray(exp.markers), np.asarray(exp.times))
+        fit = identify([trial], recipe or Recipe(), pset=pset)
+        seconds = time.perf_counter() - t0
+        summary = write_result(fit, d / "result", force=True)
+        out = skeleton_errors(d / "synth", d / "result", pset)
+    out["seconds"] = seconds
+    out["marker_rmse_mm"] = summary["marker_rmse_mm"]
+    out["implausible"] = list(summary.get("implausible") or [])
+    out["ok"] = (
+        out["z_rms"] <= Z_RMS
+        and out["z_max"] <= Z_MAX
+        and out["axis_max_deg"] <= AXIS_DEG
+        and not out["flips"]
+    )
+    return out
