@@ -11,11 +11,15 @@ the result fitted:
 * each flexion axis (:data:`FLEXION`: knees, ankles, elbows) against the truth's: the angle
   [deg] between the two world-frame axes, RMS over frames;
 * each joint centre against the landmark marker beside it (:data:`LANDMARKS`), in that
-  marker's segment frame (x forward, y left, z up in the reference pose): a component of the
-  truth's marker-to-centre vector of at least :data:`FLIP_MIN` whose estimate has the opposite
-  sign by more than :data:`FLIP_TOL` is a flipped joint (a knee centre lateral of its knee
-  marker, an elbow centre in front of its marker where the truth's lies behind), medians over
-  frames.
+  marker's segment frame (x forward, y left, z up in the reference pose), along the directions
+  in which the anatomy separates them: medial-lateral for a knee, ankle or elbow (the marker on
+  the lateral epicondyle or malleolus, the centre some width/2 medial of it), all three for a
+  hip (posterior, medial and below its ASIS marker). A component of the truth's
+  marker-to-centre vector of at least :data:`FLIP_MIN` whose estimate has the opposite sign by
+  more than :data:`FLIP_TOL` is a flipped joint (a knee centre lateral of its knee marker, a
+  hip lateral of its ASIS), medians over frames. Other components are placement errors of a
+  few millimetres in the truth, whose sign an estimate may differ in without being on the
+  wrong side of anything (the joint-centre ``z`` covers them).
 """
 
 from __future__ import annotations
@@ -57,12 +61,13 @@ __all__ = [
 
 #: The flexion hinges compared, by base name (``_l``/``_r`` added).
 FLEXION: tuple[str, ...] = ("knee_flex", "ankle", "elbow")
-#: (joint, body whose origin is its centre, landmark marker without its side letter).
-LANDMARKS: tuple[tuple[str, str, str], ...] = (
-    ("hip", "thigh", "ASI"),
-    ("knee", "shank", "KNE"),
-    ("ankle", "foot", "ANK"),
-    ("elbow", "ulna", "ELB"),
+#: (joint, body whose origin is its centre, landmark marker without its side letter, the axes
+#: of the marker's segment frame along which the anatomy separates them).
+LANDMARKS: tuple[tuple[str, str, str, tuple[int, ...]], ...] = (
+    ("hip", "thigh", "ASI", (0, 1, 2)),
+    ("knee", "shank", "KNE", (1,)),
+    ("ankle", "foot", "ANK", (1,)),
+    ("elbow", "ulna", "ELB", (1,)),
 )
 #: A component of the truth's marker-to-centre vector counts from this size [m] ...
 FLIP_MIN = 0.010
@@ -115,7 +120,7 @@ def flipped_joints(
     frames = [k.forward(q) for k, q in zip(kins, qs, strict=True)]
     model = kins[0].model
     out = []
-    for joint, body_base, marker_base in LANDMARKS:
+    for joint, body_base, marker_base, along in LANDMARKS:
         for side in "lr":
             marker = f"{side.upper()}{marker_base}"
             if marker not in pset.marker_names:
@@ -130,7 +135,7 @@ def flipped_joints(
                 )
                 for f in frames
             ]
-            for axis in range(3):
+            for axis in along:
                 truth, est = d[0][axis], d[1][axis]
                 if abs(truth) >= FLIP_MIN and est * np.sign(truth) < -FLIP_TOL:
                     out.append(
