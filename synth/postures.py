@@ -175,9 +175,10 @@ def hold(model: mujoco.MjModel, qpos: np.ndarray, name: str) -> np.ndarray:
 def start_in(model: mujoco.MjModel, qpos: np.ndarray, name: str, rate: float) -> np.ndarray:
     """The dynamic ``qpos`` (T, nq) at ``rate`` [Hz] starting at rest in the posture ``name``
     and blending into the motion over :data:`BLEND_S` [s] (a third of a shorter trial; a
-    one-frame trial is the posture): each
-    joint's angle or rotation vector ``p + w(t) (m(t) - p)``, ``w`` rising from 0 to 1; the
-    posture's root starts where the motion's first frame has it horizontally."""
+    one-frame trial is the posture): each joint's angle or rotation vector
+    ``p + w(t) (m(t) - p)``, ``w`` rising from 0 to 1 (quintic smoothstep), the root's position
+    and rotation vector likewise; the posture's root starts where the motion's first frame has
+    it horizontally."""
     t = np.arange(len(qpos)) / float(rate)
     ramp = min(BLEND_S, float(t[-1]) / 3.0)
     x = np.clip(t / ramp, 0.0, 1.0) if ramp > 0 else np.zeros_like(t)

@@ -283,8 +283,16 @@ CASES = [
     ("crouched", 0.0, "static", 200),
     ("crouched", 90.0, "rom", 300),
 ]
-#: Cases that miss a target today, with the figure: (case, which test) -> reason.
-FAILING: dict[tuple[tuple[str, float, str, int], str], str] = {}
+#: Cases that miss a target today, with the figure: (case, which test) -> reason. A static
+#: determines no flexion axis (the thigh, shank and upper arm turn about their long axes with
+#: the wand markers' offsets); the priors hold them today only in the neutral pose.
+_STATIC_AXIS = "a static's {} axis ends {} deg from the truth's (target 10)"
+FAILING: dict[tuple[tuple[str, float, str, int], str], str] = {
+    (("t-pose", 90.0, "static", 200), "axes"): _STATIC_AXIS.format("left ankle", 18.3),
+    (("arms-up", 180.0, "static", 200), "axes"): _STATIC_AXIS.format("left ankle", 18.0),
+    (("seated", 270.0, "static", 200), "axes"): _STATIC_AXIS.format("right knee", 10.9),
+    (("crouched", 0.0, "static", 200), "axes"): _STATIC_AXIS.format("right elbow", 15.3),
+}
 
 
 @functools.cache
