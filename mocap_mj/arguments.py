@@ -28,6 +28,8 @@ from .errors import ArgumentError, ArgumentTypeError, ShapeError, excerpt
 
 P = ParamSpec("P")
 R = TypeVar("R")
+#: A check of one argument: it receives the argument's name and value.
+Check = Callable[[str, Any], object]
 #: A whole-call check: it receives the call's arguments by name (those given only).
 CallCheck = Callable[[Mapping[str, Any]], None]
 #: Frames of a recording whose marker cloud is measured by :func:`marker_spacing`: evenly
@@ -39,30 +41,54 @@ def received(value: object) -> str:
     """What a message says was received: the type, and a short excerpt of the value."""
     if isinstance(value, np.ndarray):
         return f"an array of shape {value.shape} and dtype {value.dtype}"
-    return f"a {type(value).__name__} {excerpt(value)}"
+    text = excerpt(value)
+    return text if text.startswith("a ") else f"{type(value).__name__} {text}"
 
 
 def kind(name: str, value: object, kinds: type | tuple[type, ...], what: str) -> None:
     """Raise :class:`ArgumentTypeError` unless ``value`` is an instance of ``kinds``."""
     if not isinstance(value, kinds):
         hint = ""
-        if isinstance(value, Mapping) and isinstance(kinds, type):
+        fields = hasattr(kinds, "__dataclass_fields__") or hasattr(kinds, "_fields")
+        if isinstance(value, Mapping) and isinstance(kinds, type) and fields:
             hint = f" (build it with {kinds.__name__}(**fields))"
         raise ArgumentTypeError(f"{name}: expected {what}, got {received(value)}{hint}")
 
 
+def instance(kinds: type | tuple[type, ...], what: str) -> Check:
+    """The check that a value is one of ``kinds`` (``what`` names them in the message)."""
+    return lambda name, value: kind(name, value, kinds, what)
+
+
+def optional(check: Check) -> Check:
+    """``check``, with None accepted (the argument's default)."""
+
+    def run(name: str, value: Any) -> None:
+        if value is not None:
+            check(name, value)
+
+    return run
+
+
 def array(
-    name: str, value: object, shape: tuple[int | None, ...], *, missing: bool = False
+    name: str,
+    value: object,
+    shape: tuple[int | None, ...],
+    *,
+    missing: bool = False,
+    keep: bool = False,
 ) -> np.ndarray:
     """``value`` as a float array of ``shape`` (None: any length on that axis) whose entries
     are finite, NaN allowed where ``missing`` (a marker not seen). A nested list converts; a
-    text, a mapping or a ragged list does not."""
+    text, a mapping or a ragged list does not. ``keep``: a numeric array is returned as it
+    is (its dtype kept, as a file stored it)."""
     if isinstance(value, str | bytes | Mapping) or value is None:
         raise ArgumentTypeError(
             f"{name}: expected an array {_shape_text(shape)}, got {received(value)}"
         )
     try:
-        out = np.asarray(value, dtype=float)
+        numeric = isinstance(value, np.ndarray) and np.issubdtype(value.dtype, np.number)
+        out = np.asarray(value) if keep and numeric else np.asarray(value, dtype=float)
     except (TypeError, ValueError):
         raise ArgumentTypeError(
             f"{name}: expected an array {_shape_text(shape)} of numbers, got {received(value)}"
@@ -71,7 +97,8 @@ def array(
         want is not None and want != have for want, have in zip(shape, out.shape, strict=False)
     ):
         raise ShapeError(f"{name}: expected shape {_shape_text(shape)}, got {out.shape}")
-    finite(name, out, missing=missing)
+    if np.issubdtype(out.dtype, np.inexact):
+        finite(name, out, missing=missing)
     return out
 
 

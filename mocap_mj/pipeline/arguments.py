@@ -8,7 +8,7 @@ of a human's size in metres). Used as ``@validated(IDENTIFY_CALL, **IDENTIFY)``.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -22,9 +22,12 @@ from mocap_mj.solve.problem import TrialData
 from mocap_mj.solve.settings import Performance, Tolerances
 
 from ..arguments import (
+    Check,
     array,
+    instance,
     kind,
     marker_spacing,
+    optional,
     optional_callable,
     path_like,
     positive,
@@ -32,23 +35,6 @@ from ..arguments import (
     whole,
 )
 from ..errors import ArgumentError, ShapeError, excerpt
-
-Check = Callable[[str, Any], object]
-
-
-def optional(check: Check) -> Check:
-    """``check``, with None accepted (the argument's default)."""
-
-    def run(name: str, value: Any) -> None:
-        if value is not None:
-            check(name, value)
-
-    return run
-
-
-def instance(kinds: type | tuple[type, ...], what: str) -> Check:
-    """The check that a value is one of ``kinds`` (``what`` names them in the message)."""
-    return lambda name, value: kind(name, value, kinds, what)
 
 
 def trials_list(name: str, value: Any) -> None:
@@ -104,7 +90,8 @@ def markers_of(trials: list[TrialData], names: tuple[str, ...], argument: str) -
     """Each trial's markers (T, M, 3) in the model's marker order (M = ``len(names)``), in
     metres (:func:`~mocap_mj.arguments.marker_spacing`)."""
     for i, trial in enumerate(trials):
-        where = f"{argument}[{i}] {excerpt(trial.name)}: markers"
+        index = f"[{i}]" if argument == "trials" else ""
+        where = f"{argument}{index} {excerpt(trial.name)}: markers"
         if trial.markers.shape[1] != len(names):
             raise ShapeError(
                 f"{where}: expected shape (*, {len(names)}, 3), the model's markers in its "

@@ -15,6 +15,7 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
+from mocap_mj.arguments import instance, optional, validated
 from mocap_mj.errors import MocapError, check_shape
 from mocap_mj.kernels import _tree
 from mocap_mj.kernels._tree import KappaTables
@@ -56,6 +57,7 @@ class Kinematics:
         own copy of the model; :meth:`set_theta` writes theta into that copy.
     """
 
+    @validated(pset=optional(instance(ParameterSet, "a ParameterSet or None")))
     def __init__(self, pset: ParameterSet | None = None) -> None:
         self.pset = pset if pset is not None else ParameterSet()
         from copy import copy

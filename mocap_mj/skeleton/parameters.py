@@ -24,6 +24,7 @@ from xml.etree import ElementTree
 import mujoco
 import numpy as np
 
+from mocap_mj.arguments import optional, path_like, validated
 from mocap_mj.errors import (
     InputFileError,
     MocapError,
@@ -152,6 +153,7 @@ class ParameterSet:
         ``D[k, b]``: the change of ``body_pos[b]`` per metre of ``kappa_k`` (parent frame).
     """
 
+    @validated(path=optional(path_like))
     def __init__(self, path: str | Path | None = None) -> None:
         self.path = Path(path) if path is not None else model_path()
         model = load_model(self.path)
