@@ -45,9 +45,10 @@ def register(sub: Any) -> None:
         metavar="FILE",
         help="subject values overriding the file's: a YAML file (measurements as in "
         "summary.json, and static_plantar_flex_l, static_rot_off_l, asis_trochanter_l, "
-        "tibial_torsion_l, head_offset with a unit), or Vicon's .vsk or .mp subject file "
+        "tibial_torsion_l, sole_delta_l, head_offset with a unit; Nexus' static options "
+        "flat_foot_l, head_level: true or false), or Vicon's .vsk or .mp subject file "
         "(Plug-in Gait's names and the C3D PROCESSING group's units: mm, kg, rad) "
-        "(default: none)",
+        "(default: none; a static's flat foot is told by its given offsets)",
     )
     p.add_argument(
         "--trial-type",
@@ -60,11 +61,13 @@ def register(sub: Any) -> None:
     )
     p.add_argument(
         "--plates",
-        default="all",
+        default="auto",
         metavar="LIST",
-        help="the force plates whose contacts count for the kinetics: all (default: each "
-        "plate while one foot alone stands on it), none (no kinetics), or plate numbers "
-        "from 1, e.g. 1,4 (a lab's choice of valid strikes)",
+        help="the force plates whose contacts count for the kinetics: auto (default: the "
+        "contacts the recording's own ground reactions count, as Nexus' "
+        "LGroundReactionForce, its manual choices included; without them as all), all "
+        "(each plate while one foot alone stands on it), none (no kinetics), or plate "
+        "numbers from 1, e.g. 1,4 (a lab's choice of valid strikes)",
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     add_force_flag(p)
@@ -116,8 +119,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _counted(text: str) -> set[int] | None:
-    """--plates: None for all, the empty set for none, else the plate numbers."""
-    if text == "all":
+    """--plates: None for auto and all, the empty set for none, else the plate numbers."""
+    if text in ("auto", "all"):
         return None
     if text == "none":
         return set()
@@ -126,7 +129,9 @@ def _counted(text: str) -> set[int] | None:
     except ValueError:
         numbers = {0}
     if min(numbers) < 1:
-        raise MocapError(f"--plates {text!r}: expected all, none or plate numbers such as 1,4")
+        raise MocapError(
+            f"--plates {text!r}: expected auto, all, none or plate numbers such as 1,4"
+        )
     return numbers
 
 
@@ -135,7 +140,7 @@ def _kinetics(
 ) -> tuple[dict[str, np.ndarray] | None, list[str]]:
     """The kinetic outputs when the trial is a C3D with plates and the subject a mass."""
     from ..clinical.kinetics import trial_kinetics
-    from ..io.plates import read_plates
+    from ..io.plates import read_plates, recorded_ground_reactions
 
     counted = _counted(args.plates)
     if counted == set() or Path(args.markers).suffix.lower() != ".c3d":
@@ -160,6 +165,7 @@ def _kinetics(
         progression=result.progression @ to_lab,
         to_lab=to_lab,
         counted=counted,
+        recorded=recorded_ground_reactions(args.markers) if args.plates == "auto" else None,
     )
 
 
