@@ -2,12 +2,13 @@
 
 The bad calls are generated: for each entry point of ``mocap_mj`` (``identify``,
 ``TrialData``, ``Recipe``, ``solve_motion``, ``Motion``, ``write_result``, ``ParameterSet``,
-``Kinematics``, ``load_model``, ``model_path``) and each argument, a wrong type, a wrong shape,
-NaN, inf, decreasing or constant times, zero or negative rates, mismatched lengths, a dict for
-a dataclass and markers in mm given as metres (or metres divided by 1000 once more). Every call
-must raise :class:`~mocap_mj.errors.MocapError` (any other exception fails the test) with a
-one-line message naming the argument; none may reach a solver. Good calls are the other
-tests' (test_api.py, test_identify.py); here only the conversions of array-likes.
+``Kinematics``, ``KinematicParameter``, ``load_model``, ``model_path``) and each argument, a
+wrong type, a wrong shape, NaN, inf, decreasing or constant times, zero or negative rates,
+mismatched lengths, a dict for a dataclass and markers in mm given as metres (or metres
+divided by 1000 once more). Every call must raise :class:`~mocap_mj.errors.MocapError` (any
+other exception fails the test) with a one-line message naming the argument; none may reach
+a solver. Good calls are the other tests' (test_api.py, test_identify.py); here only the
+conversions of array-likes.
 """
 
 from __future__ import annotations
@@ -126,6 +127,8 @@ def identify_cases(trial: TrialData, pset: ParameterSet) -> Iterator[tuple[str, 
         ("tuple in the list", [tuple(trial)]),
         ("no frames", [TrialData("empty", trial.markers[:0], trial.times[:0])]),
         ("38 markers", [fewer]),
+        ("a list by _replace", [trial._replace(markers=trial.markers.tolist())]),
+        ("NaN times by _replace", [trial._replace(times=trial.times * np.nan)]),
         *((k, [trial._replace(markers=trial.markers * f)]) for k, f in scaled.items()),
     ]
     for label, value in bad_trials:
@@ -209,13 +212,21 @@ def motion_cases(trial: TrialData, pset: ParameterSet) -> Iterator[tuple[str, st
 
 def model_cases(tmp: Path) -> Iterator[tuple[str, str, Call]]:
     """The model's entry points: ``ParameterSet(path)``, ``Kinematics(pset)``,
-    ``load_model(path)``, ``model_path(name)``, ``write_result(fit, folder, ...)``."""
+    ``load_model(path)``, ``model_path(name)``, ``KinematicParameter(name, description,
+    targets)``, ``write_result(fit, folder, ...)``."""
     for label, value in (("int", 3), ("dict", {})):
         yield "path", label, lambda v=value: ParameterSet(v)  # type: ignore[arg-type]
         yield "pset", label, lambda v=value: mocap_mj.Kinematics(v)  # type: ignore[arg-type]
         yield "path", label, lambda v=value: mocap_mj.load_model(v)  # type: ignore[arg-type]
         yield "name", label, lambda v=value: mocap_mj.model_path(v)  # type: ignore[arg-type]
         yield "fit", label, lambda v=value: mocap_mj.write_result(v, tmp / "out")  # type: ignore[arg-type]
+    kp = mocap_mj.KinematicParameter
+    for label, value in (("int", 3), ("dict", {})):
+        yield "name", label, lambda v=value: kp(v, "d", (("pelvis", "x"),))  # type: ignore[arg-type]
+        yield "description", label, lambda v=value: kp("n", v, (("pelvis", "x"),))  # type: ignore[arg-type]
+    for label, value in (("text", "pelvis"), ("unknown axis", (("pelvis", "w"),)),
+                         ("a single", (("pelvis",),)), ("int", 3)):  # fmt: skip
+        yield "targets", label, lambda v=value: kp("n", "d", v)  # type: ignore[arg-type]
     fit = Fit.__new__(Fit)  # a Fit's type alone: the checks come before any field is read
     yield "folder", "int", lambda: mocap_mj.write_result(fit, 3)  # type: ignore[arg-type]
     yield "force", "text", lambda: mocap_mj.write_result(fit, tmp / "out", force="yes")  # type: ignore[arg-type]

@@ -18,7 +18,7 @@ from mocap_mj.pipeline.recipe import Recipe
 from mocap_mj.skeleton.parameters import KINEMATIC_PARAMETERS, ParameterSet
 from mocap_mj.solve.ik import IKSettings
 from mocap_mj.solve.losses import LOSS_NAMES
-from mocap_mj.solve.problem import TrialData
+from mocap_mj.solve.problem import TrialData, trial_arrays
 from mocap_mj.solve.settings import Performance, Tolerances
 
 from ..arguments import (
@@ -31,10 +31,11 @@ from ..arguments import (
     optional_callable,
     path_like,
     positive,
+    received,
     sequence,
     whole,
 )
-from ..errors import ArgumentError, ShapeError, excerpt
+from ..errors import ArgumentError, ArgumentTypeError, ShapeError, excerpt
 
 
 def trials_list(name: str, value: Any) -> None:
@@ -51,8 +52,19 @@ def trials_list(name: str, value: Any) -> None:
 
 
 def one_trial(name: str, value: Any) -> None:
-    """A :class:`TrialData` with a frame at least."""
+    """A :class:`TrialData` with a frame at least, its fields as :func:`trial_arrays` takes
+    them (checked again: ``_replace`` builds a trial without the checks)."""
     kind(name, value, TrialData, "a TrialData(name, markers (T, M, 3) [m], times (T,) [s])")
+    try:
+        fields = trial_arrays(*value)
+    except ArgumentError as exc:
+        raise type(exc)(f"{name}: {exc}") from None
+    for field, checked in zip(value._fields[1:], fields[1:], strict=True):
+        if checked is not getattr(value, field):
+            raise ArgumentTypeError(
+                f"{name}: {field}: expected a float array, got "
+                f"{received(getattr(value, field))} (TrialData(...) converts it)"
+            )
     if len(value.markers) == 0:
         raise ArgumentError(f"{name} {excerpt(value.name)}: expected at least one frame, got none")
 

@@ -24,8 +24,9 @@ from xml.etree import ElementTree
 import mujoco
 import numpy as np
 
-from mocap_mj.arguments import optional, path_like, validated
+from mocap_mj.arguments import kind, optional, path_like, sequence, validated
 from mocap_mj.errors import (
+    ArgumentError,
     InputFileError,
     MocapError,
     ShapeError,
@@ -39,6 +40,10 @@ from mocap_mj.skeleton import exported, rolling
 from mocap_mj.skeleton.mjcf import load_model, model_path
 
 _AXES = {"x": 0, "y": 1, "z": 2}
+
+
+#: A target's direction: a signed parent-frame axis, or along the body's offset.
+DIRECTION_SPECS = ("x", "-x", "y", "-y", "z", "-z", "along")
 
 
 @dataclass(frozen=True)
@@ -58,6 +63,21 @@ class KinematicParameter:
     name: str
     description: str
     targets: tuple[tuple[str, str], ...]
+
+    def __post_init__(self) -> None:
+        kind("KinematicParameter name", self.name, str, "a text")
+        kind("KinematicParameter description", self.description, str, "a text")
+        for i, target in enumerate(sequence("KinematicParameter targets", self.targets, "pairs")):
+            if (
+                not isinstance(target, tuple | list)
+                or len(target) != 2
+                or not isinstance(target[0], str)
+                or target[1] not in DIRECTION_SPECS
+            ):
+                raise ArgumentError(
+                    f"KinematicParameter targets[{i}]: expected (body name, one of "
+                    f"{', '.join(DIRECTION_SPECS)}), got {excerpt(target)}"
+                )
 
 
 def _p(name: str, description: str, *targets: tuple[str, str]) -> KinematicParameter:
