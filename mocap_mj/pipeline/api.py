@@ -29,8 +29,7 @@ from mocap_mj.capture.subject import Subject
 from mocap_mj.io.strict_json import jsonable
 from mocap_mj.kernels._threads import single_blas_thread
 from mocap_mj.long.motion_out import every_frame_motion, write_every_frame_motion
-from mocap_mj.pipeline.arguments import IDENTIFY
-from mocap_mj.pipeline.arguments import identify_call as IDENTIFY_CALL
+from mocap_mj.pipeline.arguments import IDENTIFY, identify_call
 from mocap_mj.pipeline.fit import Fit
 from mocap_mj.pipeline.motion import Motion
 from mocap_mj.pipeline.recipe import Recipe
@@ -64,7 +63,7 @@ DEFAULT_RECIPE = Recipe()
 
 
 @single_blas_thread  # the command's arithmetic, bit for bit, whatever the caller's BLAS pool
-@validated(IDENTIFY_CALL, **IDENTIFY)
+@validated(identify_call, **IDENTIFY)
 def identify(
     trials: Sequence[TrialData],
     recipe: Recipe = DEFAULT_RECIPE,

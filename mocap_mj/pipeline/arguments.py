@@ -3,7 +3,7 @@
 Each entry point's arguments by name, with the validator of each
 (:mod:`mocap_mj.arguments`), and the checks of arguments that depend on one another (the
 markers' count against the model's, one first frame and one rate per trial, a marker cloud
-of a human's size in metres). Used as ``@validated(IDENTIFY_CALL, **IDENTIFY)``.
+of a human's size in metres). Used as ``@validated(identify_call, **IDENTIFY)``.
 """
 
 from __future__ import annotations

@@ -37,6 +37,8 @@ CHI3_MEDIAN = 1.5381722
 
 
 class _Trial(NamedTuple):
+    """:class:`TrialData`'s fields (a NamedTuple's own ``__new__`` cannot be replaced)."""
+
     name: str
     markers: np.ndarray
     times: np.ndarray
