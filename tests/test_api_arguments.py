@@ -133,6 +133,7 @@ def identify_cases(trial: TrialData, pset: ParameterSet) -> Iterator[tuple[str, 
     ]
     for label, value in bad_trials:
         yield "trials", label, call(trials=value)
+    yield "trials", "missing", lambda: mocap_mj.identify(recipe=Recipe())  # type: ignore[call-arg]
     recipe_dict = dataclasses.asdict(Recipe())
     for label, value in (("dict", recipe_dict), ("text", "l2"), ("None", None)):
         yield "recipe", label, call(recipe=value)
