@@ -211,16 +211,26 @@ def motion_cases(trial: TrialData, pset: ParameterSet) -> Iterator[tuple[str, st
         yield "first_frame", label, lambda v=value: mocap_mj.Motion(q, t, m, names, first_frame=v)  # type: ignore[arg-type]
 
 
-def model_cases(tmp: Path) -> Iterator[tuple[str, str, Call]]:
+def model_cases(tmp: Path, pset: ParameterSet) -> Iterator[tuple[str, str, Call]]:
     """The model's entry points: ``ParameterSet(path)``, ``Kinematics(pset)``,
     ``load_model(path)``, ``model_path(name)``, ``KinematicParameter(name, description,
-    targets)``, ``write_result(fit, folder, ...)``."""
+    targets)``, ``write_result(fit, folder, ...)``, and the methods that take theta, poses or
+    a path."""
     for label, value in (("int", 3), ("dict", {})):
         yield "path", label, lambda v=value: ParameterSet(v)  # type: ignore[arg-type]
         yield "pset", label, lambda v=value: mocap_mj.Kinematics(v)  # type: ignore[arg-type]
         yield "path", label, lambda v=value: mocap_mj.load_model(v)  # type: ignore[arg-type]
         yield "name", label, lambda v=value: mocap_mj.model_path(v)  # type: ignore[arg-type]
         yield "fit", label, lambda v=value: mocap_mj.write_result(v, tmp / "out")  # type: ignore[arg-type]
+    kin = mocap_mj.Kinematics(pset)
+    for label, value in bad_arrays(pset.nominal):
+        yield "theta", label, lambda v=value: kin.set_theta(v)  # type: ignore[arg-type]
+    for label, value in bad_arrays(np.tile(pset.model.qpos0, (2, 1)), nan=False):
+        if label != "one axis fewer":  # one pose (nq,) is a frame
+            yield "qpos", label, lambda v=value: kin.marker_positions(v)  # type: ignore[arg-type]
+    for method in (pset.load_json, lambda path: pset.save_json(path, pset.nominal),
+                   lambda path: pset.export_mjcf(path, pset.nominal)):  # fmt: skip
+        yield "path", "int", lambda m=method: m(3)
     kp = mocap_mj.KinematicParameter
     for label, value in (("int", 3), ("dict", {})):
         yield "name", label, lambda v=value: kp(v, "d", (("pelvis", "x"),))  # type: ignore[arg-type]
@@ -242,7 +252,7 @@ def all_cases(tmp: Path, good: TrialData, pset: ParameterSet) -> list[tuple[str,
         "identify": identify_cases(good, pset),
         "solve_motion": solve_motion_cases(good, pset),
         "Motion": motion_cases(good, pset),
-        "model": model_cases(tmp),
+        "model": model_cases(tmp, pset),
     }
     return [(entry, *case) for entry, cases in groups.items() for case in cases]
 

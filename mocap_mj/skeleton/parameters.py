@@ -24,12 +24,11 @@ from xml.etree import ElementTree
 import mujoco
 import numpy as np
 
-from mocap_mj.arguments import kind, optional, path_like, sequence, validated
+from mocap_mj.arguments import array, kind, optional, path_like, sequence, validated
 from mocap_mj.errors import (
     ArgumentError,
     InputFileError,
     MocapError,
-    ShapeError,
     UnknownNameError,
     check_shape,
     excerpt,
@@ -267,12 +266,9 @@ class ParameterSet:
         return np.concatenate([kappa, np.asarray(offsets, float).ravel()])
 
     def check(self, theta: np.ndarray) -> np.ndarray:
-        """Return theta as a float array, or raise ShapeError naming the shape received."""
-        theta = np.asarray(theta, dtype=float)
-        check_shape("theta", theta, (self.size,))
-        if not np.all(np.isfinite(theta)):
-            raise ShapeError("theta: contains NaN or infinite values")
-        return theta
+        """Return theta as a float array (P,) [m], finite; else an
+        :class:`~mocap_mj.errors.ArgumentError` naming the shape or value received."""
+        return array("theta", theta, (self.size,))
 
     # ------------------------------------------------------------ model maps
     def body_pos(self, theta: np.ndarray) -> np.ndarray:
@@ -385,6 +381,7 @@ class ParameterSet:
         offsets = np.array([[float(c) for c in off_d[n]] for n in self.marker_names])
         return self.check(self.join(kappa, offsets))
 
+    @validated(path=path_like)
     def save_json(
         self, path: str | Path, theta: np.ndarray, extra: Mapping[str, Any] | None = None
     ) -> None:
@@ -393,6 +390,7 @@ class ParameterSet:
         data.update(self.to_dict(theta))
         atomic_write_text(path, json.dumps(data, indent=2) + "\n")
 
+    @validated(path=path_like)
     def load_json(self, path: str | Path) -> np.ndarray:
         """Read theta from a JSON file written by :meth:`save_json`."""
         data = read_object(path, "the parameters (a JSON object with kappa and offsets)")
@@ -463,6 +461,7 @@ class ParameterSet:
         xml = rolling.record(ElementTree.tostring(root, encoding="unicode") + "\n", self.model)
         return exported.with_slides(xml, self.model, joint_range)
 
+    @validated(path=path_like)
     def export_mjcf(
         self, path: str | Path, theta: np.ndarray, *, joint_range: np.ndarray | None = None
     ) -> None:
