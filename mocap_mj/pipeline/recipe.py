@@ -229,8 +229,10 @@ def _check_kind(source: str, name: str, value: Any, default: Any) -> None:
         ok = isinstance(value, int) and not isinstance(value, bool)
     elif isinstance(default, float):
         ok = isinstance(value, int | float) and not isinstance(value, bool)
-    else:
+    elif isinstance(default, str):
         ok = isinstance(value, str)
+    else:  # a field of another kind (a default factory's) checks its own values
+        ok = True
     if not ok:
         raise ArgumentTypeError(
             f"{source}: recipe field {name!r}: expected a value like {default!r}, "
