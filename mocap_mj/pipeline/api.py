@@ -25,6 +25,7 @@ from mocap_mj.capture.subject import Subject
 from mocap_mj.io.strict_json import jsonable
 from mocap_mj.kernels._threads import single_blas_thread
 from mocap_mj.long.motion_out import every_frame_motion, write_every_frame_motion
+from mocap_mj.pipeline.arguments import IDENTIFY, identify_call
 from mocap_mj.pipeline.fit import Fit
 from mocap_mj.pipeline.marker_model import set_path
 from mocap_mj.pipeline.motion import Motion
@@ -59,6 +60,8 @@ from mocap_mj.solve.problem import TrialData
 from mocap_mj.solve.selection import select_in_trials
 from mocap_mj.solve.solver_result import ProgressCallback
 
+from ..arguments import validated
+
 #: ``select="auto"``: above this many frames in all the trials, identify on a pose-diverse
 #: subset. The cost of an LM iteration grows with the frames while an hour of motion repeats
 #: a few thousand poses (docs/method.md#long-recordings).
@@ -70,6 +73,7 @@ DEFAULT_RECIPE = Recipe()
 
 
 @single_blas_thread  # the command's arithmetic, bit for bit, whatever the caller's BLAS pool
+@validated(identify_call, **IDENTIFY)
 def identify(
     recordings: Sequence[Source],
     recipe: Recipe = DEFAULT_RECIPE,

@@ -27,7 +27,7 @@ import yaml
 from mocap_mj.solve.lm import LMSettings, Performance, Tolerances
 from mocap_mj.solve.losses import LossName
 
-from ..errors import InputFileError, MocapError, excerpt
+from ..errors import ArgumentError, ArgumentTypeError, InputFileError, MocapError, excerpt
 from ..io.atomic import atomic_write_text
 from ..io.yaml_file import read_yaml
 
@@ -146,26 +146,28 @@ class Recipe:
     strict: bool = False
 
     def __post_init__(self) -> None:
+        for field in dataclasses.fields(self):
+            _check_kind("Recipe", field.name, getattr(self, field.name), field.default)
         names = self.exclude_markers
         if isinstance(names, str) or not all(isinstance(n, str) and n for n in names):
-            raise MocapError(f"exclude_markers: expected a list of marker names, got {names!r}")
+            raise ArgumentError(f"exclude_markers: expected a list of marker names, got {names!r}")
         object.__setattr__(self, "exclude_markers", tuple(names))
         for name in ("model", "marker_set", "frames"):
             value = getattr(self, name)
             if value is not None and not (isinstance(value, str) and value):
-                raise MocapError(f"{name}: expected a text or none, got {value!r}")
+                raise ArgumentError(f"{name}: expected a text or none, got {value!r}")
         if self.frames is not None:
             frame_range(self.frames, 1 << 62)  # its form; its frames are checked per trial
         if self.init not in INITS:
-            raise MocapError(f"init must be one of {', '.join(INITS)}; got {self.init!r}")
+            raise ArgumentError(f"init must be one of {', '.join(INITS)}; got {self.init!r}")
         if isinstance(self.select, str) and self.select not in SELECT_WORDS:
-            raise MocapError(
+            raise ArgumentError(
                 f"select: expected a number of frames, auto or all, got {self.select!r}"
             )
         if not isinstance(self.select, str) and (isinstance(self.select, bool) or self.select < 1):
-            raise MocapError(f"select: expected at least 1 frame, got {self.select!r}")
+            raise ArgumentError(f"select: expected at least 1 frame, got {self.select!r}")
         if self.hip_centre not in HIP_CENTRES:
-            raise MocapError(
+            raise ArgumentError(
                 f"hip_centre must be one of {', '.join(HIP_CENTRES)}; got {self.hip_centre!r}"
             )
         for name, (low, high, what) in NUMERIC_RANGES.items():
@@ -179,7 +181,9 @@ class Recipe:
                 or (whole and not float(value).is_integer())
                 or not low <= value <= high  # NaN fails too
             ):
-                raise MocapError(f"{name}: expected {what} within {low:g}..{high:g}, got {value!r}")
+                raise ArgumentError(
+                    f"{name}: expected {what} within {low:g}..{high:g}, got {value!r}"
+                )
         self.settings()  # the solver's own checks (loss, prior widths, iterations)
 
     def settings(
@@ -240,7 +244,10 @@ class Recipe:
                     f"{source}: unknown recipe field {excerpt(name)} "
                     f"(expected one of {', '.join(fields)})"
                 )
-            _check_kind(source, name, value, cls.__dataclass_fields__[name].default)
+            try:
+                _check_kind(source, name, value, cls.__dataclass_fields__[name].default)
+            except ArgumentTypeError as exc:
+                raise InputFileError(str(exc)) from None
         try:
             return cls(**data)
         except MocapError as exc:
@@ -248,7 +255,8 @@ class Recipe:
 
 
 def _check_kind(source: str, name: str, value: Any, default: Any) -> None:
-    """Refuse a value whose kind differs from the field's default (bool, number, text)."""
+    """Refuse a value whose kind differs from the field's default (bool, number, text):
+    :class:`ArgumentTypeError` naming ``source`` and the field (a file's: ``from_dict``)."""
     if name == "select":
         ok = isinstance(value, str) or (isinstance(value, int) and not isinstance(value, bool))
     elif name == "symmetric":
@@ -263,10 +271,12 @@ def _check_kind(source: str, name: str, value: Any, default: Any) -> None:
         ok = isinstance(value, int) and not isinstance(value, bool)
     elif isinstance(default, float):
         ok = isinstance(value, int | float) and not isinstance(value, bool)
-    else:
+    elif isinstance(default, str):
         ok = isinstance(value, str)
+    else:  # a field of another kind (a default factory's) checks its own values
+        ok = True
     if not ok:
-        raise InputFileError(
+        raise ArgumentTypeError(
             f"{source}: recipe field {name!r}: expected a value like {default!r}, "
             f"got {excerpt(value)}"
         )
