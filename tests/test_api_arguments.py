@@ -111,10 +111,10 @@ def recipe_cases() -> Iterator[tuple[str, str, Call]]:
 
 
 def identify_cases(trial: TrialData, pset: ParameterSet) -> Iterator[tuple[str, str, Call]]:
-    """``mocap_mj.identify(trials, recipe, subject, **options)`` with one argument bad."""
+    """``mocap_mj.identify(recordings, recipe, subject, **options)`` with one argument bad."""
 
     def call(**kw: Any) -> Call:
-        args = {"trials": [trial], "recipe": Recipe(max_iterations=1), **kw}
+        args = {"recordings": [trial], "recipe": Recipe(max_iterations=1), **kw}
         return lambda: mocap_mj.identify(**args)
 
     scaled = {"mm as m": 1e3, "m divided by 1000": 1e-3}
@@ -132,15 +132,14 @@ def identify_cases(trial: TrialData, pset: ParameterSet) -> Iterator[tuple[str, 
         *((k, [trial._replace(markers=trial.markers * f)]) for k, f in scaled.items()),
     ]
     for label, value in bad_trials:
-        yield "trials", label, call(trials=value)
-    yield "trials", "missing", lambda: mocap_mj.identify(recipe=Recipe())  # type: ignore[call-arg]
+        yield "recordings", label, call(recordings=value)
+    yield "recordings", "missing", lambda: mocap_mj.identify(recipe=Recipe())  # type: ignore[call-arg]
     recipe_dict = dataclasses.asdict(Recipe())
     for label, value in (("dict", recipe_dict), ("text", "l2"), ("None", None)):
         yield "recipe", label, call(recipe=value)
     for name, kinds in (
         ("subject", ("dict", "text")),
         ("pset", ("dict", "text")),
-        ("quality", ("text",)),
         ("tolerances", ("dict", "text")),
         ("performance", ("dict", "text")),
         ("motion_sink", ("dict",)),
@@ -283,7 +282,7 @@ def test_every_bad_argument_raises_a_mocap_error_naming_it(
 def test_mm_given_as_metres_is_named_as_such(trial: TrialData) -> None:
     with pytest.raises(ArgumentError, match="millimetres given as metres") as err:
         mocap_mj.identify([trial._replace(markers=trial.markers * 1e3)])
-    assert "trials[0]" in str(err.value)
+    assert "recordings[0]" in str(err.value)
     with pytest.raises(ArgumentError, match="multiply by 1000"):
         mocap_mj.identify([trial._replace(markers=trial.markers * 1e-3)])
 

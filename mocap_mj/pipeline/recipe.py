@@ -158,6 +158,17 @@ class Recipe:
                 raise ArgumentError(f"{name}: expected a text or none, got {value!r}")
         if self.frames is not None:
             frame_range(self.frames, 1 << 62)  # its form; its frames are checked per trial
+        if self.marker_set is not None:
+            from mocap_mj.capture.marker_sets import resolve
+
+            try:
+                resolve(self.marker_set)  # a bundled set's name or a file's path
+            except MocapError as exc:
+                raise ArgumentError(f"marker_set: {exc}") from None
+        if self.model is not None and not (
+            self.model.lower().endswith(".xml") or Path(self.model).is_file()
+        ):
+            raise ArgumentError(f"model: expected an MJCF file (.xml), got {self.model!r}")
         if self.init not in INITS:
             raise ArgumentError(f"init must be one of {', '.join(INITS)}; got {self.init!r}")
         if isinstance(self.select, str) and self.select not in SELECT_WORDS:
