@@ -28,7 +28,7 @@ from ..errors import InputFileError, MocapError, excerpt
 from ..io.atomic import atomic_write_text
 from ..io.yaml_file import read_yaml
 
-Init = Literal["placed", "scaled", "nominal"]
+Init = Literal["constructed", "placed", "scaled", "nominal"]
 #: Initial models (:attr:`Recipe.init`).
 INITS: tuple[str, ...] = get_args(Init)
 HipCentre = Literal["harrington", "davis"]
@@ -61,10 +61,13 @@ class Recipe:
 
     Attributes
     ----------
-    init : "placed", "scaled" or "nominal"
-        Initial model and prior mean: placed = the nominal model scaled to the subject from
-        marker distances, the marker offsets then placed by IK; scaled = scaled only;
-        nominal = the bundled model as it is.
+    init : "constructed", "placed", "scaled" or "nominal"
+        Initial model and prior mean: constructed = the joint centres, segment lengths and
+        the offsets of the markers on the thighs, shanks, feet, upper arms and forearms from
+        the anatomical constructions on the recording (:mod:`~mocap_mj.anatomy.constructed`;
+        any posture), the other markers placed by IK; placed = the nominal model scaled to
+        the subject from marker distances, the marker offsets then placed by IK; scaled =
+        scaled only; nominal = the bundled model as it is.
     anatomy : bool
         Anatomical ranges as bounds and the landmark priors (:mod:`~mocap_mj.anatomy.anatomy`,
         :mod:`~mocap_mj.anatomy.ranges`).
@@ -103,7 +106,7 @@ class Recipe:
         imaging) or Davis et al. 1991 (Plug-in Gait's; needs both leg lengths).
     """
 
-    init: Init = "placed"
+    init: Init = "constructed"
     anatomy: bool = True
     symmetric: float | None = None
     asymmetry_prior: bool = True

@@ -16,6 +16,7 @@ import numpy as np
 from mocap_mj.anatomy.anatomy import ASYMMETRY_SIGMA, landmark_prior, symmetric_prior
 from mocap_mj.anatomy.axes import angle_to_pig, axis_decisions, axis_rmse, widths
 from mocap_mj.anatomy.ball_centres import centre_widths, row_spreads
+from mocap_mj.anatomy.constructed import constructed_theta
 from mocap_mj.anatomy.initial import estimate_stature, place_markers, scaled_theta, segment_scales
 from mocap_mj.anatomy.joint_checks import HOLD_RMSE_RATIO, held_joints, hold, joint_checks
 from mocap_mj.anatomy.partial import Unmeasured, freeze_unmeasured, on_measured
@@ -102,8 +103,10 @@ def solve_trials(
     pset, missing = freeze_unmeasured(pset, trials)
     _check_inputs(trials, pset)
     init_used = "given" if theta0 is not None else recipe.init
-    theta0, scales, pset = _initial_theta(trials, pset, theta0, recipe.init)
     subject = _with_stature(subject or Subject(), trials, pset)
+    construction = partial(constructed_theta, subject=subject, hip_centre=recipe.hip_centre,
+                           landmarks=landmarks)  # fmt: skip
+    theta0, scales, pset = _initial_theta(trials, pset, theta0, recipe.init, construction)
     stature = subject.stature()
     t10 = t10_placement(pset, trials, subject) if recipe.anatomy else None  # stature estimated
     slides = SLIDES if recipe.sliding_landmarks else None
@@ -319,6 +322,7 @@ def _initial_theta(
     pset: ParameterSet,
     theta0: np.ndarray | None,
     init: str,
+    construction: Callable[..., tuple[np.ndarray, tuple[str, ...], dict[str, str]]] | None = None,
 ) -> tuple[np.ndarray | None, dict[str, float], ParameterSet]:
     """The initial model (P,) of :func:`solve_trials`, the segment scale estimates
     behind it (name -> factor; empty unless ``init`` scaled the nominal model) and the
@@ -328,17 +332,25 @@ def _initial_theta(
     A given ``theta0`` is kept with the model file's rolling (an exported model.xml holds its
     subject's), as is the nominal model; otherwise ``init="nominal"`` leaves it None (the
     solver starts from the nominal model), ``"scaled"`` scales the
-    nominal model to the trials' marker distances and ``"placed"`` also places the marker
-    offsets by IK (with the scaled rolling)."""
+    nominal model to the trials' marker distances, ``"placed"`` also places the marker
+    offsets by IK (with the scaled rolling) and ``"constructed"`` (with ``construction``,
+    :func:`~mocap_mj.anatomy.constructed.constructed_theta` given the subject) first puts the
+    joint centres and the offsets of the constructed segments' markers where the anatomical
+    constructions put them, then places the other markers by IK."""
     scales: dict[str, float] = {}
     if theta0 is None and init != "nominal":
         markers = [t.markers for t in trials]
         estimates = segment_scales(pset, markers)
         theta0 = scaled_theta(pset, markers, scales=estimates)
         scales = {n: e.value for n, e in estimates.items()}
+        kept: tuple[str, ...] = ()
+        if init == "constructed" and construction is not None:
+            theta0, kept, sources = construction(pset, theta0, markers)
+            for joint, source in sources.items():
+                logger.info("initial %s centre: %s", joint, source)
         pset = pset.with_rolling_scaled(theta0)
-        if init == "placed":
-            theta0 = place_markers(pset, theta0, markers)
+        if init in ("placed", "constructed"):
+            theta0 = place_markers(pset, theta0, markers, kept=kept)
     return theta0, scales, pset
 
 
