@@ -327,6 +327,7 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
     hip = summary.get("hip_centre")
     if hip:
         lines.append(f"- hip centres: {HIP_SOURCES.get(hip, hip)}")
+    lines += init_centre_lines(summary.get("init_centres") or {})
     axes = summary.get("joint_axes") or {}
     if axes:
         lines += ["", "Flexion axes (docs/model.md#flexion-axes): Plug-in Gait's chord plane "
@@ -350,6 +351,18 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
     if checks:
         lines.append(checks)
     return lines
+
+
+def init_centre_lines(sources: dict[str, str]) -> list[str]:
+    """report.md's line on the initial model's joint centres (docs/model.md#the-initial-model):
+    the joints of each construction; none without ``init: constructed``."""
+    if not sources:
+        return []
+    by: dict[str, list[str]] = {}
+    for joint, how in sources.items():
+        by.setdefault(how, []).append(joint)
+    text = "; ".join(f"{', '.join(joints)}: {how}" for how, joints in by.items())
+    return [f"- initial joint centres from the constructions on the recording: {text}"]
 
 
 def frame_range(

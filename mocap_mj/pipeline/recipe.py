@@ -52,6 +52,7 @@ NUMERIC_RANGES: dict[str, tuple[float, float, str]] = {
     "observable_std": (1e-5, 1.0, "a standard deviation in m"),
     "symmetric": (1e-4, 1.0, "a width in m"),
     "select": (1, 10**9, "a number of frames"),
+    "silent_axis_sd": (1e-3, 3.2, "a standard deviation in rad"),
 }
 
 
@@ -104,6 +105,12 @@ class Recipe:
     hip_centre : "harrington" or "davis"
         With anatomy: the hip centres' regression, Harrington et al. 2007 (closer to
         imaging) or Davis et al. 1991 (Plug-in Gait's; needs both leg lengths).
+    silent_axis_sd : float [rad]
+        With anatomy: a flexion axis whose direction the markers determine to a standard
+        deviation (their Cramer-Rao bound, the construction's row taken out) above this stays
+        at its construction, and report.md says so; below it the motion places it
+        (:func:`~mocap_mj.anatomy.axes.axis_decisions`). Default 10 degrees, the joint
+        checks' limit of a determined axis.
     """
 
     init: Init = "constructed"
@@ -121,6 +128,7 @@ class Recipe:
     prior_noise: float = 0.001
     observable_std: float = 0.005
     hip_centre: HipCentre = "harrington"
+    silent_axis_sd: float = 0.17453292519943295  # 10 deg: anatomy.axes.SILENT_AXIS_SD
 
     def __post_init__(self) -> None:
         if self.init not in INITS:

@@ -14,7 +14,13 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from mocap_mj.anatomy.anatomy import ASYMMETRY_SIGMA, landmark_prior, symmetric_prior
-from mocap_mj.anatomy.axes import angle_to_pig, axis_decisions, axis_rmse, widths
+from mocap_mj.anatomy.axes import (
+    SILENT_AXIS_SD,
+    angle_to_pig,
+    axis_decisions,
+    axis_rmse,
+    widths,
+)
 from mocap_mj.anatomy.ball_centres import centre_widths, row_spreads
 from mocap_mj.anatomy.constructed import constructed_theta
 from mocap_mj.anatomy.initial import estimate_stature, place_markers, scaled_theta, segment_scales
@@ -53,7 +59,9 @@ class Solved(NamedTuple):
     subject (stature estimated when not measured) and what the report says of the solve:
     prior scale ``size`` [1], left/right prior ``symmetric`` [m], T10's placement, the
     kinematic ranges (K,) [m] (with anatomy), the initial model used, the segment scales,
-    the unmeasured parameters, the solve's wall time [s] and its log lines."""
+    the unmeasured parameters, the solve's wall time [s], its log lines, the set's landmarks
+    and, with ``init: constructed``, the construction of each initial joint centre (joint ->
+    in words, :func:`~mocap_mj.anatomy.constructed.constructed_theta`)."""
 
     pset: ParameterSet
     result: IdentificationResult
@@ -72,6 +80,7 @@ class Solved(NamedTuple):
     seconds: float
     log: list[str]
     landmarks: Mapping[str, str] | None = None
+    construction: Mapping[str, str] | None = None
 
     @property
     def t10_prior(self) -> T10Placement | None:
@@ -106,7 +115,7 @@ def solve_trials(
     subject = _with_stature(subject or Subject(), trials, pset)
     construction = partial(constructed_theta, subject=subject, hip_centre=recipe.hip_centre,
                            landmarks=landmarks)  # fmt: skip
-    theta0, scales, pset = _initial_theta(trials, pset, theta0, recipe.init, construction)
+    theta0, scales, pset, sources = _initial_theta(trials, pset, theta0, recipe.init, construction)
     stature = subject.stature()
     t10 = t10_placement(pset, trials, subject) if recipe.anatomy else None  # stature estimated
     slides = SLIDES if recipe.sliding_landmarks else None
@@ -123,12 +132,14 @@ def solve_trials(
     with captured_log() as log:
         result, weighting = _solve(
             trials, pset=pset, theta0=theta0, settings=settings, progress=progress,
-            slides=slides, trial_weights=recipe.trial_weights, **options,
+            slides=slides, trial_weights=recipe.trial_weights,
+            silent_axis_sd=recipe.silent_axis_sd, **options,
         )  # fmt: skip
         if recipe.anatomy:
             result, weighting = _held_at_construction(
                 trials, result, weighting, pset=pset, theta0=theta0, settings=settings,
-                progress=progress, slides=slides, trial_weights=recipe.trial_weights, **options,
+                progress=progress, slides=slides, trial_weights=recipe.trial_weights,
+                silent_axis_sd=recipe.silent_axis_sd, **options,
             )  # fmt: skip
     refined: dict[str, Any] = {}
     if recipe.refine and whole is not None:
@@ -146,7 +157,7 @@ def solve_trials(
     return Solved(
         pset, result, weighting, refined, sliding, slides, subject, options["size"],
         options["symmetric"], t10, ranges, init_used, scales, missing,
-        time.perf_counter() - t0, log, landmarks,
+        time.perf_counter() - t0, log, landmarks, sources,
     )  # fmt: skip
 
 
@@ -323,11 +334,12 @@ def _initial_theta(
     theta0: np.ndarray | None,
     init: str,
     construction: Callable[..., tuple[np.ndarray, tuple[str, ...], dict[str, str]]] | None = None,
-) -> tuple[np.ndarray | None, dict[str, float], ParameterSet]:
+) -> tuple[np.ndarray | None, dict[str, float], ParameterSet, dict[str, str]]:
     """The initial model (P,) of :func:`solve_trials`, the segment scale estimates
-    behind it (name -> factor; empty unless ``init`` scaled the nominal model) and the
-    parameter set to solve with: ``pset`` with its knee rolling scaled to the initial model
-    (:meth:`ParameterSet.with_rolling_scaled`, fixed for the solve).
+    behind it (name -> factor; empty unless ``init`` scaled the nominal model), the
+    parameter set to solve with (``pset`` with its knee rolling scaled to the initial model,
+    :meth:`ParameterSet.with_rolling_scaled`, fixed for the solve) and each constructed
+    joint centre's construction (joint -> in words; empty unless constructed).
 
     A given ``theta0`` is kept with the model file's rolling (an exported model.xml holds its
     subject's), as is the nominal model; otherwise ``init="nominal"`` leaves it None (the
@@ -338,6 +350,7 @@ def _initial_theta(
     joint centres and the offsets of the constructed segments' markers where the anatomical
     constructions put them, then places the other markers by IK."""
     scales: dict[str, float] = {}
+    sources: dict[str, str] = {}
     if theta0 is None and init != "nominal":
         markers = [t.markers for t in trials]
         estimates = segment_scales(pset, markers)
@@ -346,12 +359,10 @@ def _initial_theta(
         kept: tuple[str, ...] = ()
         if init == "constructed" and construction is not None:
             theta0, kept, sources = construction(pset, theta0, markers)
-            for joint, source in sources.items():
-                logger.info("initial %s centre: %s", joint, source)
         pset = pset.with_rolling_scaled(theta0)
         if init in ("placed", "constructed"):
             theta0 = place_markers(pset, theta0, markers, kept=kept)
-    return theta0, scales, pset
+    return theta0, scales, pset, sources
 
 
 def _solve(
@@ -370,6 +381,7 @@ def _solve(
     trial_weights: bool = True,
     hip_centre: str = "harrington",
     landmarks: Mapping[str, str] | None = None,
+    silent_axis_sd: float = SILENT_AXIS_SD,
 ) -> tuple[IdentificationResult, dict[str, Any]]:
     """The joint LM of :func:`solve_trials`: with ``anatomical`` through
     :func:`solve_anatomical` (ranges and landmark priors; ``symmetric`` [m] the left/right
@@ -391,6 +403,7 @@ def _solve(
             trial_weights=trial_weights,
             hip_centre=hip_centre,
             landmarks=landmarks,
+            silent_axis_sd=silent_axis_sd,
         )
     result = identify_lm(trials, pset=pset, theta0=theta0, settings=settings, progress=progress)
     return result, {}
@@ -503,9 +516,11 @@ def solve_anatomical(
     hip_centre: str = "harrington",
     landmarks: Mapping[str, str] | None = None,
     held: Collection[str] = (),
+    silent_axis_sd: float = SILENT_AXIS_SD,
 ) -> tuple[IdentificationResult, dict[str, Any]]:
     """The joint LM with anatomical ranges as bounds and the anatomical priors (``t10``,
-    ``held``: :func:`anatomical_priors`; ``trial_weights``: False weighs every trial 1).
+    ``held``: :func:`anatomical_priors`; ``trial_weights``: False weighs every trial 1;
+    ``silent_axis_sd`` [rad]: the recipe's, :func:`~mocap_mj.anatomy.axes.axis_decisions`).
 
     The priors are weighed against the markers' effective noise: a first solve uses the
     nominal marker noise (``settings.prior_noise``, 1 mm); when the artefact's noise of one
@@ -547,7 +562,7 @@ def solve_anatomical(
     soft = noise > REWEIGHT_RATIO * settings.prior_noise
     weak, axis_noise = settings.weak_prior(start), noise if soft else settings.prior_noise
     axes = axis_decisions(pset, result.reduced_information, result.theta, priors, weak, axis_noise,
-                          settings.prior_noise)  # fmt: skip
+                          settings.prior_noise, silent_axis_sd)  # fmt: skip
     priors = _decided(pset, subject, options, result, priors, axes, weighting, soft, settings)
     if not soft and all(w == 1.0 for w in per_trial) and not axes:
         weighting["noise_mm"] = settings.prior_noise * 1e3
