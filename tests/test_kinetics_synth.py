@@ -40,7 +40,7 @@ def folders(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     base = tmp_path_factory.mktemp("synth_plates")
     synth, result = base / "synth", base / "ik"
     proc = run("synth", "--out", str(synth), "--movement", "static", "--noise-mm", "0",
-               "--frame-count", "300", "--seed", "5", "--plates", "--mass", str(MASS))  # fmt: skip
+               "--frame-count", "300", "--seed", "5", "--plates", str(MASS))  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     assert "plates.c3d" in json.loads((synth / "summary.json").read_text())["files"]
     proc = run("ik", "--markers", str(synth / "plates.c3d"), "--model",

@@ -63,6 +63,7 @@ REMOVED: dict[str, dict[str, str]] = {
     "synth": {
         "--frames": "use --frame-count N (--frames is a range A:B in the other commands)",
         "--motion": "use --movement rom|walk|static (--motion is a motion file elsewhere)",
+        "--mass": "use --plates KG (the body mass of the plates' subject)",
     },
     "demo": {"--frames": "use --frame-count N (--frames is a range A:B in the other commands)"},
     "render": {

@@ -45,9 +45,10 @@ def register(sub: Any) -> None:
         metavar="FILE",
         help="subject values overriding the file's: a YAML file (measurements as in "
         "summary.json, and static_plantar_flex_l, static_rot_off_l, asis_trochanter_l, "
-        "tibial_torsion_l, head_offset with a unit), or Vicon's .vsk or .mp subject file "
+        "tibial_torsion_l, sole_delta_l, head_offset with a unit; Nexus' static options "
+        "flat_foot_l, head_level: true or false), or Vicon's .vsk or .mp subject file "
         "(Plug-in Gait's names and the C3D PROCESSING group's units: mm, kg, rad) "
-        "(default: none)",
+        "(default: none; a static's flat foot is told by its given offsets)",
     )
     p.add_argument(
         "--trial-type",
