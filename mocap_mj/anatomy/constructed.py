@@ -13,10 +13,14 @@ Per frame (:func:`construct`), in the lab:
 * the hip centres: the landmark prior's hip rows (Harrington et al. 2007, or Davis et al.
   1991 with the recipe's ``hip_centre: davis``) solved for the hip parameters, in that frame;
 * the knee and ankle centres: the midpoint of the lateral and medial markers where the set
-  has both, else Plug-in Gait's chord (:func:`mocap_mj.clinical.geometry.chord`) from the
-  wand (THI, TIB), the proximal centre and the lateral marker (KNE, ANK), at width/2 +
-  marker radius, the width measured (subject file, C3D, the medial markers), else regressed
-  on the segment's length (:data:`~mocap_mj.anatomy.anatomy.WIDTH_RATIO`);
+  has both; else the knee by Plug-in Gait's chord (:func:`mocap_mj.clinical.geometry.chord`)
+  from the thigh wand, the hip centre and KNE, and the ankle on the knee's flexion axis made
+  normal to the shank, each at width/2 + marker radius from its lateral marker (KNE, ANK),
+  the width measured (subject file, C3D, the medial markers), else regressed on the
+  segment's length (:data:`~mocap_mj.anatomy.anatomy.WIDTH_RATIO`). The ankle's chord from
+  the tibial wand is left to the prior's chord-plane row: it carries the wand's placement
+  (the tibia's torsion and the operator's), which moved a synthetic static's ankle axis by 32
+  degrees from the truth's where a start on the knee's axis leaves 6;
 * the shoulder, elbow and wrist centres: Plug-in Gait's (:mod:`mocap_mj.clinical.centres`),
   with the measured shoulder offset, elbow and wrist widths, else the landmark prior's means
   (shoulder offset 45 mm x stature / 1.75 m less the marker radius, the regressed elbow
@@ -59,16 +63,11 @@ from ..clinical.segments import Markers, trunk_frames
 #: frame whose elbow construction is used: below it the arm's plane, which Plug-in Gait's
 #: elbow centre lies in, turns with the noise.
 MIN_ELBOW_BEND_DEG = 30.0
-#: The least distance [m] of a wand (THI, TIB) from the line of its joint's proximal centre and
+#: The least distance [m] of the thigh wand (THI) from the line of its joint's proximal centre and
 #: lateral marker for Plug-in Gait's chord: a placement error e turns the chord's plane by
 #: about atan(e / lever), 20 degrees for 10 mm at 25 mm (a Plug-in Gait wand stands 50-100 mm
-#: out). Nearer, a knee is not constructed and an ankle is placed on the knee's axis.
+#: out). Nearer, a knee is not constructed.
 MIN_WAND_LEVER = 0.025
-#: The most tibial torsion [deg] the ankle's chord may imply against the knee's flexion axis:
-#: adults' tibial torsion is 20-40 degrees external between the transepicondylar and the
-#: transmalleolar axes (CT studies), against the knee's axis the chord uses; beyond that the
-#: wand is taken as off its plane and the ankle centre placed on the knee's axis.
-MAX_TORSION_DEG = 40.0
 #: Shoulder offset plus marker radius [m] of a 1.75 m adult where none is measured: the
 #: landmark prior's mean (:mod:`mocap_mj.anatomy.anatomy`, SHO 45 mm above the centre).
 SHOULDER_ABOVE = 0.045
@@ -175,29 +174,29 @@ def _lever(wand: np.ndarray, proximal: np.ndarray, lateral: np.ndarray) -> float
     return float(np.median(perp)) if perp.size else 0.0
 
 
+def _pair_midpoint(rec: _Recording, p: str, lateral: str) -> tuple[np.ndarray, str] | None:
+    """The midpoint (T, 3) [m] of the lateral marker and the set's medial one, else None."""
+    medial = medial_pairs(rec.pset, rec.landmarks, p, rec.alias).get(p + lateral)
+    if medial is None or not rec.has(p + lateral):
+        return None
+    m = rec.markers[:, rec.pset.marker_index(medial)]
+    if not np.any(np.isfinite(m[:, 0])):
+        return None
+    return 0.5 * (rec[p + lateral] + m), "the midpoint of the lateral and medial markers"
+
+
 def _centre(rec: _Recording, p: str, lateral: str, wand: str, proximal: np.ndarray,
             half: float) -> tuple[np.ndarray, str] | None:  # fmt: skip
-    """A knee or ankle centre (T, 3) [m]: the landmark pair's midpoint, else the chord with
-    a wand :data:`MIN_WAND_LEVER` or more off the line, else None."""
-    pairs = medial_pairs(rec.pset, rec.landmarks, p, rec.alias)
-    medial = pairs.get(p + lateral)
-    if medial is not None and rec.has(p + lateral):
-        m = rec.markers[:, rec.pset.marker_index(medial)]
-        if np.any(np.isfinite(m[:, 0])):
-            return 0.5 * (rec[p + lateral] + m), "the midpoint of the lateral and medial markers"
+    """A knee centre (T, 3) [m]: the landmark pair's midpoint, else the chord with a wand
+    :data:`MIN_WAND_LEVER` or more off the line, else None."""
+    pair = _pair_midpoint(rec, p, lateral)
+    if pair is not None:
+        return pair
     if not (rec.has(p + wand, p + lateral) and np.any(np.isfinite(proximal[:, 0]))):
         return None
     if _lever(rec[p + wand], proximal, rec[p + lateral]) < MIN_WAND_LEVER:
         return None
     return chord(rec[p + wand], proximal, rec[p + lateral], half), "Plug-in Gait's chord"
-
-
-def _torsion(ank: np.ndarray, chord_centre: np.ndarray, axis_centre: np.ndarray) -> float:
-    """Median angle [deg] between the chord's and the knee axis's ankle centre seen from ANK:
-    the tibial torsion the chord's plane implies."""
-    cos = np.sum(unit(ank - chord_centre) * unit(ank - axis_centre), axis=-1)
-    cos = cos[np.isfinite(cos)]
-    return float(np.degrees(np.arccos(np.clip(np.median(cos), -1.0, 1.0)))) if cos.size else 0.0
 
 
 def _on_knee_axis(rec: _Recording, p: str, lat: float, thigh: np.ndarray, knee: np.ndarray,
@@ -209,7 +208,7 @@ def _on_knee_axis(rec: _Recording, p: str, lat: float, thigh: np.ndarray, knee: 
     ank = rec[p + "ANK"]
     u = unit(knee - ank)
     y = thigh[..., 1] - np.sum(thigh[..., 1] * u, axis=-1, keepdims=True) * u
-    return ank - lat * half * unit(y), "on the knee's flexion axis (the wand near the shank)"
+    return ank - lat * half * unit(y), "on the knee's flexion axis"
 
 
 def _leg(rec: _Recording, theta: np.ndarray, subject: Subject, pelvis: _Frame, side: str,
@@ -227,11 +226,7 @@ def _leg(rec: _Recording, theta: np.ndarray, subject: Subject, pelvis: _Frame, s
     out.frames[f"thigh_{side}"] = (frame_zy(hip - knee[0], lat * (rec[p + "KNE"] - knee[0])), hip)
     half, how = _half_width(pset, theta, subject, "ankle_width", side)
     thigh = out.frames[f"thigh_{side}"][0]
-    on_axis = _on_knee_axis(rec, p, lat, thigh, knee[0], half)
-    ankle = _centre(rec, p, "ANK", "TIB", knee[0], half)
-    if ankle is None or (on_axis is not None and _torsion(rec[p + "ANK"], ankle[0], on_axis[0])
-                         > MAX_TORSION_DEG):  # fmt: skip
-        ankle = on_axis
+    ankle = _pair_midpoint(rec, p, "ANK") or _on_knee_axis(rec, p, lat, thigh, knee[0], half)
     if ankle is None:
         return
     out.centres[f"ankle_{side}"], src = ankle[0], ankle[1]
