@@ -28,10 +28,12 @@ Per frame (:func:`construct`), in the lab:
   :data:`MIN_ELBOW_BEND_DEG` or more (Plug-in Gait's elbow plane is undefined in a straight
   arm);
 * the model's body frames from those: thigh z from the knee to the hip centre, y towards KNE
-  (the knee's flexion axis); shank z from the ankle to the knee centre, y towards ANK; foot y
-  the shank's, x along HEE-TOE (else ankle centre-TOE) as on the model; upper arm z from the
-  elbow to the shoulder centre, y towards ELB; radius z from the wrist to the elbow centre, y
-  along the wrist bar.
+  (the knee's flexion axis); shank z from the ankle to the knee centre, y towards ANK; upper
+  arm z from the elbow to the shoulder centre, y towards ELB; radius z from the wrist to the
+  elbow centre, y along the wrist bar. The foot, at the end of its chain with HEE, TOE and
+  the ankle below a constructed shank, is placed by IK: a foot frame from HEE-TOE and the
+  knee's axis moved a synthetic static's ankle axis 20-33 degrees from the truth's, where the
+  IK's leaves 4-11.
 
 Then (:func:`constructed_theta`) the segment lengths are the median distances between the
 centres (the thigh, shank, upper arm, forearm, clavicle), the hip parameters the rows'
@@ -233,26 +235,6 @@ def _leg(rec: _Recording, theta: np.ndarray, subject: Subject, pelvis: _Frame, s
     out.sources[f"ankle_{side}"] = src if "midpoint" in src else f"{src}, {how}"
     shank = frame_zy(knee[0] - ankle[0], lat * (rec[p + "ANK"] - ankle[0]))
     out.frames[f"shank_{side}"] = (shank, knee[0])
-    _foot(rec, theta, side, p, shank, ankle[0], out)
-
-
-def _foot(rec: _Recording, theta: np.ndarray, side: str, p: str, shank: np.ndarray,
-          ankle: np.ndarray, out: Construction) -> None:  # fmt: skip
-    """The foot frame: y the shank's (the ankle axis), x turned from the HEE-TOE line (else
-    ankle centre-TOE) by that line's angle in the model's foot frame."""
-    pset = rec.pset
-    if not rec.has(p + "TOE"):
-        return
-    toe0 = _offset(pset, theta, rec.name(p + "TOE"))
-    if rec.has(p + "HEE"):
-        v, v0 = rec[p + "TOE"] - rec[p + "HEE"], toe0 - _offset(pset, theta, rec.name(p + "HEE"))
-    else:
-        v, v0 = rec[p + "TOE"] - ankle, toe0
-    g = frame(1, shank[..., 1], 0, v)  # x along v's part normal to the ankle axis
-    phi = np.arctan2(v0[2], v0[0])  # v0 = (cos, 0, sin) in the foot frame: turn x onto it
-    c, s = np.cos(phi), np.sin(phi)
-    ry = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-    out.frames[f"foot_{side}"] = (np.einsum("tij,jk->tik", g, ry), ankle)
 
 
 def _arms(rec: _Recording, theta: np.ndarray, subject: Subject, s: float,

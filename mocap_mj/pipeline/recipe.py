@@ -64,7 +64,7 @@ class Recipe:
     ----------
     init : "constructed", "placed", "scaled" or "nominal"
         Initial model and prior mean: constructed = the joint centres, segment lengths and
-        the offsets of the markers on the thighs, shanks, feet, upper arms and forearms from
+        the offsets of the markers on the thighs, shanks, upper arms and forearms from
         the anatomical constructions on the recording (:mod:`~mocap_mj.anatomy.constructed`;
         any posture), the other markers placed by IK; placed = the nominal model scaled to
         the subject from marker distances, the marker offsets then placed by IK; scaled =
