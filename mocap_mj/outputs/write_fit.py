@@ -354,8 +354,9 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
 
 
 def init_centre_lines(sources: dict[str, str]) -> list[str]:
-    """report.md's line on the initial model's joint centres (docs/model.md#the-initial-model):
-    the joints of each construction; none without ``init: constructed``."""
+    """report.md's line on the initial model's joint centres: the joints of each
+    construction (docs/model.md#the-constructions-start-and-prior); none without
+    ``init: constructed``."""
     if not sources:
         return []
     by: dict[str, list[str]] = {}

@@ -518,9 +518,8 @@ def solve_anatomical(
     held: Collection[str] = (),
     silent_axis_sd: float = SILENT_AXIS_SD,
 ) -> tuple[IdentificationResult, dict[str, Any]]:
-    """The joint LM with anatomical ranges as bounds and the anatomical priors (``t10``,
-    ``held``: :func:`anatomical_priors`; ``trial_weights``: False weighs every trial 1;
-    ``silent_axis_sd`` [rad]: the recipe's, :func:`~mocap_mj.anatomy.axes.axis_decisions`).
+    """The joint LM with anatomical ranges as bounds and the anatomical priors (``t10``, ``held``:
+    :func:`anatomical_priors`; ``trial_weights``: False weighs every trial 1; ``silent_axis_sd``).
 
     The priors are weighed against the markers' effective noise: a first solve uses the
     nominal marker noise (``settings.prior_noise``, 1 mm); when the artefact's noise of one
@@ -547,15 +546,9 @@ def solve_anatomical(
     priors = anatomical_priors(pset, subject, **options)
     start = pset.nominal if theta0 is None else theta0
     result = identify_lm(
-        trials,
-        pset=pset,
-        theta0=theta0,
-        settings=settings,
-        progress=progress,
-        priors=[settings.weak_prior(start), *priors],
-        lower=lower,
-        upper=upper,
-    )
+        trials, pset=pset, theta0=theta0, settings=settings, progress=progress,
+        priors=[settings.weak_prior(start), *priors], lower=lower, upper=upper,
+    )  # fmt: skip
     weighting, noise = _weighting(pset, result, trials, trial_weights)
     tau = weighting["tau_frames"]
     taus, per_trial = weighting["trial_tau_frames"], weighting["trial_weights"]
