@@ -18,9 +18,8 @@ Per frame (:func:`construct`), in the lab:
   normal to the shank, each at width/2 + marker radius from its lateral marker (KNE, ANK),
   the width measured (subject file, C3D, the medial markers), else regressed on the
   segment's length (:data:`~mocap_mj.anatomy.anatomy.WIDTH_RATIO`). The ankle's chord from
-  the tibial wand is left to the prior's chord-plane row: it carries the wand's placement
-  (the tibia's torsion and the operator's), which moved a synthetic static's ankle axis by 32
-  degrees from the truth's where a start on the knee's axis leaves 6;
+  the tibial wand is left to the prior's chord-plane row: it carries the wand's placement,
+  the tibia's torsion and the operator's;
 * the shoulder, elbow and wrist centres: Plug-in Gait's (:mod:`mocap_mj.clinical.centres`),
   with the measured shoulder offset, elbow and wrist widths, else the landmark prior's means
   (shoulder offset 45 mm x stature / 1.75 m less the marker radius, the regressed elbow
@@ -32,8 +31,8 @@ Per frame (:func:`construct`), in the lab:
   arm z from the elbow to the shoulder centre, y towards ELB; radius z from the wrist to the
   elbow centre, y along the wrist bar. The foot, at the end of its chain with HEE, TOE and
   the ankle below a constructed shank, is placed by IK: a foot frame from HEE-TOE and the
-  knee's axis moved a synthetic static's ankle axis 20-33 degrees from the truth's, where the
-  IK's leaves 4-11.
+  knee's axis moved the right ankle axis of the synthetic statics of tests/test_postures.py
+  20-33 degrees from the truth's; placed by IK, 4-12.
 
 Then (:func:`constructed_theta`) the segment lengths are the median distances between the
 centres (the thigh, shank, upper arm, forearm, clavicle), the hip parameters the rows'
