@@ -164,8 +164,7 @@ def add_removed_flags(parser: argparse.ArgumentParser, command: str) -> None:
             command=command,
             new=new,
             why=why,
-            nargs=0 if target.nargs == 0 else target.nargs,
-            const=target.const if target.nargs == "?" else None,
+            nargs=0 if target.nargs == 0 else target.nargs,  # "?": None when left out
             dest=f"renamed_{flag.removeprefix('--').replace('-', '_')}",
             default=argparse.SUPPRESS,
             help=argparse.SUPPRESS,
