@@ -87,7 +87,7 @@ def register(sub: Any) -> None:
     for flag, field, kind, text in _OPTIONS:
         # the placeholders of the other commands: MM for a length in mm, N for a count
         metavar = "MM" if flag.endswith("-mm") else "N" if kind is int else None
-        metavar = {"--heading": "DEG", "--pose": "NAME"}.get(flag, metavar)
+        metavar = metavar or {"--heading": "DEG", "--pose": "NAME"}.get(flag)
         metavar = metavar or flag.lstrip("-").split("-")[0].upper()
         p.add_argument(flag, dest=field, metavar=metavar, help=text)
     p.add_argument(

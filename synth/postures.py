@@ -52,7 +52,17 @@ from mocap_mj.errors import MocapError
 from .config import POSES
 from .motion import _quat_mul, assemble, joints, quat_to_rotvec, rotvec_to_quat
 
-__all__ = ["BLEND_S", "POSES", "POSTURES", "apply", "hold", "pose_qpos", "start_in", "turn"]
+__all__ = [
+    "BLEND_S",
+    "POSES",
+    "POSTURES",
+    "apply",
+    "blend_end",
+    "hold",
+    "pose_qpos",
+    "start_in",
+    "turn",
+]
 
 #: (hinges by base name [deg], balls by base name: left rotation vector [deg], root rotation
 #: vector [deg]) of each posture; joints not named keep their ``qpos0``.
@@ -86,6 +96,12 @@ POSTURES: dict[str, tuple[Mapping[str, float], Mapping[str, tuple[float, float, 
 BLEND_S = 1.0
 
 _DEG = np.pi / 180.0
+
+
+def blend_end(pose: str, duration: float) -> float:
+    """The time [s] at which a dynamic trial of ``duration`` [s] starting in ``pose`` is its
+    motion alone (:func:`start_in`): 0 for the neutral posture."""
+    return 0.0 if pose == "neutral" else min(BLEND_S, duration / 3.0)
 
 
 def _angles(
@@ -180,7 +196,7 @@ def start_in(model: mujoco.MjModel, qpos: np.ndarray, name: str, rate: float) ->
     and rotation vector likewise; the posture's root starts where the motion's first frame has
     it horizontally."""
     t = np.arange(len(qpos)) / float(rate)
-    ramp = min(BLEND_S, float(t[-1]) / 3.0)
+    ramp = blend_end(name, float(t[-1]))
     x = np.clip(t / ramp, 0.0, 1.0) if ramp > 0 else np.zeros_like(t)
     w = x**3 * (10 - 15 * x + 6 * x**2)
     pose = pose_qpos(model, name)

@@ -181,15 +181,15 @@ def test_plates_chooses_plates_and_synth_writes_one_with_with_plate(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     """``--plates`` is the choice of the plates that count (plug-in-gait's, gait-report's);
-    synth's flag that writes a trial with a plate is ``--with-plate [KG]`` (the body mass,
-    75 kg without a value; ``--plates`` still works, warned)."""
+    synth's switch that
+    writes a trial with a plate is ``--with-plate`` (``--plates`` still works, warned)."""
     having = [c for c, p in _commands().items() if "--plates" in p._option_string_actions]
     listed = [c for c in having if _action(_commands()[c], "--plates").help != argparse.SUPPRESS]
     assert sorted(listed) == ["gait-report", "plug-in-gait"]
     synth = _commands()["synth"]
     assert synth.parse_args(["--out", "o"]).plates is None
-    assert synth.parse_args(["--out", "o", "--with-plate"]).plates == "75"
-    assert synth.parse_args(["--out", "o", "--with-plate", "80"]).plates == "80"
+    assert synth.parse_args(["--out", "o", "--with-plate"]).plates == "75"  # kg, the default
+    assert synth.parse_args(["--out", "o", "--with-plate", "60"]).plates == "60"
     assert capsys.readouterr().err == ""
     assert synth.parse_args(["--out", "o", "--plates"]).plates == "75"
     assert capsys.readouterr().err.strip().splitlines() == [

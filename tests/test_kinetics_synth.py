@@ -1,8 +1,8 @@
-"""Kinetics against a synthetic ground truth: ``synth --with-plate`` and ``ik`` with the truth.
+"""Kinetics against a synthetic ground truth: ``synth --plates`` and ``ik`` with the truth model.
 
 The truth: a quiet stance leant onto the right foot (mocap_synth/plates.py), whose ground
 reaction is the wrench the truth motion needs (its root residual without loads); ``synth
---with-plate`` writes it as a type-2 plate under the right foot of plates.c3d. The commands then
+--plates`` writes it as a type-2 plate under the right foot of plates.c3d. The commands then
 read the plate (offsets, sign, axes, centre of pressure), give it to the right foot (the
 contact rules), apply it to the model's foot and run the inverse dynamics. With the truth
 model and noiseless markers the root residual is below 0.5 % of body weight and every joint
@@ -42,7 +42,8 @@ def folders(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     base = tmp_path_factory.mktemp("synth_plates")
     synth, result = base / "synth", base / "ik"
     proc = run("synth", "--out", str(synth), "--movement", "static", "--noise-mm", "0",
-               "--frame-count", "300", "--seed", "5", "--with-plate", str(MASS))  # fmt: skip
+               "--frame-count", "300", "--seed", "5", "--with-plate",
+               str(MASS))  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     assert "plates.c3d" in json.loads((synth / "summary.json").read_text())["files"]
     proc = run("ik", "--markers", str(synth / "plates.c3d"), "--model",

@@ -332,3 +332,13 @@ def test_identify_finds_the_flexion_axes_in_every_posture(
     """Every flexion axis (knees, ankles, elbows) within 10 degrees of the truth's."""
     r = _identified(pose, heading, movement, frames)
     assert r["axis_max_deg"] <= AXIS_DEG, (r["axis_max_deg"], r["axis_worst"], r["axis_deg"])
+
+
+def test_a_walk_from_a_posture_has_its_truth_events_after_the_blend() -> None:
+    from mocap_synth.gait_truth import truth_events
+
+    cfg = SynthConfig(frames=400, motion="walk", seed=1)
+    seated = truth_events(synthesize(dataclasses.replace(cfg, pose="seated")))
+    plain = truth_events(synthesize(cfg))
+    assert seated and min(e.time for e in seated) >= pz.BLEND_S
+    assert [e for e in plain if e.time >= pz.BLEND_S] == seated

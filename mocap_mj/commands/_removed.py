@@ -137,7 +137,7 @@ class _Renamed(argparse.Action):
         option_string: str | None = None,
     ) -> None:
         new = parser._option_string_actions[self.new]
-        if self.nargs == 0 or values is None:  # a switch, or an optional value left out
+        if self.nargs == 0 or values is None:  # a switch or no value: its new flag's const
             values, shown = new.const, ""
         else:
             shown = f" {values}"
@@ -157,14 +157,14 @@ def add_removed_flags(parser: argparse.ArgumentParser, command: str) -> None:
     """Accept ``command``'s removed flags (any number of values) and renamed ones (their new
     flag's value), hidden from ``--help``; a renamed flag's new one is added before."""
     for flag, (new, why) in RENAMED.get(command, {}).items():
-        target = parser._option_string_actions[new]
-        parser.add_argument(  # a switch renamed takes no value, as its new one
+        nargs = parser._option_string_actions[new].nargs
+        parser.add_argument(  # a renamed flag takes the values its new one takes
             flag,
             action=_Renamed,
             command=command,
             new=new,
             why=why,
-            nargs=0 if target.nargs == 0 else target.nargs,  # "?": None when left out
+            nargs=0 if nargs == 0 else "?" if nargs == "?" else None,
             dest=f"renamed_{flag.removeprefix('--').replace('-', '_')}",
             default=argparse.SUPPRESS,
             help=argparse.SUPPRESS,
