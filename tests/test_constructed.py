@@ -144,3 +144,10 @@ def test_identify_on_a_t_pose_keeps_every_joint_inside_the_body(pset: ParameterS
     for side in ("l", "r"):
         assert _knee_medial(pset, theta, side) > 0.02
         assert _elbow_forward(pset, theta, side) < 0.015
+
+
+def test_the_recipes_silent_axis_sd_is_the_axes_default() -> None:
+    from mocap_mj.anatomy.axes import SILENT_AXIS_SD
+
+    assert Recipe().silent_axis_sd == SILENT_AXIS_SD == pytest.approx(np.radians(10.0))
+    assert Recipe().init == "constructed"
