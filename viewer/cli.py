@@ -15,7 +15,7 @@ from typing import Any
 
 from mocap_mj.commands._inputs import refuse_replacing_file
 from mocap_mj.commands._removed import add_removed_flags
-from mocap_mj.commands.common import add_force_flag, add_json_flag, finish
+from mocap_mj.commands.common import add_force_flag, add_json_flag, add_trial_flag, finish
 from mocap_mj.errors import MocapError
 from mocap_mj.export.registry import Exporter
 
@@ -32,6 +32,7 @@ def _add_source(p: argparse.ArgumentParser) -> None:
         help="result folder (model.xml + motion.npz), synthetic-truth folder, or a demo "
         "folder (its result/ is shown)",
     )
+    add_trial_flag(p)
     _add_source_options(p)
 
 
@@ -79,7 +80,11 @@ def _add_frames(p: argparse.ArgumentParser) -> None:
 
 def _load(args: argparse.Namespace) -> tuple[Playback, Ghost | None]:
     playback = load_playback(
-        args.result, model=args.model, motion=args.motion, markers=args.markers
+        args.result,
+        model=args.model,
+        motion=args.motion,
+        markers=args.markers,
+        trial=getattr(args, "trial", None),
     )
     ghost = None
     if args.ghost:

@@ -16,7 +16,8 @@ import numpy as np
 
 from mocap_mj.errors import InputFileError, MocapError, ShapeError
 from mocap_mj.outputs.write_fit import frame_range
-from mocap_mj.pipeline.motion import Motion, ResultDir, load_motion
+from mocap_mj.pipeline.motion import Motion, load_motion
+from mocap_mj.pipeline.trials import open_trial
 from mocap_mj.skeleton import rolling
 from mocap_mj.skeleton.mjcf import load_model, model_path
 
@@ -184,6 +185,7 @@ def load_playback(
     model: str | Path | None = None,
     motion: str | Path | None = None,
     markers: str | Path | None = None,
+    trial: str | None = None,
 ) -> Playback:
     """Load what to show from a result folder, or from a model with a motion and/or markers.
 
@@ -199,6 +201,9 @@ def load_playback(
         A marker file (any format ``mocap_mj.io.load_markers`` reads). Without ``motion`` the
         model stands at its reference pose ``qpos0`` in every frame and residuals are not
         shown; with ``motion`` it replaces the motion's markers (same number of frames).
+    trial : str, optional
+        Which trial of a multi-trial result: its index or name
+        (:func:`mocap_mj.pipeline.trials.open_trial`; default the first).
 
     Returns
     -------
@@ -212,10 +217,12 @@ def load_playback(
     if result_dir is not None:
         if model is not None or motion is not None or markers is not None:
             raise MocapError("give either a result folder or --model/--motion/--markers")
-        res = ResultDir.open(result_dir)
+        res = open_trial(result_dir, trial)
         mj_model = load_model(res.model)
         motion_ = load_motion(res.motion, mj_model, res.model)
         return _from_motion(mj_model, res.model, motion_, str(res.root), True)
+    if trial is not None:
+        raise MocapError("--trial: only with a result folder")
     if motion is None and markers is None:
         raise MocapError("nothing to show: give a result folder, --motion or --markers")
     path = Path(model) if model is not None else model_path()

@@ -19,12 +19,13 @@ from typing import Any
 from mocap_mj.commands.common import (
     add_force_flag,
     add_json_flag,
+    add_trial_flag,
     finish,
     output_folder,
     write_summary,
 )
 from mocap_mj.export.read_result import ExportSource, load_result
-from mocap_mj.pipeline.motion import ResultDir
+from mocap_mj.pipeline.trials import open_trial
 from mocap_mj.skeleton.mjcf import load_model
 
 from ..capture.events import read_events_csv
@@ -183,7 +184,7 @@ def _source(args: argparse.Namespace) -> ExportSource:
             raise MocapError(f"--{flag}: only for --to glb")
     if getattr(args, "compare", None) and args.to != "angles":
         raise MocapError("--compare: only for --to angles")
-    return load_result(args.result, getattr(args, "motion", None))
+    return load_result(args.result, getattr(args, "motion", None), args.trial)
 
 
 BUILTIN: tuple[Exporter, ...] = (
@@ -230,6 +231,7 @@ def register(sub: Any) -> None:
         help="result folder (model.xml + motion.npz) or synthetic-truth folder",
     )
     p.add_argument("--to", choices=sorted(table), help="format (default: from the suffix of --out)")
+    add_trial_flag(p)
     p.add_argument(
         "--out",
         metavar="PATH",
@@ -272,7 +274,7 @@ def register(sub: Any) -> None:
 def _result_files(args: argparse.Namespace) -> list[Path]:
     """The files of RESULT_DIR (and ``--motion``) that an exported file must not replace."""
     try:
-        rd = ResultDir.open(args.result) if args.result else None
+        rd = open_trial(args.result, args.trial) if args.result else None
     except MocapError:  # reported by the exporter, with the rest of its checks
         return []
     files = [Path(args.motion)] if getattr(args, "motion", None) else []

@@ -195,7 +195,7 @@ def _kinetics_of(
     """summary.json's ``kinetics`` of the trial (:mod:`._kinetics`) and the files written."""
     if kinetics is None:
         return None, []
-    entry, files = write_trial(args, kinetics, 0, out, "motion.npz", sl)
+    entry, files = write_trial(args, kinetics, 0, out, "", sl)
     return summary_of(kinetics, [entry]), files
 
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import shutil
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -14,17 +13,20 @@ import numpy as np
 from mocap_mj.anatomy.axes import report_lines as axis_lines
 from mocap_mj.anatomy.joint_checks import report_line
 from mocap_mj.anatomy.plausibility import limits_text
-from mocap_mj.anatomy.segments import SegmentRow, uncertainty_lines, write_segments_csv
+from mocap_mj.anatomy.segments import uncertainty_lines, write_segments_csv
 from mocap_mj.anatomy.tissue import SlidingModel, with_sliding_model
 from mocap_mj.capture.marker_quality import quality_lines
 from mocap_mj.io.strict_json import dumps, jsonable
-from mocap_mj.outputs.clinical_out import write_model_angles
 from mocap_mj.outputs.nexus_out import centres_vs_nexus
+from mocap_mj.outputs.trial_out import (
+    save_motions,
+    streamed_name,
+    write_trial_plots,
+    write_trial_tables,
+)
 from mocap_mj.pipeline.fit import Fit
-from mocap_mj.pipeline.motion import Motion, save_motion
-from mocap_mj.skeleton.exported import Layout
-from mocap_mj.skeleton.joint_centre_table import write_joint_centres_csv
-from mocap_mj.skeleton.kinematics import Kinematics
+from mocap_mj.pipeline.motion import Motion
+from mocap_mj.pipeline.trials import trial_folders
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.identifiability import Identifiability
 from mocap_mj.solve.lm import solver_joint_range
@@ -42,21 +44,25 @@ def write_result(
     force: bool = False,
 ) -> dict[str, Any]:
     """Write ``fit`` as a result folder (:mod:`mocap_mj.pipeline.motion`): model.xml, theta.json,
-    recipe.yaml (:meth:`Recipe.save`: ``mocap-mj identify --recipe`` re-runs it),
-    motion.npz and joint_centres.csv (``_<i>`` for the other trials), angles.csv (Plug-in
-    Gait's angles of the model, first trial; compared in report.md with the Nexus angles its
-    C3D holds), segments.csv,
-    identifiability.json, report.md, plots and summary.json (``inputs``, e.g. the marker
-    files read, then :meth:`Fit.summary`). The folder is replaced whole at the end
+    recipe.yaml (:meth:`Recipe.save`: ``mocap-mj identify --recipe`` re-runs it), per trial
+    in its folder (:mod:`mocap_mj.pipeline.trials`: the first trial's at the top, each
+    further one's in ``trials/<name>/``) motion.npz, joint_centres.csv, angles.csv (Plug-in
+    Gait's angles of the model; compared in report.md with the Nexus angles its C3D holds)
+    and marker_error.png; segments.csv, identifiability.json, report.md (a section per trial
+    of several), residual_per_marker.png and summary.json (``inputs``, e.g. the marker files
+    read, then :meth:`Fit.summary`, then ``trials``). The folder is replaced whole at the end
     (:func:`~mocap_mj.io.atomic.atomic_folder`; a non-empty ``folder`` only with ``force``);
     a motion streamed to files (``Fit.motion_files``) is moved into it. Returns the summary
     written."""
     summary = jsonable({**(inputs or {}), **fit.summary()})
     motion = list(fit.motion) if fit.motion is not None else []
+    folders = trial_folders([str(t.name) for t in fit.trials])
     with atomic_folder(folder, force=force) as staging:
         for path in fit.motion_files:
-            shutil.move(path, staging / path.name)
-        write_files(
+            target = staging / streamed_name(path.name, folders)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.move(path, target)
+        fitted_rmse = write_files(
             staging,
             fit.pset,
             fit.result,
@@ -67,16 +73,8 @@ def write_result(
             motion=motion,
             sliding=fit.sliding,
         )
-        _write_tables(staging, fit.pset, fit.theta, motion, fit.segments, fit.first_frames)
-        lines, compared = write_model_angles(
-            staging,
-            fit.pset.model_for(fit.theta),
-            motion,
-            str(fit.trials[0].name) if fit.trials else "",
-            fit.first_frames[0] if fit.first_frames else 0,
-        )
-        if compared is not None:
-            summary["angles_vs_plug_in_gait"] = compared
+        write_segments_csv(staging / "segments.csv", fit.segments)
+        lines = write_trial_tables(staging, fit, motion, summary, fitted_rmse)
         more, centres = centres_vs_nexus(fit, summary)
         lines += more
         if centres is not None:
@@ -87,24 +85,6 @@ def write_result(
         fit.recipe.save(staging / "recipe.yaml")
         atomic_write_text(staging / "summary.json", dumps(summary, indent=2) + "\n")
     return summary
-
-
-def _write_tables(
-    out: Path,
-    pset: ParameterSet,
-    theta: np.ndarray,
-    motion: Sequence[Motion],
-    rows: Sequence[SegmentRow],
-    first_frames: Sequence[int],
-) -> None:
-    """segments.csv, and joint_centres.csv per trial of ``motion`` (``joint_centres_<i>.csv``
-    for the others, like motion.npz) of the model theta (P,) [m]; ``first_frames``: each
-    trial's first frame in its file."""
-    write_segments_csv(out / "segments.csv", rows)
-    model = pset.model_for(theta)
-    for i, (m, first) in enumerate(zip(motion, first_frames, strict=False)):
-        name = "joint_centres.csv" if i == 0 else f"joint_centres_{i}.csv"
-        write_joint_centres_csv(out / name, model, m.times, m.qpos, first_frame=first)
 
 
 def write_files(
@@ -119,13 +99,15 @@ def write_files(
     joint_range: np.ndarray | None = None,
     motion: Sequence[Motion] | None = None,
     sliding: SlidingModel | None = None,
-) -> None:
-    """model.xml, theta.json, motion.npz (first trial; ``motion_<i>.npz`` for the others),
-    identifiability.json and report.md (its iterations section: ``iterations``, default
-    :func:`iteration_lines`). ``joint_range`` (njnt, 2): the limits the solver used, written
-    into model.xml (see :meth:`ParameterSet.to_spec`). ``motion``: what motion.npz holds
-    (default: ``trials`` and the fit's poses; internal qpos (T_i, nq), written in model.xml's
-    layout, :class:`mocap_mj.skeleton.exported.Layout`). ``sliding``: the landmarks' sliding model
+) -> list[float | None]:
+    """model.xml, theta.json, each trial's motion.npz and marker_error.png in its folder
+    (:mod:`mocap_mj.pipeline.trials`), residual_per_marker.png, identifiability.json and
+    report.md (its iterations section: ``iterations``, default :func:`iteration_lines`);
+    returns each trial's marker RMSE on its fitted frames [mm] (:func:`write_plots`).
+    ``joint_range`` (njnt, 2): the limits the solver used, written into model.xml (see
+    :meth:`ParameterSet.to_spec`). ``motion``: what motion.npz holds (default: ``trials``
+    and the fit's poses; internal qpos (T_i, nq), written in model.xml's layout,
+    :class:`mocap_mj.skeleton.exported.Layout`). ``sliding``: the landmarks' sliding model
     the fit was weighed with, recorded in model.xml for ``ik``
     (:func:`~mocap_mj.anatomy.tissue.with_sliding_model`; default None: not recorded)."""
     xml = pset.to_xml(result.theta, joint_range=joint_range)
@@ -148,38 +130,29 @@ def write_files(
             Motion(q, t.times, t.markers, pset.marker_names)
             for t, q in zip(trials, result.qpos, strict=True)
         ]
-    layout = Layout.of(pset.model)
-    for i, m in enumerate(motion):
-        name = "motion.npz" if i == 0 else f"motion_{i}.npz"
-        save_motion(out / name, replace(m, qpos=layout.written(m.qpos), ik=None))
+    save_motions(out, pset, trials, motion)
     atomic_write_text(out / "identifiability.json", json.dumps(idf.to_json()) + "\n")
-    write_plots(out, pset, result, trials)
+    fitted_rmse = write_plots(out, pset, result, trials)
     lines = report_lines(pset, result, idf, summary, iterations)
     atomic_write_text(out / "report.md", "\n".join(lines))
+    return fitted_rmse
 
 
 def write_plots(
     out: Path, pset: ParameterSet, result: IdentificationResult, trials: Sequence[TrialData]
-) -> None:
-    """marker_error.png (per frame, first trial) and residual_per_marker.png."""
-    from mocap_mj.io.plots import plot_marker_error_per_frame, plot_residual_per_marker
+) -> list[float | None]:
+    """Each trial's marker_error.png in its folder and residual_per_marker.png: every
+    marker's RMSE over the fitted frames of all trials, the markers never recorded left out
+    (they have no residual; a zero bar would lower the mean). Returns each trial's marker
+    RMSE on its fitted frames [mm] (None without data)."""
+    from mocap_mj.io.plots import plot_residual_per_marker
 
-    first = trials[0]
-    plot_marker_error_per_frame(
-        out / "marker_error.png", first.times, {"identified model": result.frame_rmse[0] * 1e3}
-    )
-    kin = Kinematics(pset)
-    kin.set_theta(result.theta)
-    sq = np.zeros(pset.n_markers)
-    cnt = np.zeros(pset.n_markers)
-    for t, q in zip(trials, result.qpos, strict=True):
-        ok = np.all(np.isfinite(q), axis=1)
-        d = np.linalg.norm(kin.marker_positions(q[ok]) - t.markers[ok], axis=2)
-        present = np.isfinite(d)
-        sq += np.sum(np.where(present, d, 0.0) ** 2, axis=0)
-        cnt += present.sum(axis=0)
-    rmse = np.sqrt(sq / np.maximum(cnt, 1)) * 1e3
-    plot_residual_per_marker(out / "residual_per_marker.png", pset.marker_names, rmse)
+    (sq, cnt), per_trial = write_trial_plots(out, pset, result, trials)
+    seen = cnt > 0
+    rmse = np.sqrt(sq[seen] / cnt[seen]) * 1e3
+    names = [n for n, s in zip(pset.marker_names, seen, strict=True) if s]
+    plot_residual_per_marker(out / "residual_per_marker.png", names, rmse)
+    return per_trial
 
 
 def report_lines(
