@@ -1,6 +1,7 @@
 """Every trial of a multi-trial result has its own files, report section and summary entry,
 and export, render and view take any trial (``--trial NAME|INDEX``); a one-trial result's
-layout is unchanged."""
+layout is unchanged. report.md's numbers are summary.json's, and its tables list only what
+a lower-body recording measures."""
 
 from __future__ import annotations
 
@@ -21,6 +22,8 @@ from mocap_synth import SynthConfig, synthesize
 
 #: per trial: the layout's files
 FILES = ("motion.npz", "joint_centres.csv", "angles.csv", "marker_error.png")
+#: Plug-in Gait's lower-body markers: the fixture's recording has no others
+LOWER = "LASI RASI LPSI RPSI LTHI LKNE LTIB LANK LHEE LTOE RTHI RKNE RTIB RANK RHEE RTOE".split()
 
 
 def test_names_are_the_stems_made_unique() -> None:
@@ -33,8 +36,8 @@ def test_names_are_the_stems_made_unique() -> None:
 
 @pytest.fixture(scope="module")
 def result(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A static (30 frames) then a walk (60 frames) of one synthetic subject, identified
-    together and written as a result folder."""
+    """A static (30 frames) then a walk (60 frames) of one synthetic subject, lower-body
+    markers only, identified together and written as a result folder."""
     from mocap_mj.outputs.write_fit import write_result
 
     root = tmp_path_factory.mktemp("trials")
@@ -42,8 +45,10 @@ def result(tmp_path_factory: pytest.TempPathFactory) -> Path:
     trials = []
     for name, motion, frames in (("CAL", "static", 30), ("WALK", "walk", 60)):
         exp = synthesize(SynthConfig(frames=frames, seed=3, motion=motion), pset)
+        markers = np.asarray(exp.markers).copy()
+        markers[:, [n not in LOWER for n in pset.marker_names]] = np.nan
         path = root / f"{name}.trc"
-        trials.append(TrialData(str(path), np.asarray(exp.markers), np.asarray(exp.times)))
+        trials.append(TrialData(str(path), markers, np.asarray(exp.times)))
     fit = identify(trials, pset=pset)
     write_result(fit, root / "result", inputs={"markers_files": [t.name for t in trials]})
     return root / "result"
@@ -113,3 +118,42 @@ def test_rates_of_float_clocks_are_round() -> None:
     times = np.cumsum(np.full(200, 0.01)) - 0.01
     assert frame_rate(times) == 100.0
     assert frame_rate(np.arange(10) / 119.88) == pytest.approx(119.88, rel=1e-12)
+
+
+def test_report_numbers_are_the_summarys(result: Path) -> None:
+    """Every figure report.md states is summary.json's, in the same words, and its tables
+    list only the parameters the lower-body recording measures."""
+    from mocap_mj.outputs.write_fit import iterations_text, weighting_text
+
+    s = json.loads((result / "summary.json").read_text())
+    report = (result / "report.md").read_text()
+    pset = ParameterSet()
+    assert f"- frames used: {s['frames_used']} of {s['frames']}" in report
+    assert iterations_text(s) in report
+    assert f"marker RMSE: {s['marker_rmse_mm']:.3f} mm" in report
+    assert f"noise sigma of {s['sigma_mm']:.3f} mm" in report
+    assert f"{s['observable_directions']} of {pset.size} directions" in report
+    assert f"{s['kappa_crlb_rms_mm']:.3f} mm RMS for the kinematic" in report
+    w = s["prior_weighting"]
+    assert weighting_text(w) in report and f"{w['noise_mm']:.2f} mm" in weighting_text(w)
+    for name, tau in zip(("CAL.trc", "WALK.trc"), w["trial_tau_frames"], strict=True):
+        assert f"{name} " in report and f"(correlation time {tau:.1f} frames)" in report
+    kappa = report.split("## Kinematic parameters")[1].split("\n## ")[0]
+    rows = {r.split("|")[1].strip(): r.split("|")[5] for r in kappa.splitlines() if r[:2] == "| "}
+    held = set(s["parameters_not_measured"])
+    assert held and "upperarm_length_l" in held and "thigh_length_l" not in held
+    assert not held & set(rows) and "thigh_length_l" in rows
+    for name, cell in rows.items():
+        if name == "parameter":
+            continue
+        white = s["segments"][name]["std_white_mm"]  # segments.csv's std_white_mm
+        assert cell.strip().startswith(f"{white:.2f}"), (name, cell)
+    lengths = report.split("## Segment lengths")[1].split("\n## ")[0]
+    for name, r in s["segments"].items():
+        if r["kind"] == "length":
+            listed = f"| {name} | {r['value_mm']:.1f} |" in lengths
+            assert listed == (r["flag"] != "not_measured"), name
+    identifiability = report.split("## Identifiability")[1].split("\n## ")[0]
+    for marker in ("C7", "RFHD", "LELB"):  # never recorded: no row of their own
+        assert f"| {marker} offset" not in identifiability
+    assert f"The {len(held)} parameters not measured" in identifiability

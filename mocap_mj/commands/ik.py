@@ -269,7 +269,11 @@ def _solve_and_write(
             if sliding is not None
             else ""
         )
-        + (f"\nmarkers in the file without a valid sample: {', '.join(never)}" if never else "")
+        + (
+            f"\nmarkers in the file without a valid sample: {', '.join(empty)}"
+            if (empty := [n for n in never if n in trial.report.found])
+            else ""
+        )
         + ("" if quality is None else f"\n{quality_text(quality)}")
         + (f"\njoints held at a limit of their range: {held}" if held else "")
         + (f"\n{kin_text}" if section is not None and (kin_text := text_of(section)) else "")

@@ -16,6 +16,8 @@ from mocap_mj.anatomy.plausibility import limits_text
 from mocap_mj.anatomy.segments import uncertainty_lines, write_segments_csv
 from mocap_mj.anatomy.tissue import SlidingModel, with_sliding_model
 from mocap_mj.capture.marker_quality import quality_lines
+from mocap_mj.capture.marker_set import load_marker_set
+from mocap_mj.errors import MocapError
 from mocap_mj.io.strict_json import dumps, jsonable
 from mocap_mj.outputs.nexus_out import centres_vs_nexus
 from mocap_mj.outputs.trial_out import (
@@ -30,6 +32,7 @@ from mocap_mj.pipeline.trials import trial_folders
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.identifiability import Identifiability
 from mocap_mj.solve.lm import solver_joint_range
+from mocap_mj.solve.noise import CORRELATED_TAU, SOFT_TISSUE_SIGMA, artefact_noise
 from mocap_mj.solve.problem import TrialData
 from mocap_mj.solve.solver_result import IdentificationResult, IterationLog
 
@@ -163,15 +166,13 @@ def report_lines(
     iterations: Sequence[str] | None = None,
 ) -> list[str]:
     """The Markdown report; ``iterations``: its last section (default :func:`iteration_lines`)."""
-    kappa, _ = pset.split(result.theta)
-    kappa0, _ = pset.split(result.theta0)
     lines = [
         "# Identification report",
         "",
         f"- trials: {', '.join(summary.get('markers_files', []))}",
         f"- frames used: {summary['frames_used']} of {summary['frames']}",
         f"- solver: {summary['solver']}, loss {summary.get('loss', 'l2')}, "
-        f"{result.iterations} iterations ({result.termination.value})",
+        f"{iterations_text(summary)} ({result.termination.value})",
         f"- time: {summary['seconds']:.2f} s (initial IK {result.init_seconds:.2f} s)",
         f"- marker RMSE: {result.marker_rmse * 1e3:.3f} mm: a per-axis noise sigma of "
         f"{result.sigma * 1e3:.3f} mm (RMSE / sqrt(3 (1 - p/n)), p = {result.n_unknowns} "
@@ -181,19 +182,48 @@ def report_lines(
         *centre_lines(summary.get("joint_centres_vs_regression") or {}),
         "",
         *(quality_lines(summary["marker_quality"]) if summary.get("marker_quality") else []),
+        *kappa_lines(pset, result, idf, summary),
+    ]
+    lines += ["", *uncertainty_lines(summary), *idf.report_lines()]
+    lines += iteration_lines(result) if iterations is None else list(iterations)
+    return lines
+
+
+def kappa_lines(
+    pset: ParameterSet,
+    result: IdentificationResult,
+    idf: Identifiability,
+    summary: Mapping[str, Any],
+) -> list[str]:
+    """report.md's table of the kinematic parameters the recording measures (those not
+    measured are counted, not listed): initial, identified, change and the white standard
+    deviation as segments.csv gives it (the Cramer-Rao figure with the weak prior; a
+    parameter the markers do not determine says so and shows the prior's width)."""
+    kappa, _ = pset.split(result.theta)
+    kappa0, _ = pset.split(result.theta0)
+    segments = summary.get("segments") or {}
+    loose = idf.undetermined()
+    lines = [
         "## Kinematic parameters",
         "",
-        "| parameter | initial (mm) | identified (mm) | change (mm) | CRLB std, white (mm) |",
+        "| parameter | initial (mm) | identified (mm) | change (mm) | std, white (mm) |",
         "|---|---|---|---|---|",
     ]
     for i, name in enumerate(pset.kappa_names):
-        std = "not measured" if pset.frozen[i] else f"{idf.param_std[i] * 1e3:.2f}"
+        if pset.frozen[i]:
+            continue
+        white = (segments.get(name) or {}).get("std_white_mm")
+        std = f"{idf.param_std[i] * 1e3:.2f}" if white is None else f"{white:.2f}"
+        if loose[i]:
+            std += " (not determined by the markers: the weak prior's width)"
         lines.append(
             f"| {name} | {kappa0[i] * 1e3:.1f} | {kappa[i] * 1e3:.2f} | "
             f"{(kappa[i] - kappa0[i]) * 1e3:+.2f} | {std} |"
         )
-    lines += ["", *uncertainty_lines(summary), *idf.report_lines()]
-    lines += iteration_lines(result) if iterations is None else list(iterations)
+    held = int(np.sum(pset.frozen[: pset.n_kappa]))
+    if held:
+        lines += ["", f"{held} kinematic parameters not measured (held at the prior) are not "
+                  "listed; segments.csv gives them, flagged `not_measured`."]  # fmt: skip
     return lines
 
 
@@ -204,12 +234,33 @@ def _measured_lines(pset: ParameterSet, summary: Mapping[str, Any]) -> list[str]
     if not held:
         return []
     bodies = ", ".join(summary.get("unmeasured_bodies") or []) or "none"
-    markers = ", ".join(summary.get("markers_without_data") or []) or "none"
+    markers = _without_data(pset, summary, ", ") or "none"
     return [
         f"- parameters measured: {pset.size - len(held)} of {pset.size}; {len(held)} held at "
         f"the prior mean (the scaled model, flagged `not_measured`, no standard deviation): "
         f"bodies without a marker: {bodies}; markers without data: {markers}"
     ]
+
+
+def _without_data(pset: ParameterSet, summary: Mapping[str, Any], sep: str) -> str:
+    """The markers without data in the words of the marker set: with a set that is a part of
+    the model's markers (a lower-body set; summary.json's ``marker_set``), the model's
+    markers outside it are counted as such, only the set's own are listed."""
+    names = list(summary.get("markers_without_data") or [])
+    record = summary.get("marker_set") or {}
+    size = record.get("markers")
+    if not isinstance(size, int) or size >= pset.n_markers or not record.get("file"):
+        return sep.join(names)
+    try:
+        ours = set(load_marker_set(record["file"]).names)
+    except MocapError:  # the set's file is gone: the names as they are
+        return sep.join(names)
+    outside = [n for n in names if n not in ours]
+    own = [n for n in names if n in ours]
+    if not outside:
+        return sep.join(names)
+    text = f"the model's {len(outside)} markers not of the set {record.get('name')!r}"
+    return sep.join([*own, text]) if own else text
 
 
 def iteration_lines(result: IdentificationResult) -> list[str]:
@@ -281,10 +332,7 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
         )
     w = summary.get("prior_weighting", {})
     if w:
-        lines.append(
-            f"- priors weighed against a marker noise of {w['noise_mm']:.2f} mm (fit sigma "
-            f"{w['sigma_mm']:.2f} mm, residual correlation time {w['tau_frames']:.1f} frames)"
-        )
+        lines.append(f"- {weighting_text(w)}")
     per_trial = w.get("trial_weights") or []
     if len(per_trial) > 1:
         taus = w.get("trial_tau_frames") or [float("nan")] * len(per_trial)
@@ -292,9 +340,9 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
         names = [Path(f).name for f in files] if len(files) == len(per_trial) else [
             f"trial {i}" for i in range(len(per_trial))]  # fmt: skip
         lines.append(
-            "- trials weighed by their independent frames (weight, residual correlation time "
-            "about zero): "
-            + ", ".join(f"{n} {v:.2f} ({t:.0f} frames)" for n, v, t in
+            "- trials weighed by their independent frames (frames over the residuals' "
+            "correlation time): "
+            + ", ".join(f"{n} {v:.2f} (correlation time {t:.1f} frames)" for n, v, t in
                         zip(names, per_trial, taus, strict=True))
         )  # fmt: skip
     hip = summary.get("hip_centre")
@@ -323,6 +371,32 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
     if checks:
         lines.append(checks)
     return lines
+
+
+def weighting_text(w: Mapping[str, Any]) -> str:
+    """report.md's line on the noise the priors were weighed against (summary.json's
+    ``prior_weighting``): the noise of one independent observation when the residuals show
+    soft tissue (:func:`~mocap_mj.solve.noise.artefact_noise`: the first solve's sigma,
+    raised to the artefact's floor when correlated, times sqrt(tau)), else the nominal."""
+    noise, sigma, tau = w["noise_mm"], w["sigma_mm"], w["tau_frames"]
+    effective = artefact_noise(sigma * 1e-3, tau) * 1e3
+    if abs(noise - effective) > 1e-6 * max(effective, 1.0):
+        return (
+            f"priors weighed against the nominal marker noise of {noise:.2f} mm (the first "
+            f"solve's per-axis sigma {sigma:.2f} mm, residual correlation time {tau:.1f} "
+            "frames: no soft-tissue artefact to weigh them against)"
+        )
+    floor = (
+        f", raised to the soft-tissue floor {SOFT_TISSUE_SIGMA * 1e3:.0f} mm (its residuals "
+        "are correlated)"
+        if tau >= CORRELATED_TAU and sigma * 1e-3 < SOFT_TISSUE_SIGMA
+        else ""
+    )
+    return (
+        f"priors weighed against the noise of one independent marker observation, "
+        f"{noise:.2f} mm: the first solve's per-axis sigma {sigma:.2f} mm{floor}, times the "
+        f"square root of the residuals' correlation time, {tau:.1f} frames"
+    )
 
 
 def frame_range(
@@ -360,6 +434,19 @@ def frame_range(
     return slice(start, max(start, stop), step)
 
 
+def iterations_text(summary: Mapping[str, Any]) -> str:
+    """The LM iterations in the words of every output: the final solve's (summary.json's
+    ``iterations``, report.md's Iterations section) and, when the identification solved more
+    than once (the priors reweighed), all of them, as the progress bar counts them
+    (summary.json's ``log``)."""
+    log = [e for e in summary.get("log") or [] if isinstance(e, str) and e.startswith("iter ")]
+    solves = sum(1 for e in log if e.split()[1] == "1")
+    final = f"{summary['iterations']} LM iterations"
+    if solves <= 1:
+        return final
+    return f"{final} in the final solve, {len(log)} over its {solves} solves"
+
+
 def expected_rmse(sigma: float, n_unknowns: int, n_residuals: int) -> float:
     """sqrt(3) sigma sqrt(1 - p / n) [m]: the fit RMSE that noise alone leaves."""
     return float(np.sqrt(3) * sigma * np.sqrt(max(1 - n_unknowns / n_residuals, 0.0)))
@@ -374,11 +461,11 @@ def result_text(summary: dict[str, Any], pset: ParameterSet, out: Path) -> str:
     if summary.get("unmeasured_bodies"):
         why.append(f"no marker on {' '.join(summary['unmeasured_bodies'])}")
     if summary.get("markers_without_data"):
-        why.append(f"no data for {' '.join(summary['markers_without_data'])}")
+        why.append(f"no data for {_without_data(pset, summary, ' ')}")
     note = f"{len(held)} held at the prior ({'; '.join(why)})\n" if held else ""
     return (
         f"identified {measured} from {summary['frames_used']} frames in "
-        f"{summary['seconds']:.2f} s ({summary['iterations']} LM iterations, "
+        f"{summary['seconds']:.2f} s ({iterations_text(summary)}, "
         f"{summary['termination']})\n"
         f"{note}"
         f"marker RMSE {summary['marker_rmse_mm']:.3f} mm, i.e. a per-axis noise sigma of "
