@@ -67,8 +67,10 @@ def _add_frames(p: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--frame",
         metavar="K",
-        help="one frame: index (negative from the end) or 'worst' (default: frame 0 for a "
-        ".png or .glb, every frame for .mp4/.gif)",
+        help="one frame: its row in the motion, 0 its first (negative from the end), or "
+        "'worst'; a frame not solved (too few markers) has no pose and is refused (default: "
+        "the first solved frame for a .png or .glb, every frame for .mp4/.gif, those not "
+        "solved drawn as 'no data')",
     )
     group.add_argument(
         "--frames",
@@ -97,7 +99,7 @@ def _frames(args: argparse.Namespace, playback: Playback, default_all: bool) -> 
         return [parse_frame(args.frame, playback)]
     if args.frames is not None:
         return parse_frames(args.frames, playback.n_frames)
-    return list(range(playback.n_frames)) if default_all else [0]
+    return list(range(playback.n_frames)) if default_all else [playback.first_solved()]
 
 
 def _image_size(text: str) -> tuple[int, int]:
