@@ -188,7 +188,7 @@ def test_marker_sets_command_lists_and_checks(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr
     assert "marker set 'cmu_41' (40 of 41 markers found; detected from the labels)" in proc.stdout
     assert "  LFWT -> LASI (pelvis, asis)" in proc.stdout
-    assert "missing (1): LFIN" in proc.stdout and "ignored (1): EXTRA" in proc.stdout  # labels not of the set
+    assert "missing (1): LFIN" in proc.stdout and "ignored (1): EXTRA" in proc.stdout
     given = json.loads(subprocess.run([*run, "--check", str(path), "--marker-set",
                                        "plug_in_gait", "--json"], capture_output=True,
                                       text=True, check=True).stdout)  # fmt: skip
