@@ -14,6 +14,7 @@ import pytest
 from mocap_mj.cli import main
 from mocap_mj.errors import MocapError
 from mocap_mj.export.read_result import frame_rate, load_result
+from mocap_mj.outputs.trial_out import streamed_name
 from mocap_mj.pipeline.api import identify
 from mocap_mj.pipeline.trials import open_trial, trial_folders, trial_names
 from mocap_mj.skeleton.parameters import ParameterSet
@@ -32,6 +33,11 @@ def test_names_are_the_stems_made_unique() -> None:
     assert trial_names(["a/x.c3d", "a/x.trc"]) == ["a_x_0", "a_x_1"]
     assert trial_folders(["CAL.c3d", "WALK.c3d", "RUN.c3d"]) == ["", "trials/WALK", "trials/RUN"]
     assert trial_folders(["ONLY.c3d"]) == [""]
+    folders = ["", "trials/WALK"]  # a long recording's streamed files, moved in
+    assert streamed_name("motion_1.npz", folders) == "trials/WALK/motion.npz"
+    assert streamed_name("joint_centres_1.csv", folders) == "trials/WALK/joint_centres.csv"
+    assert streamed_name("motion.npz", folders) == "motion.npz"
+    assert streamed_name("angles.csv", folders) == "angles.csv"
 
 
 @pytest.fixture(scope="module")

@@ -29,11 +29,13 @@ TRIAL_FILES = ("motion.npz", "joint_centres.csv", "angles.csv", "marker_error.pn
 
 
 def streamed_name(name: str, folders: Sequence[str]) -> str:
-    """Where a streamed motion file (``motion.npz``, ``motion_<i>.npz``, ``angles.csv`` of
-    :mod:`mocap_mj.long.motion_out`) goes in the result folder: trial i's folder."""
-    stem = Path(name).stem
-    if stem.startswith("motion_") and stem[7:].isdigit() and int(stem[7:]) < len(folders):
-        return f"{folders[int(stem[7:])]}/motion.npz"
+    """Where a streamed motion file (``motion.npz``, ``motion_<i>.npz``,
+    ``joint_centres_<i>.csv``, ``angles.csv`` of :mod:`mocap_mj.long.motion_out`) goes in
+    the result folder: trial i's folder, under the name without ``_<i>``."""
+    path = Path(name)
+    stem, _, index = path.stem.rpartition("_")
+    if stem in ("motion", "joint_centres") and index.isdigit() and int(index) < len(folders):
+        return f"{folders[int(index)]}/{stem}{path.suffix}".lstrip("/")
     return name
 
 
