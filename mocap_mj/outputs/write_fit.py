@@ -474,5 +474,18 @@ def result_text(summary: dict[str, Any], pset: ParameterSet, out: Path) -> str:
         f"directions observable, CRLB {summary['kappa_crlb_rms_mm']:.3f} mm (kinematic) / "
         f"{summary['offset_crlb_rms_mm']:.3f} mm (offsets)\n"
         f"wrote {out}/model.xml, theta.json, motion.npz, joint_centres.csv, segments.csv, "
-        "identifiability.json, report.md"
+        "identifiability.json, report.md" + _trials_text(summary, out)
+    )
+
+
+def _trials_text(summary: Mapping[str, Any], out: Path) -> str:
+    """The output's words on the further trials' folders (none for one trial)."""
+    later = [t for t in summary.get("trials") or [] if t.get("folder") not in (None, ".")]
+    if not later:
+        return ""
+    first = (summary.get("trials") or [{}])[0]
+    return (
+        f"\n{first.get('name')}'s motion, angles and joint centres at the top of {out}; each "
+        f"further trial's in {out}/trials/NAME/ (--trial NAME in export, render and view): "
+        + ", ".join(str(t.get("name")) for t in later)
     )
