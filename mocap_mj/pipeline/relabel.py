@@ -76,7 +76,6 @@ candidate confirmed, whatever the recording's length.
 from __future__ import annotations
 
 import itertools
-import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -460,9 +459,11 @@ def _pose(solver: IKSolver, x: np.ndarray, *, origins: bool = False) -> _Pose:
 
 def _rms(sq: np.ndarray) -> np.ndarray:
     """(n,) [m]: the RMS over the columns of sq (n, k) [m^2] present in each row (NaN: none)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # a row with none present: NaN
-        return np.sqrt(np.nanmean(sq, axis=1))
+    ok = ~np.isnan(sq)
+    count = ok.sum(axis=1)
+    out = np.full(len(sq), np.nan)
+    np.sqrt(np.where(ok, sq, 0.0).sum(axis=1) / np.maximum(count, 1), out=out, where=count > 0)
+    return out
 
 
 def _medians(o: np.ndarray, n: np.ndarray) -> tuple[float, float] | None:
