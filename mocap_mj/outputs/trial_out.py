@@ -12,7 +12,9 @@ from typing import Any
 
 import numpy as np
 
+from mocap_mj.io.strict_json import jsonable
 from mocap_mj.outputs.clinical_out import write_model_angles
+from mocap_mj.outputs.nexus_out import centres_vs_nexus
 from mocap_mj.pipeline.fit import Fit
 from mocap_mj.pipeline.motion import Motion, save_motion
 from mocap_mj.pipeline.trials import trial_entries, trial_folders
@@ -88,10 +90,11 @@ def write_trial_tables(
     summary: dict[str, Any],
     fitted_rmse: Sequence[float | None],
 ) -> list[str]:
-    """Each trial's joint_centres.csv and angles.csv (compared with the Nexus angles its C3D
-    holds) in its folder; summary.json's ``trials`` (and ``angles_vs_plug_in_gait``: the
-    first trial's); returns report.md's lines: the first trial's angle comparison for a
-    one-trial result, else a section per trial."""
+    """Each trial's joint_centres.csv and angles.csv in its folder, its angles and joint
+    centres compared with the Nexus angles and bone points its C3D holds; summary.json's
+    ``trials`` (and ``angles_vs_plug_in_gait``, ``joint_centres_vs_plug_in_gait``: the
+    first trial's); returns report.md's lines: the comparisons for a one-trial result, else
+    a section per trial."""
     files = [str(t.name) for t in fit.trials]
     folders = trial_folders(files)
     model = fit.pset.model_for(fit.theta)
@@ -117,14 +120,17 @@ def write_trial_tables(
         )
         written = [f for f in TRIAL_FILES if (out / folder / f).is_file()]
         entry.update(files=written, fitted_marker_rmse_mm=fitted_rmse[i])
-        if compared is not None:
-            entry["angles_vs_plug_in_gait"] = compared
-            if i == 0:
-                summary["angles_vs_plug_in_gait"] = compared
+        centre_lines, centres = centres_vs_nexus(fit, summary, trial=i)
+        for key, value in (("angles_vs_plug_in_gait", compared),
+                           ("joint_centres_vs_plug_in_gait", jsonable(centres))):  # fmt: skip
+            if value is not None:
+                entry[key] = value
+                if i == 0:  # the first trial's, where a one-trial result has them
+                    summary[key] = value
         if len(files) == 1:
-            lines += angle_lines
+            lines += angle_lines + centre_lines
         else:
-            lines += _section(entry, summary, angle_lines)
+            lines += _section(entry, summary, angle_lines + centre_lines)
     summary["trials"] = entries
     return lines
 

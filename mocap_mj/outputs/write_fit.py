@@ -19,7 +19,6 @@ from mocap_mj.capture.marker_quality import quality_lines
 from mocap_mj.capture.marker_set import load_marker_set
 from mocap_mj.errors import MocapError
 from mocap_mj.io.strict_json import dumps, jsonable
-from mocap_mj.outputs.nexus_out import centres_vs_nexus
 from mocap_mj.outputs.trial_out import (
     save_motions,
     streamed_name,
@@ -78,10 +77,6 @@ def write_result(
         )
         write_segments_csv(staging / "segments.csv", fit.segments)
         lines = write_trial_tables(staging, fit, motion, summary, fitted_rmse)
-        more, centres = centres_vs_nexus(fit, summary)
-        lines += more
-        if centres is not None:
-            summary["joint_centres_vs_plug_in_gait"] = jsonable(centres)
         if lines:
             report = staging / "report.md"
             atomic_write_text(report, report.read_text() + "\n" + "\n".join(lines))
