@@ -106,7 +106,6 @@ def write_trial_tables(
     entries = trial_entries(files, frames, list(fit.first_frames) or [0] * len(files))
     lines: list[str] = []
     for i, (entry, folder) in enumerate(zip(entries, folders, strict=True)):
-        written = [f for f in TRIAL_FILES if (out / folder / f).is_file()]
         if i < len(motion):
             write_joint_centres_csv(
                 out / folder / "joint_centres.csv",
