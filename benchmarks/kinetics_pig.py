@@ -1,16 +1,18 @@
 """Our Plug-in Gait kinetics against Vicon Nexus' own, stored in the same C3D.
 
-    python benchmarks/kinetics_pig.py [--trial PATH] [--plates 1,4]
+    python benchmarks/kinetics_pig.py [--trial PATH] [--plates auto|all|1,4]
 
-Runs the kinetics of ``mocap-mj plug-in-gait`` (no flags: every plate a foot stands on alone
-counts) on the trial and, so that no figure can echo Nexus' outputs, on a copy of it
-stripped of them (``../shared/tools/strip_outputs.py``: markers and plates only), and prints
+Runs the kinetics of ``mocap-mj plug-in-gait`` (no flags: ``--plates auto``, the contacts the
+recording's own ground reactions count, else every plate a foot stands on alone) on the
+trial and, so that no figure can echo Nexus' outputs, on a copy of it stripped of them
+(``../shared/tools/strip_outputs.py``: markers and plates only), and prints
 per component Nexus wrote the RMS difference over the frames both wrote (moments [N m/kg],
 powers [W/kg], joint forces [N/kg], ground reaction [% of its peak]) and which miss the
 targets (0.05 N m/kg, 0.1 W/kg, 1 %), then the RMS over the frames where each foot stands on
 a plate we count only when Nexus counts one too (``agreeing``: what differs when a lab
-counts other plates than ours). ``--plates`` counts only the plates given (Nexus counted 1
-and 4 of Movement_trial's four). Reads the trial only; the stripped copy goes to a
+counts other plates than ours). ``--plates`` as the command's (Nexus counted 1 and 4 of
+Movement_trial's four; the stripped copy has no ground reactions of Nexus', so ``auto``
+falls back to ``all`` there). Reads the trial only; the stripped copy goes to a
 temporary folder.
 """
 
@@ -28,7 +30,7 @@ import numpy as np
 from mocap_mj.clinical import pig_from_c3d, plug_in_gait
 from mocap_mj.clinical.kinetics import trial_kinetics
 from mocap_mj.io.load import load_markers
-from mocap_mj.io.plates import read_plates
+from mocap_mj.io.plates import read_plates, recorded_ground_reactions
 
 HERE = Path(__file__).resolve().parent
 SHARED = HERE.parent.parent / "shared"
@@ -37,7 +39,7 @@ KINDS = {"Moment": (1e-3, 0.05, "N m/kg"), "Power": (1.0, 0.1, "W/kg"),
          "Force": (1.0, None, "N/kg")}  # fmt: skip
 
 
-def ours(trial: Path, counted: set[int] | None) -> tuple[dict[str, np.ndarray], list[str]]:
+def ours(trial: Path, plates: str) -> tuple[dict[str, np.ndarray], list[str]]:
     """Our kinetic outputs of ``trial`` as the plug-in-gait command computes them."""
     traj = load_markers(trial)
     subject = pig_from_c3d(trial)
@@ -45,6 +47,7 @@ def ours(trial: Path, counted: set[int] | None) -> tuple[dict[str, np.ndarray], 
     mass = subject.measured("mass")
     if mass is None:
         raise SystemExit(f"{trial}: no body mass in PROCESSING:Bodymass")
+    counted = None if plates in ("auto", "all") else {int(v) for v in plates.split(",")}
     return trial_kinetics(
         result.segments,
         result.centres,
@@ -53,6 +56,7 @@ def ours(trial: Path, counted: set[int] | None) -> tuple[dict[str, np.ndarray], 
         body_mass=mass,
         progression=result.progression,
         counted=counted,
+        recorded=recorded_ground_reactions(trial) if plates == "auto" else None,
     )
 
 
@@ -111,9 +115,8 @@ def compare(mine: dict[str, np.ndarray], theirs: dict[str, np.ndarray]) -> list[
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--trial", type=Path, default=SHARED / "data/real/Movement_trial.c3d")
-    ap.add_argument("--plates", help="plate numbers that count, e.g. 1,4 (default all)")
+    ap.add_argument("--plates", default="auto", help="auto (default), all or numbers: 1,4")
     args = ap.parse_args()
-    counted = {int(v) for v in args.plates.split(",")} if args.plates else None
     theirs = nexus(args.trial)
     with tempfile.TemporaryDirectory() as tmp:
         stripped = Path(tmp) / "stripped.c3d"
@@ -127,8 +130,8 @@ def main() -> None:
             check=True,
         )
         for label, path in (("the trial as Nexus wrote it", args.trial), ("stripped", stripped)):
-            mine, notes = ours(path, counted)
-            print(f"\n## {label}: {path.name}, plates counted: {args.plates or 'all'}")
+            mine, notes = ours(path, args.plates)
+            print(f"\n## {label}: {path.name}, plates counted: {args.plates}")
             print(*(f"note: {n}" for n in notes), sep="\n") if notes else None
             print("\n".join(compare(mine, theirs)))
 

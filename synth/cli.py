@@ -128,14 +128,22 @@ def run(args: argparse.Namespace) -> int:
     if not 0 < mass < 500:
         raise ConfigError(f"--mass: expected a body mass in (0, 500) kg, got {args.mass}")
     exp = synthesize(cfg)
-    extra = None
     if args.plates:
-        from .plates import leaning, write_plate_c3d
+        from .plates import leaning
 
         exp = leaning(exp, mass)
 
-        def extra(out: Path) -> list[str]:
-            return [write_plate_c3d(out / "plates.c3d", exp, out / "truth_model.xml", mass).name]
+    def extra(out: Path) -> list[str]:
+        from .gait_truth import write_gait_truth  # a walk's events and gait truth
+
+        files = write_gait_truth(exp, out)
+        if args.plates:
+            from .plates import write_plate_c3d
+
+            files.append(
+                write_plate_c3d(out / "plates.c3d", exp, out / "truth_model.xml", mass).name
+            )
+        return files
 
     summary = write_experiment(exp, args.out, force=args.force, extra=extra)
     lines = [

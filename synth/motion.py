@@ -45,6 +45,7 @@ from mocap_mj.errors import MocapError
 
 __all__ = [
     "PRESETS",
+    "WALK_FOOT_OFF",
     "JointInfo",
     "assemble",
     "ball_angle",
@@ -57,6 +58,7 @@ __all__ = [
     "soft_clip_norm",
     "static",
     "walk",
+    "walk_gait",
 ]
 
 _DEG = np.pi / 180.0
@@ -466,6 +468,21 @@ def _gait_curve(name: str, phase: np.ndarray, gain: float) -> np.ndarray:
     return mean + gain * (values - mean)
 
 
+#: The walk's foot off [fraction of the cycle from its foot strike, phase 0 of the curves]:
+#: the knee flexing fast and the ankle plantar-flexing to its peak (:data:`GAIT_CURVES`).
+WALK_FOOT_OFF = 0.6
+
+
+def walk_gait(rng: np.random.Generator) -> tuple[float, float, float]:
+    """The walk's first draws from ``rng``: its stride period [s] (two steps), stride length
+    [m] and the left leg's phase at time 0 [cycles] (its foot strikes at phase 0, the right
+    leg's half a cycle later)."""
+    period = rng.uniform(1.0, 1.15)
+    stride = rng.uniform(1.3, 1.5)
+    phase0 = rng.uniform(0.0, 1.0)
+    return float(period), float(stride), float(phase0)
+
+
 def walk(model: mujoco.MjModel, frames: int, rate: float, rng: np.random.Generator) -> np.ndarray:
     """Level walking along +x (see the module docstring).
 
@@ -484,9 +501,7 @@ def walk(model: mujoco.MjModel, frames: int, rate: float, rng: np.random.Generat
     qpos : (T, nq) float [m, unit quaternions, rad]
     """
     t = _times(frames, rate)
-    period = rng.uniform(1.0, 1.15)  # s per stride (two steps)
-    stride = rng.uniform(1.3, 1.5)  # m per stride
-    phase0 = rng.uniform(0.0, 1.0)
+    period, stride, phase0 = walk_gait(rng)
     gains = {(n, s): rng.uniform(0.9, 1.1) for n in GAIT_CURVES for s in "lr"}
     wobble = _sines(rng, t, 64, 0.1, 0.5) * _DEG  # small non-periodic variation, -/+ 1 deg
     names = {j.name for j in joints(model)}

@@ -114,3 +114,20 @@ def test_check_passes_every_vendor_file_ezc3d_reads() -> None:
         assert layout.n_points == truth.shape[1]
         if layout.n_points:
             assert layout.n_frames == truth.shape[2]
+
+
+def test_up_axis_detected_under_a_marker_set_s_own_names() -> None:
+    """Read with the ISB set's names (L_HDF, L_FCC... as the model's sites), Qualisys.c3d's
+    vertical still comes from its head and foot markers (their Plug-in Gait aliases), not
+    from the C3D's metadata (-z): the same axes as read with Plug-in Gait's names."""
+    path = VENDORS / "Qualisys.c3d"
+    if not path.is_file():
+        pytest.skip(SKIP)
+    from mocap_mj.capture.marker_set import load_marker_set
+
+    root = Path(__file__).resolve().parents[1]
+    names = [m.name for m in load_marker_set(root / "models/marker_sets/qualisys_isb.yaml").markers]
+    own = load_markers(path, model_names=names)
+    assert (own.source["up"], own.source["up_detected"]) == ("z", True)
+    pig = load_markers(path)
+    np.testing.assert_array_equal(own.select(["L_IAS"]), pig.select(["LASI"]))

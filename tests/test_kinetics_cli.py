@@ -209,6 +209,64 @@ def test_export_c3d_holds_the_results_events(ik_out: Path, tmp_path: Path) -> No
     assert [(e.side, e.kind, e.frame) for e in back] == [(e.side, e.kind, e.frame) for e in ours]
 
 
+@needs_data
+def test_export_grf_and_osim_carry_the_loads_and_the_masses(ik_out: Path, tmp_path: Path) -> None:
+    """export --to grf: the .mot of grf.csv's loads in OpenSim's y-up ground and the
+    ExternalLoads beside it; --to osim: de Leva's bodies summing to the 85 kg the kinetics
+    used; a result without grf.csv is refused in one line, exit 2."""
+    import xml.etree.ElementTree as ET
+
+    from mocap_mj.export.mot import read_mot
+
+    mot = tmp_path / "walk.mot"
+    proc = run("export", str(ik_out), "--to", "grf", "--out", str(mot))
+    assert proc.returncode == 0, proc.stderr
+    assert "<datafile>walk.mot</datafile>" in (tmp_path / "walk_loads.xml").read_text()
+    names, times, values = read_mot(mot)
+    grf = table(ik_out / "grf.csv")
+    np.testing.assert_allclose(times, grf["time_s"], atol=1e-6)
+    vertical = values[:, names.index("ground_force_l_vy")]  # OpenSim's y is the lab's z
+    np.testing.assert_allclose(vertical, np.nan_to_num(grf["left_force_Z_N"]), rtol=1e-6)
+    osim = tmp_path / "subject.osim"
+    assert run("export", str(ik_out), "--to", "osim", "--out", str(osim)).returncode == 0
+    masses = [float(m.text or 0) for m in ET.parse(osim).iter("mass")]
+    assert sum(masses) == pytest.approx(MASS, rel=1e-6)
+    bare = tmp_path / "bare"
+    bare.mkdir()
+    for name in ("model.xml", "motion.npz"):
+        (bare / name).write_bytes((ik_out / name).read_bytes())
+    proc = run("export", str(bare), "--to", "grf", "--out", str(tmp_path / "none.mot"))
+    assert proc.returncode == 2 and "no ground reactions" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and not (tmp_path / "none.mot").exists()
+
+
+@needs_data
+def test_export_all_gives_an_inverse_dynamics_setup_opensim_runs(
+    ik_out: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """export --to all of a result with ground reactions: grf.mot, grf_loads.xml and
+    id_setup.xml, which OpenSim's InverseDynamicsTool runs in that folder (its ankle
+    moments then follow ours: r > 0.95; the exact agreement: tests/test_opensim_id.py)."""
+    osim = pytest.importorskip("opensim", reason="the [opensim] extra is not installed")
+    from mocap_mj.export.mot import read_mot
+
+    out = tmp_path / "all"
+    proc = run("export", str(ik_out), "--to", "all", "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    files = json.loads((out / "summary.json").read_text())["files"]
+    assert {"grf.mot", "grf_loads.xml", "id_setup.xml"} <= set(files)
+    monkeypatch.chdir(out)
+    assert osim.InverseDynamicsTool("id_setup.xml").run()
+    names, times, values = read_mot(out / "id.sto")
+    ours = table(ik_out / "dynamics.csv")
+    assert len(times) == len(ours)
+    for side in "lr":
+        theirs = values[:, names.index(f"ankle_{side}_moment")]
+        mine = ours[f"ankle_{side}_Nm"]
+        ok = np.isfinite(mine)
+        assert np.corrcoef(mine[ok][10:-10], theirs[ok][10:-10])[0, 1] > 0.95, side
+
+
 def test_events_csv_reads_back_and_refuses_a_bad_row(tmp_path: Path) -> None:
     events = [
         GaitEvent("left", "foot_strike", 1.25, 31, "force plate"),

@@ -24,7 +24,7 @@ from mocap_mj.clinical.kinetics import (
 from mocap_mj.clinical.segments import Segment
 from mocap_mj.errors import MocapError
 from mocap_mj.io.load import load_markers
-from mocap_mj.io.plates import read_plates
+from mocap_mj.io.plates import read_plates, recorded_ground_reactions
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 TRIAL = SHARED / "data" / "real" / "Movement_trial.c3d"
@@ -145,7 +145,7 @@ def stripped(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
-def _ours(path: Path, counted: set[int] | None) -> dict[str, np.ndarray]:
+def _ours(path: Path, counted: set[int] | None, *, auto: bool = False) -> dict[str, np.ndarray]:
     traj = load_markers(path)
     subject = pig_from_c3d(path)
     result = plug_in_gait(traj, subject)
@@ -157,6 +157,7 @@ def _ours(path: Path, counted: set[int] | None) -> dict[str, np.ndarray]:
         body_mass=subject.require("mass"),
         progression=result.progression,
         counted=counted,
+        recorded=recorded_ground_reactions(path) if auto else None,
     )
     return out
 
@@ -195,6 +196,30 @@ def test_movement_trial_against_nexus_kinetics(stripped: Path) -> None:
             peak = np.nanmax(np.abs(theirs[name][:, 2]))
             for k in range(3):
                 assert _rms(ours[name][:, k], theirs[name][:, k]) < 1e-3 * peak, (name, k)
+
+
+def test_default_counts_the_contacts_the_recording_counted() -> None:
+    """plug-in-gait's default (--plates auto) on the trial as Nexus wrote it: the contacts
+    Nexus' own ground reactions count (plates 1 and 4), so the kinetics equal those of
+    --plates 1,4 and meet the targets against Nexus' (moments 0.05 N m/kg, powers 0.1
+    W/kg, ground reactions 1 % of peak; measured 0.028, 0.044, 0)."""
+    if not TRIAL.exists():
+        pytest.skip(f"{TRIAL} (shared real recording) not present")
+    theirs, auto = _nexus(TRIAL), _ours(TRIAL, None, auto=True)
+    chosen = _ours(TRIAL, {1, 4})
+    for name in chosen:
+        np.testing.assert_array_equal(auto[name], chosen[name], err_msg=name)
+    for name in (n for n in auto if n in theirs):
+        if name.endswith("Moment"):
+            scale, tol, axes = 1e-3, 0.05, range(3)
+        elif name.endswith("Power"):
+            scale, tol, axes = 1.0, 0.1, range(2, 3)
+        elif name.endswith(("GroundReactionForce", "NormalisedGRF")):
+            scale, tol, axes = 1.0, 0.01 * np.nanmax(np.abs(theirs[name][:, 2])), range(3)
+        else:
+            continue
+        for k in axes:
+            assert _rms(auto[name][:, k], theirs[name][:, k] * scale) < tol, (name, k)
 
 
 def test_uncounted_plates_leave_no_ground_reaction(stripped: Path) -> None:

@@ -11,10 +11,15 @@ import ezc3d
 import numpy as np
 import pytest
 
-from mocap_mj.capture.contacts import PIG_FEET, assign_feet, contacts
+from mocap_mj.capture.contacts import PIG_FEET, as_recorded, assign_feet, contacts
 from mocap_mj.errors import InputFileError
 from mocap_mj.io import MarkerTrajectory, load_markers
-from mocap_mj.io.plates import PlateRecord, read_grf_mot, read_plates
+from mocap_mj.io.plates import (
+    PlateRecord,
+    read_grf_mot,
+    read_plates,
+    recorded_ground_reactions,
+)
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 REAL, VENDORS = SHARED / "real", SHARED / "vendors"
@@ -454,6 +459,67 @@ def test_a_load_no_foot_is_near_is_left_out() -> None:
     assert not left.on_plate.any() and not right.on_plate.any()
     reason = "plate 1, frames 11-40: no foot's markers within 0.1 m of the centre of pressure"
     assert left.excluded == right.excluded == (reason,)
+
+
+def _two_contacts() -> tuple[list[PlateRecord], list]:
+    """The left foot alone on plate 1, the right alone on plate 2 (700 N each)."""
+    traj = _feet(left=(0.1, 0.1), right=(0.6, 0.3))
+    plates = [_plate("plate 1", 0.0, (0.2, 0.1)), _plate("plate 2", 0.5, (0.7, 0.3))]
+    found = contacts(plates, traj)
+    assert [(c.side, c.reason) for c in found] == [("left", None), ("right", None)]
+    return plates, found
+
+
+def test_the_recording_s_own_choice_of_contacts_applies() -> None:
+    """A recording whose ground reaction of the right foot is empty over the right's
+    contact leaves it out; one whose left ground reaction equals the plate's (per kg) keeps
+    the left's."""
+    plates, found = _two_contacts()
+    mass = 70.0
+    recorded = {"left": plates[0].force / mass, "right": np.full((T_FEET, 3), np.nan)}
+    out, notes = as_recorded(found, plates, recorded, body_mass=mass)
+    assert out[0].reason is None and notes == []
+    assert out[1].reason == (
+        "plate 2, frames 11-40: the recording's own ground reaction of the right foot leaves it out"
+    )
+
+
+def test_a_recorded_ground_reaction_that_differs_leaves_the_rules_to_decide() -> None:
+    """A recorded ground reaction 20 % off the plate's (another plate combined, another
+    filter) does not decide: the rules' verdict stays, with a note naming the plate."""
+    plates, found = _two_contacts()
+    recorded = {"left": plates[0].force * 1.2, "right": plates[1].force}  # in N
+    out, notes = as_recorded(found, plates, recorded, body_mass=70.0)
+    assert [c.reason for c in out] == [None, None]
+    assert len(notes) == 1 and notes[0].startswith("plate 1, frames 11-40: the recording's")
+    assert "20 % of its peak" in notes[0]
+
+
+def test_recorded_ground_reactions_of_other_frames_decide_nothing() -> None:
+    plates, found = _two_contacts()
+    out, notes = as_recorded(found, plates, {"left": np.zeros((T_FEET - 3, 3))}, body_mass=70.0)
+    assert out == found
+    assert notes == [f"the recording's ground reactions hold {T_FEET - 3} frames, the plates "
+                     f"{T_FEET}: the rules decide"]  # fmt: skip
+
+
+def test_movement_trial_s_recorded_choice_is_plates_1_and_4() -> None:
+    """Nexus counted plates 1 (left) and 4 (right) of Movement_trial's four; its ground
+    reactions in the file say so, and they match the plates' forces."""
+    path = _need(REAL / "Movement_trial.c3d")
+    plates, traj = read_plates(path, window="centred", offsets="none"), load_markers(path)
+    recorded = recorded_ground_reactions(path)
+    assert set(recorded) == {"left", "right"}
+    out, notes = as_recorded(contacts(plates, traj), plates, recorded, body_mass=85.0)
+    assert notes == []
+    assert sorted((c.plate + 1, c.side) for c in out if c.reason is None) == [
+        (1, "left"),
+        (4, "right"),
+    ]
+
+
+def test_a_file_without_ground_reactions_records_no_choice() -> None:
+    assert recorded_ground_reactions(_need(VENDORS / "Qualisys.c3d")) == {}
 
 
 def test_a_file_that_is_not_a_c3d_is_refused_in_one_line(tmp_path: Path) -> None:

@@ -34,7 +34,8 @@ def test_cli_writes_folder_and_json(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr
     summary = json.loads(proc.stdout)
     assert summary == json.loads((out / "summary.json").read_text())
-    assert sorted(p.name for p in out.iterdir()) == sorted([*FILES, MARKER])  # and the marker
+    walk_truth = ["truth_events.csv", "truth_gait.json"]  # a walk's gait truth
+    assert sorted(p.name for p in out.iterdir()) == sorted([*FILES, *walk_truth, MARKER])
     assert summary["frames"] == 60 and summary["motion"] == "walk" and summary["seed"] == 4
     assert len(summary["swapped"]) == 2 and summary["gap_fraction"] == pytest.approx(0.05, abs=1e-3)
     # Refused the second time (not empty), accepted with --force.

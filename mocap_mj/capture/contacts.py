@@ -16,6 +16,16 @@ length). A contact is left out, with a reason, when
 - the same foot is the foot of a contact of another plate at the same time (it straddles
   two plates: neither plate holds its whole load).
 
+A recording that already holds the ground reaction under each foot from the software that
+processed it (Vicon Nexus' ``LGroundReactionForce``, ``RGroundReactionForce``:
+:func:`~mocap_mj.io.plates.recorded_ground_reactions`) carries that software's own choice of
+contacts, manual ones included (a lab sets a plate Invalid, Left or Right in Nexus, and only
+its outputs keep the choice). :func:`as_recorded` applies it to the contacts above: one
+counts when the recording's ground reaction of its foot is there over at least half its
+frames and matches the plate's force (the RMS difference of the force magnitudes within
+:data:`RECORDED_MATCH`, 5 % of the contact's peak, per kg or in N); one whose frames the
+recording leaves empty is left out; any other keeps the rules' verdict, with a note.
+
 The foot markers are Plug-in Gait's (``LHEE``, ``LTOE``, ``LANK`` and the right side's) by
 default; another marker set passes its own (e.g. the markers :func:`~mocap_mj.capture.roles.roles`
 gives for the roles ``LHEE``, ``LTOE``, ``LANK``).
@@ -35,9 +45,11 @@ from mocap_mj.io.trajectory import MarkerTrajectory
 
 __all__ = [
     "PIG_FEET",
+    "RECORDED_MATCH",
     "STILL_SPEED",
     "Contact",
     "FootLoads",
+    "as_recorded",
     "assign_feet",
     "contacts",
     "foot_speeds",
@@ -52,6 +64,9 @@ SIDES = ("left", "right")
 #: A foot whose markers' mean speed is under this [m/s] is still (standing); a swinging foot
 #: moves at 1-5 m/s.
 STILL_SPEED = 0.5
+#: A contact matches the recording's ground reaction of its foot when the RMS difference of
+#: the force magnitudes is within this fraction of the contact's peak.
+RECORDED_MATCH = 0.05
 
 
 @dataclass(frozen=True)
@@ -175,6 +190,57 @@ def assign_feet(
             on[frames] = True
         out.append(FootLoads(side, force, cop, free, on, tuple(reasons)))
     return out[0], out[1]
+
+
+def as_recorded(
+    found: Sequence[Contact],
+    plates: Sequence[PlateRecord],
+    recorded: Mapping[str, np.ndarray],
+    *,
+    body_mass: float,
+    first: int = 1,
+) -> tuple[list[Contact], list[str]]:
+    """The contacts ``found`` (:func:`contacts`) with the choice the recording carries
+    (the rules: the module docstring). ``recorded``: side -> (T, 3) the ground reaction the
+    recording holds under that foot, NaN where it holds none
+    (:func:`~mocap_mj.io.plates.recorded_ground_reactions`), per kg of ``body_mass`` [kg]
+    or in N; ``first``: the recording's number of row 0. Returns the contacts (those the
+    recording leaves out with that reason) and a note per contact it cannot decide."""
+    frames = len(plates[0].force) if plates else 0
+    if any(len(v) != frames for v in recorded.values()):
+        lengths = ", ".join(f"{len(v)}" for v in recorded.values())
+        note = f"the recording's ground reactions hold {lengths} frames, the plates {frames}"
+        return list(found), [f"{note}: the rules decide"]
+    out, notes = [], []
+    for c in found:
+        values = recorded.get(c.side or "")
+        if c.side is None or values is None:
+            out.append(c)
+            continue
+        rows = slice(c.start, c.stop)
+        theirs = np.linalg.norm(values[rows], axis=1)
+        ours = np.linalg.norm(plates[c.plate].force[rows], axis=1)
+        seen = np.isfinite(theirs)
+        where = f"{plates[c.plate].name}, frames {first + c.start}-{first + c.stop - 1}"
+        if not seen.any():
+            out.append(Contact(c.plate, c.start, c.stop, c.side, (
+                f"{where}: the recording's own ground reaction of the {c.side} foot leaves "
+                "it out"
+            )))  # fmt: skip
+            continue
+        peak = float(np.max(ours[seen]))
+        gaps = [np.sqrt(np.mean((theirs[seen] * scale - ours[seen]) ** 2)) / peak
+                for scale in (body_mass, 1.0)]  # fmt: skip
+        if seen.mean() >= 0.5 and min(gaps) <= RECORDED_MATCH:
+            out.append(Contact(c.plate, c.start, c.stop, c.side, None))
+            continue
+        out.append(c)
+        notes.append(
+            f"{where}: the recording's ground reaction of the {c.side} foot differs from the "
+            f"plate's ({100 * min(gaps):.0f} % of its peak, {seen.mean():.0%} of the frames); "
+            "the rules decide"
+        )
+    return out, notes
 
 
 def foot_speeds(

@@ -146,3 +146,19 @@ def all_angles(segments: Mapping[str, Any], progression: np.ndarray) -> dict[str
             if spec.proximal.format(s=s) in axes and spec.distal.format(s=s) in axes:
                 out[s.upper() + name] = angle(spec, s, axes)
     return out
+
+
+def abs_ankle_angles(segments: Mapping[str, Any]) -> dict[str, np.ndarray]:
+    """Vicon's ``LAbsAnkleAngle`` and ``RAbsAnkleAngle`` (T, 3) [rad]: in X the angle between
+    the tibia's and the foot's long axes (z) less a right angle, the ankle's flexion
+    whatever its rotation and inversion (positive dorsiflexion); Y and Z are 0, as Nexus
+    writes them. Only the sides whose tibia and foot exist."""
+    out = {}
+    for s in ("l", "r"):
+        tibia, foot = segments.get(f"tibia_torsioned_{s}"), segments.get(f"foot_{s}")
+        if tibia is None or foot is None:
+            continue
+        cos = np.einsum("ti,ti->t", tibia.axes[..., 2], foot.axes[..., 2])
+        x = np.arccos(np.clip(cos, -1.0, 1.0)) - 0.5 * np.pi
+        out[s.upper() + "AbsAnkleAngle"] = np.stack([x, 0.0 * x, 0.0 * x], axis=-1)
+    return out

@@ -7,13 +7,14 @@ between them), FE femur (knee centre; the hip centre at P), TI tibia (ankle cent
 the knee-ankle distance less a fifth of the knee width), FO foot (length the trial's mean
 heel-toe marker distance less a marker radius, placed so that the ankle centre sits at
 (11, -+11, 120) / 169 foot lengths in its frame, the mesh's ankle), TO toe (a third of the
-foot's length, distal of the foot's origin, the foot's axes), TRXO the thorax origin and
-HEDO the head origin (between the front head markers; Nexus places its head mesh's origin by
-a length these definitions do not give, and its thorax mesh likewise: their A, L, P points
-are not written), CL clavicle (shoulder centre; the thorax
-origin at P), HU humerus (elbow centre; the shoulder centre at P), RA radius (wrist centre;
-length 0.93 of the elbow-wrist distance), HN hand (twice the wrist-to-hand-centre distance
-beyond the wrist centre; the wrist centre at P).
+foot's length, distal of the foot's origin, the foot's axes), TRX thorax (the thorax origin;
+length the mean of its distances from the two shoulder centres, each frame), HED head
+(length the head size, twice the trial's mean LFHD-RFHD distance less a marker diameter; the
+origin 0.84 head sizes behind and 0.3 below the mid-point of the front head markers, in the
+head's frame), CL clavicle (shoulder centre; the thorax origin at P), HU humerus (elbow
+centre; the shoulder centre at P), RA radius (wrist centre; length 0.93 of the elbow-wrist
+distance), HN hand (twice the wrist-to-hand-centre distance beyond the wrist centre; the
+wrist centre at P).
 """
 
 from __future__ import annotations
@@ -21,6 +22,10 @@ from __future__ import annotations
 import numpy as np
 
 from .segments import SIDES, Segment
+
+#: The head mesh's origin in the head's frame, in head sizes from the front head markers'
+#: mid-point (Nexus's placement, reproduced on the shared trials to 1e-5 mm).
+HEAD_ORIGIN = np.array([-0.84, 0.0, -0.3])
 
 
 def _points(
@@ -43,9 +48,11 @@ def bone_points(
     foot_length: dict[str, float],
     *,
     upper: bool,
+    head_size: float = float("nan"),
 ) -> dict[str, np.ndarray]:
     """Bone points by Vicon name (T, 3) [m] in the frame of the segments; ``knee_width``
-    and ``foot_length`` [m] by side (NaN foot length: no foot or toe points)."""
+    and ``foot_length`` [m] by side (NaN foot length: no foot or toe points); ``head_size``
+    [m] the head's length (NaN: head points NaN)."""
     out: dict[str, np.ndarray] = {}
     pel = jc["pelvis"]
     out |= _points("PEL", pel, segs["pelvis"].axes, _dist(jc["hip_l"], jc["hip_r"]))
@@ -64,9 +71,12 @@ def bone_points(
         out |= _points(p + "TO", origin - (foot_length[s] / 3.0) * foot[..., 2], foot, length / 3)
     if not upper:
         return out
-    tho = segs["thorax"]
-    out["TRXO"] = tho.origin
-    out["HEDO"] = segs["head"].origin
+    tho, head = segs["thorax"], segs["head"]
+    sho = 0.5 * (_dist(tho.origin, jc["shoulder_l"]) + _dist(tho.origin, jc["shoulder_r"]))
+    out |= _points("TRX", tho.origin, tho.axes, sho)
+    size = np.full(len(pel), head_size)
+    origin = head.origin + head_size * (head.axes @ HEAD_ORIGIN)
+    out |= _points("HED", origin, head.axes, size)
     for s in SIDES:
         p = s.upper()
         sjc, ejc, wjc, hjc = (jc[f"{k}_{s}"] for k in ("shoulder", "elbow", "wrist", "hand"))

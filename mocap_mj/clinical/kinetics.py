@@ -53,7 +53,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mocap_mj.capture.contacts import contacts
+from mocap_mj.capture.contacts import as_recorded, contacts
 from mocap_mj.io.plates import PlateRecord
 from mocap_mj.io.trajectory import MarkerTrajectory
 
@@ -400,12 +400,16 @@ def trial_kinetics(
     progression: np.ndarray,
     to_lab: np.ndarray | None = None,
     counted: Collection[int] | None = None,
+    recorded: Mapping[str, np.ndarray] | None = None,
 ) -> tuple[dict[str, np.ndarray], list[str]]:
     """:func:`pig_kinetics` with the ground reactions of ``plates`` (read at ``trajectory``'s
     frames) under the foot that alone stands on each (the rules of
     :func:`~mocap_mj.capture.contacts.assign_feet`, applied to every plate). ``counted``: the
-    plate numbers (from 1) whose contacts give loads (default all). Returns the outputs and
-    one note per contact the rules leave out."""
+    plate numbers (from 1) whose contacts give loads (default all); ``recorded``: the
+    ground reaction per foot the recording already holds
+    (:func:`~mocap_mj.io.plates.recorded_ground_reactions`), whose choice of contacts then
+    applies (:func:`~mocap_mj.capture.contacts.as_recorded`; not with ``counted``). Returns
+    the outputs and one note per contact left out or undecided."""
     numbers = {p.name: k + 1 for k, p in enumerate(plates)}
     if counted is not None:
         unknown = sorted(set(counted) - set(numbers.values()))
@@ -421,7 +425,11 @@ def trial_kinetics(
     notes: list[str] = []
     # every plate takes part in the rules (two feet on one plate, a foot on two), the
     # uncounted ones' contacts then give no load
-    for c in contacts(plates, trajectory):
+    found = contacts(plates, trajectory)
+    if recorded and counted is None:
+        found, notes = as_recorded(found, plates, recorded, body_mass=body_mass,
+                                   first=trajectory.first_frame or 1)  # fmt: skip
+    for c in found:
         if c.reason is not None:
             notes.append(f"{c.side or 'no'} foot: {c.reason}")
             continue

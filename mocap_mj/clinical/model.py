@@ -18,9 +18,18 @@ import numpy as np
 from ..errors import MocapError
 from ..io.trajectory import MarkerTrajectory
 from . import static as static_mod
-from .angles import all_angles, progression_frame
+from .angles import abs_ankle_angles, all_angles, progression_frame
 from .bones import bone_points
-from .segments import SIDES, Markers, Segment, lower_body, static_foot, trunk, upper_limbs
+from .segments import (
+    SIDES,
+    Markers,
+    Segment,
+    lower_body,
+    static_foot,
+    trunk,
+    trunk_frames,
+    upper_limbs,
+)
 from .subject import UPPER, PigSubject
 
 _log = logging.getLogger(__name__)
@@ -112,25 +121,71 @@ def _refuse_moving_static(m: Markers, static: MarkerTrajectory, where: str) -> N
     )
 
 
+#: Given static offsets [rad] that the flat-foot calibration reproduces within this (and
+#: better than the plain one) tell that the static trial's foot was calibrated flat.
+FLAT_MATCH = 1e-3
+
+
 def calibrate(static: MarkerTrajectory, subject: PigSubject) -> PigSubject:
     """The subject with the offsets, inter-ASIS distance and leg lengths a static trial
-    gives (measured values are kept; the offsets always come from the static trial)."""
+    gives (measured values are kept; the offsets always come from the static trial).
+
+    Nexus's static options: a foot is calibrated flat (:func:`~.segments.static_foot`, with
+    the side's ``sole_delta``) when the subject's ``flat_foot`` says so, or, not given, when
+    the subject's given static offsets (the PROCESSING group's, Nexus's calibration of this
+    static) are the flat calibration's within :data:`FLAT_MATCH` and nearer than the plain
+    one's; ``head_level`` computes the head offset of a level head
+    (:func:`~.static.head_offset`), else the given head offset stands."""
     m = _markers(static)
     where = str(static.source.get("path", "static trial"))
     _require(m, (*LOWER_MARKERS, "LHEE", "RHEE"), where)
     subject = _with_marker_measures(m, subject, where)
     segs, _ = lower_body(m, subject, _inter_asis(m, subject))
-    values = {}
+    values, flats = {}, {}
     for s in SIDES:
-        tibia = segs[f"tibia_torsioned_{s}"].axes
-        foot = static_foot(m, s, tibia)
+        tibia, raw = segs[f"tibia_torsioned_{s}"].axes, segs[f"foot_raw_{s}"].axes
+        delta = subject.pig(f"sole_delta_{s}")
         try:
-            flex, rot = static_mod.foot_offsets(segs[f"foot_raw_{s}"].axes, foot, s)
+            plain = static_mod.foot_offsets(raw, static_foot(m, s, tibia), s)
+            flat = static_mod.foot_offsets(raw, static_foot(m, s, tibia, flat=True,
+                                                             sole_delta=delta), s)  # fmt: skip
         except ValueError as exc:
             raise MocapError(f"{where}: {exc}") from None
+        told = subject.flag(f"flat_foot_{s}")
+        if told is None:
+            told, why = _given_flat(subject, s, plain, flat)
+            flats[f"flat_foot_{s}"] = (float(told), why)
+        flex, rot = flat if told else plain
         values[f"static_plantar_flex_{s}"] = flex
         values[f"static_rot_off_{s}"] = rot
-    return subject.with_values(values, f"{where}: static trial")
+    if subject.flag("head_level") and all(n in m for n in UPPER_MARKERS[4:8]):
+        try:
+            values["head_offset"] = static_mod.head_offset(trunk_frames(m, 0.0, 0.0)["head"].axes)
+        except ValueError as exc:
+            raise MocapError(f"{where}: {exc}") from None
+    subject = subject.with_values(values, f"{where}: static trial")
+    for name, (value, why) in flats.items():
+        subject = subject.with_values({name: value}, f"{where}: static trial ({why})")
+    return subject
+
+
+def _given_flat(
+    subject: PigSubject, side: str, plain: tuple[float, float], flat: tuple[float, float]
+) -> tuple[bool, str]:
+    """Whether the subject's given static offsets of ``side`` are the flat calibration's
+    (``flat``, within :data:`FLAT_MATCH`, nearer than ``plain``'s; False without them), and
+    why, for the value's source."""
+    names = (f"static_plantar_flex_{side}", f"static_rot_off_{side}")
+    if not all(n in subject.values for n in names):
+        return False, "no static offsets given: not flat"
+    given = np.array([subject.pig(n) for n in names])
+    off_flat = float(np.max(np.abs(given - np.array(flat))))
+    off_plain = float(np.max(np.abs(given - np.array(plain))))
+    told = off_flat <= FLAT_MATCH and off_flat < off_plain
+    return told, (
+        f"the given offsets lie {off_flat:.1e} rad from its flat calibration, "
+        f"{off_plain:.1e} from its plain one"
+    )
 
 
 def _with_marker_measures(m: Markers, subject: PigSubject, where: str) -> PigSubject:
@@ -185,10 +240,14 @@ def plug_in_gait(
     as_static = _as_static(m, trial_type, static is not None, where)
     if as_static:
         subject = calibrate(trajectory, subject)
-        notes.append("static trial: its own offsets; the foot is the static model's (toe to heel)")
+        flat = [w for s, w in zip(SIDES, ("left", "right"), strict=True)
+                if subject.flag(f"flat_foot_{s}")]  # fmt: skip
+        foot = f"flat: {' and '.join(flat)}" if flat else "not flat"
+        notes.append(f"static trial: its own offsets; the foot is the static model's ({foot})")
     if override is not None:  # and its offsets over the calibrations'
         subject = subject.update(override)
     subject = _with_marker_measures(m, subject, where)
+    notes += subject.not_applied()
     segs, jc = lower_body(m, subject, _inter_asis(m, subject), heel_foot=as_static)
     upper = all(n in m for n in UPPER_MARKERS) and all(
         subject.measured(f"{b}_{s}") is not None for b in UPPER for s in SIDES
@@ -204,13 +263,14 @@ def plug_in_gait(
     widths = {s: subject.require(f"knee_width_{s}") for s in SIDES}
     feet = {s: static_mod.foot_length(m, s, subject.marker_radius) for s in SIDES}
     rot = np.eye(3) if to_lab is None else np.asarray(to_lab)
-    points = bone_points(segs, jc, widths, feet, upper=upper)
+    head = static_mod.head_size(m, subject.marker_radius)
+    points = bone_points(segs, jc, widths, feet, upper=upper, head_size=head)
     n = trajectory.n_frames
     numbers = trajectory.first_frame + np.arange(n) if frames is None else np.asarray(frames)
     return PigResult(
         times=np.asarray(trajectory.times),
         frames=numbers,
-        angles=all_angles(segs, prog),
+        angles=all_angles(segs, prog) | abs_ankle_angles(segs),
         points={k: v @ rot.T for k, v in points.items()},
         subject=subject,
         progression=rot @ prog[:, 0],

@@ -133,7 +133,7 @@ def read_nexus(path: str | Path) -> NexusOutput | None:
     points: dict[str, np.ndarray] = {}
     angles: dict[str, np.ndarray] = {}
     for i, name in enumerate(labels[: xyz.shape[1]]):
-        if name.endswith("Angles"):
+        if name.endswith(("Angles", "AbsAnkleAngle")):
             angles.setdefault(name, xyz[:, i])
         else:
             points.setdefault(name, xyz[:, i] * scale)

@@ -56,11 +56,25 @@ def _lateral(side: str) -> float:
     return 1.0 if side == "l" else -1.0
 
 
-def static_foot(m: Markers, side: str, tibia: np.ndarray) -> np.ndarray:
+def static_foot(
+    m: Markers, side: str, tibia: np.ndarray, *, flat: bool = False, sole_delta: float = 0.0
+) -> np.ndarray:
     """The foot of the static model (T, 3, 3): z from the toe to the heel marker, y from the
-    ankle flexion axis (the torsioned tibia's y, ``tibia`` (T, 3, 3))."""
+    ankle flexion axis (the torsioned tibia's y, ``tibia`` (T, 3, 3)). ``flat`` (Nexus's
+    static "foot flat"): the heel taken at the toe marker's height plus ``sole_delta`` [m]
+    (the heel's sole less the toe's), so the foot's long axis lies along the floor."""
     p = side.upper()
-    return frame_zy(m[p + "HEE"] - m[p + "TOE"], tibia[..., 1])
+    heel = m[p + "HEE"]
+    if flat:
+        heel = heel.copy()
+        heel[:, 2] = m[p + "TOE"][:, 2] + sole_delta
+    return frame_zy(heel - m[p + "TOE"], tibia[..., 1])
+
+
+def static_foot_of(m: Markers, side: str, tibia: np.ndarray, subject: PigSubject) -> np.ndarray:
+    """:func:`static_foot` with the subject's ``flat_foot`` and ``sole_delta`` of ``side``."""
+    flat = bool(subject.flag(f"flat_foot_{side}"))
+    return static_foot(m, side, tibia, flat=flat, sole_delta=subject.pig(f"sole_delta_{side}"))
 
 
 def pelvis_frame(m: Markers) -> np.ndarray:
@@ -75,7 +89,8 @@ def lower_body(
     frames, and the hip, knee and ankle centres (keys ``hip_l``, ``knee_l``, ``ankle_l``...).
 
     The foot is the uncorrected foot (z from the toe marker to the ankle centre) turned by
-    the static offsets, or with ``heel_foot`` the static model's foot (:func:`static_foot`).
+    the static offsets, or with ``heel_foot`` the static model's foot (:func:`static_foot_of`:
+    flat when the subject's ``flat_foot`` says so).
     Tibial torsion (positive external) turns the marker tibia, whose y follows the ankle
     axis, back about its z to the untorsioned tibia of the knee angles."""
     r = subject.marker_radius
@@ -107,7 +122,7 @@ def lower_body(
         flex = subject.pig(f"static_plantar_flex_{s}")
         foot = rotate_about(rotate_about(raw, 1, -flex), 0, -rot_off)
         if heel_foot:
-            foot = static_foot(m, s, tibia)
+            foot = static_foot_of(m, s, tibia, subject)
         jc.update({f"hip_{s}": hip, f"knee_{s}": knee, f"ankle_{s}": ankle})
         segs.update(
             {

@@ -1,13 +1,13 @@
 """What a static trial gives Plug-in Gait: whether a trial is static, the static
-plantar-flexion and rotation offsets, and the inter-ASIS distance, leg lengths and foot
-length measured from the markers.
+plantar-flexion and rotation offsets, the head offset of a level head, and the inter-ASIS
+distance, leg lengths, foot length and head size measured from the markers.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .geometry import cardan_yxz, relative
+from .geometry import cardan_yxz, frame, relative
 from .segments import Markers
 
 #: Markers whose stillness makes a trial static (pelvis and legs).
@@ -74,3 +74,23 @@ def foot_length(m: Markers, side: str, radius: float) -> float:
     p = side.upper()
     d = np.linalg.norm(m[p + "HEE"] - m[p + "TOE"], axis=1)
     return float(np.nanmean(d)) - radius if np.any(np.isfinite(d)) else float("nan")
+
+
+def head_offset(head: np.ndarray) -> float:
+    """The head offset [rad] of a level head (Nexus's static "head level"): the mean over the
+    frames of the pitch about the head's y (``head`` (T, 3, 3), the head markers' frame) that
+    turns its x horizontal, the first angle of the YXZ decomposition of the level head (same
+    y, x horizontal) in the head; the head turned by it about its y reads no tilt."""
+    up = np.broadcast_to(np.array([0.0, 0.0, 1.0]), head[..., 1].shape)
+    level = frame(1, head[..., 1], 0, np.cross(head[..., 1], up))
+    pitch = cardan_yxz(relative(head, level))[:, 0]
+    if not np.any(np.isfinite(pitch)):
+        raise ValueError("no frame shows the four head markers")
+    return float(np.nanmean(pitch))
+
+
+def head_size(m: Markers, radius: float) -> float:
+    """The head bone's length [m] (Nexus's head mesh): twice the mean LFHD-RFHD distance over
+    the trial less a marker diameter (NaN without them)."""
+    d = np.linalg.norm(m["LFHD"] - m["RFHD"], axis=1)
+    return 2.0 * (float(np.nanmean(d)) - 2.0 * radius) if np.any(np.isfinite(d)) else float("nan")

@@ -5,14 +5,17 @@ Sources, later ones overriding earlier ones:
 1. the C3D file's ``PROCESSING`` group, as Vicon Nexus writes it: the body measurements
    through :func:`mocap_mj.capture.subject.from_c3d` (``LLegLength``, ``LKneeWidth``, ...) and the
    Plug-in Gait values that are not body measurements (``LStaticPlantFlex``,
-   ``LStaticRotOff``, ``LTibialTorsion``; radians, as Nexus stores them);
+   ``LStaticRotOff``, ``LTibialTorsion``, ``HeadOffset``: radians, as Nexus stores them;
+   ``LSoleDelta`` in mm);
 2. a subject file (``--subject-file``): a Vicon ``.vsk`` or ``.mp`` file, in the names and
    units of the PROCESSING group (:mod:`mocap_mj.capture.vicon_subject`), or a YAML file:
    ``name: value``, the names of :data:`mocap_mj.capture.subject.MEASUREMENTS` (SI or
    with a unit, ``"877 mm"``) and of :data:`PIG_VALUES` (metres or radians, or with a unit,
-   ``"14.5 deg"``, ``"64 mm"``);
+   ``"14.5 deg"``, ``"64 mm"``; Nexus' static options ``flat_foot_l``, ``head_level``: true
+   or false, which no C3D records);
 3. the static trial (:mod:`mocap_mj.clinical.static`): the static plantar-flexion and
-   rotation offsets, and the inter-ASIS distance when none is given.
+   rotation offsets (flat or not: :func:`mocap_mj.clinical.model.calibrate`), the head
+   offset with ``head_level``, and the inter-ASIS distance when none is given.
 
 What is still missing takes Plug-in Gait's rule: the ASIS-trochanter distance (a
 measurement, :meth:`mocap_mj.capture.subject.Subject.asis_trochanter`) from the leg length, offsets
@@ -49,9 +52,15 @@ PIG_VALUES: dict[str, tuple[str, str]] = {
             ("static_plantar_flex", "rad", "foot plantar-flexion offset from the static trial"),
             ("static_rot_off", "rad", "foot rotation offset from the static trial"),
             ("tibial_torsion", "rad", "tibial torsion"),
+            ("sole_delta", "m", "heel's sole less the toe's (a flat foot's heel rise)"),
+            ("flat_foot", "flag", "the static trial's foot stands flat (1) or not (0)"),
+            ("thigh_rotation", "rad", "thigh rotation offset (a KAD calibration's)"),
+            ("shank_rotation", "rad", "shank rotation offset (a KAD calibration's)"),
+            ("ankle_abadd", "rad", "ankle abduction offset (a KAD calibration's)"),
         )
     ),
     "head_offset": ("rad", "head pitch offset (0: the head markers' own frame)"),
+    "head_level": ("flag", "the static trial's head is level (1: it gives the head offset)"),
 }
 
 #: The range of each Plug-in Gait value [rad], both ends included; a value outside is refused,
@@ -59,7 +68,9 @@ PIG_VALUES: dict[str, tuple[str, str]] = {
 #: are no person's (Nexus's static offsets are some -20 to 30 degrees, torsions 0 to 40), and
 #: they catch degrees typed as radians; a head pitched more than 90 degrees is no head.
 PIG_RANGES: dict[str, tuple[float, float]] = {
-    **{name: (-math.pi / 3, math.pi / 3) for name in PIG_VALUES if name != "head_offset"},
+    **{name: (-math.pi / 3, math.pi / 3) for name, v in PIG_VALUES.items() if v[0] == "rad"},
+    **{name: (0.0, 1.0) for name, v in PIG_VALUES.items() if v[0] == "flag"},
+    **{name: (-0.05, 0.05) for name, v in PIG_VALUES.items() if v[0] == "m"},
     "head_offset": (-math.pi / 2, math.pi / 2),
 }
 
@@ -68,6 +79,14 @@ def checked_pig_value(name: str, value: float, source: str) -> float:
     """``value`` [rad] of the Plug-in Gait value ``name``, or an error naming ``source``, the
     value in degrees and :data:`PIG_RANGES`' range (NaN included)."""
     low, high = PIG_RANGES[name]
+    unit = PIG_VALUES[name][0]
+    if unit == "flag" and value not in (0.0, 1.0):
+        raise MocapError(f"{source}: expected true or false ({PIG_VALUES[name][1]}), got {value:g}")
+    if unit == "m" and not low <= value <= high:
+        raise MocapError(
+            f"{source}: expected a {PIG_VALUES[name][1]} within {low * 1e3:g}..{high * 1e3:g} "
+            f"mm, got {value * 1e3:.4g} mm (a number without a unit is in m)"
+        )
     if not low <= value <= high:
         raise MocapError(
             f"{source}: expected a {PIG_VALUES[name][1]} within {math.degrees(low):g}.."
@@ -85,7 +104,16 @@ _C3D_PIG = {
     "STATICPLANTFLEX": ("static_plantar_flex", 1.0),
     "STATICROTOFF": ("static_rot_off", 1.0),
     "TIBIALTORSION": ("tibial_torsion", 1.0),
+    "SOLEDELTA": ("sole_delta", 1e-3),
+    "THIGHROTATION": ("thigh_rotation", 1.0),
+    "SHANKROTATION": ("shank_rotation", 1.0),
+    "ANKLEABADD": ("ankle_abadd", 1.0),
 }
+#: Values read and reported but not applied: a KAD static's offsets of the knee and ankle
+#: chords, whose construction (Nexus's rotated chord) is not reproduced.
+NOT_APPLIED = ("thigh_rotation", "shank_rotation", "ankle_abadd")
+#: Plug-in Gait values without a side, by their Nexus name (upper case): name, scale to SI.
+_C3D_PIG_UNSIDED = {"HEADOFFSET": ("head_offset", 1.0)}
 #: Units of the Plug-in Gait values in a subject file.
 _UNITS = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "rad": 1.0, "deg": math.pi / 180.0}
 
@@ -116,6 +144,11 @@ class PigSubject:
     def pig(self, name: str, default: float = 0.0) -> float:
         """A Plug-in Gait value [m or rad], ``default`` when not given."""
         return self.values.get(name, default)
+
+    def flag(self, name: str) -> bool | None:
+        """A static option (``flat_foot_l``, ``head_level``): True or False when given, else
+        None."""
+        return None if name not in self.values else bool(self.values[name])
 
     def with_values(self, values: Mapping[str, float], source: str) -> PigSubject:
         """A copy with ``values`` set (Plug-in Gait values) from ``source``."""
@@ -152,6 +185,16 @@ class PigSubject:
                 "give it in the C3D PROCESSING group or --subject-file"
             )
         return value
+
+    def not_applied(self) -> list[str]:
+        """One line per non-zero value of :data:`NOT_APPLIED`, naming it and its source."""
+        return [
+            f"{name} {math.degrees(v):.3g} deg ({self.sources[name]}) is not applied: the "
+            "KAD's rotated knee and ankle chords are not reproduced (docs/clinical.md)"
+            for base in NOT_APPLIED
+            for name in (f"{base}_l", f"{base}_r")
+            if (v := self.values.get(name, 0.0)) != 0.0
+        ]
 
     def to_dict(self) -> dict[str, Any]:
         """Every value with its unit and source, for summary.json."""
@@ -209,6 +252,8 @@ def _known(key: str) -> bool:
 
 def _pig_name(key: str) -> tuple[str, float] | None:
     up = key.upper()
+    if up in _C3D_PIG_UNSIDED:
+        return _C3D_PIG_UNSIDED[up]
     for prefix, side in (("LEFT", "l"), ("RIGHT", "r"), ("L", "l"), ("R", "r")):
         spec = _C3D_PIG.get(up[len(prefix) :]) if up.startswith(prefix) else None
         if spec is not None:
@@ -222,7 +267,11 @@ def pig_from_yaml(path: str | Path) -> PigSubject:
     values: dict[str, float] = {}
     for raw_name, raw in read_mapping(path).items():
         name = str(raw_name)
-        if name in PIG_VALUES:
+        if name in PIG_VALUES and PIG_VALUES[name][0] == "flag":
+            if not isinstance(raw, bool):
+                raise InputFileError(f"{path}: {name}: expected true or false, got {excerpt(raw)}")
+            values[name] = float(raw)
+        elif name in PIG_VALUES:
             value = parse_value(raw, name, str(path), _UNITS, kind=PIG_VALUES[name][0])
             values[name] = checked_pig_value(name, value, f"{path}: {name}")
         elif name in MEASUREMENTS:

@@ -4,7 +4,8 @@ Formats: OpenSim model (``osim``), motion (``mot``), TRC of the measured markers
 of the model markers (``trc-model``), C3D with markers, joint centres and angles (``c3d``),
 the model's angles in Plug-in Gait's conventions (``angles``, beside a ``plug-in-gait``
 folder's with ``--compare``), per-marker residuals (``residuals``) and segment scale factors
-(``scale``) as CSV, everything in one folder (``all``), and the
+(``scale``) as CSV, the ground reactions as OpenSim's external loads (``grf``: a ``.mot`` and
+its ``ExternalLoads`` ``<stem>_loads.xml``), everything in one folder (``all``), and the
 formats other packages register (:mod:`mocap_mj.export.registry`; the viewer adds ``glb``).
 Without ``--to`` the format follows the suffix of ``--out``.
 """
@@ -28,13 +29,16 @@ from mocap_mj.export.read_result import ExportSource, load_result
 from mocap_mj.pipeline.trials import open_trial
 from mocap_mj.skeleton.mjcf import load_model
 
+from ..anatomy.inertia import Sex, segment_inertia
 from ..capture.events import read_events_csv
 from ..clinical.compare import comparison_section, folder_angles, numbered_like
 from ..errors import MocapError
 from ..export.c3d import write_c3d
 from ..export.clinical import clinical_angles
+from ..export.grf import loads_path, read_grf_csv, write_grf
 from ..export.ik_setup import write_ik_setup
 from ..export.mot import write_mot
+from ..export.opensim_id import id_setup_xml
 from ..export.osim import UP_ORIENTATION, write_osim
 from ..export.registry import Exporter, plugin_exporters
 from ..export.tables import (
@@ -45,6 +49,7 @@ from ..export.tables import (
 )
 from ..export.trc import write_trc
 from ..io.atomic import atomic_write_text
+from ..pipeline.dynamics import CUTOFF_HZ
 from ._inputs import refuse_overwriting, refuse_replacing_file
 
 #: File names of ``--to all``, per format.
@@ -60,6 +65,10 @@ ALL_FILES: dict[str, str] = {
 }
 #: OpenSim IK setup of ``--to all`` (subject.osim fitted to markers.trc, every weight 1).
 IK_SETUP = "ik_setup.xml"
+#: ``--to all`` of a result with ground reactions: them as OpenSim's external loads, and an
+#: InverseDynamicsTool setup (subject.osim moving as coordinates.mot under them, OpenSim's
+#: low-pass of the coordinates at the tool's own cutoff).
+GRF_MOT, ID_SETUP = "grf.mot", "id_setup.xml"
 
 
 def _subject_mass(args: argparse.Namespace, src: ExportSource) -> float | None:
@@ -72,14 +81,52 @@ def _subject_mass(args: argparse.Namespace, src: ExportSource) -> float | None:
     value = measured.get("value") if isinstance(measured, dict) else None
     if isinstance(value, int | float) and measured.get("unit", "kg") == "kg":
         return float(value)
+    kinetics = src.summary.get("kinetics", {})  # ik's: the mass its inverse dynamics used
+    for trial in kinetics.get("trials", []) if isinstance(kinetics, dict) else []:
+        if isinstance(trial, dict) and isinstance(trial.get("body_mass_kg"), int | float):
+            return float(trial["body_mass_kg"])
     return None
+
+
+def _sex(src: ExportSource) -> Sex:
+    """The de Leva table the result's inverse dynamics used (its kinetics' ``sex``), else
+    the men's (the tool's default)."""
+    kinetics = src.summary.get("kinetics", {})
+    for trial in kinetics.get("trials", []) if isinstance(kinetics, dict) else []:
+        if isinstance(trial, dict) and trial.get("sex") == "female":
+            return "female"
+    return "male"
+
+
+def _grf_path(src: ExportSource) -> Path:
+    """The result's ground reactions for its motion: grf.csv beside motion.npz, grf_<i>.csv
+    beside motion_<i>.npz (which may not exist)."""
+    stem = src.motion_path.stem if src.motion_path is not None else "motion"
+    suffix = stem[len("motion") :] if stem.startswith("motion") else ""
+    return src.root / f"grf{suffix}.csv"
+
+
+def _grf_csv(src: ExportSource) -> Path:
+    """:func:`_grf_path`, refused in one line when the result has none."""
+    path = _grf_path(src)
+    if not path.is_file():
+        raise MocapError(
+            f"{path}: no ground reactions for the result's motion (ik and identify write "
+            "grf.csv for a trial with force plates and a body mass)"
+        )
+    return path
 
 
 def _write(fmt: str, path: Path, src: ExportSource, args: argparse.Namespace) -> None:
     model, motion = src.model, src.motion
     first = motion.first_frame
     if fmt == "osim":
-        write_osim(path, model, up=args.up, mass=_subject_mass(args, src))
+        mass = _subject_mass(args, src)
+        # with a mass, the parameters the tool's inverse dynamics uses (de Leva's)
+        inertia = segment_inertia(model, mass, sex=_sex(src)) if mass is not None else None
+        write_osim(path, model, up=args.up, mass=mass, inertia=inertia)
+    elif fmt == "grf":
+        write_grf(path, read_grf_csv(_grf_csv(src)), up=args.up)
     elif fmt == "mot":
         write_mot(path, model, motion.times, motion.qpos)
     elif fmt == "trc":
@@ -108,7 +155,8 @@ def _builtin(fmt: str) -> Callable[[argparse.Namespace], dict[str, Any]]:
     def run(args: argparse.Namespace) -> dict[str, Any]:
         src = _source(args)
         out = Path(args.out)
-        for path in (out, *(_compare_files(out) if args.compare else ())):
+        extra = (loads_path(out),) if fmt == "grf" else ()
+        for path in (out, *extra, *(_compare_files(out) if args.compare else ())):
             refuse_replacing_file(path, force=args.force)
         _write(fmt, out, src, args)
         compared = _compare(out, src, args.compare) if args.compare else {}
@@ -154,11 +202,12 @@ def _run_all(args: argparse.Namespace) -> dict[str, Any]:
     end, with summary.json), as every command's result folder."""
     src = _source(args)
     times = src.motion.times
+    files = [*ALL_FILES.values(), IK_SETUP]
     summary = {
         "result": str(src.root),
         "format": "all",
         "out": str(args.out),
-        "files": [*ALL_FILES.values(), IK_SETUP],
+        "files": files,
         "frames": len(times),
     }
     with output_folder(args.out, force=args.force) as out:
@@ -171,6 +220,14 @@ def _run_all(args: argparse.Namespace) -> dict[str, Any]:
             marker_names=src.motion.marker_names,
             time_range=(float(times[0]), float(times[-1])),
         )
+        if _grf_path(src).is_file():
+            _, loads = write_grf(out / GRF_MOT, read_grf_csv(_grf_csv(src)), up=args.up)
+            atomic_write_text(out / ID_SETUP, id_setup_xml(
+                model_file=ALL_FILES["osim"], coordinates_file=ALL_FILES["mot"],
+                time_range=(float(times[0]), float(times[-1])), output_file="id.sto",
+                loads_file=loads.name, cutoff_hz=CUTOFF_HZ,
+            ))  # fmt: skip
+            files += [GRF_MOT, loads.name, ID_SETUP]
         write_summary(out, summary)
     return summary
 
@@ -190,6 +247,12 @@ def _source(args: argparse.Namespace) -> ExportSource:
 BUILTIN: tuple[Exporter, ...] = (
     Exporter("osim", ".osim", "OpenSim model of the subject", _builtin("osim")),
     Exporter("mot", ".mot", "OpenSim motion: coordinates in degrees", _builtin("mot")),
+    Exporter(
+        "grf",
+        "",
+        "OpenSim ground reactions (.mot) of grf.csv and their ExternalLoads (<stem>_loads.xml)",
+        _builtin("grf"),
+    ),
     Exporter("trc", ".trc", "TRC of the measured markers", _builtin("trc")),
     Exporter("trc-model", "", "TRC of the model markers (fitted)", _builtin("trc-model")),
     Exporter("c3d", ".c3d", "C3D: markers, model markers, joint centres, angles", _builtin("c3d")),
@@ -247,8 +310,9 @@ def register(sub: Any) -> None:
         "--mass",
         type=float,
         metavar="KG",
-        help="subject mass [kg] for the .osim body masses (default: the result's recorded "
-        "mass, else the model's own masses)",
+        help="subject mass [kg] for the .osim bodies: de Leva's segment parameters, as the "
+        "tool's inverse dynamics (default: the result's recorded mass, else the model's own "
+        "masses)",
     )
     p.add_argument(
         "--nominal",

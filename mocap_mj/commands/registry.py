@@ -12,7 +12,8 @@ from typing import Any
 
 #: Core subcommand modules (``mocap_mj.commands.<name>``), in help order.
 CORE_COMMANDS: tuple[str, ...] = (
-    "info", "ik", "identify", "score", "export", "batch", "plug_in_gait", "marker_sets",
+    "info", "ik", "identify", "score", "export", "batch", "plug_in_gait", "gait_report",
+    "marker_sets",
 )  # fmt: skip
 
 

@@ -43,9 +43,15 @@ def mot_text(
 
 
 def coordinates_in_degrees(model: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
-    """Coordinate values (T, C) for qpos (T, nq): rotations [deg], translations [m]."""
+    """Coordinate values (T, C) for qpos (T, nq): rotations [deg], translations [m]. A
+    rotation is continuous over the frames (unwrapped: a Cardan angle that passes +-180 deg
+    goes on past it, the same orientation), so that OpenSim's splines and filters of the
+    coordinates see no jump of 360 deg."""
     values = coordinate_values(model, qpos)
     rotational = np.array([c.rotational for c in model_coordinates(model)])
+    for k in np.flatnonzero(rotational):
+        seen = np.isfinite(values[:, k])
+        values[seen, k] = np.unwrap(values[seen, k])
     values[:, rotational] = np.degrees(values[:, rotational])
     return values
 

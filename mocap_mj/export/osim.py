@@ -17,7 +17,9 @@ coordinate, as gait2392's knee: the joint's ``translation1..3`` (parent-frame x,
 ``SimmSpline`` functions sampled from the model's t(q) every :data:`ROLLING_STEP` over the
 coordinate's range and :data:`ROLLING_MARGIN` beyond each end (within 2 micrometres of it).
 
-Masses and inertias are the MJCF's (from its display geoms at 1000 kg/m^3), multiplied by
+Masses and inertias are ``inertia``'s when given (:func:`mocap_mj.anatomy.inertia.segment_inertia`:
+de Leva's, the parameters the tool's inverse dynamics uses, which ``export`` passes when the
+subject's mass is known), else the MJCF's (from its display geoms at 1000 kg/m^3) multiplied by
 ``mass / total`` when the subject's ``mass`` [kg] is given, so that the bodies sum to it.
 """
 
@@ -31,6 +33,7 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from mocap_mj.anatomy.inertia import BodyInertia
 from mocap_mj.skeleton import rolling
 
 from ..errors import MocapError
@@ -186,8 +189,17 @@ def _rolling_splines(
     return out
 
 
-def _inertia(model: mujoco.MjModel, b: int, scale: float) -> tuple[float, np.ndarray, np.ndarray]:
-    """(mass [kg], centre of mass (3,) [m], inertia (6,) [kg m^2] Ixx Iyy Izz Ixy Ixz Iyz)."""
+def _inertia(
+    model: mujoco.MjModel, b: int, scale: float, given: BodyInertia | None = None
+) -> tuple[float, np.ndarray, np.ndarray]:
+    """(mass [kg], centre of mass (3,) [m], inertia (6,) [kg m^2] Ixx Iyy Izz Ixy Ixz Iyz):
+    ``given``'s for the body when it has it, else the model's times ``scale``."""
+    name = model.body(b).name
+    if given is not None and name in given.bodies:
+        i = given.bodies.index(name)
+        full = np.asarray(given.inertia[i], dtype=float)
+        six = np.array([full[0, 0], full[1, 1], full[2, 2], full[0, 1], full[0, 2], full[1, 2]])
+        return float(given.mass[i]), np.asarray(given.com[i], dtype=float), six
     rot = np.zeros(9)
     mujoco.mju_quat2Mat(rot, model.body_iquat[b])
     r = rot.reshape(3, 3)
@@ -240,17 +252,9 @@ def _body_fixed_xyz(r: np.ndarray) -> np.ndarray:
     return Rotation.from_matrix(r).as_euler("XYZ")
 
 
-def osim_xml(
-    model: mujoco.MjModel,
-    *,
-    name: str = "mocap_mj_subject",
-    up: str = "y",
-    mass: float | None = None,
-) -> str:
-    """The ``.osim`` text of ``model`` (see the module doc); ``mass`` [kg] scales the bodies."""
-    check_up(up)
-    if not name or any(ch in name for ch in "\\*+ \t\n/"):
-        raise MocapError(f"model name {name!r}: OpenSim names cannot contain spaces, \\ * + or /")
+def _check_frames(model: mujoco.MjModel) -> None:
+    """Refuses a model whose body frames are rotated or whose joints sit away from their
+    body's origin (the export assumes neither)."""
     for b in range(1, model.nbody):
         if np.any(np.abs(model.body_quat[b] - np.array([1.0, 0, 0, 0])) > 1e-12):
             raise MocapError(
@@ -264,6 +268,22 @@ def osim_xml(
             > 1e-12
         ):
             raise MocapError(f"body {model.body(b).name!r}: joints away from the body origin")
+
+
+def osim_xml(
+    model: mujoco.MjModel,
+    *,
+    name: str = "mocap_mj_subject",
+    up: str = "y",
+    mass: float | None = None,
+    inertia: BodyInertia | None = None,
+) -> str:
+    """The ``.osim`` text of ``model`` (see the module doc); ``inertia`` gives the bodies'
+    inertial parameters, else ``mass`` [kg] scales the model's."""
+    check_up(up)
+    if not name or any(ch in name for ch in "\\*+ \t\n/"):
+        raise MocapError(f"model name {name!r}: OpenSim names cannot contain spaces, \\ * + or /")
+    _check_frames(model)
     total = float(np.sum(model.body_mass[1:]))
     if mass is not None and not (mass > 0 and np.isfinite(mass)):
         raise MocapError(f"subject mass {mass}: expected a positive number of kilograms")
@@ -286,11 +306,11 @@ def osim_xml(
     joints = _sub(_sub(root, "JointSet", name="jointset"), "objects")
     for b in range(1, model.nbody):
         bname = model.body(b).name
-        m, com, inertia = _inertia(model, b, scale)
+        m, com, six = _inertia(model, b, scale, inertia)
         body = _sub(bodies, "Body", name=bname)
         _sub(body, "mass", repr(m))
         _sub(body, "mass_center", _vec(com))
-        _sub(body, "inertia", _vec(inertia))
+        _sub(body, "inertia", _vec(six))
         _geometry(body, model, b)
         parent = int(model.body_parentid[b])
         jids = range(int(model.body_jntadr[b]), int(model.body_jntadr[b] + model.body_jntnum[b]))
@@ -329,6 +349,7 @@ def write_osim(
     name: str = "mocap_mj_subject",
     up: str = "y",
     mass: float | None = None,
+    inertia: BodyInertia | None = None,
 ) -> None:
     """Write :func:`osim_xml` to ``path`` atomically."""
-    atomic_write_text(path, osim_xml(model, name=name, up=up, mass=mass))
+    atomic_write_text(path, osim_xml(model, name=name, up=up, mass=mass, inertia=inertia))

@@ -39,6 +39,8 @@ class ExportSource:
         qpos (T, nq), times (T,) [s], measured markers (T, M, 3) [m] in site order.
     summary : dict
         ``summary.json``, or empty.
+    motion_path : Path or None
+        The motion file read (``motion.npz``, or ``--motion``'s).
     """
 
     root: Path
@@ -46,6 +48,7 @@ class ExportSource:
     model: mujoco.MjModel
     motion: Motion
     summary: dict[str, Any] = field(default_factory=dict)
+    motion_path: Path | None = None
 
     @property
     def rate(self) -> float:
@@ -91,4 +94,4 @@ def load_result(
     summary: dict[str, Any] = {}
     if (rd.root / "summary.json").is_file():
         summary = read_summary(rd.root / "summary.json")
-    return ExportSource(rd.root, rd.model, model, motion, summary)
+    return ExportSource(rd.root, rd.model, model, motion, summary, rd.motion)

@@ -312,8 +312,10 @@ class _Survey:
         self.missing, self.zeros = np.zeros(n, dtype=int), np.zeros(n, dtype=int)
         self.extents: list[np.ndarray] = [np.zeros(0)]
         wanted = {*HEAD_MARKERS, *TRUNK_MARKERS, *FOOT_MARKERS, *HANDEDNESS_MARKERS}
-        self.up_columns = [i for i, name in enumerate(names) if name in wanted]
-        self.up_names = [names[i] for i in self.up_columns]
+        # a marker set's own names (L_HDF, a Plug-in Gait LFHD) tell by their Plug-in Gait alias
+        known = [n if n in wanted else builtin_alias(n, MARKER_NAMES) or n for n in names]
+        self.up_columns = [i for i, name in enumerate(known) if name in wanted]
+        self.up_names = [known[i] for i in self.up_columns]
         self._up: list[np.ndarray] = []
         self._frames = 0
         #: The first sample beyond :data:`COORDINATE_LIMIT`: (frame, marker, coordinate [m]).

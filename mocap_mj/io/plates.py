@@ -51,7 +51,7 @@ import ezc3d
 import numpy as np
 
 from mocap_mj.errors import InputFileError, MocapError
-from mocap_mj.io.formats.c3d import read_parameters
+from mocap_mj.io.formats.c3d import _point_labels, read_parameters
 from mocap_mj.io.orientation import normalize_up, rotation_to_z_up
 from mocap_mj.io.units import metres_per_unit
 
@@ -62,6 +62,7 @@ __all__ = [
     "PlateRecord",
     "read_grf_mot",
     "read_plates",
+    "recorded_ground_reactions",
 ]
 
 #: Plate types ezc3d extracts (C3D user guide: 1 force + COP, 2 six channels, 3 Kistler's
@@ -187,6 +188,42 @@ def read_plates(
         cop, free = _cop(force, moment, corners, threshold_n)
         records.append(PlateRecord(f"plate {k + 1}", plate.type, corners, force, cop, free, rate))
     return records
+
+
+def recorded_ground_reactions(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
+    """The ground reaction under each foot a C3D already holds from the software that
+    processed it (Vicon Nexus' Plug-in Gait outputs ``LGroundReactionForce`` and
+    ``RGroundReactionForce``, with or without a ``Subject:`` prefix): side ("left",
+    "right") -> (T, 3) as stored (Nexus writes N/kg in the file's axes), NaN in the frames
+    it left empty (a negative residual or all three zero: no plate counted for that foot).
+    Empty when the file holds neither; the file is only read."""
+    file = Path(path)
+    try:
+        header = read_parameters(file)
+    except Exception as exc:  # ezc3d raises RuntimeError, OSError, ValueError...
+        raise InputFileError(f"{file}: ezc3d could not read it: {_one_line(exc)}") from exc
+    labels = [lab.split(":")[-1] for lab in _point_labels(header.get("POINT", {}))]
+    wanted = {"left": "LGroundReactionForce", "right": "RGroundReactionForce"}
+    if not set(wanted.values()) & set(labels):
+        return {}
+    try:
+        c3d = ezc3d.c3d(str(file))
+    except Exception as exc:
+        raise InputFileError(f"{file}: ezc3d could not read it: {_one_line(exc)}") from exc
+    points = np.asarray(c3d["data"]["points"][:3], dtype=float)  # (3, N, T)
+    residuals = c3d["data"]["meta_points"]["residuals"]
+    out = {}
+    for side, name in wanted.items():
+        if name not in labels:
+            continue
+        i = labels.index(name)
+        if i >= points.shape[1]:
+            continue
+        values = points[:, i, :].T.copy()
+        empty = (np.asarray(residuals)[0, i, :] < 0) | np.all(values == 0.0, axis=1)
+        values[empty] = np.nan
+        out[side] = values
+    return out
 
 
 def _check_options(file: Path, threshold_n: float, window: str, offsets: str) -> None:

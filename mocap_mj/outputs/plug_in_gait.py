@@ -21,11 +21,12 @@ from mocap_mj.clinical.tables import series_table
 from ..export.c3d import write_points_c3d
 from ..io.atomic import atomic_write_text
 
-#: The points of joint_centres.csv: bone origins, then the proximal points.
+#: The points of joint_centres.csv: every bone's origin, then its proximal point.
 CENTRE_POINTS = (
     "PELO", "LFEO", "RFEO", "LTIO", "RTIO", "LFOO", "RFOO", "LTOO", "RTOO", "TRXO", "HEDO",
     "LCLO", "RCLO", "LHUO", "RHUO", "LRAO", "RRAO", "LHNO", "RHNO",
-    "LFEP", "RFEP", "LTIP", "RTIP", "LHUP", "RHUP", "LRAP", "RRAP", "LHNP", "RHNP",
+    "PELP", "LFEP", "RFEP", "LTIP", "RTIP", "LFOP", "RFOP", "LTOP", "RTOP", "TRXP", "HEDP",
+    "LCLP", "RCLP", "LHUP", "RHUP", "LRAP", "RRAP", "LHNP", "RHNP",
 )  # fmt: skip
 
 

@@ -1,0 +1,140 @@
+"""``mocap-mj gait-report``: the gait report of walking trials (cycles, spatiotemporal
+parameters, curves against a normative band, the Gait Profile Score)."""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from mocap_mj.commands._gait import add_events_option
+from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder
+from mocap_mj.commands.plug_in_gait import add_report_options
+from mocap_mj.errors import MocapError
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "gait-report",
+        help="the gait report: cycles, spatiotemporal parameters, scores, report.html",
+        description="Each trial's gait events (the C3D's EVENT group, else its force plates, "
+        "else the kinematics, or --events), each side's cycles from one foot strike to the "
+        "next (incomplete ones dropped and said), every Plug-in Gait angle and, with force "
+        "plates and a body mass, every moment and power resampled to 101 points per cycle. "
+        "Writes OUT/cycles.csv (trial, side, cycle, variable, percent, value: degrees, N m/kg, "
+        "W/kg), OUT/spatiotemporal.csv (per cycle, each side's mean and sd), OUT/scores.csv "
+        "(with --normative: Gait Variable Scores and Gait Profile Score, Baker et al. 2009), "
+        "OUT/report.html (one self-contained page) and OUT/summary.json.",
+    )
+    p.add_argument(
+        "--markers",
+        required=True,
+        nargs="+",
+        metavar="TRIAL",
+        help="walking trials of one subject (C3D, TRC...): with Plug-in Gait's markers its "
+        "angles from them; with another set the angles, in Plug-in Gait's conventions, of the "
+        "model mocap-mj identify identifies on the trials (kept as OUT/model.xml)",
+    )
+    p.add_argument(
+        "--marker-set",
+        metavar="SET",
+        help="for a set other than Plug-in Gait's: the marker set of the identification, as "
+        "identify --marker-set (default: detected from the labels)",
+    )
+    p.add_argument(
+        "--static",
+        metavar="STATIC",
+        help="static trial for the subject values (foot offsets, leg lengths; as "
+        "plug-in-gait --static) (default: each trial's PROCESSING values)",
+    )
+    p.add_argument(
+        "--subject-file",
+        metavar="FILE",
+        help="subject values overriding the files' (as plug-in-gait --subject-file): YAML, "
+        "Vicon's .vsk or .mp (default: none)",
+    )
+    p.add_argument(
+        "--plates",
+        default="auto",
+        metavar="LIST",
+        help="the force plates whose contacts count for the kinetics, as plug-in-gait "
+        "--plates: auto (default: those the recording's own ground reactions count, else "
+        "all), all, none, or plate numbers from 1, e.g. 1,4",
+    )
+    add_report_options(p)
+    add_events_option(p)
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    add_force_flag(p)
+    add_json_flag(p)
+    p.set_defaults(func=run, trial_type="dynamic")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..io.load import load_markers
+    from ..io.ownership import scratch_folder
+    from ._gait import identified_trials, is_plug_in_gait, read_inputs
+
+    normative, events = read_inputs(args, args.markers)
+    kinds = [is_plug_in_gait(load_markers(p)) for p in args.markers]
+    if any(kinds) and not all(kinds):
+        raise MocapError(
+            "--markers: expected trials of one marker set, got Plug-in Gait's in "
+            f"{', '.join(p for p, k in zip(args.markers, kinds, strict=True) if k)} only"
+        )
+    with scratch_folder(prefix="mocap-mj-gait-") as scratch:
+        if all(kinds):
+            trials, subject, source = _pig_trials(args)
+        else:  # another set: the angles of the model identified on the trials
+            trials, source = identified_trials(args, args.markers, scratch)
+            subject = {}
+        return into_out_folder(
+            args, lambda out: _work(args, out, trials, subject, source, normative, events)
+        )
+
+
+def _pig_trials(args: argparse.Namespace) -> tuple[list[Any], dict[str, Any], dict[str, Any]]:
+    from .plug_in_gait import gait_trial, pig_run
+
+    runs = [pig_run(args, path) for path in args.markers]
+    source = {"angles": "Plug-in Gait's, from the markers"}
+    return [gait_trial(r) for r in runs], runs[0].result.subject.to_dict(), source
+
+
+def _work(
+    args: argparse.Namespace,
+    out: Path,
+    trials: list[Any],
+    subject: dict[str, Any],
+    source: dict[str, Any],
+    normative: Any,
+    events: Any,
+) -> tuple[Mapping[str, Any], str]:
+    from ._gait import gait_report_files
+
+    notes = [f"angles: {source['angles']}"]
+    if "model" in source:  # the identified model, kept beside the report
+        shutil.copyfile(source["model"], out / "model.xml")
+        source = {**source, "model": "model.xml"}
+        rmse = source.get("marker_rmse_mm")
+        shown = f"{rmse:.2f} mm" if isinstance(rmse, float) else "unknown"
+        notes.append(f"the model identified on the trials (model.xml): marker RMSE {shown}")
+    entry = gait_report_files(out, trials, normative, events, subject, notes)
+    summary = {
+        "command": "gait-report",
+        "markers": list(args.markers),
+        "static": args.static,
+        "out": str(args.out),
+        **source,
+        "subject": subject,
+        "gait_report": entry,
+        "implausible": entry["implausible"],
+    }
+    counts = [n for t in entry["cycles"].values() for n in t.values()]
+    scores = entry["scores_omitted"] or f"GPS {entry['gps_deg']['overall']:.2f} deg overall"
+    text = (
+        f"gait-report: {sum(counts)} cycles of {len(trials)} trials "
+        f"({len(entry['dropped'])} dropped or without kinetics); {scores} -> {args.out}"
+    )
+    return summary, text
