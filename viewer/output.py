@@ -180,7 +180,8 @@ def render_to_file(
     -------
     dict
         ``out``, ``format``, ``frames`` (count), ``first``, ``last``, ``width``, ``height``,
-        ``fps`` (videos), ``backend``, ``camera``.
+        ``fps`` and ``frames_without_data`` (videos: the frames drawn as "no data"),
+        ``backend``, ``camera``.
     """
     out = Path(out)
     suffix = out.suffix.lower()
@@ -201,17 +202,10 @@ def render_to_file(
         count = _write(out, images(), fps)
     finally:
         renderer.close()
-    summary: dict[str, Any] = {
-        "out": str(out),
-        "format": suffix[1:],
-        "frames": count,
-        "first": int(frames[0]),
-        "last": int(frames[-1]),
-        "width": width,
-        "height": height,
-        "backend": backend,
-        "camera": camera or "default",
-    }
+    summary: dict[str, Any] = {"out": str(out), "format": suffix[1:], "frames": count,
+                               "first": int(frames[0]), "last": int(frames[-1]),
+                               "width": width, "height": height, "backend": backend,
+                               "camera": camera or "default"}  # fmt: skip
     if suffix != ".png":
         summary["fps"] = float(fps)
         summary["frames_without_data"] = int(np.sum(~playback.solved[list(frames)]))

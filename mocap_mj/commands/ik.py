@@ -269,11 +269,7 @@ def _solve_and_write(
             if sliding is not None
             else ""
         )
-        + (
-            f"\nmarkers in the file without a valid sample: {', '.join(empty)}"
-            if (empty := [n for n in never if n in trial.report.found])
-            else ""
-        )
+        + _without_samples(never, trial.report.found)
         + ("" if quality is None else f"\n{quality_text(quality)}")
         + (f"\njoints held at a limit of their range: {held}" if held else "")
         + (f"\n{kin_text}" if section is not None and (kin_text := text_of(section)) else "")
@@ -282,3 +278,10 @@ def _solve_and_write(
         + "model.xml, summary.json"
     )
     return summary, text
+
+
+def _without_samples(never: list[str], found: tuple[str, ...]) -> str:
+    """The output's line on the file's markers without a valid sample (``never``: every
+    model marker without one; only those the file has, ``found``, are the file's)."""
+    empty = [n for n in never if n in found]
+    return f"\nmarkers in the file without a valid sample: {', '.join(empty)}" if empty else ""
