@@ -167,7 +167,7 @@ def report_lines(
         f"- trials: {', '.join(summary.get('markers_files', []))}",
         f"- frames used: {summary['frames_used']} of {summary['frames']}",
         f"- solver: {summary['solver']}, loss {summary.get('loss', 'l2')}, "
-        f"{iterations_text(summary)} ({result.termination.value})",
+        f"{iterations_text(summary, result.iterations)} ({result.termination.value})",
         f"- time: {summary['seconds']:.2f} s (initial IK {result.init_seconds:.2f} s)",
         f"- marker RMSE: {result.marker_rmse * 1e3:.3f} mm: a per-axis noise sigma of "
         f"{result.sigma * 1e3:.3f} mm (RMSE / sqrt(3 (1 - p/n)), p = {result.n_unknowns} "
@@ -429,17 +429,17 @@ def frame_range(
     return slice(start, max(start, stop), step)
 
 
-def iterations_text(summary: Mapping[str, Any]) -> str:
+def iterations_text(summary: Mapping[str, Any], final: int | None = None) -> str:
     """The LM iterations in the words of every output: the final solve's (summary.json's
     ``iterations``, report.md's Iterations section) and, when the identification solved more
     than once (the priors reweighed), all of them, as the progress bar counts them
-    (summary.json's ``log``)."""
+    (summary.json's ``log``). ``final``: the final solve's count when the summary has none."""
     log = [e for e in summary.get("log") or [] if isinstance(e, str) and e.startswith("iter ")]
     solves = sum(1 for e in log if e.split()[1] == "1")
-    final = f"{summary['iterations']} LM iterations"
+    text = f"{summary.get('iterations', final)} LM iterations"
     if solves <= 1:
-        return final
-    return f"{final} in the final solve, {len(log)} over its {solves} solves"
+        return text
+    return f"{text} in the final solve, {len(log)} over its {solves} solves"
 
 
 def expected_rmse(sigma: float, n_unknowns: int, n_residuals: int) -> float:
