@@ -35,8 +35,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     exit status. A Ctrl-C while the modules load (the first second or so) is one line and
     exit status 130, as during the command: this module imports nothing heavy itself."""
     try:
-        parser = build_parser()
-        args = parser.parse_args(argv)
+        words = sys.argv[1:] if argv is None else list(argv)
+        parser = build_parser(words)
+        args = parser.parse_args(words)
         if getattr(args, "func", None) is None:
             parser.print_help()
             return 2

@@ -15,10 +15,38 @@ model), :mod:`~mocap_synth.experiment` (putting them together, files), :mod:`~mo
 
 from __future__ import annotations
 
-from . import motion
+import importlib
+from typing import TYPE_CHECKING, Any
+
 from .config import MOTIONS, ConfigError, SynthConfig
-from .experiment import FILES, Experiment, summarize, synthesize, write_experiment
-from .perturb import perturb_theta
+
+if TYPE_CHECKING:
+    from . import motion
+    from .experiment import FILES, Experiment, summarize, synthesize, write_experiment
+    from .perturb import perturb_theta
+
+#: The names imported on first use (PEP 562): the command line's ``--help`` loads the
+#: package (its parsers in :mod:`~mocap_synth.cli`) without NumPy or MuJoCo.
+_LAZY = {
+    "FILES": ".experiment",
+    "Experiment": ".experiment",
+    "summarize": ".experiment",
+    "synthesize": ".experiment",
+    "write_experiment": ".experiment",
+    "perturb_theta": ".perturb",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name == "motion":
+        value: Any = importlib.import_module(".motion", __name__)
+    elif name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name], __name__), name)
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     "FILES",

@@ -1,4 +1,7 @@
-"""``mocap-mj synth``: write a synthetic experiment (truth model, truth motion, markers)."""
+"""The add-on's commands: ``mocap-mj synth`` (a synthetic experiment: truth model, truth motion,
+markers), and the flags of ``demo`` and ``experiment``, whose work (:mod:`~mocap_synth.demo`,
+:mod:`~mocap_synth.experiment_paper`) is imported when they run, so that ``--help`` loads no
+NumPy or MuJoCo."""
 
 from __future__ import annotations
 
@@ -8,9 +11,9 @@ from typing import Any
 
 from mocap_mj.commands._removed import add_removed_flags
 from mocap_mj.commands.common import add_force_flag, add_json_flag, finish
+from mocap_mj.commands.parsers import Lazy, description
 
 from .config import MOTIONS, ConfigError, SynthConfig
-from .experiment import synthesize, write_experiment
 
 #: Options taking a value: flag, SynthConfig field, type, help. Values are parsed here rather
 #: than by argparse, so that a bad value is one line on stderr (exit 2) like every other error.
@@ -67,14 +70,17 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
     )
-    for flag, field, _, text in _OPTIONS:
-        metavar = "N" if flag == "--frame-count" else flag.lstrip("-").split("-")[0].upper()
+    for flag, field, kind, text in _OPTIONS:
+        # the placeholders of the other commands: MM for a length in mm, N for a count
+        metavar = "MM" if flag.endswith("-mm") else "N" if kind is int else None
+        metavar = metavar or flag.lstrip("-").split("-")[0].upper()
         p.add_argument(flag, dest=field, metavar=metavar, help=text)
     p.add_argument(
         "--symmetric", action="store_true", help="perturb left and right alike (mirror images)"
     )
     p.add_argument(
-        "--plates",
+        "--with-plate",
+        dest="plates",
         action="store_true",
         help="the subject leans onto its right foot, and plates.c3d holds the markers and a "
         "type-2 force plate under that foot with the ground reaction the truth motion needs "
@@ -84,7 +90,7 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--mass",
         metavar="KG",
-        help="body mass of the truth model for --plates, written as PROCESSING:Bodymass "
+        help="body mass of the truth model for --with-plate, written as PROCESSING:Bodymass "
         "(default: 75)",
     )
     add_force_flag(p)
@@ -123,6 +129,8 @@ def config_from_args(args: argparse.Namespace) -> SynthConfig:
 
 
 def run(args: argparse.Namespace) -> int:
+    from .experiment import synthesize, write_experiment
+
     cfg = config_from_args(args)
     mass = 75.0 if args.mass is None else _parse("--mass", float, args.mass)
     if not 0 < mass < 500:
@@ -159,3 +167,100 @@ def run(args: argparse.Namespace) -> int:
         f"{len(summary['swapped'])} label swaps",
     ]
     return finish(args, summary, "\n".join(lines))
+
+
+def register_demo(sub: Any) -> None:
+    p = sub.add_parser(
+        "demo",
+        help="synthesize, identify and score on the bundled model",
+        description=description("mocap_synth.demo").split("\n\n", 1)[1].split("\n\n")[0],
+    )
+    p.add_argument(
+        "--out",
+        default="demo-result",
+        metavar="FOLDER",
+        help="output folder, must be new or empty (default: demo-result)",
+    )
+    p.add_argument(
+        "--frame-count",
+        dest="frames",
+        type=int,
+        default=500,
+        metavar="N",
+        help="frames of the range-of-motion trial to fit (default: 500)",
+    )
+    p.add_argument(
+        "--holdout",
+        type=int,
+        default=200,
+        metavar="N",
+        help="frames of the held-out walking trial (default: 200)",
+    )
+    p.add_argument(
+        "--noise-mm",
+        type=float,
+        default=1.0,
+        metavar="MM",
+        help="marker noise, standard deviation per axis in mm (default: 1)",
+    )
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        metavar="N",
+        help="seed of the truth model, motion and noise (default: 0)",
+    )
+    add_force_flag(p)
+    add_json_flag(p)
+    add_removed_flags(p, "demo")
+    p.set_defaults(func=Lazy("mocap_synth.demo"))
+
+
+def register_experiment(sub: Any) -> None:
+    p = sub.add_parser(
+        "experiment",
+        help="reproduce a published experiment on synthetic data",
+        description="Reproduce a published experiment on synthetic data: `paper` (Table 1 and "
+        "Figs 3-4 of Zou & Sugihara) or `paper-steps` (how Algorithm 1's step sizes were "
+        "chosen). Each writes its report and figures into --out.",
+    )
+    kinds = p.add_subparsers(dest="experiment", metavar="EXPERIMENT", required=True)
+    q = kinds.add_parser(
+        "paper",
+        help="Table 1 and Figs 3-4 of Zou & Sugihara (Algorithm 1's samplings vs joint LM)",
+        description="Identify a synthetic 5 s trial with Algorithm 1 (batch, even, random, "
+        "stochastic sampling) and the joint LM; write Table 1, Figs 3-4 and the raw numbers.",
+    )
+    q.add_argument(
+        "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
+    )
+    q.add_argument("--quick", action="store_true", help="100 frames and few iterations (CI)")
+    q.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        metavar="N",
+        help="seed of the truth model, motion, noise and sampling (default: 0)",
+    )
+    q.add_argument(
+        "--batch-iterations",
+        type=int,
+        metavar="N",
+        help="iterations batch sampling is really run; the rest of its curve is extrapolated "
+        "(default: the experiment's, all of them)",
+    )
+    add_force_flag(q)
+    add_json_flag(q)
+    q.set_defaults(func=Lazy("mocap_synth.experiment_paper"))
+    t = kinds.add_parser(
+        "paper-steps",
+        help="how Algorithm 1's alpha, Delta and perturbed-IK iterations were chosen",
+        description="Measure Algorithm 1 on a 100-frame synthetic trial for several alpha, "
+        "Delta and perturbed-IK iteration counts (docs/paper.md).",
+    )
+    t.add_argument(
+        "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
+    )
+    add_force_flag(t)
+    add_json_flag(t)
+    t.set_defaults(func=Lazy("mocap_synth.experiment_paper", "run_steps"))

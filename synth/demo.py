@@ -21,8 +21,7 @@ from typing import Any
 import numpy as np
 
 from mocap_mj.capture.subject import Subject
-from mocap_mj.commands._removed import add_removed_flags
-from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder, prepare_out
+from mocap_mj.commands.common import into_out_folder, prepare_out
 from mocap_mj.commands.progress import progress_bar
 from mocap_mj.outputs.score import score
 from mocap_mj.outputs.write_fit import expected_rmse, write_result
@@ -38,53 +37,6 @@ from mocap_mj.solve.problem import TrialData
 
 from .config import SynthConfig
 from .experiment import synthesize, write_experiment
-
-
-def register(sub: Any) -> None:
-    p = sub.add_parser(
-        "demo",
-        help="synthesize, identify and score on the bundled model",
-        description=__doc__.split("\n\n", 1)[1].split("\n\n")[0],
-    )
-    p.add_argument(
-        "--out",
-        default="demo-result",
-        metavar="FOLDER",
-        help="output folder, must be new or empty (default: demo-result)",
-    )
-    p.add_argument(
-        "--frame-count",
-        dest="frames",
-        type=int,
-        default=500,
-        metavar="N",
-        help="frames of the range-of-motion trial to fit (default: 500)",
-    )
-    p.add_argument(
-        "--holdout",
-        type=int,
-        default=200,
-        metavar="N",
-        help="frames of the held-out walking trial (default: 200)",
-    )
-    p.add_argument(
-        "--noise-mm",
-        type=float,
-        default=1.0,
-        metavar="MM",
-        help="marker noise, standard deviation per axis in mm (default: 1)",
-    )
-    p.add_argument(
-        "--seed",
-        type=int,
-        default=0,
-        metavar="N",
-        help="seed of the truth model, motion and noise (default: 0)",
-    )
-    add_force_flag(p)
-    add_json_flag(p)
-    add_removed_flags(p, "demo")
-    p.set_defaults(func=run)
 
 
 def _rms(x: np.ndarray) -> float:

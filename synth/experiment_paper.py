@@ -32,8 +32,6 @@ from typing import Any
 import numpy as np
 
 from mocap_mj.commands.common import (
-    add_force_flag,
-    add_json_flag,
     finish,
     output_folder,
     write_summary,
@@ -115,56 +113,6 @@ class Row:
     measured_seconds: float
     theta: np.ndarray
     note: str = ""
-
-
-def register(sub: Any) -> None:
-    p = sub.add_parser(
-        "experiment",
-        help="reproduce a published experiment on synthetic data",
-        description="Reproduce a published experiment on synthetic data: `paper` (Table 1 and "
-        "Figs 3-4 of Zou & Sugihara) or `paper-steps` (how Algorithm 1's step sizes were "
-        "chosen). Each writes its report and figures into --out.",
-    )
-    kinds = p.add_subparsers(dest="experiment", metavar="EXPERIMENT", required=True)
-    q = kinds.add_parser(
-        "paper",
-        help="Table 1 and Figs 3-4 of Zou & Sugihara (Algorithm 1's samplings vs joint LM)",
-        description="Identify a synthetic 5 s trial with Algorithm 1 (batch, even, random, "
-        "stochastic sampling) and the joint LM; write Table 1, Figs 3-4 and the raw numbers.",
-    )
-    q.add_argument(
-        "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
-    )
-    q.add_argument("--quick", action="store_true", help="100 frames and few iterations (CI)")
-    q.add_argument(
-        "--seed",
-        type=int,
-        default=0,
-        metavar="N",
-        help="seed of the truth model, motion, noise and sampling (default: 0)",
-    )
-    q.add_argument(
-        "--batch-iterations",
-        type=int,
-        metavar="N",
-        help="iterations batch sampling is really run; the rest of its curve is extrapolated "
-        "(default: the experiment's, all of them)",
-    )
-    add_force_flag(q)
-    add_json_flag(q)
-    q.set_defaults(func=run)
-    t = kinds.add_parser(
-        "paper-steps",
-        help="how Algorithm 1's alpha, Delta and perturbed-IK iterations were chosen",
-        description="Measure Algorithm 1 on a 100-frame synthetic trial for several alpha, "
-        "Delta and perturbed-IK iteration counts (docs/paper.md).",
-    )
-    t.add_argument(
-        "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
-    )
-    add_force_flag(t)
-    add_json_flag(t)
-    t.set_defaults(func=run_steps)
 
 
 def run(args: argparse.Namespace) -> int:

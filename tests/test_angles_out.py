@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 from _motion import smooth_motion
 
 from mocap_mj import Kinematics, ParameterSet
@@ -38,6 +39,7 @@ def test_chunked_angles_are_the_whole_motions(tmp_path: Path) -> None:
     assert got.splitlines()[1].startswith("694,") and got.splitlines()[-1].startswith("943,")
 
 
+@pytest.mark.slow
 def test_identify_select_writes_the_angles_of_every_frame(tmp_path: Path) -> None:
     """``identify`` with ``select`` (every frame's motion chunk by chunk) writes angles.csv of
     every frame, the table ``export --to angles`` computes from its motion.npz."""

@@ -79,6 +79,7 @@ def test_a_bad_recipe_file_is_one_line_naming_file_and_field(
     assert "\n" not in message and all(w in message for w in words), message
 
 
+@pytest.mark.slow
 def test_api_and_command_give_the_same_theta_on_a_synthetic_trial(
     synthetic: Path, tmp_path: Path
 ) -> None:
@@ -104,6 +105,7 @@ def test_api_and_command_give_the_same_theta_on_a_synthetic_trial(
     assert np.array_equal(again, by_command)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not STATIC.exists(), reason=f"{STATIC} (shared real recording) not present")
 def test_api_and_command_give_the_same_theta_on_a_real_recording(tmp_path: Path) -> None:
     frames = f"{WINDOW[0]}:{WINDOW[1]}"
@@ -123,6 +125,7 @@ def test_api_and_command_give_the_same_theta_on_a_real_recording(tmp_path: Path)
     assert np.array_equal(again, by_command)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not STATIC.exists(), reason=f"{STATIC} (shared real recording) not present")
 def test_the_readme_example_is_the_command(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """The README's Python API block, run as it is on the shared static trial (as
@@ -142,6 +145,7 @@ def test_the_readme_example_is_the_command(tmp_path: Path, monkeypatch: pytest.M
     assert written == (tmp_path / "cli" / "theta.json").read_bytes()
 
 
+@pytest.mark.slow
 def test_selection_in_memory_equals_the_streamed_motion(synthetic: Path, tmp_path: Path) -> None:
     """A selected (long-recording) identification: the API's motion of every frame in memory
     is the command's motion.npz, solved chunk by chunk into files."""

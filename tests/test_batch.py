@@ -113,6 +113,7 @@ def test_content_hash_follows_bytes_and_options_not_paths(tmp_path: Path) -> Non
 
 
 # ---------------------------------------------------------------- serial, end to end
+@pytest.mark.slow
 def test_serial_batch_isolates_bad_files_and_resumes(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -231,6 +232,7 @@ def _listening(port: int) -> bool:
         return s.connect_ex(("127.0.0.1", port)) == 0
 
 
+@pytest.mark.slow
 def test_ray_cluster_survives_a_killed_worker(tmp_path: Path) -> None:
     pytest.importorskip("ray", reason="the [cluster] extra (ray) is not installed")
     ds, out = tmp_path / "ds", tmp_path / "out"

@@ -80,6 +80,7 @@ def test_handedness_undecided_without_a_long_axis(walk: MarkerTrajectory) -> Non
     check_handedness("pelvis only", mirrored, [walk.names[i] for i in keep])
 
 
+@pytest.mark.slow
 def test_mirrored_file_is_refused_by_the_loader_and_the_cli(
     walk: MarkerTrajectory, tmp_path: Path
 ) -> None:
@@ -105,6 +106,7 @@ def test_mirrored_file_is_refused_by_the_loader_and_the_cli(
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_exact_transforms_give_the_same_skeleton(
     capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:

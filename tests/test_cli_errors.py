@@ -21,6 +21,8 @@ from mocap_mj.errors import MocapError
 from mocap_mj.io import MarkerTrajectory, load_markers, save_csv
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
+pytestmark = pytest.mark.slow  # module fixtures run whole identifications
+
 FRAMES = 40
 
 

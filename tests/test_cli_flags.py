@@ -55,7 +55,7 @@ def test_every_command_lists_few_flags(command: str) -> None:
 
 
 def test_a_flag_name_keeps_one_meaning_across_commands() -> None:
-    """``--height`` is a subject's height in millimetres only (render's image size is
+    """``--height`` is a subject's height only, a length with its unit (render's image size is
     ``--size WxH``); a unit placeholder (MM, KG, PX, M) is the same wherever a flag appears;
     ``--frames`` is a range ``A:B`` everywhere (``A:B[:S]`` where a stride makes sense; a
     number of frames to make is ``--frame-count``); ``--motion`` is a motion file."""
@@ -64,7 +64,7 @@ def test_a_flag_name_keeps_one_meaning_across_commands() -> None:
         for a in parser._actions:
             if a.option_strings and a.help != argparse.SUPPRESS:
                 seen.setdefault(a.option_strings[-1], {})[command] = str(a.metavar)
-    assert seen["--height"] == {"identify": "MM"}
+    assert seen["--height"] == {"identify": "LENGTH"}
     units = {"MM", "KG", "PX", "M", "WxH"}
     for flag, by in seen.items():
         assert len({m for m in by.values() if m in units}) <= 1, (flag, by)
@@ -114,6 +114,7 @@ def synthetic(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return folder / "markers.csv"
 
 
+@pytest.mark.slow
 def test_recipe_and_subject_file_give_the_theta_of_the_removed_flags(
     synthetic: Path, tmp_path: Path
 ) -> None:

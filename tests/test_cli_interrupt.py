@@ -22,6 +22,8 @@ from mocap_mj.io.atomic import atomic_folder
 from mocap_mj.pipeline.motion import ResultDir
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
+pytestmark = pytest.mark.slow  # module fixtures run whole identifications
+
 #: What a complete identify folder holds.
 RESULT_FILES = {"model.xml", "theta.json", "motion.npz", "identifiability.json", "summary.json"}
 

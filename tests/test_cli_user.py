@@ -69,6 +69,7 @@ def _interrupted_run(program: list[str], args: list[str], delay: float) -> tuple
     return proc.returncode, "".join(x for x in lines if not x.startswith("import time:"))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(3))
 def test_ctrl_c_while_the_modules_load_is_one_line(
     markers: Path, tmp_path: Path, seed: int
@@ -87,6 +88,7 @@ def test_ctrl_c_while_the_modules_load_is_one_line(
             assert code == 0, (delay, code, err)
 
 
+@pytest.mark.slow
 def test_experiment_paper_as_the_readme_writes_it(tmp_path: Path) -> None:
     """``mocap-mj experiment paper --out DIR`` (here ``--quick``), progress bars on."""
     proc = subprocess.run(

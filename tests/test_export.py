@@ -355,6 +355,7 @@ def test_unsolved_frames_are_empty_in_every_table(result: Path, tmp_path: Path) 
     assert np.isfinite(points[:, :n]).all() and np.isnan(points[:, n:]).all()
 
 
+@pytest.mark.slow
 def test_export_angles_compare_reports_offset_and_correlation(result: Path, tmp_path: Path) -> None:
     """--compare against a plug-in-gait folder (frames numbered from 694) whose knee flexion
     is ours less 5 deg: RMS 5, offset +5, correlation 1 for that column, 0 elsewhere."""

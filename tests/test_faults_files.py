@@ -27,6 +27,8 @@ from mocap_mj.io.atomic import atomic_folder, atomic_path
 from mocap_mj.io.ownership import MARKER
 from mocap_mj.skeleton.mjcf import model_path
 
+pytestmark = pytest.mark.slow  # module fixtures run whole identifications
+
 FRAMES = 30
 
 

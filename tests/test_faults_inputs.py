@@ -47,6 +47,8 @@ from mocap_mj.pipeline.motion import npz_bytes
 from mocap_mj.pipeline.recipe import NUMERIC_RANGES, Recipe
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
+pytestmark = pytest.mark.slow  # module fixtures run whole identifications
+
 FRAMES = 30
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 #: Generators are derandomised: the same examples on every run.
@@ -578,7 +580,7 @@ def _value(action: argparse.Action) -> str:
     """A value ``action`` accepts."""
     if action.choices:
         return str(next(iter(action.choices)))
-    for candidate in ("1", "0:10", "640x480", "x", "a.yaml"):
+    for candidate in ("1", "0:10", "640x480", "x", "a.yaml", "1.75m"):
         try:
             convert = action.type
             if convert is None or (callable(convert) and convert(candidate) is not None):

@@ -28,6 +28,7 @@ def _fit(motion: str, sta_mm: float, seed: int, shift: float = 0.0) -> tuple[Any
     return exp, mocap_mj.identify([trial], mocap_mj.Recipe(), None, rates=[100.0])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1])
 def test_walk_with_soft_tissue_keeps_hips_at_a_true_regression(seed: int) -> None:
     """Truth at the regression, a walk with 10 mm/rad of soft-tissue artefact: each hip
@@ -63,6 +64,7 @@ def test_functional_trial_moves_hips_to_a_truth_off_the_regression() -> None:
         assert np.linalg.norm(err) * 1e3 < 2.5 * entry["distance_sd_mm"] + 1.0, (hip, err)
 
 
+@pytest.mark.slow
 def test_report_fields_agree_with_theta() -> None:
     """identified_mm is the thigh's position in theta; regression_mm + the rows'
     distances give it back; distance_mm is their norm; report.md lists both hips."""

@@ -60,6 +60,7 @@ def clean():  # type: ignore[no-untyped-def]
     return pset, exp, result, idf
 
 
+@pytest.mark.slow
 def test_reaches_the_bound_on_the_observable_subspace(clean) -> None:  # type: ignore[no-untyped-def]
     pset, exp, result, idf = clean
     k_ratio, o_ratio, jc = errors(pset, result, exp, idf, FRAMES)
@@ -125,6 +126,7 @@ def test_null_directions_are_found_and_named(clean) -> None:  # type: ignore[no-
     assert np.all(idf.eigenvalues[~idf.observable] < 1e-3 * idf.eigenvalues.max())
 
 
+@pytest.mark.slow
 def test_robust_loss_resists_gaps_outliers_and_swaps(clean) -> None:  # type: ignore[no-untyped-def]
     pset, _, result_clean, idf_clean = clean
     exp = synthesize(SynthConfig(frames=FRAMES, seed=0, gaps=0.10, outliers=0.01, swaps=1), pset)
@@ -161,6 +163,7 @@ def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
     )
 
 
+@pytest.mark.slow
 def test_cli_identify_score_demo(tmp_path: Path) -> None:
     synth = tmp_path / "synth"
     assert (
@@ -214,6 +217,7 @@ def test_cli_identify_score_demo(tmp_path: Path) -> None:
     assert len(bad.stderr.strip().splitlines()) == 1
 
 
+@pytest.mark.slow
 def test_score_of_truth_against_itself_is_zero(tmp_path: Path) -> None:
     """A result folder made from the truth itself scores zero parameter error."""
     from mocap_mj.outputs.write_fit import write_files

@@ -96,6 +96,7 @@ def _load_expecting_only_mocap_errors(path: Path) -> None:
     deadline=None,
     suppress_health_check=[HealthCheck.function_scoped_fixture],
 )
+@pytest.mark.slow
 @given(edits=_EDITS)
 def test_mutated_text_raises_only_mocap_errors(
     workdir: Path, seeds: dict[str, str], kind: str, edits: list[tuple[float, int, str]]
@@ -137,6 +138,7 @@ def test_truncated_c3d_raises_only_mocap_errors(workdir: Path, c3d_seed: bytes, 
     derandomize=True,  # ezc3d itself is the risk here: keep the examples reproducible
     suppress_health_check=[HealthCheck.function_scoped_fixture],
 )
+@pytest.mark.slow
 @given(flips=st.lists(st.tuples(st.integers(0, 2047), st.integers(0, 255)), min_size=1, max_size=6))
 def test_corrupted_c3d_header_and_parameters_raise_only_mocap_errors(
     workdir: Path, c3d_seed: bytes, flips: list[tuple[int, int]]

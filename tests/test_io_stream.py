@@ -56,6 +56,7 @@ def _same(path: Path) -> str:
     return stream.how
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not FILES, reason=f"no shared C3D files in {SHARED}")
 def test_chunked_c3d_equals_load_markers_on_the_shared_files() -> None:
     how = {p.name: _same(p) for p in FILES}
@@ -329,6 +330,7 @@ NEXUS_VARIANTS: dict[str, Callable[[str], str]] = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", list(NEXUS_VARIANTS))
 def test_chunked_nexus_csv_equals_load_markers(tmp_path: Path, variant: str) -> None:
     """Vicon Nexus rows parsed ``CHUNK`` at a time into a memory map: the same positions,
@@ -373,6 +375,7 @@ MOTIVE_VARIANTS: dict[str, Callable[[str], str]] = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", list(MOTIVE_VARIANTS))
 def test_chunked_motive_csv_equals_load_markers(tmp_path: Path, variant: str) -> None:
     """OptiTrack Motive rows parsed ``CHUNK`` at a time into a memory map (the marker columns

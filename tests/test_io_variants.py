@@ -11,7 +11,7 @@ import ezc3d
 import numpy as np
 import pytest
 
-from mocap_mj.commands._markers import add_marker_options
+from mocap_mj.commands.options import add_input_options
 from mocap_mj.errors import InputFileError
 from mocap_mj.io import load_markers
 from mocap_mj.io.formats.c3d_check import check_c3d
@@ -246,7 +246,7 @@ def test_units_that_do_not_fit_the_cloud_are_an_error_naming_the_flag(
 
 def test_units_flag_is_a_marker_option() -> None:
     parser = argparse.ArgumentParser()
-    add_marker_options(parser)
+    add_input_options(parser)
     assert parser.parse_args(["--markers", "x.trc", "--units", "cm"]).units == "cm"
     with pytest.raises(SystemExit):
         parser.parse_args(["--markers", "x.trc", "--units", "inch"])

@@ -34,6 +34,8 @@ from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.problem import TrialData
 from mocap_synth import Experiment, SynthConfig, synthesize, write_experiment
 
+pytestmark = pytest.mark.slow  # module fixtures run whole identifications
+
 FRAMES = 80
 
 

@@ -34,6 +34,8 @@ import pytest
 from mocap_mj.capture.events import GaitEvent, events_csv, events_from_c3d, read_events_csv
 from mocap_mj.errors import InputFileError
 
+pytestmark = pytest.mark.slow  # module fixtures run whole identifications
+
 MOVEMENT = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "Movement_trial.c3d"
 SKIP = "../shared/data/real/Movement_trial.c3d absent: the kinetics checks need the shared data"
 needs_data = pytest.mark.skipif(not MOVEMENT.is_file(), reason=SKIP)

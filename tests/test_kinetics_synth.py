@@ -25,6 +25,8 @@ from mocap_mj.anatomy.inertia import inertial_model
 from mocap_mj.pipeline.dynamics import BodyLoad, inverse_dynamics, translational
 from mocap_mj.pipeline.motion import load_motion
 
+pytestmark = pytest.mark.slow  # module fixtures run whole identifications
+
 MASS = 68.0  # [kg]
 G = 9.80665  # [m/s^2]
 
@@ -40,7 +42,8 @@ def folders(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     base = tmp_path_factory.mktemp("synth_plates")
     synth, result = base / "synth", base / "ik"
     proc = run("synth", "--out", str(synth), "--movement", "static", "--noise-mm", "0",
-               "--frame-count", "300", "--seed", "5", "--plates", "--mass", str(MASS))  # fmt: skip
+               "--frame-count", "300", "--seed", "5", "--with-plate",
+               "--mass", str(MASS))  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     assert "plates.c3d" in json.loads((synth / "summary.json").read_text())["files"]
     proc = run("ik", "--markers", str(synth / "plates.c3d"), "--model",

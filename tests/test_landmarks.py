@@ -77,6 +77,7 @@ def test_knee_width_measured_from_the_epicondyles(medial: tuple) -> None:
     assert len(lines) == 1 and "LKNE-LKNEM" in lines[0]
 
 
+@pytest.mark.slow
 def test_measured_width_puts_the_knee_centre_between_the_epicondyles(medial: tuple) -> None:
     """A static trial (no motion places the knee centre along its axis): identified with the
     measured widths, each knee centre is within 1 mm of the midpoint of its fitted

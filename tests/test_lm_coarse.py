@@ -4,6 +4,7 @@ frames ends at the same minimum as the LM on every frame alone."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from mocap_mj import ParameterSet
 from mocap_mj.solve.coarse import coarse_rows
@@ -16,6 +17,7 @@ from mocap_synth import SynthConfig, synthesize
 FRAMES, SUBSET = 300, 60
 
 
+@pytest.mark.slow
 def test_coarse_phase_reaches_the_plain_lms_minimum() -> None:
     pset = ParameterSet()
     exp = synthesize(SynthConfig(frames=FRAMES, seed=1), pset)

@@ -57,6 +57,7 @@ def test_selection_needs_the_pelvis(pset: ParameterSet) -> None:
         select_frames(markers, tuple(n if n != "LPSI" else "X" for n in pset.marker_names), 5)
 
 
+@pytest.mark.slow
 def test_identify_long_reaches_the_bound_of_its_selection(pset: ParameterSet) -> None:
     exp = synthesize(SynthConfig(frames=900, motion="rom", seed=4), pset)
     qpos = np.full((900, 55), np.nan)
@@ -83,6 +84,7 @@ def _cli(*args: str) -> subprocess.CompletedProcess[str]:
     )
 
 
+@pytest.mark.slow
 def test_identify_select_fits_a_subset_and_moves_every_frame(tmp_path: Path) -> None:
     """A recipe's ``select: N``: the model from N pose-diverse frames, the motion of all."""
     truth, out = tmp_path / "truth", tmp_path / "sel"
@@ -117,6 +119,7 @@ def test_identify_select_fits_a_subset_and_moves_every_frame(tmp_path: Path) -> 
     assert not (tmp_path / "b").exists()
 
 
+@pytest.mark.slow
 def test_refinement_on_every_frame_reaches_the_all_frames_bound(pset: ParameterSet) -> None:
     exp = synthesize(SynthConfig(frames=2400, motion="rom", seed=6), pset)
     qpos = np.full((2400, 55), np.nan)
@@ -176,6 +179,7 @@ def hand_zero(pset: ParameterSet) -> HandZero:
     return HandZero(exp, idf, pset.n_kappa + 3 * pset.marker_names.index("RFIN"))
 
 
+@pytest.mark.slow
 def test_an_equivalent_hand_zero_scores_no_error(pset: ParameterSet, hand_zero: HandZero) -> None:
     """The cause of the hour's offsets reading 3x their bound (docs/method.md#long-recordings): a
     model equivalent to the truth, its right hand's zero turned 8 degrees about the wrist's
@@ -193,6 +197,7 @@ def test_an_equivalent_hand_zero_scores_no_error(pset: ParameterSet, hand_zero: 
     assert err["limits"] > 0.1e-3
 
 
+@pytest.mark.slow
 def test_a_hand_zero_beyond_the_margin_scores_no_error(
     pset: ParameterSet, hand_zero: HandZero
 ) -> None:
@@ -254,6 +259,7 @@ def _forearms_turned(pset: ParameterSet, theta: np.ndarray, degrees: float) -> n
     return out
 
 
+@pytest.mark.slow
 def test_an_equivalent_forearm_zero_scores_no_error(
     pset: ParameterSet, hand_zero: HandZero, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -320,6 +326,7 @@ def test_refinement_holds_its_box_and_weighs_its_priors(pset: ParameterSet) -> N
     assert abs(runs["held"][thigh] - theta0[thigh]) < 0.1e-3
 
 
+@pytest.mark.slow
 def test_refinement_minimises_the_weighted_cost_of_the_sliding_landmarks(
     pset: ParameterSet, hand_zero: HandZero
 ) -> None:
@@ -448,6 +455,7 @@ def test_refinement_on_every_frame_keeps_the_poses_of_its_model(pset: ParameterS
     assert np.array_equal(qpos, IKSolver(kin).solve_trial(exp.markers).qpos, equal_nan=True)
 
 
+@pytest.mark.slow
 def test_auto_selection_with_a_robust_loss_refines_with_it(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -473,6 +481,7 @@ def test_auto_selection_with_a_robust_loss_refines_with_it(
         assert motion["qpos"].shape[0] == 120 and np.all(np.isfinite(motion["qpos"]))
 
 
+@pytest.mark.slow
 def test_refinement_minimises_the_robust_cost(pset: ParameterSet, hand_zero: HandZero) -> None:
     """With ``robust`` (the Cauchy loss and the threshold of the fit), ``refine`` on every
     frame ends where the joint LM with that loss ends, and outliers (3 % of the samples

@@ -236,6 +236,7 @@ def _ik(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, list[str]]
     return code, err
 
 
+@pytest.mark.slow
 def test_ik_warns_records_and_strict_refuses(
     swapped_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -313,6 +314,7 @@ def test_batch_column() -> None:
     assert _quality_cell(quality, "c.c3d") == "none"
 
 
+@pytest.mark.slow
 def test_identify_strict_refuses_a_marker_moved_between_trials(
     pset: ParameterSet, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

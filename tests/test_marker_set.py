@@ -27,6 +27,7 @@ LANDMARKS = ("ASI", "PSI", "KNE", "ANK", "HEE", "TOE", "C7", "T10", "CLAV", "STR
 CLUSTERS = ("THI", "TIB", "UPA", "FRM", "RBAK")
 
 
+@pytest.mark.slow
 def test_bundled_plug_in_gait_is_the_models_sites() -> None:
     pig = plug_in_gait()
     model = load_model()
@@ -107,6 +108,7 @@ def test_marker_on_an_unknown_body_lists_the_bodies() -> None:
         model_with_marker_set(bad)
 
 
+@pytest.mark.slow
 def test_a_non_plug_in_gait_set_identifies_within_1_5x_its_bound(tmp_path: Path) -> None:
     """The bundled thigh/shank-cluster set: a synthetic trial (300 frames, 1 mm noise) is
     identified with kappa and offset errors (aligned along the null directions) within 1.5x
@@ -178,13 +180,14 @@ def test_cli_marker_report_names_undetermined_segments(tmp_path: Path) -> None:
 def test_marker_set_flag_builds_the_model_the_commands_use() -> None:
     import argparse
 
-    from mocap_mj.commands._markers import add_marker_options, model_for
+    from mocap_mj.commands._markers import model_for
+    from mocap_mj.commands.options import add_input_options, add_model_options
 
     parser = argparse.ArgumentParser()
-    add_marker_options(parser)
+    add_input_options(parser)
+    add_model_options(parser, model="MJCF model")
     yaml_path = str(model_path("marker_sets/pig_leg_clusters.yaml"))
     args = parser.parse_args(["--markers", "x.c3d", "--marker-set", yaml_path])
-    args.model = None
     path = model_for(args)
     assert path is not None and path == model_for(args)  # built once, named by content
     assert ParameterSet(path).marker_names == ParameterSet(path).marker_names

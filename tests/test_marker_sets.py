@@ -91,6 +91,7 @@ DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
     [("Movement_trial", "plug_in_gait"), ("Static_trial", "plug_in_gait"),
      ("anatomical_posture", "plug_in_gait_medial"), ("Test_func_rknee", "plug_in_gait_medial")],
 )  # fmt: skip
+@pytest.mark.slow
 def test_the_real_recordings_detect_their_sets(trial: str, expected: str) -> None:
     """The Vicon Plug-in Gait trials detect Plug-in Gait (so they run as without detection);
     the biobuddy trials, with LKNEM, LANKM... on both sides, the medial set. Only the C3D's
@@ -115,6 +116,7 @@ def test_names_and_files_resolve(tmp_path: Path) -> None:
     assert not on_bundled_model(bundled("plug_in_gait_medial"))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", FOLDER)
 def test_each_sets_own_labels_detect_it(name: str) -> None:
     found = detect(list(bundled(name).names))
@@ -122,6 +124,7 @@ def test_each_sets_own_labels_detect_it(name: str) -> None:
     assert found.of(name).found == len(bundled(name).names)
 
 
+@pytest.mark.slow
 def test_detection_rules_on_label_lists() -> None:
     pig = list(bundled("plug_in_gait").names)
     # the set that explains the most labels: the medial markers make the medial set
@@ -176,6 +179,7 @@ def test_labels_are_read_as_the_loader_names_them(tmp_path: Path) -> None:
     assert file_labels(path) == CMU_LABELS
 
 
+@pytest.mark.slow
 def test_marker_sets_command_lists_and_checks(tmp_path: Path) -> None:
     run = [sys.executable, "-m", "mocap_mj", "marker-sets"]
     listing = json.loads(subprocess.run([*run, "--json"], capture_output=True, text=True,
@@ -199,6 +203,7 @@ def test_marker_sets_command_lists_and_checks(tmp_path: Path) -> None:
     assert bad.returncode == 2 and len(lines) == 1 and "plug_in_gait_medial" in lines[0]
 
 
+@pytest.mark.slow
 def test_ik_prints_and_records_the_detected_set(tmp_path: Path) -> None:
     names = [*bundled("plug_in_gait").names, "LKNEM", "RKNEM", "LANKM", "RANKM"]
     path = _trc(tmp_path / "medial.trc", names)
@@ -250,6 +255,7 @@ def _recovery(marker_set: MarkerSet, pset: ParameterSet, seed: int) -> tuple[flo
     return float(np.mean(jc[:, seen] ** 2)), float(np.mean(bound.total[seen] ** 2))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", FOLDER)
 def test_each_set_recovers_its_joint_centres_within_1_5x_the_bound(
     name: str, tmp_path: Path

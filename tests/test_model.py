@@ -8,6 +8,7 @@ import sys
 
 import mujoco
 import numpy as np
+import pytest
 
 import mocap_mj
 from mocap_mj import MARKER_NAMES, ParameterSet, load_model
@@ -97,6 +98,7 @@ def test_all_names_resolve() -> None:
         assert hasattr(mocap_mj, name), name
 
 
+@pytest.mark.slow
 def test_cli_info_json() -> None:
     out = subprocess.run(
         [sys.executable, "-m", "mocap_mj", "info", "--json"],
@@ -111,6 +113,7 @@ def test_cli_info_json() -> None:
     assert info["parameter_count"] == 151
 
 
+@pytest.mark.slow
 def test_cli_bad_model_is_one_line(tmp_path) -> None:  # type: ignore[no-untyped-def]
     bad = tmp_path / "bad.xml"
     bad.write_text("<mujoco><worldbody><body></mujoco>")

@@ -186,6 +186,7 @@ def test_a_model_without_some_sites_and_hinges_falls_back_or_gives_nan() -> None
     np.testing.assert_allclose(a["LKneeAngles"][0], 0.0, atol=1e-9)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not MOVEMENT.is_file(), reason=f"shared recording absent: {MOVEMENT}")
 def test_movement_trial_keeps_nexus_signs(tmp_path: Path) -> None:
     """identify on Vicon's jump; the table of identify's folder against the Nexus angles of

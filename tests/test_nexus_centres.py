@@ -32,6 +32,8 @@ from mocap_mj.errors import MocapError
 from mocap_mj.io.formats.c3d_write import write_markers_c3d
 from mocap_mj.outputs.nexus_out import centres_vs_nexus
 
+pytestmark = pytest.mark.slow  # module fixtures run whole identifications
+
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 SKIP = "../shared/data/real not present: the Nexus comparison needs the shared folder"
 T = 40

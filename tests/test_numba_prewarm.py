@@ -42,6 +42,7 @@ def test_off_starts_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
     _numba_prewarm.wait()  # nothing to wait for
 
 
+@pytest.mark.slow
 def test_background_compile_serves_the_identification(tmp_path: Path) -> None:
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), MOCAP_MJ_PREWARM="0")
     subprocess.run(

@@ -8,6 +8,8 @@ import sys
 import tomllib
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -26,6 +28,7 @@ def test_every_package_folder_is_listed() -> None:
     assert found <= listed, f"not listed in pyproject.toml: {sorted(found - listed)}"
 
 
+@pytest.mark.slow
 def test_cli_lists_every_command() -> None:
     out = subprocess.run(
         [sys.executable, "-m", "mocap_mj", "--help"], capture_output=True, text=True, check=True

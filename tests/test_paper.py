@@ -98,6 +98,7 @@ def test_finite_difference_gradient_matches_envelope_gradient(exp) -> None:  # t
     assert 5 < errors[1e-5] / errors[1e-6] < 20  # first order in Delta
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sampling", ["batch", "even", "random", "stochastic"])
 def test_each_sampling_decreases_E(exp, sampling: str) -> None:  # type: ignore[no-untyped-def]
     theta0 = _theta0(exp)
@@ -148,6 +149,7 @@ def test_frame_sampler() -> None:
         PaperSettings(step=0.0)
 
 
+@pytest.mark.slow
 def test_score_of_the_truth_is_zero(tmp_path: Path) -> None:
     """A hand-made result folder holding the truth itself scores zero error."""
     exp = synthesize(SynthConfig(frames=12, seed=2, noise_mm=0.0))
@@ -182,6 +184,7 @@ def test_score_of_the_truth_is_zero(tmp_path: Path) -> None:
     assert s["frames_fitted"] == 12
 
 
+@pytest.mark.slow
 def test_experiment_writes_table_and_figures(tmp_path: Path) -> None:
     """The Table 1 experiment end to end, on a tiny trial (the CLI's --quick is 100 frames)."""
     from mocap_synth.experiment_paper import PaperExperiment, run_experiment

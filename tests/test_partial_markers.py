@@ -28,6 +28,8 @@ from mocap_mj.pipeline.motion import load_motion
 from mocap_mj.solve.identifiability import Identifiability
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
+pytestmark = pytest.mark.slow  # module fixtures run whole identifications
+
 LOWER = "LASI RASI LPSI RPSI LTHI LKNE LTIB LANK LHEE LTOE RTHI RKNE RTIB RANK RHEE RTOE".split()
 LEG_KAPPA = {
     f"{n}_{s}"

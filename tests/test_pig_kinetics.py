@@ -168,6 +168,7 @@ def _rms(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.sqrt(np.mean((a[both] - b[both]) ** 2)))
 
 
+@pytest.mark.slow
 def test_movement_trial_against_nexus_kinetics(stripped: Path) -> None:
     """With the plates Nexus counted on this trial (1 and 4), on the trial stripped of
     Nexus' outputs: every moment component within 0.035 N m/kg RMS of Nexus' (the target
@@ -232,6 +233,7 @@ def test_uncounted_plates_leave_no_ground_reaction(stripped: Path) -> None:
         _ours(stripped, {9})
 
 
+@pytest.mark.slow
 def test_command_writes_kinetics(stripped: Path, tmp_path: Path) -> None:
     """plug-in-gait on a trial with plates writes kinetics.csv (per kg, SI) and the same
     points in result.c3d in Vicon's units; the trial is not modified; a bad --plates is a

@@ -44,6 +44,7 @@ def _need(path: Path) -> Path:
     return path
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", list(READABLE), ids=[p.name for p in READABLE])
 def test_every_plate_read_with_a_plausible_peak_and_its_cop_on_the_plate(path: Path) -> None:
     n_plates, mass = READABLE[_need(path)]
@@ -124,6 +125,7 @@ def test_a_file_none_of_whose_plates_can_be_read_is_refused(tmp_path: Path) -> N
     ],
     ids=["Movement_trial", "Qualisys", "BTS"],
 )
+@pytest.mark.slow
 def test_cop_lies_under_the_assigned_foot(path: Path, feet: dict[str, tuple[str, ...]]) -> None:
     """The plates come out in the markers' frame: every counted contact's centre of pressure
     lies within 5 cm of its foot markers' horizontal outline, at every frame, and at least

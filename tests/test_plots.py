@@ -32,6 +32,7 @@ def _png_size(path: Path) -> tuple[int, int]:
         return im.size
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("plot", [plot_marker_error_per_frame, plot_error_accumulation])
 def test_series_plots_write_pngs_of_the_size_asked(
     plot: Callable[..., Path], tmp_path: Path
@@ -42,6 +43,7 @@ def test_series_plots_write_pngs_of_the_size_asked(
     assert _png_size(plot(tmp_path / "default.png", list(TIMES), ERRORS)) == (1200, 700)
 
 
+@pytest.mark.slow
 def test_parameter_and_residual_plots(tmp_path: Path) -> None:
     err = RNG.normal(0, 2, len(NAMES))
     err[2] = np.nan

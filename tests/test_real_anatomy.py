@@ -29,6 +29,7 @@ SKIP = "../shared/data/real not present: real-data checks need the shared folder
 #: first 150 frames did not show it (docs/model.md#prior-rows).
 @pytest.mark.parametrize(("name", "frames"), [("Static_trial.c3d", "0:300"),
                                               ("anatomical_posture.c3d", "0:122")])  # fmt: skip
+@pytest.mark.slow
 def test_real_skeleton_targets(tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str,
                                frames: str) -> None:  # fmt: skip
     path = REAL / name
@@ -90,6 +91,7 @@ CONVENTION = ("pelvis:lumbar", "lumbar:thorax", "thorax:head", "thorax:clavicle_
               "clavicle_r:upperarm_r")  # fmt: skip
 
 
+@pytest.mark.slow
 def test_convention_joints_agree_across_trials(tmp_path: Path) -> None:
     """Two trials of one subject (a knee functional trial and a near-static posture): the
     joints that stand in for a chain (spine, shoulder girdle, the glenoid on the scapula) sit
@@ -107,6 +109,7 @@ def test_convention_joints_agree_across_trials(tmp_path: Path) -> None:
     assert max(diff.values()) <= 0.010, diff
 
 
+@pytest.mark.slow
 def test_multi_trial_wrist_and_elbow_centres_at_width(tmp_path: Path) -> None:
     """Movement + Static (a jump and an arms-abducted static pose, one set of wrist-bar
     offsets): the wrist centres sit wrist_width/2 + r from the bar's midpoint within 5 mm.

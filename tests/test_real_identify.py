@@ -107,6 +107,7 @@ def test_real_scales_agree_between_trials_of_one_subject() -> None:
         assert abs(sc[0][key].value - sc[1][key].value) < 0.04, key
 
 
+@pytest.mark.slow
 def test_real_trial_identifies_without_flags(capsys, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     path = real("Test_func_rknee.c3d")
     s = identify(capsys, "--markers", str(path), "--out", str(tmp_path / "r"), "--frames", "0:120")
@@ -117,6 +118,7 @@ def test_real_trial_identifies_without_flags(capsys, tmp_path: Path) -> None:  #
     assert (tmp_path / "r" / "model.xml").is_file()
 
 
+@pytest.mark.slow
 def test_real_trials_identify_one_model_together(capsys, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     a, b = real("Test_func_rknee.c3d"), real("Test_func_rhip.c3d")
     out = tmp_path / "both"

@@ -84,6 +84,7 @@ def _assert_fixed(
     assert _same(apply_relabels(y, pset.marker_names, found, "trial.c3d"), x)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("motion,seed", [("rom", 0), ("rom", 1), ("walk", 2), ("walk", 3)])
 def test_no_correction_on_clean_trials(pset: ParameterSet, motion: str, seed: int) -> None:
     assert _find(pset, _markers(pset, motion, seed)) == []
@@ -97,6 +98,7 @@ def test_no_correction_when_the_recording_is_no_person_sized(pset: ParameterSet)
     assert _find(pset, x) == []
 
 
+@pytest.mark.slow
 def test_no_correction_with_occlusion_gaps(pset: ParameterSet) -> None:
     # 5 % of the samples in gaps: every gap edge is a breakpoint, no span is mislabelled.
     assert _find(pset, _markers(pset, "walk", 4, gaps=0.05)) == []
@@ -114,6 +116,7 @@ def test_no_correction_with_occlusion_gaps(pset: ParameterSet) -> None:
         [("LASI", "LPSI"), ("RASI", "RPSI")],  # the pelvis plate reversed front to back
     ],
 )
+@pytest.mark.slow
 def test_whole_trial_exchange_found_and_corrected(
     pset: ParameterSet, pairs: list[tuple[str, str]]
 ) -> None:
@@ -121,6 +124,7 @@ def test_whole_trial_exchange_found_and_corrected(
     _assert_fixed(pset, x, _exchange(pset, x, pairs), pairs, (0, len(x)))
 
 
+@pytest.mark.slow
 def test_exchange_between_two_gaps_found_for_its_span(pset: ParameterSet) -> None:
     # LTHI lost for 5 frames, then carrying LKNE's label (and LKNE LTHI's) until LKNE is lost.
     x = _markers(pset, "walk")
@@ -131,6 +135,7 @@ def test_exchange_between_two_gaps_found_for_its_span(pset: ParameterSet) -> Non
     _assert_fixed(pset, x, y, [("LTHI", "LKNE")], (200, 400))
 
 
+@pytest.mark.slow
 def test_exchange_between_gaps_without_a_jump(pset: ParameterSet) -> None:
     # Both markers lost around the swap's ends: no track jumps, only the gaps bound it.
     x = _markers(pset, "rom")
@@ -141,6 +146,7 @@ def test_exchange_between_gaps_without_a_jump(pset: ParameterSet) -> None:
     _assert_fixed(pset, x, y, [("LASI", "RASI")], (160, 450))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
 def test_mocap_synth_left_right_windows(pset: ParameterSet, seed: int) -> None:
     # mocap_synth's own corruption: two left/right pairs exchanged over a window each.
@@ -153,6 +159,7 @@ def test_mocap_synth_left_right_windows(pset: ParameterSet, seed: int) -> None:
     assert _same(fixed, np.array(synthesize(cfg, pset).markers))
 
 
+@pytest.mark.slow
 def test_track_swap_of_close_markers(pset: ParameterSet) -> None:
     # LWRA and LWRB, about 50 mm apart: too close for the model's margin, found by their
     # tracks (each jumps onto the other's) and corrected from the quality check's finding.
@@ -195,6 +202,7 @@ def clusters(tmp_path_factory: pytest.TempPathFactory) -> ParameterSet:
         [("RTH1", "RSK1")],  # a thigh plate marker for a shank plate marker
     ],
 )
+@pytest.mark.slow
 def test_cluster_marker_set(clusters: ParameterSet, pairs: list[tuple[str, str]]) -> None:
     x = _markers(clusters, "walk", seed=1)
     y = _exchange(clusters, x, pairs)
@@ -203,6 +211,7 @@ def test_cluster_marker_set(clusters: ParameterSet, pairs: list[tuple[str, str]]
     assert _same(apply_relabels(y, clusters.marker_names, found, "trial.c3d"), x)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("which", ["clusters", "pig"])
 def test_three_markers_turned_by_one_place(
     clusters: ParameterSet, pset: ParameterSet, which: str
@@ -223,6 +232,7 @@ def test_three_markers_turned_by_one_place(
     assert _same(apply_relabels(y, model.marker_names, found, "trial.c3d"), x)
 
 
+@pytest.mark.slow
 def test_one_trial_of_several(pset: ParameterSet) -> None:
     trials = [_markers(pset, m, seed=5) for m in ("rom", "walk", "static")]
     trials[1] = _exchange(pset, trials[1], [("RTHI", "RKNE")])
@@ -250,6 +260,7 @@ def _csv(pset: ParameterSet, x: np.ndarray, path: Path) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_ik_corrects_says_and_records(
     pset: ParameterSet, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -279,6 +290,7 @@ def test_ik_corrects_says_and_records(
     assert not (tmp_path / "strict").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not (SHARED / "Movement_trial.c3d").is_file(), reason="shared data absent")
 @pytest.mark.parametrize("name", ["Movement_trial", "Static_trial"])
 def test_shared_trials_exchanges_found_none_on_the_files(pset: ParameterSet, name: str) -> None:
@@ -297,6 +309,7 @@ def test_shared_trials_exchanges_found_none_on_the_files(pset: ParameterSet, nam
     assert _same(apply_relabels(y, pset.marker_names, found, name), x)
 
 
+@pytest.mark.slow
 def test_identify_corrects_one_trial_of_two_and_fits_the_corrected_copy(
     pset: ParameterSet, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -80,6 +80,7 @@ def test_blocks_match_numpy_normal_equations(problem, limits: bool) -> None:  # 
     np.testing.assert_allclose(dq, dq_ref, rtol=0, atol=1e-10 * np.abs(dq_ref).max())
 
 
+@pytest.mark.slow
 def test_information_matches_pseudo_inverse(problem) -> None:  # type: ignore[no-untyped-def]
     _, prob, w = problem
     fast = prob.information(w)

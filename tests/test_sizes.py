@@ -13,6 +13,8 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("mocap_mj", "synth", "viewer")
 MAX_FUNCTION_LINES = 80
@@ -74,6 +76,7 @@ def long_modules() -> list[tuple[str, int]]:
     return [(str(p.relative_to(ROOT)), n) for p, n in counts if n > MAX_MODULE_LINES]
 
 
+@pytest.mark.slow
 def test_no_function_over_80_lines_outside_the_numba_kernels() -> None:
     over = long_functions()
     assert not over, f"over {MAX_FUNCTION_LINES} lines: " + ", ".join(f"{f} ({n})" for f, n in over)

@@ -18,6 +18,8 @@ import pytest
 from mocap_mj.cli import main
 from mocap_mj.clinical.nexus_centres import read_nexus, rows_for
 
+pytestmark = pytest.mark.slow  # module fixtures run whole identifications
+
 STATIC = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "Static_trial.c3d"
 #: Our joint centre -> Nexus' bone point at it, and the largest median distance [m]. The
 #: shoulder centres are Plug-in Gait's construction on the nominal model's thorax (6 mm on

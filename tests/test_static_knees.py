@@ -5,6 +5,7 @@ the model's range (healthy adults extend 5-6 degrees beyond straight on average)
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from _motion import smooth_motion
 
 from mocap_mj import Kinematics, ParameterSet
@@ -17,6 +18,7 @@ from mocap_mj.solve.problem import TrialData
 HYPEREXTENSION = -8.0  # deg: beyond the former -5 degree limit, inside the normal range
 
 
+@pytest.mark.slow
 def test_static_hyperextended_knees_keep_their_angle() -> None:
     """One pose held for 80 frames, both knees at -8 degrees, wands in the chord plane: the
     knee axes come from Plug-in Gait's construction, the identified knee flexion is the

@@ -46,6 +46,7 @@ def _identify(markers: np.ndarray, out: Path, pset: ParameterSet) -> dict:
     return write_result(fit, out)
 
 
+@pytest.mark.slow
 def test_synthetic_child_without_height(tmp_path: Path) -> None:
     pset = ParameterSet()
     markers, truth = subject_markers(pset, 1.0, seed=7, frames=150)
@@ -63,6 +64,7 @@ def test_synthetic_child_without_height(tmp_path: Path) -> None:
     assert f"stature {est['value']:.2f}" in report
 
 
+@pytest.mark.slow
 def test_non_human_clavicle_is_held_and_reported(tmp_path: Path) -> None:
     """A 1.7 m subject whose whole left arm (LSHO to LFIN) sits 140 mm further out along
     the clavicle (a 320 mm clavicle): the stature estimate (a median of eight long bones)
@@ -84,6 +86,7 @@ def test_non_human_clavicle_is_held_and_reported(tmp_path: Path) -> None:
     assert theta[pset.kappa_names.index("clavicle_length_l")] < 0.26
 
 
+@pytest.mark.slow
 def test_shared_trial_scaled_to_a_child(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """Movement_trial's markers x 0.65 (a 1.09 m child), written without the PROCESSING group
     (no height): the stature estimate is near 0.65 x the recorded 1.679 m and no parameter is

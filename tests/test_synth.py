@@ -182,6 +182,7 @@ def test_symmetric_perturbation(pset: ParameterSet) -> None:
         assert any(same_k) == equal and any(same_m) == equal
 
 
+@pytest.mark.slow
 def test_anatomical_marker_placement(pset: ParameterSet) -> None:
     """Landmark markers follow the perturbed skeleton, within the priors' widths; the
     skeleton and the free markers are the uniform draw's (the same stream)."""

@@ -27,6 +27,7 @@ def error_lines(stderr: str) -> list[str]:
     return [line for line in stderr.splitlines() if not line.startswith("mocap-mj: command ")]
 
 
+@pytest.mark.slow
 def test_cli_writes_folder_and_json(tmp_path: Path) -> None:
     out = tmp_path / "s"
     proc = run("--out", str(out), "--frame-count", "60", "--movement", "walk", "--gaps", "0.05",
@@ -57,6 +58,7 @@ def test_cli_writes_folder_and_json(tmp_path: Path) -> None:
         (["--swaps", "40"], "swaps"),
     ],
 )
+@pytest.mark.slow
 def test_cli_bad_arguments(tmp_path: Path, args: list[str], flag: str) -> None:
     out = tmp_path / "bad"
     proc = run("--out", str(out), *args)

@@ -30,6 +30,8 @@ from mocap_mj.solve.ik import IKSolver
 from mocap_mj.solve.lm import LMSettings, solver_joint_range
 from mocap_synth import SynthConfig, synthesize
 
+pytestmark = pytest.mark.slow  # module fixtures run whole identifications
+
 #: The thorax ball of the synthetic truth is turned this far [deg]: beyond the model's 45
 #: degree cone, inside the 67.5 degrees the identification allows (ball_limit_scale 1.5).
 THORAX_DEG = 55.0

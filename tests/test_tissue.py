@@ -173,6 +173,7 @@ def _solve(pset: ParameterSet, trial: TrialData, slides):  # type: ignore[no-unt
     )
 
 
+@pytest.mark.slow
 def test_knee_centre_recovered_better_when_kne_slides(pset: ParameterSet, experiment) -> None:  # type: ignore[no-untyped-def]
     exp, kin = experiment
     qpos = np.asarray(exp.qpos)
@@ -208,6 +209,7 @@ def test_knee_centre_recovered_better_when_kne_slides(pset: ParameterSet, experi
     assert both1 <= 0.0025 and np.all(e1 <= e0 + 0.0005), (e0, e1)
 
 
+@pytest.mark.slow
 def test_without_slide_the_model_changes_nothing(pset: ParameterSet, experiment) -> None:  # type: ignore[no-untyped-def]
     exp, _ = experiment
     trial = TrialData("rom", np.asarray(exp.markers), np.asarray(exp.times))

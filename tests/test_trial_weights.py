@@ -37,6 +37,8 @@ from mocap_mj.solve.noise import (
 from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize
 
+pytestmark = pytest.mark.slow  # module fixtures run whole identifications
+
 #: Per-axis RMS [m] of the static trial's constant soft-tissue offset per marker.
 STATIC_OFFSET = 0.005
 

@@ -28,6 +28,8 @@ from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
+pytestmark = pytest.mark.slow  # module fixtures run whole identifications
+
 LOWER = "LASI RASI LPSI RPSI LTHI LKNE LTIB LANK LHEE LTOE RTHI RKNE RTIB RANK RHEE RTOE".split()
 DROP = 0.07
 FRAMES = 300

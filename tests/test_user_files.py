@@ -26,6 +26,8 @@ from _cli import dead_pid, hashes, identified_trial
 
 from mocap_mj.io.ownership import FORMAT, MARKER, folder_mark
 
+pytestmark = pytest.mark.slow  # module fixtures run whole identifications
+
 FRAMES = 30
 
 

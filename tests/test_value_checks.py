@@ -137,10 +137,12 @@ def _identify(markers: Path, out: Path, *flags: str) -> tuple[int, str, str]:
 @pytest.mark.parametrize(
     ("flags", "message"),
     [
-        (["--height", "5000"], "--height: expected a standing height within 500..2750 mm "
-         "(any person), got 5000 mm"),
-        (["--height", "10"], "--height: expected a standing height within 500..2750 mm"),
-        (["--height", "1e308"], "--height: expected a standing height within 500..2750 mm"),
+        (["--height", "5000"], "argument --height: expected a standing height within "
+         "0.5..2.75 m (any person), got '5000' = 5 m; a bare number is mm"),
+        (["--height", "1.75"], "argument --height: expected a standing height within "
+         "0.5..2.75 m (any person), got '1.75' = 0.00175 m; a bare number is mm: give the "
+         "unit, e.g. 1750mm, 175cm, 1.75m"),
+        (["--height", "1e308"], "argument --height: expected a standing height within"),
         (["--subject-file", "{s}"], "{s}: knee_width_r: expected a distance between the femoral "
          "epicondyles (right) within 30..300 mm (any person), got 5000 mm"),
         (["--mass", "nan"], "--mass: expected a body mass within 2..650 kg (any person), got nan"),
@@ -151,6 +153,7 @@ def _identify(markers: Path, out: Path, *flags: str) -> tuple[int, str, str]:
         (["--recipe", "{r2}"], "{r2}: symmetric: expected a width in m within 0.0001..1, got 0"),
     ],
 )  # fmt: skip
+@pytest.mark.slow
 def test_values_no_person_has_are_refused_naming_the_flag_and_range(
     synth_markers: Path, tmp_path: Path, flags: list[str], message: str
 ) -> None:
@@ -205,6 +208,7 @@ def test_broken_subject_file_is_one_line_naming_the_line(tmp_path: Path) -> None
 # ---------------------------------------------------------------- implausible fits
 
 
+@pytest.mark.slow
 def test_a_recording_in_centimetres_read_as_millimetres_exits_3(
     synth_markers: Path, tmp_path: Path
 ) -> None:
@@ -238,6 +242,7 @@ def test_implausible_reasons_thresholds() -> None:
     assert len(implausible_reasons(float("nan"), 0, 34, 3.0)) == 2
 
 
+@pytest.mark.slow
 def test_an_overflowed_fit_reports_nothing_observable_instead_of_failing() -> None:
     """A fit whose information overflowed (NaN) reports every direction unobservable: the
     report is written (the fit's checks then call it implausible), no SVD error."""

@@ -122,6 +122,7 @@ CASES = [
 
 @pytest.mark.parametrize(("name", "marker_set", "frames", "pairs", "lr", "ranges"), CASES,
                          ids=[Path(c[0]).stem for c in CASES])  # fmt: skip
+@pytest.mark.slow
 def test_vendor_set_identifies_its_recording(
     tmp_path: Path, name: str, marker_set: Path, frames: str, pairs: int, lr: bool, ranges: bool
 ) -> None:

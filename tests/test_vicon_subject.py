@@ -76,6 +76,7 @@ def test_vicon_file_of_the_processing_values_gives_the_c3d_measurements(
     assert pig_ours.sources["static_plantar_flex_l"] == f"{path}: {kind}:LeftStaticPlantFlex"
 
 
+@pytest.mark.slow
 @needs_static
 def test_plug_in_gait_with_the_vsk_gives_the_c3d_values_angles(tmp_path: Path) -> None:
     values = {k: repr(v) for k, v in _processing(STATIC).items()}
@@ -88,6 +89,7 @@ def test_plug_in_gait_with_the_vsk_gives_the_c3d_values_angles(tmp_path: Path) -
     assert a == b
 
 
+@pytest.mark.slow
 def test_identify_records_the_mp_file_as_the_source(tmp_path: Path) -> None:
     import mocap_mj
     from mocap_synth import SynthConfig, synthesize, write_experiment

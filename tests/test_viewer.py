@@ -379,6 +379,7 @@ def _check_frame(rgb: np.ndarray, width: int, height: int, body: bool = True) ->
     assert xs.min() > 0.1 * width and xs.max() < 0.9 * width
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", ["mujoco", "pyrender"])
 def test_render_png_shows_the_posed_body(result: Path, tmp_path: Path, backend: str) -> None:
     first, second = tmp_path / "a.png", tmp_path / "b.png"
@@ -392,6 +393,7 @@ def test_render_png_shows_the_posed_body(result: Path, tmp_path: Path, backend: 
     assert changed.mean() > 0.005, "two different poses rendered the same image"
 
 
+@pytest.mark.slow
 def test_render_mp4_reads_back(result: Path, tmp_path: Path) -> None:
     import imageio.v2 as imageio
 
@@ -410,6 +412,7 @@ def test_render_mp4_reads_back(result: Path, tmp_path: Path) -> None:
     assert frames[0].std() > 10
 
 
+@pytest.mark.slow
 def test_render_gif_reads_back(result: Path, tmp_path: Path) -> None:
     from PIL import Image
 
@@ -422,6 +425,7 @@ def test_render_gif_reads_back(result: Path, tmp_path: Path) -> None:
     assert not list(tmp_path.glob(".*tmp*")), "temporary files left behind"
 
 
+@pytest.mark.slow
 def test_viewer_runs_under_xvfb(result: Path) -> None:
     xvfb = shutil.which("xvfb-run")
     if xvfb is None:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from mocap_mj.commands._inputs import refuse_replacing_file
 from mocap_mj.commands._removed import add_removed_flags
@@ -19,7 +19,10 @@ from mocap_mj.commands.common import add_force_flag, add_json_flag, add_trial_fl
 from mocap_mj.errors import MocapError
 from mocap_mj.export.registry import Exporter
 
-from .playback import Ghost, Playback, load_ghost, load_playback, parse_frame, parse_frames
+if TYPE_CHECKING:
+    from .playback import Ghost, Playback
+
+# The playback (MuJoCo, NumPy) is imported when a command runs, not for --help.
 
 __all__ = ["register"]
 
@@ -81,6 +84,8 @@ def _add_frames(p: argparse.ArgumentParser) -> None:
 
 
 def _load(args: argparse.Namespace) -> tuple[Playback, Ghost | None]:
+    from .playback import load_ghost, load_playback
+
     playback = load_playback(
         args.result,
         model=args.model,
@@ -95,6 +100,8 @@ def _load(args: argparse.Namespace) -> tuple[Playback, Ghost | None]:
 
 
 def _frames(args: argparse.Namespace, playback: Playback, default_all: bool) -> list[int]:
+    from .playback import parse_frame, parse_frames
+
     if args.frame is not None:
         return [parse_frame(args.frame, playback)]
     if args.frames is not None:
@@ -131,6 +138,7 @@ def _positive(kind: type) -> Any:
 # ------------------------------------------------------------------------------- view
 def _run_view(args: argparse.Namespace) -> int:
     from .interactive import run_viewer
+    from .playback import parse_frame
 
     playback, ghost = _load(args)
     start = parse_frame(args.frame, playback) if args.frame is not None else 0

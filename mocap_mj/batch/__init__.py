@@ -3,7 +3,32 @@ and the dataset summary. The command is :mod:`mocap_mj.commands.batch`."""
 
 from __future__ import annotations
 
-from .dataset import OPTION_KEYS, Subject, content_hash, load_dataset
-from .run import Outcome, run_batch
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from .dataset import OPTION_KEYS, Subject, content_hash, load_dataset
+    from .run import Outcome, run_batch
+
+#: The names imported on first use (PEP 562): ``mocap-mj batch --help`` reads
+#: :data:`~mocap_mj.batch.dataset.OPTION_KEYS` without loading the runner.
+_LAZY = {
+    "OPTION_KEYS": ".dataset",
+    "Subject": ".dataset",
+    "content_hash": ".dataset",
+    "load_dataset": ".dataset",
+    "Outcome": ".run",
+    "run_batch": ".run",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
 
 __all__ = ["OPTION_KEYS", "Outcome", "Subject", "content_hash", "load_dataset", "run_batch"]

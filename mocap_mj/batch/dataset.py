@@ -18,7 +18,8 @@ all its rows. Manifest YAML::
 
 Relative paths are relative to the manifest's folder. The options are those of ``identify``
 that make sense per subject (``recipe``: a recipe file, ``identify --recipe``, which holds
-the identification's choices: initial model, loss, iterations, priors); ``up``,
+the identification's choices: initial model, loss, iterations, priors; ``loss`` and
+``no_sliding_landmarks: true`` replace its fields, as identify's flags do); ``up``, ``units``,
 ``marker_map``, ``file_subject`` and ``exclude_markers``
 (``RELB,RUPA``: markers whose data are dropped) also apply to the IK.
 """
@@ -35,25 +36,34 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputFileError, MocapError
-from ..io.yaml_file import read_yaml
 
-#: Per-subject options a manifest (or the ``batch`` command line) may set, with their type.
+#: Per-subject options a manifest (or the ``batch`` command line) may set, with their type;
+#: each is the identify flag of its name (``no_sliding_landmarks``: true gives the flag).
 OPTION_KEYS: dict[str, type] = {
     "frames": str,
     "up": str,
+    "units": str,
     "marker_map": str,
     "file_subject": str,
     "model": str,
     "exclude_markers": str,
     "recipe": str,
+    "loss": str,
+    "no_sliding_landmarks": bool,
 }
 #: Command-line flag of each option (``file_subject``: which subject of a multi-subject file,
 #: ``--subject`` of identify and ik; named apart from the dataset's subject).
 FLAGS = {k: "--" + k.replace("_", "-") for k in OPTION_KEYS} | {"file_subject": "--subject"}
+#: The values an option may take, where they are a few (identify's choices).
+CHOICES: dict[str, tuple[str, ...]] = {
+    "up": ("x", "y", "z", "-x", "-y", "-z"),
+    "units": ("mm", "cm", "m"),
+    "loss": ("l2", "huber", "cauchy"),
+}
 #: Options naming a file: resolved against the manifest's folder; their content is hashed.
 PATH_OPTIONS = ("marker_map", "model", "recipe")
 #: Options that are now a recipe's fields (option -> recipe field): refused, naming it.
-RECIPE_OPTIONS = {"init": "init", "loss": "loss", "max_iterations": "max_iterations",
+RECIPE_OPTIONS = {"init": "init", "max_iterations": "max_iterations",
                   "prior_mm": "prior_sigma (in metres)"}  # fmt: skip
 #: Trial file suffixes of a folder-tree dataset.
 TRIAL_SUFFIXES = (".c3d", ".trc", ".csv")
@@ -79,6 +89,8 @@ class Subject:
         if self.subject_file is None:
             return None
         try:
+            from ..io.yaml_file import read_yaml  # PyYAML, loaded when a file is read
+
             data = read_yaml(self.subject_file, "subject file")
             value = float(data["height"]) if isinstance(data, dict) else None
         except (MocapError, KeyError, TypeError, ValueError):
@@ -187,6 +199,8 @@ def _from_csv(path: Path, base: dict[str, Any]) -> list[Subject]:
 
 
 def _from_yaml(path: Path, base: dict[str, Any]) -> list[Subject]:
+    from ..io.yaml_file import read_yaml  # PyYAML, loaded when a file is read
+
     data = read_yaml(path, "manifest")
     if not isinstance(data, dict) or not isinstance(data.get("subjects"), list):
         raise InputFileError(f"{path}: expected a mapping with a 'subjects' list")
@@ -250,7 +264,7 @@ def _checked_options(where: str, options: Mapping[str, Any], base: Path) -> dict
         if value is None:
             continue
         try:
-            out[key] = OPTION_KEYS[key](value)
+            out[key] = _typed(key, value)
         except (TypeError, ValueError):
             kind = OPTION_KEYS[key].__name__
             raise InputFileError(f"{where}: option {key!r} expects {kind}, got {value!r}") from None
@@ -260,9 +274,25 @@ def _checked_options(where: str, options: Mapping[str, Any], base: Path) -> dict
     return out
 
 
+def _typed(key: str, value: Any) -> Any:
+    """``value`` as option ``key``'s type; a boolean from true/false (YAML's or a CSV cell's)."""
+    kind = OPTION_KEYS[key]
+    if kind is bool:
+        text = str(value).strip().lower()
+        if text not in ("true", "false"):
+            raise ValueError(value)
+        return text == "true"
+    return kind(value)
+
+
 def _check_value(where: str, key: str, value: Any) -> None:
-    """Refuse a ``frames`` text that is not ``A:B`` before any subject runs (its bounds are
-    checked against each trial)."""
+    """Refuse a ``frames`` text that is not ``A:B``, or a value outside an option's
+    :data:`CHOICES`, before any subject runs (a range's bounds are checked against each
+    trial)."""
+    if key in CHOICES and value not in CHOICES[key]:
+        raise InputFileError(
+            f"{where}: option {key!r}: expected one of {', '.join(CHOICES[key])}, got {value!r}"
+        )
     if key == "frames":
         from mocap_mj.outputs.write_fit import frame_range
 

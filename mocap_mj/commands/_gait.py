@@ -84,18 +84,6 @@ def identified_trials(
     return out, entry
 
 
-def add_events_option(p: Any) -> None:
-    """``--events``."""
-    p.add_argument(
-        "--events",
-        nargs="+",
-        metavar="FILE",
-        help="gait events, one events.csv per marker file in order (side, kind, frame, "
-        "time_s, source: what ik, identify and synth write) (default: the C3D's EVENT "
-        "group, else its force plates, else the kinematics; docs/clinical.md)",
-    )
-
-
 def read_inputs(
     args: argparse.Namespace, markers: Sequence[str]
 ) -> tuple[Normative | None, list[list[GaitEvent]] | None]:

@@ -60,19 +60,6 @@ MASS_SOURCES = {
 SEX: Sex = "male"
 
 
-def add_kinetics_options(p: Any, *, several: bool) -> None:
-    """``--forces``."""
-    each = "one per marker file, in order" if several else "for the marker file"
-    p.add_argument(
-        "--forces",
-        nargs="+",
-        metavar="FILE",
-        help=f"force-plate files, {each}: a C3D with FORCE_PLATFORM plates or an OpenSim "
-        "ground-reaction .mot, frame k of the plates at marker frame k; 'none': no kinetics "
-        "(default: a C3D marker file's own plates, when it has any; docs/dynamics.md)",
-    )
-
-
 def model_mass(path: str | Path | None) -> float | None:
     """The body mass [kg] a model file carries: the sum of its bodies' masses when every body
     has an ``<inertial>`` (a model.xml written by identify with a known mass); else None."""
@@ -175,7 +162,7 @@ def _trial_loads(
     if not forces and Path(path).suffix.lower() != ".c3d":
         return None
     try:
-        plates = _read(source, traj)
+        plates = _read(source, traj, getattr(args, "up", None))
     except MocapError as exc:
         if forces:  # asked for: refused; a C3D's own plates: no kinetics, one warning
             raise
@@ -201,13 +188,14 @@ def _trial_loads(
     )
 
 
-def _read(source: str, traj: MarkerTrajectory) -> list[PlateRecord]:
+def _read(source: str, traj: MarkerTrajectory, up: str | None = None) -> list[PlateRecord]:
     """The plates of ``source`` at the trajectory's rate, frame k at its frame k (a .mot's
-    rows from its first: trimmed or padded with unloaded frames to the trajectory's)."""
+    rows from its first: trimmed or padded with unloaded frames to the trajectory's); a C3D's
+    rotated by ``--up`` when given, as its markers are."""
     if Path(source).suffix.lower() in (".mot", ".sto"):
         plates = read_grf_mot(source, marker_rate=traj.rate)
         return [_fit_frames(p, traj.n_frames) for p in plates]
-    plates = read_plates(source, marker_rate=traj.rate)
+    plates = read_plates(source, marker_rate=traj.rate, up=up)
     for p in plates:
         if len(p.force) != traj.n_frames:
             raise MocapError(

@@ -26,50 +26,6 @@ from ..io.labels import file_labels
 from ..io.names import load_marker_map
 from ..io.stream import CHUNK, open_markers
 
-
-def add_marker_options(parser: argparse.ArgumentParser, *, several: bool = False) -> None:
-    parser.add_argument(
-        "--markers",
-        required=True,
-        nargs="+" if several else None,
-        metavar="FILE",
-        help=(
-            "marker files, one or more (--markers A B is --markers A --markers B)"
-            if several
-            else "marker file"
-        )
-        + ": C3D, TRC, mocap-mj CSV, Vicon Nexus or OptiTrack Motive CSV",
-    )
-    parser.add_argument(
-        "--subject",
-        metavar="NAME",
-        help="subject to keep when labels carry several subject prefixes (default: the only "
-        "one; required when there are several)",
-    )
-    parser.add_argument(
-        "--marker-map",
-        metavar="FILE",
-        help="YAML/JSON file mapping lab names to model names (default: none)",
-    )
-    parser.add_argument(
-        "--up", choices=["x", "y", "z", "-x", "-y", "-z"], help="vertical axis (default: detect)"
-    )
-    parser.add_argument(
-        "--marker-set",
-        metavar="SET",
-        help="marker set replacing the model's own marker sites: SET is a bundled set's name "
-        "(mocap-mj marker-sets lists them) or a YAML file (markers, bodies, offsets, prior "
-        "classes, landmarks; docs/recordings.md#marker-sets) (default: the bundled set the "
-        "labels fit, detected when --model is not given, else Plug-in Gait)",
-    )
-    parser.add_argument(
-        "--units",
-        choices=["mm", "cm", "m"],
-        help="length unit of the marker coordinates, overriding the file's (default: as stated "
-        "in the file, else mm)",
-    )
-
-
 #: Frames above which ``load_trial`` with a scratch folder reads a marker file in chunks
 #: into a memory map (one chunk of the reader's).
 STREAM_ABOVE = CHUNK

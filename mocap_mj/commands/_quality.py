@@ -47,31 +47,6 @@ from mocap_mj.skeleton.parameters import ParameterSet
 from ..errors import MocapError
 
 
-def add_quality_options(parser: argparse.ArgumentParser) -> None:
-    g = parser.add_argument_group("marker data quality (docs/recordings.md#marker-data-quality)")
-    g.add_argument(
-        "--exclude-markers",
-        metavar="NAMES",
-        help="comma-separated model marker names, e.g. RELB,RUPA: drop these markers' data "
-        "(treated as missing in every frame; their offsets are then not identified) "
-        "(default: none)",
-    )
-    g.add_argument(
-        "--strict",
-        action="store_true",
-        help="refuse the data (exit 2, no output) when the marker-data quality check finds "
-        "anything or a label needs correcting (default: warn on stderr and carry on)",
-    )
-    g.add_argument(
-        "--no-relabel",
-        action="store_true",
-        help="leave exchanged labels as they are and only warn: those the model shows "
-        "(within a segment, across neighbouring segments, left for right) and two tracks "
-        "that jump onto each other (default: correct them in the copy of the data that is "
-        "fitted, one line each on stderr; the files are never changed)",
-    )
-
-
 def check_trials(
     args: argparse.Namespace,
     pset: ParameterSet,

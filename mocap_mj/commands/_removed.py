@@ -5,9 +5,12 @@ A script written for an earlier release that passes a removed flag gets, for one
 instead of argparse's "unrecognized arguments". The rule: a removed flag is an error, never
 silently dropped or re-mapped, because its value now lives elsewhere (a ``--subject-file``,
 a ``--recipe``, another command) or its name now means one thing across commands; going on
-without it would give a different result than the script asked for. The one exception keeps
+without it would give a different result than the script asked for. The exceptions keep
 working with a warning: ``identify --solver lm``, which asks for what ``identify`` does
-anyway. docs/cli.md holds the table of old and new spellings (:data:`REMOVED`).
+anyway, and a flag merely renamed (:data:`RENAMED`: ``export --up`` is ``--out-up``, since
+``--up`` is the input markers' vertical axis everywhere else; ``synth --plates`` is
+``--with-plate``, since ``--plates`` chooses plates in ``plug-in-gait``), whose value means
+what it meant. docs/cli.md holds the table of old and new spellings (:data:`REMOVED`).
 """
 
 from __future__ import annotations
@@ -44,7 +47,6 @@ REMOVED: dict[str, dict[str, str]] = {
         ),
         "--symmetric": _RECIPE.format(field="symmetric", value="M (in metres: 2 mm is 0.002)"),
         "--no-asymmetry-prior": _RECIPE.format(field="asymmetry_prior", value="false"),
-        "--no-sliding-landmarks": _RECIPE.format(field="sliding_landmarks", value="false"),
         "--no-anatomy": _RECIPE.format(field="anatomy", value="false"),
         "--asis-distance": _SUBJECT.format(names="asis_distance"),
         "--marker-diameter": _SUBJECT.format(names="marker_diameter"),
@@ -56,7 +58,6 @@ REMOVED: dict[str, dict[str, str]] = {
     "ik": {"--robust": "use --loss cauchy"},
     "batch": {
         "--init": _RECIPE.format(field="init", value="placed|scaled|nominal"),
-        "--loss": _RECIPE.format(field="loss", value="l2|huber|cauchy"),
         "--max-iterations": _RECIPE.format(field="max_iterations", value="N"),
         "--prior-mm": _RECIPE.format(field="prior_sigma", value="M (in metres: 50 mm is 0.05)"),
     },
@@ -68,6 +69,16 @@ REMOVED: dict[str, dict[str, str]] = {
     "render": {
         "--width": "use --size WxH (e.g. --size 640x480)",
         "--height": "use --size WxH (e.g. --size 640x480); --height is the subject's in identify",
+    },
+}
+
+#: Command -> old flag -> (its new flag, why): a flag renamed, its value kept (one warning).
+RENAMED: dict[str, dict[str, tuple[str, str]]] = {
+    "export": {
+        "--up": ("--out-up", "--up is the vertical axis of the input markers in the other commands")
+    },
+    "synth": {
+        "--plates": ("--with-plate", "--plates chooses the plates that count in plug-in-gait")
     },
 }
 
@@ -110,8 +121,53 @@ class _Removed(argparse.Action):
         sys.exit(2)
 
 
+class _Renamed(argparse.Action):
+    """A renamed flag: warns once, naming the new flag, and stores its value there."""
+
+    def __init__(self, *args: Any, command: str, new: str, why: str, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.command, self.new, self.why = command, new, why
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: str | Sequence[Any] | None,
+        option_string: str | None = None,
+    ) -> None:
+        new = parser._option_string_actions[self.new]
+        if self.nargs == 0:  # a switch: its new switch's value
+            values, shown = new.const, ""
+        else:
+            shown = f" {values}"
+            if new.choices is not None and values not in new.choices:
+                parser.error(
+                    f"argument {option_string}: invalid choice: {values!r} (see {self.new})"
+                )
+        print(
+            f"mocap-mj {self.command}: warning: {option_string}{shown}: renamed; use "
+            f"{self.new}{shown} ({self.why})",
+            file=sys.stderr,
+        )
+        setattr(namespace, new.dest, values)
+
+
 def add_removed_flags(parser: argparse.ArgumentParser, command: str) -> None:
-    """Accept ``command``'s removed flags (any number of values), hidden from ``--help``."""
+    """Accept ``command``'s removed flags (any number of values) and renamed ones (their new
+    flag's value), hidden from ``--help``; a renamed flag's new one is added before."""
+    for flag, (new, why) in RENAMED.get(command, {}).items():
+        switch = parser._option_string_actions[new].nargs == 0
+        parser.add_argument(  # a switch renamed takes no value, as its new one
+            flag,
+            action=_Renamed,
+            command=command,
+            new=new,
+            why=why,
+            nargs=0 if switch else None,
+            dest=f"renamed_{flag.removeprefix('--').replace('-', '_')}",
+            default=argparse.SUPPRESS,
+            help=argparse.SUPPRESS,
+        )
     for flag in REMOVED.get(command, {}):
         parser.add_argument(
             flag,

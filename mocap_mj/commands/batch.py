@@ -20,7 +20,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from mocap_mj.commands.common import EXIT_IMPLAUSIBLE, add_json_flag, finish, number
+from mocap_mj.commands.common import EXIT_IMPLAUSIBLE, finish
 from mocap_mj.commands.registry import build_parser
 from mocap_mj.kernels._threads import one_blas_thread
 from mocap_mj.skeleton.parameters import ParameterSet
@@ -31,74 +31,9 @@ from ..batch.run import have_ray, one_line, prepare_out, run_batch
 from ..errors import MocapError
 from ._inputs import refuse_out_holding_inputs
 from ._markers import load_trial
-from ._removed import add_removed_flags
 
-#: ``--timeout``: seconds one subject may take [s]. Generous: identifying a subject from a
-#: few trials and tracking them takes a few minutes on one core.
-DEFAULT_TIMEOUT = 3600.0
 #: Options that also apply to the IK of each trial (how the marker files are read).
-MARKER_OPTIONS = ("up", "marker_map", "file_subject", "exclude_markers")
-#: The placeholder of each option's flag, as identify shows it.
-METAVARS = {"frames": "A:B", "up": "AXIS", "marker_map": "FILE", "file_subject": "NAME",
-            "model": "MJCF", "exclude_markers": "NAMES", "recipe": "FILE"}  # fmt: skip
-
-
-def register(sub: Any) -> None:
-    p = sub.add_parser(
-        "batch",
-        help="identify and track every subject of a dataset (on Ray when installed)",
-        description="Per subject: one identification from all its trials, then IK of each "
-        "trial with the subject's model; summary.csv and report.md over the dataset. "
-        "Re-running the same command skips subjects already done with the same inputs.",
-    )
-    p.add_argument(
-        "dataset",
-        metavar="DATASET",
-        help="folder with one folder per subject, or a CSV/YAML manifest",
-    )
-    p.add_argument(
-        "--out",
-        required=True,
-        metavar="FOLDER",
-        help="output folder: absent, empty, or a batch's own (its marker; re-used: finished "
-        "subjects kept); never inside the dataset",
-    )
-    p.add_argument(
-        "--address", metavar="HOST:PORT", help="join this Ray cluster (default: start a local Ray)"
-    )
-    p.add_argument(
-        "--workers",
-        type=number(int, least=1),
-        metavar="N",
-        help="CPUs of the local Ray (default: all)",
-    )
-    p.add_argument(
-        "--timeout",
-        type=number(above=0),
-        default=DEFAULT_TIMEOUT,
-        metavar="SECONDS",
-        help="time one subject may take; a subject past it is recorded as timed out and the "
-        f"batch goes on (default: {DEFAULT_TIMEOUT:g}, an hour: a subject's identification "
-        "and IK take minutes)",
-    )
-    p.add_argument(
-        "--serial",
-        action="store_true",
-        help="no Ray: one subject after the other (default: Ray when installed)",
-    )
-    g = p.add_argument_group("defaults of every subject (a manifest's options override them)")
-    for key, kind in OPTION_KEYS.items():
-        g.add_argument(
-            FLAGS[key],
-            dest=key,
-            type=kind,
-            metavar=METAVARS[key],
-            help=f"as {FLAGS[key]} of identify (default: identify's default)"
-            + (": frames A up to but excluding B" if key == "frames" else ""),
-        )
-    add_json_flag(p)
-    add_removed_flags(p, "batch")
-    p.set_defaults(func=run)
+MARKER_OPTIONS = ("up", "units", "marker_map", "file_subject", "exclude_markers")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -200,7 +135,10 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
     marker_args = _flags({k: opts[k] for k in MARKER_OPTIONS if k in opts})
     pset = ParameterSet(opts.get("model"))
     reader = argparse.Namespace(
-        up=opts.get("up"), marker_map=opts.get("marker_map"), subject=opts.get("file_subject")
+        up=opts.get("up"),
+        units=opts.get("units"),
+        marker_map=opts.get("marker_map"),
+        subject=opts.get("file_subject"),
     )
     names = _trial_folders(subject.trials)
     rows: dict[str, dict[str, Any]] = {}
@@ -302,7 +240,11 @@ def _accepts(command: str, flag: str) -> bool:
 def _flags(options: dict[str, Any]) -> list[str]:
     out = []
     for key, value in options.items():
-        out += [FLAGS.get(key, "--" + key.replace("_", "-")), str(value)]
+        flag = FLAGS.get(key, "--" + key.replace("_", "-"))
+        if isinstance(value, bool):  # a switch: given when true
+            out += [flag] if value else []
+        else:
+            out += [flag, str(value)]
     return out
 
 

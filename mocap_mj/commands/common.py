@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
 from collections.abc import Callable, Mapping
 from contextlib import AbstractContextManager
@@ -49,6 +50,42 @@ def number(
         return value
 
     parse.__name__ = what  # argparse's fallback message names the type
+    return parse
+
+
+#: Metres per unit of a length on the command line (``--height 1750mm``, ``1.75m``, ``175cm``).
+LENGTH_UNITS = {"mm": 1e-3, "cm": 1e-2, "m": 1.0}
+_LENGTH = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([a-z]*)\s*")
+
+
+def length(
+    what: str, unit: str, *, least: float, most: float, example: float
+) -> Callable[[str], float]:
+    """An argparse ``type=`` for a length flag (``what`` it measures): a number with a unit
+    (``1750mm``, ``175 cm``, ``1.75m``) or a bare number in ``unit`` (the flag's documented
+    unit), returned in metres
+    and checked to lie within ``least``..``most`` [m], the plausible range: a bare number in
+    the wrong unit (``--height 1.75``: 1.75 mm) is refused, naming the spellings that work
+    (of ``example`` [m]), rather than read as a person 2 mm tall."""
+    spell = ", ".join(f"{example / f:g}{u}" for u, f in LENGTH_UNITS.items())
+    within = f"{what} within {least:g}..{most:g} m"
+
+    def parse(text: str) -> float:
+        m = _LENGTH.fullmatch(text)
+        if m is None or (m.group(2) or unit) not in LENGTH_UNITS:
+            raise argparse.ArgumentTypeError(
+                f"expected {what} with its unit, such as {spell} (a bare number is {unit}), "
+                f"got {text!r}"
+            )
+        value = float(m.group(1)) * LENGTH_UNITS[m.group(2) or unit]
+        if not (math.isfinite(value) and least <= value <= most):
+            bare = "" if m.group(2) else f"; a bare number is {unit}: give the unit, e.g. {spell}"
+            raise argparse.ArgumentTypeError(
+                f"expected {within} (any person), got {text!r} = {value:.4g} m{bare}"
+            )
+        return value
+
+    parse.__name__ = "a length"
     return parse
 
 

@@ -18,9 +18,6 @@ from pathlib import Path
 from typing import Any
 
 from mocap_mj.commands.common import (
-    add_force_flag,
-    add_json_flag,
-    add_trial_flag,
     finish,
     output_folder,
     write_summary,
@@ -39,7 +36,7 @@ from ..export.grf import loads_path, read_grf_csv, write_grf
 from ..export.ik_setup import write_ik_setup
 from ..export.mot import write_mot
 from ..export.opensim_id import id_setup_xml
-from ..export.osim import UP_ORIENTATION, write_osim
+from ..export.osim import write_osim
 from ..export.registry import Exporter, plugin_exporters
 from ..export.tables import (
     marker_residuals,
@@ -51,6 +48,7 @@ from ..export.trc import write_trc
 from ..io.atomic import atomic_write_text
 from ..pipeline.dynamics import CUTOFF_HZ
 from ._inputs import refuse_overwriting, refuse_replacing_file
+from .parsers import EXPORT_FORMATS
 
 #: File names of ``--to all``, per format.
 ALL_FILES: dict[str, str] = {
@@ -124,18 +122,25 @@ def _write(fmt: str, path: Path, src: ExportSource, args: argparse.Namespace) ->
         mass = _subject_mass(args, src)
         # with a mass, the parameters the tool's inverse dynamics uses (de Leva's)
         inertia = segment_inertia(model, mass, sex=_sex(src)) if mass is not None else None
-        write_osim(path, model, up=args.up, mass=mass, inertia=inertia)
+        write_osim(path, model, up=args.out_up, mass=mass, inertia=inertia)
     elif fmt == "grf":
-        write_grf(path, read_grf_csv(_grf_csv(src)), up=args.up)
+        write_grf(path, read_grf_csv(_grf_csv(src)), up=args.out_up)
     elif fmt == "mot":
         write_mot(path, model, motion.times, motion.qpos)
     elif fmt == "trc":
         write_trc(
-            path, motion.marker_names, motion.times, motion.markers, up=args.up, first_frame=first
+            path,
+            motion.marker_names,
+            motion.times,
+            motion.markers,
+            up=args.out_up,
+            first_frame=first,
         )
     elif fmt == "trc-model":
         fitted, _ = marker_residuals(model, motion.qpos, motion.markers)
-        write_trc(path, motion.marker_names, motion.times, fitted, up=args.up, first_frame=first)
+        write_trc(
+            path, motion.marker_names, motion.times, fitted, up=args.out_up, first_frame=first
+        )
     elif fmt == "c3d":
         events = src.root / "events.csv"  # ik's and identify's gait events, when written
         write_c3d(path, src, events=read_events_csv(events) if events.is_file() else ())
@@ -221,7 +226,7 @@ def _run_all(args: argparse.Namespace) -> dict[str, Any]:
             time_range=(float(times[0]), float(times[-1])),
         )
         if _grf_path(src).is_file():
-            _, loads = write_grf(out / GRF_MOT, read_grf_csv(_grf_csv(src)), up=args.up)
+            _, loads = write_grf(out / GRF_MOT, read_grf_csv(_grf_csv(src)), up=args.out_up)
             atomic_write_text(out / ID_SETUP, id_setup_xml(
                 model_file=ALL_FILES["osim"], coordinates_file=ALL_FILES["mot"],
                 time_range=(float(times[0]), float(times[-1])), output_file="id.sto",
@@ -241,32 +246,13 @@ def _source(args: argparse.Namespace) -> ExportSource:
             raise MocapError(f"--{flag}: only for --to glb")
     if getattr(args, "compare", None) and args.to != "angles":
         raise MocapError("--compare: only for --to angles")
-    return load_result(args.result, getattr(args, "motion", None), args.trial)
+    return load_result(args.result, getattr(args, "motion", None), getattr(args, "trial", None))
 
 
-BUILTIN: tuple[Exporter, ...] = (
-    Exporter("osim", ".osim", "OpenSim model of the subject", _builtin("osim")),
-    Exporter("mot", ".mot", "OpenSim motion: coordinates in degrees", _builtin("mot")),
-    Exporter(
-        "grf",
-        "",
-        "OpenSim ground reactions (.mot) of grf.csv and their ExternalLoads (<stem>_loads.xml)",
-        _builtin("grf"),
-    ),
-    Exporter("trc", ".trc", "TRC of the measured markers", _builtin("trc")),
-    Exporter("trc-model", "", "TRC of the model markers (fitted)", _builtin("trc-model")),
-    Exporter("c3d", ".c3d", "C3D: markers, model markers, joint centres, angles", _builtin("c3d")),
-    Exporter(
-        "angles",
-        "",
-        "CSV of the model's angles in Plug-in Gait's conventions [deg]",
-        _builtin("angles"),
-    ),
-    Exporter("residuals", "", "CSV of per-marker, per-frame residuals [mm]", _builtin("residuals")),
-    Exporter("scale", "", "CSV of segment lengths and scale factors", _builtin("scale")),
-    Exporter(
-        "all", "", "every built-in format and an OpenSim IK setup into the folder --out", _run_all
-    ),
+#: The built-in formats (their names, suffixes and help: :data:`.parsers.EXPORT_FORMATS`).
+BUILTIN: tuple[Exporter, ...] = tuple(
+    Exporter(name, suffix, text, _run_all if name == "all" else _builtin(name))
+    for name, suffix, text in EXPORT_FORMATS
 )
 
 
@@ -277,68 +263,10 @@ def exporters() -> dict[str, Exporter]:
     return found
 
 
-def register(sub: Any) -> None:
-    table = exporters()
-    p = sub.add_parser(
-        "export",
-        help="write a result as OpenSim, TRC, C3D, CSV tables (or GLB with the viewer)",
-        description="Write a result folder (identify, ik or synth) in the formats other tools "
-        "read. Formats: "
-        + "; ".join(f"{e.name}: {e.help}" for e in table.values())
-        + ". Angle conventions and frames: docs/opensim.md.",
-    )
-    p.add_argument(
-        "result",
-        nargs="?",
-        metavar="RESULT_DIR",
-        help="result folder (model.xml + motion.npz) or synthetic-truth folder",
-    )
-    p.add_argument("--to", choices=sorted(table), help="format (default: from the suffix of --out)")
-    add_trial_flag(p)
-    p.add_argument(
-        "--out",
-        metavar="PATH",
-        help="output file, a folder for --to all (required; no default)",
-    )
-    p.add_argument(
-        "--up",
-        choices=sorted(UP_ORIENTATION),
-        default="y",
-        help="vertical axis of .osim ground and TRC files (default y, OpenSim's convention)",
-    )
-    p.add_argument(
-        "--mass",
-        type=float,
-        metavar="KG",
-        help="subject mass [kg] for the .osim bodies: de Leva's segment parameters, as the "
-        "tool's inverse dynamics (default: the result's recorded mass, else the model's own "
-        "masses)",
-    )
-    p.add_argument(
-        "--nominal",
-        metavar="MJCF",
-        help="MJCF the scale factors are relative to (default: the bundled humanoid)",
-    )
-    p.add_argument(
-        "--compare",
-        metavar="PIG_DIR",
-        help="with --to angles: a `mocap-mj plug-in-gait` output folder whose angles.csv is "
-        "put beside ours (OUT_vs_plug_in_gait.md: RMS difference, offset and correlation per "
-        "component; OUT_vs_plug_in_gait.png: both curves); frames matched by number, else "
-        "counted from the recording's first (default: no comparison)",
-    )
-    add_force_flag(p)
-    for exporter in table.values():
-        if exporter.add_arguments is not None:
-            exporter.add_arguments(p)
-    add_json_flag(p)
-    p.set_defaults(func=run)
-
-
 def _result_files(args: argparse.Namespace) -> list[Path]:
     """The files of RESULT_DIR (and ``--motion``) that an exported file must not replace."""
     try:
-        rd = open_trial(args.result, args.trial) if args.result else None
+        rd = open_trial(args.result, getattr(args, "trial", None)) if args.result else None
     except MocapError:  # reported by the exporter, with the rest of its checks
         return []
     files = [Path(args.motion)] if getattr(args, "motion", None) else []

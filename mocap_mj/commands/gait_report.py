@@ -9,66 +9,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from mocap_mj.commands._gait import add_events_option
-from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder
-from mocap_mj.commands.plug_in_gait import add_report_options
+from mocap_mj.commands.common import into_out_folder
 from mocap_mj.errors import MocapError
-
-
-def register(sub: Any) -> None:
-    p = sub.add_parser(
-        "gait-report",
-        help="the gait report: cycles, spatiotemporal parameters, scores, report.html",
-        description="Each trial's gait events (the C3D's EVENT group, else its force plates, "
-        "else the kinematics, or --events), each side's cycles from one foot strike to the "
-        "next (incomplete ones dropped and said), every Plug-in Gait angle and, with force "
-        "plates and a body mass, every moment and power resampled to 101 points per cycle. "
-        "Writes OUT/cycles.csv (trial, side, cycle, variable, percent, value: degrees, N m/kg, "
-        "W/kg), OUT/spatiotemporal.csv (per cycle, each side's mean and sd), OUT/scores.csv "
-        "(with --normative: Gait Variable Scores and Gait Profile Score, Baker et al. 2009), "
-        "OUT/report.html (one self-contained page) and OUT/summary.json.",
-    )
-    p.add_argument(
-        "--markers",
-        required=True,
-        nargs="+",
-        metavar="TRIAL",
-        help="walking trials of one subject (C3D, TRC...): with Plug-in Gait's markers its "
-        "angles from them; with another set the angles, in Plug-in Gait's conventions, of the "
-        "model mocap-mj identify identifies on the trials (kept as OUT/model.xml)",
-    )
-    p.add_argument(
-        "--marker-set",
-        metavar="SET",
-        help="for a set other than Plug-in Gait's: the marker set of the identification, as "
-        "identify --marker-set (default: detected from the labels)",
-    )
-    p.add_argument(
-        "--static",
-        metavar="STATIC",
-        help="static trial for the subject values (foot offsets, leg lengths; as "
-        "plug-in-gait --static) (default: each trial's PROCESSING values)",
-    )
-    p.add_argument(
-        "--subject-file",
-        metavar="FILE",
-        help="subject values overriding the files' (as plug-in-gait --subject-file): YAML, "
-        "Vicon's .vsk or .mp (default: none)",
-    )
-    p.add_argument(
-        "--plates",
-        default="auto",
-        metavar="LIST",
-        help="the force plates whose contacts count for the kinetics, as plug-in-gait "
-        "--plates: auto (default: those the recording's own ground reactions count, else "
-        "all), all, none, or plate numbers from 1, e.g. 1,4",
-    )
-    add_report_options(p)
-    add_events_option(p)
-    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
-    add_force_flag(p)
-    add_json_flag(p)
-    p.set_defaults(func=run, trial_type="dynamic")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -14,9 +14,10 @@ them. The folder appears
 only when the fit is complete; a fit that cannot be determined by the data is refused.
 Before the fit the marker data are checked for markers that do not move with their segment
 (mislabels, label swaps, re-stuck markers, impossible distances): each finding is a warning
-on stderr and in summary.json and report.md (--strict: refused); --exclude-markers drops
-markers' data. The anatomical fit also checks T10's placement against the stature (a
-``placement`` finding, a warning like the others; --strict refuses it too, before the fit).
+on stderr and in summary.json and report.md (--quality refuse: refused); --exclude-markers
+drops markers' data. The anatomical fit also checks T10's placement against the stature (a
+``placement`` finding, a warning like the others; --quality refuse refuses it too, before
+the fit).
 With force plates (a C3D's own, or --forces, one file per marker file) and a body mass, every
 such trial's joint moments (dynamics.csv, grf.csv, root_residuals.csv, in the trial's
 folder) and model.xml with the segments' masses and inertias (docs/dynamics.md); every trial's
@@ -30,7 +31,7 @@ import sys
 import time
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, get_args
+from typing import Any
 
 import numpy as np
 
@@ -39,7 +40,7 @@ from mocap_mj.anatomy.plausibility import plausibility_text
 from mocap_mj.capture.checks import check_markers, recorded_floor
 from mocap_mj.capture.marker_quality import Finding
 from mocap_mj.capture.subject import Subject
-from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder
+from mocap_mj.commands.common import into_out_folder
 from mocap_mj.io.atomic import atomic_write_text
 from mocap_mj.io.ownership import scratch_folder
 from mocap_mj.outputs.write_fit import frame_range, result_text, write_result
@@ -50,14 +51,12 @@ from mocap_mj.pipeline.trials import trial_folders
 from mocap_mj.skeleton import prewarm
 from mocap_mj.skeleton.mjcf import load_model
 from mocap_mj.skeleton.parameters import ParameterSet
-from mocap_mj.solve.losses import LossName
 from mocap_mj.solve.problem import TrialData
 
 from ..errors import MocapError
 from ._kinetics import (
     SEX,
     Prepared,
-    add_kinetics_options,
     prepare,
     report_section,
     summary_of,
@@ -65,74 +64,23 @@ from ._kinetics import (
     write_trial,
 )
 from ._markers import (
-    add_marker_options,
     choose_marker_set,
     load_trial,
     model_for,
     print_marker_set,
 )
 from ._quality import (
-    add_quality_options,
     check_trials,
     drop_excluded,
     parse_marker_list,
     quality_text,
     without_ghosts,
 )
-from ._removed import add_removed_flags
 from ._subject import (
-    add_subject_options,
     set_landmarks,
     subject_from_args,
     with_measured_widths,
 )
-
-
-def register(sub: Any) -> None:
-    p = sub.add_parser(
-        "identify",
-        help="identify the subject's model from marker trials",
-        description=__doc__,
-    )
-    add_marker_options(p, several=True)
-    p.add_argument(
-        "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
-    )
-    p.add_argument(
-        "--model", metavar="MJCF", help="initial MJCF model (default: the bundled humanoid)"
-    )
-    _add_fit_options(p)
-    add_quality_options(p)
-    add_subject_options(p)
-    add_kinetics_options(p, several=True)
-    add_removed_flags(p, "identify")
-    add_force_flag(p)
-    add_json_flag(p)
-    p.set_defaults(func=run)
-
-
-def _add_fit_options(p: argparse.ArgumentParser) -> None:
-    """The recipe, the frames and the loss of ``identify``."""
-    p.add_argument(
-        "--recipe",
-        metavar="FILE",
-        help="YAML recipe: the identification's choices (initial model, anatomical priors "
-        "and ranges, left/right prior, frame selection, iterations, weak prior; "
-        "docs/cli.md#recipe); every result folder holds the recipe.yaml it was made with, so "
-        "--recipe DIR/recipe.yaml re-runs it (default: the defaults listed there)",
-    )
-    p.add_argument(
-        "--frames",
-        metavar="A:B",
-        help="frames to fit, from A up to but excluding B, counted from 0 in every trial "
-        "(default: all)",
-    )
-    p.add_argument(
-        "--loss",
-        choices=list(get_args(LossName)),
-        help="loss on each marker distance; huber and cauchy down-weight outliers; overrides "
-        "the recipe's loss (default: the recipe's, l2)",
-    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -217,10 +165,14 @@ def _refuse_misplaced_t10(pset: ParameterSet, trials: list[TrialData], subject: 
 
 
 def recipe_from_args(args: argparse.Namespace) -> Recipe:
-    """The recipe of ``--recipe`` (default: :class:`Recipe`'s defaults), its loss replaced
-    by ``--loss`` when given."""
+    """The recipe of ``--recipe`` (default: :class:`Recipe`'s defaults), its fields replaced by
+    the flags given: ``--loss``, ``--no-sliding-landmarks`` (``sliding_landmarks: false``)."""
     recipe = Recipe.load(args.recipe) if args.recipe else Recipe()
-    return recipe if args.loss is None else replace(recipe, loss=args.loss)
+    if args.loss is not None:
+        recipe = replace(recipe, loss=args.loss)
+    if getattr(args, "no_sliding_landmarks", None):
+        recipe = replace(recipe, sliding_landmarks=False)
+    return recipe
 
 
 def _inputs(args: argparse.Namespace, loaded: list[Any], seconds: float | None) -> dict[str, Any]:

@@ -9,7 +9,7 @@ angles in Plug-in Gait's conventions, the table `mocap-mj plug-in-gait` writes),
 fewer than --min-markers present markers are left unsolved (empty in motion.csv). A model written by
 identify with the landmarks' soft-tissue sliding model (recorded in its model.xml) weighs
 them as identify did, so that its RMSE reproduces the fit (--no-sliding-landmarks: every
-marker alike). The marker data are checked first, as by identify (warnings; --strict,
+marker alike). The marker data are checked first, as by identify (warnings; --quality,
 --exclude-markers). With force plates (a C3D's own, or --forces) and a body mass (the C3D's
 PROCESSING Bodymass, else a --model identify wrote with a mass), the joint moments:
 dynamics.csv, grf.csv (each foot's load) and root_residuals.csv (docs/dynamics.md); the gait
@@ -29,7 +29,7 @@ import numpy as np
 from mocap_mj.anatomy.plausibility import AT_LIMIT_PRINT, joints_at_limit, limits_text
 from mocap_mj.anatomy.tissue import recorded_sliding_model
 from mocap_mj.capture.checks import check_markers, recorded_floor
-from mocap_mj.commands.common import add_force_flag, add_json_flag, into_out_folder, number
+from mocap_mj.commands.common import into_out_folder
 from mocap_mj.outputs.write_fit import frame_range
 from mocap_mj.pipeline.motion import save_motion
 from mocap_mj.pipeline.robust_ik import solve_motion
@@ -47,7 +47,6 @@ from ..export.tables import write_angles_csv
 from ..io.atomic import atomic_write_text
 from ._kinetics import (
     Prepared,
-    add_kinetics_options,
     model_mass,
     prepare,
     summary_of,
@@ -55,83 +54,19 @@ from ._kinetics import (
     write_trial,
 )
 from ._markers import (
-    add_marker_options,
     choose_marker_set,
     load_trial,
     model_for,
     print_marker_set,
 )
 from ._quality import (
-    add_quality_options,
     check_trials,
     drop_excluded,
     parse_marker_list,
     quality_text,
     without_ghosts,
 )
-from ._removed import add_removed_flags
 from ._subject import subject_from_args
-
-
-def register(sub: Any) -> None:
-    p = sub.add_parser(
-        "ik",
-        help="inverse kinematics of a marker file with a given model",
-        description=__doc__,
-    )
-    add_marker_options(p)
-    p.add_argument("--model", metavar="MJCF", help="MJCF model (default: the bundled humanoid)")
-    p.add_argument(
-        "--out", required=True, metavar="FOLDER", help="output folder (must be new or empty)"
-    )
-    p.add_argument(
-        "--frames",
-        metavar="A:B",
-        help="frames to solve, from A up to but excluding B (default: all); the same as identify's "
-        "--frames, to compare with its fit",
-    )
-    p.add_argument(
-        "--damping",
-        choices=["adaptive", "sugihara"],
-        default="adaptive",
-        help="LM damping: adaptive (Nielsen's rule) or sugihara (error-dependent, Sugihara "
-        "2011) (default: adaptive)",
-    )
-    p.add_argument(
-        "--loss",
-        choices=["l2", "huber", "cauchy"],
-        default="l2",
-        help="per-frame loss of the marker distances, as identify's --loss; use the loss of "
-        "the fit to reproduce it (default: l2)",
-    )
-    p.add_argument(
-        "--no-sliding-landmarks",
-        action="store_true",
-        help="weigh every marker alike even when the model records identify's sliding model "
-        "of the knee markers (default: weigh them as identify did, to reproduce its fit)",
-    )
-    p.add_argument(
-        "--max-iterations",
-        type=number(int, least=1),
-        default=100,
-        metavar="N",
-        help="LM iterations per frame at most (default: 100)",
-    )
-    p.add_argument(
-        "--min-markers",
-        type=number(int, least=1),
-        default=None,
-        metavar="N",
-        help="present markers a frame needs to be solved (default: 16, or three quarters of "
-        "the markers the trial records where it records fewer than 22, at least 4: a partial "
-        "set's frame with one marker occluded is solved)",
-    )
-    add_quality_options(p)
-    add_kinetics_options(p, several=False)
-    add_force_flag(p)
-    add_json_flag(p)
-    add_removed_flags(p, "ik")
-    p.set_defaults(func=run)
 
 
 def write_motion_csv(

@@ -5,20 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from mocap_mj.commands.common import add_json_flag, finish
+from mocap_mj.commands.common import finish
 from mocap_mj.skeleton.parameters import ParameterSet
-
-
-def register(sub: Any) -> None:
-    p = sub.add_parser(
-        "info",
-        help="describe a model: bodies, DOF, markers, parameters",
-        description="Describe an MJCF model as mocap-mj sees it: its bodies and joints, "
-        "degrees of freedom, marker sites and the kinematic parameters identify estimates.",
-    )
-    p.add_argument("--model", metavar="MJCF", help="MJCF file (default: the bundled humanoid)")
-    add_json_flag(p)
-    p.set_defaults(func=run)
 
 
 def describe(pset: ParameterSet) -> dict[str, Any]:

@@ -15,42 +15,10 @@ from typing import Any
 
 from mocap_mj.capture.marker_set import MarkerSet
 from mocap_mj.capture.marker_sets import DEFAULT, FIT_FRACTION, bundled, bundled_names, check
-from mocap_mj.commands.common import add_json_flag, finish
+from mocap_mj.commands.common import finish
 
 from ..io.labels import file_labels, non_marker_points
 from ..io.names import load_marker_map
-
-
-def register(sub: Any) -> None:
-    p = sub.add_parser(
-        "marker-sets",
-        help="list the bundled marker sets; --check how a recording's labels match one",
-        description=__doc__.split("\n\n", 1)[1],
-    )
-    p.add_argument(
-        "--check",
-        metavar="FILE",
-        help="marker file whose labels to match: C3D, TRC, mocap-mj CSV, Vicon Nexus or "
-        "OptiTrack Motive CSV (default: none, list the sets)",
-    )
-    p.add_argument(
-        "--marker-set",
-        metavar="SET",
-        help="the set to match against: SET is a bundled set's name or a YAML file "
-        "(default: the set detected from the labels, else Plug-in Gait)",
-    )
-    p.add_argument(
-        "--subject",
-        metavar="NAME",
-        help="subject to keep when labels carry several subject prefixes (default: the only one)",
-    )
-    p.add_argument(
-        "--marker-map",
-        metavar="FILE",
-        help="YAML/JSON file mapping lab names to model names (default: none)",
-    )
-    add_json_flag(p)
-    p.set_defaults(func=run)
 
 
 def listing() -> dict[str, Any]:

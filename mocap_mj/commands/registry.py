@@ -1,35 +1,32 @@
-"""The subcommands of ``mocap-mj``: the core ones (``mocap_mj.commands.<name>``) and those of the
+"""The subcommands of ``mocap-mj``: the core ones (their flags in :mod:`.parsers`, their work in
+``mocap_mj.commands.<name>``, imported when the command runs) and those of the
 ``mocap_mj.commands`` entry-point group (``synth``, ``viewer``), each loaded by name and asked to
 ``register(subparsers)``, so that the library never imports its add-ons."""
 
 from __future__ import annotations
 
 import argparse
-import importlib
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
-#: Core subcommand modules (``mocap_mj.commands.<name>``), in help order.
+#: Core subcommands, in help order: each a ``register_<name>`` of :mod:`.parsers`, which
+#: defines the flags and loads ``mocap_mj.commands.<name>`` only when the command runs.
 CORE_COMMANDS: tuple[str, ...] = (
     "info", "ik", "identify", "score", "export", "batch", "plug_in_gait", "gait_report",
     "marker_sets",
 )  # fmt: skip
 
 
-def _registrars() -> list[Callable[[Any], None]]:
-    from importlib.metadata import entry_points
+def _registrars(only: str | None = None) -> list[Callable[[Any], None]]:
+    from . import parsers
 
-    regs = []
-    for name in CORE_COMMANDS:
-        try:
-            module = importlib.import_module(f"mocap_mj.commands.{name}")
-        except ModuleNotFoundError as exc:
-            if exc.name != f"mocap_mj.commands.{name}":
-                raise
-            continue
-        regs.append(module.register)
-    for ep in sorted(entry_points(group="mocap_mj.commands"), key=lambda e: e.name):
+    regs = [getattr(parsers, f"register_{name}") for name in CORE_COMMANDS]
+    if only is not None:  # a core command's name: its parser alone, no add-on's
+        return [regs[[n.replace("_", "-") for n in CORE_COMMANDS].index(only)]]
+    from mocap_mj.export.registry import entry_points_of  # importlib.metadata: ~0.1 s
+
+    for ep in entry_points_of("mocap_mj.commands"):
         try:
             regs.append(ep.load())
         except ImportError as exc:  # a broken add-on must not take the other commands down
@@ -83,7 +80,12 @@ class _Parser(argparse.ArgumentParser):
         self.register("action", "store", _StoreOnce)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """``mocap-mj``'s parser: every command's, or, when ``argv`` starts with a core command's
+    name, that command's alone (the same parse, without building the others or loading the
+    add-ons: ``mocap-mj identify --help`` answers at once)."""
+    core = [n.replace("_", "-") for n in CORE_COMMANDS]
+    only = argv[0] if argv and argv[0] in core else None
     parser = _Parser(
         prog="mocap-mj",
         description="Identify subject-specific MuJoCo human models from motion-capture markers.",
@@ -92,6 +94,6 @@ def build_parser() -> argparse.ArgumentParser:
 
     parser.add_argument("--version", action="version", version=f"mocap-mj {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for register in _registrars():
+    for register in _registrars(only):
         register(sub)
     return parser

@@ -7,22 +7,58 @@ OpenSim coordinates of the MJCF joints (``coordinates``), Plug-in Gait's angles 
 extra). The writers need no OpenSim. Conventions: docs/opensim.md.
 """
 
-from mocap_mj.export.read_result import ExportSource, load_result
+from __future__ import annotations
 
-from .c3d import write_c3d
-from .clinical import angles_table_text, clinical_angles
-from .coordinates import Coordinate, coordinate_values, model_coordinates, qpos_from_coordinates
-from .ik_setup import ik_setup_xml, write_ik_setup
-from .mot import read_mot, write_mot
-from .osim import osim_xml, write_osim
-from .registry import Exporter
-from .tables import (
-    marker_residuals,
-    scale_table_text,
-    write_angles_csv,
-    write_residuals_csv,
-)
-from .trc import write_trc
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from .c3d import write_c3d
+    from .clinical import angles_table_text, clinical_angles
+    from .coordinates import Coordinate, coordinate_values, model_coordinates, qpos_from_coordinates
+    from .ik_setup import ik_setup_xml, write_ik_setup
+    from .mot import read_mot, write_mot
+    from .osim import osim_xml, write_osim
+    from .read_result import ExportSource, load_result
+    from .registry import Exporter
+    from .tables import marker_residuals, scale_table_text, write_angles_csv, write_residuals_csv
+    from .trc import write_trc
+
+#: The names imported on first use (PEP 562), so that importing one module of the package
+#: (``registry``, for ``mocap-mj export --help``) loads no writer, NumPy or MuJoCo.
+_LAZY = {
+    "ExportSource": ".read_result",
+    "load_result": ".read_result",
+    "write_c3d": ".c3d",
+    "angles_table_text": ".clinical",
+    "clinical_angles": ".clinical",
+    "Coordinate": ".coordinates",
+    "coordinate_values": ".coordinates",
+    "model_coordinates": ".coordinates",
+    "qpos_from_coordinates": ".coordinates",
+    "ik_setup_xml": ".ik_setup",
+    "write_ik_setup": ".ik_setup",
+    "read_mot": ".mot",
+    "write_mot": ".mot",
+    "osim_xml": ".osim",
+    "write_osim": ".osim",
+    "Exporter": ".registry",
+    "marker_residuals": ".tables",
+    "scale_table_text": ".tables",
+    "write_angles_csv": ".tables",
+    "write_residuals_csv": ".tables",
+    "write_trc": ".trc",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     "Coordinate",

@@ -8,12 +8,41 @@ write in the project goes through :func:`atomic_write_text`, :func:`atomic_write
 
 from __future__ import annotations
 
-from mocap_mj.io.atomic import atomic_path, atomic_write_bytes, atomic_write_text
-from mocap_mj.io.formats.mocap_csv import save_csv
-from mocap_mj.io.formats.trc import save_trc
-from mocap_mj.io.load import load_markers
-from mocap_mj.io.orientation import UP_AXES, rotation_to_z_up
-from mocap_mj.io.trajectory import MarkerReport, MarkerTrajectory
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from .atomic import atomic_path, atomic_write_bytes, atomic_write_text
+    from .formats.mocap_csv import save_csv
+    from .formats.trc import save_trc
+    from .load import load_markers
+    from .orientation import UP_AXES, rotation_to_z_up
+    from .trajectory import MarkerReport, MarkerTrajectory
+
+#: The names imported on first use (PEP 562), so that importing one module of the package
+#: (``yaml_file``, for ``mocap-mj batch --help``) loads no reader, NumPy or ezc3d.
+_LAZY = {
+    "atomic_path": ".atomic",
+    "atomic_write_bytes": ".atomic",
+    "atomic_write_text": ".atomic",
+    "save_csv": ".formats.mocap_csv",
+    "save_trc": ".formats.trc",
+    "load_markers": ".load",
+    "UP_AXES": ".orientation",
+    "rotation_to_z_up": ".orientation",
+    "MarkerReport": ".trajectory",
+    "MarkerTrajectory": ".trajectory",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     "UP_AXES",
