@@ -17,7 +17,16 @@ class MocapError(Exception):
     """Base class of every error mocap-mj raises on bad input or an impossible request."""
 
 
-class ShapeError(MocapError, ValueError):
+class ArgumentError(MocapError, ValueError):
+    """An argument of the Python API that is not what the function takes (its value, range,
+    units or length against another argument); the message names the argument."""
+
+
+class ArgumentTypeError(ArgumentError, TypeError):
+    """An argument of the wrong type (a dict for a dataclass, a string for an array...)."""
+
+
+class ShapeError(ArgumentError):
     """An array argument has the wrong shape or dtype."""
 
 

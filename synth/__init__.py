@@ -8,8 +8,9 @@ Build an experiment from its settings and write it to a folder::
     write_experiment(exp, "out/synth")
 
 The parts: :mod:`~mocap_synth.config` (settings), :mod:`~mocap_synth.perturb` (truth model),
-:mod:`~mocap_synth.motion` (truth-motion presets), :mod:`~mocap_synth.noise` (measurement
-model), :mod:`~mocap_synth.experiment` (putting them together, files), :mod:`~mocap_synth.cli`
+:mod:`~mocap_synth.motion` (truth-motion presets), :mod:`~mocap_synth.postures` (the pose a
+trial holds or starts in, its heading), :mod:`~mocap_synth.noise` (measurement model),
+:mod:`~mocap_synth.experiment` (putting them together, files), :mod:`~mocap_synth.cli`
 (``mocap-mj synth``). This package imports ``mocap_mj``; ``mocap_mj`` never imports it.
 """
 
@@ -18,7 +19,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-from .config import MOTIONS, ConfigError, SynthConfig
+from .config import MOTIONS, POSES, ConfigError, SynthConfig
 
 if TYPE_CHECKING:
     from . import motion
@@ -51,6 +52,7 @@ def __getattr__(name: str) -> Any:
 __all__ = [
     "FILES",
     "MOTIONS",
+    "POSES",
     "ConfigError",
     "Experiment",
     "SynthConfig",

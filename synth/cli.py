@@ -13,7 +13,7 @@ from mocap_mj.commands._removed import add_removed_flags
 from mocap_mj.commands.common import add_force_flag, add_json_flag, finish
 from mocap_mj.commands.parsers import Lazy, description
 
-from .config import MOTIONS, ConfigError, SynthConfig
+from .config import MOTIONS, POSES, ConfigError, SynthConfig
 
 #: Options taking a value: flag, SynthConfig field, type, help. Values are parsed here rather
 #: than by argparse, so that a bad value is one line on stderr (exit 2) like every other error.
@@ -51,6 +51,20 @@ _OPTIONS: tuple[tuple[str, str, type, str], ...] = (
     ),
     ("--offset-mm", "offset_mm", float, "marker offsets moved by up to -/+ this, mm (default: 20)"),
     (
+        "--pose",
+        "pose",
+        str,
+        f"posture a static holds and a rom or walk starts in: {'|'.join(POSES)} (default: "
+        "neutral, standing with the arms at the sides)",
+    ),
+    (
+        "--heading",
+        "heading_deg",
+        float,
+        "turn the whole capture about the vertical by this many degrees, so that the subject "
+        "faces another direction (default: 0, facing +x)",
+    ),
+    (
         "--marker-placement",
         "marker_placement",
         str,
@@ -73,6 +87,7 @@ def register(sub: Any) -> None:
     for flag, field, kind, text in _OPTIONS:
         # the placeholders of the other commands: MM for a length in mm, N for a count
         metavar = "MM" if flag.endswith("-mm") else "N" if kind is int else None
+        metavar = metavar or {"--heading": "DEG", "--pose": "NAME"}.get(flag)
         metavar = metavar or flag.lstrip("-").split("-")[0].upper()
         p.add_argument(flag, dest=field, metavar=metavar, help=text)
     p.add_argument(
@@ -81,17 +96,14 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--with-plate",
         dest="plates",
-        action="store_true",
+        nargs="?",
+        const="75",
+        metavar="KG",
         help="the subject leans onto its right foot, and plates.c3d holds the markers and a "
         "type-2 force plate under that foot with the ground reaction the truth motion needs "
-        "(the truth model's inverse dynamics, de Leva's segments for --mass): a ground truth "
-        "for the kinetics of ik and identify (default: no plates)",
-    )
-    p.add_argument(
-        "--mass",
-        metavar="KG",
-        help="body mass of the truth model for --with-plate, written as PROCESSING:Bodymass "
-        "(default: 75)",
+        "(the truth model's inverse dynamics, de Leva's segments for a body of KG, written as "
+        "PROCESSING:Bodymass; 75 without a value): a ground truth for the kinetics of ik and "
+        "identify (default: no plates)",
     )
     add_force_flag(p)
     add_json_flag(p)
@@ -132,11 +144,11 @@ def run(args: argparse.Namespace) -> int:
     from .experiment import synthesize, write_experiment
 
     cfg = config_from_args(args)
-    mass = 75.0 if args.mass is None else _parse("--mass", float, args.mass)
+    mass = 75.0 if args.plates is None else _parse("--with-plate", float, args.plates)
     if not 0 < mass < 500:
-        raise ConfigError(f"--mass: expected a body mass in (0, 500) kg, got {args.mass}")
+        raise ConfigError(f"--with-plate: expected a body mass in (0, 500) kg, got {args.plates}")
     exp = synthesize(cfg)
-    if args.plates:
+    if args.plates is not None:
         from .plates import leaning
 
         exp = leaning(exp, mass)
@@ -145,7 +157,7 @@ def run(args: argparse.Namespace) -> int:
         from .gait_truth import write_gait_truth  # a walk's events and gait truth
 
         files = write_gait_truth(exp, out)
-        if args.plates:
+        if args.plates is not None:
             from .plates import write_plate_c3d
 
             files.append(
@@ -154,9 +166,12 @@ def run(args: argparse.Namespace) -> int:
         return files
 
     summary = write_experiment(exp, args.out, force=args.force, extra=extra)
+    posed = "" if cfg.pose == "neutral" else f" from the {cfg.pose} posture"
+    turned = "" if cfg.heading_deg == 0 else f", turned {cfg.heading_deg:g} deg"
     lines = [
         f"wrote {args.out}: {', '.join(summary['files'])}",
-        f"motion {cfg.motion}: {cfg.frames} frames at {cfg.rate:g} Hz ({cfg.duration:.2f} s), "
+        f"motion {cfg.motion}{posed}{turned}: {cfg.frames} frames at {cfg.rate:g} Hz "
+        f"({cfg.duration:.2f} s), "
         f"{summary['markers']} markers, seed {cfg.seed}",
         f"truth model: kinematic parameters within {100 * summary['kappa_change_max_rel']:.1f} %,"
         f" marker offsets within {summary['offset_change_max_mm']:.1f} mm of nominal",

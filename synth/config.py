@@ -9,12 +9,14 @@ from typing import Any
 
 from mocap_mj.errors import MocapError
 
-__all__ = ["MARKER_PLACEMENTS", "MOTIONS", "ConfigError", "SynthConfig"]
+__all__ = ["MARKER_PLACEMENTS", "MOTIONS", "POSES", "ConfigError", "SynthConfig"]
 
 #: Names of the truth-motion presets (see :mod:`mocap_synth.motion`).
 MOTIONS: tuple[str, ...] = ("rom", "walk", "static")
 #: How the truth model's markers are placed (see :func:`mocap_synth.perturb.perturb_theta`).
 MARKER_PLACEMENTS: tuple[str, ...] = ("anatomical", "uniform")
+#: Postures a trial holds or starts in (see :mod:`mocap_synth.postures`), the default first.
+POSES: tuple[str, ...] = ("neutral", "t-pose", "arms-up", "seated", "crouched")
 
 
 class ConfigError(MocapError, ValueError):
@@ -75,6 +77,12 @@ class SynthConfig:
         (:func:`mocap_synth.perturb.place_landmarks`), as on a real subject; ``"uniform"``:
         every marker keeps its nominal offset plus its ``offset_mm`` shift whatever the
         skeleton does (the truth of the paper's experiment).
+    pose : str
+        The posture a static holds and a dynamic trial starts in (:data:`POSES`, default
+        ``"neutral"``: standing, arms at the sides; :mod:`mocap_synth.postures`).
+    heading_deg : float
+        Rotation [deg] of the whole capture about the vertical through the origin (default 0:
+        the subject faces +x).
     """
 
     frames: int = 500
@@ -91,6 +99,8 @@ class SynthConfig:
     offset_mm: float = 20.0
     symmetric: bool = False
     marker_placement: str = "anatomical"
+    pose: str = "neutral"
+    heading_deg: float = 0.0
 
     def __post_init__(self) -> None:
         frames = _integer("frames", self.frames)
@@ -108,7 +118,12 @@ class SynthConfig:
                 f"marker_placement: unknown placement {self.marker_placement!r}; expected one "
                 f"of {', '.join(MARKER_PLACEMENTS)}"
             )
+        if self.pose not in POSES:
+            raise ConfigError(
+                f"pose: unknown posture {self.pose!r}; expected one of {', '.join(POSES)}"
+            )
         values: dict[str, Any] = {"frames": frames, "rate": rate}
+        values["heading_deg"] = _number("heading_deg", self.heading_deg)
         for name in ("noise_mm", "sta_mm", "outlier_mm", "offset_mm"):
             value = _number(name, getattr(self, name))
             if value < 0:
@@ -141,5 +156,10 @@ class SynthConfig:
         return (self.frames - 1) / self.rate
 
     def to_dict(self) -> dict[str, Any]:
-        """Every setting, JSON-ready."""
-        return asdict(self)
+        """Every setting, JSON-ready; ``pose`` and ``heading_deg`` only when not their defaults
+        (a neutral capture facing +x writes the same files as before they existed)."""
+        out = asdict(self)
+        for name, default in (("pose", "neutral"), ("heading_deg", 0.0)):
+            if out[name] == default:
+                del out[name]
+        return out

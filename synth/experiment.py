@@ -21,7 +21,7 @@ from mocap_mj.skeleton.exported import Layout
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
 
-from . import noise
+from . import noise, postures
 from .config import SynthConfig
 from .motion import generate
 from .perturb import perturb_theta
@@ -133,7 +133,8 @@ def synthesize(
     the truth motion (:mod:`mocap_synth.motion`); forward kinematics of the truth model; add the
     soft-tissue artefact and the white noise; swap labels; cut the occlusion gaps; displace the
     outliers among the samples still visible. Each step draws from its own stream spawned from
-    the seed (:data:`STREAMS`).
+    the seed (:data:`STREAMS`). The truth motion holds or starts in ``config.pose``, turned by
+    ``config.heading_deg`` (:func:`mocap_synth.postures.apply`), from the same draws.
 
     Parameters
     ----------
@@ -159,6 +160,7 @@ def synthesize(
     kin = Kinematics(pset)
     kin.set_theta(theta)
     qpos = generate(cfg.motion, kin.model, cfg.frames, cfg.rate, rng["motion"])
+    qpos = postures.apply(kin.model, qpos, cfg.motion, cfg.pose, cfg.heading_deg, cfg.rate)
     frames = kin.forward(qpos)
     clean = np.array(frames.site_xpos)
     shape = clean.shape

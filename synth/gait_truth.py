@@ -29,6 +29,7 @@ from mocap_mj.io.trajectory import MarkerTrajectory
 
 from .experiment import STREAMS, Experiment
 from .motion import WALK_FOOT_OFF, walk_gait
+from .postures import blend_end
 
 __all__ = ["TRUTH_FILES", "truth_events", "truth_gait", "write_gait_truth"]
 
@@ -43,16 +44,18 @@ def _draws(exp: Experiment) -> tuple[float, float, float]:
 
 
 def truth_events(exp: Experiment) -> list[GaitEvent]:
-    """The walk's foot strikes and foot offs within its frames, in time order."""
+    """The walk's foot strikes and foot offs within its frames, in time order (a walk
+    starting in a posture: those after it has blended into the walk)."""
     period, _, phase0 = _draws(exp)
     rate = exp.config.rate
     last = float(exp.times[-1])
+    first = blend_end(exp.config.pose, last)
     out = []
     for side, shift in (("left", 0.0), ("right", 0.5)):
         for kind, at in (("foot_strike", 0.0), ("foot_off", WALK_FOOT_OFF)):
             k = np.arange(-1, int(last / period) + 3)
             times = (k + at - phase0 - shift) * period
-            times = times[(times >= 0) & (times <= last)]
+            times = times[(times >= first) & (times <= last)]
             out += [GaitEvent(side, kind, float(t), round(t * rate) + 1, SOURCE) for t in times]
     return sorted(out, key=lambda e: (e.time, e.side))
 

@@ -187,10 +187,11 @@ def test_plates_chooses_plates_and_synth_writes_one_with_with_plate(
     listed = [c for c in having if _action(_commands()[c], "--plates").help != argparse.SUPPRESS]
     assert sorted(listed) == ["gait-report", "plug-in-gait"]
     synth = _commands()["synth"]
-    assert synth.parse_args(["--out", "o"]).plates is False
-    assert synth.parse_args(["--out", "o", "--with-plate"]).plates is True
+    assert synth.parse_args(["--out", "o"]).plates is None
+    assert synth.parse_args(["--out", "o", "--with-plate"]).plates == "75"  # kg, the default
+    assert synth.parse_args(["--out", "o", "--with-plate", "60"]).plates == "60"
     assert capsys.readouterr().err == ""
-    assert synth.parse_args(["--out", "o", "--plates"]).plates is True
+    assert synth.parse_args(["--out", "o", "--plates"]).plates == "75"
     assert capsys.readouterr().err.strip().splitlines() == [
         "mocap-mj synth: warning: --plates: renamed; use --with-plate (--plates chooses the "
         "plates that count in plug-in-gait)"

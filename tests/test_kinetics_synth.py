@@ -43,7 +43,7 @@ def folders(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     synth, result = base / "synth", base / "ik"
     proc = run("synth", "--out", str(synth), "--movement", "static", "--noise-mm", "0",
                "--frame-count", "300", "--seed", "5", "--with-plate",
-               "--mass", str(MASS))  # fmt: skip
+               str(MASS))  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     assert "plates.c3d" in json.loads((synth / "summary.json").read_text())["files"]
     proc = run("ik", "--markers", str(synth / "plates.c3d"), "--model",

@@ -101,7 +101,7 @@ def test_bad_input(pset: ParameterSet, tmp_path) -> None:  # type: ignore[no-unt
         pset.marker_index("LKNEE")
     with pytest.raises(UnknownNameError, match="thigh_length_l"):
         pset.index("femur")
-    with pytest.raises(ShapeError, match=r"theta: expected shape \(151\), got \(150,\)"):
+    with pytest.raises(ShapeError, match=r"theta: expected shape \(151,\), got \(150,\)"):
         pset.check(np.zeros(150))
     with pytest.raises(ShapeError, match="offsets"):
         pset.join(np.zeros(pset.n_kappa), np.zeros((38, 3)))

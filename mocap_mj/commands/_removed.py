@@ -64,6 +64,7 @@ REMOVED: dict[str, dict[str, str]] = {
     "synth": {
         "--frames": "use --frame-count N (--frames is a range A:B in the other commands)",
         "--motion": "use --movement rom|walk|static (--motion is a motion file elsewhere)",
+        "--mass": "use --with-plate KG (the body mass of the plate's subject)",
     },
     "demo": {"--frames": "use --frame-count N (--frames is a range A:B in the other commands)"},
     "render": {
@@ -136,7 +137,7 @@ class _Renamed(argparse.Action):
         option_string: str | None = None,
     ) -> None:
         new = parser._option_string_actions[self.new]
-        if self.nargs == 0:  # a switch: its new switch's value
+        if self.nargs == 0 or values is None:  # a switch or no value: its new flag's const
             values, shown = new.const, ""
         else:
             shown = f" {values}"
@@ -156,14 +157,14 @@ def add_removed_flags(parser: argparse.ArgumentParser, command: str) -> None:
     """Accept ``command``'s removed flags (any number of values) and renamed ones (their new
     flag's value), hidden from ``--help``; a renamed flag's new one is added before."""
     for flag, (new, why) in RENAMED.get(command, {}).items():
-        switch = parser._option_string_actions[new].nargs == 0
-        parser.add_argument(  # a switch renamed takes no value, as its new one
+        nargs = parser._option_string_actions[new].nargs
+        parser.add_argument(  # a renamed flag takes the values its new one takes
             flag,
             action=_Renamed,
             command=command,
             new=new,
             why=why,
-            nargs=0 if switch else None,
+            nargs=0 if nargs == 0 else "?" if nargs == "?" else None,
             dest=f"renamed_{flag.removeprefix('--').replace('-', '_')}",
             default=argparse.SUPPRESS,
             help=argparse.SUPPRESS,

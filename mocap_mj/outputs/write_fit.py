@@ -35,9 +35,16 @@ from mocap_mj.solve.noise import CORRELATED_TAU, SOFT_TISSUE_SIGMA, artefact_noi
 from mocap_mj.solve.problem import TrialData
 from mocap_mj.solve.solver_result import IdentificationResult, IterationLog
 
+from ..arguments import instance, optional, path_like, validated
 from ..io.atomic import atomic_folder, atomic_write_text
 
 
+@validated(
+    fit=instance(Fit, "a Fit (what mocap_mj.identify returns)"),
+    folder=path_like,
+    inputs=optional(instance(Mapping, "a mapping or None")),
+    force=instance(bool, "True or False"),
+)
 def write_result(
     fit: Fit,
     folder: str | Path,

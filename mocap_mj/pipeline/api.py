@@ -29,6 +29,7 @@ from mocap_mj.capture.subject import Subject
 from mocap_mj.io.strict_json import jsonable
 from mocap_mj.kernels._threads import single_blas_thread
 from mocap_mj.long.motion_out import every_frame_motion, write_every_frame_motion
+from mocap_mj.pipeline.arguments import IDENTIFY, identify_call
 from mocap_mj.pipeline.fit import Fit
 from mocap_mj.pipeline.motion import Motion
 from mocap_mj.pipeline.recipe import Recipe
@@ -48,6 +49,7 @@ from mocap_mj.solve.problem import TrialData
 from mocap_mj.solve.selection import select_in_trials
 from mocap_mj.solve.solver_result import ProgressCallback
 
+from ..arguments import validated
 from ..errors import MocapError
 
 #: ``select="auto"``: above this many frames in all the trials, identify on a pose-diverse
@@ -61,6 +63,7 @@ DEFAULT_RECIPE = Recipe()
 
 
 @single_blas_thread  # the command's arithmetic, bit for bit, whatever the caller's BLAS pool
+@validated(identify_call, **IDENTIFY)
 def identify(
     trials: Sequence[TrialData],
     recipe: Recipe = DEFAULT_RECIPE,

@@ -32,7 +32,8 @@ from typing import TYPE_CHECKING, Any
 import mujoco
 import numpy as np
 
-from mocap_mj.errors import InputFileError, check_shape, excerpt
+from mocap_mj import arguments
+from mocap_mj.errors import ArgumentTypeError, InputFileError, ShapeError, check_shape, excerpt
 from mocap_mj.io.atomic import atomic_write_bytes
 from mocap_mj.io.strict_json import read_object
 from mocap_mj.skeleton.exported import Layout
@@ -72,10 +73,36 @@ class Motion:
         return self.first_frame + np.arange(len(self.times), dtype=np.int64)
 
     def __post_init__(self) -> None:
+        motion_fields(self)
         n = len(self.qpos)
         check_shape("qpos", self.qpos, (n, None))
         check_shape("times", self.times, (n,))
         check_shape("markers", self.markers, (n, len(self.marker_names), 3))
+
+
+def motion_fields(motion: Motion) -> None:
+    """Check a :class:`Motion`'s fields (:mod:`mocap_mj.arguments`) and convert array-likes:
+    qpos (T, nq) and markers (T, M, 3) numbers (NaN where not solved or not seen), times
+    (T,) finite and increasing [s], marker_names texts (a list becomes a tuple), first_frame a whole
+    number >= 0. A numeric array keeps its dtype (a file's)."""
+    for name, axes in (("qpos", (None, None)), ("times", (None,)), ("markers", (None, None, 3))):
+        value = arguments.array(
+            f"Motion {name}", getattr(motion, name), axes, missing=name != "times",
+            keep=True,
+        )  # fmt: skip
+        object.__setattr__(motion, name, value)
+    arguments.increasing("Motion times", motion.times)
+    names = arguments.sequence("Motion marker_names", motion.marker_names, "marker names")
+    if not all(isinstance(n, str) for n in names):
+        raise ArgumentTypeError(f"Motion marker_names: expected texts, got {excerpt(names)}")
+    object.__setattr__(motion, "marker_names", tuple(names))
+    if motion.markers.shape[1] != len(names):
+        raise ShapeError(
+            f"Motion markers: expected one column per marker_names entry ({len(names)}), "
+            f"got shape {motion.markers.shape}"
+        )
+    first = arguments.whole("Motion first_frame", motion.first_frame, low=0)
+    object.__setattr__(motion, "first_frame", first)
 
 
 def npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:

@@ -24,7 +24,7 @@ import yaml
 from mocap_mj.solve.lm import LMSettings, Performance, Tolerances
 from mocap_mj.solve.losses import LossName
 
-from ..errors import InputFileError, MocapError, excerpt
+from ..errors import ArgumentError, ArgumentTypeError, InputFileError, MocapError, excerpt
 from ..io.atomic import atomic_write_text
 from ..io.yaml_file import read_yaml
 
@@ -120,16 +120,18 @@ class Recipe:
     hip_centre: HipCentre = "harrington"
 
     def __post_init__(self) -> None:
+        for field in dataclasses.fields(self):
+            _check_kind("Recipe", field.name, getattr(self, field.name), field.default)
         if self.init not in INITS:
-            raise MocapError(f"init must be one of {', '.join(INITS)}; got {self.init!r}")
+            raise ArgumentError(f"init must be one of {', '.join(INITS)}; got {self.init!r}")
         if isinstance(self.select, str) and self.select not in SELECT_WORDS:
-            raise MocapError(
+            raise ArgumentError(
                 f"select: expected a number of frames, auto or all, got {self.select!r}"
             )
         if not isinstance(self.select, str) and (isinstance(self.select, bool) or self.select < 1):
-            raise MocapError(f"select: expected at least 1 frame, got {self.select!r}")
+            raise ArgumentError(f"select: expected at least 1 frame, got {self.select!r}")
         if self.hip_centre not in HIP_CENTRES:
-            raise MocapError(
+            raise ArgumentError(
                 f"hip_centre must be one of {', '.join(HIP_CENTRES)}; got {self.hip_centre!r}"
             )
         for name, (low, high, what) in NUMERIC_RANGES.items():
@@ -143,7 +145,9 @@ class Recipe:
                 or (whole and not float(value).is_integer())
                 or not low <= value <= high  # NaN fails too
             ):
-                raise MocapError(f"{name}: expected {what} within {low:g}..{high:g}, got {value!r}")
+                raise ArgumentError(
+                    f"{name}: expected {what} within {low:g}..{high:g}, got {value!r}"
+                )
         self.settings()  # the solver's own checks (loss, prior widths, iterations)
 
     def settings(
@@ -202,7 +206,10 @@ class Recipe:
                     f"{source}: unknown recipe field {excerpt(name)} "
                     f"(expected one of {', '.join(fields)})"
                 )
-            _check_kind(source, name, value, cls.__dataclass_fields__[name].default)
+            try:
+                _check_kind(source, name, value, cls.__dataclass_fields__[name].default)
+            except ArgumentTypeError as exc:
+                raise InputFileError(str(exc)) from None
         try:
             return cls(**data)
         except MocapError as exc:
@@ -210,7 +217,8 @@ class Recipe:
 
 
 def _check_kind(source: str, name: str, value: Any, default: Any) -> None:
-    """Refuse a value whose kind differs from the field's default (bool, number, text)."""
+    """Refuse a value whose kind differs from the field's default (bool, number, text):
+    :class:`ArgumentTypeError` naming ``source`` and the field (a file's: ``from_dict``)."""
     if name == "select":
         ok = isinstance(value, str) or (isinstance(value, int) and not isinstance(value, bool))
     elif name == "symmetric":
@@ -221,10 +229,12 @@ def _check_kind(source: str, name: str, value: Any, default: Any) -> None:
         ok = isinstance(value, int) and not isinstance(value, bool)
     elif isinstance(default, float):
         ok = isinstance(value, int | float) and not isinstance(value, bool)
-    else:
+    elif isinstance(default, str):
         ok = isinstance(value, str)
+    else:  # a field of another kind (a default factory's) checks its own values
+        ok = True
     if not ok:
-        raise InputFileError(
+        raise ArgumentTypeError(
             f"{source}: recipe field {name!r}: expected a value like {default!r}, "
             f"got {excerpt(value)}"
         )

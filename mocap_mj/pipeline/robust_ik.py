@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from mocap_mj.anatomy.tissue import SlidingModel, recorded_sliding_model
+from mocap_mj.pipeline.arguments import SOLVE_MOTION, solve_motion_call
 from mocap_mj.pipeline.motion import Motion
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
@@ -32,7 +33,10 @@ from mocap_mj.solve.lm import LMSettings, Tolerances
 from mocap_mj.solve.losses import LossName, Weighted, loss_named
 from mocap_mj.solve.problem import TrialData, loss_threshold
 
+from ..arguments import validated
 
+
+@validated(solve_motion_call, **SOLVE_MOTION)
 def solve_motion(
     model: ParameterSet | str | Path,
     trial: TrialData,

@@ -15,6 +15,7 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
+from mocap_mj.arguments import array, instance, optional, validated
 from mocap_mj.errors import MocapError, check_shape
 from mocap_mj.kernels import _tree
 from mocap_mj.kernels._tree import KappaTables
@@ -56,6 +57,7 @@ class Kinematics:
         own copy of the model; :meth:`set_theta` writes theta into that copy.
     """
 
+    @validated(pset=optional(instance(ParameterSet, "a ParameterSet or None")))
     def __init__(self, pset: ParameterSet | None = None) -> None:
         self.pset = pset if pset is not None else ParameterSet()
         from copy import copy
@@ -160,11 +162,13 @@ class Kinematics:
 
     # --------------------------------------------------------------- forward
     def _check_qpos(self, qpos: np.ndarray) -> np.ndarray:
-        qpos = np.asarray(qpos, dtype=float)
-        if qpos.ndim == 1:
-            qpos = qpos[None]
-        check_shape("qpos", qpos, (None, self.nq))
-        return qpos
+        try:
+            frame = np.ndim(qpos) == 1
+        except ValueError:  # a ragged list: refused below
+            frame = False
+        shape = (self.nq,) if frame else (None, self.nq)
+        qpos = array("qpos", qpos, shape, missing=True)  # NaN: a frame not solved
+        return qpos[None] if frame else qpos
 
     def marker_positions(self, qpos: np.ndarray) -> np.ndarray:
         """Marker positions (T, M, 3) [m] for qpos (T, nq) (or (nq,) for one frame)."""

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import mujoco
 
+from mocap_mj.arguments import instance, optional, path_like, validated
 from mocap_mj.errors import MocapError
 from mocap_mj.skeleton import exported
 
@@ -14,6 +15,7 @@ from mocap_mj.skeleton import exported
 HUMANOID = "humanoid.xml"
 
 
+@validated(name=instance(str, "a bundled model's file name"))
 def model_path(name: str = HUMANOID) -> Path:
     """Path of a bundled MJCF file.
 
@@ -29,6 +31,7 @@ def model_path(name: str = HUMANOID) -> Path:
     return path
 
 
+@validated(path=optional(path_like))
 def load_model(path: str | Path | None = None) -> mujoco.MjModel:
     """Compile an MJCF file (the bundled humanoid by default) into the ``MjModel`` the tool
     works on: a model as the tool writes it carries the knee's rolling as slide joints for

@@ -24,10 +24,11 @@ from xml.etree import ElementTree
 import mujoco
 import numpy as np
 
+from mocap_mj.arguments import array, kind, optional, path_like, sequence, validated
 from mocap_mj.errors import (
+    ArgumentError,
     InputFileError,
     MocapError,
-    ShapeError,
     UnknownNameError,
     check_shape,
     excerpt,
@@ -38,6 +39,10 @@ from mocap_mj.skeleton import exported, rolling
 from mocap_mj.skeleton.mjcf import load_model, model_path
 
 _AXES = {"x": 0, "y": 1, "z": 2}
+
+
+#: A target's direction: a signed parent-frame axis, or along the body's offset.
+DIRECTION_SPECS = ("x", "-x", "y", "-y", "z", "-z", "along")
 
 
 @dataclass(frozen=True)
@@ -57,6 +62,21 @@ class KinematicParameter:
     name: str
     description: str
     targets: tuple[tuple[str, str], ...]
+
+    def __post_init__(self) -> None:
+        kind("KinematicParameter name", self.name, str, "a text")
+        kind("KinematicParameter description", self.description, str, "a text")
+        for i, target in enumerate(sequence("KinematicParameter targets", self.targets, "pairs")):
+            if (
+                not isinstance(target, tuple | list)
+                or len(target) != 2
+                or not isinstance(target[0], str)
+                or target[1] not in DIRECTION_SPECS
+            ):
+                raise ArgumentError(
+                    f"KinematicParameter targets[{i}]: expected (body name, one of "
+                    f"{', '.join(DIRECTION_SPECS)}), got {excerpt(target)}"
+                )
 
 
 def _p(name: str, description: str, *targets: tuple[str, str]) -> KinematicParameter:
@@ -152,6 +172,7 @@ class ParameterSet:
         ``D[k, b]``: the change of ``body_pos[b]`` per metre of ``kappa_k`` (parent frame).
     """
 
+    @validated(path=optional(path_like))
     def __init__(self, path: str | Path | None = None) -> None:
         self.path = Path(path) if path is not None else model_path()
         model = load_model(self.path)
@@ -245,12 +266,9 @@ class ParameterSet:
         return np.concatenate([kappa, np.asarray(offsets, float).ravel()])
 
     def check(self, theta: np.ndarray) -> np.ndarray:
-        """Return theta as a float array, or raise ShapeError naming the shape received."""
-        theta = np.asarray(theta, dtype=float)
-        check_shape("theta", theta, (self.size,))
-        if not np.all(np.isfinite(theta)):
-            raise ShapeError("theta: contains NaN or infinite values")
-        return theta
+        """Return theta as a float array (P,) [m], finite; else an
+        :class:`~mocap_mj.errors.ArgumentError` naming the shape or value received."""
+        return array("theta", theta, (self.size,))
 
     # ------------------------------------------------------------ model maps
     def body_pos(self, theta: np.ndarray) -> np.ndarray:
@@ -363,6 +381,7 @@ class ParameterSet:
         offsets = np.array([[float(c) for c in off_d[n]] for n in self.marker_names])
         return self.check(self.join(kappa, offsets))
 
+    @validated(path=path_like)
     def save_json(
         self, path: str | Path, theta: np.ndarray, extra: Mapping[str, Any] | None = None
     ) -> None:
@@ -371,6 +390,7 @@ class ParameterSet:
         data.update(self.to_dict(theta))
         atomic_write_text(path, json.dumps(data, indent=2) + "\n")
 
+    @validated(path=path_like)
     def load_json(self, path: str | Path) -> np.ndarray:
         """Read theta from a JSON file written by :meth:`save_json`."""
         data = read_object(path, "the parameters (a JSON object with kappa and offsets)")
@@ -441,6 +461,7 @@ class ParameterSet:
         xml = rolling.record(ElementTree.tostring(root, encoding="unicode") + "\n", self.model)
         return exported.with_slides(xml, self.model, joint_range)
 
+    @validated(path=path_like)
     def export_mjcf(
         self, path: str | Path, theta: np.ndarray, *, joint_range: np.ndarray | None = None
     ) -> None:

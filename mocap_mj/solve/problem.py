@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Callable, Sequence
+from os import PathLike
 from typing import NamedTuple, TypedDict, Unpack
 
 import numpy as np
@@ -28,23 +29,63 @@ from mocap_mj.solve.ik import IKSolver
 from mocap_mj.solve.losses import L2, Loss, Weighted
 from mocap_mj.solve.priors import LinearGaussianPrior, Prior, total_prior, weak_prior
 
-from ..errors import MocapError, SolverError, check_shape
+from .. import arguments
+from ..errors import ArgumentError, MocapError, SolverError, check_shape, excerpt
 
 #: Median of the chi distribution with 3 degrees of freedom: median |e| / sigma for 3D noise.
 CHI3_MEDIAN = 1.5381722
 
 
-class TrialData(NamedTuple):
-    """One trial's measured markers: markers (T, M, 3) [m] NaN where missing; times (T,) [s];
-    weights (T, M) [1] or None: each sample's weight in the loss (its noise variance relative
-    to the nominal one, inverted: :class:`~mocap_mj.solve.losses.Weighted`; default None,
-    every sample 1, the white-noise model; the soft-tissue sliding of landmark markers sets
-    them, :mod:`mocap_mj.anatomy.tissue`)."""
+class _Trial(NamedTuple):
+    """:class:`TrialData`'s fields (a NamedTuple's own ``__new__`` cannot be replaced)."""
 
     name: str
     markers: np.ndarray
     times: np.ndarray
     weights: np.ndarray | None = None
+
+
+class TrialData(_Trial):
+    """One trial's measured markers: markers (T, M, 3) [m] NaN where missing; times (T,) [s];
+    weights (T, M) [1] or None: each sample's weight in the loss (its noise variance relative
+    to the nominal one, inverted: :class:`~mocap_mj.solve.losses.Weighted`; default None,
+    every sample 1, the white-noise model; the soft-tissue sliding of landmark markers sets
+    them, :mod:`mocap_mj.anatomy.tissue`).
+
+    Checked when built (:func:`trial_arrays`): array-likes become float arrays, a bad one
+    raises :class:`~mocap_mj.errors.ArgumentError` naming the trial and the field."""
+
+    __slots__ = ()
+
+    def __new__(
+        cls,
+        name: str,
+        markers: np.ndarray,
+        times: np.ndarray,
+        weights: np.ndarray | None = None,
+    ) -> TrialData:
+        return super().__new__(cls, *trial_arrays(name, markers, times, weights))
+
+
+def trial_arrays(
+    name: object, markers: object, times: object, weights: object = None
+) -> tuple[str, np.ndarray, np.ndarray, np.ndarray | None]:
+    """A trial's fields checked (:mod:`mocap_mj.arguments`): name a text (a path converts),
+    markers (T, M, 3) [m] finite or NaN, times (T,) [s] finite and strictly increasing,
+    weights None or (T, M) [1] finite and not negative."""
+    if isinstance(name, PathLike):
+        name = str(name)
+    arguments.kind("TrialData name", name, str, "a text (the trial's name or file)")
+    where = f"TrialData {excerpt(name)}"
+    m = arguments.array(f"{where}: markers", markers, (None, None, 3), missing=True)
+    t = arguments.array(f"{where}: times", times, (len(m),))
+    arguments.increasing(f"{where}: times", t)
+    w = None
+    if weights is not None:
+        w = arguments.array(f"{where}: weights", weights, m.shape[:2])
+        if (w < 0).any():
+            raise ArgumentError(f"{where}: weights: expected weights >= 0, got {w.min():g}")
+    return str(name), m, t, w
 
 
 def pool(
