@@ -125,4 +125,5 @@ def test_real_trials_identify_one_model_together(capsys, tmp_path: Path) -> None
     s = identify(capsys, "--markers", str(a), str(b), "--out", str(out), "--frames", "0:80")
     assert s["frames_used"] == 160
     assert s["marker_rmse_mm"] <= 10.0
-    assert (out / "motion.npz").is_file() and (out / "motion_1.npz").is_file()
+    assert (out / "motion.npz").is_file()
+    assert (out / "trials" / "Test_func_rhip" / "motion.npz").is_file()
