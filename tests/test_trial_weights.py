@@ -196,6 +196,9 @@ def test_report_lists_the_trial_weights() -> None:
         },
     }  # fmt: skip
     text = "\n".join(_anatomy_lines(summary))
-    assert "Movement.c3d 1.60 (163 frames), Static.c3d 0.61 (431 frames)" in text
+    assert (
+        "Movement.c3d 1.60 (correlation time 163.0 frames), "
+        "Static.c3d 0.61 (correlation time 431.0 frames)" in text
+    )  # the correlation time named as such, not as a count of frames
     summary["prior_weighting"].update(trial_weights=[1.0], trial_tau_frames=[40.0])
     assert "independent frames" not in "\n".join(_anatomy_lines(summary))

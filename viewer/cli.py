@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 from mocap_mj.commands._inputs import refuse_replacing_file
 from mocap_mj.commands._removed import add_removed_flags
-from mocap_mj.commands.common import add_force_flag, add_json_flag, finish
+from mocap_mj.commands.common import add_force_flag, add_json_flag, add_trial_flag, finish
 from mocap_mj.errors import MocapError
 from mocap_mj.export.registry import Exporter
 
@@ -35,6 +35,7 @@ def _add_source(p: argparse.ArgumentParser) -> None:
         help="result folder (model.xml + motion.npz), synthetic-truth folder, or a demo "
         "folder (its result/ is shown)",
     )
+    add_trial_flag(p)
     _add_source_options(p)
 
 
@@ -69,8 +70,10 @@ def _add_frames(p: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--frame",
         metavar="K",
-        help="one frame: index (negative from the end) or 'worst' (default: frame 0 for a "
-        ".png or .glb, every frame for .mp4/.gif)",
+        help="one frame: its row in the motion, 0 its first (negative from the end), or "
+        "'worst'; a frame not solved (too few markers) has no pose and is refused (default: "
+        "the first solved frame for a .png or .glb, every frame for .mp4/.gif, those not "
+        "solved drawn as 'no data')",
     )
     group.add_argument(
         "--frames",
@@ -84,7 +87,11 @@ def _load(args: argparse.Namespace) -> tuple[Playback, Ghost | None]:
     from .playback import load_ghost, load_playback
 
     playback = load_playback(
-        args.result, model=args.model, motion=args.motion, markers=args.markers
+        args.result,
+        model=args.model,
+        motion=args.motion,
+        markers=args.markers,
+        trial=getattr(args, "trial", None),
     )
     ghost = None
     if args.ghost:
@@ -99,7 +106,7 @@ def _frames(args: argparse.Namespace, playback: Playback, default_all: bool) -> 
         return [parse_frame(args.frame, playback)]
     if args.frames is not None:
         return parse_frames(args.frames, playback.n_frames)
-    return list(range(playback.n_frames)) if default_all else [0]
+    return list(range(playback.n_frames)) if default_all else [playback.first_solved()]
 
 
 def _image_size(text: str) -> tuple[int, int]:

@@ -175,10 +175,17 @@ class ShortcutGuard:
 def _overlay(pb: Playback, frame: int, playing: bool, speed: float, ghost: bool) -> list[Any]:
     rmse = pb.frame_rmse[frame] if pb.fitted else np.nan
     labels = ["frame", "time", "marker RMSE", "speed", ""]
+    number = pb.first_frame + frame  # the recording's; --frame counts rows
     values = [
-        f"{frame} / {pb.n_frames - 1}",
+        f"{number} (row {frame} / {pb.n_frames - 1})"
+        if number != frame
+        else f"{frame} / {pb.n_frames - 1}",
         f"{pb.times[frame]:.3f} s",
-        "-" if np.isnan(rmse) else f"{1000 * rmse:.1f} mm",
+        "no data (not solved)"
+        if not pb.solved[frame]
+        else "-"
+        if np.isnan(rmse)
+        else f"{1000 * rmse:.1f} mm",
         f"x{speed:g}",
         "playing" if playing else "paused",
     ]
@@ -269,13 +276,16 @@ def _pose(
     ghost: Ghost | None,
 ) -> None:
     """Pose the viewer's model at ``frame`` and draw its markers, residuals and ghost (the
-    caller holds the viewer's lock)."""
-    data.qpos[:] = playback.qpos[frame]
+    caller holds the viewer's lock). A frame not solved has no pose: the body is hidden (its
+    geoms transparent, at the model's reference pose) and the overlay says "no data"."""
+    solved = bool(playback.solved[frame])
+    playback.show_body(solved)
+    data.qpos[:] = playback.qpos[frame] if solved else playback.model.qpos0
     data.time = float(playback.times[frame])
     rolling.kinematics(playback.model, data, mujoco.mj_forward)
     scn = handle.user_scn
     scn.ngeom = 0
-    decorate(scn, playback, frame, layers, style, ghost if layers.ghost else None)
+    decorate(scn, playback, frame, layers, style, ghost if layers.ghost and solved else None)
 
 
 def run_viewer(

@@ -180,11 +180,13 @@ def render_to_file(
     -------
     dict
         ``out``, ``format``, ``frames`` (count), ``first``, ``last``, ``width``, ``height``,
-        ``fps`` (videos), ``backend``, ``camera``.
+        ``fps`` and ``frames_without_data`` (videos: the frames drawn as "no data"),
+        ``backend``, ``camera``.
     """
     out = Path(out)
     suffix = out.suffix.lower()
     fps = _checked_request(out, frames, playback.rate, fps)
+    _refuse_unsolved(playback, frames)
     if suffix == ".mp4":
         width, height = width + width % 2, height + height % 2
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -192,24 +194,48 @@ def render_to_file(
 
     def images() -> Iterator[np.ndarray]:
         for k in _progress(frames, out.name):
-            rgb = renderer.render(k)
-            yield annotate(rgb, frame_label(playback, k)) if text else rgb
+            # a frame not solved has no pose: an empty image that says so, not a black one
+            rgb = renderer.render(k) if playback.solved[k] else no_data_image(width, height)
+            yield annotate(rgb, frame_label(playback, k)) if text or not playback.solved[k] else rgb
 
     try:
         count = _write(out, images(), fps)
     finally:
         renderer.close()
-    summary: dict[str, Any] = {
-        "out": str(out),
-        "format": suffix[1:],
-        "frames": count,
-        "first": int(frames[0]),
-        "last": int(frames[-1]),
-        "width": width,
-        "height": height,
-        "backend": backend,
-        "camera": camera or "default",
-    }
+    summary: dict[str, Any] = {"out": str(out), "format": suffix[1:], "frames": count,
+                               "first": int(frames[0]), "last": int(frames[-1]),
+                               "width": width, "height": height, "backend": backend,
+                               "camera": camera or "default"}  # fmt: skip
     if suffix != ".png":
         summary["fps"] = float(fps)
+        summary["frames_without_data"] = int(np.sum(~playback.solved[list(frames)]))
     return summary
+
+
+#: The grey of a frame without data (not solved), RGB.
+NO_DATA_GREY = 96
+
+
+def no_data_image(width: int, height: int) -> np.ndarray:
+    """The image (H, W, 3) uint8 of a frame not solved: plain grey, labelled by the caller."""
+    return np.full((height, width, 3), NO_DATA_GREY, dtype=np.uint8)
+
+
+def _refuse_unsolved(playback: Playback, frames: Sequence[int]) -> None:
+    """Refuse frames none of which was solved (a PNG of one such frame included), naming
+    the nearest solved frames; a video of some is drawn, its unsolved frames as "no data"."""
+    solved = playback.solved
+    if any(solved[k] for k in frames):
+        return
+    which = np.flatnonzero(solved)
+    k = frames[0]
+    number = playback.first_frame + k
+    if not len(which):
+        raise MocapError(f"{playback.source}: no frame of the motion was solved: nothing to draw")
+    near = [str(int(v)) for v in (*which[which < k][-1:], *which[which > k][:1])]
+    raise MocapError(
+        f"{playback.source}: frame {k} (the recording's {number}) was not solved (too few "
+        f"markers): no pose to draw; nearest solved rows: {', '.join(near)} (--frame)"
+        if len(frames) == 1
+        else f"{playback.source}: none of the {len(frames)} frames asked for was solved"
+    )

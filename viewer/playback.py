@@ -14,13 +14,16 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from mocap_mj.capture.marker_set import undetermined_segments
 from mocap_mj.errors import InputFileError, MocapError, ShapeError
 from mocap_mj.outputs.write_fit import frame_range
-from mocap_mj.pipeline.motion import Motion, ResultDir, load_motion
+from mocap_mj.pipeline.motion import Motion, load_motion
+from mocap_mj.pipeline.trials import open_trial
 from mocap_mj.skeleton import rolling
 from mocap_mj.skeleton.mjcf import load_model, model_path
 
 __all__ = [
+    "UNMEASURED_RGBA",
     "Ghost",
     "Playback",
     "frame_label",
@@ -32,11 +35,27 @@ __all__ = [
 ]
 
 
+#: The colour of a segment no recorded marker measures: grey and translucent.
+UNMEASURED_RGBA = (0.6, 0.6, 0.6, 0.25)
+
+
+def grey_unmeasured(model: mujoco.MjModel, bodies: tuple[str, ...]) -> None:
+    """Draw the geoms of ``bodies`` (segments not measured) grey and translucent
+    (:data:`UNMEASURED_RGBA`) in ``model``, the viewer's own copy."""
+    ids = {model.body(b).id for b in bodies}
+    for g in range(model.ngeom):
+        if int(model.geom_bodyid[g]) in ids and int(model.geom_matid[g]) < 0:
+            model.geom_rgba[g] = UNMEASURED_RGBA
+
+
 def marker_positions(model: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
-    """Positions (T, M, 3) [m] of the model's sites for every pose of qpos (T, nq)."""
+    """Positions (T, M, 3) [m] of the model's sites for every pose of qpos (T, nq); NaN in
+    a frame without a pose (NaN qpos: not solved)."""
     data = mujoco.MjData(model)
-    out = np.empty((len(qpos), model.nsite, 3))
+    out = np.full((len(qpos), model.nsite, 3), np.nan)
     for t, q in enumerate(qpos):
+        if not np.isfinite(q).all():
+            continue
         data.qpos[:] = q
         rolling.kinematics(model, data)
         out[t] = data.site_xpos
@@ -66,8 +85,10 @@ class Playback:
         the marker RMSE mean something; False for markers shown on a model at rest.
     source : str
         Where the data came from, for summaries.
+    first_frame : int
+        The recording's number of frame 0 (labels give the recording's frame numbers).
     predicted : (T, M, 3) float [m]
-        The model's marker sites at each pose (computed).
+        The model's marker sites at each pose (computed; NaN in a frame not solved).
     """
 
     model: mujoco.MjModel
@@ -78,6 +99,7 @@ class Playback:
     marker_names: tuple[str, ...]
     fitted: bool = True
     source: str = ""
+    first_frame: int = 0
     predicted: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -97,6 +119,38 @@ class Playback:
         if n > 1 and not np.all(np.diff(self.times) > 0):
             raise InputFileError(f"{self.source}: frame times are not increasing")
         object.__setattr__(self, "predicted", marker_positions(self.model, self.qpos))
+        if self.fitted:
+            grey_unmeasured(self.model, self.unmeasured_bodies)
+
+    @cached_property
+    def solved(self) -> np.ndarray:
+        """(T,) bool: the frames with a pose (a frame the IK could not solve is NaN: no
+        data, drawn as such)."""
+        return np.asarray(np.isfinite(self.qpos).all(axis=1))
+
+    @cached_property
+    def unmeasured_bodies(self) -> tuple[str, ...]:
+        """The model's bodies no recorded marker determines (:func:`undetermined_segments`
+        of the markers with any sample): their pose is the prior's, not measured."""
+        present = [n for n, seen in zip(self.marker_names, np.isfinite(self.measured).any(
+            axis=(0, 2)), strict=True) if seen]  # fmt: skip
+        return undetermined_segments(self.model, present)
+
+    @cached_property
+    def _alpha(self) -> np.ndarray:
+        """(ngeom,) the geoms' alpha as shown for a solved frame (:meth:`show_body`)."""
+        return np.array(self.model.geom_rgba[:, 3])
+
+    def show_body(self, shown: bool) -> None:
+        """Show, or hide (fully transparent, for a frame not solved), the body's geoms in the
+        model, the viewer's own copy."""
+        body, alpha = np.asarray(self.model.geom_bodyid) > 0, self._alpha
+        self.model.geom_rgba[body, 3] = alpha[body] if shown else 0.0
+
+    def first_solved(self) -> int:
+        """The first frame with a pose (0 when none has)."""
+        found = np.flatnonzero(self.solved)
+        return int(found[0]) if len(found) else 0
 
     @property
     def n_frames(self) -> int:
@@ -175,7 +229,9 @@ def _from_motion(
         )
     sites = _site_names(model)
     measured = _markers_by_name(motion.marker_names, motion.markers, sites, source)
-    return Playback(model, path, motion.qpos, motion.times, measured, sites, fitted, source)
+    return Playback(
+        model, path, motion.qpos, motion.times, measured, sites, fitted, source, motion.first_frame
+    )
 
 
 def load_playback(
@@ -184,6 +240,7 @@ def load_playback(
     model: str | Path | None = None,
     motion: str | Path | None = None,
     markers: str | Path | None = None,
+    trial: str | None = None,
 ) -> Playback:
     """Load what to show from a result folder, or from a model with a motion and/or markers.
 
@@ -199,6 +256,9 @@ def load_playback(
         A marker file (any format ``mocap_mj.io.load_markers`` reads). Without ``motion`` the
         model stands at its reference pose ``qpos0`` in every frame and residuals are not
         shown; with ``motion`` it replaces the motion's markers (same number of frames).
+    trial : str, optional
+        Which trial of a multi-trial result: its index or name
+        (:func:`mocap_mj.pipeline.trials.open_trial`; default the first).
 
     Returns
     -------
@@ -212,10 +272,12 @@ def load_playback(
     if result_dir is not None:
         if model is not None or motion is not None or markers is not None:
             raise MocapError("give either a result folder or --model/--motion/--markers")
-        res = ResultDir.open(result_dir)
+        res = open_trial(result_dir, trial)
         mj_model = load_model(res.model)
         motion_ = load_motion(res.motion, mj_model, res.model)
         return _from_motion(mj_model, res.model, motion_, str(res.root), True)
+    if trial is not None:
+        raise MocapError("--trial: only with a result folder")
     if motion is None and markers is None:
         raise MocapError("nothing to show: give a result folder, --motion or --markers")
     path = Path(model) if model is not None else model_path()
@@ -241,7 +303,9 @@ def load_playback(
             raise ShapeError(
                 f"{markers}: {len(traj_pos)} frames, but the motion {motion} has {pb.n_frames}"
             )
-        return Playback(mj_model, path, pb.qpos, pb.times, traj_pos, sites, True, str(markers))
+        return Playback(
+            mj_model, path, pb.qpos, pb.times, traj_pos, sites, True, str(markers), pb.first_frame
+        )
     assert traj_pos is not None and traj_times is not None
     qpos = np.tile(np.array(mj_model.qpos0), (len(traj_pos), 1))
     return Playback(mj_model, path, qpos, traj_times, traj_pos, sites, False, str(markers))
@@ -336,8 +400,13 @@ def parse_frames(text: str, n: int) -> list[int]:
 
 
 def frame_label(playback: Playback, frame: int) -> str:
-    """One line describing a frame: number, time and (for a fit) the marker RMSE in mm."""
-    text = f"frame {frame}/{playback.n_frames - 1}  t = {playback.times[frame]:.3f} s"
+    """One line describing a frame: the recording's frame number and time and (for a fit)
+    the marker RMSE in mm, or "no data" for a frame not solved."""
+    number = playback.first_frame + frame
+    row = f" (row {frame})" if number != frame else ""  # --frame counts rows
+    text = f"frame {number}{row}  t = {playback.times[frame]:.3f} s"
+    if not playback.solved[frame]:
+        return f"{text}  no data (not solved)"
     if playback.fitted:
         rmse = playback.frame_rmse[frame]
         text += "  RMSE " + ("-" if math.isnan(rmse) else f"{1000 * rmse:.1f} mm")

@@ -55,6 +55,14 @@ SIGMA_PIG_AXIS = 4.0
 #: many widths of the chord-plane row: 17-26 degrees on the shared Static_trial, 10-13 on the
 #: ankles of its jump (Movement_trial), where the row keeps the wand's own width.
 SILENT = 2.0
+#: The recipe's default ``silent_axis_sd`` [rad]: a knee or ankle axis whose direction the
+#: markers determine to a standard deviation above it (their Cramer-Rao bound, the row taken
+#: out) stays at the construction, its row at :data:`SIGMA_PIG_AXIS`: the joint checks'
+#: :data:`~mocap_mj.anatomy.joint_checks.AXIS_DETERMINED_DEG`, 10 degrees. In a static trial
+#: the markers leave such an axis in a flat valley, where the solve ends wherever its
+#: path stops (Static_trial's left knee 6 degrees off the chord, 9 mm from Nexus' centre,
+#: from one start and 2 degrees, 5 mm, from another; held, 2 degrees from both).
+SILENT_AXIS_SD = float(np.radians(10.0))
 #: The markers and the chord plane conflict when the markers' own estimate of the row's
 #: residual lies beyond this many standard deviations of the two combined: reported as
 #: ``conflict`` (a wand possibly misplaced). Where the data place the axis better than the
@@ -108,6 +116,7 @@ def axis_decisions(
     weak: LinearGaussianPrior,
     noise: float,
     solved_noise: float | None = None,
+    silent_sd: float = SILENT_AXIS_SD,
 ) -> dict[str, dict[str, Any]]:
     """Per joint (``knee_l``, ``elbow_r``...): where its flexion axis comes from (module
     docstring).
@@ -117,7 +126,10 @@ def axis_decisions(
     prior toward the initial model; ``noise`` [m]: the marker noise the priors are weighed
     against; ``solved_noise`` [m]: the one they were weighed against in the solve that gave
     ``theta`` (default ``noise``), which sets how far that solve pulled the markers'
-    estimate toward the row. Returns ``source`` ("plug-in-gait" or "functional"),
+    estimate toward the row; ``silent_sd`` [rad]: an axis whose markers' standard deviation
+    exceeds it stays Plug-in Gait's whatever the row's width, and a knee or ankle axis is
+    then ``silent`` (as beyond :data:`SILENT` row widths: held at the construction,
+    :func:`widths`). Returns ``source`` ("plug-in-gait" or "functional"), ``silent``,
     ``conflict`` (the markers contradict the row, :data:`CONFLICT_K`), ``data_sd_deg`` (the
     direction's standard deviation without the row), ``row_sd_deg``, ``row_sigma_m`` and
     ``angle_to_pig_deg`` (:func:`angle_to_pig` at ``theta``); ``wand`` is the row's key
@@ -151,16 +163,20 @@ def axis_decisions(
         # precision-weighted mean of it and the row's 0, at that solve's weighting.
         data = float(a @ theta) * (1.0 + (sd_without(hess_solved, a, sigma, solved) / sigma) ** 2)
         conflict = abs(data) > CONFLICT_K * float(np.hypot(sd, sigma))
+        data_sd, row_sd = (float(np.degrees(np.arctan(x / arm))) for x in (sd, sigma))
+        beyond = data_sd > np.degrees(silent_sd)  # the recording cannot place it
         d: dict[str, Any] = {
             "joint": joint,
             "wand": key,
             "marker": marker,
-            "source": "plug-in-gait" if sd > sigma else "functional",
+            "source": "plug-in-gait" if sd > sigma or beyond else "functional",
             "conflict": conflict,
-            "data_sd_deg": float(np.degrees(np.arctan(sd / arm))),
-            "row_sd_deg": float(np.degrees(np.arctan(sigma / arm))),
+            "data_sd_deg": data_sd,
+            "row_sd_deg": row_sd,
             "row_sigma_m": sigma,
-        }
+            "silent": bool(joint.startswith(("knee", "ankle"))
+                           and (beyond or (sd > sigma and data_sd > SILENT * row_sd))),
+        }  # fmt: skip
         d["angle_to_pig_deg"] = angle_to_pig(pset, theta, d)
         out[joint] = d
     return out
@@ -180,8 +196,9 @@ def widths(
 ) -> dict[str, float | None]:
     """The axis rows' widths [m] (keyed by ``wand``) after ``decisions``
     (:func:`axis_decisions`): a Plug-in Gait knee or ankle axis's row at
-    :data:`SIGMA_PIG_AXIS` where the data are silent (their standard deviation beyond
-    :data:`SILENT` row widths), else at its own width (the data about as precise as the
+    :data:`SIGMA_PIG_AXIS` where the data are silent (the decision's ``silent``:
+    their standard deviation beyond :data:`SILENT` row widths or the recipe's
+    ``silent_axis_sd``), else at its own width (the data about as precise as the
     wand: their weighted mean); the elbow's and wrist's at their own width; a functional
     axis's left out."""
     out: dict[str, float | None] = {}
@@ -189,7 +206,7 @@ def widths(
         if d["source"] != "plug-in-gait":
             out[d["wand"]] = None
         elif d["joint"].startswith(("knee", "ankle")):
-            silent = d["data_sd_deg"] > SILENT * d["row_sd_deg"]
+            silent = d.get("silent", d["data_sd_deg"] > SILENT * d["row_sd_deg"])
             angle = SIGMA_PIG_AXIS if silent else d["row_sd_deg"]
             out[d["wand"]] = wand_width(pset, d["wand"], d["marker"], angle)
         else:
@@ -325,6 +342,8 @@ def report_lines(decisions: Mapping[str, Mapping[str, Any]]) -> list[str]:
     for joint, d in decisions.items():
         how = CONSTRUCTION[d["joint"].split("_")[0]]
         src = f"Plug-in Gait ({how})" if d["source"] == "plug-in-gait" else "the markers"
+        if d.get("silent"):
+            src += ", held: the data are silent"
         if d.get("conflict"):
             src += f" (they contradict {how})"
         rmse = d.get("rmse_mm") or {}

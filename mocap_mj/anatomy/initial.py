@@ -573,6 +573,7 @@ def place_markers(
     *,
     floating: Sequence[str] = FLOATING_MARKERS,
     rounds: int = 2,
+    kept: Sequence[str] = (),
 ) -> np.ndarray:
     """Marker offsets of theta placed where the trials put them, the skeleton kept.
 
@@ -593,6 +594,9 @@ def place_markers(
         Markers whose nominal offset is not trusted for the first IK.
     rounds : int
         IK-and-place alternations after the first placement of the floating markers.
+    kept : sequence of str
+        Markers whose offsets in theta are kept and trusted from the first IK on (those the
+        constructions placed, :func:`~mocap_mj.anatomy.constructed.constructed_theta`).
 
     Returns
     -------
@@ -607,8 +611,10 @@ def place_markers(
     kin.set_theta(theta)
     solver = IKSolver(kin)
     k = pset.n_kappa
-    weights = np.array([0.0 if n in floating else 1.0 for n in pset.marker_names])
-    steps = [np.flatnonzero(weights == 0.0)] + [np.arange(pset.n_markers)] * rounds
+    weights = np.array([0.0 if n in floating and n not in kept else 1.0
+                        for n in pset.marker_names])  # fmt: skip
+    free = np.array([n not in kept for n in pset.marker_names])
+    steps = [np.flatnonzero(weights == 0.0)] + [np.flatnonzero(free)] * rounds
     for i, which in enumerate(steps):
         if which.size == 0:
             continue

@@ -282,13 +282,18 @@ def uncertainty_lines(summary: Mapping[str, Any]) -> list[str]:
         "std inflated (mm) | std white (mm) | nominal (mm) | flagged parameters |",
         "|---|---:|---:|---:|---:|---:|---|",
     ]
+    held = [n for n, r in segments.items() if r["kind"] == "length" and r["flag"] == NOT_MEASURED]
     for name, r in segments.items():
-        if r["kind"] == "length":
+        if r["kind"] == "length" and name not in held:
             lines.append(
                 f"| {name} | {cell(r['value_mm'])} | {cell(r.get('std_priors_mm'))} | "
                 f"{cell(r['std_mm'])} | {cell(r['std_white_mm'])} | {cell(r['nominal_mm'])} | "
                 f"{r['flag']} |"
             )
+    if held:
+        lines += ["", f"{len(held)} lengths not measured (held at the prior, flagged "
+                  f"`{NOT_MEASURED}` in segments.csv) are not listed: "
+                  f"{', '.join(held)}."]  # fmt: skip
     flagged = summary.get("parameters_flagged", {})
     lines += ["", "### Parameters at a bound or outside the plausible range", ""]
     if not flagged:

@@ -52,6 +52,7 @@ def identified_trials(
     from mocap_mj.commands.registry import build_parser
     from mocap_mj.io.load import load_markers
     from mocap_mj.pipeline.motion import load_motion
+    from mocap_mj.pipeline.trials import open_trial
     from mocap_mj.skeleton.mjcf import load_model
 
     fit = scratch / "identified"
@@ -67,7 +68,7 @@ def identified_trials(
     model = load_model(fit / "model.xml")
     out = []
     for i, path in enumerate(paths):
-        motion = load_motion(fit / ("motion.npz" if i == 0 else f"motion_{i}.npz"), model)
+        motion = load_motion(open_trial(fit, str(i)).motion, model)  # trial i's folder
         trial = load_markers(path)
         if len(motion.times) != trial.n_frames:
             raise MocapError(

@@ -5,8 +5,8 @@
 Per trial with loads: the plates (its ``--forces`` file, else the marker file's own when it is
 a C3D with plates) -> each foot's load from the plates it alone stands on
 (:func:`mocap_mj.capture.contacts.assign_feet`) -> a load on the model's foot body -> inverse
-dynamics with the subject's mass -> dynamics.csv, grf.csv, root_residuals.csv (suffixed
-``_<i>`` for a later trial, as motion_<i>.npz). Every trial's gait events go to events.csv.
+dynamics with the subject's mass -> dynamics.csv, grf.csv, root_residuals.csv in the trial's
+folder (:mod:`mocap_mj.pipeline.trials`). Every trial's gait events go to its events.csv.
 Without a body mass the kinetics are refused with one warning; the rest is written.
 """
 
@@ -239,17 +239,18 @@ def write_trial(
     prepared: Prepared,
     i: int,
     out: Path,
-    motion_file: str,
+    folder: str,
     frames: slice,
 ) -> tuple[dict[str, Any] | None, list[str]]:
-    """Write trial ``i``'s events.csv and, with loads and a mass, its kinetics into ``out``
-    (its motion ``motion_file`` over the recording's rows ``frames``); summary.json's entry
-    of the trial's kinetics (None without) and the files written."""
-    suffix = "" if i == 0 else f"_{i}"
+    """Write trial ``i``'s events.csv and, with loads and a mass, its kinetics into
+    ``out / folder`` (its motion.npz there, over the recording's rows ``frames``; model.xml
+    in ``out``); summary.json's entry of the trial's kinetics (None without) and the files
+    written, relative to ``out``."""
+    where = out / folder
+    where.mkdir(parents=True, exist_ok=True)
     events = _in_frames(prepared.events[i], prepared, i, frames)
-    name = EVENTS_CSV.replace(".csv", f"{suffix}.csv")
-    atomic_write_text(out / name, events_csv(events))
-    written = [name]
+    atomic_write_text(where / EVENTS_CSV, events_csv(events))
+    written = [_relative(where / EVENTS_CSV, out)]
     trial = prepared.loads[i]
     if trial is None or prepared.mass is None:
         return None, written
@@ -270,12 +271,12 @@ def write_trial(
         return {**head, "stance_frames": 0, "files": written, "note": note}, written
     t0 = time.perf_counter()
     dyn, force_dofs = dynamics_of_files(
-        out / "model.xml", out / motion_file, body_loads(feet), mass, sex=SEX
+        out / "model.xml", where / "motion.npz", body_loads(feet), mass, sex=SEX
     )
     seconds = time.perf_counter() - t0
-    files = write_dynamics(out, dyn, mass, force_dofs, suffix=suffix)
-    grf = write_grf(out / GRF_CSV.replace(".csv", f"{suffix}.csv"), dyn.times, feet)
-    written += [f.name for f in files] + [grf.name]
+    files = write_dynamics(where, dyn, mass, force_dofs)
+    grf = write_grf(where / GRF_CSV, dyn.times, feet)
+    written += [_relative(f, out) for f in (*files, grf)]
     stance = stance_frames(feet, excluded_frames(trial.found, len(trial.times))[frames])
     for f in feet:  # a still foot off the counted plates stands on something unmeasured
         stance &= f.on_plate | ~(trial.speeds[f.side][frames] < STILL_SPEED)
@@ -299,6 +300,11 @@ def write_trial(
         "inverse_dynamics_seconds": seconds,
         "files": written,
     }, written
+
+
+def _relative(path: Path, out: Path) -> str:
+    """``path`` as summary.json names it: relative to the result folder ``out``."""
+    return path.relative_to(out).as_posix()
 
 
 def _trial_head(trial: TrialLoads, feet: tuple[FootLoads, ...]) -> dict[str, Any]:

@@ -77,8 +77,11 @@ def load_trial(
     model_file = model_for(args)
     model = load_model(model_file)
     report = dataclasses.replace(
-        report, undetermined=undetermined_segments(model, [n for n in report.found if n in names])
+        report,
+        undetermined=undetermined_segments(model, [n for n in report.found if n in names]),
     )
+    set_name, set_markers = _set_vocabulary(args, names)
+    report = dataclasses.replace(report, set_name=set_name, set_markers=set_markers)
     if not report.found:
         which = f"the model {model_file}" if model_file else "the bundled model"
         raise MocapError(
@@ -86,6 +89,22 @@ def load_trial(
             f"{list(names[:8])}...; the file's names: {list(file_names[:8])}...)"
         )
     return Trial(path, np.asarray(times), markers, float(rate), report, first)
+
+
+def _set_vocabulary(
+    args: argparse.Namespace, names: tuple[str, ...]
+) -> tuple[str | None, tuple[str, ...]]:
+    """The marker report's set (``set_name``, ``set_markers``) when the command's set is a
+    part of the model's markers ``names`` (a lower-body set on the bundled humanoid): its
+    messages then count the set's markers, not the model's. (None, ()) otherwise."""
+    path = set_file(args)
+    if path is None:
+        return None, ()
+    ours = load_marker_set(path).names
+    if set(ours) >= set(names) or not set(ours) <= set(names):
+        return None, ()
+    record = getattr(args, "marker_set_record", None) or {}
+    return str(record.get("name") or path.stem), tuple(ours)
 
 
 def model_for(args: argparse.Namespace) -> str | None:

@@ -38,7 +38,7 @@ REMOVED: dict[str, dict[str, str]] = {
         **{f: _EXPERIMENT for f in ("--sampling", "--iterations", "--step", "--delta")},
         **{f: _EXPERIMENT for f in ("--fraction", "--seed")},
         "--robust": "use --loss cauchy",
-        "--init": _RECIPE.format(field="init", value="placed|scaled|nominal"),
+        "--init": _RECIPE.format(field="init", value="constructed|placed|scaled|nominal"),
         "--select": _RECIPE.format(field="select", value="N|auto|all"),
         "--max-iterations": _RECIPE.format(field="max_iterations", value="N"),
         "--prior-mm": _RECIPE.format(field="prior_sigma", value="M (in metres: 50 mm is 0.05)"),
@@ -57,7 +57,7 @@ REMOVED: dict[str, dict[str, str]] = {
     },
     "ik": {"--robust": "use --loss cauchy"},
     "batch": {
-        "--init": _RECIPE.format(field="init", value="placed|scaled|nominal"),
+        "--init": _RECIPE.format(field="init", value="constructed|placed|scaled|nominal"),
         "--max-iterations": _RECIPE.format(field="max_iterations", value="N"),
         "--prior-mm": _RECIPE.format(field="prior_sigma", value="M (in metres: 50 mm is 0.05)"),
     },

@@ -200,3 +200,15 @@ def write_summary(out: Path, summary: Mapping[str, Any]) -> None:
     from mocap_mj.io.strict_json import dumps
 
     atomic_write_text(out / "summary.json", dumps(summary, indent=2) + "\n")
+
+
+def add_trial_flag(p: Any) -> None:
+    """``--trial NAME|INDEX``: which trial of a multi-trial result a command reads."""
+    p.add_argument(
+        "--trial",
+        metavar="TRIAL",
+        help="which trial of a result of several: its index (0 = the first) or its name, its "
+        "file's stem, as summary.json's trials and report.md list them; the first trial's "
+        "files are at the top of the result, each further one's in trials/NAME/ "
+        "(default: the first)",
+    )

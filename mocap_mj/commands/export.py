@@ -23,7 +23,7 @@ from mocap_mj.commands.common import (
     write_summary,
 )
 from mocap_mj.export.read_result import ExportSource, load_result
-from mocap_mj.pipeline.motion import ResultDir
+from mocap_mj.pipeline.trials import open_trial
 from mocap_mj.skeleton.mjcf import load_model
 
 from ..anatomy.inertia import Sex, segment_inertia
@@ -246,7 +246,7 @@ def _source(args: argparse.Namespace) -> ExportSource:
             raise MocapError(f"--{flag}: only for --to glb")
     if getattr(args, "compare", None) and args.to != "angles":
         raise MocapError("--compare: only for --to angles")
-    return load_result(args.result, getattr(args, "motion", None))
+    return load_result(args.result, getattr(args, "motion", None), getattr(args, "trial", None))
 
 
 #: The built-in formats (their names, suffixes and help: :data:`.parsers.EXPORT_FORMATS`).
@@ -266,7 +266,7 @@ def exporters() -> dict[str, Exporter]:
 def _result_files(args: argparse.Namespace) -> list[Path]:
     """The files of RESULT_DIR (and ``--motion``) that an exported file must not replace."""
     try:
-        rd = ResultDir.open(args.result) if args.result else None
+        rd = open_trial(args.result, getattr(args, "trial", None)) if args.result else None
     except MocapError:  # reported by the exporter, with the rest of its checks
         return []
     files = [Path(args.motion)] if getattr(args, "motion", None) else []

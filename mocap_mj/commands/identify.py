@@ -5,9 +5,11 @@ positions (kinematic parameters) and every marker's offset on its segment, toget
 joint motion of every frame, by one Levenberg-Marquardt fit over all frames; the choices of
 the identification come from a YAML --recipe, the subject's measurements from the C3D files,
 a --subject-file, --height and --mass (docs/cli.md). Writes OUT/model.xml (the identified MJCF),
-theta.json, motion.npz (first trial; motion_<i>.npz for the others), angles.csv (the model's
-angles in Plug-in Gait's conventions; report.md compares them with the Nexus angles a C3D
-holds), identifiability.json, report.md, plots and summary.json; docs/outputs.md explains
+theta.json, per trial its motion.npz, angles.csv (the model's angles in Plug-in Gait's
+conventions; report.md compares them with the Nexus angles a C3D holds), joint_centres.csv
+and marker_error.png (the first trial's at the top of OUT, each further trial's in
+OUT/trials/<its file's stem>/; export and render --trial choose one), identifiability.json,
+report.md (a section per trial), plots and summary.json; docs/outputs.md explains
 them. The folder appears
 only when the fit is complete; a fit that cannot be determined by the data is refused.
 Before the fit the marker data are checked for markers that do not move with their segment
@@ -17,8 +19,8 @@ drops markers' data. The anatomical fit also checks T10's placement against the 
 ``placement`` finding, a warning like the others; --quality refuse refuses it too, before
 the fit).
 With force plates (a C3D's own, or --forces, one file per marker file) and a body mass, every
-such trial's joint moments (dynamics.csv, grf.csv, root_residuals.csv; _<i> for a later
-trial) and model.xml with the segments' masses and inertias (docs/dynamics.md); every trial's
+such trial's joint moments (dynamics.csv, grf.csv, root_residuals.csv, in the trial's
+folder) and model.xml with the segments' masses and inertias (docs/dynamics.md); every trial's
 gait events go to events.csv.
 """
 
@@ -43,6 +45,7 @@ from mocap_mj.pipeline.api import Hooks, identify_prepared, select_count
 from mocap_mj.pipeline.fit import Fit
 from mocap_mj.pipeline.prepare import ModelChoice, Prepared, Recording, checked, selected
 from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.pipeline.trials import trial_folders
 from mocap_mj.skeleton import prewarm
 from mocap_mj.skeleton.mjcf import load_model
 from mocap_mj.skeleton.parameters import ParameterSet
@@ -180,10 +183,10 @@ def _write_kinetics(
         inertia = segment_inertia(load_model(model_xml), kinetics.mass, sex=SEX)
         atomic_write_text(model_xml, with_inertials(model_xml.read_text(), inertia))
     entries, files = [], []
-    for i, t in enumerate(loaded):
+    folders = trial_folders([t.path for t in loaded])
+    for i, (t, folder) in enumerate(zip(loaded, folders, strict=True)):
         sl = frame_range(args.frames, len(t.markers), t.path)
-        motion = "motion.npz" if i == 0 else f"motion_{i}.npz"
-        entry, written = write_trial(args, kinetics, i, out, motion, sl)
+        entry, written = write_trial(args, kinetics, i, out, folder, sl)
         entries.append(entry)
         files += written
     section = summary_of(kinetics, entries)

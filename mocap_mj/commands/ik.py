@@ -135,7 +135,7 @@ def _kinetics_of(
     """summary.json's ``kinetics`` of the trial (:mod:`._kinetics`) and the files written."""
     if kinetics is None:
         return None, []
-    entry, files = write_trial(args, kinetics, 0, out, "motion.npz", sl)
+    entry, files = write_trial(args, kinetics, 0, out, "", sl)
     return summary_of(kinetics, [entry]), files
 
 
@@ -209,7 +209,7 @@ def _solve_and_write(
             if sliding is not None
             else ""
         )
-        + (f"\nmarkers in the file without a valid sample: {', '.join(never)}" if never else "")
+        + _without_samples(never, trial.report.found)
         + ("" if quality is None else f"\n{quality_text(quality)}")
         + (f"\njoints held at a limit of their range: {held}" if held else "")
         + (f"\n{kin_text}" if section is not None and (kin_text := text_of(section)) else "")
@@ -218,3 +218,10 @@ def _solve_and_write(
         + "model.xml, summary.json"
     )
     return summary, text
+
+
+def _without_samples(never: list[str], found: tuple[str, ...]) -> str:
+    """The output's line on the file's markers without a valid sample (``never``: every
+    model marker without one; only those the file has, ``found``, are the file's)."""
+    empty = [n for n in never if n in found]
+    return f"\nmarkers in the file without a valid sample: {', '.join(empty)}" if empty else ""

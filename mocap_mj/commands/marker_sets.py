@@ -17,7 +17,7 @@ from mocap_mj.capture.marker_set import MarkerSet
 from mocap_mj.capture.marker_sets import DEFAULT, FIT_FRACTION, bundled, bundled_names, check
 from mocap_mj.commands.common import finish
 
-from ..io.labels import file_labels
+from ..io.labels import file_labels, non_marker_points
 from ..io.names import load_marker_map
 
 
@@ -68,6 +68,7 @@ def checked(args: argparse.Namespace) -> dict[str, Any]:
         "mapped": [_mapped(c.marker_set, lab, n) for lab, n in c.match.mapped],
         "missing": list(c.match.missing),
         "ignored": list(c.match.ignored),
+        "not_markers": non_marker_points(args.check, subject=args.subject, marker_map=rename),
     }
 
 
@@ -85,7 +86,16 @@ def _check_text(r: dict[str, Any]) -> str:
     for m in r["mapped"]:
         lines.append(f"  {m['label']} -> {m['marker']} ({m['body']}, {m['landmark'] or '-'})")
     lines.append(f"missing ({len(r['missing'])}): {' '.join(r['missing']) or 'none'}")
-    lines.append(f"ignored ({len(r['ignored'])}): {' '.join(r['ignored']) or 'none'}")
+    lines.append(
+        f"labels not of the set, ignored ({len(r['ignored'])}): {' '.join(r['ignored']) or 'none'}"
+    )
+    if r["not_markers"]:
+        outputs = r["not_markers"]
+        lines.append(
+            f"points that are no markers (a Nexus output's angles, bone points, kinetics), "
+            f"ignored ({len(outputs)}): {' '.join(outputs[:12])}"
+            + (f" ... ({len(outputs) - 12} more)" if len(outputs) > 12 else "")
+        )
     return "\n".join(lines)
 
 

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from ._removed import add_removed_flags
-from .common import add_force_flag, add_json_flag, number
+from .common import add_force_flag, add_json_flag, add_trial_flag, number
 from .options import (
     LOSSES,
     UP_AXES,
@@ -208,6 +208,7 @@ def register_export(sub: Any) -> None:
         choices=sorted(n for n, _ in helps),
         help="format (default: from the suffix of --out)",
     )
+    add_trial_flag(p)
     p.add_argument(
         "--out",
         metavar="PATH",

@@ -17,6 +17,7 @@ import mujoco
 import numpy as np
 
 from mocap_mj.pipeline.motion import Motion, ResultDir, load_motion, read_summary
+from mocap_mj.pipeline.trials import open_trial
 from mocap_mj.skeleton import rolling
 from mocap_mj.skeleton.mjcf import load_model
 
@@ -64,20 +65,25 @@ def posed_frames(model: mujoco.MjModel, qpos: np.ndarray) -> Iterator[tuple[int,
 
 
 def frame_rate(times: np.ndarray) -> float:
-    """Frame rate [Hz] of times (T,) [s]: 1 / median step; 1 Hz for fewer than two frames."""
+    """Frame rate [Hz] of times (T,) [s]: 1 / median step to 10 significant digits (times
+    summed in floating point make 100 Hz 99.99999999999991); 1 Hz for fewer than two
+    frames."""
     steps = np.diff(np.asarray(times, dtype=float))
     if len(steps) == 0 or not np.median(steps) > 0:
         return 1.0
-    return float(1.0 / np.median(steps))
+    return float(f"{1.0 / np.median(steps):.10g}")
 
 
-def load_result(path: str | Path, motion_path: str | Path | None = None) -> ExportSource:
+def load_result(
+    path: str | Path, motion_path: str | Path | None = None, trial: str | None = None
+) -> ExportSource:
     """Read the result folder ``path`` (see the module doc); bad folders raise one clear line.
 
-    ``motion_path`` replaces ``motion.npz`` (e.g. ``motion_1.npz``, the second trial of a
-    multi-trial ``identify``).
+    ``trial``: which trial's motion of a multi-trial ``identify`` (its index or name,
+    :func:`mocap_mj.pipeline.trials.open_trial`; default the first). ``motion_path``
+    replaces the motion file.
     """
-    rd = ResultDir.open(path)
+    rd = open_trial(path, trial)
     if motion_path is not None:
         rd = ResultDir(rd.root, rd.model, Path(motion_path))
     model = load_model(rd.model)

@@ -63,6 +63,19 @@ def file_labels(
     return [rename.get(name, name) for _, name in keep]
 
 
+def non_marker_points(
+    path: str | os.PathLike[str],
+    *,
+    subject: str | None = None,
+    marker_map: Mapping[str, str] | str | os.PathLike[str] | None = None,
+) -> list[str]:
+    """The points of ``path`` that are no markers and that :func:`file_labels` leaves out:
+    a Nexus output's angles, bone points, moments, powers (the file's labels)."""
+    file, _, rename = _arguments(path, marker_map, None, None)
+    _, _, _, dropped, _ = _select_markers(file, _raw_without_positions(file), subject, rename)
+    return dropped
+
+
 def names_in_set(
     labels: list[str], set_names: Collection[str], renamed: Collection[str] = ()
 ) -> list[str]:

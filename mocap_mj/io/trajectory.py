@@ -203,6 +203,13 @@ class MarkerReport:
     undetermined : tuple of str
         Model bodies no marker found determines (set by the caller that knows the model, see
         :func:`mocap_mj.capture.marker_set.undetermined_segments`); empty by default.
+    set_name : str or None
+        The marker set the recording uses when it is part of the model's markers (e.g. a
+        lower-body set on the full-body model; set by the caller that chose the set): the
+        text then counts and lists the set's markers, and names the model's others once as
+        outside the set. None: the model's markers are the set.
+    set_markers : tuple of str
+        That set's markers (empty with ``set_name`` None).
     """
 
     found: tuple[str, ...]
@@ -213,6 +220,8 @@ class MarkerReport:
     missing_samples: Mapping[str, int] = field(default_factory=dict)
     zero_samples: Mapping[str, int] = field(default_factory=dict)
     undetermined: tuple[str, ...] = ()
+    set_name: str | None = None
+    set_markers: tuple[str, ...] = ()
 
     @property
     def complete(self) -> bool:
@@ -220,12 +229,24 @@ class MarkerReport:
         return not self.missing and all(self.fraction_present[n] == 1.0 for n in self.found)
 
     def __str__(self) -> str:
-        n_model = len(self.found) + len(self.missing)
-        lines = [
-            f"{len(self.found)} of {n_model} model markers found, {len(self.extras)} extra, "
-            f"{self.n_frames} frames"
-        ]
-        lines.append("missing: " + (" ".join(self.missing) if self.missing else "none"))
+        if self.set_name is not None:
+            ours = set(self.set_markers)
+            missing = [n for n in self.missing if n in ours]
+            outside = len([n for n in (*self.found, *self.missing) if n not in ours])
+            lines = [
+                f"{len([n for n in self.found if n in ours])} of the {len(ours)} markers of the "
+                f"set {self.set_name!r} found, {len(self.extras)} extra, {self.n_frames} frames"
+            ]
+            lines.append("missing: " + (" ".join(missing) if missing else "none"))
+            if outside:
+                lines.append(f"the model's {outside} other markers are not of the set: not fitted")
+        else:
+            n_model = len(self.found) + len(self.missing)
+            lines = [
+                f"{len(self.found)} of {n_model} model markers found, {len(self.extras)} extra, "
+                f"{self.n_frames} frames"
+            ]
+            lines.append("missing: " + (" ".join(self.missing) if self.missing else "none"))
         if self.undetermined:
             lines.append(
                 "segments no marker found determines (their joint angles and the lengths "
@@ -235,14 +256,14 @@ class MarkerReport:
             lines.append("extras (not in the model, ignored by fitting): " + " ".join(self.extras))
         gaps = [n for n in self.found if self.fraction_present[n] < 1.0]
         if gaps:
-            lines.append("model markers with gaps (% of frames seen, samples missing):")
+            lines.append("markers with gaps (% of frames seen, samples missing):")
             lines.extend(
                 f"  {n:<8} {100.0 * self.fraction_present[n]:6.1f}%  "
                 f"{self.missing_samples.get(n, 0)} missing{self._zeros(n)}"
                 for n in gaps
             )
         elif self.found:
-            lines.append("every model marker found is seen in every frame")
+            lines.append("every marker found is seen in every frame")
         return "\n".join(lines)
 
     def _zeros(self, name: str) -> str:

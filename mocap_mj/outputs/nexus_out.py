@@ -1,6 +1,6 @@
 """report.md's "Joint centres against Plug-in Gait" and summary.json's
 ``joint_centres_vs_plug_in_gait``: the identified model's joint centres against the bone
-points Vicon Nexus stored in the first trial's C3D (:mod:`mocap_mj.clinical.nexus_centres`,
+points Vicon Nexus stored in each trial's C3D (:mod:`mocap_mj.clinical.nexus_centres`,
 :mod:`mocap_mj.clinical.centre_causes`). A file without them gives neither."""
 
 from __future__ import annotations
@@ -32,11 +32,11 @@ SOURCES = {"shoulder": "SHO and the shoulder offset rows", "wrist": "wrist bar r
 
 
 def centres_vs_nexus(
-    fit: Fit, summary: Mapping[str, Any]
+    fit: Fit, summary: Mapping[str, Any], trial: int = 0
 ) -> tuple[list[str], dict[str, Any] | None]:
-    """(report lines, summary entry) of the first trial's joint centres against Nexus's
-    in its C3D; ([], None) when the file is no C3D or holds no bone points."""
-    path = Path(str(fit.trials[0].name)) if fit.trials else None
+    """(report lines, summary entry) of trial ``trial``'s joint centres (default the first)
+    against Nexus's in its C3D; ([], None) when the file is no C3D or holds no bone points."""
+    path = Path(str(fit.trials[trial].name)) if trial < len(fit.trials) else None
     if path is None or path.suffix.lower() != ".c3d" or not path.is_file():
         return [], None
     title = ["## Joint centres against Plug-in Gait", ""]
@@ -51,14 +51,14 @@ def centres_vs_nexus(
         return [*title, f"Not compared: {exc}", ""], None
     if nexus is None:
         return [], None
-    m = fit.motion[0]
+    m = fit.motion[trial]
     model = fit.pset.model_for(fit.theta)
     centres = np.full((len(m.qpos), len(JOINT_CENTRE_NAMES), 3), np.nan)
     pelvis = np.full((len(m.qpos), 3, 3), np.nan)
     bodies, pel = centre_bodies(model), model.body("pelvis").id
     for t, data in rolling.posed(model, m.qpos):
         centres[t], pelvis[t] = data.xpos[bodies], data.xmat[pel].reshape(3, 3)
-    rows = rows_for(fit.first_frames[0] + np.arange(len(m.qpos)), nexus)
+    rows = rows_for(fit.first_frames[trial] + np.arange(len(m.qpos)), nexus)
     try:
         rot, shift = lab_from_ours(nexus, rows, fit.pset.marker_names, m.markers)
     except MocapError as exc:

@@ -31,7 +31,7 @@ from ..errors import ArgumentError, ArgumentTypeError, InputFileError, MocapErro
 from ..io.atomic import atomic_write_text
 from ..io.yaml_file import read_yaml
 
-Init = Literal["placed", "scaled", "nominal"]
+Init = Literal["constructed", "placed", "scaled", "nominal"]
 #: Initial models (:attr:`Recipe.init`).
 INITS: tuple[str, ...] = get_args(Init)
 HipCentre = Literal["harrington", "davis"]
@@ -55,6 +55,7 @@ NUMERIC_RANGES: dict[str, tuple[float, float, str]] = {
     "observable_std": (1e-5, 1.0, "a standard deviation in m"),
     "symmetric": (1e-4, 1.0, "a width in m"),
     "select": (1, 10**9, "a number of frames"),
+    "silent_axis_sd": (1e-3, 3.2, "a standard deviation in rad"),
 }
 
 
@@ -64,10 +65,13 @@ class Recipe:
 
     Attributes
     ----------
-    init : "placed", "scaled" or "nominal"
-        Initial model and prior mean: placed = the nominal model scaled to the subject from
-        marker distances, the marker offsets then placed by IK; scaled = scaled only;
-        nominal = the bundled model as it is.
+    init : "constructed", "placed", "scaled" or "nominal"
+        Initial model and prior mean: constructed = the joint centres, segment lengths and
+        the offsets of the markers on the thighs, shanks, upper arms and forearms from
+        the anatomical constructions on the recording (:mod:`~mocap_mj.anatomy.constructed`;
+        any posture), the other markers placed by IK; placed = the nominal model scaled to
+        the subject from marker distances, the marker offsets then placed by IK; scaled =
+        scaled only; nominal = the bundled model as it is.
     anatomy : bool
         Anatomical ranges as bounds and the landmark priors (:mod:`~mocap_mj.anatomy.anatomy`,
         :mod:`~mocap_mj.anatomy.ranges`).
@@ -121,9 +125,15 @@ class Recipe:
     strict : bool
         Refuse the data when the quality check finds anything, a label needs correcting or
         T10's placement is suspect (False: warn and carry on).
+    silent_axis_sd : float [rad]
+        With anatomy: a flexion axis whose direction the markers determine to a standard
+        deviation (their Cramer-Rao bound, the construction's row taken out) above this stays
+        at its construction, and report.md says so; below it the motion places it
+        (:func:`~mocap_mj.anatomy.axes.axis_decisions`). Default 10 degrees, the joint
+        checks' limit of a determined axis.
     """
 
-    init: Init = "placed"
+    init: Init = "constructed"
     anatomy: bool = True
     symmetric: float | None = None
     asymmetry_prior: bool = True
@@ -144,6 +154,7 @@ class Recipe:
     frames: str | None = None
     relabel: bool = True
     strict: bool = False
+    silent_axis_sd: float = 0.17453292519943295  # 10 deg: anatomy.axes.SILENT_AXIS_SD
 
     def __post_init__(self) -> None:
         for field in dataclasses.fields(self):

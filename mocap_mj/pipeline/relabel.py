@@ -76,7 +76,6 @@ candidate confirmed, whatever the recording's length.
 from __future__ import annotations
 
 import itertools
-import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -460,9 +459,11 @@ def _pose(solver: IKSolver, x: np.ndarray, *, origins: bool = False) -> _Pose:
 
 def _rms(sq: np.ndarray) -> np.ndarray:
     """(n,) [m]: the RMS over the columns of sq (n, k) [m^2] present in each row (NaN: none)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # a row with none present: NaN
-        return np.sqrt(np.nanmean(sq, axis=1))
+    ok = ~np.isnan(sq)
+    count = ok.sum(axis=1)
+    out = np.full(len(sq), np.nan)
+    np.sqrt(np.where(ok, sq, 0.0).sum(axis=1) / np.maximum(count, 1), out=out, where=count > 0)
+    return out
 
 
 def _medians(o: np.ndarray, n: np.ndarray) -> tuple[float, float] | None:
@@ -506,33 +507,53 @@ class _Local:
             self.root = int(pset.model.body_parentid[self.root])
         assert base.origins is not None
         self.origins = base.origins
+        #: the frames last screened and their segments' fits as labelled (:meth:`screen`)
+        self._labelled: tuple[np.ndarray | None, dict[int, np.ndarray]] = (None, {})
 
-    def residuals(self, y: np.ndarray, slots: Sequence[int]) -> np.ndarray:
+    def residuals(
+        self, y: np.ndarray, slots: Sequence[int], cache: dict[int, np.ndarray] | None = None
+    ) -> np.ndarray:
         """(n,) [m]: RMS residual of the markers ``slots`` of y (n, M, 3) [m] in the rigid
-        fits of their segments (NaN where a segment has fewer than three points)."""
+        fits of their segments (NaN where a segment has fewer than three points). ``cache``:
+        each segment's fit to this same y, kept across calls (the labels as recorded are one
+        y for every candidate of a round: their fits are made once)."""
         sq = np.full((len(y), len(slots)), np.nan)
         for b in sorted({int(self.body[m]) for m in slots}):
             members = np.flatnonzero(self.body == b)
-            ref, meas = self.offsets[members], y[:, members]
-            if b != self.root:
-                ref = np.vstack([ref, np.zeros(3)])
-                meas = np.concatenate([meas, self.origins[:, b][:, None]], axis=1)
-            if len(ref) < 3:
+            got = cache.get(b) if cache is not None else None
+            if got is None:
+                got = self._segment_sq(y, b, members)
+                if cache is not None:
+                    cache[b] = got
+            if not got.size:
                 continue
-            rot, pos = rigid_fit(meas, ref)
-            fit = np.einsum("tij,mj->tmi", rot, ref) + pos[:, None]
             for k, m in enumerate(slots):
                 if self.body[m] == b:
-                    at = int(np.flatnonzero(members == m)[0])
-                    sq[:, k] = np.sum((fit[:, at] - meas[:, at]) ** 2, axis=1)
+                    sq[:, k] = got[:, int(np.flatnonzero(members == m)[0])]
         return _rms(sq)
+
+    def _segment_sq(self, y: np.ndarray, b: int, members: np.ndarray) -> np.ndarray:
+        """(n, len(members)) [m^2]: the squared residuals of segment b's markers in its
+        rigid fit to y (its joint centre included but for the root); (n, 0) when it has
+        fewer than three points."""
+        ref, meas = self.offsets[members], y[:, members]
+        if b != self.root:
+            ref = np.vstack([ref, np.zeros(3)])
+            meas = np.concatenate([meas, self.origins[:, b][:, None]], axis=1)
+        if len(ref) < 3:
+            return np.empty((len(y), 0))
+        rot, pos = rigid_fit(meas, ref)
+        fit = np.einsum("tij,mj->tmi", rot, ref) + pos[:, None]
+        return np.asarray(np.sum((fit - meas) ** 2, axis=2)[:, : len(members)])
 
     def screen(self, c: Candidate, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(old, new) (n,) [m]: c's markers' residuals in the rigid fits, as labelled and
-        exchanged."""
+        exchanged (the fits as labelled made once per x)."""
+        if self._labelled[0] is not x:
+            self._labelled = (x, {})
         y = x.copy()
         y[:, list(c.slots)] = x[:, list(c.sources)]
-        return self.residuals(x, c.slots), self.residuals(y, c.slots)
+        return self.residuals(x, c.slots, self._labelled[1]), self.residuals(y, c.slots)
 
 
 def _confirm(

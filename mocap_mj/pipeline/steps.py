@@ -15,8 +15,15 @@ from typing import Any
 import numpy as np
 
 from mocap_mj.anatomy.anatomy import ASYMMETRY_SIGMA, landmark_prior, symmetric_prior
-from mocap_mj.anatomy.axes import angle_to_pig, axis_decisions, axis_rmse, widths
+from mocap_mj.anatomy.axes import (
+    SILENT_AXIS_SD,
+    angle_to_pig,
+    axis_decisions,
+    axis_rmse,
+    widths,
+)
 from mocap_mj.anatomy.ball_centres import centre_widths, row_spreads
+from mocap_mj.anatomy.constructed import constructed_theta
 from mocap_mj.anatomy.initial import estimate_stature, place_markers, scaled_theta, segment_scales
 from mocap_mj.anatomy.joint_checks import HOLD_RMSE_RATIO, held_joints, hold, joint_checks
 from mocap_mj.anatomy.partial import Unmeasured, freeze_unmeasured, on_measured
@@ -86,11 +93,13 @@ class HeldAtConstruction:
 class Solved:
     """The solve of :func:`solve_trials`: the parameter set solved with, the result, the
     prior weighting (:func:`solve_anatomical`), the refinement on every frame
-    (:func:`refine_on_every_frame`; None without), the sliding model weighed with and its
-    slides, the subject (stature estimated when not measured) and what the report says of
-    the solve: prior scale ``size`` [1], left/right prior ``symmetric`` [m], T10's placement,
-    the kinematic ranges (K,) [m] (with anatomy), the initial model used, the segment scales,
-    the unmeasured parameters, the solve's wall time [s], its log lines and the landmarks."""
+    (:func:`refine_on_every_frame`; None without), the sliding model weighed with, the
+    subject (stature estimated when not measured) and what the report says of the solve:
+    prior scale ``size`` [1], left/right prior ``symmetric`` [m], T10's placement, the
+    kinematic ranges (K,) [m] (with anatomy), the initial model used, the segment scales,
+    the unmeasured parameters, the solve's wall time [s], its log lines, the set's landmarks
+    and, with ``init: constructed``, the construction of each initial joint centre (joint ->
+    in words, :func:`~mocap_mj.anatomy.constructed.constructed_theta`)."""
 
     pset: ParameterSet
     result: IdentificationResult
@@ -109,6 +118,7 @@ class Solved:
     seconds: float
     log: list[str]
     landmarks: Mapping[str, str] | None = None
+    construction: Mapping[str, str] | None = None
 
     @property
     def t10_prior(self) -> T10Placement | None:
@@ -140,8 +150,10 @@ def solve_trials(
     pset, missing = freeze_unmeasured(pset, trials)
     _check_inputs(trials, pset)
     init_used = "given" if theta0 is not None else recipe.init
-    theta0, scales, pset = _initial_theta(trials, pset, theta0, recipe.init)
     subject = _with_stature(subject or Subject(), trials, pset)
+    construction = partial(constructed_theta, subject=subject, hip_centre=recipe.hip_centre,
+                           landmarks=landmarks)  # fmt: skip
+    theta0, scales, pset, sources = _initial_theta(trials, pset, theta0, recipe.init, construction)
     stature = subject.stature()
     t10 = t10_placement(pset, trials, subject) if recipe.anatomy else None  # stature estimated
     slides = SLIDES if recipe.sliding_landmarks else None
@@ -158,12 +170,14 @@ def solve_trials(
     with captured_log() as log:
         result, weighting = _solve(
             trials, pset=pset, theta0=theta0, settings=settings, progress=progress,
-            slides=slides, trial_weights=recipe.trial_weights, **options,
+            slides=slides, trial_weights=recipe.trial_weights,
+            silent_axis_sd=recipe.silent_axis_sd, **options,
         )  # fmt: skip
         if recipe.anatomy:
             result, weighting = _held_at_construction(
                 trials, result, weighting, pset=pset, theta0=theta0, settings=settings,
-                progress=progress, slides=slides, trial_weights=recipe.trial_weights, **options,
+                progress=progress, slides=slides, trial_weights=recipe.trial_weights,
+                silent_axis_sd=recipe.silent_axis_sd, **options,
             )  # fmt: skip
     refined = None
     if recipe.refine and whole is not None:
@@ -182,7 +196,7 @@ def solve_trials(
         pset=pset, result=result, weighting=weighting, refined=refined, sliding=sliding,
         slides=slides, subject=subject, size=options["size"], symmetric=options["symmetric"],
         t10=t10, ranges=ranges, init_used=init_used, scales=scales, missing=missing,
-        seconds=time.perf_counter() - t0, log=log, landmarks=landmarks,
+        seconds=time.perf_counter() - t0, log=log, landmarks=landmarks, construction=sources,
     )  # fmt: skip
 
 
@@ -354,27 +368,36 @@ def _initial_theta(
     pset: ParameterSet,
     theta0: np.ndarray | None,
     init: str,
-) -> tuple[np.ndarray | None, dict[str, float], ParameterSet]:
+    construction: Callable[..., tuple[np.ndarray, tuple[str, ...], dict[str, str]]] | None = None,
+) -> tuple[np.ndarray | None, dict[str, float], ParameterSet, dict[str, str]]:
     """The initial model (P,) of :func:`solve_trials`, the segment scale estimates
-    behind it (name -> factor; empty unless ``init`` scaled the nominal model) and the
-    parameter set to solve with: ``pset`` with its knee rolling scaled to the initial model
-    (:meth:`ParameterSet.with_rolling_scaled`, fixed for the solve).
+    behind it (name -> factor; empty unless ``init`` scaled the nominal model), the
+    parameter set to solve with (``pset`` with its knee rolling scaled to the initial model,
+    :meth:`ParameterSet.with_rolling_scaled`, fixed for the solve) and each constructed
+    joint centre's construction (joint -> in words; empty unless constructed).
 
     A given ``theta0`` is kept with the model file's rolling (an exported model.xml holds its
     subject's), as is the nominal model; otherwise ``init="nominal"`` leaves it None (the
     solver starts from the nominal model), ``"scaled"`` scales the
-    nominal model to the trials' marker distances and ``"placed"`` also places the marker
-    offsets by IK (with the scaled rolling)."""
+    nominal model to the trials' marker distances, ``"placed"`` also places the marker
+    offsets by IK (with the scaled rolling) and ``"constructed"`` (with ``construction``,
+    :func:`~mocap_mj.anatomy.constructed.constructed_theta` given the subject) first puts the
+    joint centres and the offsets of the constructed segments' markers where the anatomical
+    constructions put them, then places the other markers by IK."""
     scales: dict[str, float] = {}
+    sources: dict[str, str] = {}
     if theta0 is None and init != "nominal":
         markers = [t.markers for t in trials]
         estimates = segment_scales(pset, markers)
         theta0 = scaled_theta(pset, markers, scales=estimates)
         scales = {n: e.value for n, e in estimates.items()}
+        kept: tuple[str, ...] = ()
+        if init == "constructed" and construction is not None:
+            theta0, kept, sources = construction(pset, theta0, markers)
         pset = pset.with_rolling_scaled(theta0)
-        if init == "placed":
-            theta0 = place_markers(pset, theta0, markers)
-    return theta0, scales, pset
+        if init in ("placed", "constructed"):
+            theta0 = place_markers(pset, theta0, markers, kept=kept)
+    return theta0, scales, pset, sources
 
 
 def _solve(
@@ -393,6 +416,7 @@ def _solve(
     trial_weights: bool = True,
     hip_centre: str = "harrington",
     landmarks: Mapping[str, str] | None = None,
+    silent_axis_sd: float = SILENT_AXIS_SD,
 ) -> tuple[IdentificationResult, dict[str, Any]]:
     """The joint LM of :func:`solve_trials`: with ``anatomical`` through
     :func:`solve_anatomical` (ranges and landmark priors; ``symmetric`` [m] the left/right
@@ -414,6 +438,7 @@ def _solve(
             trial_weights=trial_weights,
             hip_centre=hip_centre,
             landmarks=landmarks,
+            silent_axis_sd=silent_axis_sd,
         )
     result = identify_lm(trials, pset=pset, theta0=theta0, settings=settings, progress=progress)
     return result, {}
@@ -526,9 +551,10 @@ def solve_anatomical(
     hip_centre: str = "harrington",
     landmarks: Mapping[str, str] | None = None,
     held: Collection[str] = (),
+    silent_axis_sd: float = SILENT_AXIS_SD,
 ) -> tuple[IdentificationResult, dict[str, Any]]:
-    """The joint LM with anatomical ranges as bounds and the anatomical priors (``t10``,
-    ``held``: :func:`anatomical_priors`; ``trial_weights``: False weighs every trial 1).
+    """The joint LM with anatomical ranges as bounds and the anatomical priors (``t10``, ``held``:
+    :func:`anatomical_priors`; ``trial_weights``: False weighs every trial 1; ``silent_axis_sd``).
 
     The priors are weighed against the markers' effective noise: a first solve uses the
     nominal marker noise (``settings.prior_noise``, 1 mm); when the artefact's noise of one
@@ -555,22 +581,16 @@ def solve_anatomical(
     priors = anatomical_priors(pset, subject, **options)
     start = pset.nominal if theta0 is None else theta0
     result = identify_lm(
-        trials,
-        pset=pset,
-        theta0=theta0,
-        settings=settings,
-        progress=progress,
-        priors=[settings.weak_prior(start), *priors],
-        lower=lower,
-        upper=upper,
-    )
+        trials, pset=pset, theta0=theta0, settings=settings, progress=progress,
+        priors=[settings.weak_prior(start), *priors], lower=lower, upper=upper,
+    )  # fmt: skip
     weighting, noise = _weighting(pset, result, trials, trial_weights)
     tau = weighting["tau_frames"]
     taus, per_trial = weighting["trial_tau_frames"], weighting["trial_weights"]
     soft = noise > REWEIGHT_RATIO * settings.prior_noise
     weak, axis_noise = settings.weak_prior(start), noise if soft else settings.prior_noise
     axes = axis_decisions(pset, result.reduced_information, result.theta, priors, weak, axis_noise,
-                          settings.prior_noise)  # fmt: skip
+                          settings.prior_noise, silent_axis_sd)  # fmt: skip
     priors = _decided(pset, subject, options, result, priors, axes, weighting, soft, settings)
     if not soft and all(w == 1.0 for w in per_trial) and not axes:
         weighting["noise_mm"] = settings.prior_noise * 1e3

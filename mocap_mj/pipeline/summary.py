@@ -58,6 +58,7 @@ def fit_report(
                       recipe.asymmetry_prior, solved.subject)
     )  # fmt: skip
     summary["hip_centre"] = recipe.hip_centre if recipe.anatomy else None
+    summary["init_centres"] = dict(solved.construction or {})
     summary.update(_measured_fields(pset, solved.missing))
     summary["sliding_landmarks"] = None if solved.sliding is None else sorted(solved.sliding.slides)
     summary["kappa_at_bound"] = _kappa_at_bound(pset, result)

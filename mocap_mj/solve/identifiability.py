@@ -241,16 +241,34 @@ class Identifiability:
             "| direction | std (mm) | in words |",
             "|---|---|---|",
         ]
+        held, listed = self.pset.frozen, 0
         for d in self.directions():
+            if float(np.sum(d.vector[~held] ** 2)) < 0.5:  # a parameter not measured
+                continue
+            listed += 1
             std = "inf" if not np.isfinite(d.std) or d.std > 1e3 else f"{d.std * 1e3:.1f}"
             lines.append(f"| {d.kind} | {std} | {d.description} |")
+        if held.any():
+            lines += [
+                "",
+                f"The {int(held.sum())} parameters not measured (no marker of the recording moves "
+                "them; summary.json's `parameters_not_measured`) are held at the prior and not "
+                "listed.",
+            ]
         lines += [
             "",
             "Weak and unobservable directions are held near the initial model by a weak prior "
-            "(50 mm for a 1 mm noise) and excluded from the headline errors.",
+            f"({self.weak_std * 1e3:.0f} mm for a 1 mm noise: the `std white` of segments.csv "
+            "for a parameter the markers do not determine) and excluded from the headline errors.",
             "",
         ]
         return lines
+
+    def undetermined(self) -> np.ndarray:
+        """(P,) bool: the parameters mostly (over half their unit vector's square) in the
+        unobservable directions (std above ``weak_std``): the data alone do not place them."""
+        sel = self.direction_std > self.weak_std
+        return np.asarray(np.sum(self.eigenvectors[:, sel] ** 2, axis=1) > 0.5)
 
 
 def _varimax(basis: np.ndarray, iterations: int = 100, tol: float = 1e-8) -> np.ndarray:

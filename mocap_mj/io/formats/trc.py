@@ -268,7 +268,7 @@ def save_trc(path: str | os.PathLike[str], traj: MarkerTrajectory) -> None:
     """
     target = Path(path)
     _check_writable_names(target, traj.names, "\t\n\r ")
-    rate = repr(traj.rate)
+    rate = f"{traj.rate:.10g}"  # 100, not 99.99999999999991 from a clock's float steps
     given = traj.source.get("first_frame")
     first = 1 if given is None else int(given)
     names = "\t".join(f"{n}\t\t" for n in traj.names)
