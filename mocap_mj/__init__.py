@@ -9,8 +9,7 @@ radians, seconds; conversion happens only at the file boundary (``mocap_mj.io``)
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from .errors import (
     InputFileError,
@@ -19,6 +18,7 @@ from .errors import (
     SolverError,
     UnknownNameError,
 )
+from .lazy import lazy_names
 
 if TYPE_CHECKING:
     from mocap_mj.io.marker_names import MARKER_NAMES
@@ -60,13 +60,7 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(module, __name__), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_names(__name__, _LAZY, globals())
 
 
 __all__ = [

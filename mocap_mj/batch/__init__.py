@@ -3,8 +3,9 @@ and the dataset summary. The command is :mod:`mocap_mj.commands.batch`."""
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from ..lazy import lazy_names
 
 if TYPE_CHECKING:
     from .dataset import OPTION_KEYS, Subject, content_hash, load_dataset
@@ -22,13 +23,7 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(module, __name__), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_names(__name__, _LAZY, globals())
 
 
 __all__ = ["OPTION_KEYS", "Outcome", "Subject", "content_hash", "load_dataset", "run_batch"]
