@@ -17,8 +17,8 @@ import pytest
 import mocap_mj
 from mocap_mj import cli
 
-DEMO_THETA_SHA256 = "60c6f104eb1b5f9b951fc1561a66a6ede0318faf7c33e64e7ecd115e1f2eb4f9"
-BENCHMARK_THETA_SHA256 = "822ec582802c4957190a116bd66256c24b0300da35b57c76479576ae9dd9b77c"
+DEMO_THETA_SHA256 = "be142e856c27ca713f0eaf6f5f522b096fb5a653988b533de94d9cbd5d5fc6c2"
+BENCHMARK_THETA_SHA256 = "182464e0527f0c44319fe23deba0981cf186d11b479f2eddee9a3e707d434642"
 
 
 def _digest(theta: np.ndarray) -> str:

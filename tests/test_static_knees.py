@@ -35,9 +35,9 @@ def test_static_hyperextended_knees_keep_their_angle() -> None:
     markers = kin.marker_positions(qpos) + rng.normal(0.0, 1e-3, (80, pset.n_markers, 3))
     subject = Subject()
     subject.set("height", 1.75, "test")
-    for side in "lr":  # the nominal model's widths (KNE 50 mm, ANK 40 mm lateral, r 7 mm)
-        subject.set(f"knee_width_{side}", 0.086, "test")
-        subject.set(f"ankle_width_{side}", 0.066, "test")
+    for side in "lr":  # the nominal model's widths (KNE 57 mm, ANK 43 mm lateral, r 7 mm)
+        subject.set(f"knee_width_{side}", 0.100, "test")
+        subject.set(f"ankle_width_{side}", 0.072, "test")
     trial = TrialData("static", markers, np.arange(80) / 100.0)
     result, weighting = solve_anatomical([trial], pset=pset, theta0=None, settings=LMSettings(),
                                          subject=subject)  # fmt: skip
