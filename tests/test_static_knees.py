@@ -22,7 +22,7 @@ HYPEREXTENSION = -8.0  # deg: beyond the former -5 degree limit, inside the norm
 def test_static_hyperextended_knees_keep_their_angle() -> None:
     """One pose held for 80 frames, both knees at -8 degrees, wands in the chord plane: the
     knee axes stay by Plug-in Gait's construction, the identified knee flexion is the
-    truth's within 1.5 degrees and no knee sits at its limit."""
+    truth's within 2 degrees and no knee sits at its limit."""
     pset = ParameterSet()
     kin = Kinematics(pset)
     q = smooth_motion(kin, 1, seed=2)[0]
@@ -52,5 +52,6 @@ def test_static_hyperextended_knees_keep_their_angle() -> None:
         angle = pig_angle(pset, result.theta, p + "THI", p + "KNE", f"knee_{side}")
         assert abs(angle) < 2.0 * d["row_sd_deg"], (side, angle)
         got = np.degrees(np.median(result.qpos[0][:, i]))
-        assert abs(got - HYPEREXTENSION) < 1.5, (side, got)
+        # within 2 deg: an axis that the rows hold to 7.7 deg turns the flexion by 1.5 of them
+        assert abs(got - HYPEREXTENSION) < 2.0, (side, got)
         assert got > lower + 0.5, (side, got, lower)
