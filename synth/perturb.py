@@ -162,10 +162,11 @@ def place_landmarks(
     (a WRA-WRB bar's own width, PSIS heights) ``d`` is the minimum-norm one, so that
     combination keeps its draw from ``theta``. Rows that cannot all hold at once (the left and
     right Harrington rows share the PSIS depth) are met in the weighted least-squares sense.
-    The kinematic parameters and the markers no row names (wand and free-placed markers, head
-    markers) are unchanged. Why: a real subject's KNE sits on the knee's axis whatever the
-    thigh's length; moving the skeleton alone would place landmarks where no subject has them,
-    and priors centred on anatomy would be biased against such a truth (docs/synth.md).
+    The kinematic parameters and the markers no row names (free-placed markers, head
+    markers) are unchanged; a wand moves only by its joint's chord plane. Why: a real
+    subject's KNE sits on the knee's axis whatever the thigh's length; moving the skeleton
+    alone would place landmarks where no subject has them, and priors centred on anatomy
+    would be biased against such a truth (docs/synth.md).
     ``landmarks`` (marker -> landmark, default none) adds the rows of a marker set's medial
     epicondyles and malleoli (``landmark_prior(..., landmarks=)``), for the same reason.
     """

@@ -79,12 +79,21 @@ def test_arm_angle_measures_the_turn(pset: ParameterSet) -> None:
         assert abs(arm_angle(pset, theta, joint) - 7.0) < 1e-6
 
 
-def test_rows_need_the_measured_widths(pset: ParameterSet) -> None:
-    """No wrist bar row and no decidable elbow row without the measured widths: Plug-in
-    Gait's construction needs them (and the demo's fit, with none, is unchanged)."""
-    labels = landmark_prior(pset).labels
-    assert not any("wrist bar" in lab or "WRA-WRB bar" in lab for lab in labels)
-    assert not any("Plug-in Gait's elbow axis" in lab for lab in labels)
+def test_rows_hold_without_the_measured_widths(pset: ParameterSet) -> None:
+    """The wrist bar's and the elbow's axis rows, and the knee's and ankle's chord planes,
+    hold without a measured width (a width places a centre along its axis, not the axis's
+    direction): one of each per side, as with the widths measured."""
+    measured = Subject()
+    for name in ("knee_width", "ankle_width", "elbow_width", "wrist_width"):
+        for side in "lr":
+            measured.set(f"{name}_{side}", 0.08, "test")
+    for subject in (None, measured):
+        labels = landmark_prior(pset, subject).labels
+        for p in "LR":
+            assert sum(lab.startswith(f"{p}WRA-WRB bar") for lab in labels) == 1
+            assert sum(lab == f"{p}ELB.x = 0 (Plug-in Gait's elbow axis)" for lab in labels) == 1
+            for wand in ("THI", "TIB"):
+                assert sum(lab.startswith(f"{p}{wand} in the plane") for lab in labels) == 1
 
 
 def test_static_trial_takes_plug_in_gaits_arm_axes(pset: ParameterSet) -> None:

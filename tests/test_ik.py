@@ -268,7 +268,7 @@ def test_a_chain_that_changes_basin_is_resolved_from_its_better_side(
     lowered = np.clip((np.arange(n) - 20) / 30, 0, 1)  # abducted for 20 frames, then down
     default = ik_module.JUMP
     first: dict[float, list[float]] = {default: [], np.inf: []}
-    for _ in range(12):
+    for _ in range(30):
         ab, twist, flex, elbow = np.radians(
             [rng.uniform(60, 110), rng.uniform(-80, 80), rng.uniform(-30, 30), rng.uniform(0, 90)]
         )

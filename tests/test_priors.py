@@ -16,6 +16,7 @@ from mocap_mj.anatomy.anatomy import (
     SIGMA_MEASURED,
     SIGMA_REGRESSED,
     SIGMA_T10_LEVEL,
+    WIDTH_RATIO,
     landmark_prior,
     marker_prior_table,
     symmetric_prior,
@@ -56,7 +57,7 @@ def test_prior_mean_and_width_per_class(pset: ParameterSet) -> None:
     table = marker_prior_table(pset, landmark_prior(pset), theta)
     mean, width = table["LKNE"]
     r = 0.007  # default 14 mm marker
-    ratio = 2 * (0.050 - 0.007) / 0.43
+    ratio = WIDTH_RATIO["knee_width"][1]  # 100 mm at the nominal 430 mm
     np.testing.assert_allclose(mean, [0.0, ratio * 0.40 / 2 + r, -0.40], atol=1e-12)
     np.testing.assert_allclose(width, [SIGMA_LANDMARK, SIGMA_REGRESSED, SIGMA_LANDMARK])
     # ANK defines the ankle centre (a convention joint): its level and depth at 3 mm.

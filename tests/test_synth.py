@@ -184,8 +184,9 @@ def test_symmetric_perturbation(pset: ParameterSet) -> None:
 
 @pytest.mark.slow
 def test_anatomical_marker_placement(pset: ParameterSet) -> None:
-    """Landmark markers follow the perturbed skeleton, within the priors' widths; the
-    skeleton and the free markers are the uniform draw's (the same stream)."""
+    """Landmark markers (and the wands, by their chord planes) follow the perturbed skeleton,
+    within the priors' widths; the skeleton and the free markers are the uniform draw's (the
+    same stream)."""
     prior = landmark_prior(pset)
     k = pset.n_kappa
     named = np.any(prior.a[:, k:] != 0.0, axis=0).reshape(-1, 3).any(axis=1)
@@ -197,7 +198,10 @@ def test_anatomical_marker_placement(pset: ParameterSet) -> None:
         np.testing.assert_array_equal(placed[:k], uniform[:k])
         moved = np.any(pset.split(placed)[1] != pset.split(uniform)[1], axis=1)
         np.testing.assert_array_equal(moved, named)  # exactly the markers the rows name
-        assert all(marker_class(n) == "landmark" for n in np.array(pset.marker_names)[moved])
+        # landmarks, and the wands their joints' chord planes name (THI, TIB)
+        wands = {p + w for p in "LR" for w in ("THI", "TIB")}
+        names = np.array(pset.marker_names)[moved]
+        assert all(marker_class(n) == "landmark" or n in wands for n in names)
         # Each row holds to its own width: normalized residuals of unit scale (a few rows
         # overlap, e.g. the left and right Harrington rows share the PSIS depth, so the RMS
         # is a little below 1), where the uniform truth's stray up to 4 widths.

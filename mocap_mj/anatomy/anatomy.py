@@ -172,13 +172,16 @@ PSIS_ABOVE_ASIS = 0.02
 #: Gait puts the ankle centre at the level of ANK on the lateral malleolus, whose tip reaches
 #: about 10 mm further distally than the medial one's.
 MEDIAL_MALLEOLUS_ABOVE = 0.010
-#: Joint width (measurement, side removed) -> (kinematic parameter, width / parameter): the
-#: regression used when the width is not measured, from the nominal model (Plug-in Gait
-#: placement of a 14 mm marker on a 1.75 m adult: knee 86 mm, ankle 66, elbow 66).
+#: Joint width (side removed) -> (kinematic parameter, width / parameter): the regression
+#: without a measurement, centred on adults' widths at the nominal lengths (1.75 m; the nominal
+#: model's markers): knee 100, elbow 70 mm across the epicondyles (Frisancho 1990), ankle 72
+#: across the malleoli (Gordon et al. 1989), wrist 40 front to back (Vicon's template prior);
+#: body mass spreads them more than stature (a heavy knee: 140 mm): :data:`SIGMA_REGRESSED`.
 WIDTH_RATIO: dict[str, tuple[str, float]] = {
-    "knee_width": ("thigh_length", 2 * (0.050 - 0.007) / 0.43),
-    "ankle_width": ("shank_length", 2 * (0.040 - 0.007) / 0.43),
-    "elbow_width": ("upperarm_length", 2 * (0.040 - 0.007) / 0.30),
+    "knee_width": ("thigh_length", 0.100 / 0.43),
+    "ankle_width": ("shank_length", 0.072 / 0.43),
+    "elbow_width": ("upperarm_length", 0.070 / 0.30),
+    "wrist_width": ("forearm_length", 0.040 / 0.26),
 }
 
 
@@ -336,7 +339,7 @@ def landmark_prior(
         pairs = medial_pairs(rows.pset, landmarks or {}, p, alias)
         widths = dict(axis_widths or {})
         for lateral in pairs:  # the pair gives the axis: no chord plane
-            widths.update({p + w: None for w, (m, _) in PIG_AXIS_WANDS.items() if p + m == lateral})
+            widths.update({p + w: None for w, m in PIG_AXIS_WANDS.items() if p + m == lateral})
         _limb_rows(rows, subject, side, p, s, widths, set(pairs))
         # The pair's midpoint is the ISB's definition of the centre, known to the markers'
         # placement: at SIGMA_CONVENTION the motion held Qualisys.c3d's knee centres 4-6 mm
@@ -633,7 +636,7 @@ def _limb_rows(
             sig = SIGMA_CONVENTION  # Plug-in Gait's knee axis decided: its centre's level too
         x_sig: float | None = sig
         on_axis = f"{m}.x = 0 (on the joint axis)"
-        if marker == "ELB" and subject.get(f"elbow_width_{side}") is not None:
+        if marker == "ELB":
             # Plug-in Gait's elbow axis through ELB, decided as the chord planes (arm_axes).
             x_sig, on_axis = axis_widths.get(m, sig), f"{m}.x = 0 (Plug-in Gait's elbow axis)"
         if m not in paired:  # a landmark pair places its centre itself (medial_rows)
@@ -642,30 +645,27 @@ def _limb_rows(
             rows.add(_level_terms(rows, subject, side, m, length, width, s), 0.0, sig,
                      f"{m}.z = -{length}")  # fmt: skip
         _width_rows(rows, subject, side, m, width)
-    for wand, (marker, width) in PIG_AXIS_WANDS.items():
+    for wand, marker in PIG_AXIS_WANDS.items():
         names = rows.pset.marker_names
-        if p + wand not in names or p + marker not in names or subject.get(width + side) is None:
-            continue  # Plug-in Gait's chord needs the joint's measured width
+        if p + wand not in names or p + marker not in names:
+            continue
         sigma = axis_widths.get(p + wand, wand_width(rows.pset, p + wand, p + marker))
         if sigma is not None:
             rows.add(*pig_axis_row(rows.pset, p + wand, p + marker, sigma))
-    for row in arm_rows(rows.pset, p, {f"wrist_width_{side}": subject.get(f"wrist_width_{side}")},
-                        axis_widths):  # fmt: skip
+    for row in arm_rows(rows.pset, p, axis_widths):
         rows.add(*row)
-    # Wrist bar on the dorsum: Plug-in Gait puts the wrist centre wrist_width/2 + r
-    # anterior (palm side) of the WRA-WRB midpoint, perpendicular to the bar.
+    # Wrist bar on the dorsum: the wrist centre wrist_width/2 + r anterior of its midpoint.
     wra, wrb = p + "WRA", p + "WRB"
     for m in (wra, wrb):
         rows.add({f"{m}.z": 1, f"forearm_length_{side}": 1}, 0.0, lm,
                  f"{m}.z = -forearm_length")  # fmt: skip
     rows.add({f"{wra}.y": 0.5, f"{wrb}.y": 0.5}, 0.0, lm, f"{p}WRA-WRB midpoint y = 0")
-    ww = subject.get(f"wrist_width_{side}")
-    mid_x = {f"{wra}.x": 0.5, f"{wrb}.x": 0.5}
-    if ww is not None:
-        rows.add(mid_x, -(ww / 2 + subject.marker_radius), SIGMA_MEASURED,
-                 f"{p}WRA-WRB midpoint x = -(wrist_width/2 + r)")  # fmt: skip
-    else:
-        rows.add(mid_x, 0.0, SIGMA_REGRESSED, f"{p}WRA-WRB midpoint x = 0 (nominal model)")
+    ww, (kappa, ratio) = subject.get(f"wrist_width_{side}"), WIDTH_RATIO["wrist_width"]
+    reg = {f"{kappa}_{side}": ratio / 2} if ww is None else {}  # the width regressed
+    name = "wrist_width" if ww is not None else f"{ratio:.3f} {kappa}"
+    rows.add({f"{wra}.x": 0.5, f"{wrb}.x": 0.5, **reg}, -((ww or 0.0) / 2 + subject.marker_radius),
+             SIGMA_MEASURED if reg == {} else SIGMA_REGRESSED,
+             f"{p}WRA-WRB midpoint x = -({name}/2 + r)")  # fmt: skip
     leg = subject.get(f"leg_length_{side}")
     if leg is not None:
         _leg_length_row(rows, subject, side, p, leg, s)

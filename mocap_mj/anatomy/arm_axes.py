@@ -18,8 +18,9 @@ round the bar's mid-point.
 
 As for the knee and ankle (:mod:`mocap_mj.anatomy.axes`), each row is a decision: where
 the recording determines the axis better than the row, the motion places it (the row left
-out); elsewhere Plug-in Gait's construction does. Both rows need the joint's measured width
-(``elbow_width_``, ``wrist_width_``), as Plug-in Gait's construction does.
+out); elsewhere Plug-in Gait's construction does. Neither row needs a measured width (the
+width places the centre along the axis, not the axis's direction), so both hold whether the
+elbow and wrist widths are measured or regressed.
 """
 
 from __future__ import annotations
@@ -66,13 +67,11 @@ def bar_row(p: str, sigma: float) -> Row:
     return {f"{p}WRA.x": 1.0, f"{p}WRB.x": -1.0}, 0.0, sigma, label
 
 
-def arm_rows(pset: ParameterSet, p: str, measured: Mapping[str, float | None],
-             widths: Mapping[str, float | None]) -> list[Row]:  # fmt: skip
-    """The wrist bar's row of side prefix ``p`` (:func:`bar_row`) when the wrist width is
-    measured (``measured``: name -> value or None) and ``widths`` (row key -> width [m],
-    None for a functional axis, :func:`mocap_mj.anatomy.axes.widths`) keeps it."""
-    side = "l" if p == "L" else "r"
-    if not has_axis(pset, "wrist", p) or measured.get(f"wrist_width_{side}") is None:
+def arm_rows(pset: ParameterSet, p: str, widths: Mapping[str, float | None]) -> list[Row]:
+    """The wrist bar's row of side prefix ``p`` (:func:`bar_row`) unless ``widths`` (row key
+    -> width [m], None for a functional axis, :func:`mocap_mj.anatomy.axes.widths`) leaves
+    it out: the bar's direction needs no measured width, only the bar."""
+    if not has_axis(pset, "wrist", p):
         return []
     sigma = widths.get(p + "WRA", bar_width(pset, p))
     return [] if sigma is None else [bar_row(p, sigma)]

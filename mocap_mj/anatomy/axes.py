@@ -76,7 +76,7 @@ def wands(pset: ParameterSet) -> list[tuple[str, str, str, str]]:
     """(wand, lateral marker, joint, side) of every chord plane ``pset`` has markers for."""
     out = []
     for side, p in (("l", "L"), ("r", "R")):
-        for wand, (marker, _) in PIG_AXIS_WANDS.items():
+        for wand, marker in PIG_AXIS_WANDS.items():
             if p + wand in pset.marker_names and p + marker in pset.marker_names:
                 out.append((p + wand, p + marker, f"{JOINT_OF[wand][0]}_{side}", side))
     return out

@@ -18,13 +18,11 @@ from mocap_mj.skeleton.parameters import ParameterSet
 Row = tuple[dict[str, float], float, float, str]
 
 #: Wand marker -> the lateral joint marker whose joint's flexion axis Plug-in Gait places
-#: in the plane of the wand (:func:`pig_axis_row`) and the measured width the construction
-#: needs (without it the row is left out: no Plug-in Gait axis without its width): the thigh
-#: wand and the knee, the tibia wand and the ankle.
-PIG_AXIS_WANDS: dict[str, tuple[str, str]] = {
-    "THI": ("KNE", "knee_width_"),
-    "TIB": ("ANK", "ankle_width_"),
-}
+#: in the plane of the wand (:func:`pig_axis_row`): the thigh wand and the knee, the tibia
+#: wand and the ankle. The plane needs no width (the width only places the centre in it), so
+#: the row holds whether the width is measured or regressed: without it a static leaves the
+#: thigh free to turn about its long axis, and the marker offsets follow.
+PIG_AXIS_WANDS: dict[str, str] = {"THI": "KNE", "TIB": "ANK"}
 #: Standard deviation [deg] of the flexion axis's turn about its segment's long axis where
 #: the chord plane places it (:func:`pig_axis_row`): the plane turns with the wand, and a
 #: wand misplaced by a few degrees turns Plug-in Gait's axis by more (knee rotation and

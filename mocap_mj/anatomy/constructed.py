@@ -23,7 +23,7 @@ Per frame (:func:`construct`), in the lab:
 * the shoulder, elbow and wrist centres: Plug-in Gait's (:mod:`mocap_mj.clinical.centres`),
   with the measured shoulder offset, elbow and wrist widths, else the landmark prior's means
   (shoulder offset 45 mm x stature / 1.75 m less the marker radius, the regressed elbow
-  width, the wrist centre at the bar's midpoint); only in frames where the elbow bends by
+  width and the regressed wrist width); only in frames where the elbow bends by
   :data:`MIN_ELBOW_BEND_DEG` or more (Plug-in Gait's elbow plane is undefined in a straight
   arm);
 * the model's body frames from those: thigh z from the knee to the hip centre, y towards KNE
@@ -266,14 +266,13 @@ def _arms(rec: _Recording, theta: np.ndarray, subject: Subject, s: float,
         half, how = _half_width(rec.pset, theta, subject, "elbow_width", side)
         ejc = centres.elbow(sjc, elb, wri, 2 * (half - r), r, side)
         ejc[~usable] = np.nan
-        ww = subject.get(f"wrist_width_{side}")
+        wrist_half, wrist_how = _half_width(rec.pset, theta, subject, "wrist_width", side)
         radius_y = frame(2, ejc - wri, 0, wra - wrb)[..., 1]
-        wjc = wri if ww is None else centres.wrist(wri, radius_y, ww, r, side)
+        wjc = centres.wrist(wri, radius_y, 2 * (wrist_half - r), r, side)
         out.centres.update({f"shoulder_{side}": sjc, f"elbow_{side}": ejc, f"wrist_{side}": wjc})
         out.sources[f"shoulder_{side}"] = "Plug-in Gait's shoulder centre"
         out.sources[f"elbow_{side}"] = f"Plug-in Gait's elbow centre, {how}"
-        out.sources[f"wrist_{side}"] = "Plug-in Gait's wrist centre" if ww is not None else (
-            "the wrist bar's midpoint")  # fmt: skip
+        out.sources[f"wrist_{side}"] = f"Plug-in Gait's wrist centre, {wrist_how}"
         out.frames[f"upperarm_{side}"] = (frame_zy(sjc - ejc, lat * (elb - ejc)), sjc)
         out.frames[f"radius_{side}"] = (frame_zy(ejc - wjc, lat * (wra - wrb)), ejc)
 

@@ -191,11 +191,26 @@ def check_marker_quality(
     """
     x = np.asarray(markers, dtype=float)
     found: list[Finding] = []
-    found += _segment_findings(path, names, x, segments, first_frame)
-    found += _jump_findings(path, names, x, rate, first_frame)
+    jumps = _jump_findings(path, names, x, rate, first_frame)
+    found += _swap_edges_dropped(_segment_findings(path, names, x, segments, first_frame), jumps)
+    found += jumps
     found += _ghost_findings(path, names, x, segments, first_frame)
     found += _bone_findings(path, names, x)
     return found
+
+
+#: Frames [file frames] within which a ``step`` that begins at a swap's first or last frame is
+#: that swap's edge (the distance returns, or leaves, with the labels), not a re-stuck marker.
+SWAP_EDGE_FRAMES = 3
+
+
+def _swap_edges_dropped(segment: list[Finding], jumps: list[Finding]) -> list[Finding]:
+    """``segment``'s findings without the steps a ``swap`` in ``jumps`` explains: same marker,
+    beginning within :data:`SWAP_EDGE_FRAMES` of the swap's start or end."""
+    edges = [(set(f.markers), f.frames) for f in jumps if f.kind == "swap" and f.frames]
+    return [f for f in segment if not (f.kind == "step" and f.frames and any(
+        set(f.markers) & m and min(abs(f.frames[0] - e) for e in fr) <= SWAP_EDGE_FRAMES
+        for m, fr in edges))]  # fmt: skip
 
 
 def between_trials(
