@@ -664,7 +664,7 @@ def _limb_rows(
     reg = {f"{kappa}_{side}": ratio / 2} if ww is None else {}  # the width regressed
     name = "wrist_width" if ww is not None else f"{ratio:.3f} {kappa}"
     rows.add({f"{wra}.x": 0.5, f"{wrb}.x": 0.5, **reg}, -((ww or 0.0) / 2 + subject.marker_radius),
-             SIGMA_MEASURED if reg == {} else SIGMA_REGRESSED,
+             SIGMA_MEASURED if ww is not None else SIGMA_REGRESSED,
              f"{p}WRA-WRB midpoint x = -({name}/2 + r)")  # fmt: skip
     leg = subject.get(f"leg_length_{side}")
     if leg is not None:

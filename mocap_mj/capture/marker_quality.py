@@ -208,9 +208,15 @@ def _swap_edges_dropped(segment: list[Finding], jumps: list[Finding]) -> list[Fi
     """``segment``'s findings without the steps a ``swap`` in ``jumps`` explains: same marker,
     beginning within :data:`SWAP_EDGE_FRAMES` of the swap's start or end."""
     edges = [(set(f.markers), f.frames) for f in jumps if f.kind == "swap" and f.frames]
-    return [f for f in segment if not (f.kind == "step" and f.frames and any(
-        set(f.markers) & m and min(abs(f.frames[0] - e) for e in fr) <= SWAP_EDGE_FRAMES
-        for m, fr in edges))]  # fmt: skip
+
+    def at_edge(f: Finding) -> bool:
+        if f.kind != "step" or f.frames is None:
+            return False
+        start = f.frames[0]
+        return any(set(f.markers) & markers and min(abs(start - e) for e in frames)
+                   <= SWAP_EDGE_FRAMES for markers, frames in edges)  # fmt: skip
+
+    return [f for f in segment if not at_edge(f)]
 
 
 def between_trials(
