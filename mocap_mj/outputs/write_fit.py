@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from mocap_mj.anatomy.axes import report_lines as axis_lines
+from mocap_mj.anatomy.hinge_centres import hinge_lines
 from mocap_mj.anatomy.joint_checks import report_line
 from mocap_mj.anatomy.plausibility import limits_text
 from mocap_mj.anatomy.segments import uncertainty_lines, write_segments_csv
@@ -183,6 +184,7 @@ def report_lines(
         *_measured_lines(pset, summary),
         *_anatomy_lines(summary),
         *centre_lines(summary.get("joint_centres_vs_regression") or {}),
+        *hinge_lines(summary.get("joint_centres_vs_construction") or {}),
         "",
         *(quality_lines(summary["marker_quality"]) if summary.get("marker_quality") else []),
         *kappa_lines(pset, result, idf, summary),

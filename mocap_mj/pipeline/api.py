@@ -21,6 +21,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from mocap_mj.anatomy.axes import knee_crosstalk, widths
+from mocap_mj.anatomy.hinge_centres import hinge_report
 from mocap_mj.capture.subject import Subject
 from mocap_mj.io.strict_json import jsonable
 from mocap_mj.kernels._threads import single_blas_thread
@@ -234,6 +235,9 @@ def _described(
     info = prior_information(priors, settings, pset.size)
     rows = add_checks(report, pset, result, trials, settings, solved.ranges, info)
     report["joint_centres_vs_regression"] = centre_fields(solved, settings, recipe)
+    report["joint_centres_vs_construction"] = hinge_report(
+        pset, result, info, report["correlation_time_frames"], solved.construction or {}
+    )
     report = jsonable(report)
     motion = tuple(
         Motion(np.asarray(q), t.times, t.markers, pset.marker_names, first_frame=f)
