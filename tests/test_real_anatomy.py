@@ -130,3 +130,13 @@ def test_multi_trial_wrist_and_elbow_centres_at_width(tmp_path: Path) -> None:
         widths = width_errors(pset, theta, motion.qpos, motion.markers, subject)
         arms = {k: v for k, v in widths.items() if k.startswith(("wrist", "elbow"))}
         assert len(arms) == 4 and all(abs(v) <= 0.005 for v in arms.values()), widths
+    # The jump places the knee axes (docs/model.md#knee-axes-in-standing): standing in the
+    # static, they lie within 15 deg of the pelvis's lateral axis (-7 / -7 measured), where
+    # Plug-in Gait's thigh wands put them 37-41 deg forward, and a note says so.
+    summary = json.loads((out / "summary.json").read_text())
+    (axes,) = summary["standing_knee_axes_deg"].values()
+    for side in "lr":
+        assert abs(axes[side]["identified"]) < 15.0, axes
+        assert axes[side]["construction"] > 30.0, axes
+    (note,) = summary["standing_notes"]
+    assert "not theirs" in note

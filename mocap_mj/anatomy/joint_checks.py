@@ -304,7 +304,7 @@ def _centre(pset: ParameterSet, theta: np.ndarray, body: str) -> np.ndarray:
     return np.asarray(pset.body_pos(theta)[pset.model.body(body).id], dtype=float)
 
 
-def _half_width(
+def half_width(
     pset: ParameterSet, theta: np.ndarray, subject: Subject, width: str, side: str
 ) -> tuple[float, float, str]:
     """(width / 2 + marker radius [m], its standard deviation [m], "measured" or
@@ -334,7 +334,7 @@ def _width_checks(
         return []
     centre = _centre(pset, theta, f"{child}_{side}")
     k = _offset(pset, theta, lateral)
-    half, sd, how = _half_width(pset, theta, subject, width, side)
+    half, sd, how = half_width(pset, theta, subject, width, side)
     tol = max(MIN_TOLERANCE, TOLERANCE_SD * sd)
     name = f"{joint}_{side}"
     out = [

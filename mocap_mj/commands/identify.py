@@ -227,8 +227,9 @@ def identified(
     for f in (summary.get("marker_quality") or {}).get("findings", []):
         if f["kind"] == "placement":  # found in the identification, after the stature
             print(f"mocap-mj {args.command}: warning: {f['message']}", file=sys.stderr)
-    if summary.get("shoulder_note"):
-        print(f"mocap-mj {args.command}: warning: {summary['shoulder_note']}", file=sys.stderr)
+    for note in [summary.get("shoulder_note"), *(summary.get("standing_notes") or [])]:
+        if note:
+            print(f"mocap-mj {args.command}: warning: {note}", file=sys.stderr)
     per_marker = np.array(
         [np.nan if v is None else v * 1e-3 for v in summary["marker_rmse_by_marker_mm"].values()]
     )

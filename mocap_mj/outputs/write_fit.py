@@ -15,6 +15,7 @@ from mocap_mj.anatomy.hinge_centres import hinge_lines
 from mocap_mj.anatomy.joint_checks import report_line
 from mocap_mj.anatomy.plausibility import limits_text
 from mocap_mj.anatomy.segments import uncertainty_lines, write_segments_csv
+from mocap_mj.anatomy.standing import standing_lines
 from mocap_mj.anatomy.tissue import SlidingModel, with_sliding_model
 from mocap_mj.capture.marker_quality import quality_lines
 from mocap_mj.capture.marker_set import load_marker_set
@@ -368,6 +369,8 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
     )
     if summary.get("shoulder_note"):
         lines.append(f"- shoulders: {summary['shoulder_note']}")
+    lines += standing_lines(summary.get("standing_knee_axes_deg") or {},
+                            summary.get("standing_notes") or [])  # fmt: skip
     held = summary.get("joints_at_limit") or {}
     lines.append(
         "- joints held at a limit of their range (share of the fitted frames): "

@@ -12,7 +12,7 @@ from mocap_mj.anatomy.anatomy import ASYMMETRY_SIGMA
 from mocap_mj.anatomy.axes import widths
 from mocap_mj.anatomy.ball_centres import centre_report, row_spreads
 from mocap_mj.anatomy.initial import marker_stature, segment_scales
-from mocap_mj.anatomy.joint_checks import checks_summary, joint_checks, violations
+from mocap_mj.anatomy.joint_checks import checks_summary, half_width, joint_checks, violations
 from mocap_mj.anatomy.partial import Unmeasured
 from mocap_mj.anatomy.plausibility import (
     implausible_reasons,
@@ -21,6 +21,7 @@ from mocap_mj.anatomy.plausibility import (
     marker_rmse_by_marker,
 )
 from mocap_mj.anatomy.segments import SegmentRow, uncertainty_summary
+from mocap_mj.anatomy.standing import standing_knee_axes, standing_note
 from mocap_mj.anatomy.tissue import arm_elevation, raised_arms_note
 from mocap_mj.anatomy.trunk import T10Placement
 from mocap_mj.capture.marker_quality import Finding
@@ -91,8 +92,35 @@ def fit_report(
         s: [float(np.degrees(a)) for a in v] for s, v in elevation.items()
     }
     summary["shoulder_note"] = raised_arms_note(elevation)
+    summary.update(_standing_fields(solved, trials))
     summary["t10_placement"] = None if solved.t10 is None else _t10_fields(solved.t10)
     return summary
+
+
+def _standing_fields(solved: Solved, trials: Sequence[TrialData]) -> dict[str, Any]:
+    """``standing_knee_axes_deg`` (trial -> side -> the identified and the constructed knee
+    axis's yaw from the pelvis's lateral axis [deg], :mod:`mocap_mj.anatomy.standing`, for
+    each trial where the subject stands) and ``standing_notes`` (one line per trial whose
+    axes are not a standing knee's)."""
+    pset, result = solved.pset, solved.result
+    names = set(pset.names)
+    half = {s: half_width(pset, result.theta, solved.subject, "knee_width", s)[0]
+            for s in ("l", "r") if f"thigh_length_{s}" in names}  # fmt: skip
+    entries: dict[str, Any] = {}
+    notes = []
+    for trial, q, used in zip(trials, result.qpos, result.used, strict=True):
+        axes = standing_knee_axes(pset, result.theta, q[used], trial.markers[used], half,
+                                  solved.landmarks)  # fmt: skip
+        if axes is None:
+            continue
+        entries[str(trial.name)] = {
+            s: {k: None if v is None else float(np.degrees(v)) for k, v in e.items()}
+            for s, e in axes.items()
+        }
+        note = standing_note(axes, str(trial.name))
+        if note:
+            notes.append(note)
+    return {"standing_knee_axes_deg": entries, "standing_notes": notes}
 
 
 def _measured_fields(pset: ParameterSet, missing: Unmeasured) -> dict[str, Any]:
