@@ -20,8 +20,9 @@ drops markers' data. The anatomical fit also checks T10's placement against the 
 the fit).
 With force plates (a C3D's own, or --forces, one file per marker file) and a body mass, every
 such trial's joint moments (dynamics.csv, grf.csv, root_residuals.csv, in the trial's
-folder) and model.xml with the segments' masses and inertias (docs/dynamics.md); every trial's
-gait events go to events.csv.
+folder) and model.xml with the segments' masses and inertias (docs/dynamics.md: de Leva's, or
+with the recipe's ``inertia: fit`` the masses fitted to the plates); every trial's gait events
+go to events.csv.
 """
 
 from __future__ import annotations

@@ -14,11 +14,12 @@ summary.json's ``inertia``
     ``source`` ("fit", or "regression" with ``note``: why the fit did not run); with the fit,
     ``segments``: per body ``regression_mass_kg``, ``fitted_mass_kg``, ``sd_kg`` (the
     posterior sd of its mass), ``scale``, ``scale_sd``, ``determined``, ``at_bound``;
-    ``singular_values`` (of the whitened design, largest first) and ``combinations_determined``
-    (those of at least ``1 / DETERMINED_SD``: a posterior sd of at most 0.1 along them);
-    ``stance_frames``; ``residuals``: per trial ``before`` and ``after`` (force RMS [N], % body
-    weight, % of the peak ground reaction, moment RMS [N m] over its stance frames) and
-    ``pooled`` (the same over all the fitted frames, % of the largest peak).
+    ``singular_values`` (B,) [1] (of the whitened design, largest first);
+    ``combinations_determined`` (the singular values of at least ``1 / DETERMINED_SD``: a
+    posterior sd of at most 0.1 along them); ``stance_frames``; ``residuals``: per trial
+    ``before`` and ``after`` (force RMS [N], % body weight, % of the peak ground reaction,
+    moment RMS [N m] over its stance frames) and ``pooled`` (the same over all the fitted
+    frames, % of the largest peak).
 """
 
 from __future__ import annotations
