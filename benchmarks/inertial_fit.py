@@ -1,7 +1,7 @@
 """The segments' masses fitted to the measured loads (mocap_mj/pipeline/inertial_fit.py): on a
 synthetic truth and on a real trial.
 
-    python benchmarks/inertial_fit.py [--result DIR] [--trial PATH]
+    python benchmarks/inertial_fit.py [--result DIR] [--trial PATH] [--identified [DIR]]
 
 Synthetic: the bundled humanoid with de Leva's parameters for 75 kg as the regression, a truth
 whose 16 segment masses are scaled by 0.8-1.25 (seed 0), a smooth 3 s motion of every joint
@@ -11,7 +11,11 @@ determine it, and the root residual before and after. Real (``--result``: an ``i
 ``identify`` result of a trial with plates, default ``ik`` run on Movement_trial.c3d into a
 temporary folder): the fit over the stance frames (a foot on a counted plate, and no foot still
 off them), the residual force RMS before and after in N, % body weight and % of the peak
-ground reaction.
+ground reaction. Identified (``--identified``): ``mocap-mj identify --markers TRIAL STATIC
+--recipe R`` with ``inertia: fit`` in R (STATIC: the Static_trial.c3d beside the trial), into
+DIR or a temporary folder, and summary.json's ``inertia``: per segment the regression's and
+the fitted mass, its sd, determined or not, the singular values, and the root residual over
+the stance frames before and after (% body weight, % of the peak ground reaction, moment).
 """
 
 from __future__ import annotations
@@ -119,12 +123,55 @@ def real(result: Path, trial: Path) -> None:
     show(fit)
 
 
+def identified(trial: Path, out: Path) -> None:
+    """identify with ``inertia: fit`` on ``trial`` and its static into ``out``; its figures."""
+    recipe = out.with_name(out.name + "_recipe.yaml")
+    recipe.write_text("inertia: fit\n")
+    static = trial.with_name("Static_trial.c3d")
+    cmd = [sys.executable, "-m", "mocap_mj", "identify", "--markers", str(trial)]
+    cmd += [str(static)] if static.is_file() else []
+    proc = subprocess.run([*cmd, "--recipe", str(recipe), "--out", str(out), "--force"],
+                          capture_output=True, text=True)  # fmt: skip
+    if proc.returncode != 0:
+        raise SystemExit(proc.stderr)
+    summary = json.loads((out / "summary.json").read_text())
+    section = summary["inertia"]
+    print(f"\nidentify {' '.join(Path(c).name for c in cmd[5:])} with inertia: fit ({out}); "
+          f"marker RMSE {summary['marker_rmse_mm']:.1f} mm")  # fmt: skip
+    if section["source"] != "fit":
+        print(f"  no fit: {section['note']}")
+        return
+    print(f"  {section['stance_frames']} stance frames, {section['combinations_determined']} "
+          f"combinations determined")  # fmt: skip
+    for label in ("before", "after"):
+        r = section["residuals"]["pooled"][label]
+        print(f"  residual force RMS {label}: {r['force_rms_n']:.1f} N = "
+              f"{r['force_rms_pct_bw']:.1f} % body weight = {r['force_rms_pct_peak_grf']:.1f} % "
+              f"of the peak ground reaction; moment {r['moment_rms_nm']:.1f} N m")  # fmt: skip
+    for b, s in section["segments"].items():
+        print(f"  {b:12s} regression {s['regression_mass_kg']:6.2f} kg fitted "
+              f"{s['fitted_mass_kg']:6.2f} +- {s['sd_kg']:.2f} kg "
+              f"{'determined' if s['determined'] else 'undetermined'}"
+              f"{' (at the bound)' if s['at_bound'] else ''}")  # fmt: skip
+    print("  singular values:", np.round(section["singular_values"], 1))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--result", type=Path, help="an ik or identify result with grf.csv")
     ap.add_argument("--trial", type=Path, default=SHARED / "data/real/Movement_trial.c3d")
+    ap.add_argument(
+        "--identified",
+        type=Path,
+        nargs="?",
+        const=Path(""),
+        metavar="DIR",
+        help="also identify with inertia: fit (into DIR, default a temporary one)",
+    )
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
+        if args.identified is not None:
+            identified(args.trial, args.identified if args.identified.name else Path(tmp) / "id")
         synthetic(Path(tmp))
         result = args.result
         if result is None:

@@ -9,12 +9,19 @@ wrench the truth motion needs (the root residual of :func:`~mocap_mj.pipeline.dy
 inverse_dynamics` without loads, on the truth model with de Leva's segment parameters for
 ``mass``, the motion smoothed as the commands smooth it). With it as the load the truth's
 residual is zero, and ``ik`` with the truth model should find it again.
+
+For the segments' mass fit (the recipe's ``inertia: fit``) the truth's segment masses can be
+de Leva's scaled per body (``scale``: body -> factor of its mass, first moment and inertia),
+and :func:`slowed` plays a motion several times slower: a range-of-motion trial slowed enough
+that its centre of pressure stays under the supporting foot, its poses varied enough that the
+plate determines most segments' masses.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import tempfile
+from collections.abc import Mapping
 from pathlib import Path
 
 import ezc3d
@@ -72,14 +79,38 @@ def lean_onto_right_foot(model: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
     return out
 
 
-def leaning(exp: Experiment, mass: float) -> Experiment:
+def truth_inertial_model(
+    model_path: Path, mass: float, scale: Mapping[str, float] | None = None
+) -> mujoco.MjModel:
+    """The model file ``model_path`` with de Leva's parameters for ``mass`` [kg], each body of
+    ``scale`` with its mass and inertia times its factor (None: de Leva's)."""
+    model = inertial_model(model_path, mass)
+    for body, factor in (scale or {}).items():
+        model.body_mass[model.body(body).id] *= factor
+        model.body_inertia[model.body(body).id] *= factor
+    return model
+
+
+def slowed(exp: Experiment, factor: float) -> Experiment:
+    """``exp`` played ``factor`` times slower: the same frames and markers at 1 / ``factor``
+    of its rate (its velocities divided by ``factor``, its accelerations by its square)."""
+    rate = exp.config.rate / factor
+    return dataclasses.replace(
+        exp,
+        times=np.arange(len(exp.times)) / rate,
+        config=dataclasses.replace(exp.config, rate=rate),
+    )
+
+
+def leaning(exp: Experiment, mass: float, scale: Mapping[str, float] | None = None) -> Experiment:
     """``exp`` with its truth motion leant onto the right foot (:func:`lean_onto_right_foot`
-    on the truth model as written, with de Leva's parameters for ``mass`` [kg]); the
-    measurement keeps its deviations from the clean markers (noise, gaps)."""
+    on the truth model as written, with de Leva's parameters for ``mass`` [kg], scaled by
+    ``scale``: :func:`truth_inertial_model`); the measurement keeps its deviations from the
+    clean markers (noise, gaps)."""
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "truth_model.xml"
         exp.pset.export_mjcf(path, exp.theta_true)
-        model = inertial_model(path, mass)
+        model = truth_inertial_model(path, mass, scale)
     layout = Layout.of(exp.pset.model)
     written = lean_onto_right_foot(model, layout.written(exp.qpos))
     qpos = np.array(exp.qpos, dtype=float)
@@ -91,11 +122,13 @@ def leaning(exp: Experiment, mass: float) -> Experiment:
     return dataclasses.replace(exp, qpos=qpos, markers_clean=clean, markers=measured)
 
 
-def needed_wrench(model_path: Path, exp: Experiment, mass: float) -> tuple[np.ndarray, np.ndarray]:
+def needed_wrench(
+    model_path: Path, exp: Experiment, mass: float, scale: Mapping[str, float] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """The ground reaction the truth motion needs per frame: force (T, 3) [N] and moment
-    about the world origin (T, 3) [N m] (the root residual without loads, smoothed as the
-    commands smooth)."""
-    model = inertial_model(model_path, mass)
+    about the world origin (T, 3) [N m] (the root residual without loads on
+    :func:`truth_inertial_model`, smoothed as the commands smooth)."""
+    model = truth_inertial_model(model_path, mass, scale)
     written = Layout.of(exp.pset.model).written(exp.qpos)
     dyn = inverse_dynamics(model, written, exp.times)
     force = dyn.root_force
@@ -140,11 +173,18 @@ def _int_parameter(c3d: ezc3d.c3d, name: str, values: list[int], shape: list[int
     c3d["parameters"].add_parameter("FORCE_PLATFORM", param)
 
 
-def write_plate_c3d(path: Path, exp: Experiment, model_path: Path, mass: float) -> Path:
+def write_plate_c3d(
+    path: Path,
+    exp: Experiment,
+    model_path: Path,
+    mass: float,
+    scale: Mapping[str, float] | None = None,
+) -> Path:
     """Write ``path``: the measured markers [mm], one type-2 plate under the right foot with
-    the wrench the truth motion needs (:func:`needed_wrench`), PROCESSING:Bodymass ``mass``
-    [kg]. Missing samples are written as invalid points."""
-    force, moment = needed_wrench(model_path, exp, mass)
+    the wrench the truth motion needs (:func:`needed_wrench`, the truth's masses de Leva's
+    scaled by ``scale``), PROCESSING:Bodymass ``mass`` [kg]. Missing samples are written as
+    invalid points."""
+    force, moment = needed_wrench(model_path, exp, mass, scale)
     corners = plate_corners(exp)
     channels = plate_channels(force, moment, corners)
     rate = exp.config.rate

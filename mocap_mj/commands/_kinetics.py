@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from mocap_mj.anatomy.inertia import Sex
+from mocap_mj.anatomy.inertia import BodyInertia, Sex
 from mocap_mj.capture.contacts import (
     STILL_SPEED,
     Contact,
@@ -37,6 +37,7 @@ from mocap_mj.io.load import load_markers
 from mocap_mj.io.plates import PlateRecord, read_grf_mot, read_plates
 from mocap_mj.io.trajectory import MarkerTrajectory
 from mocap_mj.outputs.dynamics_out import dynamics_of_files, write_dynamics
+from mocap_mj.outputs.inertia_out import StanceTrial
 from mocap_mj.outputs.kinetics_out import (
     FOOT_BODIES,
     GRF_CSV,
@@ -241,11 +242,12 @@ def write_trial(
     out: Path,
     folder: str,
     frames: slice,
+    inertia: BodyInertia | None = None,
 ) -> tuple[dict[str, Any] | None, list[str]]:
     """Write trial ``i``'s events.csv and, with loads and a mass, its kinetics into
     ``out / folder`` (its motion.npz there, over the recording's rows ``frames``; model.xml
-    in ``out``); summary.json's entry of the trial's kinetics (None without) and the files
-    written, relative to ``out``."""
+    in ``out``, with ``inertia``'s segment parameters, None: de Leva's); summary.json's entry
+    of the trial's kinetics (None without) and the files written, relative to ``out``."""
     where = out / folder
     where.mkdir(parents=True, exist_ok=True)
     events = _in_frames(prepared.events[i], prepared, i, frames)
@@ -264,22 +266,19 @@ def write_trial(
     if missing:
         _warn(args, f"{out / 'model.xml'}: no foot body {', '.join(missing)}: no kinetics")
         return None, written
-    feet = tuple(sliced(f, frames) for f in trial.feet)
+    feet, stance = trial_stance(trial, frames)
     head = _trial_head(trial, feet)
     if not any(f.on_plate.any() for f in feet):  # no load to compute joint moments under
         note = "no foot stands alone on a plate in the frames: no joint moments"
         return {**head, "stance_frames": 0, "files": written, "note": note}, written
     t0 = time.perf_counter()
     dyn, force_dofs = dynamics_of_files(
-        out / "model.xml", where / "motion.npz", body_loads(feet), mass, sex=SEX
+        out / "model.xml", where / "motion.npz", body_loads(feet), mass, sex=SEX, inertia=inertia
     )
     seconds = time.perf_counter() - t0
     files = write_dynamics(where, dyn, mass, force_dofs)
     grf = write_grf(where / GRF_CSV, dyn.times, feet)
     written += [_relative(f, out) for f in (*files, grf)]
-    stance = stance_frames(feet, excluded_frames(trial.found, len(trial.times))[frames])
-    for f in feet:  # a still foot off the counted plates stands on something unmeasured
-        stance &= f.on_plate | ~(trial.speeds[f.side][frames] < STILL_SPEED)
     fig = residual_figures(dyn, feet, mass, stance)
     return {
         **head,
@@ -300,6 +299,32 @@ def write_trial(
         "inverse_dynamics_seconds": seconds,
         "files": written,
     }, written
+
+
+def trial_stance(trial: TrialLoads, frames: slice) -> tuple[tuple[FootLoads, ...], np.ndarray]:
+    """The feet's loads of ``trial`` on the recording's rows ``frames`` and its stance frames
+    (T,) bool there: a foot on a counted plate, no contact left out, and no still foot off
+    the counted plates (it stands on something unmeasured)."""
+    feet = tuple(sliced(f, frames) for f in trial.feet)
+    stance = stance_frames(feet, excluded_frames(trial.found, len(trial.times))[frames])
+    for f in feet:
+        stance &= f.on_plate | ~(trial.speeds[f.side][frames] < STILL_SPEED)
+    return feet, stance
+
+
+def stance_trials(
+    prepared: Prepared, out: Path, folders: list[str], frames: list[slice]
+) -> list[StanceTrial]:
+    """Every trial with plates as the mass fit takes it: its motion.npz in ``out / folder``
+    (``folders``, one per trial), its loads and stance frames over its rows ``frames``."""
+    found = []
+    for trial, folder, rows in zip(prepared.loads, folders, frames, strict=True):
+        if trial is None:
+            continue
+        feet, stance = trial_stance(trial, rows)
+        motion = out / folder / "motion.npz"
+        found.append(StanceTrial(trial.markers, motion, tuple(body_loads(feet)), stance, feet))
+    return found
 
 
 def _relative(path: Path, out: Path) -> str:

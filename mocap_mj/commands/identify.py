@@ -20,8 +20,9 @@ drops markers' data. The anatomical fit also checks T10's placement against the 
 the fit).
 With force plates (a C3D's own, or --forces, one file per marker file) and a body mass, every
 such trial's joint moments (dynamics.csv, grf.csv, root_residuals.csv, in the trial's
-folder) and model.xml with the segments' masses and inertias (docs/dynamics.md); every trial's
-gait events go to events.csv.
+folder) and model.xml with the segments' masses and inertias (docs/dynamics.md: de Leva's, or
+with the recipe's ``inertia: fit`` the masses fitted to the plates); every trial's gait events
+go to events.csv.
 """
 
 from __future__ import annotations
@@ -35,11 +36,13 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from mocap_mj.anatomy.inertia import segment_inertia, with_inertials
+from mocap_mj.anatomy.inertia import BodyInertia, segment_inertia, with_inertials
 from mocap_mj.anatomy.plausibility import plausibility_text
 from mocap_mj.commands.common import into_out_folder
 from mocap_mj.io.atomic import atomic_write_text
 from mocap_mj.io.ownership import scratch_folder
+from mocap_mj.outputs.inertia_out import fit_inertia, inertia_text, without_fit
+from mocap_mj.outputs.inertia_out import report_section as inertia_report
 from mocap_mj.outputs.write_fit import frame_range, result_text, write_result
 from mocap_mj.pipeline.api import Hooks, identify_prepared, select_count
 from mocap_mj.pipeline.fit import Fit
@@ -54,6 +57,7 @@ from ._kinetics import (
     SEX,
     prepare,
     report_section,
+    stance_trials,
     summary_of,
     text_of,
     write_trial,
@@ -165,28 +169,35 @@ def _kinetics_into(
     loaded: list[Any],
     out: Path,
     summary: dict[str, Any],
+    choice: str,
 ) -> str:
-    """:func:`_write_kinetics` into ``out`` and ``summary``; the output's kinetics lines."""
-    section = summary["kinetics"] = _write_kinetics(args, kinetics, loaded, out)
+    """:func:`_write_kinetics` into ``out`` and ``summary`` (the recipe's ``inertia``
+    ``choice``); the output's kinetics lines."""
+    section, fit = _write_kinetics(args, kinetics, loaded, out, choice)
+    summary["kinetics"] = section
     lines = text_of(section)
+    if fit is not None:
+        summary["inertia"] = fit
+        lines = "\n".join([lines, *inertia_text(fit)]).lstrip("\n")
     return f"{lines}\nwrote {Path(args.out)}/{', '.join(section['files'])}\n".lstrip("\n")
 
 
 def _write_kinetics(
-    args: argparse.Namespace, kinetics: KineticsPrepared, loaded: list[Any], out: Path
-) -> dict[str, Any]:
-    """Every trial's events and kinetics (:mod:`._kinetics`) into ``out``; with a known body
-    mass, model.xml with de Leva's inertial parameters in its ``<inertial>`` elements (a
-    dynamic MuJoCo model; the kinematics are unchanged). summary.json's ``kinetics``."""
-    if kinetics.mass is not None:
-        model_xml = out / "model.xml"
-        inertia = segment_inertia(load_model(model_xml), kinetics.mass, sex=SEX)
-        atomic_write_text(model_xml, with_inertials(model_xml.read_text(), inertia))
-    entries, files = [], []
+    args: argparse.Namespace,
+    kinetics: KineticsPrepared,
+    loaded: list[Any],
+    out: Path,
+    choice: str,
+) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """Every trial's events and kinetics (:mod:`._kinetics`) into ``out``, model.xml's
+    inertial parameters (:func:`_segment_inertia`); summary.json's ``kinetics`` and its
+    ``inertia`` (None: the recipe's ``inertia`` is the regression)."""
     folders = trial_folders([t.path for t in loaded])
-    for i, (t, folder) in enumerate(zip(loaded, folders, strict=True)):
-        sl = frame_range(args.frames, len(t.markers), t.path)
-        entry, written = write_trial(args, kinetics, i, out, folder, sl)
+    rows = [frame_range(args.frames, len(t.markers), t.path) for t in loaded]
+    fitted, fit = _segment_inertia(args, kinetics, out, (folders, rows), choice)
+    entries, files = [], []
+    for i, (folder, sl) in enumerate(zip(folders, rows, strict=True)):
+        entry, written = write_trial(args, kinetics, i, out, folder, sl, fitted)
         entries.append(entry)
         files += written
     section = summary_of(kinetics, entries)
@@ -194,8 +205,37 @@ def _write_kinetics(
     section["inertials_in_model"] = kinetics.mass is not None
     report = out / "report.md"
     if report.is_file():
-        atomic_write_text(report, report.read_text() + report_section(section))
-    return section
+        extra = "" if fit is None else inertia_report(fit)
+        atomic_write_text(report, report.read_text() + report_section(section) + extra)
+    return section, fit
+
+
+def _segment_inertia(
+    args: argparse.Namespace,
+    kinetics: KineticsPrepared,
+    out: Path,
+    trials: tuple[list[str], list[slice]],
+    choice: str,
+) -> tuple[BodyInertia | None, dict[str, Any] | None]:
+    """With a known body mass, model.xml's ``<inertial>`` elements (a dynamic MuJoCo model;
+    the kinematics are unchanged): de Leva's parameters, or with ``choice`` "fit" the masses
+    fitted over the stance frames of the trials (``trials``: each one's folder and rows;
+    :mod:`mocap_mj.outputs.inertia_out`). The fitted parameters (None: de Leva's) and
+    summary.json's ``inertia`` (None when ``choice`` is the regression)."""
+    model_xml = out / "model.xml"
+    fitted, fit = None, None
+    if choice == "fit":
+        with notices_to_stderr(args.command):
+            if kinetics.mass is None or not any(t is not None for t in kinetics.loads):
+                fit = without_fit(kinetics.refused or "no force plates")
+            else:
+                found = stance_trials(kinetics, out, *trials)
+                inertia, fit = fit_inertia(model_xml, found, kinetics.mass, sex=SEX)
+                fitted = inertia if fit["source"] == "fit" else None
+    if kinetics.mass is not None:
+        inertia = fitted or segment_inertia(load_model(model_xml), kinetics.mass, sex=SEX)
+        atomic_write_text(model_xml, with_inertials(model_xml.read_text(), inertia))
+    return fitted, fit
 
 
 def identified(
@@ -222,7 +262,11 @@ def identified(
         hooks = Hooks(progress, motion_progress, Path(sink))
         fit = identify_prepared(prepared, None, prepared.recipe.settings(), hooks)
         summary = write_result(fit, out, inputs=_inputs(args, loaded, read_seconds), force=True)
-    kinetic_text = "" if kinetics is None else _kinetics_into(args, kinetics, loaded, out, summary)
+    kinetic_text = (
+        ""
+        if kinetics is None
+        else _kinetics_into(args, kinetics, loaded, out, summary, prepared.recipe.inertia)
+    )
     print_marker_set(args)  # after the fit: a refusal stays one line
     for f in (summary.get("marker_quality") or {}).get("findings", []):
         if f["kind"] == "placement":  # found in the identification, after the stature

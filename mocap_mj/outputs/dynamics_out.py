@@ -17,9 +17,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
+import mujoco
 import numpy as np
 
-from mocap_mj.anatomy.inertia import Sex, inertial_model
+from mocap_mj.anatomy.inertia import BodyInertia, Sex, apply_inertia, inertial_model
 from mocap_mj.errors import MocapError
 from mocap_mj.io.atomic import atomic_write_text
 from mocap_mj.pipeline.dynamics import (
@@ -119,15 +120,18 @@ def dynamics_of_files(
     *,
     sex: Sex = "male",
     cutoff_hz: float | None = CUTOFF_HZ,
+    inertia: BodyInertia | None = None,
 ) -> tuple[Dynamics, np.ndarray]:
     """The inverse dynamics of the motion file ``motion_path`` (a result's motion.npz or
     motion_<i>.npz) on the model file ``model_path`` (its model.xml) under ``loads`` (each
     (T, 3) over the motion's frames) for a subject of ``mass`` [kg]: the model as plain
     MuJoCo compiles it with de Leva's inertial parameters
-    (:func:`mocap_mj.anatomy.inertia.inertial_model`), the motion in its written layout.
-    Returns the :class:`Dynamics` and the translation flags (nv,) for :func:`write_dynamics`."""
+    (:func:`mocap_mj.anatomy.inertia.inertial_model`), or with ``inertia`` when given (the
+    masses fitted to the plates, :mod:`mocap_mj.outputs.inertia_out`), the motion in its
+    written layout. Returns the :class:`Dynamics` and the translation flags (nv,) for
+    :func:`write_dynamics`."""
     _check_mass(mass)
-    model = inertial_model(model_path, mass, sex=sex)
+    model = model_with(model_path, mass, sex=sex, inertia=inertia)
     motion = load_motion(motion_path)
     if motion.qpos.shape[1] != model.nq:
         raise MocapError(
@@ -136,6 +140,18 @@ def dynamics_of_files(
         )
     dyn = inverse_dynamics(model, motion.qpos, motion.times, loads, cutoff_hz=cutoff_hz)
     return dyn, translational(model)
+
+
+def model_with(
+    model_path: str | Path, mass: float, *, sex: Sex = "male", inertia: BodyInertia | None = None
+) -> mujoco.MjModel:
+    """The model file ``model_path`` as plain MuJoCo compiles it with ``inertia`` in its bodies
+    (None: de Leva's for ``mass`` [kg] and ``sex``)."""
+    if inertia is None:
+        return inertial_model(model_path, mass, sex=sex)
+    spec = mujoco.MjSpec.from_file(str(model_path))
+    apply_inertia(spec, inertia)
+    return spec.compile()
 
 
 def _check_mass(mass: float) -> None:
@@ -150,6 +166,7 @@ __all__ = [
     "dynamics_of_files",
     "dynamics_of_result",
     "dynamics_table",
+    "model_with",
     "residuals_table",
     "write_dynamics",
 ]

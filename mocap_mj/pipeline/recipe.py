@@ -4,7 +4,9 @@ A recipe states what ``mocap-mj identify`` (and :func:`mocap_mj.identify`) solve
 its marker set, the markers excluded, the frames, the correction of exchanged labels and the
 refusal of suspect data, the initial model, the anatomical priors and ranges, the left/right
 prior, the soft-tissue sliding model, the trials' weights, the loss, the frames it identifies on
-for a long recording and the refinement on every frame, the iterations and the weak prior. Every
+for a long recording and the refinement on every frame, the iterations, the weak prior and the
+segments' inertial parameters of the kinetics (de Leva's regression, or their masses fitted to
+the force plates). Every
 result folder holds the recipe it was made with (``recipe.yaml``); ``mocap-mj identify --recipe
 DIR/recipe.yaml`` on the same trials gives the same theta. How the solver gets there (its
 :class:`~mocap_mj.solve.settings.Tolerances`, the command's are the defaults) and how it uses
@@ -37,6 +39,9 @@ INITS: tuple[str, ...] = get_args(Init)
 HipCentre = Literal["harrington", "davis"]
 #: Hip-centre regressions (:attr:`Recipe.hip_centre`).
 HIP_CENTRES: tuple[str, ...] = get_args(HipCentre)
+Inertia = Literal["regression", "fit"]
+#: Where the segments' masses come from (:attr:`Recipe.inertia`).
+INERTIAS: tuple[str, ...] = get_args(Inertia)
 #: The choices :class:`LMSettings` holds (the solver's share of a recipe).
 _SETTINGS_CHOICES = (
     "max_iterations", "prior_sigma", "prior_noise", "loss", "loss_scale", "observable_std"
@@ -131,6 +136,12 @@ class Recipe:
         at its construction, and report.md says so; below it the motion places it
         (:func:`~mocap_mj.anatomy.axes.axis_decisions`). Default 10 degrees, the joint
         checks' limit of a determined axis.
+    inertia : "regression" or "fit"
+        The segments' inertial parameters of the kinetics (force plates and a body mass):
+        regression = de Leva's for the body mass (:mod:`~mocap_mj.anatomy.inertia`); fit =
+        their masses fitted over the stance frames of every trial with plates, de Leva's as
+        the prior (:func:`~mocap_mj.pipeline.inertial_fit.fit_masses`; without a stance frame
+        the regression's, with a notice). The kinematic fit (theta) is the same either way.
     """
 
     init: Init = "constructed"
@@ -155,6 +166,7 @@ class Recipe:
     relabel: bool = True
     strict: bool = False
     silent_axis_sd: float = 0.17453292519943295  # 10 deg: anatomy.axes.SILENT_AXIS_SD
+    inertia: Inertia = "regression"
 
     def __post_init__(self) -> None:
         for field in dataclasses.fields(self):
@@ -188,6 +200,10 @@ class Recipe:
             )
         if not isinstance(self.select, str) and (isinstance(self.select, bool) or self.select < 1):
             raise ArgumentError(f"select: expected at least 1 frame, got {self.select!r}")
+        if self.inertia not in INERTIAS:
+            raise ArgumentError(
+                f"inertia must be one of {', '.join(INERTIAS)}; got {self.inertia!r}"
+            )
         if self.hip_centre not in HIP_CENTRES:
             raise ArgumentError(
                 f"hip_centre must be one of {', '.join(HIP_CENTRES)}; got {self.hip_centre!r}"
