@@ -247,8 +247,8 @@ def axis_rmse(
     markers: Sequence[np.ndarray],
     decisions: Mapping[str, dict[str, Any]],
 ) -> None:
-    """Add each functional axis's marker RMSE [mm] to ``decisions`` (in place):
-    ``rmse_mm`` = {fit name: RMSE of the markers on the joint's two bodies
+    """Add each functional axis's marker RMSE [m] to ``decisions`` (in place):
+    ``rmse_m`` = {fit name: RMSE of the markers on the joint's two bodies
     (:data:`AXIS_BODIES`)}, for each of ``fits`` (name -> (theta (P,) [m], qpos per trial
     (T_i, nq), NaN rows for frames not solved)); markers (T_i, M, 3) [m] per trial. Called
     with the first solve (Plug-in Gait's row held) and the final one (the row left out)."""
@@ -268,11 +268,11 @@ def axis_rmse(
     for joint, d in functional.items():
         bodies = [pset.model.body(b + joint[-2:]).id for b in AXIS_BODIES[joint[:-2]]]
         on = np.isin(pset.site_body, bodies)
-        d["rmse_mm"] = {}
+        d["rmse_m"] = {}
         for name, e in errors.items():
             sub = e[:, on]
             sub = sub[np.isfinite(sub)]
-            d["rmse_mm"][name] = float(np.sqrt(np.mean(sub**2)) * 1e3) if sub.size else None
+            d["rmse_m"][name] = float(np.sqrt(np.mean(sub**2))) if sub.size else None
 
 
 def knee_crosstalk(

@@ -39,6 +39,7 @@ from mocap_mj.pipeline.prepare import (
     recording,
 )
 from mocap_mj.pipeline.recipe import Recipe, check_select
+from mocap_mj.pipeline.results import joint_axes
 from mocap_mj.pipeline.steps import (
     Solved,
     anatomical_priors,
@@ -218,18 +219,18 @@ def _described(
         theta=result.theta,
     )
     knee_crosstalk(pset, result.theta, result.qpos, [t.markers for t in trials],
-                   solved.weighting.get("joint_axes") or {})  # fmt: skip
+                   joint_axes(solved.weighting))  # fmt: skip
     report.update(fit_report(solved, trials, settings, recipe, idf))
     if solved.t10_prior is not None and solved.t10_prior.finding is not None:
         add_finding(report, solved.t10_prior.finding)
     priors = (
         anatomical_priors(pset, solved.subject, size=solved.size, symmetric=solved.symmetric,
                           t10=solved.t10_prior, hip_centre=recipe.hip_centre,
-                          axes=widths(pset, solved.weighting.get("joint_axes")),
+                          axes=widths(pset, joint_axes(solved.weighting) or None),
                           landmarks=solved.landmarks,
-                          centres=solved.weighting.get("centre_widths"),
-                          held=solved.weighting.get("held_joints", ()))
-        if recipe.anatomy
+                          centres=solved.weighting.centre_widths,
+                          held=solved.weighting.held_joints)
+        if recipe.anatomy and solved.weighting is not None
         else []
     )  # fmt: skip
     info = prior_information(priors, settings, pset.size)

@@ -26,7 +26,8 @@ from mocap_mj.anatomy.trunk import T10Placement
 from mocap_mj.capture.marker_quality import Finding
 from mocap_mj.capture.subject import Subject
 from mocap_mj.pipeline.recipe import Recipe
-from mocap_mj.pipeline.steps import REWEIGHT_RATIO, Refined, Solved, anatomical_priors
+from mocap_mj.pipeline.results import Refined, Weighting, joint_axes, prior_noise
+from mocap_mj.pipeline.steps import REWEIGHT_RATIO, Solved, anatomical_priors
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.identifiability import Identifiability
 from mocap_mj.solve.lm import LMSettings, solver_joint_range
@@ -69,18 +70,18 @@ def fit_report(
         marker_stature(segment_scales(pset, [t.markers for t in trials])),
     )
     checks = joint_checks(pset, result.theta, solved.subject, solved.landmarks,
-                          solved.weighting.get("joint_axes"))  # fmt: skip
+                          joint_axes(solved.weighting) or None)  # fmt: skip
     summary["anatomy_checks"] = checks_summary(checks)
-    held = solved.weighting.get("held_at_construction")
+    held = None if solved.weighting is None else solved.weighting.held_at_construction
     summary["held_at_construction"] = None if held is None else {
         "joints": held.joints, "marker_rmse_mm": [v * 1e3 for v in held.marker_rmse],
         "kept": held.kept,
     }  # fmt: skip
     note = ""
     if held and not held.kept:
-        fitted, holding = (v * 1e3 for v in held.marker_rmse)
+        first, holding = (v * 1e3 for v in held.marker_rmse)
         note = (f"; held at its construction the markers fit at {holding:.2f} mm RMSE "
-                f"({fitted:.2f} as fitted): they place it there, a marker misplaced?")  # fmt: skip
+                f"({first:.2f} as fitted): they place it there, a marker misplaced?")  # fmt: skip
     summary["implausible"] += violations(checks, note)
     fitted = [q[used] for q, used in zip(result.qpos, result.used, strict=True)]
     summary["joints_at_limit"] = joints_at_limit(
@@ -109,7 +110,7 @@ def _measured_fields(pset: ParameterSet, missing: Unmeasured) -> dict[str, Any]:
 
 def _prior_fields(
     anatomical: bool,
-    weighting: dict[str, Any],
+    weighting: Weighting | None,
     symmetric: float | None,
     asymmetry_prior: bool,
     subject: Subject,
@@ -117,12 +118,8 @@ def _prior_fields(
     """The priors part of the summary (standard deviations in millimetres)."""
     return {
         "anatomical_priors": anatomical,
-        "prior_weighting": {
-            k: v
-            for k, v in weighting.items()
-            if k not in ("joint_axes", "held_joints", "held_at_construction")
-        },
-        "joint_axes": weighting.get("joint_axes") or {},
+        "prior_weighting": _weighting_fields(weighting),
+        "joint_axes": {j: _axis_fields(d) for j, d in joint_axes(weighting).items()},
         "symmetric_mm": None if symmetric is None else symmetric * 1e3,
         "asymmetry_prior_mm": (
             ASYMMETRY_SIGMA * 1e3 if anatomical and asymmetry_prior and symmetric is None else None
@@ -132,6 +129,37 @@ def _prior_fields(
             None if subject.stature_estimate is None else subject.stature_estimate.to_dict()
         ),
     }
+
+
+def _weighting_fields(w: Weighting | None) -> dict[str, Any]:
+    """summary.json's ``prior_weighting`` (empty without the anatomical priors)."""
+    if w is None:
+        return {}
+    out: dict[str, Any] = {
+        "sigma_mm": w.sigma * 1e3,
+        "tau_frames": w.tau_frames,
+        "noise_mm": w.noise * 1e3,
+        "trial_tau_frames": w.trial_tau_frames,
+        "trial_weights": w.trial_weights,
+    }
+    if w.centre_widths is not None:
+        out["centre_widths"] = w.centre_widths
+    if w.slide_base is not None:
+        out["slide_weight_min"] = w.slide_weight_min
+        out["slide_base_mm"] = w.slide_base * 1e3
+    return out
+
+
+def _axis_fields(decision: dict[str, Any]) -> dict[str, Any]:
+    """summary.json's ``joint_axes`` entry of one flexion axis: its decision with the marker
+    RMSE of each fit in mm (``rmse_mm``)."""
+    out: dict[str, Any] = {}
+    for k, v in decision.items():
+        if k == "rmse_m":
+            out["rmse_mm"] = {n: None if r is None else r * 1e3 for n, r in v.items()}
+        else:
+            out[k] = v
+    return out
 
 
 def _t10_fields(t10: T10Placement) -> dict[str, Any]:
@@ -253,10 +281,10 @@ def centre_fields(solved: Solved, settings: LMSettings, recipe: Recipe) -> dict[
     pset, result, w = solved.pset, solved.result, solved.weighting
     options: dict[str, Any] = {
         "size": solved.size, "symmetric": solved.symmetric, "t10": solved.t10_prior,
-        "landmarks": solved.landmarks, "axes": widths(pset, w.get("joint_axes")),
-        "held": w.get("held_joints", ()),
+        "landmarks": solved.landmarks, "axes": widths(pset, joint_axes(w) or None),
+        "held": () if w is None else w.held_joints,
     }  # fmt: skip
-    noise = w.get("noise_mm", settings.prior_noise * 1e3) * 1e-3
+    noise = prior_noise(w, settings.prior_noise)
     priors = [p.with_noise(noise) for p in anatomical_priors(pset, solved.subject, **options,
               hip_centre=recipe.hip_centre)]  # fmt: skip
     soft = noise > REWEIGHT_RATIO * settings.prior_noise  # as solve_anatomical decides
