@@ -53,6 +53,7 @@ from mocap_mj.pipeline.summary import (
     add_finding,
     centre_fields,
     fit_report,
+    hinge_fields,
     refinement_fields,
 )
 from mocap_mj.skeleton.parameters import ParameterSet
@@ -236,8 +237,10 @@ def _described(
     info = prior_information(priors, settings, pset.size)
     rows = add_checks(report, pset, result, trials, settings, solved.ranges, info)
     report["joint_centres_vs_regression"] = centre_fields(solved, settings, recipe)
-    report["joint_centres_vs_construction"] = hinge_report(
-        pset, result, info, report["correlation_time_frames"], solved.construction or {}
+    report["joint_centres_vs_construction"] = hinge_fields(
+        hinge_report(
+            pset, result, info, report["correlation_time_frames"], solved.construction or {}
+        )
     )
     report = jsonable(report)
     motion = tuple(

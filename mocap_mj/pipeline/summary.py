@@ -3,14 +3,16 @@ beside its arrays, in the summary's units (millimetres, seconds; names ending ``
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from mocap_mj.anatomy.anatomy import ASYMMETRY_SIGMA
 from mocap_mj.anatomy.axes import widths
-from mocap_mj.anatomy.ball_centres import centre_report, row_spreads
+from mocap_mj.anatomy.ball_centres import BallCentre, CentreRowReport, centre_report, row_spreads
+from mocap_mj.anatomy.hinge_centres import HingeCentre
 from mocap_mj.anatomy.initial import marker_stature, segment_scales
 from mocap_mj.anatomy.joint_checks import checks_summary, joint_checks, violations
 from mocap_mj.anatomy.partial import Unmeasured
@@ -261,11 +263,34 @@ def add_checks(
         n: float(v) * 1e3 for n, v in zip(pset.marker_names, per_marker, strict=True)
     }
     summary["kappa_outside_bounds_mm"] = {n: [v * 1e3 for v in b] for n, b in outside.items()}
-    entries, rows = uncertainty_summary(
+    table = uncertainty_summary(
         pset, result, trials, per_marker, settings, ranges=ranges, prior_information=prior_info
     )
-    summary.update(entries)
-    return rows
+    summary["correlation_time_frames"] = table.tau_frames
+    summary["segments"] = {r.name: segment_fields(r) for r in table.rows}
+    summary["parameters_flagged"] = table.flagged
+    summary["worst_markers_mm"] = {n: v * 1e3 for n, v in table.worst.items()}
+    return table.rows
+
+
+def segment_fields(row: SegmentRow) -> dict[str, Any]:
+    """One row of the segment table as summary.json's ``segments`` holds it: millimetres,
+    null where not applicable."""
+
+    def mm(v: float) -> float | None:
+        return float(v) * 1e3 if math.isfinite(v) else None
+
+    return {
+        "kind": row.kind,
+        "value_mm": mm(row.value),
+        "std_white_mm": mm(row.std_white),
+        "std_mm": mm(row.std),
+        "std_priors_mm": mm(row.std_priors),
+        "nominal_mm": mm(row.nominal),
+        "lower_mm": mm(row.lower),
+        "upper_mm": mm(row.upper),
+        "flag": row.flag,
+    }
 
 
 def centre_fields(solved: Solved, settings: LMSettings, recipe: Recipe) -> dict[str, Any]:
@@ -297,7 +322,38 @@ def centre_fields(solved: Solved, settings: LMSettings, recipe: Recipe) -> dict[
         alt = anatomical_priors(pset, solved.subject, **options, hip_centre=other)[0]
     except MocapError:  # Davis's rows need both leg lengths
         alt = None
-    return centre_report(pset, result.theta, priors[0], spreads, {other: alt})
+    report = centre_report(pset, result.theta, priors[0], spreads, {other: alt})
+    return {joint: _ball_centre_fields(c) for joint, c in report.items()}
+
+
+def _ball_centre_fields(c: BallCentre) -> dict[str, Any]:
+    """One joint's entry of summary.json's ``joint_centres_vs_regression`` [mm]."""
+    out: dict[str, Any] = {
+        "body": c.body,
+        "identified_mm": (c.identified * 1e3).tolist(),
+        "regression": c.regression,
+        "regression_mm": (c.regression_centre * 1e3).tolist(),
+        "distance_mm": c.distance * 1e3,
+        "distance_sd_mm": c.distance_sd * 1e3,
+        "moved_by_data": c.moved_by_data,
+        "rows": {label: _centre_row_fields(r) for label, r in c.rows.items()},
+    }
+    for name, centre in c.others.items():
+        out[f"{name}_mm"] = None if centre is None else (centre * 1e3).tolist()
+    return out
+
+
+def _centre_row_fields(r: CentreRowReport) -> dict[str, float | None]:
+    """One regression row's report [mm]: its value's distance from the regression, the
+    regression's width, the data's and the floor's standard deviations and the width factor."""
+    spread = r.spread
+    return {
+        "from_regression_mm": r.distance * 1e3,
+        "regression_sd_mm": r.regression_sd * 1e3,
+        "data_sd_mm": None if spread is None else spread.data_m * 1e3,
+        "artefact_floor_mm": None if spread is None else spread.floor_m * 1e3,
+        "width_factor": None if spread is None else spread.factor,
+    }
 
 
 def refinement_fields(pset: ParameterSet, refined: Refined) -> dict[str, Any]:
@@ -309,4 +365,22 @@ def refinement_fields(pset: ParameterSet, refined: Refined) -> dict[str, Any]:
         "subset_kappa_mm": {
             n: float(v) * 1e3 for n, v in zip(pset.kappa_names, refined.subset_kappa, strict=True)
         },
+    }
+
+
+def hinge_fields(centres: Mapping[str, HingeCentre]) -> dict[str, dict[str, Any]]:
+    """summary.json's ``joint_centres_vs_construction``
+    (:func:`~mocap_mj.anatomy.hinge_centres.hinge_report`): per hinge centre its
+    construction, ``construction_mm`` and ``identified_mm`` (x y z in the markers' frame),
+    ``distance_mm``, ``distance_sd_mm`` and ``moved_by_data``."""
+    return {
+        joint: {
+            "construction": c.construction,
+            "construction_mm": (c.constructed * 1e3).tolist(),
+            "identified_mm": (c.identified * 1e3).tolist(),
+            "distance_mm": c.distance * 1e3,
+            "distance_sd_mm": c.distance_sd * 1e3,
+            "moved_by_data": c.moved_by_data,
+        }
+        for joint, c in centres.items()
     }
