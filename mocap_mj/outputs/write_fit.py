@@ -159,7 +159,7 @@ def write_plots(
 
     (sq, cnt), per_trial = write_trial_plots(out, pset, result, trials)
     seen = cnt > 0
-    rmse = np.sqrt(sq[seen] / cnt[seen]) * 1e3
+    rmse = np.sqrt(sq[seen] / cnt[seen])
     names = [n for n, s in zip(pset.marker_names, seen, strict=True) if s]
     plot_residual_per_marker(out / "residual_per_marker.png", names, rmse)
     return per_trial

@@ -54,6 +54,7 @@ from mocap_mj.pipeline.summary import (
     centre_fields,
     fit_report,
     hinge_fields,
+    motion_fields,
     refinement_fields,
 )
 from mocap_mj.skeleton.parameters import ParameterSet
@@ -303,8 +304,7 @@ def _with_every_frame(
                    pset.marker_names, first_frame=f)
             for t, q, f in zip(whole, poses, fit.first_frames, strict=True)
         )  # fmt: skip
-    report["motion_marker_rmse_mm"] = done.rmse * 1e3
-    report["motion_seconds"] = {"ik": done.ik_seconds, "all": done.seconds}
+    report.update(motion_fields(done.rmse, done.ik_seconds, done.seconds))
     return replace(fit, report=jsonable(report), motion=motion, motion_files=files)
 
 
