@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -393,3 +393,22 @@ def motion_fields(rmse: float, ik_seconds: float, seconds: float) -> dict[str, A
         "motion_marker_rmse_mm": rmse * 1e3,
         "motion_seconds": {"ik": ik_seconds, "all": seconds},
     }
+
+
+class ReadBack(NamedTuple):
+    """What a command reads back from a summary (summary.json's content, :func:`read_back`),
+    in SI: each marker's RMSE [m] (NaN: never seen) by name, and the kinematic parameters
+    outside their anatomical range with that range (name -> [lower, upper] [m])."""
+
+    marker_rmse_by_marker: dict[str, float]
+    kappa_outside_bounds: dict[str, list[float]]
+
+
+def read_back(summary: Mapping[str, Any]) -> ReadBack:
+    """The figures of ``summary`` (summary.json's content, millimetres) in SI."""
+    per_marker = summary.get("marker_rmse_by_marker_mm") or {}
+    outside = summary.get("kappa_outside_bounds_mm") or {}
+    return ReadBack(
+        {n: math.nan if v is None else v * 1e-3 for n, v in per_marker.items()},
+        {n: [v * 1e-3 for v in b] for n, b in outside.items()},
+    )
