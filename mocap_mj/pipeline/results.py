@@ -69,10 +69,27 @@ class Weighting:
     held_at_construction: HeldAtConstruction | None = None
 
 
+def through_mm(value: float) -> float:
+    """``value`` [m] to millimetres and back (``value * 1e3 * 1e-3``, within one ulp of it):
+    as the weighting's noise and sliding base reach the steps after the second solve (the
+    centre widths, the refinement, the sliding model, the report), whose arithmetic, and so
+    theta, it keeps bit for bit."""
+    return value * 1e3 * 1e-3
+
+
 def prior_noise(weighting: Weighting | None, nominal: float) -> float:
-    """The marker noise [m] the priors are weighed against: ``weighting``'s, else
-    ``nominal`` [m] (a solve without the anatomical priors)."""
-    return nominal if weighting is None else weighting.noise
+    """The marker noise [m] the priors are weighed against after the weighting's solve:
+    ``weighting``'s, else ``nominal`` [m] (a solve without the anatomical priors), through
+    millimetres (:func:`through_mm`)."""
+    return through_mm(nominal if weighting is None else weighting.noise)
+
+
+def sliding_base(weighting: Weighting | None) -> float | None:
+    """The per-axis artefact [m] the sliding landmarks are weighed against (None: not
+    weighed), through millimetres (:func:`through_mm`)."""
+    if weighting is None or weighting.slide_base is None:
+        return None
+    return through_mm(weighting.slide_base)
 
 
 def joint_axes(weighting: Weighting | None) -> dict[str, dict[str, Any]]:
@@ -107,4 +124,12 @@ class Refined:
     robust: Robust | None
 
 
-__all__ = ["HeldAtConstruction", "Refined", "Weighting", "joint_axes", "prior_noise"]
+__all__ = [
+    "HeldAtConstruction",
+    "Refined",
+    "Weighting",
+    "joint_axes",
+    "prior_noise",
+    "sliding_base",
+    "through_mm",
+]

@@ -42,6 +42,7 @@ from mocap_mj.pipeline.results import (
     Weighting,
     joint_axes,
     prior_noise,
+    sliding_base,
 )
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
@@ -158,10 +159,10 @@ def solve_trials(
         )  # fmt: skip
     for d in joint_axes(weighting).values():  # at the final model
         d["angle_to_pig_deg"] = angle_to_pig(pset, result.theta, d)
-    sliding = None
-    if slides and weighting is not None and weighting.slide_base is not None:
+    sliding, base = None, sliding_base(weighting)
+    if slides and base is not None:
         # The fit (and the refinement on every frame, and the motion's IK) weighed with it.
-        sliding = SlidingModel(dict(slides), weighting.slide_base)
+        sliding = SlidingModel(dict(slides), base)
     ranges = kappa_ranges(pset, subject) if recipe.anatomy else None
     return Solved(
         pset=pset, result=result, weighting=weighting, refined=refined, sliding=sliding,
@@ -299,9 +300,10 @@ def sliding_weigh(
 ) -> Weigh | None:
     """The sliding landmarks' weights by pose (:meth:`SlidingModel.weights`) that the solve
     weighed with (``weighting`` has ``slide_base``), else None."""
-    if not slides or weighting is None or weighting.slide_base is None:
+    base = sliding_base(weighting)
+    if not slides or base is None:
         return None
-    return partial(SlidingModel(dict(slides), weighting.slide_base).weights, pset)
+    return partial(SlidingModel(dict(slides), base).weights, pset)
 
 
 def _check_inputs(trials: Sequence[TrialData], pset: ParameterSet) -> None:
@@ -606,7 +608,8 @@ def _decided(
         weighting = replace(weighting, joint_axes=axes)
     if soft:
         weak = settings.weak_prior(first.theta)
-        factors = _centre_factors(pset, first, priors, weak, weighting.noise)
+        noise = prior_noise(weighting, settings.prior_noise)
+        factors = _centre_factors(pset, first, priors, weak, noise)
         weighting = replace(weighting, centre_widths=factors)
     if not axes and not soft:
         return priors, weighting
