@@ -69,7 +69,7 @@ class Weighting:
     held_at_construction: HeldAtConstruction | None = None
 
 
-def through_mm(value: float) -> float:
+def via_millimetres(value: float) -> float:
     """``value`` [m] to millimetres and back (``value * 1e3 * 1e-3``, within one ulp of it):
     as the weighting's noise and sliding base reach the steps after the second solve (the
     centre widths, the refinement, the sliding model, the report), whose arithmetic, and so
@@ -80,16 +80,16 @@ def through_mm(value: float) -> float:
 def prior_noise(weighting: Weighting | None, nominal: float) -> float:
     """The marker noise [m] the priors are weighed against after the weighting's solve:
     ``weighting``'s, else ``nominal`` [m] (a solve without the anatomical priors), through
-    millimetres (:func:`through_mm`)."""
-    return through_mm(nominal if weighting is None else weighting.noise)
+    millimetres (:func:`via_millimetres`)."""
+    return via_millimetres(nominal if weighting is None else weighting.noise)
 
 
 def sliding_base(weighting: Weighting | None) -> float | None:
     """The per-axis artefact [m] the sliding landmarks are weighed against (None: not
-    weighed), through millimetres (:func:`through_mm`)."""
+    weighed), through millimetres (:func:`via_millimetres`)."""
     if weighting is None or weighting.slide_base is None:
         return None
-    return through_mm(weighting.slide_base)
+    return via_millimetres(weighting.slide_base)
 
 
 def joint_axes(weighting: Weighting | None) -> dict[str, dict[str, Any]]:
@@ -131,5 +131,5 @@ __all__ = [
     "joint_axes",
     "prior_noise",
     "sliding_base",
-    "through_mm",
+    "via_millimetres",
 ]
