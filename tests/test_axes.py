@@ -75,7 +75,7 @@ def test_static_trial_takes_plug_in_gaits_axis(pset: ParameterSet) -> None:
     qpos = np.tile(q, (80, 1))
     result, weighting = _solve(pset, pset.nominal.copy(), qpos, seed=3)
     for wand, marker, joint in KNEES:
-        d = weighting["joint_axes"][joint]
+        d = weighting.joint_axes[joint]
         assert d["source"] == "plug-in-gait", d
         assert d["data_sd_deg"] > d["row_sd_deg"]
         assert abs(pig_angle(pset, result.theta, wand, marker, joint)) < d["row_sd_deg"]
@@ -90,7 +90,7 @@ def test_moving_trial_keeps_its_functional_axis(pset: ParameterSet) -> None:
     qpos = smooth_motion(kin, 300, seed=4)
     _, weighting = _solve(pset, truth, qpos, seed=5)
     for wand, marker, joint in KNEES:
-        d = weighting["joint_axes"][joint]
+        d = weighting.joint_axes[joint]
         assert d["source"] == "functional", d
         want = pig_angle(pset, truth, wand, marker, joint)
         assert abs(want) > 15.0

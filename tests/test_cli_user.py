@@ -142,7 +142,7 @@ def test_ctrl_c_while_a_figure_is_drawn_acts_after_it(
     @held_interrupts
     def draw() -> None:
         signal.raise_signal(signal.SIGINT)  # Ctrl-C in the middle of the drawing
-        plot_residual_per_marker(path, names, np.linspace(1.0, 5.0, 39))
+        plot_residual_per_marker(path, names, np.linspace(1e-3, 5e-3, 39))
 
     # Python's own Ctrl-C handler, whatever this process inherited (a shell starts a
     # background job with SIGINT ignored).

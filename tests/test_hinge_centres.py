@@ -10,7 +10,9 @@ import numpy as np
 import pytest
 
 from mocap_mj import ParameterSet
-from mocap_mj.anatomy.hinge_centres import MOVED_SD, hinge_lines, hinge_report
+from mocap_mj.anatomy.hinge_centres import MOVED_SD, hinge_report
+from mocap_mj.outputs.fit_tables import hinge_lines
+from mocap_mj.pipeline.summary import hinge_fields
 
 SOURCES = {"knee_l": "Plug-in Gait's chord", "ankle_r": "on the knee's flexion axis",
            "elbow_l": "Plug-in Gait's elbow centre", "hip_l": "Harrington 2007"}  # fmt: skip
@@ -41,13 +43,13 @@ def test_a_centre_moved_against_its_markers_is_measured(pset: ParameterSet) -> N
     prior = 1e6 * np.eye(pset.size)  # 1 mm sd on every parameter
     out = hinge_report(pset, _result(pset, theta0, theta, 0.0), prior, 1.0, SOURCES)
     assert set(out) == {"knee_l", "ankle_r", "elbow_l"}
-    assert out["knee_l"]["distance_mm"] == pytest.approx(10.0, abs=1e-6)
-    assert out["knee_l"]["construction"] == SOURCES["knee_l"]
-    assert out["ankle_r"]["distance_mm"] == pytest.approx(0.0, abs=1e-9)
+    assert out["knee_l"].distance == pytest.approx(0.010, abs=1e-9)
+    assert out["knee_l"].construction == SOURCES["knee_l"]
+    assert out["ankle_r"].distance == pytest.approx(0.0, abs=1e-12)
     # sd of the move's length: the knee_lateral parameter and the two markers' offsets
     # enter it, each with 1 mm; the move is larger than MOVED_SD of them
-    assert 1.0 < out["knee_l"]["distance_sd_mm"] < 3.0
-    assert out["knee_l"]["moved_by_data"] == (10.0 > MOVED_SD * out["knee_l"]["distance_sd_mm"])
+    assert 1.0e-3 < out["knee_l"].distance_sd < 3.0e-3
+    assert out["knee_l"].moved_by_data == (0.010 > MOVED_SD * out["knee_l"].distance_sd)
 
     turned = theta0.copy()
     k = pset.n_kappa
@@ -59,7 +61,7 @@ def test_a_centre_moved_against_its_markers_is_measured(pset: ParameterSet) -> N
     centre = pset.body_pos(theta0)[pset.model.body("shank_l").id]
     assert np.hypot(centre[0], centre[1]) < 1e-9  # on the thigh frame's z axis
     out = hinge_report(pset, _result(pset, theta0, turned, 0.0), prior, 1.0, SOURCES)
-    assert out["knee_l"]["distance_mm"] == pytest.approx(0.0, abs=1e-9)
+    assert out["knee_l"].distance == pytest.approx(0.0, abs=1e-12)
 
 
 def test_more_information_narrows_the_sd_and_the_table_says_so(pset: ParameterSet) -> None:
@@ -72,10 +74,10 @@ def test_more_information_narrows_the_sd_and_the_table_says_so(pset: ParameterSe
     wide = hinge_report(pset, _result(pset, theta0, theta, 0.0), prior, 1.0, SOURCES)
     narrow = hinge_report(pset, _result(pset, theta0, theta, 3.0), prior, 1.0, SOURCES)
     slow = hinge_report(pset, _result(pset, theta0, theta, 3.0), prior, 100.0, SOURCES)
-    sd = [r["knee_l"]["distance_sd_mm"] for r in (wide, narrow, slow)]
+    sd = [r["knee_l"].distance_sd for r in (wide, narrow, slow)]
     assert sd[1] == pytest.approx(sd[0] / 2.0, rel=1e-6)  # information 1 + 3 = 4 x the prior's
     assert sd[1] < sd[2] < sd[0]
-    lines = hinge_lines(narrow)
+    lines = hinge_lines(hinge_fields(narrow))
     assert len(lines) == 5 + len(narrow)
     assert any(line.startswith("| knee_l | Plug-in Gait's chord |") and "| 10.0 |" in line
                for line in lines)  # fmt: skip

@@ -320,14 +320,14 @@ def test_a_joint_the_markers_leave_free_is_held_at_its_construction(
     bad = replace(first, theta=thrown)
     assert held_joints(joint_checks(pset, thrown, solved.subject)) == ["knee_l", "knee_r"]
     result, weighting = _held_at_construction(
-        trials, bad, dict(solved.weighting), pset=pset, theta0=first.theta0, settings=settings,
+        trials, bad, solved.weighting, pset=pset, theta0=first.theta0, settings=settings,
         progress=None, slides=solved.slides, trial_weights=True, subject=solved.subject,
         size=solved.size, symmetric=solved.symmetric, t10=solved.t10_prior,
         hip_centre="harrington", landmarks=None, anatomical=True,
     )  # fmt: skip
-    record = weighting["held_at_construction"]
+    record = weighting.held_at_construction
     assert record.joints == ["knee_l", "knee_r"] and record.kept
-    assert weighting["held_joints"] == ["knee_l", "knee_r"]
+    assert weighting.held_joints == ["knee_l", "knee_r"]
     assert record.marker_rmse[1] <= HOLD_RMSE_RATIO * record.marker_rmse[0]
     assert violations(joint_checks(pset, result.theta, solved.subject)) == []
     # the knee centre is back where the construction puts it, within the row's width

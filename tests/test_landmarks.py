@@ -117,7 +117,7 @@ def test_epicondyle_pair_places_the_knee_centre_at_its_midpoint(medial: tuple) -
     result, weighting = solve_anatomical([trial], pset=pset, theta0=None,
                                          settings=LMSettings(), subject=subject,
                                          landmarks=landmarks)  # fmt: skip
-    decided = weighting.get("joint_axes") or {}
+    decided = weighting.joint_axes
     assert not [j for j in decided if j.startswith(("knee", "ankle"))]  # the pairs give those
     offsets, centres = pset.split(result.theta)[1], pset.body_pos(result.theta)
     for side, p in (("l", "L"), ("r", "R")):

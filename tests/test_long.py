@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
 
@@ -375,13 +376,14 @@ def test_select_refines_with_the_sliding_weights_its_solve_used(
 ) -> None:
     """``identify --select``'s refinement on every frame (``refine_on_every_frame``) weighs
     the sliding landmarks by pose exactly when the subset's solve did (``weighting`` holds
-    its ``slide_base_mm``), with that base: the same weighted problem as the plain solve."""
+    its ``slide_base``), with that base: the same weighted problem as the plain solve."""
     from types import SimpleNamespace
 
     from mocap_mj.anatomy.tissue import SLIDES
     from mocap_mj.capture.subject import Subject
     from mocap_mj.long.refine import Refinement
     from mocap_mj.pipeline import steps as pipeline
+    from mocap_mj.pipeline.results import Weighting
     from mocap_mj.solve.lm import LMSettings
 
     seen: list[object] = []
@@ -394,7 +396,9 @@ def test_select_refines_with_the_sliding_weights_its_solve_used(
     monkeypatch.setattr(pipeline, "result_at", lambda result, *a: result)
     result = SimpleNamespace(theta=pset.nominal.copy(), sigma=1e-3)
     trial = TrialData("t", np.zeros((4, pset.n_markers, 3)), np.arange(4.0))
-    for weighting in ({"noise_mm": 7.0, "slide_base_mm": 5.0}, {"noise_mm": 1.0}):
+    sliding = Weighting(sigma=1e-3, tau_frames=1.0, noise=7e-3, trial_tau_frames=[1.0],
+                        trial_weights=[1.0], slide_weight_min=0.2, slide_base=5e-3)  # fmt: skip
+    for weighting in (sliding, replace(sliding, noise=1e-3, slide_base=None)):
         pipeline.refine_on_every_frame(
             result,  # type: ignore[arg-type]
             [trial],

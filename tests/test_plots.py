@@ -45,14 +45,14 @@ def test_series_plots_write_pngs_of_the_size_asked(
 
 @pytest.mark.slow
 def test_parameter_and_residual_plots(tmp_path: Path) -> None:
-    err = RNG.normal(0, 2, len(NAMES))
+    err = RNG.normal(0, 2e-3, len(NAMES))  # [m]
     err[2] = np.nan
-    crlb = RNG.uniform(0.5, 3, len(NAMES))
+    crlb = RNG.uniform(0.5e-3, 3e-3, len(NAMES))
     crlb[5] = np.inf
     out = plot_parameter_errors(tmp_path / "par.png", NAMES, err, crlb, size=(800, 600))
     assert _png_size(out) == (800, 600)
     assert _png_size(plot_parameter_errors(tmp_path / "tall.png", NAMES, err, crlb)) == (1000, 400)
-    rmse = RNG.uniform(1, 8, len(NAMES))
+    rmse = RNG.uniform(1e-3, 8e-3, len(NAMES))
     rmse[0] = np.nan
     out = plot_residual_per_marker(tmp_path / "res.png", NAMES, rmse, size=(1000, 450))
     assert _png_size(out) == (1000, 450)

@@ -43,7 +43,7 @@ def test_static_hyperextended_knees_keep_their_angle() -> None:
                                          subject=subject)  # fmt: skip
     lower = np.degrees(pset.model.jnt_range[pset.model.joint("knee_flex_l").id][0])
     for side, i in zip("lr", knees, strict=True):
-        d = weighting["joint_axes"][f"knee_{side}"]
+        d = weighting.joint_axes[f"knee_{side}"]
         # Plug-in Gait's row, or the data (the leg's plane at -8 deg and the alignment rows)
         # about as uncertain as it (7.7 against 8 deg): either way the axis stays by the
         # construction, which the next assertion checks.

@@ -16,10 +16,11 @@ from scipy.spatial.transform import Rotation
 
 from mocap_mj import ParameterSet
 from mocap_mj.anatomy.ranges import kappa_ranges
-from mocap_mj.anatomy.segments import COLUMNS, parameter_flag
+from mocap_mj.anatomy.segments import parameter_flag
 from mocap_mj.capture.subject import StatureEstimate, Subject
 from mocap_mj.cli import main
 from mocap_mj.io import MarkerTrajectory, load_markers, save_csv
+from mocap_mj.outputs.fit_tables import COLUMNS
 from mocap_mj.pipeline.motion import load_motion
 from mocap_mj.pipeline.robust_ik import solve_trial_loss
 from mocap_mj.skeleton.joint_centre_table import joint_centre_columns

@@ -103,7 +103,7 @@ def test_static_trial_does_not_outvote_the_movement(pair: dict[str, Any]) -> Non
     closer to the truth than without the weights (measured on seed 0: 4.4 mm against 8.0 mm
     RMS; benchmarks/trial_weights.py for more seeds): at least 30 % closer."""
     (result, weighting), (plain, _) = pair["weighed"], pair["unweighed"]
-    w = weighting["trial_weights"]
+    w = weighting.trial_weights
     assert w[1] < 1.0 < w[0]
     pset, truth = pair["pset"], pair["truth"]
     weighed = _length_error(pset, result.theta, truth)

@@ -247,8 +247,8 @@ def axis_rmse(
     markers: Sequence[np.ndarray],
     decisions: Mapping[str, dict[str, Any]],
 ) -> None:
-    """Add each functional axis's marker RMSE [mm] to ``decisions`` (in place):
-    ``rmse_mm`` = {fit name: RMSE of the markers on the joint's two bodies
+    """Add each functional axis's marker RMSE [m] to ``decisions`` (in place):
+    ``rmse_m`` = {fit name: RMSE of the markers on the joint's two bodies
     (:data:`AXIS_BODIES`)}, for each of ``fits`` (name -> (theta (P,) [m], qpos per trial
     (T_i, nq), NaN rows for frames not solved)); markers (T_i, M, 3) [m] per trial. Called
     with the first solve (Plug-in Gait's row held) and the final one (the row left out)."""
@@ -268,11 +268,11 @@ def axis_rmse(
     for joint, d in functional.items():
         bodies = [pset.model.body(b + joint[-2:]).id for b in AXIS_BODIES[joint[:-2]]]
         on = np.isin(pset.site_body, bodies)
-        d["rmse_mm"] = {}
+        d["rmse_m"] = {}
         for name, e in errors.items():
             sub = e[:, on]
             sub = sub[np.isfinite(sub)]
-            d["rmse_mm"][name] = float(np.sqrt(np.mean(sub**2)) * 1e3) if sub.size else None
+            d["rmse_m"][name] = float(np.sqrt(np.mean(sub**2))) if sub.size else None
 
 
 def knee_crosstalk(
@@ -322,40 +322,3 @@ def _slope(flexion: np.ndarray, varus: np.ndarray) -> dict[str, float] | None:
     """:func:`~mocap_mj.clinical.compare.crosstalk` as summary.json records it."""
     talk = crosstalk(flexion, varus)
     return None if talk is None else {"corr": talk[0], "slope": talk[1]}
-
-
-#: Joint -> Plug-in Gait's construction of its flexion axis, as report.md names it.
-CONSTRUCTION = {"knee": "the chord plane", "ankle": "the chord plane",
-                "elbow": "through ELB", "wrist": "the wrist bar"}  # fmt: skip
-
-
-def report_lines(decisions: Mapping[str, Mapping[str, Any]]) -> list[str]:
-    """report.md's lines on the flexion axes (empty without decisions)."""
-    if not decisions:
-        return []
-    lines = [
-        "| joint | axis from | data sd (deg) | row sd (deg) | angle to Plug-in Gait's (deg) "
-        "| marker RMSE (mm): this axis / Plug-in Gait's row "
-        "| varus on flexion: this axis | Plug-in Gait's |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    for joint, d in decisions.items():
-        how = CONSTRUCTION[d["joint"].split("_")[0]]
-        src = f"Plug-in Gait ({how})" if d["source"] == "plug-in-gait" else "the markers"
-        if d.get("silent"):
-            src += ", held: the data are silent"
-        if d.get("conflict"):
-            src += f" (they contradict {how})"
-        rmse = d.get("rmse_mm") or {}
-        both = (rmse.get("functional"), rmse.get("plug_in_gait_row"))
-        fit = "-" if None in both else f"{both[0]:.2f} / {both[1]:.2f}"
-        lines.append(
-            f"| {joint} | {src} | {d['data_sd_deg']:.1f} | {d['row_sd_deg']:.1f} | "
-            f"{d['angle_to_pig_deg']:+.1f} | {fit} | {_crosstalk_text(d.get('crosstalk_model'))} | "
-            f"{_crosstalk_text(d.get('crosstalk_pig'))} |"
-        )
-    return lines
-
-
-def _crosstalk_text(c: Mapping[str, float] | None) -> str:
-    return "-" if not c else f"r {c['corr']:+.2f}, slope {c['slope']:+.2f}"

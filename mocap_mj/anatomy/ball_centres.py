@@ -33,7 +33,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Any
 
 import mujoco
 import numpy as np
@@ -181,22 +180,67 @@ def centre_widths(prior: LinearGaussianPrior, factors: Mapping[str, float]) -> L
     return replace(prior, sigma=np.asarray(prior.sigma) * scale)
 
 
+@dataclass(frozen=True)
+class CentreRowReport:
+    """One regression row of a ball joint's centre at the identified model: ``distance``
+    [m] its value's distance from the regression, ``regression_sd`` [m] the regression's
+    width, ``spread`` what the data say of it (None: the row was not weighed against them)."""
+
+    distance: float
+    regression_sd: float
+    spread: RowSpread | None
+
+
+@dataclass(frozen=True)
+class BallCentre:
+    """A regression-placed ball joint's centre against its regression
+    (:func:`centre_report`), in the parent body's frame.
+
+    Attributes
+    ----------
+    body : str
+        The child body whose origin is the centre.
+    identified : (3,) float [m]
+        The identified centre.
+    regression : str
+        The regression's name (e.g. ``Harrington 2007``).
+    regression_centre : (3,) float [m]
+        The regression's centre.
+    distance, distance_sd : float [m]
+        Their distance and its standard deviation.
+    moved_by_data : bool
+        The distance is above twice its standard deviation.
+    rows : dict of str to CentreRowReport
+        Each regression row by its label.
+    others : dict of str to (3,) float [m] or None
+        Another regression's name -> its centre (None: its rows cannot be built).
+    """
+
+    body: str
+    identified: np.ndarray
+    regression: str
+    regression_centre: np.ndarray
+    distance: float
+    distance_sd: float
+    moved_by_data: bool
+    rows: dict[str, CentreRowReport]
+    others: dict[str, np.ndarray | None]
+
+
 def centre_report(
     pset: ParameterSet,
     theta: np.ndarray,
     prior: LinearGaussianPrior,
     spreads: Mapping[str, RowSpread],
     others: Mapping[str, LinearGaussianPrior | None] | None = None,
-) -> dict[str, Any]:
-    """summary.json's ``joint_centres_vs_regression``: per ball joint with regression rows
-    in ``prior`` (the landmark prior of the solve, its original widths), in the parent
-    body's frame [mm]: the identified centre, the regression's centre, their distance, its
-    standard deviation (:attr:`RowSpread.posterior_m` per row, combined along the
-    displacement), whether the data moved it (distance above twice that), and per row the
-    data's and the artefact floor's standard deviations. ``others``: name -> a prior of
-    another regression's rows (e.g. Davis's beside Harrington's), its centre also given."""
+) -> dict[str, BallCentre]:
+    """Per ball joint with regression rows in ``prior`` (the landmark prior of the solve, its
+    original widths; ``theta`` (P,) [m]): the identified centre against its regression
+    (:class:`BallCentre`; the distance's standard deviation from :attr:`RowSpread.posterior_m`
+    per row, combined along the displacement). ``others``: name -> a prior of another
+    regression's rows (e.g. Davis's beside Harrington's), its centre also given."""
     body_pos = pset.body_pos(theta)
-    out: dict[str, Any] = {}
+    out: dict[str, BallCentre] = {}
     for joint, rows in _by_joint(centre_rows(pset, prior)).items():
         centre = body_pos[pset.model.body(rows[0].body).id]
         d = np.array([prior.a[c.row] @ theta - prior.b[c.row] for c in rows])
@@ -206,33 +250,20 @@ def centre_report(
                         else prior.sigma[c.row] for c in rows])  # fmt: skip
         dist = float(np.linalg.norm(d))
         sd = float(np.sqrt(np.sum((d / dist) ** 2 * sds**2))) if dist > 0 else float(sds.max())
-        entry: dict[str, Any] = {
-            "body": rows[0].body,
-            "identified_mm": (centre * 1e3).tolist(),
-            "regression": _regression_name(rows[0].label),
-            "regression_mm": (regression * 1e3).tolist(),
-            "distance_mm": dist * 1e3,
-            "distance_sd_mm": sd * 1e3,
-            "moved_by_data": bool(dist > 2 * sd),
-            "rows": {c.label: _row_fields(spreads.get(c.label), di, float(prior.sigma[c.row]))
-                     for c, di in zip(rows, d, strict=True)},
-        }  # fmt: skip
+        alt: dict[str, np.ndarray | None] = {}
         for name, other in (others or {}).items():
             o = [] if other is None else [c for c in centre_rows(pset, other) if c.joint == joint]
             shift = sum((float(other.a[c.row] @ theta - other.b[c.row]) * c.axis for c in o),  # type: ignore[union-attr]
                         np.zeros(3))  # fmt: skip
-            entry[f"{name}_mm"] = ((centre - shift) * 1e3).tolist() if o else None
-        out[joint] = entry
-    return out
-
-
-def _row_fields(spread: RowSpread | None, d: float, prior: float) -> dict[str, float | None]:
-    """One row's report [mm]: its value's distance from the regression, the regression's
-    width, the data's and the floor's standard deviations and the width factor."""
-    out: dict[str, float | None] = {"from_regression_mm": d * 1e3, "regression_sd_mm": prior * 1e3}
-    out["data_sd_mm"] = None if spread is None else spread.data_m * 1e3
-    out["artefact_floor_mm"] = None if spread is None else spread.floor_m * 1e3
-    out["width_factor"] = None if spread is None else spread.factor
+            alt[name] = centre - shift if o else None
+        out[joint] = BallCentre(
+            body=rows[0].body, identified=centre, regression=_regression_name(rows[0].label),
+            regression_centre=regression, distance=dist, distance_sd=sd,
+            moved_by_data=bool(dist > 2 * sd),
+            rows={c.label: CentreRowReport(float(di), float(prior.sigma[c.row]),
+                                           spreads.get(c.label))
+                  for c, di in zip(rows, d, strict=True)}, others=alt,
+        )  # fmt: skip
     return out
 
 
@@ -248,7 +279,9 @@ def _regression_name(label: str) -> str:
 
 
 __all__ = [
+    "BallCentre",
     "CentreRow",
+    "CentreRowReport",
     "RowSpread",
     "centre_report",
     "centre_rows",

@@ -19,7 +19,7 @@ the centre is.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -66,24 +66,48 @@ def _jacobian(
     return jac
 
 
+@dataclass(frozen=True)
+class HingeCentre:
+    """A constructed hinge centre against its construction (:func:`hinge_report`), in the
+    frame of the parent segment's markers (module docstring).
+
+    Attributes
+    ----------
+    construction : str
+        The construction in words (summary.json ``init_centres``).
+    constructed, identified : (3,) float [m]
+        The centre at the initial and at the identified model.
+    distance, distance_sd : float [m]
+        The move's length and its standard deviation.
+    moved_by_data : bool
+        The distance is above :data:`MOVED_SD` standard deviations.
+    """
+
+    construction: str
+    constructed: np.ndarray
+    identified: np.ndarray
+    distance: float
+    distance_sd: float
+    moved_by_data: bool
+
+
 def hinge_report(
     pset: ParameterSet,
     result: LMResult,
     prior_information: np.ndarray,
     tau: float,
     sources: Mapping[str, str],
-) -> dict[str, dict[str, Any]]:
-    """summary.json's ``joint_centres_vs_construction``: per constructed hinge centre
-    (``sources``: joint -> its construction in words, summary.json ``init_centres``) whose
-    two markers ``pset`` has, ``construction`` (the words), ``construction_mm`` and
-    ``identified_mm`` (x y z in the markers' frame, module docstring, at ``result.theta0``
-    and ``result.theta``), ``distance_mm``, ``distance_sd_mm`` (``result``'s covariance
-    with ``prior_information`` (P, P) [1/m^2], the data's inflated by the residuals'
-    correlation time ``tau`` [frames] as segments.csv's), ``moved_by_data``."""
+) -> dict[str, HingeCentre]:
+    """Per constructed hinge centre (``sources``: joint -> its construction in words,
+    summary.json ``init_centres``) whose two markers ``pset`` has, its move from the
+    construction (:class:`HingeCentre`, at ``result.theta0`` and ``result.theta``), the
+    standard deviation from ``result``'s covariance with ``prior_information`` (P, P)
+    [1/m^2], the data's inflated by the residuals' correlation time ``tau`` [frames] as
+    segments.csv's."""
     cov = parameter_covariance(
         result, tau=_prior_weighted_tau(result.sigma, tau), prior_information=prior_information
     )
-    out: dict[str, dict[str, Any]] = {}
+    out: dict[str, HingeCentre] = {}
     for joint, source in sources.items():
         kind, side = joint[:-2], joint[-1]
         if kind not in HINGES:
@@ -99,31 +123,8 @@ def hinge_report(
         distance = float(np.linalg.norm(move))
         u = move / distance if distance > 0 else np.zeros(3)
         a = u @ _jacobian(pset, result.theta, markers, body)
-        out[joint] = {
-            "construction": source,
-            "construction_mm": (before * 1e3).tolist(),
-            "identified_mm": (after * 1e3).tolist(),
-            "distance_mm": distance * 1e3,
-            "distance_sd_mm": float(np.sqrt(max(a @ cov @ a, 0.0))) * 1e3,
-        }
-        out[joint]["moved_by_data"] = bool(
-            out[joint]["distance_mm"] > MOVED_SD * out[joint]["distance_sd_mm"]
+        sd = float(np.sqrt(max(a @ cov @ a, 0.0)))
+        out[joint] = HingeCentre(
+            source, before, after, distance, sd, bool(distance > MOVED_SD * sd)
         )
     return out
-
-
-def hinge_lines(centres: Mapping[str, Mapping[str, Any]]) -> list[str]:
-    """report.md's table of :func:`hinge_report` (empty without entries)."""
-    if not centres:
-        return []
-    lines = ["", "Hinge centres against their construction (x towards the lateral marker, z normal "
-             "to it and the segment's second marker, mm; "
-             "docs/model.md#the-constructions-start-and-prior):", "",
-             "| joint | construction | constructed | identified | distance (mm) | sd (mm) "
-             "| moved by the data |", "|---|---|---|---|---|---|---|"]  # fmt: skip
-    for joint, c in centres.items():
-        xyz = [" ".join(f"{v:.1f}" for v in c[k]) for k in ("construction_mm", "identified_mm")]
-        lines.append(f"| {joint} | {c['construction']} | {xyz[0]} | {xyz[1]} | "
-                     f"{c['distance_mm']:.1f} | {c['distance_sd_mm']:.1f} | "
-                     f"{'yes' if c['moved_by_data'] else 'no'} |")  # fmt: skip
-    return lines

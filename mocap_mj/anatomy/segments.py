@@ -54,9 +54,8 @@ Columns:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
-from pathlib import Path
-from typing import Any, NamedTuple
+from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -72,25 +71,9 @@ from mocap_mj.solve.consistency import (
 from mocap_mj.solve.lm import LMResult, LMSettings, TrialData
 from mocap_mj.solve.noise import artefact_noise
 
-from ..io.atomic import atomic_write_text
-
 #: A parameter within this distance [m] of a bound is reported at it: a solver that enforces
 #: its bounds by a barrier stops a fraction of a millimetre inside.
 AT_BOUND = 5e-4
-
-#: Columns of ``segments.csv``.
-COLUMNS = (
-    "name",
-    "kind",
-    "value_mm",
-    "std_white_mm",
-    "std_mm",
-    "std_priors_mm",
-    "nominal_mm",
-    "lower_mm",
-    "upper_mm",
-    "flag",
-)
 
 
 class SegmentRow(NamedTuple):
@@ -106,24 +89,6 @@ class SegmentRow(NamedTuple):
     lower: float
     upper: float
     flag: str
-
-    def to_json(self) -> dict[str, Any]:
-        """The row in millimetres, JSON-safe (null where not applicable)."""
-
-        def mm(v: float) -> float | None:
-            return float(v) * 1e3 if math.isfinite(v) else None
-
-        return {
-            "kind": self.kind,
-            "value_mm": mm(self.value),
-            "std_white_mm": mm(self.std_white),
-            "std_mm": mm(self.std),
-            "std_priors_mm": mm(self.std_priors),
-            "nominal_mm": mm(self.nominal),
-            "lower_mm": mm(self.lower),
-            "upper_mm": mm(self.upper),
-            "flag": self.flag,
-        }
 
 
 def parameter_flag(value: float, lower: float, upper: float) -> str:
@@ -212,14 +177,15 @@ def segment_table(
     return rows
 
 
-def write_segments_csv(path: str | Path, rows: Sequence[SegmentRow]) -> None:
-    """``segments.csv`` (columns :data:`COLUMNS`, millimetres, empty where not applicable)."""
-    lines = [",".join(COLUMNS)]
-    for r in rows:
-        nums = (r.value, r.std_white, r.std, r.std_priors, r.nominal, r.lower, r.upper)
-        cells = ["" if not math.isfinite(v) else f"{v * 1e3:.3f}" for v in nums]
-        lines.append(",".join([r.name, r.kind, *cells, r.flag]))
-    atomic_write_text(path, "\n".join(lines) + "\n")
+class Uncertainty(NamedTuple):
+    """The segment table's summary (:func:`uncertainty_summary`): the residuals'
+    correlation time ``tau_frames``, the ``rows``, the kinematic parameters ``flagged``
+    (name -> flag) and the ``worst`` markers by RMS distance (name -> [m], worst first)."""
+
+    tau_frames: float
+    rows: list[SegmentRow]
+    flagged: dict[str, str]
+    worst: dict[str, float]
 
 
 def uncertainty_summary(
@@ -232,84 +198,22 @@ def uncertainty_summary(
     ranges: tuple[np.ndarray, np.ndarray] | None = None,
     prior_information: np.ndarray | None = None,
     worst: int = 5,
-) -> tuple[dict[str, Any], list[SegmentRow]]:
-    """The summary.json entries of the segment table and the rows: ``correlation_time_frames``,
-    ``segments`` ({name: row}), ``parameters_flagged`` ({name: flag}), ``worst_markers_mm``
-    (the ``worst`` markers by RMS distance, per_marker (M,) [m], NaN for unseen markers);
+) -> Uncertainty:
+    """The segment table with the residuals' correlation time, the flagged parameters and
+    the ``worst`` markers by RMS distance (per_marker (M,) [m], NaN for unseen markers);
     ``prior_information`` as :func:`segment_table`'s."""
     tau = correlation_time(pset, result, trials)
     rows = segment_table(pset, result, tau, settings, ranges, prior_information)
     order = [int(i) for i in np.argsort(-np.nan_to_num(per_marker, nan=-1.0))[:worst]]
-    entries = {
-        "correlation_time_frames": tau,
-        "segments": {r.name: r.to_json() for r in rows},
-        "parameters_flagged": {
+    return Uncertainty(
+        tau_frames=tau,
+        rows=rows,
+        flagged={
             r.name: r.flag for r in rows if r.kind == "kappa" and r.flag and r.flag != NOT_MEASURED
         },
-        "worst_markers_mm": {
-            pset.marker_names[i]: float(per_marker[i]) * 1e3
+        worst={
+            pset.marker_names[i]: float(per_marker[i])
             for i in order
             if math.isfinite(per_marker[i])
         },
-    }
-    return entries, rows
-
-
-def uncertainty_lines(summary: Mapping[str, Any]) -> list[str]:
-    """report.md section rendered from the entries of :func:`uncertainty_summary` (none if
-    ``summary`` has no ``segments``)."""
-    segments = summary.get("segments")
-    if not segments:
-        return []
-    tau = summary["correlation_time_frames"]
-
-    def cell(v: float | None, fmt: str = ".1f") -> str:
-        return "" if v is None else format(v, fmt)
-
-    lines = [
-        "## Segment lengths and their uncertainty",
-        "",
-        f"Residual correlation time: {tau:.1f} frames (white noise gives about 1). Standard "
-        "deviations: `white` assumes independent frames (the Cramer-Rao figure); `inflated` "
-        "divides the information by the correlation time, the honest figure of what the data "
-        "tell on real recordings (soft-tissue artefact repeats over neighbouring frames); both "
-        "include only the weak prior toward the initial model, so a length the motion does "
-        "not determine shows that prior's width. `with priors` adds the anatomical priors the "
-        "fit used: the uncertainty of the estimate; where it is much smaller than `inflated`, "
-        "the priors, not the motion, place the length. All values also in segments.csv.",
-        "",
-        "| length (joint centre to joint centre) | value (mm) | std with priors (mm) | "
-        "std inflated (mm) | std white (mm) | nominal (mm) | flagged parameters |",
-        "|---|---:|---:|---:|---:|---:|---|",
-    ]
-    held = [n for n, r in segments.items() if r["kind"] == "length" and r["flag"] == NOT_MEASURED]
-    for name, r in segments.items():
-        if r["kind"] == "length" and name not in held:
-            lines.append(
-                f"| {name} | {cell(r['value_mm'])} | {cell(r.get('std_priors_mm'))} | "
-                f"{cell(r['std_mm'])} | {cell(r['std_white_mm'])} | {cell(r['nominal_mm'])} | "
-                f"{r['flag']} |"
-            )
-    if held:
-        lines += ["", f"{len(held)} lengths not measured (held at the prior, flagged "
-                  f"`{NOT_MEASURED}` in segments.csv) are not listed: "
-                  f"{', '.join(held)}."]  # fmt: skip
-    flagged = summary.get("parameters_flagged", {})
-    lines += ["", "### Parameters at a bound or outside the plausible range", ""]
-    if not flagged:
-        lines.append("None.")
-    else:
-        lines += [
-            "| parameter | value (mm) | std inflated (mm) | range (mm) | flag |",
-            "|---|---:|---:|---|---|",
-        ]
-        for name, flag in flagged.items():
-            r = segments[name]
-            lines.append(
-                f"| {name} | {cell(r['value_mm'])} | {cell(r['std_mm'])} | "
-                f"[{cell(r['lower_mm'], '.0f')}, {cell(r['upper_mm'], '.0f')}] | {flag} |"
-            )
-    worst = summary.get("worst_markers_mm", {})
-    lines += ["", "### Worst-fitting markers (RMS distance over the fitted frames)", ""]
-    lines.append(", ".join(f"{n} {v:.1f} mm" for n, v in worst.items()) or "None.")
-    return [*lines, ""]
+    )

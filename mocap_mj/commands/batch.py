@@ -31,6 +31,7 @@ from mocap_mj.commands.common import (
 from mocap_mj.commands.registry import build_parser
 from mocap_mj.kernels._threads import one_blas_thread
 from mocap_mj.pipeline.fit import Fit
+from mocap_mj.pipeline.summary import read_back
 from mocap_mj.skeleton.parameters import ParameterSet
 
 from ..batch.dataset import FLAGS, OPTION_KEYS, Subject, load_dataset
@@ -229,7 +230,7 @@ def _identify(opts: dict[str, Any], paths: list[str], subject_file: str | None, 
 
 def _outside(fit: Fit) -> list[bool]:
     """Whether each kinematic parameter ended outside its anatomical range (with anatomy)."""
-    names = set(fit.report.get("kappa_outside_bounds_mm") or {})
+    names = set(read_back(fit.report).kappa_outside_bounds)
     return [n in names for n in fit.pset.kappa_names]
 
 

@@ -48,6 +48,7 @@ from mocap_mj.pipeline.api import Hooks, identify_prepared, select_count
 from mocap_mj.pipeline.fit import Fit
 from mocap_mj.pipeline.prepare import ModelChoice, Prepared, Recording, checked, selected
 from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.pipeline.summary import read_back
 from mocap_mj.pipeline.trials import trial_folders
 from mocap_mj.skeleton import prewarm
 from mocap_mj.skeleton.mjcf import load_model
@@ -274,10 +275,9 @@ def identified(
     for note in [summary.get("shoulder_note"), *(summary.get("standing_notes") or [])]:
         if note:
             print(f"mocap-mj {args.command}: warning: {note}", file=sys.stderr)
-    per_marker = np.array(
-        [np.nan if v is None else v * 1e-3 for v in summary["marker_rmse_by_marker_mm"].values()]
-    )
-    outside = {n: [v * 1e-3 for v in b] for n, b in summary["kappa_outside_bounds_mm"].items()}
+    figures = read_back(summary)
+    per_marker = np.array(list(figures.marker_rmse_by_marker.values()))
+    outside = figures.kappa_outside_bounds
     reports = "\n".join(str(t.report) for t in loaded)
     text = f"{reports}\n{result_text(summary, pset, Path(args.out))}\n"
     if count is not None:

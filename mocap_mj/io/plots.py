@@ -230,8 +230,8 @@ def plot_error_accumulation(
 def plot_parameter_errors(
     path: str | Path,
     names: Sequence[str],
-    errors_mm: ArrayLike,
-    crlb_mm: ArrayLike,
+    errors: ArrayLike,
+    crlb: ArrayLike,
     *,
     title: str = "Parameter error and Cramér-Rao bound",
     size: tuple[int, int] | None = None,
@@ -248,9 +248,9 @@ def plot_parameter_errors(
         PNG file to write.
     names : sequence of str, (P,)
         Parameter names.
-    errors_mm : (P,) array [mm]
-        Estimate minus truth; NaN draws no bar.
-    crlb_mm : (P,) array [mm]
+    errors : (P,) array [m]
+        Estimate minus truth; NaN draws no bar. Drawn in mm.
+    crlb : (P,) array [m]
         Square root of the CRLB's diagonal; ``inf`` for an unidentifiable parameter.
     title : str
     size : (width, height) [px], optional
@@ -258,10 +258,10 @@ def plot_parameter_errors(
     """
     labels = _names(names)
     n = len(labels)
-    err = _vector("errors_mm", errors_mm, n)
-    bound = _vector("crlb_mm", crlb_mm, n)
+    err = _vector("errors", errors, n) * 1e3
+    bound = _vector("crlb", crlb, n) * 1e3
     if np.any(bound[np.isfinite(bound)] < 0):
-        raise MocapError("crlb_mm: expected non-negative bounds")
+        raise MocapError("crlb: expected non-negative bounds")
     fig = _figure(size or (1000, max(400, 90 + 16 * n)))
     ax = fig.add_subplot()
     y = np.arange(n)
@@ -292,7 +292,7 @@ def plot_parameter_errors(
 def plot_residual_per_marker(
     path: str | Path,
     names: Sequence[str],
-    rmse_mm: ArrayLike,
+    rmse: ArrayLike,
     *,
     title: str = "Marker residual RMSE",
     size: tuple[int, int] = (1200, 600),
@@ -305,13 +305,13 @@ def plot_residual_per_marker(
         PNG file to write.
     names : sequence of str, (M,)
         Marker names.
-    rmse_mm : (M,) array [mm]
-        RMSE of each marker; NaN (never seen) draws no bar and an "n/a" label.
+    rmse : (M,) array [m]
+        RMSE of each marker; NaN (never seen) draws no bar and an "n/a" label. Drawn in mm.
     title : str
     size : (width, height) [px]
     """
     labels = _names(names)
-    rmse = _vector("rmse_mm", rmse_mm, len(labels))
+    rmse = _vector("rmse", rmse, len(labels)) * 1e3
     fig = _figure(size)
     ax = fig.add_subplot()
     x = np.arange(len(labels))

@@ -15,8 +15,11 @@ from mocap_mj.pipeline.fit import Fit
 from mocap_mj.skeleton import rolling
 from mocap_mj.skeleton.joint_centres import JOINT_CENTRE_NAMES, centre_bodies
 
-from ..clinical.centre_causes import entry, explanation, report_lines
+from ..clinical.centre_causes import explanation
 from ..clinical.nexus_centres import (
+    COMPONENTS,
+    EXPLAIN_ABOVE,
+    CentreGap,
     centre_gaps,
     has_bone_points,
     lab_from_ours,
@@ -110,3 +113,64 @@ def _source(joint: str, regression: Mapping[str, Any], axes: Mapping[str, Any]) 
         return ("flexion axis from the markers" if axes[joint].get("source") != "plug-in-gait"
                 else "Plug-in Gait's axis row")  # fmt: skip
     return SOURCES.get(joint.split("_")[0], "the fit")
+
+
+def _named(v: np.ndarray) -> dict[str, float]:
+    return {k: float(x) * 1e3 for k, x in zip(COMPONENTS, v, strict=True)}
+
+
+def entry(gap: CentreGap, source: str, text: str | None) -> dict[str, Any]:
+    """summary.json's record of one centre [mm, deg]."""
+    out: dict[str, Any] = {
+        "nexus_point": gap.point,
+        "frames": gap.frames,
+        "distance_mm": gap.distance * 1e3,
+        "components_mm": _named(gap.components),
+        "components_sd_mm": _named(gap.components_sd),
+        "our_source": source,
+        "explanation": text,
+    }  # fmt: skip
+    if gap.from_marker is not None and gap.marker_angle is not None:
+        out["seen_from_marker"] = {"marker": gap.marker, "ours_mm": gap.from_marker[0] * 1e3,
+                                   "nexus_mm": gap.from_marker[1] * 1e3,
+                                   "angle_deg": float(np.degrees(gap.marker_angle))}  # fmt: skip
+    if gap.bend is not None:
+        out["bend_deg"] = [float(np.degrees(b)) for b in gap.bend]
+        if gap.bend_corr is not None and gap.bend_slope is not None:
+            out["bend_corr"] = gap.bend_corr
+            out["bend_slope_mm_per_deg"] = gap.bend_slope * 1e3 * np.pi / 180
+    if gap.construction is not None:
+        out["plug_in_gait_on_our_proximal"] = {"proximal": gap.proximal,
+                                               "to_nexus_mm": gap.construction[0] * 1e3,
+                                               "to_ours_mm": gap.construction[1] * 1e3}  # fmt: skip
+    if gap.arm_plane is not None:
+        out["arm_plane_tilt_deg"] = float(np.degrees(gap.arm_plane[0]))
+        out["arm_plane_tilt_flexion_corr"] = gap.arm_plane[1]
+    if gap.alternative is not None:
+        out["alternative"] = {"name": gap.alternative[0], "to_nexus_mm": gap.alternative[1] * 1e3,
+                              "to_ours_mm": gap.alternative[2] * 1e3}  # fmt: skip
+    return out
+
+
+def report_lines(source: str, frames: int, entries: Mapping[str, Mapping[str, Any]]) -> list[str]:
+    """report.md's section "Joint centres against Plug-in Gait" of summary entries."""
+    lines = [
+        "## Joint centres against Plug-in Gait",
+        "",
+        f"Our joint centres (joint_centres.csv) against the Plug-in Gait bone points Vicon Nexus "
+        f"stored in {source}, {frames} frames in common: the median distance and its "
+        "components (ours minus Nexus's, in Nexus's segment frame), and for every centre more "
+        f"than {EXPLAIN_ABOVE * 1e3:.0f} mm away the figures that say why "
+        '(docs/clinical.md, "Joint centres against Nexus\'s").',
+        "",
+        "| joint | Nexus point | distance (mm) | anterior / lateral / proximal (mm) | our source "
+        "| explanation |",
+        "|---|---|---|---|---|---|",
+    ]
+    within = f"within {EXPLAIN_ABOVE * 1e3:.0f} mm"
+    for joint, e in entries.items():
+        c = e["components_mm"]
+        parts = " / ".join("n/a" if not np.isfinite(c[k]) else f"{c[k]:+.0f}" for k in COMPONENTS)
+        lines.append(f"| {joint} | {e['nexus_point']} | {e['distance_mm']:.1f} | {parts} | "
+                     f"{e['our_source']} | {e['explanation'] or within} |")  # fmt: skip
+    return [*lines, ""]

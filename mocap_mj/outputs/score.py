@@ -138,8 +138,8 @@ def score(
         plot_parameter_errors(
             result_dir / "parameter_errors.png",
             pset.kappa_names,
-            e_obs[:k] * 1e3,
-            idf.param_std[:k] * 1e3,
+            e_obs[:k],
+            idf.param_std[:k],
             title="Kinematic parameters: error vs Cramer-Rao bound",
         )
     if held.size:

@@ -10,17 +10,20 @@ from typing import Any
 
 import numpy as np
 
-from mocap_mj.anatomy.axes import report_lines as axis_lines
-from mocap_mj.anatomy.hinge_centres import hinge_lines
 from mocap_mj.anatomy.joint_checks import report_line
 from mocap_mj.anatomy.plausibility import limits_text
-from mocap_mj.anatomy.segments import uncertainty_lines, write_segments_csv
 from mocap_mj.anatomy.standing import standing_lines
 from mocap_mj.anatomy.tissue import SlidingModel, with_sliding_model
 from mocap_mj.capture.marker_quality import quality_lines
 from mocap_mj.capture.marker_set import load_marker_set
 from mocap_mj.errors import MocapError
 from mocap_mj.io.strict_json import dumps, jsonable
+from mocap_mj.outputs.fit_tables import (
+    axis_lines,
+    hinge_lines,
+    uncertainty_lines,
+    write_segments_csv,
+)
 from mocap_mj.outputs.trial_out import (
     save_motions,
     streamed_name,
@@ -157,7 +160,7 @@ def write_plots(
 
     (sq, cnt), per_trial = write_trial_plots(out, pset, result, trials)
     seen = cnt > 0
-    rmse = np.sqrt(sq[seen] / cnt[seen]) * 1e3
+    rmse = np.sqrt(sq[seen] / cnt[seen])
     names = [n for n, s in zip(pset.marker_names, seen, strict=True) if s]
     plot_residual_per_marker(out / "residual_per_marker.png", names, rmse)
     return per_trial

@@ -39,6 +39,7 @@ from mocap_mj.pipeline.prepare import (
     recording,
 )
 from mocap_mj.pipeline.recipe import Recipe, check_select
+from mocap_mj.pipeline.results import joint_axes
 from mocap_mj.pipeline.steps import (
     Solved,
     anatomical_priors,
@@ -52,6 +53,8 @@ from mocap_mj.pipeline.summary import (
     add_finding,
     centre_fields,
     fit_report,
+    hinge_fields,
+    motion_fields,
     refinement_fields,
 )
 from mocap_mj.skeleton.parameters import ParameterSet
@@ -218,25 +221,27 @@ def _described(
         theta=result.theta,
     )
     knee_crosstalk(pset, result.theta, result.qpos, [t.markers for t in trials],
-                   solved.weighting.get("joint_axes") or {})  # fmt: skip
+                   joint_axes(solved.weighting))  # fmt: skip
     report.update(fit_report(solved, trials, settings, recipe, idf))
     if solved.t10_prior is not None and solved.t10_prior.finding is not None:
         add_finding(report, solved.t10_prior.finding)
     priors = (
         anatomical_priors(pset, solved.subject, size=solved.size, symmetric=solved.symmetric,
                           t10=solved.t10_prior, hip_centre=recipe.hip_centre,
-                          axes=widths(pset, solved.weighting.get("joint_axes")),
+                          axes=widths(pset, joint_axes(solved.weighting) or None),
                           landmarks=solved.landmarks,
-                          centres=solved.weighting.get("centre_widths"),
-                          held=solved.weighting.get("held_joints", ()))
-        if recipe.anatomy
+                          centres=solved.weighting.centre_widths,
+                          held=solved.weighting.held_joints)
+        if recipe.anatomy and solved.weighting is not None
         else []
     )  # fmt: skip
     info = prior_information(priors, settings, pset.size)
     rows = add_checks(report, pset, result, trials, settings, solved.ranges, info)
     report["joint_centres_vs_regression"] = centre_fields(solved, settings, recipe)
-    report["joint_centres_vs_construction"] = hinge_report(
-        pset, result, info, report["correlation_time_frames"], solved.construction or {}
+    report["joint_centres_vs_construction"] = hinge_fields(
+        hinge_report(
+            pset, result, info, report["correlation_time_frames"], solved.construction or {}
+        )
     )
     report = jsonable(report)
     motion = tuple(
@@ -299,8 +304,7 @@ def _with_every_frame(
                    pset.marker_names, first_frame=f)
             for t, q, f in zip(whole, poses, fit.first_frames, strict=True)
         )  # fmt: skip
-    report["motion_marker_rmse_mm"] = done.rmse * 1e3
-    report["motion_seconds"] = {"ik": done.ik_seconds, "all": done.seconds}
+    report.update(motion_fields(done.rmse, done.ik_seconds, done.seconds))
     return replace(fit, report=jsonable(report), motion=motion, motion_files=files)
 
 

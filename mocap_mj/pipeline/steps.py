@@ -8,7 +8,7 @@ import contextlib
 import logging
 import time
 from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from typing import Any
 
@@ -36,6 +36,14 @@ from mocap_mj.long.chunks import Robust, Weigh, robust_loss, scratch_array
 from mocap_mj.long.long import result_at
 from mocap_mj.long.refine import refine
 from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.pipeline.results import (
+    HeldAtConstruction,
+    Refined,
+    Weighting,
+    joint_axes,
+    prior_noise,
+    sliding_base,
+)
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.consistency import pooled_correlation_time, trial_residuals
@@ -54,42 +62,6 @@ logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True, eq=False)
-class Refined:
-    """The refinement on every frame of a selected recording (:func:`refine_on_every_frame`).
-
-    Attributes
-    ----------
-    steps_std : list of float [1]
-        Each refinement step's size in standard deviations.
-    seconds : dict of str to float [s]
-        The wall times of its parts.
-    subset_kappa : (K,) float [m]
-        The kinematic parameters the selected frames' solve found, before the refinement.
-    qpos : list of (T_i, nq) arrays
-        Every frame's pose under the subset's estimate, per motion trial: the start of the
-        motion's IK.
-    robust : Robust or None
-        The robust loss's threshold of the refinement (None: l2), for the motion's IK.
-    """
-
-    steps_std: Any
-    seconds: dict[str, float]
-    subset_kappa: np.ndarray
-    qpos: list[np.ndarray]
-    robust: Robust | None
-
-
-@dataclass(frozen=True)
-class HeldAtConstruction:
-    """A re-solve with joints held at their construction (:func:`_held_at_construction`):
-    the ``joints``, the marker RMSE [m] as first fitted and held, whether it was kept."""
-
-    joints: list[str]
-    marker_rmse: tuple[float, float]
-    kept: bool
-
-
-@dataclass(frozen=True, eq=False)
 class Solved:
     """The solve of :func:`solve_trials`: the parameter set solved with, the result, the
     prior weighting (:func:`solve_anatomical`), the refinement on every frame
@@ -103,7 +75,7 @@ class Solved:
 
     pset: ParameterSet
     result: IdentificationResult
-    weighting: dict[str, Any]
+    weighting: Weighting | None
     refined: Refined | None
     sliding: SlidingModel | None
     slides: dict[str, Slide] | None
@@ -185,12 +157,12 @@ def solve_trials(
             result, trials, whole, pset=pset, settings=settings, weighting=weighting,
             slides=slides, **options,
         )  # fmt: skip
-    for d in (weighting.get("joint_axes") or {}).values():  # at the final model
+    for d in joint_axes(weighting).values():  # at the final model
         d["angle_to_pig_deg"] = angle_to_pig(pset, result.theta, d)
-    sliding = None
-    if slides and "slide_base_mm" in weighting:
+    sliding, base = None, sliding_base(weighting)
+    if slides and base is not None:
         # The fit (and the refinement on every frame, and the motion's IK) weighed with it.
-        sliding = SlidingModel(dict(slides), weighting["slide_base_mm"] * 1e-3)
+        sliding = SlidingModel(dict(slides), base)
     ranges = kappa_ranges(pset, subject) if recipe.anatomy else None
     return Solved(
         pset=pset, result=result, weighting=weighting, refined=refined, sliding=sliding,
@@ -203,9 +175,9 @@ def solve_trials(
 def _held_at_construction(
     trials: Sequence[TrialData],
     result: IdentificationResult,
-    weighting: dict[str, Any],
+    weighting: Weighting | None,
     **solve: Any,
-) -> tuple[IdentificationResult, dict[str, Any]]:
+) -> tuple[IdentificationResult, Weighting | None]:
     """``result`` checked against the body (:func:`~mocap_mj.anatomy.joint_checks.joint_checks`);
     a joint outside it re-solved once (:func:`solve_anatomical` with ``solve``'s arguments)
     with its construction rows narrowed (:func:`~mocap_mj.anatomy.joint_checks.hold`). The
@@ -217,12 +189,12 @@ def _held_at_construction(
     solve.pop("anatomical", None)
     subject, landmarks = solve["subject"], solve.get("landmarks")
     pset = solve["pset"]
-    checks = joint_checks(pset, result.theta, subject, landmarks, weighting.get("joint_axes"))
+    checks = joint_checks(pset, result.theta, subject, landmarks, joint_axes(weighting) or None)
     joints = held_joints(checks)
-    if not joints:
+    if not joints or weighting is None:
         return result, weighting
     held, held_weighting = solve_anatomical(trials, held=joints, **solve)
-    after = joint_checks(pset, held.theta, subject, landmarks, held_weighting.get("joint_axes"))
+    after = joint_checks(pset, held.theta, subject, landmarks, held_weighting.joint_axes or None)
     fixed = not any(set(held_joints([c])) & set(joints) for c in after if c.violated)
     kept = fixed and held.marker_rmse <= HOLD_RMSE_RATIO * result.marker_rmse
     record = HeldAtConstruction(joints, (result.marker_rmse, held.marker_rmse), bool(kept))
@@ -232,8 +204,8 @@ def _held_at_construction(
         "kept" if kept else "not kept (the markers place the joint there)",
     )  # fmt: skip
     if kept:
-        return held, {**held_weighting, "held_joints": joints, "held_at_construction": record}
-    return result, {**weighting, "held_at_construction": record}
+        return held, replace(held_weighting, held_joints=joints, held_at_construction=record)
+    return result, replace(weighting, held_at_construction=record)
 
 
 def refine_on_every_frame(
@@ -243,7 +215,7 @@ def refine_on_every_frame(
     *,
     pset: ParameterSet,
     settings: LMSettings,
-    weighting: dict[str, Any],
+    weighting: Weighting | None,
     subject: Subject,
     size: float,
     anatomical: bool,
@@ -262,21 +234,22 @@ def refine_on_every_frame(
     them). The result is described at the refined model (:func:`~mocap_mj.long.long.result_at`);
     :class:`Refined` holds the refinement's steps, time, the subset's own estimate and every
     frame's pose under it, the start of the motion's IK. When the solve weighed the sliding
-    landmarks (``slides``, and ``weighting`` has their ``slide_base_mm``), the refinement
+    landmarks (``slides``, and ``weighting`` has their ``slide_base``), the refinement
     weighs them alike, by each frame's pose (:func:`~mocap_mj.long.refine.refine`'s
     ``weigh``): it minimises the cost the subset's solve minimised, over every frame. With a
     robust ``settings.loss`` it minimises that loss, its threshold first the subset's solve's
     last (:func:`robust_for`), then the sample's (in the dict as ``robust``, for the motion's
     IK, :attr:`Refined.robust`)."""
-    noise = weighting.get("noise_mm", settings.prior_noise * 1e3) * 1e-3
+    noise = prior_noise(weighting, settings.prior_noise)
     priors: list[Prior] = [settings.weak_prior(result.theta)]
     box = None
     if anatomical:
         priors += anatomical_priors(
             pset, subject, size=size, symmetric=symmetric, noise=noise, t10=t10,
             hip_centre=hip_centre, landmarks=landmarks,
-            axes=widths(pset, weighting.get("joint_axes")), centres=weighting.get("centre_widths"),
-            held=weighting.get("held_joints", ()),
+            axes=widths(pset, joint_axes(weighting) or None),
+            centres=None if weighting is None else weighting.centre_widths,
+            held=() if weighting is None else weighting.held_joints,
         )  # fmt: skip
         box = theta_bounds(pset, subject)
     qpos = [scratch_array((len(t.markers), pset.model.nq)) for t in motion_trials]
@@ -323,13 +296,14 @@ def robust_for(
 
 
 def sliding_weigh(
-    pset: ParameterSet, weighting: dict[str, Any], slides: dict[str, Slide] | None
+    pset: ParameterSet, weighting: Weighting | None, slides: dict[str, Slide] | None
 ) -> Weigh | None:
     """The sliding landmarks' weights by pose (:meth:`SlidingModel.weights`) that the solve
-    weighed with (``weighting`` has ``slide_base_mm``), else None."""
-    if not slides or "slide_base_mm" not in weighting:
+    weighed with (``weighting`` has ``slide_base``), else None."""
+    base = sliding_base(weighting)
+    if not slides or base is None:
         return None
-    return partial(SlidingModel(dict(slides), weighting["slide_base_mm"] * 1e-3).weights, pset)
+    return partial(SlidingModel(dict(slides), base).weights, pset)
 
 
 def _check_inputs(trials: Sequence[TrialData], pset: ParameterSet) -> None:
@@ -417,12 +391,12 @@ def _solve(
     hip_centre: str = "harrington",
     landmarks: Mapping[str, str] | None = None,
     silent_axis_sd: float = SILENT_AXIS_SD,
-) -> tuple[IdentificationResult, dict[str, Any]]:
+) -> tuple[IdentificationResult, Weighting | None]:
     """The joint LM of :func:`solve_trials`: with ``anatomical`` through
     :func:`solve_anatomical` (ranges and landmark priors; ``symmetric`` [m] the left/right
     prior's standard deviation or None; ``slides`` the sliding landmarks or None;
     ``trial_weights``), else the plain :func:`identify_lm`; return the result and the prior
-    weighting (empty without ``anatomical``)."""
+    weighting (None without ``anatomical``)."""
     if anatomical:
         return solve_anatomical(
             trials,
@@ -441,7 +415,7 @@ def _solve(
             silent_axis_sd=silent_axis_sd,
         )
     result = identify_lm(trials, pset=pset, theta0=theta0, settings=settings, progress=progress)
-    return result, {}
+    return result, None
 
 
 class _ListHandler(logging.Handler):
@@ -552,7 +526,7 @@ def solve_anatomical(
     landmarks: Mapping[str, str] | None = None,
     held: Collection[str] = (),
     silent_axis_sd: float = SILENT_AXIS_SD,
-) -> tuple[IdentificationResult, dict[str, Any]]:
+) -> tuple[IdentificationResult, Weighting]:
     """The joint LM with anatomical ranges as bounds and the anatomical priors (``t10``, ``held``:
     :func:`anatomical_priors`; ``trial_weights``: False weighs every trial 1; ``silent_axis_sd``).
 
@@ -569,9 +543,9 @@ def solve_anatomical(
     holds (:func:`_reweighed`); with ``slides`` (e.g. :data:`~mocap_mj.anatomy.tissue.SLIDES`;
     default None: off) it also weighs the landmark markers that slide with their joint's
     angle (:func:`_slid`), only where the residuals show soft tissue, never on white noise.
-    Returns the result and the weighting used (``noise_mm``, ``sigma_mm``, ``tau_frames``,
-    ``trial_tau_frames`` and ``trial_weights`` (one per trial); with the sliding weights
-    ``slide_weight_min`` and ``slide_base_mm``, see :func:`_slid`).
+    Returns the result and the weighting used (:class:`Weighting`: noise, sigma, tau, each
+    trial's tau and weight; with the sliding weights their smallest and their base, see
+    :func:`_slid`).
     """
     lower, upper = theta_bounds(pset, subject)
     options: dict[str, Any] = {
@@ -584,22 +558,24 @@ def solve_anatomical(
         trials, pset=pset, theta0=theta0, settings=settings, progress=progress,
         priors=[settings.weak_prior(start), *priors], lower=lower, upper=upper,
     )  # fmt: skip
-    weighting, noise = _weighting(pset, result, trials, trial_weights)
-    tau = weighting["tau_frames"]
-    taus, per_trial = weighting["trial_tau_frames"], weighting["trial_weights"]
+    weighting = _weighting(pset, result, trials, trial_weights)
+    noise, tau = weighting.noise, weighting.tau_frames
+    taus, per_trial = weighting.trial_tau_frames, weighting.trial_weights
     soft = noise > REWEIGHT_RATIO * settings.prior_noise
     weak, axis_noise = settings.weak_prior(start), noise if soft else settings.prior_noise
     axes = axis_decisions(pset, result.reduced_information, result.theta, priors, weak, axis_noise,
                           settings.prior_noise, silent_axis_sd)  # fmt: skip
-    priors = _decided(pset, subject, options, result, priors, axes, weighting, soft, settings)
-    if not soft and all(w == 1.0 for w in per_trial) and not axes:
-        weighting["noise_mm"] = settings.prior_noise * 1e3
-        return result, weighting
+    priors, weighting = _decided(pset, subject, options, result, priors, axes, weighting, soft,
+                                 settings)  # fmt: skip
     if not soft:
         noise = settings.prior_noise
-        weighting["noise_mm"] = noise * 1e3
+        weighting = replace(weighting, noise=noise)
+    if not soft and all(w == 1.0 for w in per_trial) and not axes:
+        return result, weighting
     _log_weighting(soft, noise, tau, per_trial, taus)
-    weighted = _slid(trials, result, pset, slides, weighting) if slides and soft else list(trials)
+    weighted = list(trials)
+    if slides and soft:
+        weighted, weighting = _slid(trials, result, pset, slides, weighting)
     solve = partial(
         identify_lm,
         pset=pset,
@@ -609,7 +585,7 @@ def solve_anatomical(
         lower=lower,
         upper=upper,
     )
-    return _reweighed(solve, result, trials, weighted, weighting, pset, trial_weights), weighting
+    return _reweighed(solve, result, trials, weighted, weighting, pset, trial_weights)
 
 
 def _decided(
@@ -619,25 +595,26 @@ def _decided(
     first: IdentificationResult,
     priors: list[LinearGaussianPrior],
     axes: dict[str, Any],
-    weighting: dict[str, Any],
+    weighting: Weighting,
     soft: bool,
     settings: LMSettings,
-) -> list[LinearGaussianPrior]:
+) -> tuple[list[LinearGaussianPrior], Weighting]:
     """The priors of :func:`solve_anatomical`'s weighted solves: the flexion axes' rows as
     decided (``axes``, :mod:`~mocap_mj.anatomy.axes`) and, where the residuals show soft
     tissue (``soft``), the ball-joint centres' regression rows weighed against the data
     honestly counted (:func:`_centre_factors` at the ``first`` solve); both recorded in
-    ``weighting`` (``joint_axes``, ``centre_widths``)."""
+    the weighting returned (``joint_axes``, ``centre_widths``)."""
     if axes:
-        weighting["joint_axes"] = axes
+        weighting = replace(weighting, joint_axes=axes)
     if soft:
-        noise = weighting["noise_mm"] * 1e-3
         weak = settings.weak_prior(first.theta)
-        weighting["centre_widths"] = _centre_factors(pset, first, priors, weak, noise)
+        noise = prior_noise(weighting, settings.prior_noise)
+        factors = _centre_factors(pset, first, priors, weak, noise)
+        weighting = replace(weighting, centre_widths=factors)
     if not axes and not soft:
-        return priors
+        return priors, weighting
     return anatomical_priors(pset, subject, **options, axes=widths(pset, axes),
-                             centres=weighting.get("centre_widths"))  # fmt: skip
+                             centres=weighting.centre_widths), weighting  # fmt: skip
 
 
 def _centre_factors(
@@ -681,23 +658,16 @@ def _weighting(
     result: IdentificationResult,
     trials: Sequence[TrialData],
     trial_weights: bool,
-) -> tuple[dict[str, Any], float]:
-    """The prior weighting after the first solve ``result`` (its per-axis noise sigma, the
+) -> Weighting:
+    """The prior weighting after the first solve ``result``: its per-axis noise sigma, the
     residuals' pooled correlation time tau [frames], the artefact's noise of one
-    independent observation, each trial's tau and weight) and that noise [m]
-    (:func:`artefact_noise`)."""
+    independent observation [m] (:func:`artefact_noise`), each trial's tau and weight."""
     residuals = trial_residuals(pset, result, trials)
     tau = pooled_correlation_time(residuals)
     noise = artefact_noise(result.sigma, tau)
     taus, per_trial = _trial_weighting(residuals, trial_weights)
-    weighting = {
-        "sigma_mm": result.sigma * 1e3,
-        "tau_frames": tau,
-        "noise_mm": noise * 1e3,
-        "trial_tau_frames": taus,
-        "trial_weights": per_trial,
-    }
-    return weighting, noise
+    return Weighting(sigma=result.sigma, tau_frames=tau, noise=noise, trial_tau_frames=taus,
+                     trial_weights=per_trial)  # fmt: skip
 
 
 def _slid(
@@ -705,20 +675,20 @@ def _slid(
     first: IdentificationResult,
     pset: ParameterSet,
     slides: dict[str, Slide],
-    weighting: dict[str, Any],
-) -> list[TrialData]:
+    weighting: Weighting,
+) -> tuple[list[TrialData], Weighting]:
     """The trials with the weights of the landmark markers that slide with their joint's
     angle (:mod:`mocap_mj.anatomy.tissue`) by the ``first`` solve's poses, against a
-    per-axis artefact of ``max(sigma, SOFT_TISSUE_SIGMA)`` (recorded in ``weighting``:
-    ``slide_weight_min``, the smallest weight, and ``slide_base_mm``, the artefact).
+    per-axis artefact of ``max(sigma, SOFT_TISSUE_SIGMA)``, and ``weighting`` recording
+    them (``slide_weight_min``, the smallest weight, and ``slide_base``, the artefact [m]).
     ``mocap-mj identify`` slides :data:`~mocap_mj.anatomy.tissue.SLIDES` unless the
     recipe's ``sliding_landmarks`` is false
     (docs/method.md#weighing-priors-trials-and-sliding-markers)."""
     base = max(first.sigma, SOFT_TISSUE_SIGMA)
     weights = [sliding_weights(pset, q, base, slides) for q in first.qpos]
-    weighting["slide_weight_min"] = float(min(w.min() for w in weights))
-    weighting["slide_base_mm"] = base * 1e3
-    return [t._replace(weights=w) for t, w in zip(trials, weights, strict=True)]
+    weighting = replace(weighting, slide_weight_min=float(min(w.min() for w in weights)),
+                        slide_base=base)  # fmt: skip
+    return [t._replace(weights=w) for t, w in zip(trials, weights, strict=True)], weighting
 
 
 def _reweighed(
@@ -726,21 +696,22 @@ def _reweighed(
     first: IdentificationResult,
     trials: Sequence[TrialData],
     weighted: Sequence[TrialData],
-    weighting: dict[str, Any],
+    weighting: Weighting,
     pset: ParameterSet,
     trial_weights: bool,
-) -> IdentificationResult:
+) -> tuple[IdentificationResult, Weighting]:
     """:func:`solve_anatomical`'s weighted solves from the ``first`` one: ``weighted`` (the
     trials with their sliding weights) weighed by ``weighting``'s ``trial_weights``: the
     independent observations each trial holds (:func:`~mocap_mj.solve.noise.trial_weights`,
     from each trial's residual correlation time about zero), re-estimated at each weighted
-    solve's model (updated in ``weighting``), at most ``TRIAL_WEIGHT_ROUNDS`` solves, until
-    no weight changes by more than ``TRIAL_WEIGHT_SETTLED``: a static trial's soft tissue is
-    one offset over all its frames and would otherwise outvote a movement. Residuals of
-    white noise keep every weight 1; one trial always weighs 1. The result carries the first
-    solve's initial model and the solves' summed iterations and time; a functional flexion
-    axis of ``weighting`` gets its marker RMSE with each solve (:func:`axes.axis_rmse`)."""
-    per_trial = weighting["trial_weights"]
+    solve's model (recorded in the weighting returned), at most ``TRIAL_WEIGHT_ROUNDS``
+    solves, until no weight changes by more than ``TRIAL_WEIGHT_SETTLED``: a static trial's
+    soft tissue is one offset over all its frames and would otherwise outvote a movement.
+    Residuals of white noise keep every weight 1; one trial always weighs 1. The result
+    carries the first solve's initial model and the solves' summed iterations and time; the
+    weighting returned holds the last trial weights; a functional flexion axis of
+    ``weighting`` gets its marker RMSE with each solve (:func:`axes.axis_rmse`)."""
+    per_trial = weighting.trial_weights
     result = solve(_trials_weighed(weighted, per_trial), theta0=first.theta,
                    initial_qpos=first.qpos)  # fmt: skip
     seconds, iterations = first.seconds + result.seconds, first.iterations + result.iterations
@@ -753,7 +724,7 @@ def _reweighed(
         ):
             break
         per_trial = update
-        weighting.update(trial_tau_frames=taus, trial_weights=per_trial)
+        weighting = replace(weighting, trial_tau_frames=taus, trial_weights=per_trial)
         logger.info("trials reweighed: %s", ", ".join(f"{w:.2f}" for w in per_trial))
         result = solve(_trials_weighed(weighted, per_trial), theta0=result.theta,
                        initial_qpos=result.qpos)  # fmt: skip
@@ -766,8 +737,8 @@ def _reweighed(
         "plug_in_gait_row": (first.theta, first.qpos),
         "functional": (result.theta, result.qpos),
     }
-    axis_rmse(pset, fits, [t.markers for t in trials], weighting.get("joint_axes") or {})
-    return result
+    axis_rmse(pset, fits, [t.markers for t in trials], weighting.joint_axes)
+    return result, weighting
 
 
 def _trial_weighting(

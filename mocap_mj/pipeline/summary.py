@@ -3,14 +3,16 @@ beside its arrays, in the summary's units (millimetres, seconds; names ending ``
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from mocap_mj.anatomy.anatomy import ASYMMETRY_SIGMA
 from mocap_mj.anatomy.axes import widths
-from mocap_mj.anatomy.ball_centres import centre_report, row_spreads
+from mocap_mj.anatomy.ball_centres import BallCentre, CentreRowReport, centre_report, row_spreads
+from mocap_mj.anatomy.hinge_centres import HingeCentre
 from mocap_mj.anatomy.initial import marker_stature, segment_scales
 from mocap_mj.anatomy.joint_checks import checks_summary, half_width, joint_checks, violations
 from mocap_mj.anatomy.partial import Unmeasured
@@ -27,7 +29,8 @@ from mocap_mj.anatomy.trunk import T10Placement
 from mocap_mj.capture.marker_quality import Finding
 from mocap_mj.capture.subject import Subject
 from mocap_mj.pipeline.recipe import Recipe
-from mocap_mj.pipeline.steps import REWEIGHT_RATIO, Refined, Solved, anatomical_priors
+from mocap_mj.pipeline.results import Refined, Weighting, joint_axes, prior_noise
+from mocap_mj.pipeline.steps import REWEIGHT_RATIO, Solved, anatomical_priors
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.identifiability import Identifiability
 from mocap_mj.solve.lm import LMSettings, solver_joint_range
@@ -70,18 +73,18 @@ def fit_report(
         marker_stature(segment_scales(pset, [t.markers for t in trials])),
     )
     checks = joint_checks(pset, result.theta, solved.subject, solved.landmarks,
-                          solved.weighting.get("joint_axes"))  # fmt: skip
+                          joint_axes(solved.weighting) or None)  # fmt: skip
     summary["anatomy_checks"] = checks_summary(checks)
-    held = solved.weighting.get("held_at_construction")
+    held = None if solved.weighting is None else solved.weighting.held_at_construction
     summary["held_at_construction"] = None if held is None else {
         "joints": held.joints, "marker_rmse_mm": [v * 1e3 for v in held.marker_rmse],
         "kept": held.kept,
     }  # fmt: skip
     note = ""
     if held and not held.kept:
-        fitted, holding = (v * 1e3 for v in held.marker_rmse)
+        first, holding = (v * 1e3 for v in held.marker_rmse)
         note = (f"; held at its construction the markers fit at {holding:.2f} mm RMSE "
-                f"({fitted:.2f} as fitted): they place it there, a marker misplaced?")  # fmt: skip
+                f"({first:.2f} as fitted): they place it there, a marker misplaced?")  # fmt: skip
     summary["implausible"] += violations(checks, note)
     fitted = [q[used] for q, used in zip(result.qpos, result.used, strict=True)]
     summary["joints_at_limit"] = joints_at_limit(
@@ -137,7 +140,7 @@ def _measured_fields(pset: ParameterSet, missing: Unmeasured) -> dict[str, Any]:
 
 def _prior_fields(
     anatomical: bool,
-    weighting: dict[str, Any],
+    weighting: Weighting | None,
     symmetric: float | None,
     asymmetry_prior: bool,
     subject: Subject,
@@ -145,12 +148,8 @@ def _prior_fields(
     """The priors part of the summary (standard deviations in millimetres)."""
     return {
         "anatomical_priors": anatomical,
-        "prior_weighting": {
-            k: v
-            for k, v in weighting.items()
-            if k not in ("joint_axes", "held_joints", "held_at_construction")
-        },
-        "joint_axes": weighting.get("joint_axes") or {},
+        "prior_weighting": _weighting_fields(weighting),
+        "joint_axes": {j: _axis_fields(d) for j, d in joint_axes(weighting).items()},
         "symmetric_mm": None if symmetric is None else symmetric * 1e3,
         "asymmetry_prior_mm": (
             ASYMMETRY_SIGMA * 1e3 if anatomical and asymmetry_prior and symmetric is None else None
@@ -160,6 +159,37 @@ def _prior_fields(
             None if subject.stature_estimate is None else subject.stature_estimate.to_dict()
         ),
     }
+
+
+def _weighting_fields(w: Weighting | None) -> dict[str, Any]:
+    """summary.json's ``prior_weighting`` (empty without the anatomical priors)."""
+    if w is None:
+        return {}
+    out: dict[str, Any] = {
+        "sigma_mm": w.sigma * 1e3,
+        "tau_frames": w.tau_frames,
+        "noise_mm": w.noise * 1e3,
+        "trial_tau_frames": w.trial_tau_frames,
+        "trial_weights": w.trial_weights,
+    }
+    if w.centre_widths is not None:
+        out["centre_widths"] = w.centre_widths
+    if w.slide_base is not None:
+        out["slide_weight_min"] = w.slide_weight_min
+        out["slide_base_mm"] = w.slide_base * 1e3
+    return out
+
+
+def _axis_fields(decision: dict[str, Any]) -> dict[str, Any]:
+    """summary.json's ``joint_axes`` entry of one flexion axis: its decision with the marker
+    RMSE of each fit in mm (``rmse_mm``)."""
+    out: dict[str, Any] = {}
+    for k, v in decision.items():
+        if k == "rmse_m":
+            out["rmse_mm"] = {n: None if r is None else r * 1e3 for n, r in v.items()}
+        else:
+            out[k] = v
+    return out
 
 
 def _t10_fields(t10: T10Placement) -> dict[str, Any]:
@@ -261,11 +291,34 @@ def add_checks(
         n: float(v) * 1e3 for n, v in zip(pset.marker_names, per_marker, strict=True)
     }
     summary["kappa_outside_bounds_mm"] = {n: [v * 1e3 for v in b] for n, b in outside.items()}
-    entries, rows = uncertainty_summary(
+    table = uncertainty_summary(
         pset, result, trials, per_marker, settings, ranges=ranges, prior_information=prior_info
     )
-    summary.update(entries)
-    return rows
+    summary["correlation_time_frames"] = table.tau_frames
+    summary["segments"] = {r.name: segment_fields(r) for r in table.rows}
+    summary["parameters_flagged"] = table.flagged
+    summary["worst_markers_mm"] = {n: v * 1e3 for n, v in table.worst.items()}
+    return table.rows
+
+
+def segment_fields(row: SegmentRow) -> dict[str, Any]:
+    """One row of the segment table as summary.json's ``segments`` holds it: millimetres,
+    null where not applicable."""
+
+    def mm(v: float) -> float | None:
+        return float(v) * 1e3 if math.isfinite(v) else None
+
+    return {
+        "kind": row.kind,
+        "value_mm": mm(row.value),
+        "std_white_mm": mm(row.std_white),
+        "std_mm": mm(row.std),
+        "std_priors_mm": mm(row.std_priors),
+        "nominal_mm": mm(row.nominal),
+        "lower_mm": mm(row.lower),
+        "upper_mm": mm(row.upper),
+        "flag": row.flag,
+    }
 
 
 def centre_fields(solved: Solved, settings: LMSettings, recipe: Recipe) -> dict[str, Any]:
@@ -281,10 +334,10 @@ def centre_fields(solved: Solved, settings: LMSettings, recipe: Recipe) -> dict[
     pset, result, w = solved.pset, solved.result, solved.weighting
     options: dict[str, Any] = {
         "size": solved.size, "symmetric": solved.symmetric, "t10": solved.t10_prior,
-        "landmarks": solved.landmarks, "axes": widths(pset, w.get("joint_axes")),
-        "held": w.get("held_joints", ()),
+        "landmarks": solved.landmarks, "axes": widths(pset, joint_axes(w) or None),
+        "held": () if w is None else w.held_joints,
     }  # fmt: skip
-    noise = w.get("noise_mm", settings.prior_noise * 1e3) * 1e-3
+    noise = prior_noise(w, settings.prior_noise)
     priors = [p.with_noise(noise) for p in anatomical_priors(pset, solved.subject, **options,
               hip_centre=recipe.hip_centre)]  # fmt: skip
     soft = noise > REWEIGHT_RATIO * settings.prior_noise  # as solve_anatomical decides
@@ -297,7 +350,38 @@ def centre_fields(solved: Solved, settings: LMSettings, recipe: Recipe) -> dict[
         alt = anatomical_priors(pset, solved.subject, **options, hip_centre=other)[0]
     except MocapError:  # Davis's rows need both leg lengths
         alt = None
-    return centre_report(pset, result.theta, priors[0], spreads, {other: alt})
+    report = centre_report(pset, result.theta, priors[0], spreads, {other: alt})
+    return {joint: _ball_centre_fields(c) for joint, c in report.items()}
+
+
+def _ball_centre_fields(c: BallCentre) -> dict[str, Any]:
+    """One joint's entry of summary.json's ``joint_centres_vs_regression`` [mm]."""
+    out: dict[str, Any] = {
+        "body": c.body,
+        "identified_mm": (c.identified * 1e3).tolist(),
+        "regression": c.regression,
+        "regression_mm": (c.regression_centre * 1e3).tolist(),
+        "distance_mm": c.distance * 1e3,
+        "distance_sd_mm": c.distance_sd * 1e3,
+        "moved_by_data": c.moved_by_data,
+        "rows": {label: _centre_row_fields(r) for label, r in c.rows.items()},
+    }
+    for name, centre in c.others.items():
+        out[f"{name}_mm"] = None if centre is None else (centre * 1e3).tolist()
+    return out
+
+
+def _centre_row_fields(r: CentreRowReport) -> dict[str, float | None]:
+    """One regression row's report [mm]: its value's distance from the regression, the
+    regression's width, the data's and the floor's standard deviations and the width factor."""
+    spread = r.spread
+    return {
+        "from_regression_mm": r.distance * 1e3,
+        "regression_sd_mm": r.regression_sd * 1e3,
+        "data_sd_mm": None if spread is None else spread.data_m * 1e3,
+        "artefact_floor_mm": None if spread is None else spread.floor_m * 1e3,
+        "width_factor": None if spread is None else spread.factor,
+    }
 
 
 def refinement_fields(pset: ParameterSet, refined: Refined) -> dict[str, Any]:
@@ -310,3 +394,49 @@ def refinement_fields(pset: ParameterSet, refined: Refined) -> dict[str, Any]:
             n: float(v) * 1e3 for n, v in zip(pset.kappa_names, refined.subset_kappa, strict=True)
         },
     }
+
+
+def hinge_fields(centres: Mapping[str, HingeCentre]) -> dict[str, dict[str, Any]]:
+    """summary.json's ``joint_centres_vs_construction``
+    (:func:`~mocap_mj.anatomy.hinge_centres.hinge_report`): per hinge centre its
+    construction, ``construction_mm`` and ``identified_mm`` (x y z in the markers' frame),
+    ``distance_mm``, ``distance_sd_mm`` and ``moved_by_data``."""
+    return {
+        joint: {
+            "construction": c.construction,
+            "construction_mm": (c.constructed * 1e3).tolist(),
+            "identified_mm": (c.identified * 1e3).tolist(),
+            "distance_mm": c.distance * 1e3,
+            "distance_sd_mm": c.distance_sd * 1e3,
+            "moved_by_data": c.moved_by_data,
+        }
+        for joint, c in centres.items()
+    }
+
+
+def motion_fields(rmse: float, ik_seconds: float, seconds: float) -> dict[str, Any]:
+    """summary.json's figures of every frame's motion: its marker RMSE ``rmse`` [m] in mm and
+    the wall times [s] of its IK and of the whole."""
+    return {
+        "motion_marker_rmse_mm": rmse * 1e3,
+        "motion_seconds": {"ik": ik_seconds, "all": seconds},
+    }
+
+
+class ReadBack(NamedTuple):
+    """What a command reads back from a summary (summary.json's content, :func:`read_back`),
+    in SI: each marker's RMSE [m] (NaN: never seen) by name, and the kinematic parameters
+    outside their anatomical range with that range (name -> [lower, upper] [m])."""
+
+    marker_rmse_by_marker: dict[str, float]
+    kappa_outside_bounds: dict[str, list[float]]
+
+
+def read_back(summary: Mapping[str, Any]) -> ReadBack:
+    """The figures of ``summary`` (summary.json's content, millimetres) in SI."""
+    per_marker = summary.get("marker_rmse_by_marker_mm") or {}
+    outside = summary.get("kappa_outside_bounds_mm") or {}
+    return ReadBack(
+        {n: math.nan if v is None else v * 1e-3 for n, v in per_marker.items()},
+        {n: [v * 1e-3 for v in b] for n, b in outside.items()},
+    )
