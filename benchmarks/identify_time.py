@@ -28,10 +28,11 @@ from contextlib import contextmanager, redirect_stdout
 from pathlib import Path
 from typing import Any
 
-import mocap_mj.commands._quality as quality
 import mocap_mj.commands.identify as command
 import mocap_mj.io.plots as plots
 import mocap_mj.pipeline.api as api
+import mocap_mj.pipeline.prepare as prepare
+import mocap_mj.pipeline.quality as quality
 from mocap_mj.cli import main
 from mocap_synth import SynthConfig, synthesize, write_experiment
 
@@ -41,7 +42,17 @@ SECONDS: dict[str, float] = collections.defaultdict(float)
 #: CPU seconds of this process (both cores' threads) per part: steadier on a busy machine.
 CPU: dict[str, float] = collections.defaultdict(float)
 #: The parts, in the order printed; "checks" and "write" are given less what they contain.
-PARTS = ("reading", "checks", "relabelling", "fit", "describe", "motion", "plots", "write")
+PARTS = (
+    "reading",
+    "marker set",
+    "checks",
+    "relabelling",
+    "fit",
+    "describe",
+    "motion",
+    "plots",
+    "write",
+)
 
 
 def _timed(part: str, fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -67,11 +78,10 @@ def _timers() -> Iterator[None]:
     """Wrap the command's parts (module attributes, as the command looks them up)."""
     targets = [
         (command, "load_trial", "reading"),
-        (command, "check_trials", "checks"),
-        (command, "check_markers", "checks"),
+        (command, "choose_marker_set", "marker set"),
+        (prepare, "check_trials", "checks"),
+        (prepare, "check_markers", "checks"),
         (quality, "relabel", "relabelling"),
-        (quality, "track_swaps", "relabelling"),
-        (quality, "apply_relabels", "relabelling"),
         (api, "solve_trials", "fit"),
         (api, "_described", "describe"),
         (api, "every_frame_motion", "motion"),
@@ -79,6 +89,9 @@ def _timers() -> Iterator[None]:
         (command, "write_result", "write"),
         *((plots, n, "plots") for n in dir(plots) if n.startswith("plot_")),
     ]
+    missing = [f"{m.__name__}.{n}" for m, n, _ in targets if not hasattr(m, n)]
+    if missing:  # a part moved: its time would count as "other" without a word
+        raise SystemExit(f"identify_time.py: no {', '.join(missing)} to time")
     saved = [(m, n, getattr(m, n)) for m, n, _ in targets if hasattr(m, n)]
     for m, n, part in targets:
         if hasattr(m, n):

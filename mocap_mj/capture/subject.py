@@ -156,6 +156,9 @@ class Subject:
 
     values: dict[str, Measurement] = field(default_factory=dict)
     stature_estimate: StatureEstimate | None = None
+    #: (``"male"`` or ``"female"``, where it came from): which of de Leva's tables scales the
+    #: segments' masses and inertias (:mod:`mocap_mj.anatomy.inertia`); None: not given.
+    sex: tuple[str, str] | None = None
 
     def get(self, name: str) -> float | None:
         """The value [m or kg] of ``name``, or None when not measured."""
@@ -179,12 +182,20 @@ class Subject:
     def update(self, other: Subject) -> Subject:
         """A copy with ``other``'s measurements overriding these."""
         return Subject(
-            {**self.values, **other.values}, other.stature_estimate or self.stature_estimate
+            {**self.values, **other.values},
+            other.stature_estimate or self.stature_estimate,
+            other.sex or self.sex,
         )
 
     def with_stature_estimate(self, estimate: StatureEstimate | None) -> Subject:
         """A copy carrying ``estimate`` (kept beside, never over, a measured height)."""
-        return Subject(dict(self.values), estimate)
+        return Subject(dict(self.values), estimate, self.sex)
+
+    @property
+    def table(self) -> str:
+        """The de Leva table of the subject's segments: its ``sex``, else ``"male"`` (the
+        tool's default, as Plug-in Gait's single table)."""
+        return "male" if self.sex is None else self.sex[0]
 
     def stature(self) -> tuple[float, float] | None:
         """(stature, its standard deviation) [m]: the measured height with 0, else the
@@ -231,7 +242,9 @@ class Subject:
         }
         est = summary.get("stature_estimate")
         estimate = StatureEstimate(est["value"], est["sd"], est["source"]) if est else None
-        return cls(values, estimate)
+        sex = summary.get("sex")
+        given = (str(sex["value"]), str(sex["source"])) if isinstance(sex, Mapping) else None
+        return cls(values, estimate, given)
 
 
 def _check_name(name: str, source: str) -> None:
@@ -330,10 +343,27 @@ def read_mapping(path: str | Path) -> Mapping[Any, Any]:
     return data
 
 
+#: The subject file's ``sex`` values and the table each names.
+SEXES = {"female": "female", "f": "female", "male": "male", "m": "male"}
+
+
+def parse_sex(raw: Any, source: str) -> str:
+    """``"male"`` or ``"female"`` from a subject file's ``sex`` (any case, or ``f``/``m``);
+    one-line :class:`~mocap_mj.errors.MocapError` naming ``source`` otherwise."""
+    found = SEXES.get(raw.strip().lower()) if isinstance(raw, str) else None
+    if found is None:
+        raise MocapError(f"{source}: sex: expected female or male, got {excerpt(raw)}")
+    return found
+
+
 def from_yaml(path: str | Path) -> Subject:
-    """Measurements of a YAML mapping ``name: value`` (:data:`MEASUREMENTS`, SI or with unit)."""
+    """Measurements of a YAML mapping ``name: value`` (:data:`MEASUREMENTS`, SI or with unit)
+    and the subject's ``sex`` (:func:`parse_sex`)."""
     subject = Subject()
     for name, raw in read_mapping(path).items():
+        if name == "sex":
+            subject.sex = (parse_sex(raw, str(path)), f"{path}: sex")
+            continue
         _check_name(str(name), str(path))
         value = parse_value(raw, str(name), str(path))
         try:

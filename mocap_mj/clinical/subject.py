@@ -36,6 +36,7 @@ from mocap_mj.capture.subject import (
     c3d_numbers,
     from_values,
     is_known_number,
+    parse_sex,
     parse_value,
     read_mapping,
     sided,
@@ -276,8 +277,10 @@ def pig_from_yaml(path: str | Path) -> PigSubject:
             values[name] = checked_pig_value(name, value, f"{path}: {name}")
         elif name in MEASUREMENTS:
             measures.append((name, parse_value(raw, name, str(path))))
+        elif name == "sex":  # checked, not used: Plug-in Gait's Dempster table has one sex
+            parse_sex(raw, str(path))
         else:
-            known = ", ".join([*MEASUREMENTS, *PIG_VALUES])
+            known = ", ".join([*MEASUREMENTS, "sex", *PIG_VALUES])
             raise InputFileError(f"{path}: unknown subject value {excerpt(name)}; known: {known}")
     subject = from_values(measures, str(path))
     return PigSubject(subject, values, {k: f"{path}: {k}" for k in values})

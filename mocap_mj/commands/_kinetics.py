@@ -13,6 +13,7 @@ Without a body mass the kinetics are refused with one warning; the rest is writt
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from dataclasses import dataclass
@@ -57,8 +58,20 @@ MASS_SOURCES = {
     "identify": "--mass, --subject-file's mass or the C3D's PROCESSING Bodymass",
     "ik": "the C3D's PROCESSING Bodymass or a --model that identify wrote with a mass",
 }
-#: de Leva's table the commands use (the women's is mocap_mj.anatomy.inertia's sex="female").
-SEX: Sex = "male"
+
+
+def model_sex(path: str | Path | None) -> str | None:
+    """The sex recorded in the summary.json beside a model file that identify wrote (its
+    subject's ``sex``), else None."""
+    if path is None:
+        return None
+    summary = Path(path).parent / "summary.json"
+    try:
+        found = json.loads(summary.read_text()).get("sex")
+    except (OSError, ValueError, AttributeError):
+        return None
+    value = found.get("value") if isinstance(found, dict) else None
+    return value if value in ("male", "female") else None
 
 
 def model_mass(path: str | Path | None) -> float | None:
@@ -97,8 +110,9 @@ class TrialLoads:
 @dataclass(frozen=True)
 class Prepared:
     """The kinetics of a command's trials: each trial's loads (None: no plates), its gait
-    events and its frames' times (T,) [s], the body mass [kg] (None: unknown) and why there
-    are no kinetics (None: there are)."""
+    events and its frames' times (T,) [s], the body mass [kg] (None: unknown), why there
+    are no kinetics (None: there are) and de Leva's table for the segments (the subject's
+    sex)."""
 
     loads: tuple[TrialLoads | None, ...]
     events: tuple[tuple[GaitEvent, ...], ...]
@@ -106,11 +120,14 @@ class Prepared:
     mass: float | None
     refused: str | None
     events_missing: tuple[str, ...] = ()
+    sex: Sex = "male"
 
 
-def prepare(args: argparse.Namespace, markers: list[str], mass: float | None) -> Prepared:
+def prepare(
+    args: argparse.Namespace, markers: list[str], mass: float | None, sex: str = "male"
+) -> Prepared:
     """Read every trial's plates and events (bad input raises MocapError here, before any
-    output is written)."""
+    output is written); ``sex`` names de Leva's table ("male", the default, or "female")."""
     forces = getattr(args, "forces", None)
     no_forces = forces is not None and [f.lower() for f in forces] == ["none"]
     if no_forces:
@@ -149,7 +166,8 @@ def prepare(args: argparse.Namespace, markers: list[str], mass: float | None) ->
             "root_residuals.csv)"
         )
         _warn(args, refused)
-    return Prepared(tuple(loads), tuple(events), tuple(times), mass, refused, tuple(missing))
+    table: Sex = "female" if sex == "female" else "male"
+    return Prepared(tuple(loads), tuple(events), tuple(times), mass, refused, tuple(missing), table)
 
 
 def _trial_loads(
@@ -273,7 +291,12 @@ def write_trial(
         return {**head, "stance_frames": 0, "files": written, "note": note}, written
     t0 = time.perf_counter()
     dyn, force_dofs = dynamics_of_files(
-        out / "model.xml", where / "motion.npz", body_loads(feet), mass, sex=SEX, inertia=inertia
+        out / "model.xml",
+        where / "motion.npz",
+        body_loads(feet),
+        mass,
+        sex=prepared.sex,
+        inertia=inertia,
     )
     seconds = time.perf_counter() - t0
     files = write_dynamics(where, dyn, mass, force_dofs)
@@ -284,7 +307,7 @@ def write_trial(
         **head,
         "frames_on_plate": {f.side: int(f.on_plate.sum()) for f in feet},
         "body_mass_kg": mass,
-        "sex": SEX,
+        "sex": prepared.sex,
         "smoothing": {
             "filter": "Butterworth low-pass, zero lag (forward and backward)",
             "order": 2 * PASS_ORDER,

@@ -54,8 +54,8 @@ from mocap_mj.skeleton import prewarm
 from mocap_mj.skeleton.mjcf import load_model
 from mocap_mj.skeleton.parameters import ParameterSet
 
+from ._kinetics import Prepared as KineticsPrepared
 from ._kinetics import (
-    SEX,
     prepare,
     report_section,
     stance_trials,
@@ -63,7 +63,6 @@ from ._kinetics import (
     text_of,
     write_trial,
 )
-from ._kinetics import Prepared as KineticsPrepared
 from ._markers import (
     choose_marker_set,
     load_trial,
@@ -116,7 +115,7 @@ def checked_inputs(args: argparse.Namespace, recipe: Recipe, scratch: Path | Non
     ]  # the command's own copies: labels are corrected, ghosts dropped in them
     chosen = selected(recordings, recipe, pset)  # frames, exclusions, usable frames
     subject = subject_from_args(args, [t.path for t in loaded])  # bad input before any output
-    kinetics = prepare(args, [str(t.path) for t in loaded], subject.get("mass"))
+    kinetics = prepare(args, [str(t.path) for t in loaded], subject.get("mass"), subject.table)
     with notices_to_stderr(args.command):  # after every bad-input error but the library's
         prepared = checked(chosen, recipe, subject, model)
     count = select_count(recipe.select, sum(len(t.markers) for t in prepared.trials),
@@ -231,10 +230,10 @@ def _segment_inertia(
                 fit = without_fit(kinetics.refused or "no force plates")
             else:
                 found = stance_trials(kinetics, out, *trials)
-                inertia, fit = fit_inertia(model_xml, found, kinetics.mass, sex=SEX)
+                inertia, fit = fit_inertia(model_xml, found, kinetics.mass, sex=kinetics.sex)
                 fitted = inertia if fit["source"] == "fit" else None
     if kinetics.mass is not None:
-        inertia = fitted or segment_inertia(load_model(model_xml), kinetics.mass, sex=SEX)
+        inertia = fitted or segment_inertia(load_model(model_xml), kinetics.mass, sex=kinetics.sex)
         atomic_write_text(model_xml, with_inertials(model_xml.read_text(), inertia))
     return fitted, fit
 

@@ -49,6 +49,7 @@ from ..io.atomic import atomic_write_text
 from ._kinetics import (
     Prepared,
     model_mass,
+    model_sex,
     prepare,
     summary_of,
     text_of,
@@ -110,8 +111,10 @@ def run(args: argparse.Namespace) -> int:
         markers=without_ghosts(trial.markers, pset, found, trial.path, trial.first_frame)
     )
     # the C3D's PROCESSING Bodymass, else the model's own (identify's, with a mass)
-    mass = subject_from_args(args, [args.markers]).get("mass") or model_mass(args.model)
-    kinetics = prepare(args, [str(trial.path)], mass)  # the plates' bad input before output
+    given = subject_from_args(args, [args.markers])
+    mass = given.get("mass") or model_mass(args.model)
+    sex = given.sex[0] if given.sex else model_sex(args.model) or "male"
+    kinetics = prepare(args, [str(trial.path)], mass, sex)  # the plates' bad input first
     return into_out_folder(
         args, lambda out: _solve_and_write(args, pset, trial, sl, out, quality, kinetics)
     )

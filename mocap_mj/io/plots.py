@@ -94,6 +94,10 @@ def _size(size: tuple[int, int]) -> tuple[int, int]:
 
 
 # --------------------------------------------------------------------------- output
+#: How many figures :func:`held_interrupts` is drawing (nested ones freeze nothing more).
+_FROZEN = {"depth": 0}
+
+
 def held_interrupts(fn: F) -> F:
     """Decorator: run ``fn`` (that draws a figure) with SIGINT, SIGTERM and SIGALRM held, its
     figure's objects freed before they are let go; a signal that came meanwhile is then
@@ -108,10 +112,20 @@ def held_interrupts(fn: F) -> F:
         if hasattr(signal, "SIGALRM"):  # batch --timeout; not on Windows
             wanted.append(signal.SIGALRM)
         previous = {s: signal.signal(s, lambda signum, _: came.append(signum)) for s in wanted}
+        # What exists before the figure is frozen out of the collection below, which then
+        # scans the figure's objects only, not the whole process's (a full collection over
+        # a fit's objects took 0.1-0.15 s per figure).
+        outer = _FROZEN["depth"] == 0
+        _FROZEN["depth"] += 1
+        if outer:
+            gc.freeze()
         try:
             out = fn(*args, **kwargs)
             gc.collect()  # the figure's reference cycles, with their callbacks, now
         finally:
+            _FROZEN["depth"] -= 1
+            if outer:
+                gc.unfreeze()
             for wanted_signal, handler in previous.items():
                 signal.signal(wanted_signal, handler)
             for signum in dict.fromkeys(came):

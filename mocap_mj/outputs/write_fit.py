@@ -333,6 +333,9 @@ def _anatomy_lines(summary: Mapping[str, Any]) -> list[str]:
         lines.append(f"- {n}: {value:g} {'kg' if m['unit'] == 'kg' else 'mm'} ({m['source']})")
     if not meas:
         lines.append("- no measurements: widths and the hip centres regressed from the markers")
+    sex = summary.get("sex")
+    if sex:
+        lines.append(f"- sex: {sex['value']} ({sex['source']}): de Leva's table of the segments")
     est = summary.get("stature_estimate")
     if est:
         lines.append(

@@ -155,6 +155,7 @@ def _prior_fields(
             ASYMMETRY_SIGMA * 1e3 if anatomical and asymmetry_prior and symmetric is None else None
         ),
         "measurements": subject.to_dict(),
+        "sex": None if subject.sex is None else {"value": subject.sex[0], "source": subject.sex[1]},
         "stature_estimate": (
             None if subject.stature_estimate is None else subject.stature_estimate.to_dict()
         ),
