@@ -299,7 +299,7 @@ def test_report_section() -> None:
 
 
 def test_batch_column() -> None:
-    from mocap_mj.batch.report import COLUMNS
+    from mocap_mj.outputs.batch_out import COLUMNS
     from mocap_mj.commands.batch import _quality_cell
 
     assert "marker_quality" in COLUMNS

@@ -473,18 +473,23 @@ def motion_fields(rmse: float, ik_seconds: float, seconds: float) -> dict[str, A
 
 class ReadBack(NamedTuple):
     """What a command reads back from a summary (summary.json's content, :func:`read_back`),
-    in SI: each marker's RMSE [m] (NaN: never seen) by name, and the kinematic parameters
-    outside their anatomical range with that range (name -> [lower, upper] [m])."""
+    in SI: each marker's RMSE [m] (NaN: never seen) by name, the kinematic parameters
+    outside their anatomical range with that range (name -> [lower, upper] [m]), and the
+    fit's marker RMSE [m] (None: the summary holds none)."""
 
     marker_rmse_by_marker: dict[str, float]
     kappa_outside_bounds: dict[str, list[float]]
+    marker_rmse: float | None = None
 
 
 def read_back(summary: Mapping[str, Any]) -> ReadBack:
-    """The figures of ``summary`` (summary.json's content, millimetres) in SI."""
+    """The figures of ``summary`` (summary.json's content, millimetres) in SI (the marker
+    RMSE divided by 1000, so that it gives the written figure back when written in mm)."""
     per_marker = summary.get("marker_rmse_by_marker_mm") or {}
     outside = summary.get("kappa_outside_bounds_mm") or {}
+    rmse = summary.get("marker_rmse_mm")
     return ReadBack(
         {n: math.nan if v is None else v * 1e-3 for n, v in per_marker.items()},
         {n: [v * 1e-3 for v in b] for n, b in outside.items()},
+        rmse / 1e3 if isinstance(rmse, float) else None,
     )
