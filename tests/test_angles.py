@@ -6,7 +6,7 @@ import numpy as np
 from _motion import smooth_motion
 
 from mocap_mj import Kinematics
-from mocap_mj.skeleton.angles import angle_columns, joint_angle_table
+from mocap_mj.outputs.ik_out import angle_columns, joint_angle_table
 
 
 def test_one_column_per_dof_with_units() -> None:

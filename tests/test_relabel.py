@@ -79,7 +79,7 @@ def _assert_fixed(
     r = found[0]
     assert sorted(r.markers) == sorted(n for p in pairs for n in p)
     assert r.frames == frames
-    assert r.before_mm > r.after_mm + 30.0
+    assert r.before > r.after + 0.030
     assert r.message.startswith("trial.c3d: labels exchanged")
     assert _same(apply_relabels(y, pset.marker_names, found, "trial.c3d"), x)
 
@@ -173,7 +173,7 @@ def test_track_swap_of_close_markers(pset: ParameterSet) -> None:
     assert [(r.kind, sorted(r.markers), r.frames) for r in fixes] == [
         ("tracks", ["LWRA", "LWRB"], (200, 320))
     ]
-    assert fixes[0].before_mm > 30.0 > fixes[0].after_mm
+    assert fixes[0].before > 0.030 > fixes[0].after
     assert _same(apply_relabels(y, pset.marker_names, fixes, "trial.c3d"), x)
 
 

@@ -87,7 +87,7 @@ def t10_placement(
         finding = placement_finding(
             trials[0].name if len(trials) == 1 else ", ".join(t.name for t in trials),
             ("T10",),
-            shift * 1e3,
+            shift,
             f"C7-T10 {expected * 1e3:.0f} +- {spread * 1e3:.0f} mm at {height:.2f} m",
             f"T10 is {abs(shift) * 1e3:.0f} mm {where} C7 than a {height:.2f} m subject's T10 "
             f"(C7-T10 median {measured * 1e3:.0f} mm, expected {expected * 1e3:.0f} +- "

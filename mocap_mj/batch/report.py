@@ -1,11 +1,10 @@
-"""The dataset summary of a batch: ``summary.csv`` (one row per subject and trial) and
-``report.md`` with figures across subjects (segment lengths, against height when the subject
-files give it; marker RMSE per trial)."""
+"""The dataset summary of a batch: the rows of ``summary.csv`` (one per subject and trial,
+written by :func:`mocap_mj.outputs.batch_out.write_summary_csv`) and ``report.md`` with
+figures across subjects (segment lengths, against height when the subject files give it;
+marker RMSE per trial), from the subjects' records read back in SI."""
 
 from __future__ import annotations
 
-import csv
-import io
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -13,61 +12,18 @@ from typing import Any
 import numpy as np
 
 from mocap_mj.io.plots import _figure, _save, held_interrupts
+from mocap_mj.outputs.batch_out import TrialRow, read_identify, read_rows
 
 from ..io.atomic import atomic_write_text
 from .run import Outcome
 
-#: Columns of summary.csv. RMSE in mm, times in s; ``parameters_at_bounds`` names the
-#: kinematic parameters at or outside their range (';'-separated); ``marker_quality`` the
-#: trial's marker-data findings (``none``, or their count and the markers they name:
-#: :mod:`mocap_mj.capture.marker_quality`); ``resumed`` is true for a
-#: subject whose complete result was kept from an earlier run.
-COLUMNS = (
-    "subject",
-    "trial",
-    "status",
-    "resumed",
-    "frames",
-    "identify_rmse_mm",
-    "ik_rmse_mm",
-    "identify_seconds",
-    "ik_seconds",
-    "parameters_at_bounds",
-    "marker_quality",
-    "error",
-)
 #: Segment lengths drawn across subjects in report.md.
 SEGMENTS = ("thigh_length_l", "shank_length_l", "upperarm_length_l", "forearm_length_l")
 
 
-def summary_rows(outcomes: Sequence[Outcome]) -> list[dict[str, Any]]:
-    rows = []
-    for o in outcomes:
-        for r in o.record.get("rows", []):
-            row = {c: r.get(c, "") for c in COLUMNS}
-            row["subject"] = o.name
-            row["resumed"] = o.status == "resumed"
-            rows.append(row)
-    return rows
-
-
-def write_summary_csv(path: Path, outcomes: Sequence[Outcome]) -> list[dict[str, Any]]:
-    rows = summary_rows(outcomes)
-    buf = io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=COLUMNS, lineterminator="\n")
-    writer.writeheader()
-    for row in rows:
-        writer.writerow({k: _cell(v) for k, v in row.items()})
-    atomic_write_text(path, buf.getvalue())
-    return rows
-
-
-def _cell(value: Any) -> str:
-    if isinstance(value, float):
-        return f"{value:.4f}" if np.isfinite(value) else ""
-    if isinstance(value, list | tuple):
-        return ";".join(str(v) for v in value)
-    return str(value)
+def summary_rows(outcomes: Sequence[Outcome]) -> list[TrialRow]:
+    """Every subject's trials (their records read back in SI), the rows of summary.csv."""
+    return [r for o in outcomes for r in read_rows(o.record, o.name, o.status == "resumed")]
 
 
 def write_report(out: Path, outcomes: Sequence[Outcome], seconds: float) -> Path:
@@ -75,7 +31,7 @@ def write_report(out: Path, outcomes: Sequence[Outcome], seconds: float) -> Path
     ok = [o for o in outcomes if o.status != "failed"]
     failed = [o for o in outcomes if o.status == "failed"]
     rows = summary_rows(outcomes)
-    bad_trials = [r for r in rows if r["status"] != "ok"]
+    bad_trials = [r for r in rows if r.status != "ok"]
     lines = [
         "# Batch report",
         "",
@@ -89,21 +45,21 @@ def write_report(out: Path, outcomes: Sequence[Outcome], seconds: float) -> Path
         "|---|---|---|---|---|---|---|",
     ]
     for o in outcomes:
-        ident = o.record.get("identify", {})
-        trs = o.record.get("rows", [])
-        ik = [r["ik_rmse_mm"] for r in trs if isinstance(r.get("ik_rmse_mm"), float)]
+        rmse = read_identify(o.record).marker_rmse
+        trs = read_rows(o.record, o.name, False)
+        ik = [r.ik_rmse for r in trs if r.ik_rmse is not None]
         lines.append(
-            f"| {o.name} | {o.status} | {len(trs)} | {_num(ident.get('marker_rmse_mm'))} | "
-            f"{_num(float(np.mean(ik)) if ik else None)} | {_num(o.record.get('seconds'))} | "
-            f"{o.record.get('error', '')} |"
+            f"| {o.name} | {o.status} | {len(trs)} | {_num(None if rmse is None else rmse * 1e3)}"
+            f" | {_num(float(np.mean(ik)) * 1e3 if ik else None)} | "
+            f"{_num(o.record.get('seconds'))} | {o.record.get('error', '')} |"
         )
     if bad_trials:
         lines += ["", "Failed trials:", ""]
-        lines += [f"- {r['subject']} / {r['trial']}: {r['error']}" for r in bad_trials]
+        lines += [f"- {r.subject} / {r.trial}: {r.error}" for r in bad_trials]
     figures = []
     if ok:
         figures.append(_plot_segments(out / "segments.png", ok))
-    if any(isinstance(r.get("ik_rmse_mm"), float) for r in rows):
+    if any(r.ik_rmse is not None for r in rows):
         figures.append(_plot_rmse(out / "rmse_per_trial.png", rows))
     lines += ["", *[f"![{f.stem}]({f.name})" for f in figures]]
     path = out / "report.md"
@@ -123,7 +79,7 @@ def _plot_segments(path: Path, outcomes: Sequence[Outcome]) -> Path:
     fig = _figure((1200, 700))
     ax = fig.add_subplot()
     for name in SEGMENTS:
-        y = [o.record.get("identify", {}).get("kappa_mm", {}).get(name, np.nan) for o in outcomes]
+        y = [read_identify(o.record).kappa.get(name, np.nan) * 1e3 for o in outcomes]
         ax.plot(x, y, "o", label=name)
     if by_height:
         ax.set_xlabel("height [m]")
@@ -137,14 +93,14 @@ def _plot_segments(path: Path, outcomes: Sequence[Outcome]) -> Path:
 
 
 @held_interrupts
-def _plot_rmse(path: Path, rows: Sequence[dict[str, Any]]) -> Path:
-    done = [r for r in rows if isinstance(r.get("ik_rmse_mm"), float)]
+def _plot_rmse(path: Path, rows: Sequence[TrialRow]) -> Path:
+    done = [(r, r.ik_rmse) for r in rows if r.ik_rmse is not None]
     fig = _figure((1200, 700))
     ax = fig.add_subplot()
-    ax.bar(np.arange(len(done)), [r["ik_rmse_mm"] for r in done])
+    ax.bar(np.arange(len(done)), [rmse * 1e3 for _, rmse in done])
     ax.set_xticks(
         np.arange(len(done)),
-        [f"{r['subject']}/{r['trial']}" for r in done],
+        [f"{r.subject}/{r.trial}" for r, _ in done],
         rotation=60,
         ha="right",
         fontsize=6,

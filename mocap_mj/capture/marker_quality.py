@@ -146,7 +146,7 @@ class Finding:
     file: the marker file; kind: ``spread``, ``step``, ``jump``, ``swap``, ``ghost``, ``distance``,
     ``asymmetry`` or ``placement``;
     markers: the marker(s) it names, suspect first; frames: [first, last) of the file's
-    frames it concerns (None: the whole trial); value_mm: the measured figure [mm];
+    frames it concerns (None: the whole trial); value: the measured figure [m];
     expected: what a trustworthy marker would give; message: the one-line text; samples:
     the file's frames of the first marker's samples that are not the marker (``ghost``: the
     frames off the segment; ``jump``: the frame each jump lands on; else empty):
@@ -157,21 +157,10 @@ class Finding:
     kind: str
     markers: tuple[str, ...]
     frames: tuple[int, int] | None
-    value_mm: float
+    value: float
     expected: str
     message: str
     samples: tuple[int, ...] = ()
-
-    def to_json(self) -> dict[str, Any]:
-        return {
-            "file": self.file,
-            "kind": self.kind,
-            "markers": list(self.markers),
-            "frames": None if self.frames is None else list(self.frames),
-            "value_mm": round(self.value_mm, 1),
-            "expected": self.expected,
-            "message": self.message,
-        }
 
 
 def check_marker_quality(
@@ -261,7 +250,7 @@ def between_trials(
                 "moved",
                 (names[i], *[names[k] for k in others]),
                 None,
-                size * 1e3,
+                size,
                 f"within {MOVED_MIN * 1e3:.0f} mm between trials (fixed on its segment)",
                 f"{_who(names, i, others)} differs between the trials: {listed} (median "
                 "of each; moved between trials? one marker offset cannot fit them all: "
@@ -356,21 +345,10 @@ def check_trials_quality(
     return found
 
 
-def quality_entry(found: Sequence[Finding], excluded: Sequence[str]) -> dict[str, Any]:
-    """summary.json's ``marker_quality`` entry: the findings, the markers they name
-    (:func:`suspects`), the ``excluded`` markers and the samples the findings drop."""
-    return {
-        "findings": [f.to_json() for f in found],
-        "suspects": suspects(found),
-        "excluded": list(excluded),
-        "samples_dropped": len({(f.file, f.markers[0], t) for f in found for t in f.samples}),
-    }
-
-
 def quality_lines(entry: Mapping[str, Any]) -> list[str]:
     """The report.md section on marker data quality from summary.json's ``marker_quality``
-    entry (``findings`` as :meth:`Finding.to_json`, ``suspects``, ``excluded``, and
-    ``relabelled`` as :meth:`mocap_mj.pipeline.relabel.Relabel.to_json`)."""
+    entry (:func:`mocap_mj.pipeline.summary.quality_fields`: ``findings``, ``suspects``,
+    ``excluded`` and ``relabelled``)."""
     lines = ["## Marker data quality", ""]
     for r in entry.get("relabelled") or []:
         done = "labels corrected" if r["applied"] else "labels not corrected (--no-relabel)"
@@ -443,7 +421,7 @@ def _segment_findings(
                     "spread",
                     (names[i], *[names[k] for k in others]),
                     None,
-                    v * 1e3,
+                    v,
                     f"<= {SPREAD_MAX * 1e3:.0f} mm on one segment",
                     f"{_who(names, i, others)} varies by {v * 1e3:.0f} mm (p5-p95) over the trial",
                 )
@@ -458,7 +436,7 @@ def _segment_findings(
                     "step",
                     (names[i], *[names[k] for k in others]),
                     frames,
-                    v * 1e3,
+                    v,
                     f"< {STEP_MIN * 1e3:.0f} mm (fixed on its segment)",
                     f"{_who(names, i, others)} changes for good at frame {frames[0]}, "
                     f"{before * 1e3:.0f} -> {after * 1e3:.0f} mm (re-stuck or slipped?)",
@@ -529,7 +507,7 @@ def _ghost_findings(
             "ghost",
             (names[int(col)],),
             (first + int(ts[0]), first + int(ts[-1]) + 1),
-            biggest * 1e3,
+            biggest,
             f"<= {GHOST_MIN * 1e3:.0f} mm from its segment's median distances",
             f"{names[int(col)]}: off its segment in {len(ts)} frame(s), at frame(s) {shown}, "
             f"by up to {biggest * 1e3:.0f} mm (a ghost or a momentary mislabel?): those "
@@ -647,7 +625,7 @@ def _jump_findings(
             "jump",
             (names[i],),
             (first + ts[0], first + ts[-1] + 1),
-            biggest * 1e3,
+            biggest,
             f"<= {limit * 1e3:.0f} mm per frame at {rate:g} Hz",
             f"{names[i]}: {len(ts)} jump(s) off its track, at frame(s) {shown}, up to "
             f"{biggest * 1e3:.0f} mm (a ghost, a label change or a re-stick?): the samples "
@@ -692,7 +670,7 @@ def _bone_findings(path: str, names: Sequence[str], x: np.ndarray) -> list[Findi
                         "distance",
                         (s + a, s + b),
                         None,
-                        med * 1e3,
+                        med,
                         f"{lo * 1e3:.0f}-{hi * 1e3:.0f} mm",
                         f"{s}{a}-{s}{b}: median distance {med * 1e3:.0f} mm, outside the "
                         f"{lo * 1e3:.0f}-{hi * 1e3:.0f} mm of any person 0.85-2.1 m tall",
@@ -707,7 +685,7 @@ def _bone_findings(path: str, names: Sequence[str], x: np.ndarray) -> list[Findi
                         "asymmetry",
                         (f"L{a}", f"L{b}", f"R{a}", f"R{b}"),
                         None,
-                        abs(side["L"] - side["R"]) * 1e3,
+                        abs(side["L"] - side["R"]),
                         f"left and right within {ASYMMETRY_MAX:.0%}",
                         f"L{a}-L{b} {side['L'] * 1e3:.0f} mm but R{a}-R{b} "
                         f"{side['R'] * 1e3:.0f} mm: left and right differ by {rel:.0%}",
@@ -717,11 +695,11 @@ def _bone_findings(path: str, names: Sequence[str], x: np.ndarray) -> list[Findi
 
 
 def placement_finding(
-    path: str, markers: tuple[str, ...], value_mm: float, expected: str, text: str
+    path: str, markers: tuple[str, ...], value: float, expected: str, text: str
 ) -> Finding:
     """A ``placement`` finding over the whole trial (module docstring): ``markers`` the
-    misplaced landmark first, ``value_mm`` [mm] how far it is from where it belongs."""
-    return _line(path, "placement", markers, None, value_mm, expected, text)
+    misplaced landmark first, ``value`` [m] how far it is from where it belongs."""
+    return _line(path, "placement", markers, None, value, expected, text)
 
 
 def _who(names: Sequence[str], i: int, others: Sequence[int]) -> str:
@@ -736,10 +714,10 @@ def _line(
     kind: str,
     markers: tuple[str, ...],
     frames: tuple[int, int] | None,
-    value_mm: float,
+    value: float,
     expected: str,
     text: str,
 ) -> Finding:
     where = "all frames" if frames is None else f"frames {frames[0]}-{frames[1] - 1}"
     message = f"{path}: {text} [{kind}, {where}; expected {expected}]"
-    return Finding(path, kind, markers, frames, float(value_mm), expected, message)
+    return Finding(path, kind, markers, frames, float(value), expected, message)

@@ -18,6 +18,7 @@ import numpy as np
 from mocap_mj.capture.events import GaitEvent, gait_events, read_events_csv
 from mocap_mj.clinical.gait_scores import Normative, read_normative
 from mocap_mj.errors import MocapError
+from mocap_mj.outputs.gait_report import AnglesSource
 
 
 @dataclass(frozen=True)
@@ -44,14 +45,15 @@ def is_plug_in_gait(trial: Any) -> bool:
 
 def identified_trials(
     args: argparse.Namespace, paths: Sequence[str], scratch: Path
-) -> tuple[list[GaitTrial], dict[str, Any]]:
+) -> tuple[list[GaitTrial], AnglesSource]:
     """The trials' angles in Plug-in Gait's conventions from a model ``mocap-mj identify``
-    identifies on them (its folder in ``scratch``; ``--marker-set`` passed on), and
-    summary.json's entry of the identification."""
+    identifies on them (its folder in ``scratch``; ``--marker-set`` passed on), and where
+    they come from: that model and its marker RMSE (summary.json's, read back)."""
     from mocap_mj.clinical.from_model import model_angles
     from mocap_mj.commands.registry import build_parser
     from mocap_mj.io.load import load_markers
     from mocap_mj.pipeline.motion import load_motion
+    from mocap_mj.pipeline.summary import read_back
     from mocap_mj.pipeline.trials import open_trial
     from mocap_mj.skeleton.mjcf import load_model
 
@@ -62,7 +64,6 @@ def identified_trials(
     ident = build_parser().parse_args(argv)
     with contextlib.redirect_stdout(io.StringIO()):
         status = ident.func(ident)
-    summary = json.loads((fit / "summary.json").read_text()) if status == 0 else {}
     if status != 0:
         raise MocapError(f"the identification of {', '.join(paths)} failed (exit {status})")
     model = load_model(fit / "model.xml")
@@ -76,12 +77,11 @@ def identified_trials(
                 f"{trial.n_frames}; expected the same"
             )
         out.append(GaitTrial(path, trial, model_angles(model, motion.qpos)))
-    entry = {
-        "angles": "the identified model's, in Plug-in Gait's conventions",
-        "marker_rmse_mm": summary.get("marker_rmse_mm"),
-        "model": str(fit / "model.xml"),
-    }
-    return out, entry
+    rmse = read_back(json.loads((fit / "summary.json").read_text())).marker_rmse
+    source = AnglesSource(
+        "the identified model's, in Plug-in Gait's conventions", str(fit / "model.xml"), rmse
+    )
+    return out, source
 
 
 def read_inputs(

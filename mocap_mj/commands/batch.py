@@ -18,6 +18,7 @@ import os
 import sys
 import time
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -30,12 +31,14 @@ from mocap_mj.commands.common import (
 )
 from mocap_mj.commands.registry import build_parser
 from mocap_mj.kernels._threads import one_blas_thread
+from mocap_mj.outputs.batch_out import TrialRow, identify_fields, row_fields, write_summary_csv
+from mocap_mj.outputs.ik_out import read_ik
 from mocap_mj.pipeline.fit import Fit
 from mocap_mj.pipeline.summary import read_back
 from mocap_mj.skeleton.parameters import ParameterSet
 
 from ..batch.dataset import FLAGS, OPTION_KEYS, Subject, load_dataset
-from ..batch.report import write_report, write_summary_csv
+from ..batch.report import summary_rows, write_report
 from ..batch.run import have_ray, one_line, prepare_out, run_batch
 from ..errors import MocapError
 from ._inputs import refuse_out_holding_inputs
@@ -78,11 +81,12 @@ def run(args: argparse.Namespace) -> int:
             timeout=args.timeout,
         )
     seconds = time.perf_counter() - t0
-    rows = write_summary_csv(out / "summary.csv", outcomes)
+    rows = summary_rows(outcomes)
+    write_summary_csv(out / "summary.csv", rows)
     write_report(out, outcomes, seconds)
     failed = [o.name for o in outcomes if o.status == "failed"]
-    bad_rows = [r for r in rows if r["status"] != "ok"]
-    bad = [f"{r['subject']}/{r['trial']}" for r in bad_rows]
+    bad_rows = [r for r in rows if r.status != "ok"]
+    bad = [f"{r.subject}/{r.trial}" for r in bad_rows]
     summary = {
         "dataset": str(args.dataset),
         "subjects": len(outcomes),
@@ -98,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
         f"{len(outcomes)} subjects: {summary['subjects_done']} identified, "
         f"{summary['subjects_resumed']} kept from an earlier run, {len(failed)} failed; "
         f"{len(rows)} trials, {len(bad)} failed; {seconds:.1f} s\n"
-        + "".join(f"failed: {r['subject']}/{r['trial']}: {r['error']}\n" for r in bad_rows)
+        + "".join(f"failed: {r.subject}/{r.trial}: {r.error}\n" for r in bad_rows)
         + f"wrote {out}/summary.csv, report.md, <subject>/identify, <subject>/ik/<trial>"
     )
     implausible = [o.name for o in outcomes if o.record.get("identify", {}).get("implausible")]
@@ -150,52 +154,53 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
         subject=opts.get("file_subject"),
     )
     names = _trial_folders(subject.trials)
-    rows: dict[str, dict[str, Any]] = {}
+    rows: dict[str, TrialRow] = {}
     readable = []
     for path in subject.trials:
-        row: dict[str, Any] = {"trial": Path(path).name, "status": "failed", "error": ""}
-        rows[path] = row
+        row = TrialRow(subject.name, Path(path).name)
         try:
-            row["frames"] = len(load_trial(path, pset.marker_names, reader).markers)
+            row = replace(row, frames=len(load_trial(path, pset.marker_names, reader).markers))
             readable.append(path)
         except (MocapError, OSError, ValueError) as exc:
-            row["error"] = one_line(exc)
+            row = replace(row, error=one_line(exc))
+        rows[path] = row
     if not readable:
-        raise MocapError(f"no readable trial ({rows[subject.trials[0]]['error']})")
+        raise MocapError(f"no readable trial ({rows[subject.trials[0]].error})")
     passed = bool(subject.subject_file)
     fit = _identify(opts, readable, subject.subject_file, folder / "identify")
     at_bounds = sorted(n for n, out in zip(fit.pset.kappa_names, _outside(fit), strict=True) if out)
     quality = fit.report.get("marker_quality") or {"findings": []}
     model = folder / "identify" / "model.xml"
     for path in readable:
-        row = rows[path]
-        row.update(
-            identify_rmse_mm=fit.marker_rmse * 1e3,  # summary.csv's unit
+        rows[path] = replace(
+            rows[path],
+            identify_rmse=fit.marker_rmse,
             identify_seconds=fit.timings.get("seconds"),
-            parameters_at_bounds=at_bounds,
+            parameters_at_bounds=tuple(at_bounds),
             marker_quality=_quality_cell(quality, path),
         )
         try:
-            ik = _command("ik", folder / "ik" / names[path], "--markers", path,
-                          "--model", str(model), *marker_args)  # fmt: skip
+            ik = read_ik(_command("ik", folder / "ik" / names[path], "--markers", path,
+                                  "--model", str(model), *marker_args))  # fmt: skip
         except MocapError as exc:
-            row["error"] = one_line(exc)
+            rows[path] = replace(rows[path], error=one_line(exc))
             continue
-        row.update(status="ok", ik_rmse_mm=ik["marker_rmse_mm"], ik_seconds=ik["seconds"])
+        rows[path] = replace(rows[path], status="ok", ik_rmse=ik.marker_rmse,
+                             ik_seconds=ik.seconds)  # fmt: skip
     return {
         "trials": {Path(p).name: names[p] for p in subject.trials},
         "height_m": subject.height,
         "subject_file": subject.subject_file,
         "subject_file_passed_to_identify": passed,
-        "identify": {
-            "marker_rmse_mm": fit.marker_rmse * 1e3,  # the batch's tables are in mm
-            "seconds": fit.timings.get("seconds"),
-            "iterations": fit.result.iterations,
-            "termination": fit.result.termination.value,
-            "kappa_mm": {n: v * 1e3 for n, v in fit.kappa().items()},
-            "implausible": fit.report.get("implausible"),
-        },
-        "rows": [{"subject": subject.name, **rows[p]} for p in subject.trials],
+        "identify": identify_fields(
+            fit.marker_rmse,
+            fit.timings.get("seconds"),
+            fit.result.iterations,
+            fit.result.termination.value,
+            fit.kappa(),
+            fit.report.get("implausible"),
+        ),
+        "rows": [row_fields(rows[p]) for p in subject.trials],
     }
 
 

@@ -6,11 +6,13 @@ from __future__ import annotations
 import argparse
 import shutil
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from mocap_mj.commands.common import into_out_folder
 from mocap_mj.errors import MocapError
+from mocap_mj.outputs.gait_report import AnglesSource, source_fields
 
 
 def run(args: argparse.Namespace) -> int:
@@ -36,11 +38,11 @@ def run(args: argparse.Namespace) -> int:
         )
 
 
-def _pig_trials(args: argparse.Namespace) -> tuple[list[Any], dict[str, Any], dict[str, Any]]:
+def _pig_trials(args: argparse.Namespace) -> tuple[list[Any], dict[str, Any], AnglesSource]:
     from .plug_in_gait import gait_trial, pig_run
 
     runs = [pig_run(args, path) for path in args.markers]
-    source = {"angles": "Plug-in Gait's, from the markers"}
+    source = AnglesSource("Plug-in Gait's, from the markers")
     return [gait_trial(r) for r in runs], runs[0].result.subject.to_dict(), source
 
 
@@ -49,18 +51,18 @@ def _work(
     out: Path,
     trials: list[Any],
     subject: dict[str, Any],
-    source: dict[str, Any],
+    source: AnglesSource,
     normative: Any,
     events: Any,
 ) -> tuple[Mapping[str, Any], str]:
     from ._gait import gait_report_files
 
-    notes = [f"angles: {source['angles']}"]
-    if "model" in source:  # the identified model, kept beside the report
-        shutil.copyfile(source["model"], out / "model.xml")
-        source = {**source, "model": "model.xml"}
-        rmse = source.get("marker_rmse_mm")
-        shown = f"{rmse:.2f} mm" if isinstance(rmse, float) else "unknown"
+    notes = [f"angles: {source.angles}"]
+    if source.model is not None:  # the identified model, kept beside the report
+        shutil.copyfile(source.model, out / "model.xml")
+        source = replace(source, model="model.xml")
+        rmse = source.marker_rmse
+        shown = "unknown" if rmse is None else f"{rmse * 1e3:.2f} mm"
         notes.append(f"the model identified on the trials (model.xml): marker RMSE {shown}")
     entry = gait_report_files(out, trials, normative, events, subject, notes)
     summary = {
@@ -68,7 +70,7 @@ def _work(
         "markers": list(args.markers),
         "static": args.static,
         "out": str(args.out),
-        **source,
+        **source_fields(source),
         "subject": subject,
         "gait_report": entry,
         "implausible": entry["implausible"],

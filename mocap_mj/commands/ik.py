@@ -30,11 +30,11 @@ from mocap_mj.anatomy.plausibility import AT_LIMIT_PRINT, joints_at_limit, limit
 from mocap_mj.anatomy.tissue import recorded_sliding_model
 from mocap_mj.capture.checks import check_markers, recorded_floor
 from mocap_mj.commands.common import into_out_folder
+from mocap_mj.outputs.ik_out import fit_fields, write_motion_csv
 from mocap_mj.outputs.write_fit import frame_range
 from mocap_mj.pipeline.motion import save_motion
 from mocap_mj.pipeline.quality import Checked
 from mocap_mj.pipeline.robust_ik import solve_motion
-from mocap_mj.skeleton.angles import angle_columns, joint_angle_table
 from mocap_mj.skeleton.exported import Layout
 from mocap_mj.skeleton.joint_centre_table import write_joint_centres_csv
 from mocap_mj.skeleton.mjcf import load_written
@@ -45,7 +45,6 @@ from mocap_mj.solve.problem import TrialData
 
 from ..errors import MocapError
 from ..export.tables import write_angles_csv
-from ..io.atomic import atomic_write_text
 from ._kinetics import (
     Prepared,
     model_mass,
@@ -71,21 +70,6 @@ from ._quality import (
     without_ghosts,
 )
 from ._subject import subject_from_args
-
-
-def write_motion_csv(
-    path: Path, model: Any, times: np.ndarray, qpos: np.ndarray, first_frame: int = 0
-) -> None:
-    """Joint angles as CSV: frame (the recording's number, from ``first_frame``), time_s [s], then
-    named columns in mm and degrees, of ``model`` as written (qpos (T, nq) of its layout, the
-    knees' slide joints included: :mod:`mocap_mj.skeleton.exported`)."""
-    table = joint_angle_table(model, qpos)
-    header = ",".join(["frame", "time_s", *angle_columns(model)])
-    lines = [header]
-    for i, (t, row) in enumerate(zip(times, table, strict=True)):
-        cells = ["" if not np.isfinite(v) else f"{v:.6f}" for v in row]
-        lines.append(f"{first_frame + i},{t:.6f}," + ",".join(cells))
-    atomic_write_text(path, "\n".join(lines) + "\n")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -176,6 +160,7 @@ def _solve_and_write(
     skipped = np.flatnonzero(result.status == Status.TOO_FEW_MARKERS)
     seen = np.any(np.all(np.isfinite(markers), axis=2), axis=0)
     never = [n for n, ok in zip(pset.marker_names, seen, strict=True) if not ok]
+    rmse = result.rmse()
     summary = {
         "markers_file": str(trial.path),
         "model": str(pset.path),
@@ -184,8 +169,7 @@ def _solve_and_write(
         "frames_range": [first, first + n],
         "frames_solved": int(n - skipped.size),
         "frames_skipped": [first + int(i) for i in skipped],
-        "marker_rmse_mm": result.rmse() * 1e3,
-        "frame_rmse_max_mm": float(np.nanmax(result.marker_rmse) * 1e3),
+        **fit_fields(rmse, float(np.nanmax(result.marker_rmse))),
         "iterations_mean": float(result.iterations.mean()),
         "converged_fraction": float(np.mean(result.status == Status.CONVERGED)),
         "seconds": seconds,
@@ -203,7 +187,7 @@ def _solve_and_write(
     text = (
         f"{trial.report}\n"
         f"IK ({args.damping}): {n} frames in {seconds:.2f} s ({n / seconds:,.0f} frames/s), "
-        f"marker RMSE {summary['marker_rmse_mm']:.3f} mm, "
+        f"marker RMSE {rmse * 1e3:.3f} mm, "
         f"{summary['converged_fraction']:.0%} converged"
         + (f", {skipped.size} frames skipped (too few markers)" if skipped.size else "")
         + (

@@ -1,4 +1,5 @@
-"""Length units as marker files state them, their size in metres, and a size sanity check."""
+"""Length units as marker files state them, their size in metres, and a size sanity check;
+the columns of a written table named and scaled by their unit."""
 
 from __future__ import annotations
 
@@ -25,6 +26,21 @@ CLOUD_EXTENT = (0.05, 10.0)
 def metres_per_unit(unit: str) -> float | None:
     """Metres in one ``unit`` (case-insensitive: mm, cm, m and their spelt-out names), or None."""
     return _METRES_PER_UNIT.get(unit.strip().lower())
+
+
+def per_metre(unit: str) -> float:
+    """How many ``unit`` (:func:`metres_per_unit`'s names) one metre holds: a written
+    table's factor from metres; an unknown unit raises ``KeyError``."""
+    metres = metres_per_unit(unit)
+    if metres is None:
+        raise KeyError(unit)
+    return 1.0 / metres
+
+
+def unit_column(name: str, unit: str) -> str:
+    """The column of a written table holding quantity ``name`` in ``unit``, as every table
+    of the tool names its columns: ``knee_l_x``, ``mm`` -> ``knee_l_x_mm``."""
+    return f"{name}_{unit}"
 
 
 def cloud_extent(positions: np.ndarray) -> float | None:

@@ -1,5 +1,6 @@
 """The gait report's tables: each trial's cycles with its curves and spatiotemporal
-parameters (:class:`TrialCycles`), and cycles.csv, spatiotemporal.csv and scores.csv.
+parameters (:class:`TrialCycles`), and cycles.csv, spatiotemporal.csv and scores.csv; where
+its angles come from (:class:`AnglesSource`, summary.json's :func:`source_fields`).
 
 ``cycles.csv``: long format, a row per trial, side, cycle, variable and point: ``trial``,
 ``side``, ``cycle`` (from 1, per trial and side), ``variable`` (the Plug-in Gait name without
@@ -18,6 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -29,11 +31,13 @@ from mocap_mj.io.trajectory import MarkerTrajectory
 
 __all__ = [
     "PLAUSIBLE",
+    "AnglesSource",
     "TrialCycles",
     "cycles_csv",
     "implausible",
     "kinetic_kept",
     "scores_csv",
+    "source_fields",
     "spatiotemporal_csv",
     "trial_cycles",
 ]
@@ -53,6 +57,26 @@ class TrialCycles:
     angles: Curves
     kinetics: Curves = field(default_factory=dict)
     parameters: list[dict[str, float]] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class AnglesSource:
+    """Where a gait report's angles come from: ``angles`` (the words summary.json and the
+    page give) and, for the angles of a model identified on the trials, its model.xml
+    ``model`` and marker RMSE ``marker_rmse`` [m] (None: unknown)."""
+
+    angles: str
+    model: str | None = None
+    marker_rmse: float | None = None
+
+
+def source_fields(source: AnglesSource) -> dict[str, Any]:
+    """summary.json's fields of ``source``: ``angles`` and, for an identified model,
+    ``marker_rmse_mm`` (null: unknown) and ``model``."""
+    if source.model is None:
+        return {"angles": source.angles}
+    rmse = None if source.marker_rmse is None else source.marker_rmse * 1e3
+    return {"angles": source.angles, "marker_rmse_mm": rmse, "model": source.model}
 
 
 def kinetic_kept(cycle: GaitCycle, curves: Curves) -> bool:

@@ -30,7 +30,6 @@ from mocap_mj.capture.marker_quality import (
     check_trials_quality,
     drop_ghosts,
     marker_segments,
-    quality_entry,
     suspects,
 )
 from mocap_mj.pipeline.relabel import (
@@ -40,6 +39,7 @@ from mocap_mj.pipeline.relabel import (
     reference_theta,
     track_swaps,
 )
+from mocap_mj.pipeline.summary import quality_fields
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
 
@@ -111,8 +111,7 @@ def check_trials(
             f"named first: --exclude-markers {','.join(top)} drops its data "
             "(docs/recordings.md#what-each-warning-means)"
         )
-    entry = {"relabelled": [r.to_json() for r in relabelled], **quality_entry(found, excluded)}
-    return found, entry
+    return found, quality_fields(relabelled, found, excluded)
 
 
 def _findings(pset: ParameterSet, trials: Sequence[Checked], policy: Policy) -> list[Finding]:

@@ -78,7 +78,6 @@ from __future__ import annotations
 import itertools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -149,7 +148,7 @@ class Relabel:
 
     file; kind (:class:`Candidate`); markers: the corrected labels, ``markers[k]`` takes the
     data the file labels ``sources[k]``; frames: [first, last) of the file's frames;
-    before_mm, after_mm: median RMS IK residual [mm] of those markers with the file's labels
+    before, after: median RMS IK residual [m] of those markers with the file's labels
     and with the corrected ones; applied: whether the fitted data carry the correction;
     message: the one-line text.
     """
@@ -159,23 +158,10 @@ class Relabel:
     markers: tuple[str, ...]
     sources: tuple[str, ...]
     frames: tuple[int, int]
-    before_mm: float
-    after_mm: float
+    before: float
+    after: float
     applied: bool
     message: str
-
-    def to_json(self) -> dict[str, Any]:
-        return {
-            "file": self.file,
-            "kind": self.kind,
-            "markers": list(self.markers),
-            "sources": list(self.sources),
-            "frames": list(self.frames),
-            "before_mm": round(self.before_mm, 1),
-            "after_mm": round(self.after_mm, 1),
-            "applied": self.applied,
-            "message": self.message,
-        }
 
 
 # ------------------------------------------------------------------------------- candidates
@@ -316,8 +302,9 @@ def track_swaps(
     the other's track at one frame and back at a later one (or at the end) are exchanged
     back over those frames. This is evidence of the tracks, not of a model: it corrects
     markers too close together for the model's margin (the two wrist-bar markers, about
-    50 mm apart). before_mm, after_mm: the mean distance [mm] of the two labels at the
-    swap's first frame from their constant-velocity predictions, as labelled and exchanged."""
+    50 mm apart). The correction's before, after: the mean distance [m] of the two labels at
+    the swap's first frame from their constant-velocity predictions, as labelled and
+    exchanged."""
     x = np.asarray(markers)
     index = {n: i for i, n in enumerate(names)}
     out = []
@@ -341,8 +328,8 @@ def track_swaps(
                 (names[i], names[k]),
                 (names[k], names[i]),
                 f.frames,
-                float(before * 1e3),
-                float(after * 1e3),
+                float(before),
+                float(after),
                 True,
                 text,
             )
@@ -741,13 +728,13 @@ def _relabels(
     out = []
     for run in runs:
         w = np.array([j[4] for j in run], dtype=float)
-        before = float(np.average([j[2] for j in run], weights=w)) * 1e3
-        after = float(np.average([j[3] for j in run], weights=w)) * 1e3
+        before = float(np.average([j[2] for j in run], weights=w))
+        after = float(np.average([j[3] for j in run], weights=w))
         frames = (first + run[0][0], first + run[-1][1])
         text = (
             f"{path}: labels exchanged ({c.kind}): {said} in frames {frames[0]}-{frames[1] - 1}; "
-            f"the model fits these markers {before:.0f} mm RMS as labelled, {after:.0f} mm "
-            "exchanged back"
+            f"the model fits these markers {before * 1e3:.0f} mm RMS as labelled, "
+            f"{after * 1e3:.0f} mm exchanged back"
         )
         r = Relabel(
             path,

@@ -26,9 +26,10 @@ from mocap_mj.anatomy.segments import SegmentRow, uncertainty_summary
 from mocap_mj.anatomy.standing import standing_knee_axes, standing_note
 from mocap_mj.anatomy.tissue import arm_elevation, raised_arms_note
 from mocap_mj.anatomy.trunk import T10Placement
-from mocap_mj.capture.marker_quality import Finding
+from mocap_mj.capture.marker_quality import Finding, suspects
 from mocap_mj.capture.subject import Subject
 from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.pipeline.relabel import Relabel
 from mocap_mj.pipeline.results import Refined, Weighting, joint_axes, prior_noise
 from mocap_mj.pipeline.steps import REWEIGHT_RATIO, Solved, anatomical_priors
 from mocap_mj.skeleton.parameters import ParameterSet
@@ -204,13 +205,60 @@ def _t10_fields(t10: T10Placement) -> dict[str, Any]:
     }
 
 
+def finding_fields(finding: Finding) -> dict[str, Any]:
+    """One finding of summary.json's ``marker_quality`` (its figure ``value_mm`` in mm, to
+    0.1 mm)."""
+    f = finding
+    return {
+        "file": f.file,
+        "kind": f.kind,
+        "markers": list(f.markers),
+        "frames": None if f.frames is None else list(f.frames),
+        "value_mm": round(f.value * 1e3, 1),
+        "expected": f.expected,
+        "message": f.message,
+    }
+
+
+def relabel_fields(relabel: Relabel) -> dict[str, Any]:
+    """One correction of summary.json's ``marker_quality.relabelled`` (its residuals
+    ``before_mm``, ``after_mm`` in mm, to 0.1 mm)."""
+    r = relabel
+    return {
+        "file": r.file,
+        "kind": r.kind,
+        "markers": list(r.markers),
+        "sources": list(r.sources),
+        "frames": list(r.frames),
+        "before_mm": round(r.before * 1e3, 1),
+        "after_mm": round(r.after * 1e3, 1),
+        "applied": r.applied,
+        "message": r.message,
+    }
+
+
+def quality_fields(
+    relabelled: Sequence[Relabel], found: Sequence[Finding], excluded: Sequence[str]
+) -> dict[str, Any]:
+    """summary.json's ``marker_quality`` entry: the corrections of the labels, the findings,
+    the markers they name (:func:`~mocap_mj.capture.marker_quality.suspects`), the
+    ``excluded`` markers and the samples the findings drop."""
+    return {
+        "relabelled": [relabel_fields(r) for r in relabelled],
+        "findings": [finding_fields(f) for f in found],
+        "suspects": suspects(found),
+        "excluded": list(excluded),
+        "samples_dropped": len({(f.file, f.markers[0], t) for f in found for t in f.samples}),
+    }
+
+
 def add_finding(summary: dict[str, Any], finding: Finding) -> None:
     """``finding`` added to summary's ``marker_quality`` entry (created when the caller gave
     none), with the markers it names counted among the suspects."""
     entry = summary.get("marker_quality")
     if entry is None:
         entry = summary["marker_quality"] = {"findings": [], "suspects": {}, "excluded": []}
-    entry["findings"].append(finding.to_json())
+    entry["findings"].append(finding_fields(finding))
     named = dict(entry.get("suspects") or {})
     for n in finding.markers:
         named[n] = named.get(n, 0) + 1
@@ -426,18 +474,23 @@ def motion_fields(rmse: float, ik_seconds: float, seconds: float) -> dict[str, A
 
 class ReadBack(NamedTuple):
     """What a command reads back from a summary (summary.json's content, :func:`read_back`),
-    in SI: each marker's RMSE [m] (NaN: never seen) by name, and the kinematic parameters
-    outside their anatomical range with that range (name -> [lower, upper] [m])."""
+    in SI: each marker's RMSE [m] (NaN: never seen) by name, the kinematic parameters
+    outside their anatomical range with that range (name -> [lower, upper] [m]), and the
+    fit's marker RMSE [m] (None: the summary holds none)."""
 
     marker_rmse_by_marker: dict[str, float]
     kappa_outside_bounds: dict[str, list[float]]
+    marker_rmse: float | None = None
 
 
 def read_back(summary: Mapping[str, Any]) -> ReadBack:
-    """The figures of ``summary`` (summary.json's content, millimetres) in SI."""
+    """The figures of ``summary`` (summary.json's content, millimetres) in SI (the marker
+    RMSE divided by 1000, so that it gives the written figure back when written in mm)."""
     per_marker = summary.get("marker_rmse_by_marker_mm") or {}
     outside = summary.get("kappa_outside_bounds_mm") or {}
+    rmse = summary.get("marker_rmse_mm")
     return ReadBack(
         {n: math.nan if v is None else v * 1e-3 for n, v in per_marker.items()},
         {n: [v * 1e-3 for v in b] for n, b in outside.items()},
+        rmse / 1e3 if isinstance(rmse, float) else None,
     )

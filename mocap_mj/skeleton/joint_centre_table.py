@@ -14,8 +14,9 @@ Layout (one row per frame, comma-separated, header in the first line):
     joint's child body, in the frame of the marker data. Empty cells for frames that were not
     solved.
 
-Millimetres (not the metres used inside) because the marker files are in millimetres and the
-table is meant to be read beside them.
+Millimetres (:data:`UNIT`, not the metres used inside) because the marker files are in
+millimetres and the table is meant to be read beside them: the columns are named and scaled
+from it (:func:`mocap_mj.io.units.unit_column`, :func:`~mocap_mj.io.units.per_metre`).
 """
 
 from __future__ import annotations
@@ -27,13 +28,18 @@ import numpy as np
 
 from mocap_mj.errors import check_shape
 from mocap_mj.io.atomic import atomic_write_text
+from mocap_mj.io.units import per_metre, unit_column
 from mocap_mj.kernels._fixed_text import csv_rows
 from mocap_mj.skeleton.joint_centres import JOINT_CENTRE_NAMES, joint_centre_trajectories
+
+#: The length unit of the table's positions.
+UNIT = "mm"
 
 
 def joint_centre_columns() -> list[str]:
     """Header of ``joint_centres.csv``: ``frame``, ``time_s``, then 3 columns per centre."""
-    return ["frame", "time_s", *(f"{c}_{a}_mm" for c in JOINT_CENTRE_NAMES for a in "xyz")]
+    centres = (unit_column(f"{c}_{a}", UNIT) for c in JOINT_CENTRE_NAMES for a in "xyz")
+    return ["frame", "time_s", *centres]
 
 
 def write_joint_centres_csv(
@@ -69,7 +75,7 @@ def joint_centre_text(
     times = np.asarray(times, dtype=float)
     check_shape("times", times, (len(qpos),))
     centres = joint_centre_trajectories(model, qpos)
-    flat = centres.reshape(len(centres), -1) * 1e3
+    flat = centres.reshape(len(centres), -1) * per_metre(UNIT)
     frames = first_frame + np.arange(len(times), dtype=np.int64)
     values = np.concatenate([times[:, None], flat], axis=1)
     decimals = [6, *([4] * flat.shape[1])]
