@@ -299,8 +299,8 @@ def test_report_section() -> None:
 
 
 def test_batch_column() -> None:
-    from mocap_mj.outputs.batch_out import COLUMNS
     from mocap_mj.commands.batch import _quality_cell
+    from mocap_mj.outputs.batch_out import COLUMNS
 
     assert "marker_quality" in COLUMNS
     quality = {
