@@ -27,6 +27,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+import mujoco
 import numpy as np
 
 from mocap_mj.anatomy.axis_rows import MEDIAL_LANDMARKS
@@ -59,18 +60,15 @@ def _yaw(axis: np.ndarray, pelvis: np.ndarray, sign: float) -> np.ndarray:
     flat = axis - np.sum(axis * z, axis=1)[:, None] * z
     lateral = sign * np.sum(flat * y, axis=1)
     forward = np.sum(flat * x, axis=1)
-    lateral, forward = (
-        np.where(lateral < 0, -lateral, lateral),
-        np.where(lateral < 0, -forward, forward),
-    )
-    return np.arctan2(forward, lateral)
+    flip = np.where(lateral < 0, -1.0, 1.0)  # the axis's own sign does not count
+    return np.arctan2(flip * forward, flip * lateral)
 
 
 def _standing(frames: Any, pset: ParameterSet, qpos: np.ndarray) -> np.ndarray:
     """Which of the frames (T,) bool stand: both knees and both thighs (from the vertical,
     the recording's +z) within :data:`STANDING_FLEXION` of straight."""
     model = pset.model
-    ok = np.all(np.isfinite(qpos), axis=1)
+    ok = np.ones(len(qpos), dtype=bool)
     for side in ("l", "r"):
         knee = int(model.jnt_qposadr[model.joint(f"knee_flex_{side}").id])
         top, bottom = (frames.xpos[:, model.body(f"{b}_{side}").id] for b in ("thigh", "shank"))
@@ -94,8 +92,14 @@ def standing_knee_axes(
     order, NaN where missing; None without THI and KNE or their samples), with
     ``half_widths`` [m] per side (the knee's width / 2 + marker radius). None when fewer than
     :data:`STANDING_SHARE` of the frames stand or the pelvis moves."""
-    needed = ("pelvis", "thigh_l", "thigh_r", "shank_l", "shank_r")
-    if any(pset.model.body(b).id < 0 for b in needed) or len(qpos) == 0:
+    model = pset.model
+    bodies = ("pelvis", "thigh_l", "thigh_r", "shank_l", "shank_r")
+    joints = ("knee_flex_l", "knee_flex_r")
+    if len(qpos) == 0 or any(
+        mujoco.mj_name2id(model, kind, n) < 0
+        for kind, names in ((mujoco.mjtObj.mjOBJ_BODY, bodies), (mujoco.mjtObj.mjOBJ_JOINT, joints))
+        for n in names
+    ):  # another model than the humanoid's: no figure
         return None
     kin = Kinematics(pset)
     kin.set_theta(np.asarray(theta, dtype=float))
@@ -106,7 +110,7 @@ def standing_knee_axes(
     frames = kin.forward(q)
     stand = _standing(frames, pset, q)
     pelvis_pos = frames.xpos[stand, pset.model.body("pelvis").id]
-    if stand.sum() < STANDING_SHARE * len(q) or not len(pelvis_pos):
+    if stand.sum() < STANDING_SHARE * len(q):
         return None
     spread = np.linalg.norm(pelvis_pos - np.median(pelvis_pos, axis=0), axis=1)
     if np.percentile(spread, 99) > STILL_RADIUS:
