@@ -16,7 +16,7 @@ from typing import Any
 
 import pytest
 
-from mocap_mj.batch.dataset import Subject
+from mocap_mj.batch.dataset import Entry
 from mocap_mj.cli import main
 
 
@@ -27,7 +27,7 @@ def _dataset(root: Path, names: tuple[str, ...]) -> Path:
     return root
 
 
-def _job(subject: Subject, folder: Path) -> dict[str, Any]:
+def _job(subject: Entry, folder: Path) -> dict[str, Any]:
     if subject.name == "slow":
         time.sleep(60)  # a subject that hangs
     os.write(1, b"(raylet) a log line of a process the batch started\n")
@@ -93,7 +93,7 @@ def test_a_broken_yaml_manifest_is_one_line_naming_the_line(
 def test_an_implausible_identification_makes_the_batch_exit_3(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capfd: pytest.CaptureFixture[str]
 ) -> None:
-    def job(subject: Subject, folder: Path) -> dict[str, Any]:
+    def job(subject: Entry, folder: Path) -> dict[str, Any]:
         record = _job(subject, folder)
         if subject.name == "odd":
             record["identify"]["implausible"] = ["marker RMSE 111 mm, above the 30 mm"]

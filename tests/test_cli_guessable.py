@@ -16,7 +16,7 @@ from mocap_mj import cli
 from mocap_mj.batch.dataset import CHOICES, FLAGS, OPTION_KEYS, load_dataset
 from mocap_mj.capture.subject import HUMAN_RANGES
 from mocap_mj.commands import options
-from mocap_mj.commands.batch import _flags
+from mocap_mj.commands.batch import identify_args
 from mocap_mj.commands.identify import recipe_from_args
 from mocap_mj.errors import InputFileError
 from mocap_mj.pipeline.recipe import Recipe
@@ -125,10 +125,11 @@ def test_batch_takes_the_recipe_flags_and_passes_them_to_identify(tmp_path: Path
         [str(tmp_path), "--out", "o", "--loss", "cauchy", "--no-sliding-landmarks", "--up", "y"]
     )
     assert (args.loss, args.no_sliding_landmarks, args.up) == ("cauchy", True, "y")
-    assert _flags({"loss": "cauchy", "no_sliding_landmarks": True, "up": "y"}) == [
-        "--loss", "cauchy", "--no-sliding-landmarks", "--up", "y",
-    ]  # fmt: skip
-    assert _flags({"no_sliding_landmarks": False}) == []
+    passed = identify_args({"loss": "cauchy", "no_sliding_landmarks": True, "up": "y"}, [],
+                           None, tmp_path)  # fmt: skip
+    assert (passed.loss, passed.no_sliding_landmarks, passed.up) == ("cauchy", True, "y")
+    assert recipe_from_args(passed) == Recipe(loss="cauchy", sliding_landmarks=False)
+    assert recipe_from_args(identify_args({}, [], None, tmp_path)) == Recipe()
     identify = _commands()["identify"]
     for key in OPTION_KEYS:
         assert FLAGS[key] in identify._option_string_actions, key

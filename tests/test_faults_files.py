@@ -391,27 +391,27 @@ def test_batch_replaces_only_its_own_subject_folders(tmp_path: Path) -> None:
     """A subject folder of ``batch --out`` is replaced only if a batch wrote it (its marker,
     or an earlier batch's subject.json with nothing but the batch's folders beside it); a
     folder of the user's that bears a subject's name is kept and the subject fails."""
-    from mocap_mj.batch.dataset import Subject
+    from mocap_mj.batch.dataset import Entry
     from mocap_mj.batch.run import RECORD, execute
 
-    def job(subject: Subject, folder: Path) -> dict[str, object]:
+    def job(subject: Entry, folder: Path) -> dict[str, object]:
         (folder / "result.txt").write_text("new")
         return {"rows": []}
 
     (tmp_path / "S1").mkdir()
     (tmp_path / "S1" / "notes.txt").write_text("the user's")
     before = hashes(tmp_path / "S1")
-    record = execute(job, Subject("S1", ("t.csv",)), str(tmp_path), "h")
+    record = execute(job, Entry("S1", ("t.csv",)), str(tmp_path), "h")
     assert record["status"] == "failed"
     assert str(tmp_path / "S1") in record["error"] and MARKER in record["error"]
     assert hashes(tmp_path / "S1") == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["S1"]
     (tmp_path / "S1" / RECORD).write_text("{}")  # a subject.json beside the user's notes
     before = hashes(tmp_path / "S1")
-    assert execute(job, Subject("S1", ("t.csv",)), str(tmp_path), "h")["status"] == "failed"
+    assert execute(job, Entry("S1", ("t.csv",)), str(tmp_path), "h")["status"] == "failed"
     assert hashes(tmp_path / "S1") == before
     (tmp_path / "S1" / "notes.txt").unlink()  # now an earlier batch's subject folder
-    assert execute(job, Subject("S1", ("t.csv",)), str(tmp_path), "h")["status"] == "ok"
+    assert execute(job, Entry("S1", ("t.csv",)), str(tmp_path), "h")["status"] == "ok"
     assert sorted(p.name for p in (tmp_path / "S1").iterdir()) == sorted(
         [MARKER, RECORD, "result.txt"]
     )

@@ -8,14 +8,14 @@ from typing import TYPE_CHECKING
 from ..lazy import lazy_names
 
 if TYPE_CHECKING:
-    from .dataset import OPTION_KEYS, Subject, content_hash, load_dataset
+    from .dataset import OPTION_KEYS, Entry, content_hash, load_dataset
     from .run import Outcome, run_batch
 
 #: The names imported on first use (PEP 562): ``mocap-mj batch --help`` reads
 #: :data:`~mocap_mj.batch.dataset.OPTION_KEYS` without loading the runner.
 _LAZY = {
     "OPTION_KEYS": ".dataset",
-    "Subject": ".dataset",
+    "Entry": ".dataset",
     "content_hash": ".dataset",
     "load_dataset": ".dataset",
     "Outcome": ".run",
@@ -26,4 +26,4 @@ _LAZY = {
 __getattr__ = lazy_names(__name__, _LAZY, globals())
 
 
-__all__ = ["OPTION_KEYS", "Outcome", "Subject", "content_hash", "load_dataset", "run_batch"]
+__all__ = ["OPTION_KEYS", "Entry", "Outcome", "content_hash", "load_dataset", "run_batch"]

@@ -33,9 +33,12 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import InputFileError, MocapError
+
+if TYPE_CHECKING:
+    from ..capture.subject import Subject
 
 #: Per-subject options a manifest (or the ``batch`` command line) may set, with their type;
 #: each is the identify flag of its name (``no_sliding_landmarks``: true gives the flag).
@@ -63,8 +66,7 @@ CHOICES: dict[str, tuple[str, ...]] = {
 #: Options naming a file: resolved against the manifest's folder; their content is hashed.
 PATH_OPTIONS = ("marker_map", "model", "recipe")
 #: Options that are now a recipe's fields (option -> recipe field): refused, naming it.
-RECIPE_OPTIONS = {"init": "init", "max_iterations": "max_iterations",
-                  "prior_mm": "prior_sigma (in metres)"}  # fmt: skip
+RECIPE_OPTIONS = {"init": "init", "max_iterations": "max_iterations"}
 #: Trial file suffixes of a folder-tree dataset.
 TRIAL_SUFFIXES = (".c3d", ".trc", ".csv")
 SUBJECT_FILES = ("subject.yaml", "subject.yml")
@@ -75,30 +77,36 @@ BATCH_FILES = ("summary.csv", "summary.json", "report.md", "segments.png", "rmse
 
 
 @dataclass(frozen=True)
-class Subject:
-    """One subject: its name (a folder name), trial files, subject file and options."""
+class Entry:
+    """One subject's entry in a dataset: its name (a folder name), trial files, subject file
+    (whose measurements are a :class:`mocap_mj.capture.subject.Subject`, :meth:`measurements`)
+    and options."""
 
     name: str
     trials: tuple[str, ...]
     subject_file: str | None = None
     options: Mapping[str, Any] = field(default_factory=dict)
 
-    @property
-    def height(self) -> float | None:
-        """Standing height [m] from the subject file's ``height`` key, if given."""
+    def measurements(self) -> Subject | None:
+        """The subject file's measurements (YAML or a Vicon subject file), None without one
+        or when it cannot be read (identify then refuses it, naming it)."""
         if self.subject_file is None:
             return None
+        from mocap_mj.capture.vicon_subject import from_file  # PyYAML, loaded when read
+
         try:
-            from ..io.yaml_file import read_yaml  # PyYAML, loaded when a file is read
-
-            data = read_yaml(self.subject_file, "subject file")
-            value = float(data["height"]) if isinstance(data, dict) else None
-        except (MocapError, KeyError, TypeError, ValueError):
+            return from_file(self.subject_file)
+        except (MocapError, OSError):
             return None
-        return value
+
+    @property
+    def height(self) -> float | None:
+        """Standing height [m] from the subject file's ``height``, if given."""
+        found = self.measurements()
+        return None if found is None else found.get("height")
 
 
-def load_dataset(path: str | Path, defaults: Mapping[str, Any] | None = None) -> list[Subject]:
+def load_dataset(path: str | Path, defaults: Mapping[str, Any] | None = None) -> list[Entry]:
     """The subjects of a folder tree or a manifest (``.csv``, ``.yaml``, ``.yml``), by name.
 
     ``defaults`` are options of every subject (the command line's); a manifest's options
@@ -122,7 +130,7 @@ def load_dataset(path: str | Path, defaults: Mapping[str, Any] | None = None) ->
     return sorted(subjects, key=lambda s: s.name)
 
 
-def check_files(subjects: list[Subject]) -> None:
+def check_files(subjects: list[Entry]) -> None:
     """Read every recipe, marker map and YAML subject file the subjects name, each once,
     before any work: a bad file is refused up front with its one line (naming it), not in
     every subject it would fail."""
@@ -142,7 +150,7 @@ def check_files(subjects: list[Subject]) -> None:
                 (from_yaml if key == "subject_file" else readers[key])(path)
 
 
-def _from_tree(root: Path, base: dict[str, Any]) -> list[Subject]:
+def _from_tree(root: Path, base: dict[str, Any]) -> list[Entry]:
     subjects = []
     for folder in sorted(p for p in root.iterdir() if p.is_dir()):
         if folder.name.startswith((".", "_")):
@@ -156,11 +164,11 @@ def _from_tree(root: Path, base: dict[str, Any]) -> list[Subject]:
             continue
         sfile = next((folder / n for n in SUBJECT_FILES if (folder / n).is_file()), None)
         name = _name(folder.name, str(folder))
-        subjects.append(Subject(name, tuple(trials), _str(sfile), base))
+        subjects.append(Entry(name, tuple(trials), _str(sfile), base))
     return subjects
 
 
-def _from_csv(path: Path, base: dict[str, Any]) -> list[Subject]:
+def _from_csv(path: Path, base: dict[str, Any]) -> list[Entry]:
     try:
         with open(path, newline="") as handle:
             rows = list(csv.DictReader(handle))
@@ -195,10 +203,10 @@ def _from_csv(path: Path, base: dict[str, Any]) -> list[Subject]:
         trials.setdefault(name, []).append(str(_resolve(path.parent, trial)))
         options[name] = opts
         sfiles[name] = sfile
-    return [Subject(n, tuple(t), sfiles[n], options[n]) for n, t in trials.items()]
+    return [Entry(n, tuple(t), sfiles[n], options[n]) for n, t in trials.items()]
 
 
-def _from_yaml(path: Path, base: dict[str, Any]) -> list[Subject]:
+def _from_yaml(path: Path, base: dict[str, Any]) -> list[Entry]:
     from ..io.yaml_file import read_yaml  # PyYAML, loaded when a file is read
 
     data = read_yaml(path, "manifest")
@@ -215,7 +223,7 @@ def _from_yaml(path: Path, base: dict[str, Any]) -> list[Subject]:
         trials = tuple(str(_resolve(path.parent, str(t))) for t in entry["trials"])
         opts = {**common, **_checked_options(where, entry.get("options") or {}, path.parent)}
         sfile = _resolve(path.parent, entry.get("subject_file"))
-        subjects.append(Subject(name, trials, sfile, opts))
+        subjects.append(Entry(name, trials, sfile, opts))
     names = [s.name for s in subjects]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
@@ -314,7 +322,7 @@ def _file_digest(path: str) -> str:
     return h.hexdigest()
 
 
-def content_hash(subject: Subject, settings: Mapping[str, Any] | None = None) -> str:
+def content_hash(subject: Entry, settings: Mapping[str, Any] | None = None) -> str:
     """SHA-256 of everything a subject's result depends on: the bytes of its trial files,
     subject file and option files, its options, ``settings`` (the batch's own, e.g. the
     package version) and the trials' names. Paths themselves are not hashed (by name only),

@@ -47,9 +47,9 @@ from typing import Any, NamedTuple
 from ..errors import MocapError, OutputFolderError
 from ..io.atomic import atomic_write_text
 from ..io.ownership import MARKER, alive, folder_mark, mark_folder, remove_stale
-from .dataset import BATCH_FILES, Subject, content_hash
+from .dataset import BATCH_FILES, Entry, content_hash
 
-Job = Callable[[Subject, Path], dict[str, Any]]
+Job = Callable[[Entry, Path], dict[str, Any]]
 
 #: Object store of the local Ray [bytes]: Ray's minimum is 75 MiB; the jobs exchange only
 #: paths and records of a few kB, and the default (30 % of RAM) would reserve 7 GiB here.
@@ -111,7 +111,7 @@ def time_limit(seconds: float | None) -> Iterator[None]:
 
 
 def failed_record(
-    subject: Subject, digest: str, error: str, seconds: float, status: str = "failed"
+    subject: Entry, digest: str, error: str, seconds: float, status: str = "failed"
 ) -> dict[str, Any]:
     """The record of a subject whose job failed; its trials' rows have ``status``."""
     rows = [
@@ -129,7 +129,7 @@ def failed_record(
 
 
 def execute(
-    job: Job, subject: Subject, out: str, digest: str, timeout: float | None = None
+    job: Job, subject: Entry, out: str, digest: str, timeout: float | None = None
 ) -> dict[str, Any]:
     """Run ``job`` for one subject into a temporary folder of ``out`` and commit it.
 
@@ -195,7 +195,7 @@ def _commit(tmp: Path, final: Path) -> None:
         shutil.rmtree(old, ignore_errors=True)
 
 
-def completed(out: Path, subject: Subject, digest: str) -> dict[str, Any] | None:
+def completed(out: Path, subject: Entry, digest: str) -> dict[str, Any] | None:
     """The subject's record in ``out`` if it is complete, ok and of the same inputs."""
     try:
         record = json.loads((out / subject.name / RECORD).read_text())
@@ -229,7 +229,7 @@ def _pid_of(name: str) -> int | None:
     return int(tail[1]) if len(tail) == 2 and tail[1].isdigit() else None
 
 
-def prepare_out(out: Path, subjects: Sequence[Subject], dataset: str | Path) -> None:
+def prepare_out(out: Path, subjects: Sequence[Entry], dataset: str | Path) -> None:
     """Make ``out`` the batch's folder, refusing one the batch may not write into.
 
     Refused (one line, nothing touched): an empty name; a file; a folder inside the dataset
@@ -309,7 +309,7 @@ def have_ray() -> bool:
 
 
 def run_batch(
-    subjects: Sequence[Subject],
+    subjects: Sequence[Entry],
     out: Path,
     job: Job,
     *,
@@ -332,7 +332,7 @@ def run_batch(
     if folder_mark(out) is None:
         mark_folder(out, "batch")
     clean_leftovers(out)
-    todo: list[tuple[Subject, str]] = []
+    todo: list[tuple[Entry, str]] = []
     outcomes: dict[str, Outcome] = {}
     bar = _bar(len(subjects), progress)
 
@@ -368,7 +368,7 @@ def run_batch(
 
 
 def _ray_outcomes(
-    todo: Sequence[tuple[Subject, str]],
+    todo: Sequence[tuple[Entry, str]],
     out: Path,
     job: Job,
     address: str | None,

@@ -11,9 +11,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import functools
 import io
-import json
 import os
 import sys
 import time
@@ -29,23 +27,19 @@ from mocap_mj.commands.common import (
     with_exit_status,
     write_summary,
 )
-from mocap_mj.commands.registry import build_parser
 from mocap_mj.kernels._threads import one_blas_thread
 from mocap_mj.outputs.batch_out import TrialRow, identify_fields, row_fields, write_summary_csv
-from mocap_mj.outputs.ik_out import read_ik
 from mocap_mj.pipeline.fit import Fit
 from mocap_mj.pipeline.summary import read_back
+from mocap_mj.pipeline.track import Tracked
 from mocap_mj.skeleton.parameters import ParameterSet
+from mocap_mj.solve.ik import IKSettings
 
-from ..batch.dataset import FLAGS, OPTION_KEYS, Subject, load_dataset
+from ..batch.dataset import OPTION_KEYS, Entry, load_dataset
 from ..batch.report import summary_rows, write_report
 from ..batch.run import have_ray, one_line, prepare_out, run_batch
 from ..errors import MocapError
-from ._inputs import refuse_out_holding_inputs
 from ._markers import load_trial
-
-#: Options that also apply to the IK of each trial (how the marker files are read).
-MARKER_OPTIONS = ("up", "units", "marker_map", "file_subject", "exclude_markers")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -136,16 +130,16 @@ def _stdout_to_stderr() -> Iterator[None]:
 
 
 # --------------------------------------------------------------------------- the adapter
-def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
+def process_subject(subject: Entry, folder: Path) -> dict[str, Any]:
     """One subject into ``folder``: identification from its readable trials, then IK of each.
 
     The identification is the library's (:func:`_identify`), its folder written as
-    ``identify`` writes it; the IK of each trial runs as ``ik`` does (its options parsed by
-    the command line's own parser). A trial that cannot be read, or whose IK
+    ``identify`` writes it; the IK of each trial is the library's
+    (:func:`~mocap_mj.pipeline.track.track`, through ``ik``'s reading and writing,
+    :func:`_ik`). A trial that cannot be read, or whose IK
     fails, becomes a failed row; no readable trial, or a failed identification, raises.
     """
     opts = dict(subject.options)
-    marker_args = _flags({k: opts[k] for k in MARKER_OPTIONS if k in opts})
     pset = ParameterSet(opts.get("model"))
     reader = argparse.Namespace(
         up=opts.get("up"),
@@ -180,12 +174,12 @@ def process_subject(subject: Subject, folder: Path) -> dict[str, Any]:
             marker_quality=_quality_cell(quality, path),
         )
         try:
-            ik = read_ik(_command("ik", folder / "ik" / names[path], "--markers", path,
-                                  "--model", str(model), *marker_args))  # fmt: skip
+            ik = _ik(opts, path, model, folder / "ik" / names[path])
         except MocapError as exc:
             rows[path] = replace(rows[path], error=one_line(exc))
             continue
-        rows[path] = replace(rows[path], status="ok", ik_rmse=ik.marker_rmse,
+        assert ik.motion.ik is not None  # a tracked motion carries its IK
+        rows[path] = replace(rows[path], status="ok", ik_rmse=ik.motion.ik.rmse(),
                              ik_seconds=ik.seconds)  # fmt: skip
     return {
         "trials": {Path(p).name: names[p] for p in subject.trials},
@@ -215,7 +209,23 @@ def _identify(opts: dict[str, Any], paths: list[str], subject_file: str | None, 
 
     from .identify import checked_inputs, identified, recipe_from_args
 
-    args = argparse.Namespace(
+    args = identify_args(opts, paths, subject_file, out)
+    recipe = recipe_from_args(args)
+    with scratch_folder(prefix="mocap-mj-batch-") as scratch:
+        inputs = checked_inputs(args, recipe, Path(scratch))
+        with output_folder(out) as staging:
+            fit, summary, _ = identified(args, inputs, staging)
+            write_summary(staging, with_exit_status(summary))
+    return fit
+
+
+def identify_args(
+    opts: dict[str, Any], paths: list[str], subject_file: str | None, out: Path
+) -> argparse.Namespace:
+    """identify's options of a subject of the dataset: its trials ``paths``, subject file and
+    ``out`` folder, and the dataset's options ``opts`` (a recipe field's option, ``loss`` or
+    ``no_sliding_landmarks``, over the recipe's field, as identify's flag)."""
+    return argparse.Namespace(
         command="identify", markers=paths, out=str(out), json=True, force=False,
         subject=opts.get("file_subject"), marker_map=opts.get("marker_map"), up=opts.get("up"),
         units=opts.get("units"), model=opts.get("model"), marker_set=None,
@@ -224,13 +234,6 @@ def _identify(opts: dict[str, Any], paths: list[str], subject_file: str | None, 
         no_sliding_landmarks=bool(opts.get("no_sliding_landmarks")), subject_file=subject_file,
         height=None, mass=None, forces=None,
     )  # fmt: skip
-    recipe = recipe_from_args(args)
-    with scratch_folder(prefix="mocap-mj-batch-") as scratch:
-        inputs = checked_inputs(args, recipe, Path(scratch))
-        with output_folder(out) as staging:
-            fit, summary, _ = identified(args, inputs, staging)
-            write_summary(staging, with_exit_status(summary))
-    return fit
 
 
 def _outside(fit: Fit) -> list[bool]:
@@ -249,36 +252,35 @@ def _quality_cell(quality: dict[str, Any], path: str) -> str:
     return f"{len(found)} finding(s): {' '.join(names) or 'left/right asymmetry'}"
 
 
-def _command(command: str, out: Path, *options: str) -> dict[str, Any]:
-    """Run ``mocap-mj COMMAND OPTIONS --out OUT`` in this process; its summary.json."""
-    argv = [command, *options, "--out", str(out), "--json"]
-    err = io.StringIO()
-    try:
-        with contextlib.redirect_stderr(err):
-            args = _parser().parse_args(argv)
-    except SystemExit:  # argparse rejected an option (e.g. a manifest's): its last line
-        lines = err.getvalue().strip().splitlines() or ["invalid options"]
-        raise MocapError(lines[-1]) from None
-    refuse_out_holding_inputs(args)  # as the CLI checks it
-    with contextlib.redirect_stdout(io.StringIO()), one_blas_thread():  # as the CLI runs it
-        args.func(args)
-    return dict(json.loads((Path(args.out) / "summary.json").read_text()))
+def _ik(opts: dict[str, Any], path: str, model: Path, out: Path) -> Tracked:
+    """The motion of the trial ``path`` with the identified ``model``, written into ``out`` as
+    ``ik`` writes it (through :func:`~mocap_mj.commands.ik.prepared` and
+    :func:`~mocap_mj.commands.ik.written`, the IK's defaults), with the dataset's reading
+    options and excluded markers; its notices on stderr. summary.json names the model by
+    its path from ``out`` (``../../identify/model.xml``), which holds once the subject's
+    folder is in place."""
+    from .ik import prepared, written
 
-
-@functools.cache
-def _parser() -> argparse.ArgumentParser:
-    return build_parser()
-
-
-def _flags(options: dict[str, Any]) -> list[str]:
-    out = []
-    for key, value in options.items():
-        flag = FLAGS.get(key, "--" + key.replace("_", "-"))
-        if isinstance(value, bool):  # a switch: given when true
-            out += [flag] if value else []
-        else:
-            out += [flag, str(value)]
-    return out
+    defaults = IKSettings()
+    args = argparse.Namespace(
+        command="ik", markers=path, model=str(model), out=str(out), json=True, force=False,
+        subject=opts.get("file_subject"), marker_map=opts.get("marker_map"), up=opts.get("up"),
+        units=opts.get("units"), marker_set=None, frames=None,
+        exclude_markers=opts.get("exclude_markers"), no_relabel=False, strict=False,
+        damping=defaults.damping, max_iterations=defaults.max_iterations, min_markers=None,
+        loss="l2", no_sliding_landmarks=False, subject_file=None, height=None, mass=None,
+        forces=None,
+    )  # fmt: skip
+    with one_blas_thread():  # as the command line runs it
+        ready = prepared(args)
+    with (
+        output_folder(out) as staging,
+        contextlib.redirect_stdout(io.StringIO()),
+        one_blas_thread(),
+    ):
+        summary, _, tracked = written(args, ready, staging)
+        write_summary(staging, with_exit_status(summary))
+    return tracked
 
 
 def _trial_folders(trials: tuple[str, ...]) -> dict[str, str]:

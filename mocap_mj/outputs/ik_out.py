@@ -1,6 +1,5 @@
 """The files of ``ik``: motion.csv (readable joint coordinates) and summary.json's figures of
-the fit, with those figures read back in SI (:func:`read_ik`, for a command that runs ``ik``,
-such as ``batch``).
+the fit.
 
 motion.csv names one column per degree of freedom of the model as written. Hinges become one
 column in degrees, slide joints (the knees' rolling in a model as written,
@@ -11,9 +10,7 @@ become intrinsic X-Y-Z Cardan angles in degrees (``hip_l_x_deg``, ``hip_l_y_deg`
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, NamedTuple
 
 import mujoco
 import numpy as np
@@ -85,16 +82,3 @@ def fit_fields(rmse: float, frame_rmse_max: float) -> dict[str, float]:
     """summary.json's figures of the IK's fit in mm: the marker RMSE ``rmse`` [m] over every
     present sample and the largest frame's RMSE ``frame_rmse_max`` [m]."""
     return {"marker_rmse_mm": rmse * 1e3, "frame_rmse_max_mm": frame_rmse_max * 1e3}
-
-
-class IKFigures(NamedTuple):
-    """What a command reads back from ``ik``'s summary.json (:func:`read_ik`), in SI: the
-    marker RMSE [m] and the wall time [s]."""
-
-    marker_rmse: float
-    seconds: float
-
-
-def read_ik(summary: Mapping[str, Any]) -> IKFigures:
-    """The figures of ``summary`` (``ik``'s summary.json's content, millimetres) in SI."""
-    return IKFigures(float(summary["marker_rmse_mm"]) / 1e3, float(summary["seconds"]))
