@@ -44,7 +44,7 @@ def ours(trial: Path, plates: str) -> tuple[dict[str, np.ndarray], list[str]]:
     traj = load_markers(trial)
     subject = pig_from_c3d(trial)
     result = plug_in_gait(traj, subject)
-    mass = subject.measured("mass")
+    mass = subject.get("mass")
     if mass is None:
         raise SystemExit(f"{trial}: no body mass in PROCESSING:Bodymass")
     counted = None if plates in ("auto", "all") else {int(v) for v in plates.split(",")}

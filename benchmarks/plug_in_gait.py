@@ -19,7 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mocap_mj.clinical import PigSubject, calibrate, pig_from_c3d, plug_in_gait
+from mocap_mj.capture.subject import Subject
+from mocap_mj.clinical import calibrate, pig_from_c3d, plug_in_gait
 from mocap_mj.clinical.model import PigResult
 from mocap_mj.clinical.nexus_centres import read_nexus
 from mocap_mj.io.load import load_markers
@@ -71,25 +72,26 @@ def compare(trial: Path, static: Path | None) -> tuple[list[str], list[str]]:
     return lines + options(stat if stat is not None else traj, subject, result), misses
 
 
-def options(static: MarkerTrajectory, given: PigSubject, result: PigResult) -> list[str]:
+def options(static: MarkerTrajectory, given: Subject, result: PigResult) -> list[str]:
     """The static options: per foot the largest difference [rad] of the given offsets from
     the static trial's plain and flat-foot calibrations, the option taken; the head offset."""
     lines = ["static options (given offsets against the static trial's calibrations, rad)"]
     for s in "lr":
         names = (f"static_plantar_flex_{s}", f"static_rot_off_{s}")
-        if not all(n in given.values for n in names):
+        if not all(n in given.pig_values for n in names):
             lines.append(f"  foot {s}: no given offsets")
             continue
         off = {}
         for kind, flag in (("plain", 0.0), ("flat", 1.0)):
-            cal = calibrate(static, given.with_values({f"flat_foot_{s}": flag}, "benchmark"))
+            cal = calibrate(static, given.with_pig({f"flat_foot_{s}": flag}, "benchmark"))
             off[kind] = max(abs(cal.pig(n) - given.pig(n)) for n in names)
         taken = "flat" if result.subject.flag(f"flat_foot_{s}") else "plain"
         lines.append(
             f"  foot {s}: plain {off['plain']:.2e}, flat {off['flat']:.2e} -> {taken} "
             f"(sole delta {result.subject.pig(f'sole_delta_{s}') * 1e3:g} mm)"
         )
-    source = result.subject.sources.get("head_offset", "not given: 0")
+    given_head = result.subject.pig_values.get("head_offset")
+    source = "not given: 0" if given_head is None else given_head.source
     lines.append(f"  head offset {result.subject.pig('head_offset'):.4f} rad ({source})")
     return lines
 

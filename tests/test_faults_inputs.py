@@ -370,9 +370,9 @@ def test_plug_in_gait_values_out_of_range_are_refused(
 def test_plug_in_gait_values_in_degrees_are_kept(tmp_path: Path) -> None:
     path = tmp_path / "pig.yaml"
     path.write_text("static_plantar_flex_l: 14.5 deg\ntibial_torsion_r: 0.2\n")
-    values = pig_from_yaml(path).values
-    assert values["static_plantar_flex_l"] == pytest.approx(math.radians(14.5))
-    assert values["tibial_torsion_r"] == pytest.approx(0.2)
+    subject = pig_from_yaml(path)
+    assert subject.pig("static_plantar_flex_l") == pytest.approx(math.radians(14.5))
+    assert subject.pig("tibial_torsion_r") == pytest.approx(0.2)
 
 
 # ------------------------------------------------------- 3. corrupted result folders

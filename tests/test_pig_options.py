@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from test_plug_in_gait import _pose, _subject, _trajectory
 
-from mocap_mj.capture.subject import from_values
-from mocap_mj.clinical import PigSubject, calibrate, pig_from_c3d, pig_from_file, plug_in_gait
+from mocap_mj.capture.subject import Subject, from_values
+from mocap_mj.clinical import calibrate, pig_from_c3d, pig_from_file, plug_in_gait
 from mocap_mj.clinical.angles import abs_ankle_angles, all_angles, progression_frame
 from mocap_mj.clinical.geometry import rotate_about
 from mocap_mj.clinical.segments import Markers, Segment, static_foot, trunk_frames
@@ -84,7 +84,7 @@ def test_head_offset_and_sole_delta_are_read_in_nexus_names_and_units(tmp_path):
     subj = pig_from_numbers(numbers, "trial.c3d")
     assert subj.pig("head_offset") == 0.29  # rad, as Nexus stores it
     assert subj.pig("sole_delta_l") == pytest.approx(0.012)  # mm in the file
-    assert subj.sources["head_offset"] == "trial.c3d: PROCESSING:HeadOffset"
+    assert subj.pig_values["head_offset"].source == "trial.c3d: PROCESSING:HeadOffset"
     mp = tmp_path / "s.mp"
     mp.write_text("$HeadOffset = -0.1\n$RightSoleDelta = 8\n")
     from_mp = pig_from_file(mp)
@@ -121,8 +121,8 @@ def _markers(pose: dict[str, np.ndarray]) -> Markers:
     return Markers(pose, len(next(iter(pose.values()))))
 
 
-def _flagged(**flags: float) -> PigSubject:
-    return _subject().with_values(flags, "test")
+def _flagged(**flags: float) -> Subject:
+    return _subject().with_pig(flags, "test")
 
 
 def test_flat_foot_offsets_differ_by_the_heel_rise_less_the_sole_delta():
@@ -147,10 +147,10 @@ def test_given_offsets_tell_a_flat_calibration_and_the_static_foot_follows():
     flat = calibrate(still, _flagged(flat_foot_l=1.0, flat_foot_r=1.0))
     given = {k: flat.pig(k) for k in ("static_plantar_flex_l", "static_rot_off_l",
                                       "static_plantar_flex_r", "static_rot_off_r")}  # fmt: skip
-    told = calibrate(still, _subject().with_values(given, "PROCESSING"))
+    told = calibrate(still, _subject().with_pig(given, "PROCESSING"))
     assert told.flag("flat_foot_l") is True and told.flag("flat_foot_r") is True
     assert calibrate(still, _subject()).flag("flat_foot_l") is False  # nothing given: plain
-    res = plug_in_gait(still, _subject().with_values(given, "PROCESSING"))
+    res = plug_in_gait(still, _subject().with_pig(given, "PROCESSING"))
     assert res.static and res.subject.flag("flat_foot_l") is True
     # the static output's foot lies along the floor: its progression pitch reads -90 deg
     np.testing.assert_allclose(np.degrees(res.angles["LFootProgressAngles"][:, 0]), -90, atol=1e-9)
@@ -185,7 +185,7 @@ def test_head_and_thorax_bone_points_follow_their_construction():
     widths = (("shoulder_offset", 0.05), ("elbow_width", 0.07), ("wrist_width", 0.05),
               ("hand_thickness", 0.03))  # fmt: skip
     measures = [(f"{n}_{s}", v) for s in "lr" for n, v in widths]
-    subj = _subject().update(PigSubject(from_values(measures, "test")))
+    subj = _subject().update(from_values(measures, "test"))
     res = plug_in_gait(_trajectory(pose | upper), subj, trial_type="dynamic")
     head, thorax = res.segments["head"], res.segments["thorax"]
     size = 2 * (0.10 - 0.014)  # the front head markers 0.10 m apart, 14 mm markers

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mocap_mj.capture.subject import from_values
-from mocap_mj.clinical import PigSubject, calibrate, pig_from_c3d, plug_in_gait
+from mocap_mj.capture.subject import Subject, from_values
+from mocap_mj.clinical import calibrate, pig_from_c3d, plug_in_gait
 from mocap_mj.clinical.centres import davis_hip
 from mocap_mj.io.trajectory import MarkerTrajectory
 
@@ -22,10 +22,10 @@ def _ry(a: float) -> np.ndarray:
     return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
 
 
-def _subject() -> PigSubject:
+def _subject() -> Subject:
     values = [(f"{n}_{s}", v) for n, v in (("leg_length", 0.88), ("knee_width", 0.10),
               ("ankle_width", 0.07)) for s in "lr"]  # fmt: skip
-    return PigSubject(from_values([*values, ("asis_distance", 0.24)], "test"))
+    return from_values([*values, ("asis_distance", 0.24)], "test")
 
 
 def _rz(a: float) -> np.ndarray:
@@ -162,7 +162,7 @@ def test_standing_still_is_a_static_trial_unless_told():
     assert auto.static and not dynamic.static
     assert not plug_in_gait(_trajectory(_pose(5, 10, 15, 5)), _subject()).static
     # the measurements of a subject file serve the static calibration too
-    assert plug_in_gait(still, PigSubject(), override=_subject()).static
+    assert plug_in_gait(still, Subject(), override=_subject()).static
     for res in (auto, dynamic):  # the heel lies on the toe-ankle line: no offsets either way
         np.testing.assert_allclose(np.degrees(res.angles["LAnkleAngles"][:, 0]), 5, atol=1e-6)
 
@@ -170,7 +170,7 @@ def test_standing_still_is_a_static_trial_unless_told():
 def test_tibial_torsion_is_taken_out_of_the_knee():
     pose = _trajectory(_pose(0, 10, 30, 0, torsion=15))
     plain = plug_in_gait(pose, _subject())
-    given = _subject().with_values(
+    given = _subject().with_pig(
         {"tibial_torsion_l": np.radians(15), "tibial_torsion_r": np.radians(15)}, "test"
     )
     corrected = plug_in_gait(pose, given)

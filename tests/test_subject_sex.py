@@ -75,7 +75,7 @@ def test_plug_in_gait_reads_the_same_subject_file(tmp_path: Path) -> None:
     from mocap_mj.clinical.subject import pig_from_yaml
 
     (tmp_path / "s.yaml").write_text("knee_width_l: 100 mm\nsex: female\n")
-    assert pig_from_yaml(tmp_path / "s.yaml").measured("knee_width_l") == pytest.approx(0.1)
+    assert pig_from_yaml(tmp_path / "s.yaml").get("knee_width_l") == pytest.approx(0.1)
     (tmp_path / "bad.yaml").write_text("sex: x\n")
     with pytest.raises(MocapError, match="sex: expected female or male"):
         pig_from_yaml(tmp_path / "bad.yaml")

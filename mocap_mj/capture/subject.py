@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -159,6 +159,10 @@ class Subject:
     #: (``"male"`` or ``"female"``, where it came from): which of de Leva's tables scales the
     #: segments' masses and inertias (:mod:`mocap_mj.anatomy.inertia`); None: not given.
     sex: tuple[str, str] | None = None
+    #: Plug-in Gait's values that are not body measurements, by name (static offsets, tibial
+    #: torsion, head offset [rad], sole delta [m], the static options as 1 or 0): their
+    #: names, units and ranges are :data:`mocap_mj.clinical.subject.PIG_VALUES`'.
+    pig_values: dict[str, Measurement] = field(default_factory=dict)
 
     def get(self, name: str) -> float | None:
         """The value [m or kg] of ``name``, or None when not measured."""
@@ -179,17 +183,45 @@ class Subject:
             )
         self.values[name] = Measurement(float(value), source)
 
+    def require(self, name: str, who: str = "Plug-in Gait") -> float:
+        """The value [m or kg] of ``name``; an error saying that ``who`` needs it and where
+        it may be given when it is not measured."""
+        v = self.get(name)
+        if v is None:
+            raise MocapError(
+                f"{who} needs the subject's {name} ({MEASUREMENTS[name][1]}): "
+                "give it in the C3D PROCESSING group or --subject-file"
+            )
+        return v
+
+    def pig(self, name: str, default: float = 0.0) -> float:
+        """A Plug-in Gait value (:attr:`pig_values`) [m or rad], ``default`` when not given."""
+        m = self.pig_values.get(name)
+        return default if m is None else m.value
+
+    def flag(self, name: str) -> bool | None:
+        """A static option of Plug-in Gait (``flat_foot_l``, ``head_level``): True or False
+        when given, else None."""
+        m = self.pig_values.get(name)
+        return None if m is None else bool(m.value)
+
+    def with_pig(self, values: Mapping[str, float], source: str) -> Subject:
+        """A copy with the Plug-in Gait ``values`` (checked by the caller) from ``source``."""
+        given = {k: Measurement(float(v), source) for k, v in values.items()}
+        return replace(self, pig_values={**self.pig_values, **given})
+
     def update(self, other: Subject) -> Subject:
-        """A copy with ``other``'s measurements overriding these."""
+        """A copy with ``other``'s measurements and Plug-in Gait values overriding these."""
         return Subject(
             {**self.values, **other.values},
             other.stature_estimate or self.stature_estimate,
             other.sex or self.sex,
+            {**self.pig_values, **other.pig_values},
         )
 
     def with_stature_estimate(self, estimate: StatureEstimate | None) -> Subject:
         """A copy carrying ``estimate`` (kept beside, never over, a measured height)."""
-        return Subject(dict(self.values), estimate, self.sex)
+        return Subject(dict(self.values), estimate, self.sex, dict(self.pig_values))
 
     @property
     def table(self) -> str:
@@ -217,6 +249,11 @@ class Subject:
             return given
         leg = self.get(f"leg_length_{side}")
         return None if leg is None else 0.1288 * leg - 0.04856
+
+    def leg_length(self) -> float:
+        """The mean of the two leg lengths [m] (Davis' regression takes the mean); an error
+        naming the one missing."""
+        return 0.5 * (self.require("leg_length_l") + self.require("leg_length_r"))
 
     @property
     def marker_radius(self) -> float:

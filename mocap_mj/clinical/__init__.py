@@ -7,11 +7,10 @@ an identified MuJoCo model (:mod:`.from_model`); see ``docs/clinical.md``.
 
 from .from_model import model_angles
 from .model import PigResult, calibrate, plug_in_gait
-from .subject import PigSubject, pig_from_c3d, pig_from_file, pig_from_yaml
+from .subject import pig_from_c3d, pig_from_file, pig_from_yaml
 
 __all__ = [
     "PigResult",
-    "PigSubject",
     "calibrate",
     "model_angles",
     "pig_from_c3d",

@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from mocap_mj.capture.subject import Subject
+
 from ..errors import MocapError
 from ..io.trajectory import MarkerTrajectory
 from . import static as static_mod
@@ -30,7 +32,7 @@ from .segments import (
     trunk_frames,
     upper_limbs,
 )
-from .subject import UPPER, PigSubject
+from .subject import UPPER, not_applied, pig_dict
 
 _log = logging.getLogger(__name__)
 
@@ -58,7 +60,7 @@ class PigResult:
     frames: np.ndarray
     angles: dict[str, np.ndarray]
     points: dict[str, np.ndarray]
-    subject: PigSubject
+    subject: Subject
     progression: np.ndarray
     static: bool
     notes: list[str] = field(default_factory=list)
@@ -73,7 +75,7 @@ class PigResult:
             "progression_axis_lab": [float(v) for v in self.progression],
             "angles": sorted(self.angles),
             "points": sorted(self.points),
-            "subject": self.subject.to_dict(),
+            "subject": pig_dict(self.subject),
             "notes": list(self.notes),
         }
 
@@ -126,7 +128,7 @@ def _refuse_moving_static(m: Markers, static: MarkerTrajectory, where: str) -> N
 FLAT_MATCH = 1e-3
 
 
-def calibrate(static: MarkerTrajectory, subject: PigSubject) -> PigSubject:
+def calibrate(static: MarkerTrajectory, subject: Subject) -> Subject:
     """The subject with the offsets, inter-ASIS distance and leg lengths a static trial
     gives (measured values are kept; the offsets always come from the static trial).
 
@@ -163,20 +165,20 @@ def calibrate(static: MarkerTrajectory, subject: PigSubject) -> PigSubject:
             values["head_offset"] = static_mod.head_offset(trunk_frames(m, 0.0, 0.0)["head"].axes)
         except ValueError as exc:
             raise MocapError(f"{where}: {exc}") from None
-    subject = subject.with_values(values, f"{where}: static trial")
+    subject = subject.with_pig(values, f"{where}: static trial")
     for name, (value, why) in flats.items():
-        subject = subject.with_values({name: value}, f"{where}: static trial ({why})")
+        subject = subject.with_pig({name: value}, f"{where}: static trial ({why})")
     return subject
 
 
 def _given_flat(
-    subject: PigSubject, side: str, plain: tuple[float, float], flat: tuple[float, float]
+    subject: Subject, side: str, plain: tuple[float, float], flat: tuple[float, float]
 ) -> tuple[bool, str]:
     """Whether the subject's given static offsets of ``side`` are the flat calibration's
     (``flat``, within :data:`FLAT_MATCH`, nearer than ``plain``'s; False without them), and
     why, for the value's source."""
     names = (f"static_plantar_flex_{side}", f"static_rot_off_{side}")
-    if not all(n in subject.values for n in names):
+    if not all(n in subject.pig_values for n in names):
         return False, "no static offsets given: not flat"
     given = np.array([subject.pig(n) for n in names])
     off_flat = float(np.max(np.abs(given - np.array(flat))))
@@ -188,33 +190,33 @@ def _given_flat(
     )
 
 
-def _with_marker_measures(m: Markers, subject: PigSubject, where: str) -> PigSubject:
+def _with_marker_measures(m: Markers, subject: Subject, where: str) -> Subject:
     """Leg lengths from the markers where the subject values give none."""
     from mocap_mj.capture.subject import from_values
 
-    missing = [s for s in SIDES if subject.measured(f"leg_length_{s}") is None]
+    missing = [s for s in SIDES if subject.get(f"leg_length_{s}") is None]
     if not missing:
         return subject
     est = from_values(
         [(f"leg_length_{s}", static_mod.leg_length(m, s)) for s in missing],
         f"{where}: markers (ASIS-KNE-ANK)",
     )
-    return PigSubject(subject.measurements.update(est), subject.values, subject.sources)
+    return subject.update(est)
 
 
-def _inter_asis(m: Markers, subject: PigSubject) -> float:
-    given = subject.measured("asis_distance")
+def _inter_asis(m: Markers, subject: Subject) -> float:
+    given = subject.get("asis_distance")
     return given if given is not None else static_mod.inter_asis(m)
 
 
 def plug_in_gait(
     trajectory: MarkerTrajectory,
-    subject: PigSubject,
+    subject: Subject,
     static: MarkerTrajectory | None = None,
     *,
     frames: np.ndarray | None = None,
     to_lab: np.ndarray | None = None,
-    override: PigSubject | None = None,
+    override: Subject | None = None,
     trial_type: str = "auto",
 ) -> PigResult:
     """Plug-in Gait on ``trajectory`` (metres, Z up) with ``subject``'s values.
@@ -247,10 +249,10 @@ def plug_in_gait(
     if override is not None:  # and its offsets over the calibrations'
         subject = subject.update(override)
     subject = _with_marker_measures(m, subject, where)
-    notes += subject.not_applied()
+    notes += not_applied(subject)
     segs, jc = lower_body(m, subject, _inter_asis(m, subject), heel_foot=as_static)
     upper = all(n in m for n in UPPER_MARKERS) and all(
-        subject.measured(f"{b}_{s}") is not None for b in UPPER for s in SIDES
+        subject.get(f"{b}_{s}") is not None for b in UPPER for s in SIDES
     )
     if upper:
         segs |= trunk(m, subject)

@@ -31,6 +31,8 @@ from typing import Any
 import ezc3d
 import numpy as np
 
+from mocap_mj.capture.subject import Subject
+
 from ..errors import InputFileError, MocapError
 from ..io.formats.c3d import _point_labels, read_parameters, recording_first_frame
 from ..io.units import metres_per_unit
@@ -38,7 +40,7 @@ from ..skeleton.rigid import rigid_fit
 from . import centres
 from .compare import crosstalk
 from .geometry import chord, unit
-from .subject import PigSubject, pig_from_c3d
+from .subject import pig_from_c3d
 
 #: Nexus's segment axes (its A, L, P points, indices 0, 1, 2) as anatomical directions:
 #: per direction (anterior, lateral, proximal) the axis index and its sign on the left and
@@ -91,7 +93,7 @@ class NexusOutput:
     frames: np.ndarray
     points: dict[str, np.ndarray]
     angles: dict[str, np.ndarray]
-    subject: PigSubject | None
+    subject: Subject | None
     source: str
 
     def has(self, *names: str) -> bool:
@@ -138,7 +140,7 @@ def read_nexus(path: str | Path) -> NexusOutput | None:
         else:
             points.setdefault(name, xyz[:, i] * scale)
     try:
-        subject: PigSubject | None = pig_from_c3d(path)
+        subject: Subject | None = pig_from_c3d(path)
     except MocapError:
         subject = None
     first = recording_first_frame(int(c["header"]["points"]["first_frame"]))
@@ -249,7 +251,7 @@ def construction(
     (T, 3) [m] given (ours); None for the other joints or without the markers or widths."""
     p, sub = side.upper(), nexus.subject
     names = {"knee": ("THI", "KNE"), "ankle": ("TIB", "ANK"), "elbow": ("ELB", "WRA", "WRB")}
-    width = sub.measured(f"{joint}_width_{side}") if sub is not None and joint in names else None
+    width = sub.get(f"{joint}_width_{side}") if sub is not None and joint in names else None
     if sub is None or width is None or not nexus.has(*(p + n for n in names[joint])):
         return None
     m = {n: nexus.points[p + n][rows] for n in names[joint]}

@@ -14,9 +14,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mocap_mj.capture.subject import Subject
+
 from . import centres
 from .geometry import chord, frame, frame_zx, frame_zy, rotate_about
-from .subject import PigSubject
+from .subject import asis_trochanter
 
 SIDES = ("l", "r")
 
@@ -71,7 +73,7 @@ def static_foot(
     return frame_zy(heel - m[p + "TOE"], tibia[..., 1])
 
 
-def static_foot_of(m: Markers, side: str, tibia: np.ndarray, subject: PigSubject) -> np.ndarray:
+def static_foot_of(m: Markers, side: str, tibia: np.ndarray, subject: Subject) -> np.ndarray:
     """:func:`static_foot` with the subject's ``flat_foot`` and ``sole_delta`` of ``side``."""
     flat = bool(subject.flag(f"flat_foot_{side}"))
     return static_foot(m, side, tibia, flat=flat, sole_delta=subject.pig(f"sole_delta_{side}"))
@@ -83,7 +85,7 @@ def pelvis_frame(m: Markers) -> np.ndarray:
 
 
 def lower_body(
-    m: Markers, subject: PigSubject, inter_asis: float, *, heel_foot: bool = False
+    m: Markers, subject: Subject, inter_asis: float, *, heel_foot: bool = False
 ) -> tuple[dict[str, Segment], dict[str, np.ndarray]]:
     """Pelvis, femur, tibia (untorsioned for the knee, torsioned for the ankle) and foot
     frames, and the hip, knee and ankle centres (keys ``hip_l``, ``knee_l``, ``ankle_l``...).
@@ -105,7 +107,7 @@ def lower_body(
             pelvis,
             mid,
             leg_length=leg,
-            asis_trochanter=subject.asis_trochanter(s),
+            asis_trochanter=asis_trochanter(subject, s),
             inter_asis=inter_asis,
             marker_radius=r,
             side=s,
@@ -137,7 +139,7 @@ def lower_body(
     return segs, jc
 
 
-def trunk(m: Markers, subject: PigSubject) -> dict[str, Segment]:
+def trunk(m: Markers, subject: Subject) -> dict[str, Segment]:
     """Thorax and head of :func:`trunk_frames` with the subject's marker radius and head
     offset."""
     return trunk_frames(m, subject.marker_radius, subject.pig("head_offset"))
@@ -157,7 +159,7 @@ def trunk_frames(m: Markers, marker_radius: float, head_offset: float) -> dict[s
 
 
 def upper_limbs(
-    m: Markers, subject: PigSubject, thorax: Segment
+    m: Markers, subject: Subject, thorax: Segment
 ) -> tuple[dict[str, Segment], dict[str, np.ndarray]]:
     """Clavicle, humerus, radius and hand frames, and the shoulder, elbow, wrist and hand
     centres (keys ``shoulder_l``, ``elbow_l``, ``wrist_l``, ``hand_l``...)."""

@@ -25,13 +25,14 @@ and torsion 0, the marker diameter 14 mm.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from mocap_mj.capture.subject import (
     MEASUREMENTS,
+    Measurement,
     Subject,
     c3d_numbers,
     from_values,
@@ -119,98 +120,43 @@ _C3D_PIG_UNSIDED = {"HEADOFFSET": ("head_offset", 1.0)}
 _UNITS = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "rad": 1.0, "deg": math.pi / 180.0}
 
 
-@dataclass
-class PigSubject:
-    """Measurements (:class:`mocap_mj.capture.subject.Subject`, metres) and the Plug-in Gait values
-    (``values``: name -> value in m or rad; ``sources``: name -> where it came from)."""
-
-    measurements: Subject = field(default_factory=Subject)
-    values: dict[str, float] = field(default_factory=dict)
-    sources: dict[str, str] = field(default_factory=dict)
-
-    def measured(self, name: str) -> float | None:
-        """A body measurement [m], None when not given."""
-        return self.measurements.get(name)
-
-    def require(self, name: str) -> float:
-        """A body measurement [m]; a clear error when missing."""
-        v = self.measured(name)
-        if v is None:
-            raise MocapError(
-                f"Plug-in Gait needs the subject's {name} ({MEASUREMENTS[name][1]}): "
-                "give it in the C3D PROCESSING group or --subject-file"
-            )
-        return v
-
-    def pig(self, name: str, default: float = 0.0) -> float:
-        """A Plug-in Gait value [m or rad], ``default`` when not given."""
-        return self.values.get(name, default)
-
-    def flag(self, name: str) -> bool | None:
-        """A static option (``flat_foot_l``, ``head_level``): True or False when given, else
-        None."""
-        return None if name not in self.values else bool(self.values[name])
-
-    def with_values(self, values: Mapping[str, float], source: str) -> PigSubject:
-        """A copy with ``values`` set (Plug-in Gait values) from ``source``."""
-        return replace(
-            self,
-            values={**self.values, **values},
-            sources={**self.sources, **{k: source for k in values}},
+def asis_trochanter(subject: Subject, side: str) -> float:
+    """ASIS-trochanter distance [m] (:meth:`mocap_mj.capture.subject.Subject.asis_trochanter`);
+    a clear error without it and without the leg length."""
+    value = subject.asis_trochanter(side)
+    if value is None:
+        raise MocapError(
+            f"Plug-in Gait needs the subject's leg_length_{side} or asis_trochanter_{side}: "
+            "give it in the C3D PROCESSING group or --subject-file"
         )
-
-    def update(self, other: PigSubject) -> PigSubject:
-        """A copy with ``other``'s measurements and values overriding these."""
-        return PigSubject(
-            self.measurements.update(other.measurements),
-            {**self.values, **other.values},
-            {**self.sources, **other.sources},
-        )
-
-    @property
-    def marker_radius(self) -> float:
-        """Half the marker diameter [m]."""
-        return self.measurements.marker_radius
-
-    def leg_length(self) -> float:
-        """The mean of the two leg lengths [m] (Davis' regression takes the mean)."""
-        return 0.5 * (self.require("leg_length_l") + self.require("leg_length_r"))
-
-    def asis_trochanter(self, side: str) -> float:
-        """ASIS-trochanter distance [m] (:meth:`mocap_mj.capture.subject.Subject.asis_trochanter`);
-        a clear error without it and without the leg length."""
-        value = self.measurements.asis_trochanter(side)
-        if value is None:
-            raise MocapError(
-                f"Plug-in Gait needs the subject's leg_length_{side} or asis_trochanter_{side}: "
-                "give it in the C3D PROCESSING group or --subject-file"
-            )
-        return value
-
-    def not_applied(self) -> list[str]:
-        """One line per non-zero value of :data:`NOT_APPLIED`, naming it and its source."""
-        return [
-            f"{name} {math.degrees(v):.3g} deg ({self.sources[name]}) is not applied: the "
-            "KAD's rotated knee and ankle chords are not reproduced (docs/clinical.md)"
-            for base in NOT_APPLIED
-            for name in (f"{base}_l", f"{base}_r")
-            if (v := self.values.get(name, 0.0)) != 0.0
-        ]
-
-    def to_dict(self) -> dict[str, Any]:
-        """Every value with its unit and source, for summary.json."""
-        out: dict[str, Any] = dict(self.measurements.to_dict())
-        for name, value in sorted(self.values.items()):
-            out[name] = {"value": value, "unit": PIG_VALUES[name][0], "source": self.sources[name]}
-        return out
+    return value
 
 
-def pig_from_c3d(path: str | Path) -> PigSubject:
+def not_applied(subject: Subject) -> list[str]:
+    """One line per non-zero value of :data:`NOT_APPLIED`, naming it and its source."""
+    return [
+        f"{name} {math.degrees(m.value):.3g} deg ({m.source}) is not applied: the "
+        "KAD's rotated knee and ankle chords are not reproduced (docs/clinical.md)"
+        for base in NOT_APPLIED
+        for name in (f"{base}_l", f"{base}_r")
+        if (m := subject.pig_values.get(name)) is not None and m.value != 0.0
+    ]
+
+
+def pig_dict(subject: Subject) -> dict[str, Any]:
+    """Every measurement and Plug-in Gait value with its unit and source, for summary.json."""
+    out: dict[str, Any] = dict(subject.to_dict())
+    for name, m in sorted(subject.pig_values.items()):
+        out[name] = {"value": m.value, "unit": PIG_VALUES[name][0], "source": m.source}
+    return out
+
+
+def pig_from_c3d(path: str | Path) -> Subject:
     """The Plug-in Gait subject values stored in a C3D file (PROCESSING, then SUBJECTS)."""
     return pig_from_numbers(list(c3d_numbers(path)), path)
 
 
-def pig_from_numbers(numbers: Sequence[tuple[str, str, float]], path: str | Path) -> PigSubject:
+def pig_from_numbers(numbers: Sequence[tuple[str, str, float]], path: str | Path) -> Subject:
     """The measurements and Plug-in Gait values among (group, name, value) numbers in
     Nexus's names and units (mm, kg, rad): a C3D file's PROCESSING group or a Vicon
     subject file's parameters (:func:`mocap_mj.capture.vicon_subject.vicon_numbers`)."""
@@ -223,10 +169,13 @@ def pig_from_numbers(numbers: Sequence[tuple[str, str, float]], path: str | Path
         where = f"{path}: {group}:{key}"
         values[spec[0]] = checked_pig_value(spec[0], value * spec[1], where)
         sources[spec[0]] = where
-    return PigSubject(subject_from_numbers(numbers, path), values, sources)
+    return replace(
+        subject_from_numbers(numbers, path),
+        pig_values={k: Measurement(v, sources[k]) for k, v in values.items()},
+    )
 
 
-def pig_from_vicon(path: str | Path) -> PigSubject:
+def pig_from_vicon(path: str | Path) -> Subject:
     """The measurements and Plug-in Gait values of a Vicon ``.vsk`` or ``.mp`` subject file
     (:mod:`mocap_mj.capture.vicon_subject`)."""
     numbers = vicon_numbers(path, _known)
@@ -240,7 +189,7 @@ def pig_from_vicon(path: str | Path) -> PigSubject:
     return pig_from_numbers(numbers, path)
 
 
-def pig_from_file(path: str | Path) -> PigSubject:
+def pig_from_file(path: str | Path) -> Subject:
     """A ``--subject-file``'s values: a Vicon ``.vsk`` or ``.mp`` file (by its suffix),
     else a YAML mapping (:func:`pig_from_yaml`)."""
     return pig_from_vicon(path) if is_vicon_file(path) else pig_from_yaml(path)
@@ -262,7 +211,7 @@ def _pig_name(key: str) -> tuple[str, float] | None:
     return None
 
 
-def pig_from_yaml(path: str | Path) -> PigSubject:
+def pig_from_yaml(path: str | Path) -> Subject:
     """Measurements and Plug-in Gait values of a YAML mapping ``name: value``."""
     measures: list[tuple[str, float | None]] = []
     values: dict[str, float] = {}
@@ -282,5 +231,7 @@ def pig_from_yaml(path: str | Path) -> PigSubject:
         else:
             known = ", ".join([*MEASUREMENTS, "sex", *PIG_VALUES])
             raise InputFileError(f"{path}: unknown subject value {excerpt(name)}; known: {known}")
-    subject = from_values(measures, str(path))
-    return PigSubject(subject, values, {k: f"{path}: {k}" for k in values})
+    return replace(
+        from_values(measures, str(path)),
+        pig_values={k: Measurement(v, f"{path}: {k}") for k, v in values.items()},
+    )

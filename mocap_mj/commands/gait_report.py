@@ -10,6 +10,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from mocap_mj.clinical.subject import pig_dict
 from mocap_mj.commands.common import into_out_folder
 from mocap_mj.errors import MocapError
 from mocap_mj.outputs.gait_report import AnglesSource, source_fields
@@ -43,7 +44,7 @@ def _pig_trials(args: argparse.Namespace) -> tuple[list[Any], dict[str, Any], An
 
     runs = [pig_run(args, path) for path in args.markers]
     source = AnglesSource("Plug-in Gait's, from the markers")
-    return [gait_trial(r) for r in runs], runs[0].result.subject.to_dict(), source
+    return [gait_trial(r) for r in runs], pig_dict(runs[0].result.subject), source
 
 
 def _work(

@@ -13,7 +13,8 @@ import numpy as np
 from mocap_mj.commands.common import into_out_folder
 from mocap_mj.outputs.write_fit import frame_range
 
-from ..clinical.subject import PigSubject
+from ..capture.subject import Subject
+from ..clinical.subject import pig_dict
 from ..errors import MocapError
 
 
@@ -86,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
         summary["kinetics"] = sorted(kinetics) if kinetics else []
         summary["kinetics_notes"] = kinetic_notes
         if report:
-            subject = result.subject.to_dict()
+            subject = pig_dict(result.subject)
             entry = gait_report_files(out, [gait_trial(pig)], normative, events, subject)
             summary["gait_report"] = entry
             summary["implausible"] = entry["implausible"]
@@ -151,7 +152,7 @@ def _kinetics(
     records = read_plates(path, marker_rate=trial.rate, window="centred", offsets="none", up=up)
     if not records:
         return None, ["no kinetics: the trial has no force plates"]
-    mass = result.subject.measured("mass")
+    mass = result.subject.get("mass")
     if mass is None:
         return None, ["no kinetics: no body mass (PROCESSING:Bodymass, or mass in --subject-file)"]
     if len(records[0].force) != whole.n_frames:
@@ -177,8 +178,8 @@ def _kinetics(
     )
 
 
-def _file_subject(path: str) -> PigSubject:
+def _file_subject(path: str) -> Subject:
     """The subject values a C3D file stores (none for other formats)."""
     from ..clinical import pig_from_c3d
 
-    return pig_from_c3d(path) if Path(path).suffix.lower() == ".c3d" else PigSubject()
+    return pig_from_c3d(path) if Path(path).suffix.lower() == ".c3d" else Subject()

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from mocap_mj.clinical.model import PigResult
+from mocap_mj.clinical.subject import pig_dict
 from mocap_mj.clinical.tables import series_table
 
 from ..export.c3d import write_points_c3d
@@ -115,7 +116,7 @@ def report_md(
         "| name | value | unit | source |",
         "|---|---|---|---|",
     ]
-    for name, v in result.subject.to_dict().items():
+    for name, v in pig_dict(result.subject).items():
         lines.append(f"| {name} | {v['value']:.6g} | {v['unit']} | {v['source']} |")
     lines += ["", "## Angles (deg): min / max over the trial", "", "| angle | X | Y | Z |",
               "|---|---|---|---|"]  # fmt: skip
