@@ -84,9 +84,9 @@ import numpy as np
 from mocap_mj.anatomy.initial import marker_stature, segment_scales
 from mocap_mj.capture.marker_quality import ACCEL_MAX, JUMP_MIN, Finding
 from mocap_mj.capture.subject import HUMAN_RANGES
+from mocap_mj.pipeline.relabel_screen import Pose, Segments, rms, screens
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
-from mocap_mj.skeleton.rigid import rigid_fit
 from mocap_mj.solve.ik import IKSolver
 
 __all__ = [
@@ -415,20 +415,7 @@ def _spans(c: Candidate, breaks: Sequence[np.ndarray], n: int) -> np.ndarray:
 _Judged = tuple[int, int, float, float, int]
 
 
-@dataclass
-class _Pose:
-    """The sampled frames' IK with one labeling: the model's marker positions (n, M, 3)
-    [m], the squared residual per marker (n, M) [m^2] (NaN where missing or unsolved) and
-    the whole body's RMS residual per frame (n,) [m]; the body origins (joint centres)
-    (n, nbody, 3) [m] when asked for."""
-
-    sites: np.ndarray
-    sq: np.ndarray
-    rms: np.ndarray
-    origins: np.ndarray | None = None
-
-
-def _pose(solver: IKSolver, x: np.ndarray, *, origins: bool = False) -> _Pose:
+def _pose(solver: IKSolver, x: np.ndarray, *, origins: bool = False) -> Pose:
     """The IK of x (n, M, 3) [m]; with ``origins``, the body origins (n, nbody, 3) [m] too."""
     res = solver.solve_trial(x)
     ok = res.solved & np.all(np.isfinite(res.qpos), axis=1)
@@ -441,16 +428,7 @@ def _pose(solver: IKSolver, x: np.ndarray, *, origins: bool = False) -> _Pose:
         else:
             sites[ok] = solver.kin.marker_positions(res.qpos[ok])
     sq = np.sum((sites - x) ** 2, axis=2)
-    return _Pose(sites, sq, _rms(sq), xpos)
-
-
-def _rms(sq: np.ndarray) -> np.ndarray:
-    """(n,) [m]: the RMS over the columns of sq (n, k) [m^2] present in each row (NaN: none)."""
-    ok = ~np.isnan(sq)
-    count = ok.sum(axis=1)
-    out = np.full(len(sq), np.nan)
-    np.sqrt(np.where(ok, sq, 0.0).sum(axis=1) / np.maximum(count, 1), out=out, where=count > 0)
-    return out
+    return Pose(sites, sq, rms(sq), xpos)
 
 
 def _medians(o: np.ndarray, n: np.ndarray) -> tuple[float, float] | None:
@@ -462,92 +440,11 @@ def _medians(o: np.ndarray, n: np.ndarray) -> tuple[float, float] | None:
     return float(np.median(o[good])), float(np.median(n[good]))
 
 
-def _screen(
-    c: Candidate, x: np.ndarray, base: _Pose, rows: list[np.ndarray], local: _Local
-) -> float:
-    """The screen of c: its markers' residuals with the labels exchanged, on the original
-    labeling's poses and on rigid fits of c's segments alone (:func:`_local_fit`): the
-    largest drop over the spans of the squared residual summed over c's markers [m^2]
-    where either passes half the margin, else 0."""
-    s, src = list(c.slots), list(c.sources)
-    tests = [(_rms(base.sq[:, s]), _rms(np.sum((base.sites[:, s] - x[:, src]) ** 2, axis=2)))]
-    tests.append(local.screen(c, x))
-    best = 0.0
-    for old, new in tests:
-        for r in rows:
-            m = _medians(old[r], new[r])
-            if m is not None and m[1] < 0.8 * m[0] and m[0] - m[1] > MARGIN_MIN / 2:
-                best = max(best, len(s) * (m[0] ** 2 - m[1] ** 2))
-    return best
-
-
-class _Local:
-    """Rigid fits of one segment's markers and its joint centre (the body origin where the
-    original labeling's IK puts it; not for the root) to the model's marker offsets, frame
-    by frame: a segment judged free of the poses the exchanged labels forced on it."""
-
-    def __init__(self, pset: ParameterSet, theta: np.ndarray, base: _Pose) -> None:
-        self.offsets = pset.split(theta)[1].reshape(-1, 3)  # (M, 3) [m], body frames
-        self.body = np.asarray(pset.model.site_bodyid, dtype=int)
-        self.root = int(self.body[0]) if len(self.body) else -1
-        while self.root > 0 and int(pset.model.body_parentid[self.root]) > 0:
-            self.root = int(pset.model.body_parentid[self.root])
-        assert base.origins is not None
-        self.origins = base.origins
-        #: the frames last screened and their segments' fits as labelled (:meth:`screen`)
-        self._labelled: tuple[np.ndarray | None, dict[int, np.ndarray]] = (None, {})
-
-    def residuals(
-        self, y: np.ndarray, slots: Sequence[int], cache: dict[int, np.ndarray] | None = None
-    ) -> np.ndarray:
-        """(n,) [m]: RMS residual of the markers ``slots`` of y (n, M, 3) [m] in the rigid
-        fits of their segments (NaN where a segment has fewer than three points). ``cache``:
-        each segment's fit to this same y, kept across calls (the labels as recorded are one
-        y for every candidate of a round: their fits are made once)."""
-        sq = np.full((len(y), len(slots)), np.nan)
-        for b in sorted({int(self.body[m]) for m in slots}):
-            members = np.flatnonzero(self.body == b)
-            got = cache.get(b) if cache is not None else None
-            if got is None:
-                got = self._segment_sq(y, b, members)
-                if cache is not None:
-                    cache[b] = got
-            if not got.size:
-                continue
-            for k, m in enumerate(slots):
-                if self.body[m] == b:
-                    sq[:, k] = got[:, int(np.flatnonzero(members == m)[0])]
-        return _rms(sq)
-
-    def _segment_sq(self, y: np.ndarray, b: int, members: np.ndarray) -> np.ndarray:
-        """(n, len(members)) [m^2]: the squared residuals of segment b's markers in its
-        rigid fit to y (its joint centre included but for the root); (n, 0) when it has
-        fewer than three points."""
-        ref, meas = self.offsets[members], y[:, members]
-        if b != self.root:
-            ref = np.vstack([ref, np.zeros(3)])
-            meas = np.concatenate([meas, self.origins[:, b][:, None]], axis=1)
-        if len(ref) < 3:
-            return np.empty((len(y), 0))
-        rot, pos = rigid_fit(meas, ref)
-        fit = np.einsum("tij,mj->tmi", rot, ref) + pos[:, None]
-        return np.asarray(np.sum((fit - meas) ** 2, axis=2)[:, : len(members)])
-
-    def screen(self, c: Candidate, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(old, new) (n,) [m]: c's markers' residuals in the rigid fits, as labelled and
-        exchanged (the fits as labelled made once per x)."""
-        if self._labelled[0] is not x:
-            self._labelled = (x, {})
-        y = x.copy()
-        y[:, list(c.slots)] = x[:, list(c.sources)]
-        return self.residuals(x, c.slots, self._labelled[1]), self.residuals(y, c.slots)
-
-
 def _confirm(
     c: Candidate,
     solver: IKSolver,
     x: np.ndarray,
-    base: _Pose,
+    base: Pose,
     rows: list[np.ndarray],
     hood: Sequence[int],
 ) -> list[tuple[int, float, float, float, float]]:
@@ -560,7 +457,7 @@ def _confirm(
     y[:, list(c.slots)] = x[idx][:, list(c.sources)]
     new = _pose(solver, y)
     s = list(c.slots)
-    old_c, new_c, new_h = _rms(base.sq[idx][:, s]), _rms(new.sq[:, s]), _rms(new.sq[:, hood])
+    old_c, new_c, new_h = rms(base.sq[idx][:, s]), rms(new.sq[:, s]), rms(new.sq[:, hood])
     drop = np.nansum(base.sq[idx], axis=1) - np.nansum(new.sq, axis=1)
     drop[~np.isfinite(base.rms[idx] + new.rms)] = np.nan
     out, at = [], 0
@@ -606,12 +503,15 @@ def _round(
     frames): the corrections taken, each with its spans [first, last) of rows of the
     recording (module docstring, "Evidence" and the rounds)."""
     base = _pose(solver, x, origins=True)
-    local = _Local(pset, solver.kin.theta, base)
-    plans = []
-    for c in cands:
-        spans = _spans(c, breaks, n)
-        rows = [np.arange(a, b) for a, b in np.searchsorted(sample, spans)]
-        plans.append(_Plan(_screen(c, x, base, rows, local), c, _bodies(pset, c), spans, rows))
+    assert base.origins is not None
+    spans = [_spans(c, breaks, n) for c in cands]
+    bounds = [np.searchsorted(sample, s) for s in spans]  # (S, 2) rows of x per candidate
+    screened = screens(cands, bounds, x, base, Segments(pset, solver.kin.theta, base.origins),
+                       margin=MARGIN_MIN / 2, least=MIN_FRAMES)  # fmt: skip
+    plans = [
+        _Plan(float(v), c, _bodies(pset, c), s, [np.arange(a, b) for a, b in r])
+        for v, c, s, r in zip(screened, cands, spans, bounds, strict=True)
+    ]
     won: list[tuple[float, _Plan, list[_Judged]]] = []
     hoods: list[frozenset[int]] = []
     tried = 0
@@ -660,7 +560,7 @@ def _best_in(
     pool: Sequence[_Plan],
     solver: IKSolver,
     x: np.ndarray,
-    base: _Pose,
+    base: Pose,
     hood: frozenset[int],
     pset: ParameterSet,
 ) -> tuple[float, _Plan, list[_Judged]] | None:
