@@ -46,7 +46,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         from .commands._inputs import refuse_out_holding_inputs
     except KeyboardInterrupt:
         return _interrupted("mocap-mj")
-    except (ImportError, RuntimeError) as exc:  # a Ctrl-C in a module's loading, reported so
+    except Exception as exc:  # a Ctrl-C in a module's loading, reported so
         if not _from_interrupt(exc):
             raise
         return _interrupted("mocap-mj")
@@ -67,20 +67,25 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     except KeyboardInterrupt:
         return _interrupted(f"mocap-mj {args.command}")
-    except (ImportError, RuntimeError) as exc:  # as above, in a lazy import
+    except Exception as exc:  # as above, in a lazy import
         if not _from_interrupt(exc):
             raise
         return _interrupted(f"mocap-mj {args.command}")
 
 
 def _from_interrupt(exc: BaseException) -> bool:
-    """Whether ``exc`` was raised while handling a Ctrl-C (``KeyboardInterrupt`` among its
-    causes: a compiled module's "initialization failed", or the RuntimeError a class's
-    creation raises when the Ctrl-C lands in a field's ``__set_name__``)."""
+    """Whether ``exc`` was raised while handling a Ctrl-C: ``KeyboardInterrupt`` among its
+    causes (a compiled module's "initialization failed", or the RuntimeError a class's
+    creation raises when the Ctrl-C lands in a field's ``__set_name__``), or a ctypes call's
+    ``ArgumentError`` that names it (ctypes replaces an exception raised while it converts
+    an argument, as when a Ctrl-C lands in an OpenGL binding's call, by one that carries only
+    its text)."""
     seen: set[int] = set()
     cause: BaseException | None = exc
     while cause is not None and id(cause) not in seen:
         if isinstance(cause, KeyboardInterrupt):
+            return True
+        if type(cause).__name__ == "ArgumentError" and "KeyboardInterrupt" in str(cause):
             return True
         seen.add(id(cause))
         cause = cause.__cause__ or cause.__context__

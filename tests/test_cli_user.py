@@ -88,6 +88,34 @@ def test_ctrl_c_while_the_modules_load_is_one_line(
             assert code == 0, (delay, code, err)
 
 
+def test_ctrl_c_inside_a_ctypes_call_is_one_line(
+    markers: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:  # fmt: skip
+    """A Ctrl-C that lands while ctypes converts an argument (MuJoCo's EGL binding calls
+    one as it loads) reaches the command line as ctypes's ArgumentError, which keeps only
+    the interrupt's text: it is still an interrupt, 130 and one line."""
+    import ctypes
+
+    import mocap_mj.commands.identify as identify
+    from mocap_mj.cli import main
+
+    class Interrupting:
+        @classmethod
+        def from_param(cls, value: object) -> object:
+            raise KeyboardInterrupt
+
+    call = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int)(lambda value: 0)
+    call.argtypes = [Interrupting]
+    monkeypatch.setattr(identify, "run", lambda args: call(1))
+    out = tmp_path / "out"
+    code = main(["identify", "--markers", str(markers), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 130, err
+    assert err.strip() == "mocap-mj identify: interrupted"
+    assert not out.exists()
+
+
 @pytest.mark.slow
 def test_experiment_paper_as_the_readme_writes_it(tmp_path: Path) -> None:
     """``mocap-mj experiment paper --out DIR`` (here ``--quick``), progress bars on."""
