@@ -105,6 +105,28 @@ def test_api_and_command_give_the_same_theta_on_a_synthetic_trial(
     assert np.array_equal(again, by_command)
 
 
+def test_a_fit_names_its_checks_in_si(synthetic: Path) -> None:
+    """Fit's checks (parameters outside their range, implausible) are typed and in metres:
+    summary.json's figures (mm) divided by 1000, and they follow the ranges given."""
+    from dataclasses import replace
+
+    from mocap_mj.pipeline.summary import read_back
+
+    fit = _api_fit(synthetic, None, mocap_mj.Recipe(max_iterations=10, sliding_landmarks=False))
+    written = read_back(fit.report).kappa_outside_bounds
+    outside = fit.kappa_outside_bounds()
+    assert set(outside) == set(written)
+    for name, row in outside.items():
+        assert np.allclose(row, written[name], rtol=0, atol=1e-12), name
+    assert list(fit.implausible) == fit.report["implausible"]
+    kappa = fit.theta[: fit.pset.n_kappa]
+    narrow = replace(fit, ranges=(kappa + 0.01, kappa + 0.02))  # every length below its range
+    moved = narrow.kappa_outside_bounds()
+    assert list(moved) == list(fit.pset.kappa_names)
+    assert np.allclose([moved[n][0] for n in moved], kappa, rtol=0, atol=0)
+    assert np.allclose([moved[n][1] - moved[n][0] for n in moved], 0.01, rtol=0, atol=1e-12)
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(not STATIC.exists(), reason=f"{STATIC} (shared real recording) not present")
 def test_api_and_command_give_the_same_theta_on_a_real_recording(tmp_path: Path) -> None:

@@ -30,7 +30,6 @@ from mocap_mj.commands.common import (
 from mocap_mj.kernels._threads import one_blas_thread
 from mocap_mj.outputs.batch_out import TrialRow, identify_fields, row_fields, write_summary_csv
 from mocap_mj.pipeline.fit import Fit
-from mocap_mj.pipeline.summary import read_back
 from mocap_mj.pipeline.track import Tracked
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.ik import IKSettings
@@ -192,7 +191,7 @@ def process_subject(subject: Entry, folder: Path) -> dict[str, Any]:
             fit.result.iterations,
             fit.result.termination.value,
             fit.kappa(),
-            fit.report.get("implausible"),
+            list(fit.implausible),
         ),
         "rows": [row_fields(rows[p]) for p in subject.trials],
     }
@@ -238,7 +237,7 @@ def identify_args(
 
 def _outside(fit: Fit) -> list[bool]:
     """Whether each kinematic parameter ended outside its anatomical range (with anatomy)."""
-    names = set(read_back(fit.report).kappa_outside_bounds)
+    names = set(fit.kappa_outside_bounds())
     return [n in names for n in fit.pset.kappa_names]
 
 

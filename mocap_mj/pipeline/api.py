@@ -261,6 +261,7 @@ def _described(
         sliding=solved.sliding,
         subject=solved.subject,
         report=report,
+        ranges=solved.ranges,
     )
 
 

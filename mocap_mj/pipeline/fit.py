@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from mocap_mj.anatomy.plausibility import kappa_outside_bounds
 from mocap_mj.anatomy.segments import SegmentRow
 from mocap_mj.anatomy.tissue import SlidingModel
 from mocap_mj.capture.subject import Subject
@@ -59,6 +60,9 @@ class Fit:
         The soft-tissue sliding model the fit was weighed with (recorded in model.xml).
     subject : Subject
         The measurements used, with the stature estimated when not measured.
+    ranges : tuple of two (K,) arrays [m], or None
+        The anatomical range of each kinematic parameter the fit was checked against (lower,
+        upper); None: ``pset``'s bounds.
     report : dict
         Everything :meth:`summary` reports that the attributes above do not hold as arrays:
         the fit's figures, prior weighting, checks and quality findings (``marker_quality``),
@@ -78,6 +82,7 @@ class Fit:
     subject: Subject
     report: dict[str, Any]
     motion_files: tuple[Path, ...] = field(default=())
+    ranges: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def theta(self) -> np.ndarray:
@@ -114,6 +119,19 @@ class Fit:
         motion = self.report.get("motion_seconds") or {}
         times.update({f"motion_{k}_seconds": float(v) for k, v in motion.items()})
         return times
+
+    @property
+    def implausible(self) -> tuple[str, ...]:
+        """The reasons the tool's own checks call the result implausible (empty: plausible),
+        each one sentence as summary.json's ``implausible`` holds it."""
+        return tuple(str(r) for r in self.report.get("implausible") or ())
+
+    def kappa_outside_bounds(self) -> dict[str, tuple[float, float, float]]:
+        """The kinematic parameters that ended outside their anatomical range (``ranges``):
+        ``{name: (value, lower, upper)}`` [m]."""
+        lower, upper = self.ranges if self.ranges is not None else (None, None)
+        outside = kappa_outside_bounds(self.pset, self.theta, lower, upper)
+        return {n: (v[0], v[1], v[2]) for n, v in outside.items()}
 
     def kappa(self) -> dict[str, float]:
         """The kinematic parameters by name [m]."""
