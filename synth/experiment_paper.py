@@ -44,6 +44,7 @@ from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.identifiability import Identifiability
 from mocap_mj.solve.ik import IKSolver
 from mocap_mj.solve.lm import LMSettings, TrialData, identify_lm
+from mocap_mj.solve.solver_result import IterationLog
 from mocap_synth.paper import (
     DEFAULT_DELTA,
     DEFAULT_STEP,
@@ -240,10 +241,12 @@ def _joint_lm(
     lm_seconds = time.perf_counter() - t0
     row = Row("lm", "joint LM (this project)", cfg.frames, lm.iterations, lm_seconds,
               lm_seconds, lm.theta, f"initial IK {lm.init_seconds:.1f} s included")  # fmt: skip
-    elapsed = lm.init_seconds + np.cumsum([t.seconds for t in lm.trace])  # from its start
+    logs = [t for t in lm.trace if isinstance(t, IterationLog)]  # the joint LM's entries
+    assert len(logs) == len(lm.trace)
+    elapsed = lm.init_seconds + np.cumsum([t.seconds for t in logs])  # from its start
     trace = [
         {"iteration": t.iteration, "seconds": float(e), "cost": t.cost, "rmse_mm": t.rmse * 1e3}
-        for t, e in zip(lm.trace, elapsed, strict=True)
+        for t, e in zip(logs, elapsed, strict=True)
     ]
     return lm, row, trace
 
