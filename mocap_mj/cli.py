@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import ctypes
 import signal
 import sys
 from collections.abc import Iterator, Sequence
@@ -85,7 +86,7 @@ def _from_interrupt(exc: BaseException) -> bool:
     while cause is not None and id(cause) not in seen:
         if isinstance(cause, KeyboardInterrupt):
             return True
-        if type(cause).__name__ == "ArgumentError" and "KeyboardInterrupt" in str(cause):
+        if isinstance(cause, ctypes.ArgumentError) and "KeyboardInterrupt" in str(cause):
             return True
         seen.add(id(cause))
         cause = cause.__cause__ or cause.__context__

@@ -126,12 +126,11 @@ class Fit:
         each one sentence as summary.json's ``implausible`` holds it."""
         return tuple(str(r) for r in self.report.get("implausible") or ())
 
-    def kappa_outside_bounds(self) -> dict[str, tuple[float, float, float]]:
+    def kappa_outside_bounds(self) -> dict[str, list[float]]:
         """The kinematic parameters that ended outside their anatomical range (``ranges``):
-        ``{name: (value, lower, upper)}`` [m]."""
+        ``{name: [value, lower, upper]}`` [m]."""
         lower, upper = self.ranges if self.ranges is not None else (None, None)
-        outside = kappa_outside_bounds(self.pset, self.theta, lower, upper)
-        return {n: (v[0], v[1], v[2]) for n, v in outside.items()}
+        return kappa_outside_bounds(self.pset, self.theta, lower, upper)
 
     def kappa(self) -> dict[str, float]:
         """The kinematic parameters by name [m]."""
