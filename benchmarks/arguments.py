@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import time
 from collections.abc import Callable
+from functools import partial
 
 import numpy as np
 
@@ -53,8 +54,8 @@ def main() -> None:
         markers = np.concatenate([base] * (size // len(base) + 1))[:size]
         times = np.arange(size) / 100.0
         trial = TrialData("rom", markers, times)
-        made = median_ms(lambda m=markers, t=times: TrialData("rom", m, t), args.repeats)
-        checks = median_ms(lambda tr=trial: identify_checks(tr, pset), args.repeats)
+        made = median_ms(partial(TrialData, "rom", markers, times), args.repeats)
+        checks = median_ms(partial(identify_checks, trial, pset), args.repeats)
         print(f"{size:>8} {made:>13.3f} {checks:>19.3f}")
     short = TrialData("rom", base[:100], np.asarray(exp.times)[:100])
     mocap_mj.solve_motion(pset, short)  # kernels loaded

@@ -58,15 +58,16 @@ def _data_line(tag: str, fit: mocap_mj.Fit, offsets: dict[str, float]) -> str:
     """The data alone: each hip's error against the truth (relative to its pelvis markers)
     beside the standard deviation of its lateral row as the solve counts the data and the
     soft-tissue floor of that row [mm]."""
-    rep = fit.report["joint_centres_vs_regression"]
+    rep = fit.report.centres_vs_regression
     parts = [f"{tag:34s}"]
     for hip in ("hip_l", "hip_r"):
-        rows = list(rep[hip]["rows"].values())
-        d = np.array([r["from_regression_mm"] for r in rows])
+        rows = list(rep[hip].rows.values())
+        d = np.array([r.distance * 1e3 for r in rows])
         err = np.linalg.norm(d - np.array([0.0, offsets.get(hip, 0.0), 0.0]))
-        lat = rows[1]  # depth, width, height
+        spread = rows[1].spread  # depth, width, height
         lateral = d[1] - offsets.get(hip, 0.0)
-        sd, floor = lat["data_sd_mm"], lat["artefact_floor_mm"]
+        sd = float("nan") if spread is None else spread.data_m * 1e3
+        floor = float("nan") if spread is None else spread.floor_m * 1e3
         parts.append(f"{hip} error {err:5.1f} (lateral: error {lateral:+6.1f}, data sd "
                      f"{sd:4.1f}, floor {floor:5.1f})")  # fmt: skip
     return "  ".join(parts)
@@ -81,16 +82,16 @@ def _interhip(pset: mocap_mj.ParameterSet, theta: np.ndarray) -> float:
 
 def _line(tag: str, fit: mocap_mj.Fit, truth_interhip: float | None = None,
           offsets: dict[str, float] | None = None) -> str:  # fmt: skip
-    rep = fit.report["joint_centres_vs_regression"]
+    rep = fit.report.centres_vs_regression
     ih = _interhip(fit.pset, fit.theta) * 1e3
     parts = [f"{tag:34s} inter-hip {ih:6.1f} mm"]
     if truth_interhip is not None:
         parts.append(f"(error {ih - truth_interhip * 1e3:+5.1f})")
     for hip in ("hip_l", "hip_r"):
         e = rep[hip]
-        s = f"{hip} {e['distance_mm']:5.1f} +- {e['distance_sd_mm']:4.1f} from regression"
+        s = f"{hip} {e.distance * 1e3:5.1f} +- {e.distance_sd * 1e3:4.1f} from regression"
         if offsets is not None:
-            d = np.array([r["from_regression_mm"] for r in e["rows"].values()])
+            d = np.array([r.distance * 1e3 for r in e.rows.values()])
             want = np.array([0.0, offsets.get(hip, 0.0), 0.0])
             s += f" (error {np.linalg.norm(d - want):4.1f})"
         parts.append(s)

@@ -36,6 +36,7 @@ from mocap_mj.outputs.score import align_truth
 from mocap_mj.solve.identifiability import Identifiability
 from mocap_mj.solve.lm import LMSettings, Tolerances, identify_lm
 from mocap_mj.solve.problem import TrialData
+from mocap_mj.solve.solver_result import IterationLog
 from mocap_synth import SynthConfig, synthesize
 
 
@@ -159,7 +160,8 @@ def _scaling(pset: ParameterSet, sizes: list[int], baseline: bool) -> None:
             seconds = time.perf_counter() - t0
             peak = tracemalloc.get_traced_memory()[1]
             tracemalloc.stop()
-            full = [log for log in r.trace if log.frames == n]
+            logs = [log for log in r.trace if isinstance(log, IterationLog)]
+            full = [log for log in logs if log.frames == n]
             per_it = np.mean([log.seconds for log in full])
             final[name] = r
             print(
@@ -201,7 +203,8 @@ def _compare_seeds(pset: ParameterSet, seeds: int, repeats: int, baseline: bool)
             out[name] = r
         line = f"   seed {seed}:"
         for name, r in out.items():
-            coarse = sum(1 for log in r.trace if 0 < log.frames < 500)
+            logs = [log for log in r.trace if isinstance(log, IterationLog)]
+            coarse = sum(1 for log in logs if 0 < log.frames < 500)
             line += (
                 f"  {name} {times[name][-1]:.3f} s, {coarse}+{r.iterations - coarse} it, "
                 f"error {_error_ratio(pset, exp, d, r):.3f}x"

@@ -17,6 +17,7 @@ import argparse
 import tempfile
 import time
 from pathlib import Path
+from typing import Literal
 
 import numba
 import numpy as np
@@ -34,7 +35,7 @@ def rmse(kin: Kinematics, qpos: np.ndarray, markers: np.ndarray) -> float:
 
 
 def run_ours(
-    kin: Kinematics, markers: np.ndarray, damping: str, repeat: int
+    kin: Kinematics, markers: np.ndarray, damping: Literal["adaptive", "sugihara"], repeat: int
 ) -> tuple[float, float, float]:
     """Best wall time of ``repeat`` whole-trial solves (the kernels are compiled already)."""
     settings = IKSettings(damping=damping, tol_cost=1e-6, tol_step=1e-7)
@@ -102,7 +103,8 @@ def main() -> None:
     print(f"compiled kernels on {numba.get_num_threads()} threads (compile time excluded)")
     print(f"{'method':<28}{'frames/s':>10}{'RMSE (mm)':>11}{'within 0.01':>13}{'iters':>7}")
     rows = []
-    for damping in ("adaptive", "sugihara"):
+    dampings: tuple[Literal["adaptive", "sugihara"], ...] = ("adaptive", "sugihara")
+    for damping in dampings:
         seconds, r, iters = run_ours(kin, markers, damping, args.repeat)
         rows.append((f"mocap-mj LM ({damping})", seconds, r, iters))
     try:

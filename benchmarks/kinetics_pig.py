@@ -35,8 +35,9 @@ from mocap_mj.io.plates import read_plates, recorded_ground_reactions
 HERE = Path(__file__).resolve().parent
 SHARED = HERE.parent.parent / "shared"
 #: Nexus' units per kind (its C3D stores moments in N mm/kg) and our targets.
-KINDS = {"Moment": (1e-3, 0.05, "N m/kg"), "Power": (1.0, 0.1, "W/kg"),
-         "Force": (1.0, None, "N/kg")}  # fmt: skip
+KINDS: dict[str, tuple[float, float | None, str]] = {
+    "Moment": (1e-3, 0.05, "N m/kg"), "Power": (1.0, 0.1, "W/kg"), "Force": (1.0, None, "N/kg")
+}  # fmt: skip
 
 
 def ours(trial: Path, plates: str) -> tuple[dict[str, np.ndarray], list[str]]:
@@ -84,6 +85,7 @@ def compare(mine: dict[str, np.ndarray], theirs: dict[str, np.ndarray]) -> list[
         if name not in theirs:
             continue
         kind = next((k for k in KINDS if name.endswith(k)), None)
+        target: float | None
         if name.endswith("GroundReactionForce") or name.endswith("NormalisedGRF"):
             scale, target, unit = 1.0, 1.0, "% peak"
         elif kind is not None:

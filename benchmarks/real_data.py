@@ -68,10 +68,10 @@ def main() -> None:
     for group in GROUPS.values():
         for a, b in itertools.combinations(group, 2):
             print(pair_line(out / a, out / b, result_pset(out / a, out)))
-    for name, (ident, ik) in runs.items():
-        ratio = "" if ik is None else (
-            f", ik --model {ik['marker_rmse_mm']:.4f} mm, ratio "
-            f"{ik['marker_rmse_mm'] / ident['marker_rmse_mm']:.4f}")  # fmt: skip
+    for name, (ident, tracked) in runs.items():
+        ratio = "" if tracked is None else (
+            f", ik --model {tracked['marker_rmse_mm']:.4f} mm, ratio "
+            f"{tracked['marker_rmse_mm'] / ident['marker_rmse_mm']:.4f}")  # fmt: skip
         held = limits_text(ident.get("joints_at_limit") or {}) or "none"
         print(f"{name}: identify {ident['marker_rmse_mm']:.4f} mm{ratio}; joints held at a "
               f"limit: {held}")  # fmt: skip

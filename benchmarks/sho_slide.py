@@ -69,7 +69,7 @@ def main() -> None:
             )  # fmt: skip
             err = (res.theta[idx] - exp.theta_true[idx]) * 1e3
             gh = gh_error(pset, res, kin, qpos) * 1e3
-            w = wt.get("slide_weight_min")
+            w = wt.slide_weight_min
             line.append(
                 f"{label}: clavicle error l/r {err[0]:+.1f} / {err[1]:+.1f} mm, GH RMS {gh:.1f} mm"
                 + (f" (smallest weight {w:.2f})" if w is not None else "")

@@ -106,19 +106,24 @@ def test_api_and_command_give_the_same_theta_on_a_synthetic_trial(
 
 
 def test_a_fit_names_its_checks_in_si(synthetic: Path) -> None:
-    """Fit's checks (parameters outside their range, implausible) are typed and in metres:
-    summary.json's figures (mm) divided by 1000, and they follow the ranges given."""
+    """Fit's checks (parameters outside their range, implausible, each marker's RMSE) are
+    typed and in metres: summary.json's figures (mm) divided by 1000, and they follow the
+    ranges given."""
     from dataclasses import replace
 
-    from mocap_mj.pipeline.summary import read_back
-
     fit = _api_fit(synthetic, None, mocap_mj.Recipe(max_iterations=10, sliding_landmarks=False))
-    written = read_back(fit.report).kappa_outside_bounds
+    summary = fit.summary()
+    written = summary["kappa_outside_bounds_mm"]
     outside = fit.kappa_outside_bounds()
     assert set(outside) == set(written)
     for name, row in outside.items():
-        assert np.allclose(row, written[name], rtol=0, atol=1e-12), name
-    assert list(fit.implausible) == fit.report["implausible"]
+        assert np.allclose(np.array(row) * 1e3, written[name], rtol=0, atol=1e-9), name
+    assert list(fit.implausible) == summary["implausible"]
+    per_marker = fit.report.checks.marker_rmse_by_marker
+    assert list(per_marker) == list(fit.pset.marker_names)
+    for name, v in summary["marker_rmse_by_marker_mm"].items():
+        assert v == pytest.approx(per_marker[name] * 1e3, abs=1e-9), name
+    assert summary["seconds"] == fit.timings["seconds"] > 0
     kappa = fit.theta[: fit.pset.n_kappa]
     narrow = replace(fit, ranges=(kappa + 0.01, kappa + 0.02))  # every length below its range
     moved = narrow.kappa_outside_bounds()

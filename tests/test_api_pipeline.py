@@ -70,8 +70,9 @@ def test_api_corrects_the_exchange_as_the_command_does(
     with caplog.at_level(logging.WARNING, logger="mocap_mj.notices"):
         fit = mocap_mj.identify([load_markers(swapped)])
     assert np.array_equal(fit.theta, by_command)
-    (entry,) = fit.report["marker_quality"]["relabelled"]
-    assert entry["applied"] and {"LKNE", "RKNE"} <= set(entry["message"].split())
+    (entry,) = fit.report.quality.relabelled
+    assert entry.applied and {"LKNE", "RKNE"} <= set(entry.message.split())
+    assert entry.after < entry.before  # [m]: the correction fits better
     assert any(r.getMessage().startswith("relabelled: ") for r in caplog.records)
     # Without the correction the fit differs: the exchange matters to theta.
     unfixed = mocap_mj.identify([load_markers(swapped)], mocap_mj.Recipe(relabel=False))

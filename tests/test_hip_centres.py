@@ -34,13 +34,13 @@ def test_walk_with_soft_tissue_keeps_hips_at_a_true_regression(seed: int) -> Non
     """Truth at the regression, a walk with 10 mm/rad of soft-tissue artefact: each hip
     within 4 mm of it (without the artefact floor the same trials put them 8-11 mm off)."""
     _, fit = _fit("walk", 10.0, seed)
-    report = fit.report["joint_centres_vs_regression"]
+    report = fit.report.centres_vs_regression
     for hip in HIPS:
-        assert report[hip]["distance_mm"] < 4.0, (hip, report[hip])
-        assert not report[hip]["moved_by_data"]
-        rows = report[hip]["rows"].values()
-        lateral = next(r for r in rows if r["artefact_floor_mm"] > 30.0)  # the walk's 5 deg
-        assert lateral["width_factor"] < 0.3
+        assert report[hip].distance < 0.004, (hip, report[hip])
+        assert not report[hip].moved_by_data
+        spreads = [r.spread for r in report[hip].rows.values() if r.spread is not None]
+        lateral = next(s for s in spreads if s.floor_m > 0.030)  # the walk's 5 deg
+        assert lateral.factor < 0.3
 
 
 def test_functional_trial_moves_hips_to_a_truth_off_the_regression() -> None:
@@ -49,28 +49,30 @@ def test_functional_trial_moves_hips_to_a_truth_off_the_regression() -> None:
     their reported standard deviations, and are flagged as moved by the data."""
     _, fit = _fit("rom", 0.0, 0, shift=0.015)
     pset = fit.pset
-    assert "centre_widths" not in fit.report["prior_weighting"]  # white noise: rows as they are
-    report = fit.report["joint_centres_vs_regression"]
+    assert "centre_widths" not in fit.summary()["prior_weighting"]  # white noise: rows as they are
+    report = fit.report.centres_vs_regression
     ident = pset.body_pos(fit.theta)
     for hip, body in zip(HIPS, ("thigh_l", "thigh_r"), strict=True):
         entry = report[hip]
-        assert entry["moved_by_data"]
-        assert 10.0 < entry["distance_mm"] < 20.0
+        assert entry.moved_by_data
+        assert 0.010 < entry.distance < 0.020
         b = pset.model.body(body).id
         # The centre relative to its pelvis markers (the regression moves with them).
-        reg = np.asarray(entry["regression_mm"]) * 1e-3
         offset = np.array([0.0, 0.015 if hip == "hip_l" else -0.015, 0.0])
-        err = (ident[b] - reg) - offset
-        assert np.linalg.norm(err) * 1e3 < 2.5 * entry["distance_sd_mm"] + 1.0, (hip, err)
+        err = (ident[b] - entry.regression_centre) - offset
+        assert np.linalg.norm(err) < 2.5 * entry.distance_sd + 0.001, (hip, err)
 
 
 @pytest.mark.slow
 def test_report_fields_agree_with_theta() -> None:
-    """identified_mm is the thigh's position in theta; regression_mm + the rows'
-    distances give it back; distance_mm is their norm; report.md lists both hips."""
+    """summary.json's identified_mm is the thigh's position in theta; regression_mm + the
+    rows' distances give it back; distance_mm is their norm and the typed report's distance
+    in mm; report.md lists both hips."""
     _, fit = _fit("walk", 10.0, 2)
     pset = fit.pset
-    report = fit.report["joint_centres_vs_regression"]
+    report = fit.summary()["joint_centres_vs_regression"]
+    for joint, centre in fit.report.centres_vs_regression.items():
+        assert report[joint]["distance_mm"] == pytest.approx(centre.distance * 1e3, abs=1e-9)
     assert set(HIPS) <= set(report)
     for entry in report.values():
         b = pset.model.body(entry["body"]).id

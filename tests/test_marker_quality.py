@@ -303,13 +303,17 @@ def test_batch_column() -> None:
     from mocap_mj.outputs.batch_out import COLUMNS
 
     assert "marker_quality" in COLUMNS
-    quality = {
-        "findings": [
-            {"file": "a.c3d", "kind": "distance", "markers": ["RELB", "RWRA"]},
-            {"file": "a.c3d", "kind": "asymmetry", "markers": ["LELB", "LWRA", "RELB", "RWRA"]},
-            {"file": "b.c3d", "kind": "swap", "markers": ["LASI", "RASI"]},
-        ]
-    }
+    from mocap_mj.capture.marker_quality import Finding
+    from mocap_mj.pipeline.report import MarkerQuality
+
+    def found(file: str, kind: str, *markers: str) -> Finding:
+        return Finding(file, kind, markers, None, 0.1, "", "")
+
+    quality = MarkerQuality(findings=(
+        found("a.c3d", "distance", "RELB", "RWRA"),
+        found("a.c3d", "asymmetry", "LELB", "LWRA", "RELB", "RWRA"),
+        found("b.c3d", "swap", "LASI", "RASI"),
+    ))  # fmt: skip
     assert _quality_cell(quality, "a.c3d") == "2 finding(s): RELB RWRA"
     assert _quality_cell(quality, "b.c3d") == "1 finding(s): LASI RASI"
     assert _quality_cell(quality, "c.c3d") == "none"

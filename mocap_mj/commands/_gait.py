@@ -53,7 +53,7 @@ def identified_trials(
     from mocap_mj.commands.registry import build_parser
     from mocap_mj.io.load import load_markers
     from mocap_mj.pipeline.motion import load_motion
-    from mocap_mj.pipeline.summary import read_back
+    from mocap_mj.pipeline.summary import written_marker_rmse
     from mocap_mj.pipeline.trials import open_trial
     from mocap_mj.skeleton.mjcf import load_model
 
@@ -77,7 +77,7 @@ def identified_trials(
                 f"{trial.n_frames}; expected the same"
             )
         out.append(GaitTrial(path, trial, model_angles(model, motion.qpos)))
-    rmse = read_back(json.loads((fit / "summary.json").read_text())).marker_rmse
+    rmse = written_marker_rmse(json.loads((fit / "summary.json").read_text()))
     source = AnglesSource(
         "the identified model's, in Plug-in Gait's conventions", str(fit / "model.xml"), rmse
     )

@@ -23,7 +23,6 @@ import contextlib
 import logging
 import sys
 from collections.abc import Iterator, Sequence
-from typing import Any
 
 import numpy as np
 
@@ -32,6 +31,7 @@ from mocap_mj.capture.marker_quality import parse_marker_list as parse_marker_li
 from mocap_mj.pipeline.quality import NOTICES, Policy
 from mocap_mj.pipeline.quality import check_trials as check_trials
 from mocap_mj.pipeline.quality import without_ghosts as without_ghosts
+from mocap_mj.pipeline.report import MarkerQuality
 from mocap_mj.skeleton.parameters import ParameterSet
 
 
@@ -73,18 +73,18 @@ def drop_excluded(markers: np.ndarray, pset: ParameterSet, excluded: Sequence[st
     return exclude_markers(markers, pset.marker_names, excluded)
 
 
-def quality_text(entry: dict[str, Any]) -> str:
+def quality_text(quality: MarkerQuality) -> str:
     """The stdout line of a command on its marker-data quality."""
-    excluded = entry["excluded"]
+    excluded = quality.excluded
     head = f"excluded markers: {', '.join(excluded)}; " if excluded else ""
-    fixed = entry.get("relabelled") or []
+    fixed = quality.relabelled
     if fixed:
-        done = sum(r["applied"] for r in fixed)
+        done = sum(r.applied for r in fixed)
         head += f"labels corrected: {done} of {len(fixed)} exchange(s) found; "
-    n = len(entry["findings"])
+    n = len(quality.findings)
     if not n:
         return f"{head}marker data quality: no finding"
     return (
         f"{head}marker data quality: {n} finding(s) (warnings above), markers named: "
-        f"{', '.join(entry['suspects'])}"
+        f"{', '.join(quality.suspects)}"
     )

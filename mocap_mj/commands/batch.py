@@ -30,6 +30,7 @@ from mocap_mj.commands.common import (
 from mocap_mj.kernels._threads import one_blas_thread
 from mocap_mj.outputs.batch_out import TrialRow, identify_fields, row_fields, write_summary_csv
 from mocap_mj.pipeline.fit import Fit
+from mocap_mj.pipeline.report import MarkerQuality
 from mocap_mj.pipeline.track import Tracked
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.ik import IKSettings
@@ -162,7 +163,7 @@ def process_subject(subject: Entry, folder: Path) -> dict[str, Any]:
     passed = bool(subject.subject_file)
     fit = _identify(opts, readable, subject.subject_file, folder / "identify")
     at_bounds = sorted(n for n, out in zip(fit.pset.kappa_names, _outside(fit), strict=True) if out)
-    quality = fit.report.get("marker_quality") or {"findings": []}
+    quality = fit.report.quality
     model = folder / "identify" / "model.xml"
     for path in readable:
         rows[path] = replace(
@@ -241,13 +242,13 @@ def _outside(fit: Fit) -> list[bool]:
     return [n in names for n in fit.pset.kappa_names]
 
 
-def _quality_cell(quality: dict[str, Any], path: str) -> str:
+def _quality_cell(quality: MarkerQuality, path: str) -> str:
     """summary.csv's ``marker_quality`` of one trial: ``none`` or ``N finding(s): NAMES``
     (a ``moved`` finding may name several trials, joined by ", ")."""
-    found = [f for f in quality["findings"] if path in (f["file"], *f["file"].split(", "))]
+    found = [f for f in quality.findings if path in (f.file, *f.file.split(", "))]
     if not found:
         return "none"
-    names = dict.fromkeys(n for f in found if f["kind"] != "asymmetry" for n in f["markers"])
+    names = dict.fromkeys(n for f in found if f.kind != "asymmetry" for n in f.markers)
     return f"{len(found)} finding(s): {' '.join(names) or 'left/right asymmetry'}"
 
 

@@ -48,7 +48,6 @@ from mocap_mj.pipeline.api import Hooks, identify_prepared, select_count
 from mocap_mj.pipeline.fit import Fit
 from mocap_mj.pipeline.prepare import ModelChoice, Prepared, Recording, checked, selected
 from mocap_mj.pipeline.recipe import Recipe
-from mocap_mj.pipeline.summary import read_back
 from mocap_mj.pipeline.trials import trial_folders
 from mocap_mj.skeleton import prewarm
 from mocap_mj.skeleton.mjcf import load_model
@@ -248,7 +247,7 @@ def identified(
     prewarm.start()  # the identification kernels compile on the other core meanwhile
     from .progress import frames_bar, progress_bar
 
-    pset, quality = prepared.pset, prepared.quality
+    pset = prepared.pset
     total = sum(len(t.markers) for t in prepared.trials) if count is not None else 0
     # Every frame's motion of a long recording is written chunk by chunk into a folder beside
     # the output (one file system: write_result moves the files in).
@@ -268,15 +267,14 @@ def identified(
         else _kinetics_into(args, kinetics, loaded, out, summary, prepared.recipe.inertia)
     )
     print_marker_set(args)  # after the fit: a refusal stays one line
-    for f in (summary.get("marker_quality") or {}).get("findings", []):
-        if f["kind"] == "placement":  # found in the identification, after the stature
-            print(f"mocap-mj {args.command}: warning: {f['message']}", file=sys.stderr)
+    for f in fit.findings:
+        if f.kind == "placement":  # found in the identification, after the stature
+            print(f"mocap-mj {args.command}: warning: {f.message}", file=sys.stderr)
     for note in [summary.get("shoulder_note"), *(summary.get("standing_notes") or [])]:
         if note:
             print(f"mocap-mj {args.command}: warning: {note}", file=sys.stderr)
-    figures = read_back(summary)
-    per_marker = np.array(list(figures.marker_rmse_by_marker.values()))
-    outside = figures.kappa_outside_bounds
+    per_marker = np.array(list(fit.report.checks.marker_rmse_by_marker.values()))
+    outside = fit.kappa_outside_bounds()
     reports = "\n".join(str(t.report) for t in loaded)
     text = f"{reports}\n{result_text(summary, pset, Path(args.out))}\n"
     if count is not None:
@@ -293,8 +291,7 @@ def identified(
             f"stature {est['value']:.2f} +- {est['sd']:.2f} m estimated from {est['source']} "
             "(no measured height)\n"
         )
-    if quality is not None:
-        text += quality_text(quality) + "\n"
+    text += quality_text(fit.report.quality) + "\n"
     text += kinetic_text
     plaus = plausibility_text(
         pset,

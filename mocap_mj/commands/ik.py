@@ -26,6 +26,7 @@ from mocap_mj.anatomy.plausibility import AT_LIMIT_PRINT, limits_text
 from mocap_mj.commands.common import into_out_folder
 from mocap_mj.outputs.ik_folder import ik_summary, write_ik_files
 from mocap_mj.outputs.write_fit import frame_range
+from mocap_mj.pipeline.report import MarkerQuality
 from mocap_mj.pipeline.track import CheckedTrial, Tracked, TrackOptions, checked_trial, track
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.ik import IKSettings
@@ -137,7 +138,8 @@ def written(
         "markers_missing": list(trial.report.missing),
     }
     summary = ik_summary(pset, tracked, options, head, section)
-    return summary, _text(args, summary, trial, section, kinetic_files), tracked
+    text = _text(args, summary, trial, section, kinetic_files, tracked.quality)
+    return summary, text, tracked
 
 
 def _text(
@@ -146,11 +148,12 @@ def _text(
     trial: Any,
     section: dict[str, Any] | None,
     kinetic_files: list[str],
+    quality: MarkerQuality,
 ) -> str:
-    """The command's stdout lines on the IK ``summary`` (summary.json's content)."""
+    """The command's stdout lines on the IK ``summary`` (summary.json's content) and the
+    trial's marker-data ``quality``."""
     n, seconds = summary["frames"], summary["seconds"]
     skipped = len(summary["frames_skipped"])
-    quality = summary["marker_quality"]
     slides = summary["sliding_landmarks"]
     never = summary["markers_without_data"]
     held = limits_text(summary["joints_at_limit"], AT_LIMIT_PRINT)
@@ -167,7 +170,7 @@ def _text(
             else ""
         )
         + _without_samples(never, trial.report.found)
-        + ("" if quality is None else f"\n{quality_text(quality)}")
+        + f"\n{quality_text(quality)}"
         + (f"\njoints held at a limit of their range: {held}" if held else "")
         + (f"\n{kin_text}" if section is not None and (kin_text := text_of(section)) else "")
         + f"\nwrote {args.out}/motion.csv, joint_centres.csv, angles.csv, motion.npz, "

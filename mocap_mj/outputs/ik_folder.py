@@ -15,6 +15,7 @@ from mocap_mj.anatomy.tissue import recorded_sliding_model
 from mocap_mj.export.tables import write_angles_csv
 from mocap_mj.outputs.ik_out import fit_fields, write_motion_csv
 from mocap_mj.pipeline.motion import save_motion
+from mocap_mj.pipeline.summary import quality_fields
 from mocap_mj.pipeline.track import Tracked, TrackOptions
 from mocap_mj.skeleton.exported import Layout
 from mocap_mj.skeleton.joint_centre_table import write_joint_centres_csv
@@ -61,7 +62,7 @@ def ik_fields(
         "damping": options.settings.damping,
         "loss": options.loss,
         "sliding_landmarks": sliding,
-        "marker_quality": tracked.quality,
+        "marker_quality": quality_fields(tracked.quality),
         "joints_at_limit": joints_at_limit(pset.model, pset.model.jnt_range, [result.qpos]),
     }
 

@@ -39,6 +39,7 @@ from mocap_mj.pipeline.prepare import (
     recording,
 )
 from mocap_mj.pipeline.recipe import Recipe, check_select
+from mocap_mj.pipeline.report import Checks, Report, Timings
 from mocap_mj.pipeline.results import joint_axes
 from mocap_mj.pipeline.steps import (
     Solved,
@@ -49,13 +50,16 @@ from mocap_mj.pipeline.steps import (
     solve_trials,
 )
 from mocap_mj.pipeline.summary import (
-    add_checks,
-    add_finding,
     centre_fields,
+    check_fit,
+    checks_fields,
     fit_report,
     hinge_fields,
+    judge,
     motion_fields,
+    quality_fields,
     refinement_fields,
+    regression_centres,
 )
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.identifiability import Identifiability
@@ -182,24 +186,29 @@ def identify_prepared(
         "frames_fitted_range": [
             [f, f + len(t.markers)] for f, t in zip(firsts, trials, strict=True)
         ],
-        "marker_quality": prepared.quality,
+        "marker_quality": None,
     }
     count = select_count(recipe.select, sum(len(t.markers) for t in trials), len(trials))
-    fitted, whole = trials, None
+    fitted, whole, select_seconds = trials, None, None
     if count is not None:
         t0 = time.perf_counter()
         fitted, kept = selected(trials, pset.marker_names, count)
-        report["select_seconds"] = time.perf_counter() - t0
+        select_seconds = report["select_seconds"] = time.perf_counter() - t0
         report["frames_selected"] = kept
         whole = trials
     solved = solve_trials(
         fitted, pset, settings, recipe, prepared.subject, theta0, hooks.progress, whole,
         landmarks=prepared.landmarks or None,
     )  # fmt: skip
-    fit = _described(solved, fitted, settings, recipe, report, firsts)
+    partial = Report(prepared.quality, EMPTY_CHECKS, Timings(solved.seconds, None, select_seconds))
+    fit = _described(solved, fitted, settings, recipe, (report, partial), firsts)
     if whole is None:
         return fit
     return _with_every_frame(fit, solved, whole, hooks.motion_sink, hooks.motion_progress)
+
+
+#: The checks of a fit not yet checked (the start of :func:`_described`'s).
+EMPTY_CHECKS = Checks({}, {}, {})
 
 
 def _described(
@@ -207,12 +216,14 @@ def _described(
     trials: list[TrialData],
     settings: LMSettings,
     recipe: Recipe,
-    report: dict[str, Any],
+    reported: tuple[dict[str, Any], Report],
     firsts: list[int],
 ) -> Fit:
     """The fit of ``solved`` on ``trials`` (the frames identified on): its identifiability,
-    report, checks and segment table; the motion the fitted frames' poses."""
+    checks, segment table and report (``reported``: summary.json's fields and the typed
+    report so far, its quality and selection time); the motion the fitted frames' poses."""
     pset, result = solved.pset, solved.result
+    summary, report = reported
     idf = Identifiability(
         pset,
         result.reduced_information,
@@ -222,9 +233,9 @@ def _described(
     )
     knee_crosstalk(pset, result.theta, result.qpos, [t.markers for t in trials],
                    joint_axes(solved.weighting))  # fmt: skip
-    report.update(fit_report(solved, trials, settings, recipe, idf))
+    quality = report.quality
     if solved.t10_prior is not None and solved.t10_prior.finding is not None:
-        add_finding(report, solved.t10_prior.finding)
+        quality = quality.with_finding(solved.t10_prior.finding)
     priors = (
         anatomical_priors(pset, solved.subject, size=solved.size, symmetric=solved.symmetric,
                           t10=solved.t10_prior, hip_centre=recipe.hip_centre,
@@ -236,14 +247,23 @@ def _described(
         else []
     )  # fmt: skip
     info = prior_information(priors, settings, pset.size)
-    rows = add_checks(report, pset, result, trials, settings, solved.ranges, info)
-    report["joint_centres_vs_regression"] = centre_fields(solved, settings, recipe)
-    report["joint_centres_vs_construction"] = hinge_fields(
-        hinge_report(
-            pset, result, info, report["correlation_time_frames"], solved.construction or {}
-        )
+    judged = judge(solved, trials)
+    checked = check_fit(solved, trials, settings, judged, info)
+    summary["marker_quality"] = quality_fields(quality)
+    summary.update(fit_report(solved, trials, settings, recipe, idf, judged))
+    summary.update(checks_fields(checked))
+    report = replace(
+        report,
+        quality=quality,
+        checks=checked.checks,
+        timings=replace(report.timings, init_seconds=result.init_seconds),
+        centres_vs_regression=regression_centres(solved, settings, recipe),
+        centres_vs_construction=hinge_report(
+            pset, result, info, checked.table.tau_frames, solved.construction or {}
+        ),
     )
-    report = jsonable(report)
+    summary["joint_centres_vs_regression"] = centre_fields(report.centres_vs_regression)
+    summary["joint_centres_vs_construction"] = hinge_fields(report.centres_vs_construction)
     motion = tuple(
         Motion(np.asarray(q), t.times, t.markers, pset.marker_names, first_frame=f)
         for t, q, f in zip(trials, result.qpos, firsts, strict=True)
@@ -257,10 +277,11 @@ def _described(
         trials=tuple(trials),
         motion=motion,
         first_frames=tuple(firsts),
-        segments=tuple(rows),
+        segments=tuple(checked.table.rows),
         sliding=solved.sliding,
         subject=solved.subject,
         report=report,
+        summary_fields=jsonable(summary),
         ranges=solved.ranges,
     )
 
@@ -275,11 +296,11 @@ def _with_every_frame(
     """``fit`` with the motion of every frame of ``whole`` (the recordings the fitted frames
     were selected from), by IK with the identified model: written into ``sink`` chunk by
     chunk, or held in memory without one."""
-    report = dict(fit.report)
-    report["motion_frames"] = [len(t.markers) for t in whole]
+    summary = dict(fit.summary_fields)
+    summary["motion_frames"] = [len(t.markers) for t in whole]
     refined, pset = solved.refined, fit.pset
     if refined is not None:
-        report["refinement"] = refinement_fields(pset, refined)
+        summary["refinement"] = refinement_fields(pset, refined)
     args: dict[str, Any] = {
         "start": None if refined is None else refined.qpos,
         "progress": progress,
@@ -305,8 +326,13 @@ def _with_every_frame(
                    pset.marker_names, first_frame=f)
             for t, q, f in zip(whole, poses, fit.first_frames, strict=True)
         )  # fmt: skip
-    report.update(motion_fields(done.rmse, done.ik_seconds, done.seconds))
-    return replace(fit, report=jsonable(report), motion=motion, motion_files=files)
+    summary.update(motion_fields(done.rmse, done.ik_seconds, done.seconds))
+    timings = replace(fit.report.timings, motion_ik_seconds=done.ik_seconds,
+                      motion_seconds=done.seconds)  # fmt: skip
+    report = replace(fit.report, timings=timings, refinement=refined,
+                     motion_marker_rmse=done.rmse)  # fmt: skip
+    return replace(fit, report=report, summary_fields=jsonable(summary), motion=motion,
+                   motion_files=files)  # fmt: skip
 
 
 def select_count(select: int | str, frames: int, n_trials: int) -> int | None:

@@ -15,9 +15,11 @@ import numpy as np
 from mocap_mj.anatomy.plausibility import kappa_outside_bounds
 from mocap_mj.anatomy.segments import SegmentRow
 from mocap_mj.anatomy.tissue import SlidingModel
+from mocap_mj.capture.marker_quality import Finding
 from mocap_mj.capture.subject import Subject
 from mocap_mj.pipeline.motion import Motion
 from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.pipeline.report import Report
 from mocap_mj.skeleton.joint_centres import joint_centre_trajectories
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.identifiability import Identifiability
@@ -63,10 +65,13 @@ class Fit:
     ranges : tuple of two (K,) arrays [m], or None
         The anatomical range of each kinematic parameter the fit was checked against (lower,
         upper); None: ``pset``'s bounds.
-    report : dict
-        Everything :meth:`summary` reports that the attributes above do not hold as arrays:
-        the fit's figures, prior weighting, checks and quality findings (``marker_quality``),
-        in summary.json's units (mm, s; names ending ``_mm``); see docs/outputs.md.
+    report : Report
+        What the fit reports beside the arrays above, typed and in SI: the marker-data
+        quality, the checks, the wall times, the joint centres against their constructions.
+    summary_fields : dict
+        summary.json's content (:meth:`summary`): the report and the solver's, priors' and
+        checks' figures in summary.json's units (mm, s; names ending ``_mm``); see
+        docs/outputs.md. Written, not read: the library reads ``report``.
     """
 
     pset: ParameterSet
@@ -80,7 +85,8 @@ class Fit:
     segments: tuple[SegmentRow, ...]
     sliding: SlidingModel | None
     subject: Subject
-    report: dict[str, Any]
+    report: Report
+    summary_fields: dict[str, Any]
     motion_files: tuple[Path, ...] = field(default=())
     ranges: tuple[np.ndarray, np.ndarray] | None = None
 
@@ -105,26 +111,21 @@ class Fit:
         return float(self.result.marker_rmse)
 
     @property
-    def findings(self) -> list[dict[str, Any]]:
-        """The marker-data quality findings (the check before the fit and T10's placement),
-        each as summary.json's ``marker_quality.findings`` holds it (kind, markers, frames,
-        message, ...)."""
-        return list((self.report.get("marker_quality") or {}).get("findings", []))
+    def findings(self) -> tuple[Finding, ...]:
+        """The marker-data quality findings (the check before the fit and T10's placement)."""
+        return self.report.quality.findings
 
     @property
     def timings(self) -> dict[str, float]:
-        """Wall times [s] of the parts of the identification (those measured)."""
-        keys = ("select_seconds", "seconds", "init_seconds")
-        times = {k: float(self.report[k]) for k in keys if self.report.get(k) is not None}
-        motion = self.report.get("motion_seconds") or {}
-        times.update({f"motion_{k}_seconds": float(v) for k, v in motion.items()})
-        return times
+        """Wall times [s] of the parts of the identification (those measured), by summary.json's
+        names (:meth:`~mocap_mj.pipeline.report.Timings.as_dict`)."""
+        return self.report.timings.as_dict()
 
     @property
     def implausible(self) -> tuple[str, ...]:
         """The reasons the tool's own checks call the result implausible (empty: plausible),
-        each one sentence as summary.json's ``implausible`` holds it."""
-        return tuple(str(r) for r in self.report.get("implausible") or ())
+        one sentence each."""
+        return self.report.checks.implausible
 
     def kappa_outside_bounds(self) -> dict[str, list[float]]:
         """The kinematic parameters that ended outside their anatomical range (``ranges``):
@@ -147,4 +148,4 @@ class Fit:
 
     def summary(self) -> dict[str, Any]:
         """summary.json's content (JSON values; millimetres and seconds as named)."""
-        return dict(self.report)
+        return dict(self.summary_fields)

@@ -20,7 +20,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
@@ -38,6 +38,7 @@ from mocap_mj.pipeline.marker_model import (
 )
 from mocap_mj.pipeline.quality import Checked, Policy, check_trials, notice, without_ghosts
 from mocap_mj.pipeline.recipe import Recipe, check_select, frame_range
+from mocap_mj.pipeline.report import MarkerQuality
 from mocap_mj.pipeline.steps import t10_check
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.problem import TrialData
@@ -94,8 +95,8 @@ class Prepared:
         Each trial's first fitted frame in its recording's numbering.
     subject : Subject
         The measurements, with the widths the set's landmarks measure.
-    quality : dict
-        summary.json's ``marker_quality`` (findings, corrections, excluded markers).
+    quality : MarkerQuality
+        The quality check's findings, the labels' corrections and the excluded markers.
     landmarks : dict
         marker -> the landmark it sits on (the set's; empty for the bundled sites).
     """
@@ -105,7 +106,7 @@ class Prepared:
     trials: list[TrialData]
     first_frames: list[int]
     subject: Subject
-    quality: dict[str, Any]
+    quality: MarkerQuality
     landmarks: Mapping[str, str]
 
 

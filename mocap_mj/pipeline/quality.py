@@ -21,7 +21,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from dataclasses import replace
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
@@ -39,7 +39,7 @@ from mocap_mj.pipeline.relabel import (
     reference_theta,
     track_swaps,
 )
-from mocap_mj.pipeline.summary import quality_fields
+from mocap_mj.pipeline.report import MarkerQuality
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
 
@@ -77,10 +77,10 @@ class Policy(NamedTuple):
 
 def check_trials(
     pset: ParameterSet, trials: Sequence[Checked], excluded: Sequence[str], policy: Policy
-) -> tuple[list[Finding], dict[str, Any]]:
+) -> tuple[list[Finding], MarkerQuality]:
     """Check ``trials`` (their ``excluded`` markers already dropped) after correcting their
     labels; raise under ``policy.strict``, else one notice per finding; return the findings
-    and the summary's ``marker_quality`` entry."""
+    and the recordings' quality (corrections, findings, excluded markers)."""
     relabelled = relabel(pset, trials, policy)
     found = _findings(pset, trials, policy)
     swaps = [
@@ -111,7 +111,7 @@ def check_trials(
             f"named first: --exclude-markers {','.join(top)} drops its data "
             "(docs/recordings.md#what-each-warning-means)"
         )
-    return found, quality_fields(relabelled, found, excluded)
+    return found, MarkerQuality(tuple(relabelled), tuple(found), tuple(excluded))
 
 
 def _findings(pset: ParameterSet, trials: Sequence[Checked], policy: Policy) -> list[Finding]:

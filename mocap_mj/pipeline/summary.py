@@ -14,7 +14,13 @@ from mocap_mj.anatomy.axes import widths
 from mocap_mj.anatomy.ball_centres import BallCentre, CentreRowReport, centre_report, row_spreads
 from mocap_mj.anatomy.hinge_centres import HingeCentre
 from mocap_mj.anatomy.initial import marker_stature, segment_scales
-from mocap_mj.anatomy.joint_checks import checks_summary, half_width, joint_checks, violations
+from mocap_mj.anatomy.joint_checks import (
+    Check,
+    checks_summary,
+    half_width,
+    joint_checks,
+    violations,
+)
 from mocap_mj.anatomy.partial import Unmeasured
 from mocap_mj.anatomy.plausibility import (
     implausible_reasons,
@@ -22,14 +28,15 @@ from mocap_mj.anatomy.plausibility import (
     kappa_outside_bounds,
     marker_rmse_by_marker,
 )
-from mocap_mj.anatomy.segments import SegmentRow, uncertainty_summary
+from mocap_mj.anatomy.segments import SegmentRow, Uncertainty, uncertainty_summary
 from mocap_mj.anatomy.standing import standing_knee_axes, standing_note
 from mocap_mj.anatomy.tissue import arm_elevation, raised_arms_note
 from mocap_mj.anatomy.trunk import T10Placement
-from mocap_mj.capture.marker_quality import Finding, suspects
+from mocap_mj.capture.marker_quality import Finding
 from mocap_mj.capture.subject import Subject
 from mocap_mj.pipeline.recipe import Recipe
 from mocap_mj.pipeline.relabel import Relabel
+from mocap_mj.pipeline.report import Checks, MarkerQuality
 from mocap_mj.pipeline.results import Refined, Weighting, joint_axes, prior_noise
 from mocap_mj.pipeline.steps import REWEIGHT_RATIO, Solved, anatomical_priors
 from mocap_mj.skeleton.parameters import ParameterSet
@@ -42,17 +49,50 @@ from mocap_mj.solve.solver_result import IdentificationResult
 from ..errors import MocapError
 
 
+class Judged(NamedTuple):
+    """What :func:`judge` finds of a solve: the kinematic parameters left at a bound (name ->
+    ``lower`` or ``upper``), the reasons to call it implausible (one sentence each) and the
+    anatomical checks of its joints."""
+
+    kappa_at_bound: dict[str, str]
+    implausible: list[str]
+    joints: list[Check]
+
+
+def judge(solved: Solved, trials: Sequence[TrialData]) -> Judged:
+    """The plausibility of the solve ``solved`` on ``trials`` (the frames identified on): the
+    bounds it reached, the marker fit and stature, and each joint inside the body (a joint
+    the markers hold away from its construction said so)."""
+    pset, result = solved.pset, solved.result
+    at_bound = _kappa_at_bound(pset, result)
+    reasons = implausible_reasons(
+        result.marker_rmse,
+        len(at_bound),
+        int(np.sum(~pset.frozen[: pset.n_kappa])),
+        marker_stature(segment_scales(pset, [t.markers for t in trials])),
+    )
+    joints = joint_checks(pset, result.theta, solved.subject, solved.landmarks,
+                          joint_axes(solved.weighting) or None)  # fmt: skip
+    held = None if solved.weighting is None else solved.weighting.held_at_construction
+    note = ""
+    if held and not held.kept:
+        first, holding = (v * 1e3 for v in held.marker_rmse)
+        note = (f"; held at its construction the markers fit at {holding:.2f} mm RMSE "
+                f"({first:.2f} as fitted): they place it there, a marker misplaced?")  # fmt: skip
+    return Judged(at_bound, reasons + violations(joints, note), joints)
+
+
 def fit_report(
     solved: Solved,
     trials: Sequence[TrialData],
     settings: LMSettings,
     recipe: Recipe,
     idf: Identifiability,
+    judged: Judged,
 ) -> dict[str, Any]:
-    """The summary of the solve ``solved`` on ``trials`` (the frames identified on): solver,
-    frames, timing, fit and observability, priors, measured parameters, bounds and limits
-    reached, the arms' elevation and T10's placement (its finding added to
-    ``marker_quality``, which the caller's ``summary`` may already hold)."""
+    """The summary of the solve ``solved`` on ``trials`` (the frames identified on) judged
+    ``judged``: solver, frames, timing, fit and observability, priors, measured parameters,
+    bounds and limits reached, plausibility, the arms' elevation and T10's placement."""
     pset, result = solved.pset, solved.result
     summary = _summary_fields(
         trials, pset, settings, result, idf, solved.init_used, solved.scales, solved.seconds,
@@ -66,27 +106,14 @@ def fit_report(
     summary["init_centres"] = dict(solved.construction or {})
     summary.update(_measured_fields(pset, solved.missing))
     summary["sliding_landmarks"] = None if solved.sliding is None else sorted(solved.sliding.slides)
-    summary["kappa_at_bound"] = _kappa_at_bound(pset, result)
-    summary["implausible"] = implausible_reasons(
-        result.marker_rmse,
-        len(summary["kappa_at_bound"]),
-        int(np.sum(~pset.frozen[: pset.n_kappa])),
-        marker_stature(segment_scales(pset, [t.markers for t in trials])),
-    )
-    checks = joint_checks(pset, result.theta, solved.subject, solved.landmarks,
-                          joint_axes(solved.weighting) or None)  # fmt: skip
-    summary["anatomy_checks"] = checks_summary(checks)
+    summary["kappa_at_bound"] = dict(judged.kappa_at_bound)
+    summary["implausible"] = list(judged.implausible)
+    summary["anatomy_checks"] = checks_summary(judged.joints)
     held = None if solved.weighting is None else solved.weighting.held_at_construction
     summary["held_at_construction"] = None if held is None else {
         "joints": held.joints, "marker_rmse_mm": [v * 1e3 for v in held.marker_rmse],
         "kept": held.kept,
     }  # fmt: skip
-    note = ""
-    if held and not held.kept:
-        first, holding = (v * 1e3 for v in held.marker_rmse)
-        note = (f"; held at its construction the markers fit at {holding:.2f} mm RMSE "
-                f"({first:.2f} as fitted): they place it there, a marker misplaced?")  # fmt: skip
-    summary["implausible"] += violations(checks, note)
     fitted = [q[used] for q, used in zip(result.qpos, result.used, strict=True)]
     summary["joints_at_limit"] = joints_at_limit(
         pset.model, solver_joint_range(pset.model, settings), fitted
@@ -237,32 +264,17 @@ def relabel_fields(relabel: Relabel) -> dict[str, Any]:
     }
 
 
-def quality_fields(
-    relabelled: Sequence[Relabel], found: Sequence[Finding], excluded: Sequence[str]
-) -> dict[str, Any]:
+def quality_fields(quality: MarkerQuality) -> dict[str, Any]:
     """summary.json's ``marker_quality`` entry: the corrections of the labels, the findings,
-    the markers they name (:func:`~mocap_mj.capture.marker_quality.suspects`), the
-    ``excluded`` markers and the samples the findings drop."""
+    the markers they name (:func:`~mocap_mj.capture.marker_quality.suspects`), the excluded
+    markers and the samples the findings drop."""
     return {
-        "relabelled": [relabel_fields(r) for r in relabelled],
-        "findings": [finding_fields(f) for f in found],
-        "suspects": suspects(found),
-        "excluded": list(excluded),
-        "samples_dropped": len({(f.file, f.markers[0], t) for f in found for t in f.samples}),
+        "relabelled": [relabel_fields(r) for r in quality.relabelled],
+        "findings": [finding_fields(f) for f in quality.findings],
+        "suspects": quality.suspects,
+        "excluded": list(quality.excluded),
+        "samples_dropped": quality.samples_dropped,
     }
-
-
-def add_finding(summary: dict[str, Any], finding: Finding) -> None:
-    """``finding`` added to summary's ``marker_quality`` entry (created when the caller gave
-    none), with the markers it names counted among the suspects."""
-    entry = summary.get("marker_quality")
-    if entry is None:
-        entry = summary["marker_quality"] = {"findings": [], "suspects": {}, "excluded": []}
-    entry["findings"].append(finding_fields(finding))
-    named = dict(entry.get("suspects") or {})
-    for n in finding.markers:
-        named[n] = named.get(n, 0) + 1
-    entry["suspects"] = dict(sorted(named.items(), key=lambda kv: (-kv[1], kv[0])))
 
 
 def _summary_fields(
@@ -320,34 +332,59 @@ def _kappa_at_bound(pset: ParameterSet, result: IdentificationResult) -> dict[st
     }
 
 
-def add_checks(
-    summary: dict[str, Any],
-    pset: ParameterSet,
-    result: IdentificationResult,
+class Checked(NamedTuple):
+    """:func:`check_fit`'s checks and segment table
+    (:class:`~mocap_mj.anatomy.segments.Uncertainty`)."""
+
+    checks: Checks
+    table: Uncertainty
+
+
+def check_fit(
+    solved: Solved,
     trials: Sequence[TrialData],
     settings: LMSettings,
-    ranges: tuple[np.ndarray, np.ndarray] | None,
+    judged: Judged,
     prior_info: np.ndarray | None = None,
-) -> list[SegmentRow]:
-    """Add the real-data checks to ``summary`` (worst markers, parameters outside their range
-    ``ranges`` (K,) [m], default ``pset``'s, the segment table with inflated standard
-    deviations, with the priors of ``prior_info`` (P, P) [1/m^2] in ``std_priors``); return
-    the segment rows."""
+) -> Checked:
+    """The real-data checks of ``solved`` on ``trials`` judged ``judged``: each marker's RMSE,
+    the parameters outside their range (``solved.ranges``, default ``pset``'s), the segment
+    table with inflated standard deviations, with the priors of ``prior_info`` (P, P)
+    [1/m^2] in ``std_priors``."""
+    pset, result, ranges = solved.pset, solved.result, solved.ranges
     per_marker = marker_rmse_by_marker(pset, result, trials)
     lower, upper = ranges if ranges is not None else (None, None)
-    outside = kappa_outside_bounds(pset, result.theta, lower, upper)
-    summary["marker_rmse_by_marker_mm"] = {
-        n: float(v) * 1e3 for n, v in zip(pset.marker_names, per_marker, strict=True)
-    }
-    summary["kappa_outside_bounds_mm"] = {n: [v * 1e3 for v in b] for n, b in outside.items()}
     table = uncertainty_summary(
         pset, result, trials, per_marker, settings, ranges=ranges, prior_information=prior_info
     )
-    summary["correlation_time_frames"] = table.tau_frames
-    summary["segments"] = {r.name: segment_fields(r) for r in table.rows}
-    summary["parameters_flagged"] = table.flagged
-    summary["worst_markers_mm"] = {n: v * 1e3 for n, v in table.worst.items()}
-    return table.rows
+    checks = Checks(
+        marker_rmse_by_marker={
+            n: float(v) for n, v in zip(pset.marker_names, per_marker, strict=True)
+        },
+        worst_markers=dict(table.worst),
+        kappa_outside_bounds=kappa_outside_bounds(pset, result.theta, lower, upper),
+        kappa_at_bound=dict(judged.kappa_at_bound),
+        parameters_flagged=dict(table.flagged),
+        implausible=tuple(judged.implausible),
+    )
+    return Checked(checks, table)
+
+
+def checks_fields(checked: Checked) -> dict[str, Any]:
+    """summary.json's checks [mm]: each marker's RMSE, the parameters outside their range,
+    the residuals' correlation time, the segment table, the flagged parameters and the worst
+    markers."""
+    checks, table = checked
+    return {
+        "marker_rmse_by_marker_mm": {n: v * 1e3 for n, v in checks.marker_rmse_by_marker.items()},
+        "kappa_outside_bounds_mm": {
+            n: [v * 1e3 for v in b] for n, b in checks.kappa_outside_bounds.items()
+        },
+        "correlation_time_frames": table.tau_frames,
+        "segments": {r.name: segment_fields(r) for r in table.rows},
+        "parameters_flagged": dict(checks.parameters_flagged),
+        "worst_markers_mm": {n: v * 1e3 for n, v in checks.worst_markers.items()},
+    }
 
 
 def segment_fields(row: SegmentRow) -> dict[str, Any]:
@@ -370,13 +407,14 @@ def segment_fields(row: SegmentRow) -> dict[str, Any]:
     }
 
 
-def centre_fields(solved: Solved, settings: LMSettings, recipe: Recipe) -> dict[str, Any]:
-    """summary.json's ``joint_centres_vs_regression``
-    (:func:`~mocap_mj.anatomy.ball_centres.centre_report`) at the solve's model: each
+def regression_centres(
+    solved: Solved, settings: LMSettings, recipe: Recipe
+) -> dict[str, BallCentre]:
+    """:func:`~mocap_mj.anatomy.ball_centres.centre_report` at the solve's model: each
     regression-placed ball joint's centre against its regression, with the data counted as
     the solve counted them (the weighting's noise; with correlated residuals the soft-tissue
     floor of ``max(sigma, SOFT_TISSUE_SIGMA)``); for the hips also the other regression's
-    centre (``davis_mm`` beside Harrington, ``harrington_mm`` beside Davis; Davis's needs
+    centre (in ``others``: Davis beside Harrington, Harrington beside Davis; Davis's needs
     both leg lengths). Empty without the anatomical priors."""
     if not recipe.anatomy:
         return {}
@@ -399,8 +437,12 @@ def centre_fields(solved: Solved, settings: LMSettings, recipe: Recipe) -> dict[
         alt = anatomical_priors(pset, solved.subject, **options, hip_centre=other)[0]
     except MocapError:  # Davis's rows need both leg lengths
         alt = None
-    report = centre_report(pset, result.theta, priors[0], spreads, {other: alt})
-    return {joint: _ball_centre_fields(c) for joint, c in report.items()}
+    return dict(centre_report(pset, result.theta, priors[0], spreads, {other: alt}))
+
+
+def centre_fields(centres: Mapping[str, BallCentre]) -> dict[str, Any]:
+    """summary.json's ``joint_centres_vs_regression`` [mm] of :func:`regression_centres`."""
+    return {joint: _ball_centre_fields(c) for joint, c in centres.items()}
 
 
 def _ball_centre_fields(c: BallCentre) -> dict[str, Any]:
@@ -472,25 +514,8 @@ def motion_fields(rmse: float, ik_seconds: float, seconds: float) -> dict[str, A
     }
 
 
-class ReadBack(NamedTuple):
-    """What a command reads back from a summary (summary.json's content, :func:`read_back`),
-    in SI: each marker's RMSE [m] (NaN: never seen) by name, the kinematic parameters
-    outside their anatomical range with that range (name -> [lower, upper] [m]), and the
-    fit's marker RMSE [m] (None: the summary holds none)."""
-
-    marker_rmse_by_marker: dict[str, float]
-    kappa_outside_bounds: dict[str, list[float]]
-    marker_rmse: float | None = None
-
-
-def read_back(summary: Mapping[str, Any]) -> ReadBack:
-    """The figures of ``summary`` (summary.json's content, millimetres) in SI (the marker
-    RMSE divided by 1000, so that it gives the written figure back when written in mm)."""
-    per_marker = summary.get("marker_rmse_by_marker_mm") or {}
-    outside = summary.get("kappa_outside_bounds_mm") or {}
+def written_marker_rmse(summary: Mapping[str, Any]) -> float | None:
+    """The marker RMSE [m] a written summary.json (its content, millimetres) records, for a
+    command that reads another's result folder (None: it records none)."""
     rmse = summary.get("marker_rmse_mm")
-    return ReadBack(
-        {n: math.nan if v is None else v * 1e-3 for n, v in per_marker.items()},
-        {n: [v * 1e-3 for v in b] for n, b in outside.items()},
-        rmse / 1e3 if isinstance(rmse, float) else None,
-    )
+    return rmse / 1e3 if isinstance(rmse, float) else None

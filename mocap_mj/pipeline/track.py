@@ -12,7 +12,6 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 import numpy as np
 
@@ -20,6 +19,7 @@ from mocap_mj.capture.checks import check_markers, recorded_floor
 from mocap_mj.capture.marker_quality import exclude_markers
 from mocap_mj.pipeline.motion import Motion
 from mocap_mj.pipeline.quality import Checked, Policy, check_trials, without_ghosts
+from mocap_mj.pipeline.report import MarkerQuality
 from mocap_mj.pipeline.robust_ik import solve_motion
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.ik import IKSettings
@@ -51,12 +51,12 @@ class TrackOptions:
 class CheckedTrial:
     """A trial ready to solve: ``trial`` its rows' markers (T, M, 3) [m] in the model's order
     (corrected, excluded markers and ghosts dropped) and times (T,) [s]; ``first_frame`` the
-    recording's number of its first row; ``quality`` summary.json's ``marker_quality``
-    entry; ``min_markers`` the frame-rejection floor applied."""
+    recording's number of its first row; ``quality`` the quality check's (findings,
+    corrections, excluded markers); ``min_markers`` the frame-rejection floor applied."""
 
     trial: TrialData
     first_frame: int
-    quality: dict[str, Any]
+    quality: MarkerQuality
     min_markers: int
 
 
@@ -64,11 +64,11 @@ class CheckedTrial:
 class Tracked:
     """A trial's motion: ``motion`` (poses (T, nq), times (T,) [s], markers (T, M, 3) [m],
     ``motion.ik`` each frame's status, iterations and marker RMSE), its ``first_frame``, the
-    checks' ``quality`` entry and the IK's wall time ``seconds`` [s]."""
+    checks' ``quality`` and the IK's wall time ``seconds`` [s]."""
 
     motion: Motion
     first_frame: int
-    quality: dict[str, Any]
+    quality: MarkerQuality
     seconds: float
 
 
