@@ -29,6 +29,7 @@ from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.io import load_markers
 from mocap_mj.pipeline.api import identify
 from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.pipeline.run_options import Tuning
 from mocap_mj.solve.consistency import (
     correlation_time,
     excited_lengths,
@@ -75,7 +76,7 @@ def main() -> int:
     for t in trials:
         t0 = time.perf_counter()
         recipe = Recipe.of_settings(st, sliding_landmarks=False, select="all")
-        fit = identify([t], recipe, pset=pset, tolerances=st.tolerances)
+        fit = identify([t], recipe, pset=pset, tuning=Tuning(st.tolerances))
         results.append(res := fit.result)
         print(
             f"{t.name}: own RMSE {res.marker_rmse * 1e3:.3f} mm, {res.iterations} it, "

@@ -54,6 +54,11 @@ def floor_off(off: bool, data_only: bool = False) -> Iterator[None]:
         anatomy.SIGMA_HJC = sigma
 
 
+def _at_100_hz(trial: mocap_mj.TrialData) -> mocap_mj.Recording:
+    """``trial`` as a recording at 100 Hz (the synthetic trials' rate)."""
+    return mocap_mj.Recording(trial.name, trial.markers, trial.times, 100.0)
+
+
 def _data_line(tag: str, fit: mocap_mj.Fit, offsets: dict[str, float]) -> str:
     """The data alone: each hip's error against the truth (relative to its pelvis markers)
     beside the standard deviation of its lateral row as the solve counts the data and the
@@ -110,7 +115,7 @@ def synthetic(seeds: list[int]) -> None:
             offsets = {"hip_l": shift, "hip_r": shift}  # the width rows count outward
             for label, off in (("data only", True), ("before", True), ("after", False)):
                 with floor_off(off, data_only=label == "data only"):
-                    fit = mocap_mj.identify([trial], mocap_mj.Recipe(), None, rates=[100.0])
+                    fit = mocap_mj.identify([_at_100_hz(trial)], mocap_mj.Recipe(), None)
                 tag = f"{motion} sta {sta:.0f} shift {shift:.0f} seed {seed} {label}"
                 if label == "data only":
                     print(_data_line(tag, fit, offsets), flush=True)
@@ -130,10 +135,10 @@ def real(shared: Path) -> None:
         for label, off in (("before", True), ("after", False)):
             pset = mocap_mj.ParameterSet()
             traj = load_markers(path, model_names=pset.marker_names)
-            trial = mocap_mj.TrialData(str(path), traj.select(pset.marker_names), traj.times)
+            rec = mocap_mj.Recording(str(path), traj.select(pset.marker_names), traj.times,
+                                     traj.rate)  # fmt: skip
             with floor_off(off):
-                fit = mocap_mj.identify([trial], mocap_mj.Recipe(), from_c3d(path),
-                                        rates=[traj.rate])  # fmt: skip
+                fit = mocap_mj.identify([rec], mocap_mj.Recipe(), from_c3d(path))
             print(_line(f"{name} {label}", fit), flush=True)
 
 

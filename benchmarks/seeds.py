@@ -31,9 +31,10 @@ from mocap_mj.anatomy.anatomy import ASYMMETRY_SIGMA
 from mocap_mj.capture.subject import Subject
 from mocap_mj.outputs.score import score
 from mocap_mj.outputs.write_fit import write_result
+from mocap_mj.pipeline.anatomical import AnatomyPriors, anatomical_priors, prior_information
 from mocap_mj.pipeline.api import identify
 from mocap_mj.pipeline.recipe import Recipe
-from mocap_mj.pipeline.steps import anatomical_priors, prior_information
+from mocap_mj.pipeline.run_options import Tuning
 from mocap_mj.solve.lm import LMSettings, Performance, Tolerances
 from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize, write_experiment
@@ -92,13 +93,14 @@ def main() -> None:
                 settings, init="nominal", anatomy=not args.no_anatomy,
                 asymmetry_prior=args.asymmetry_prior, sliding_landmarks=False, select="all",
             )  # fmt: skip
-            fit = identify([trial], recipe, pset=pset, tolerances=settings.tolerances,
-                           performance=settings.performance)  # fmt: skip
+            tuning = Tuning(settings.tolerances, settings.performance)
+            fit = identify([trial], recipe, pset=pset, tuning=tuning)
             ident, idf = write_result(fit, d / "result", force=True), fit.identifiability
             seconds = time.perf_counter() - t0
             s = score(d / "synth", d / "result", pset=pset, plot=False)
+        symmetric = ASYMMETRY_SIGMA if args.asymmetry_prior else None
         priors = [] if args.no_anatomy else anatomical_priors(
-            pset, Subject(), symmetric=ASYMMETRY_SIGMA if args.asymmetry_prior else None
+            pset, AnatomyPriors(Subject(), symmetric=symmetric)
         )  # fmt: skip
         pk, po = idf.bound_rms_with_prior(prior_information(priors, settings, pset.size))
         post = (s["kappa_rmse_mm"] / (pk * 1e3), s["offset_rmse_mm"] / (po * 1e3))

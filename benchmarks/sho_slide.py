@@ -20,6 +20,7 @@ import numpy as np
 from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.anatomy.tissue import SHOULDER_SLIDE, slide_angles
 from mocap_mj.capture.subject import Subject
+from mocap_mj.pipeline.anatomical import AnatomyPriors, Weighing
 from mocap_mj.pipeline.steps import solve_anatomical
 from mocap_mj.solve.lm import LMSettings
 from mocap_mj.solve.problem import TrialData
@@ -64,8 +65,8 @@ def main() -> None:
         line = [f"seed {seed}: elevation max {np.degrees(np.nanmax(angles)):.0f} deg"]
         for label, s in (("without", None), ("with SHOULDER_SLIDE", slides)):
             res, wt = solve_anatomical(
-                [trial], pset=pset, theta0=None, settings=LMSettings(), subject=Subject(),
-                slides=s,
+                [trial], pset=pset, theta0=None, settings=LMSettings(),
+                anatomy=AnatomyPriors(Subject()), weighing=Weighing(slides=s),
             )  # fmt: skip
             err = (res.theta[idx] - exp.theta_true[idx]) * 1e3
             gh = gh_error(pset, res, kin, qpos) * 1e3

@@ -26,8 +26,10 @@ if TYPE_CHECKING:
     from mocap_mj.pipeline.api import identify
     from mocap_mj.pipeline.fit import Fit
     from mocap_mj.pipeline.motion import Motion
+    from mocap_mj.pipeline.prepare import Recording
     from mocap_mj.pipeline.recipe import Recipe
     from mocap_mj.pipeline.robust_ik import solve_motion
+    from mocap_mj.pipeline.run_options import Hooks, Tuning
     from mocap_mj.skeleton.kinematics import Frames, Kinematics
     from mocap_mj.skeleton.mjcf import load_model, model_path
     from mocap_mj.skeleton.parameters import KINEMATIC_PARAMETERS, KinematicParameter, ParameterSet
@@ -54,6 +56,9 @@ _LAZY = {
     "identify": ".pipeline.api",
     "Motion": ".pipeline.motion",
     "Recipe": ".pipeline.recipe",
+    "Recording": ".pipeline.prepare",
+    "Hooks": ".pipeline.run_options",
+    "Tuning": ".pipeline.run_options",
     "TrialData": ".solve.problem",
     "solve_motion": ".pipeline.robust_ik",
     "write_result": ".outputs.write_fit",
@@ -68,6 +73,7 @@ __all__ = [
     "MARKER_NAMES",
     "Fit",
     "Frames",
+    "Hooks",
     "InputFileError",
     "KinematicParameter",
     "Kinematics",
@@ -75,9 +81,11 @@ __all__ = [
     "Motion",
     "ParameterSet",
     "Recipe",
+    "Recording",
     "ShapeError",
     "SolverError",
     "TrialData",
+    "Tuning",
     "UnknownNameError",
     "__version__",
     "identify",

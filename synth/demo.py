@@ -25,10 +25,11 @@ from mocap_mj.commands.common import into_out_folder, prepare_out
 from mocap_mj.commands.progress import progress_bar
 from mocap_mj.outputs.score import score
 from mocap_mj.outputs.write_fit import expected_rmse, write_result
+from mocap_mj.pipeline.anatomical import AnatomyPriors, anatomical_priors, prior_information
 from mocap_mj.pipeline.api import identify
 from mocap_mj.pipeline.fit import Fit
 from mocap_mj.pipeline.recipe import Recipe
-from mocap_mj.pipeline.steps import anatomical_priors, prior_information
+from mocap_mj.pipeline.run_options import Hooks
 from mocap_mj.skeleton import prewarm
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
@@ -55,7 +56,7 @@ def _identify(exp: Any, pset: ParameterSet, staging: Path, out: Path, quiet: boo
     # best prior mean, and its white noise shows no soft tissue to slide.
     recipe = Recipe(init="nominal", asymmetry_prior=False, sliding_landmarks=False, select="all")
     with progress_bar("identify (LM)", enabled=not quiet) as progress:
-        fit = identify([trial], recipe, pset=pset, progress=progress)
+        fit = identify([trial], recipe, pset=pset, hooks=Hooks(progress))
     write_result(
         fit,
         prepare_out(staging / "result", force=True),
@@ -97,7 +98,7 @@ def _demo(args: argparse.Namespace, staging: Path, out: Path) -> tuple[dict[str,
     ident, settings, idf = fit.summary(), fit.settings, fit.identifiability
     s = score(staging / "synth", staging / "result", pset=pset)
     # The bound with the landmark priors' information added (the score's is the data's own).
-    info = prior_information(anatomical_priors(pset, Subject()), settings, pset.size)
+    info = prior_information(anatomical_priors(pset, AnatomyPriors(Subject())), settings, pset.size)
     pk, po = (b * 1e3 for b in idf.bound_rms_with_prior(info))
     s.update(_held_out(pset, fit.theta, walk))
     seconds = time.perf_counter() - t0

@@ -15,7 +15,8 @@ from _motion import smooth_motion
 from mocap_mj import Kinematics, MocapError, ParameterSet
 from mocap_mj.anatomy.anatomy import ALIGNMENT, SIGMA_REGRESSED, landmark_prior, marker_prior_table
 from mocap_mj.capture.subject import Subject
-from mocap_mj.pipeline.steps import anatomical_priors, prior_information, solve_anatomical
+from mocap_mj.pipeline.anatomical import AnatomyPriors, anatomical_priors, prior_information
+from mocap_mj.pipeline.steps import solve_anatomical
 from mocap_mj.solve.identifiability import Identifiability
 from mocap_mj.solve.lm import LMSettings
 from mocap_mj.solve.problem import TrialData, reduced_information
@@ -81,9 +82,11 @@ def test_valgus_subject_is_recovered_within_its_bound(pset: ParameterSet) -> Non
     trial = TrialData("valgus", markers, np.arange(300) / 100.0)
     settings = LMSettings()
     result, _ = solve_anatomical([trial], pset=pset, theta0=None, settings=settings,
-                                 subject=Subject())  # fmt: skip
+                                 anatomy=AnatomyPriors(Subject()))  # fmt: skip
     info = result.reduced_information / result.sigma**2 + prior_information(
-        anatomical_priors(pset, Subject(), noise=settings.prior_noise), settings, pset.size
+        anatomical_priors(pset, AnatomyPriors(Subject()), noise=settings.prior_noise),
+        settings,
+        pset.size,
     )
     std = np.sqrt(np.diag(np.linalg.inv(info)))
     for name in ALIGNED:

@@ -32,11 +32,10 @@ def _api_fit(path: Path, window: tuple[int, int] | None, recipe: mocap_mj.Recipe
     pset = mocap_mj.ParameterSet()
     traj = load_markers(str(path), model_names=pset.marker_names)
     a, b = window or (0, len(traj.times))
-    trial = mocap_mj.TrialData(str(path), traj.select(pset.marker_names)[a:b], traj.times[a:b])
+    markers, times = traj.select(pset.marker_names)[a:b], traj.times[a:b]
+    recording = mocap_mj.Recording(str(path), markers, times, traj.rate, first_frame=a)
     subject = from_c3d(path) if path.suffix.lower() == ".c3d" else None
-    return mocap_mj.identify(
-        [trial], recipe, subject, pset=pset, first_frames=[a], rates=[traj.rate]
-    )
+    return mocap_mj.identify([recording], recipe, subject, pset=pset)
 
 
 def _command(out: Path, *options: str) -> np.ndarray:

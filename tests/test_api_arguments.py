@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 import mocap_mj
-from mocap_mj import MocapError, ParameterSet, Recipe, TrialData
+from mocap_mj import Hooks, MocapError, ParameterSet, Recipe, TrialData, Tuning
 from mocap_mj.errors import ArgumentError
 from mocap_mj.pipeline.fit import Fit
 
@@ -140,24 +140,43 @@ def identify_cases(trial: TrialData, pset: ParameterSet) -> Iterator[tuple[str, 
     for name, kinds in (
         ("subject", ("dict", "text")),
         ("pset", ("dict", "text")),
-        ("tolerances", ("dict", "text")),
-        ("performance", ("dict", "text")),
-        ("motion_sink", ("dict",)),
+        ("tuning", ("dict", "text")),
+        ("hooks", ("dict", "text")),
         ("landmarks", ("text",)),
     ):
         for label in kinds:
             yield name, label, call(**{name: {"a": 1} if label == "dict" else "text"})
     yield "landmarks", "numbers", call(landmarks={1: 2})
-    for name in ("progress", "motion_progress"):
-        yield name, "not callable", call(**{name: 3})
+    for field in ("tolerances", "performance"):
+        for label, value in (("dict", {"a": 1}), ("text", "text")):
+            yield f"tuning.{field}", label, call(tuning=Tuning(**{field: value}))
+    for field in ("progress", "motion_progress"):
+        yield f"hooks.{field}", "not callable", call(hooks=Hooks(**{field: 3}))
+    yield "hooks.motion_sink", "dict", call(hooks=Hooks(motion_sink={"a": 1}))
     for label, value in bad_arrays(pset.nominal):
         yield "theta0", label, call(theta0=value)
     yield "theta0", "one too many", call(theta0=np.append(pset.nominal, 0.0))
-    for label, value in (("negative", [-1]), ("fraction", [1.5]), ("text", ["0"]),
-                         ("one too many", [0, 0]), ("a number", 0)):  # fmt: skip
-        yield "first_frames", label, call(first_frames=value)
-    for label, value in bad_rates(1):
-        yield "rates", label, call(rates=value)
+    yield from recording_cases(trial, call)
+
+
+def recording_cases(trial: TrialData, call: Callable[..., Call]) -> Iterator[tuple[str, str, Call]]:
+    """``identify([Recording(name, markers, times, rate, first_frame)])`` with one field bad."""
+    m, t = trial.markers, trial.times
+
+    def one(**kw: Any) -> Call:
+        fields = {"name": "r", "markers": m, "times": t, "rate": 100.0, **kw}
+        return call(recordings=[mocap_mj.Recording(**fields)])
+
+    for label, value in (("negative", -1), ("fraction", 1.5), ("text", "0")):
+        yield "recordings[0].first_frame", label, one(first_frame=value)
+    for label, rate in (("zero", 0.0), ("negative", -100.0), ("NaN", math.nan), ("inf", math.inf),
+                        ("text", "100")):  # fmt: skip
+        yield "recordings[0].rate", label, one(rate=rate)
+    for label, value in bad_arrays(m, nan=False):
+        yield "recordings[0]", f"markers {label}", one(markers=value)
+    for label, value in bad_times(t):
+        yield "recordings[0]", f"times {label}", one(times=value)
+    yield "recordings[0]", "mm as m", one(markers=m * 1e3)
 
 
 def solve_motion_cases(trial: TrialData, pset: ParameterSet) -> Iterator[tuple[str, str, Call]]:

@@ -12,6 +12,7 @@ from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.anatomy.anatomy import landmark_prior
 from mocap_mj.anatomy.arm_axes import arm_angle, lever
 from mocap_mj.capture.subject import Subject
+from mocap_mj.pipeline.anatomical import AnatomyPriors
 from mocap_mj.pipeline.steps import solve_anatomical
 from mocap_mj.solve.lm import LMSettings
 from mocap_mj.solve.problem import TrialData
@@ -59,7 +60,7 @@ def _solve(pset: ParameterSet, truth: np.ndarray, qpos: np.ndarray, seed: int) -
         subject.set(f"elbow_width_{side}", 0.066, "test")
         subject.set(f"wrist_width_{side}", WRIST_WIDTH, "test")
     return solve_anatomical([trial], pset=pset, theta0=None, settings=LMSettings(),
-                            subject=subject)  # fmt: skip
+                            anatomy=AnatomyPriors(subject))  # fmt: skip
 
 
 def test_arm_angle_measures_the_turn(pset: ParameterSet) -> None:

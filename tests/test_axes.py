@@ -12,6 +12,7 @@ from mocap_mj.anatomy.anatomy import landmark_prior
 from mocap_mj.anatomy.axes import knee_crosstalk, pig_angle
 from mocap_mj.anatomy.axis_rows import wand_width
 from mocap_mj.capture.subject import Measurement, Subject
+from mocap_mj.pipeline.anatomical import AnatomyPriors
 from mocap_mj.pipeline.recipe import Recipe
 from mocap_mj.pipeline.steps import solve_anatomical
 from mocap_mj.solve.lm import LMSettings
@@ -49,7 +50,7 @@ def _solve(pset: ParameterSet, truth: np.ndarray, qpos: np.ndarray, seed: int) -
         subject.set(f"knee_width_{side}", 0.086, "test")
         subject.set(f"ankle_width_{side}", 0.066, "test")
     return solve_anatomical([trial], pset=pset, theta0=None, settings=LMSettings(),
-                            subject=subject)  # fmt: skip
+                            anatomy=AnatomyPriors(subject))  # fmt: skip
 
 
 def test_pig_angle_follows_the_chord_plane(pset: ParameterSet) -> None:

@@ -25,7 +25,8 @@ def _fit(motion: str, sta_mm: float, seed: int, shift: float = 0.0) -> tuple[Any
     names = ("hip_width_l", "hip_width_r")
     exp = at_regression(exp, {n: shift for n in names})
     trial = mocap_mj.TrialData("synth", np.array(exp.markers), np.array(exp.times))
-    return exp, mocap_mj.identify([trial], mocap_mj.Recipe(), None, rates=[100.0])
+    at_100_hz = mocap_mj.Recording(trial.name, trial.markers, trial.times, 100.0)
+    return exp, mocap_mj.identify([at_100_hz], mocap_mj.Recipe(), None)
 
 
 @pytest.mark.slow

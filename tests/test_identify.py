@@ -15,7 +15,8 @@ from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.capture.marker_set import marked_bodies
 from mocap_mj.capture.subject import Subject
 from mocap_mj.outputs.score import align_truth, joint_centres
-from mocap_mj.pipeline.steps import anatomical_priors, prior_information, solve_anatomical
+from mocap_mj.pipeline.anatomical import AnatomyPriors, anatomical_priors, prior_information
+from mocap_mj.pipeline.steps import solve_anatomical
 from mocap_mj.solve.centres import joint_centre_bound
 from mocap_mj.solve.identifiability import Identifiability
 from mocap_mj.solve.lm import LMSettings, identify_lm
@@ -54,7 +55,7 @@ def clean():  # type: ignore[no-untyped-def]
     # As `mocap-mj demo` solves it: anatomical ranges and landmark priors on, no population
     # asymmetry prior (the synthetic truth draws left and right lengths independently).
     result, _ = solve_anatomical(
-        [trial], pset=pset, theta0=None, settings=LMSettings(), subject=Subject()
+        [trial], pset=pset, theta0=None, settings=LMSettings(), anatomy=AnatomyPriors(Subject())
     )
     idf = Identifiability(pset, result.reduced_information, result.sigma, theta=result.theta)
     return pset, exp, result, idf
@@ -77,7 +78,9 @@ def test_reaches_the_bound_on_the_observable_subspace(clean) -> None:  # type: i
     # The bound with the priors' information: never above the data's, and close to it (the
     # priors inform the directions the score leaves out), so the ratios hold against it too.
     bk, bo = idf.bound_rms()
-    info = prior_information(anatomical_priors(pset, Subject()), LMSettings(), pset.size)
+    info = prior_information(
+        anatomical_priors(pset, AnatomyPriors(Subject())), LMSettings(), pset.size
+    )
     pk, po = idf.bound_rms_with_prior(info)
     assert 0.9 * bk < pk <= bk and 0.9 * bo < po <= bo, (pk / bk, po / bo)
     # Against the bound with the priors (3-6 % below the data's since the 3 mm convention

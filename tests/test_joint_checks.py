@@ -27,8 +27,11 @@ from mocap_mj.anatomy.joint_checks import (
 )
 from mocap_mj.capture.subject import Subject
 from mocap_mj.cli import main
+from mocap_mj.pipeline.anatomical import AnatomyPriors, Weighing, anatomical_priors
+from mocap_mj.pipeline.prepare import Prepared
 from mocap_mj.pipeline.recipe import Recipe
-from mocap_mj.pipeline.steps import _held_at_construction, anatomical_priors, solve_trials
+from mocap_mj.pipeline.report import MarkerQuality
+from mocap_mj.pipeline.steps import _held_at_construction, solve_trials
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.problem import TrialData
@@ -282,9 +285,9 @@ def test_holding_a_joint_narrows_its_construction_rows_only(pset: ParameterSet) 
     subject = Subject()
     subject.set("knee_width_l", 0.100, "test")
     axes: dict[str, float | None] = {"LTHI": 0.005}
-    free = anatomical_priors(pset, subject, symmetric=0.005, axes=axes)
+    free = anatomical_priors(pset, AnatomyPriors(subject, symmetric=0.005), axes=axes)
     joints = ["knee_l", "hip_r"]
-    held = anatomical_priors(pset, subject, symmetric=0.005, axes=axes, held=joints)
+    held = anatomical_priors(pset, AnatomyPriors(subject, symmetric=0.005, held=joints), axes=axes)
     changed = {}
     for a, b in zip(free, held, strict=True):
         for label, s0, s1 in zip(a.labels, a.sigma, b.sigma, strict=True):
@@ -313,18 +316,17 @@ def test_a_joint_the_markers_leave_free_is_held_at_its_construction(
     recipe = Recipe()
     settings = recipe.settings()
     trials = [TrialData("synthetic", symmetric.markers, symmetric.times)]
-    solved = solve_trials(trials, ParameterSet(), settings, recipe, None, None, None)
+    prepared = Prepared(recipe, ParameterSet(), trials, [0], Subject(), MarkerQuality(), {})
+    solved = solve_trials(prepared, trials, settings)
     pset, first = solved.pset, solved.result
     thrown = first.theta.copy()
     thrown[pset.index("knee_lateral_l")] += 0.120
     bad = replace(first, theta=thrown)
     assert held_joints(joint_checks(pset, thrown, solved.subject)) == ["knee_l", "knee_r"]
-    result, weighting = _held_at_construction(
-        trials, bad, solved.weighting, pset=pset, theta0=first.theta0, settings=settings,
-        progress=None, slides=solved.slides, trial_weights=True, subject=solved.subject,
-        size=solved.size, symmetric=solved.symmetric, t10=solved.t10_prior,
-        hip_centre="harrington", landmarks=None, anatomical=True,
-    )  # fmt: skip
+    assert solved.anatomy is not None
+    solve = {"pset": pset, "theta0": first.theta0, "settings": settings,
+             "weighing": Weighing(solved.slides), "progress": None}  # fmt: skip
+    result, weighting = _held_at_construction(trials, bad, solved.weighting, solved.anatomy, solve)
     record = weighting.held_at_construction
     assert record.joints == ["knee_l", "knee_r"] and record.kept
     assert weighting.held_joints == ["knee_l", "knee_r"]

@@ -14,6 +14,7 @@ from mocap_mj import InputFileError, Kinematics, ParameterSet
 from mocap_mj.capture.landmarks import disagreements, measured_widths
 from mocap_mj.capture.marker_set import load_marker_set, model_with_marker_set, save_marker_set
 from mocap_mj.capture.subject import Subject
+from mocap_mj.pipeline.anatomical import AnatomyPriors
 from mocap_mj.pipeline.steps import solve_anatomical
 from mocap_mj.skeleton.mjcf import model_path
 from mocap_mj.solve.lm import LMSettings
@@ -92,7 +93,7 @@ def test_measured_width_puts_the_knee_centre_between_the_epicondyles(medial: tup
     gaps = []
     for given in (subject, Subject()):
         result, _ = solve_anatomical([trial], pset=pset, theta0=None, settings=LMSettings(),
-                                     subject=given)  # fmt: skip
+                                     anatomy=AnatomyPriors(given))  # fmt: skip
         offsets, centres = pset.split(result.theta)[1], pset.body_pos(result.theta)
         gaps.append([
             abs(centres[pset.model.body(f"shank_{side}").id][1]
@@ -114,9 +115,9 @@ def test_epicondyle_pair_places_the_knee_centre_at_its_midpoint(medial: tuple) -
     for side in "lr":
         subject.set(f"knee_width_{side}", 2 * HALF - 0.014, "test")
         subject.set(f"ankle_width_{side}", 0.086 - 0.014, "test")
+    anatomy = AnatomyPriors(subject, landmarks=landmarks)
     result, weighting = solve_anatomical([trial], pset=pset, theta0=None,
-                                         settings=LMSettings(), subject=subject,
-                                         landmarks=landmarks)  # fmt: skip
+                                         settings=LMSettings(), anatomy=anatomy)  # fmt: skip
     decided = weighting.joint_axes
     assert not [j for j in decided if j.startswith(("knee", "ankle"))]  # the pairs give those
     offsets, centres = pset.split(result.theta)[1], pset.body_pos(result.theta)

@@ -380,7 +380,6 @@ def test_select_refines_with_the_sliding_weights_its_solve_used(
     from types import SimpleNamespace
 
     from mocap_mj.anatomy.tissue import SLIDES
-    from mocap_mj.capture.subject import Subject
     from mocap_mj.long.refine import Refinement
     from mocap_mj.pipeline import steps as pipeline
     from mocap_mj.pipeline.results import Weighting
@@ -406,10 +405,7 @@ def test_select_refines_with_the_sliding_weights_its_solve_used(
             pset=pset,
             settings=LMSettings(),
             weighting=weighting,
-            subject=Subject(),
-            size=1.0,
-            anatomical=False,
-            symmetric=None,
+            anatomy=None,
             slides=SLIDES,
         )
     weighted, plain = seen

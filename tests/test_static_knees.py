@@ -11,6 +11,7 @@ from _motion import smooth_motion
 from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.anatomy.axes import pig_angle
 from mocap_mj.capture.subject import Subject
+from mocap_mj.pipeline.anatomical import AnatomyPriors
 from mocap_mj.pipeline.steps import solve_anatomical
 from mocap_mj.solve.lm import LMSettings
 from mocap_mj.solve.problem import TrialData
@@ -40,7 +41,7 @@ def test_static_hyperextended_knees_keep_their_angle() -> None:
         subject.set(f"ankle_width_{side}", 0.072, "test")
     trial = TrialData("static", markers, np.arange(80) / 100.0)
     result, weighting = solve_anatomical([trial], pset=pset, theta0=None, settings=LMSettings(),
-                                         subject=subject)  # fmt: skip
+                                         anatomy=AnatomyPriors(subject))  # fmt: skip
     lower = np.degrees(pset.model.jnt_range[pset.model.joint("knee_flex_l").id][0])
     for side, i in zip("lr", knees, strict=True):
         d = weighting.joint_axes[f"knee_{side}"]

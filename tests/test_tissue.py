@@ -22,6 +22,7 @@ from mocap_mj.anatomy.tissue import (
     with_sliding_model,
 )
 from mocap_mj.capture.subject import Subject
+from mocap_mj.pipeline.anatomical import AnatomyPriors, Weighing
 from mocap_mj.pipeline.steps import solve_anatomical
 from mocap_mj.solve.lm import LMSettings
 from mocap_mj.solve.losses import L2, Cauchy, Huber, Weighted
@@ -169,7 +170,12 @@ def experiment(pset: ParameterSet):  # type: ignore[no-untyped-def]
 
 def _solve(pset: ParameterSet, trial: TrialData, slides):  # type: ignore[no-untyped-def]
     return solve_anatomical(
-        [trial], pset=pset, theta0=None, settings=LMSettings(), subject=Subject(), slides=slides
+        [trial],
+        pset=pset,
+        theta0=None,
+        settings=LMSettings(),
+        anatomy=AnatomyPriors(Subject()),
+        weighing=Weighing(slides=slides),
     )
 
 

@@ -25,6 +25,7 @@ from mocap_mj.capture.subject import Subject
 from mocap_mj.cli import main
 from mocap_mj.outputs.write_fit import _anatomy_lines
 from mocap_mj.pipeline import steps as pipeline
+from mocap_mj.pipeline.anatomical import AnatomyPriors
 from mocap_mj.pipeline.steps import solve_anatomical
 from mocap_mj.solve.consistency import joint_centre_lengths
 from mocap_mj.solve.lm import LMSettings
@@ -88,7 +89,7 @@ def pair() -> dict[str, Any]:
         with pytest.MonkeyPatch.context() as mp:
             mp.setattr(pipeline, "trial_weights", rule)
             out[name] = solve_anatomical(trials, pset=pset, theta0=None, settings=LMSettings(),
-                                         subject=Subject())  # fmt: skip
+                                         anatomy=AnatomyPriors(Subject()))  # fmt: skip
     return out
 
 
@@ -162,7 +163,7 @@ def test_without_t10_the_thorax_depth_is_placed() -> None:
     assert any("no T10" in label for label in labels)
     assert not any("no T10" in label for label in landmark_prior(pset, Subject()).labels)
     result, _ = solve_anatomical(trials, pset=frozen, theta0=None, settings=LMSettings(),
-                                 subject=Subject())  # fmt: skip
+                                 anatomy=AnatomyPriors(Subject()))  # fmt: skip
     at_bound = [n for n, b in zip(pset.kappa_names, result.at_bound, strict=False) if b]
     assert at_bound == []
     k = pset.kappa_names.index("neck_depth")

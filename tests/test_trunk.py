@@ -20,10 +20,10 @@ import pytest
 
 from mocap_mj import ParameterSet
 from mocap_mj.anatomy.anatomy import landmark_prior
+from mocap_mj.anatomy.initial import with_stature
 from mocap_mj.anatomy.trunk import T10Placement, t10_placement
 from mocap_mj.capture.subject import Subject
 from mocap_mj.cli import main
-from mocap_mj.pipeline.steps import _with_stature
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize, write_experiment
@@ -116,7 +116,7 @@ def test_normal_t10_is_not_found() -> None:
     pset = ParameterSet()
     exp = synthesize(SynthConfig(frames=50, seed=0), pset)
     trials = [TrialData("synth", np.asarray(exp.markers), np.asarray(exp.times))]
-    subject = _with_stature(Subject(), trials, pset)
+    subject = with_stature(Subject(), pset, [t.markers for t in trials])
     t10 = t10_placement(pset, trials, subject)
     assert t10 is not None and t10.finding is None
     assert abs(t10.shift) < 2.0 * t10.spread

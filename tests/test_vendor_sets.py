@@ -27,6 +27,7 @@ from mocap_mj.capture.marker_set import load_marker_set, model_with_marker_set
 from mocap_mj.capture.roles import roles
 from mocap_mj.capture.subject import Subject
 from mocap_mj.cli import main
+from mocap_mj.pipeline.anatomical import AnatomyPriors
 from mocap_mj.pipeline.motion import load_motion
 from mocap_mj.pipeline.steps import solve_anatomical
 from mocap_mj.solve.lm import LMSettings
@@ -100,7 +101,7 @@ def test_pairs_place_both_sides_centres_at_their_midpoints(tmp_path: Path, stati
     for w in measured_widths(landmarks, bodies, pset.marker_names, [markers], 0.014):
         subject.set(w.name, w.value, w.source)
     result, _ = solve_anatomical([trial], pset=pset, theta0=None, settings=LMSettings(),
-                                 subject=subject, landmarks=landmarks)  # fmt: skip
+                                 anatomy=AnatomyPriors(subject, landmarks=landmarks))  # fmt: skip
     gaps = pair_centre_gaps(pset, result.theta, landmarks, pset.marker_names)
     assert set(gaps) == {"knee_l", "knee_r", "ankle_l", "ankle_r"}
     assert max(gaps.values()) < (0.0005 if static else 0.0015), gaps

@@ -87,7 +87,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mocap_mj.anatomy.ranges import NOMINAL_HEIGHT
-from mocap_mj.capture.subject import StatureEstimate
+from mocap_mj.capture.subject import StatureEstimate, Subject
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.skeleton.rigid import rigid_fit
@@ -627,3 +627,12 @@ def place_markers(
                 th[k + 3 * j : k + 3 * j + 3] = m
         kin.set_theta(th)
     return kin.theta.copy()
+
+
+def with_stature(subject: Subject, pset: ParameterSet, markers: Sequence[np.ndarray]) -> Subject:
+    """``subject`` with the stature estimated from the trials' ``markers`` (each (T_i, M, 3)
+    [m]; :func:`estimate_stature`) when its height is not measured: the anatomical ranges
+    and the stature-scaled priors are centred on it."""
+    if subject.get("height") is not None:
+        return subject
+    return subject.with_stature_estimate(estimate_stature(segment_scales(pset, markers)))

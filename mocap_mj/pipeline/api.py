@@ -16,7 +16,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
@@ -26,6 +26,7 @@ from mocap_mj.capture.subject import Subject
 from mocap_mj.io.strict_json import jsonable
 from mocap_mj.kernels._threads import single_blas_thread
 from mocap_mj.long.motion_out import every_frame_motion, write_every_frame_motion
+from mocap_mj.pipeline.anatomical import anatomical_priors, prior_information
 from mocap_mj.pipeline.arguments import IDENTIFY, identify_call
 from mocap_mj.pipeline.fit import Fit
 from mocap_mj.pipeline.marker_model import set_path
@@ -41,10 +42,9 @@ from mocap_mj.pipeline.prepare import (
 from mocap_mj.pipeline.recipe import Recipe, check_select
 from mocap_mj.pipeline.report import Checks, Report, Timings
 from mocap_mj.pipeline.results import joint_axes
+from mocap_mj.pipeline.run_options import Hooks, Tuning
 from mocap_mj.pipeline.steps import (
     Solved,
-    anatomical_priors,
-    prior_information,
     robust_for,
     sliding_weigh,
     solve_trials,
@@ -63,10 +63,9 @@ from mocap_mj.pipeline.summary import (
 )
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.identifiability import Identifiability
-from mocap_mj.solve.lm import LMSettings, Performance, Tolerances
+from mocap_mj.solve.lm import LMSettings
 from mocap_mj.solve.problem import TrialData
 from mocap_mj.solve.selection import select_in_trials
-from mocap_mj.solve.solver_result import ProgressCallback
 
 from ..arguments import validated
 
@@ -89,14 +88,9 @@ def identify(
     *,
     pset: ParameterSet | None = None,
     theta0: np.ndarray | None = None,
-    first_frames: Sequence[int] | None = None,
-    rates: Sequence[float] | None = None,
-    tolerances: Tolerances | None = None,
-    performance: Performance | None = None,
-    progress: ProgressCallback | None = None,
-    motion_progress: Callable[[int], None] | None = None,
-    motion_sink: Path | None = None,
     landmarks: Mapping[str, str] | None = None,
+    tuning: Tuning | None = None,
+    hooks: Hooks | None = None,
 ) -> Fit:
     """Identify the subject's model and motion from ``recordings`` as ``recipe`` says: the
     whole pipeline of ``mocap-mj identify`` (:func:`~mocap_mj.pipeline.prepare.prepare`, then
@@ -106,26 +100,26 @@ def identify(
     ----------
     recordings : what :func:`mocap_mj.io.load_markers` returns (a trajectory, its labels
         matched to the model's markers by name), or TrialData with markers (T_i, M, 3) [m]
-        in ``pset``'s marker order (NaN where missing) and times (T_i,) [s], or
-        :class:`~mocap_mj.pipeline.prepare.Recording`; one model for all of them. The
+        in ``pset``'s marker order (NaN where missing) and times (T_i,) [s] (first frame 0,
+        the rate from the times), or :class:`~mocap_mj.pipeline.prepare.Recording` (the
+        same with its rate [Hz] and first frame given); one model for all of them. The
         caller's arrays are never changed.
     recipe : the choices (default: those of ``mocap-mj identify``).
     subject : the subject's measurements (default: none; the stature is then estimated).
     pset : the parameters to identify (default: the recipe's model and marker set, the set
         detected from the labels when the recipe names none).
     theta0 : (P,) [m] the initial model (default: from ``recipe.init``).
-    first_frames : a TrialData's first frame in its file (default 0): report and table rows.
-    rates : a TrialData's frame rate [Hz] for the quality check (default: from its times).
-    tolerances, performance : the solver's (default: theirs); they do not change the problem.
-    progress : called with every LM iteration's trace entry.
-    motion_progress : called with the frames done of the motion of every frame.
-    motion_sink : a folder; when the recipe selects frames (a long recording), every frame's
-        motion is solved chunk by chunk and written there as it comes (motion*.npz,
-        joint_centres*.csv; the memory then does not grow with the recording) and
-        ``Fit.motion`` is None (``Fit.motion_files`` names the files). Default None: the
-        motion is held in memory (poses (T, nq) per trial).
     landmarks : marker -> the anatomical landmark it sits on, for a ``pset`` of the caller's
         (default: the recipe's marker set's ``landmark:`` entries).
+    tuning : :class:`~mocap_mj.pipeline.run_options.Tuning`, the solver's tolerances and
+        performance options (default: theirs); they do not change the problem.
+    hooks : :class:`~mocap_mj.pipeline.run_options.Hooks`: ``progress`` called with every
+        LM iteration's trace entry; ``motion_progress`` with the frames done of the motion
+        of every frame; ``motion_sink`` a folder: when the recipe selects frames (a long
+        recording), every frame's motion is solved chunk by chunk and written there as it
+        comes (motion*.npz, joint_centres*.csv; the memory then does not grow with the
+        recording) and ``Fit.motion`` is None (``Fit.motion_files`` names the files).
+        Default: none; the motion is held in memory (poses (T, nq) per trial).
 
     Notices (each label corrected, each quality warning) go to the logger
     ``mocap_mj.notices`` as they are found (:mod:`mocap_mj.pipeline.quality`); the fit's
@@ -140,31 +134,17 @@ def identify(
         if pset is None
         else ModelChoice(pset, set_path(recipe.marker_set))
     )
-    firsts = list(first_frames or [0] * len(recordings))
-    rate_of: list[float | None] = [None] * len(recordings) if rates is None else list(rates)
     prepared = prepare(
-        [
-            recording(r, model.pset, f, q)
-            for r, f, q in zip(recordings, firsts, rate_of, strict=True)
-        ],
+        [recording(r, model.pset) for r in recordings],
         recipe,
         subject,
         model,
     )
     if landmarks is not None:
         prepared = replace(prepared, landmarks=landmarks)
-    hooks = Hooks(progress, motion_progress, motion_sink)
-    return identify_prepared(prepared, theta0, recipe.settings(tolerances, performance), hooks)
-
-
-class Hooks(NamedTuple):
-    """What an identification reports to and writes into while it runs: ``progress`` (each
-    LM iteration's trace entry), ``motion_progress`` (the frames done of every frame's
-    motion), ``motion_sink`` (a folder for a long recording's motion, chunk by chunk)."""
-
-    progress: ProgressCallback | None = None
-    motion_progress: Callable[[int], None] | None = None
-    motion_sink: Path | None = None
+    tuning = tuning or Tuning()
+    settings = recipe.settings(tuning.tolerances, tuning.performance)
+    return identify_prepared(prepared, theta0, settings, hooks)
 
 
 @single_blas_thread
@@ -197,8 +177,8 @@ def identify_prepared(
         report["frames_selected"] = kept
         whole = trials
     solved = solve_trials(
-        fitted, pset, settings, recipe, prepared.subject, theta0, hooks.progress, whole,
-        landmarks=prepared.landmarks or None,
+        prepared, fitted, settings, theta0=theta0, progress=hooks.progress,
+        selected=whole is not None,
     )  # fmt: skip
     partial = Report(prepared.quality, EMPTY_CHECKS, Timings(solved.seconds, None, select_seconds))
     fit = _described(solved, fitted, settings, recipe, (report, partial), firsts)
@@ -236,14 +216,11 @@ def _described(
     quality = report.quality
     if solved.t10_prior is not None and solved.t10_prior.finding is not None:
         quality = quality.with_finding(solved.t10_prior.finding)
+    w = solved.weighting
     priors = (
-        anatomical_priors(pset, solved.subject, size=solved.size, symmetric=solved.symmetric,
-                          t10=solved.t10_prior, hip_centre=recipe.hip_centre,
-                          axes=widths(pset, joint_axes(solved.weighting) or None),
-                          landmarks=solved.landmarks,
-                          centres=solved.weighting.centre_widths,
-                          held=solved.weighting.held_joints)
-        if recipe.anatomy and solved.weighting is not None
+        anatomical_priors(pset, replace(solved.anatomy, held=w.held_joints),
+                          axes=widths(pset, joint_axes(w) or None), centres=w.centre_widths)
+        if solved.anatomy is not None and w is not None
         else []
     )  # fmt: skip
     info = prior_information(priors, settings, pset.size)

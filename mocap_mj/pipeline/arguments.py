@@ -17,6 +17,7 @@ from mocap_mj.io.marker_names import MARKER_NAMES
 from mocap_mj.io.trajectory import MarkerTrajectory
 from mocap_mj.pipeline.prepare import Recording
 from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.pipeline.run_options import Hooks, Tuning
 from mocap_mj.skeleton.parameters import KINEMATIC_PARAMETERS, ParameterSet
 from mocap_mj.solve.ik import IKSettings
 from mocap_mj.solve.losses import LOSS_NAMES
@@ -66,7 +67,9 @@ def recordings_list(name: str, value: Any) -> None:
     if not items:
         raise ArgumentError(f"{name}: expected at least one recording, got none")
     for i, item in enumerate(items):
-        if not isinstance(item, MarkerTrajectory | Recording):
+        if isinstance(item, Recording):
+            one_recording(f"{name}[{i}]", item)
+        elif not isinstance(item, MarkerTrajectory):
             one_trial(f"{name}[{i}]", item)
 
 
@@ -109,6 +112,37 @@ def landmark_map(name: str, value: Any) -> None:
             )
 
 
+def tuning_fields(name: str, value: Any) -> None:
+    """A :class:`~mocap_mj.pipeline.run_options.Tuning` with fields of their types."""
+    kind(name, value, Tuning, "a Tuning(tolerances, performance) or None")
+    optional(instance(Tolerances, "a Tolerances or None"))(f"{name}.tolerances", value.tolerances)
+    optional(instance(Performance, "a Performance or None"))(
+        f"{name}.performance", value.performance
+    )
+
+
+def hooks_fields(name: str, value: Any) -> None:
+    """A :class:`~mocap_mj.pipeline.run_options.Hooks` with fields of their types."""
+    kind(name, value, Hooks, "a Hooks(progress, motion_progress, motion_sink) or None")
+    optional_callable(f"{name}.progress", value.progress)
+    optional_callable(f"{name}.motion_progress", value.motion_progress)
+    optional(path_like)(f"{name}.motion_sink", value.motion_sink)
+
+
+def one_recording(name: str, value: Recording) -> None:
+    """A :class:`~mocap_mj.pipeline.prepare.Recording`: its markers and times as a trial's
+    (:func:`~mocap_mj.solve.problem.trial_arrays`), a frame at least, a positive rate [Hz]
+    and a whole first frame."""
+    try:
+        trial_arrays(value.name, value.markers, value.times)
+    except ArgumentError as exc:
+        raise type(exc)(f"{name}: {exc}") from None
+    if len(value.markers) == 0:
+        raise ArgumentError(f"{name} {excerpt(value.name)}: expected at least one frame, got none")
+    positive(f"{name}.rate", value.rate)
+    whole(f"{name}.first_frame", value.first_frame)
+
+
 def loss_name(name: str, value: Any) -> None:
     """One of :data:`~mocap_mj.solve.losses.LOSS_NAMES`."""
     if not isinstance(value, str) or value not in LOSS_NAMES:
@@ -117,7 +151,7 @@ def loss_name(name: str, value: Any) -> None:
         )
 
 
-def markers_of(trials: list[TrialData], names: tuple[str, ...], argument: str) -> None:
+def markers_of(trials: list[TrialData | Recording], names: tuple[str, ...], argument: str) -> None:
     """Each trial's markers (T, M, 3) in the model's marker order (M = ``len(names)``), in
     metres (:func:`~mocap_mj.arguments.marker_spacing`)."""
     for i, trial in enumerate(trials):
@@ -133,17 +167,14 @@ def markers_of(trials: list[TrialData], names: tuple[str, ...], argument: str) -
 
 def identify_call(given: Mapping[str, Any]) -> None:
     """The checks of :func:`~mocap_mj.pipeline.api.identify`'s arguments together: the
-    markers against the model's, one first frame and one rate per trial, theta0's size."""
+    markers against the model's (in metres), theta0's size."""
     recordings = list(given["recordings"])
     pset = given.get("pset")
     names = MARKER_NAMES if pset is None else pset.marker_names
-    markers_of([r for r in recordings if isinstance(r, TrialData)], names, "recordings")
+    markers_of([r for r in recordings if isinstance(r, TrialData | Recording)], names, "recordings")
     for i, r in enumerate(recordings):
         if isinstance(r, MarkerTrajectory):
             marker_spacing(f"recordings[{i}] {excerpt(r.source.get('path', ''))}", r.positions)
-    for name in ("first_frames", "rates"):
-        if given.get(name) is not None:
-            sequence(name, given[name], "values", length=len(recordings))
     if given.get("theta0") is not None:
         size = len(KINEMATIC_PARAMETERS) + 3 * len(names) if pset is None else pset.size
         array("theta0", given["theta0"], (size,))
@@ -167,14 +198,9 @@ IDENTIFY: dict[str, Check] = {
     "subject": optional(instance(Subject, "a Subject or None")),
     "pset": optional(instance(ParameterSet, "a ParameterSet or None")),
     "theta0": optional(lambda name, value: array(name, value, (None,))),
-    "first_frames": optional(per_trial(lambda name, value: whole(name, value))),
-    "rates": optional(per_trial(positive)),
-    "tolerances": optional(instance(Tolerances, "a Tolerances or None")),
-    "performance": optional(instance(Performance, "a Performance or None")),
-    "progress": optional_callable,
-    "motion_progress": optional_callable,
-    "motion_sink": optional(path_like),
     "landmarks": optional(landmark_map),
+    "tuning": optional(tuning_fields),
+    "hooks": optional(hooks_fields),
 }
 #: :func:`~mocap_mj.pipeline.robust_ik.solve_motion`'s arguments and their checks.
 SOLVE_MOTION: dict[str, Check] = {

@@ -24,6 +24,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from mocap_mj.anatomy.initial import with_stature
+from mocap_mj.anatomy.trunk import t10_placement
 from mocap_mj.capture.checks import check_markers, recorded_floor
 from mocap_mj.capture.landmarks import disagreements, measured_widths
 from mocap_mj.capture.marker_quality import exclude_markers, parse_marker_list
@@ -39,7 +41,6 @@ from mocap_mj.pipeline.marker_model import (
 from mocap_mj.pipeline.quality import Checked, Policy, check_trials, notice, without_ghosts
 from mocap_mj.pipeline.recipe import Recipe, check_select, frame_range
 from mocap_mj.pipeline.report import MarkerQuality
-from mocap_mj.pipeline.steps import t10_check
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.problem import TrialData
 
@@ -253,9 +254,12 @@ def with_measured_widths(
 
 def _refuse_misplaced_t10(pset: ParameterSet, trials: list[TrialData], subject: Subject) -> None:
     """``strict``: refuse the trials when T10's placement finding (found in the fit, from the
-    stature: :func:`mocap_mj.pipeline.steps.t10_check`) would be reported, as the marker-data
+    stature, estimated from the markers when not measured:
+    :func:`~mocap_mj.anatomy.trunk.t10_placement`) would be reported, as the marker-data
     findings are: strict refuses whatever the run would warn about."""
-    placement = t10_check(pset, trials, subject)
+    placement = t10_placement(
+        pset, trials, with_stature(subject, pset, [t.markers for t in trials])
+    )
     if placement is not None and placement.finding is not None:
         raise MocapError(
             f"{placement.finding.message}; --strict refuses a placement finding (re-place "

@@ -78,6 +78,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -277,7 +278,7 @@ def find_label_errors(
     xs = x[sample].copy()
     out: list[Relabel] = []
     for _ in range(MAX_ROUNDS):
-        taken = _round(path, pset, solver, xs, sample, len(x), breaks, cands, first_frame)
+        taken = _round(path, pset, solver, xs, _Sampled(sample, len(x), breaks), cands, first_frame)
         if not taken:
             break
         for r, spans in taken:
@@ -488,20 +489,28 @@ def _clearly(before: float, after: float) -> bool:
     return after <= FACTOR * before and before - after >= MARGIN_MIN
 
 
+class _Sampled(NamedTuple):
+    """The frames a search looks at: ``sample`` (n_s,) the rows sampled of the recording's
+    ``n`` frames, ``breaks`` the breakpoints the spans are cut at (:func:`_breakpoints`)."""
+
+    sample: np.ndarray
+    n: int
+    breaks: Sequence[np.ndarray]
+
+
 def _round(
     path: str,
     pset: ParameterSet,
     solver: IKSolver,
     x: np.ndarray,
-    sample: np.ndarray,
-    n: int,
-    breaks: Sequence[np.ndarray],
+    sampled: _Sampled,
     cands: Sequence[Candidate],
     first: int,
 ) -> list[tuple[Relabel, list[tuple[int, int]]]]:
-    """One round on the sampled frames x (n_s, M, 3) [m] (rows ``sample`` of the T = n
-    frames): the corrections taken, each with its spans [first, last) of rows of the
-    recording (module docstring, "Evidence" and the rounds)."""
+    """One round on the sampled frames x (n_s, M, 3) [m] (rows ``sampled.sample`` of the
+    recording's ``sampled.n`` frames): the corrections taken, each with its spans [first,
+    last) of rows of the recording (module docstring, "Evidence" and the rounds)."""
+    sample, n, breaks = sampled
     base = _pose(solver, x, origins=True)
     assert base.origins is not None
     spans = [_spans(c, breaks, n) for c in cands]

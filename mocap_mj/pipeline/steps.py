@@ -7,26 +7,25 @@ from __future__ import annotations
 import contextlib
 import logging
 import time
-from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 from functools import partial
 from typing import Any
 
 import numpy as np
 
-from mocap_mj.anatomy.anatomy import ASYMMETRY_SIGMA, landmark_prior, symmetric_prior
+from mocap_mj.anatomy.anatomy import ASYMMETRY_SIGMA
 from mocap_mj.anatomy.axes import (
-    SILENT_AXIS_SD,
     angle_to_pig,
     axis_decisions,
     axis_rmse,
     widths,
 )
-from mocap_mj.anatomy.ball_centres import centre_widths, row_spreads
+from mocap_mj.anatomy.ball_centres import row_spreads
 from mocap_mj.anatomy.constructed import constructed_theta
-from mocap_mj.anatomy.initial import estimate_stature, place_markers, scaled_theta, segment_scales
-from mocap_mj.anatomy.joint_checks import HOLD_RMSE_RATIO, held_joints, hold, joint_checks
-from mocap_mj.anatomy.partial import Unmeasured, freeze_unmeasured, on_measured
+from mocap_mj.anatomy.initial import place_markers, scaled_theta, segment_scales, with_stature
+from mocap_mj.anatomy.joint_checks import HOLD_RMSE_RATIO, held_joints, joint_checks
+from mocap_mj.anatomy.partial import Unmeasured, freeze_unmeasured
 from mocap_mj.anatomy.ranges import NOMINAL_HEIGHT, kappa_ranges, theta_bounds
 from mocap_mj.anatomy.tissue import SLIDES, Slide, SlidingModel, sliding_weights
 from mocap_mj.anatomy.trunk import T10Placement, t10_placement
@@ -35,7 +34,8 @@ from mocap_mj.capture.subject import Subject
 from mocap_mj.long.chunks import Robust, Weigh, robust_loss, scratch_array
 from mocap_mj.long.long import result_at
 from mocap_mj.long.refine import refine
-from mocap_mj.pipeline.recipe import Recipe
+from mocap_mj.pipeline.anatomical import AnatomyPriors, Weighing, anatomical_priors
+from mocap_mj.pipeline.prepare import Prepared
 from mocap_mj.pipeline.results import (
     HeldAtConstruction,
     Refined,
@@ -71,7 +71,9 @@ class Solved:
     kinematic ranges (K,) [m] (with anatomy), the initial model used, the segment scales,
     the unmeasured parameters, the solve's wall time [s], its log lines, the set's landmarks
     and, with ``init: constructed``, the construction of each initial joint centre (joint ->
-    in words, :func:`~mocap_mj.anatomy.constructed.constructed_theta`)."""
+    in words, :func:`~mocap_mj.anatomy.constructed.constructed_theta`); with the recipe's
+    anatomy, what its priors were built from (the joints held at their construction are the
+    weighting's ``held_joints``)."""
 
     pset: ParameterSet
     result: IdentificationResult
@@ -91,6 +93,7 @@ class Solved:
     log: list[str]
     landmarks: Mapping[str, str] | None = None
     construction: Mapping[str, str] | None = None
+    anatomy: AnatomyPriors | None = None
 
     @property
     def t10_prior(self) -> T10Placement | None:
@@ -99,76 +102,71 @@ class Solved:
 
 
 def solve_trials(
+    prepared: Prepared,
     trials: Sequence[TrialData],
-    pset: ParameterSet,
     settings: LMSettings,
-    recipe: Recipe,
-    subject: Subject | None,
-    theta0: np.ndarray | None,
-    progress: ProgressCallback | None,
-    whole: Sequence[TrialData] | None = None,
-    landmarks: Mapping[str, str] | None = None,
+    *,
+    theta0: np.ndarray | None = None,
+    progress: ProgressCallback | None = None,
+    selected: bool = False,
 ) -> Solved:
-    """The joint LM on ``trials`` as ``recipe`` says: the parameters the data do not measure
-    frozen (:func:`~mocap_mj.anatomy.partial.freeze_unmeasured`), trials with fewer marker
+    """The joint LM on ``trials`` (``prepared``'s, or frames selected from them) as
+    ``prepared.recipe`` says: the parameters the data do not measure frozen
+    (:func:`~mocap_mj.anatomy.partial.freeze_unmeasured`), trials with fewer marker
     coordinates than unknowns refused (:func:`mocap_mj.capture.checks.check_determined`), the
-    initial model (``theta0`` (P,) [m], else ``recipe.init``: :func:`_initial_theta`), the subject's
-    stature estimated when not measured, and with ``recipe.anatomy`` the anatomical ranges as
-    bounds, the landmark priors (T10's placement checked against the stature), the
-    left/right prior and the sliding landmarks (:func:`solve_anatomical`). With ``whole``
-    (one recording per trial, which ``trials``' frames were selected from) and
-    ``recipe.refine`` the model is then refined on every frame (:func:`refine_on_every_frame`)."""
+    initial model (``theta0`` (P,) [m], else ``recipe.init``: :func:`_initial_theta`), the
+    subject's stature estimated when not measured, and with ``recipe.anatomy`` the anatomical
+    ranges as bounds, the landmark priors (T10's placement checked against the stature), the
+    left/right prior and the sliding landmarks (:func:`solve_anatomical`). With ``selected``
+    (``trials``' frames were selected from ``prepared.trials``) and ``recipe.refine`` the
+    model is then refined on every frame (:func:`refine_on_every_frame`)."""
     t0 = time.perf_counter()
-    pset, missing = freeze_unmeasured(pset, trials)
+    recipe, landmarks = prepared.recipe, prepared.landmarks or None
+    pset, missing = freeze_unmeasured(prepared.pset, trials)
     _check_inputs(trials, pset)
     init_used = "given" if theta0 is not None else recipe.init
-    subject = _with_stature(subject or Subject(), trials, pset)
+    subject = with_stature(prepared.subject, pset, [t.markers for t in trials])
     construction = partial(constructed_theta, subject=subject, hip_centre=recipe.hip_centre,
                            landmarks=landmarks)  # fmt: skip
     theta0, scales, pset, sources = _initial_theta(trials, pset, theta0, recipe.init, construction)
     stature = subject.stature()
     t10 = t10_placement(pset, trials, subject) if recipe.anatomy else None  # stature estimated
-    slides = SLIDES if recipe.sliding_landmarks else None
+    weighing = Weighing(SLIDES if recipe.sliding_landmarks else None, recipe.trial_weights,
+                        recipe.silent_axis_sd)  # fmt: skip
     symmetric = recipe.symmetric
-    options: dict[str, Any] = {
-        "subject": subject,
-        "size": stature[0] / NOMINAL_HEIGHT if stature else scales.get("overall", 1.0),
-        "anatomical": recipe.anatomy,
-        "symmetric": ASYMMETRY_SIGMA if symmetric is None and recipe.asymmetry_prior else symmetric,
-        "t10": t10 if t10 is not None and t10.finding is not None else None,
-        "hip_centre": recipe.hip_centre,
-        "landmarks": landmarks,
-    }
+    anatomy = AnatomyPriors(
+        subject,
+        size=stature[0] / NOMINAL_HEIGHT if stature else scales.get("overall", 1.0),
+        symmetric=ASYMMETRY_SIGMA if symmetric is None and recipe.asymmetry_prior else symmetric,
+        t10=t10 if t10 is not None and t10.finding is not None else None,
+        hip_centre=recipe.hip_centre,
+        landmarks=landmarks,
+    )
+    solve: dict[str, Any] = {"pset": pset, "theta0": theta0, "settings": settings,
+                             "weighing": weighing, "progress": progress}  # fmt: skip
     with captured_log() as log:
-        result, weighting = _solve(
-            trials, pset=pset, theta0=theta0, settings=settings, progress=progress,
-            slides=slides, trial_weights=recipe.trial_weights,
-            silent_axis_sd=recipe.silent_axis_sd, **options,
-        )  # fmt: skip
+        result, weighting = _solve(trials, anatomy=anatomy if recipe.anatomy else None, **solve)
         if recipe.anatomy:
-            result, weighting = _held_at_construction(
-                trials, result, weighting, pset=pset, theta0=theta0, settings=settings,
-                progress=progress, slides=slides, trial_weights=recipe.trial_weights,
-                silent_axis_sd=recipe.silent_axis_sd, **options,
-            )  # fmt: skip
+            result, weighting = _held_at_construction(trials, result, weighting, anatomy, solve)
     refined = None
-    if recipe.refine and whole is not None:
+    if recipe.refine and selected:
         result, refined = refine_on_every_frame(
-            result, trials, whole, pset=pset, settings=settings, weighting=weighting,
-            slides=slides, **options,
+            result, trials, prepared.trials, pset=pset, settings=settings, weighting=weighting,
+            anatomy=anatomy if recipe.anatomy else None, slides=weighing.slides,
         )  # fmt: skip
     for d in joint_axes(weighting).values():  # at the final model
         d["angle_to_pig_deg"] = angle_to_pig(pset, result.theta, d)
     sliding, base = None, sliding_base(weighting)
-    if slides and base is not None:
+    if weighing.slides and base is not None:
         # The fit (and the refinement on every frame, and the motion's IK) weighed with it.
-        sliding = SlidingModel(dict(slides), base)
+        sliding = SlidingModel(dict(weighing.slides), base)
     ranges = kappa_ranges(pset, subject) if recipe.anatomy else None
     return Solved(
         pset=pset, result=result, weighting=weighting, refined=refined, sliding=sliding,
-        slides=slides, subject=subject, size=options["size"], symmetric=options["symmetric"],
+        slides=weighing.slides, subject=subject, size=anatomy.size, symmetric=anatomy.symmetric,
         t10=t10, ranges=ranges, init_used=init_used, scales=scales, missing=missing,
         seconds=time.perf_counter() - t0, log=log, landmarks=landmarks, construction=sources,
+        anatomy=anatomy if recipe.anatomy else None,
     )  # fmt: skip
 
 
@@ -176,24 +174,24 @@ def _held_at_construction(
     trials: Sequence[TrialData],
     result: IdentificationResult,
     weighting: Weighting | None,
-    **solve: Any,
+    anatomy: AnatomyPriors,
+    solve: Mapping[str, Any],
 ) -> tuple[IdentificationResult, Weighting | None]:
     """``result`` checked against the body (:func:`~mocap_mj.anatomy.joint_checks.joint_checks`);
-    a joint outside it re-solved once (:func:`solve_anatomical` with ``solve``'s arguments)
+    a joint outside it re-solved once (:func:`solve_anatomical` with ``anatomy`` and ``solve``'s
+    arguments)
     with its construction rows narrowed (:func:`~mocap_mj.anatomy.joint_checks.hold`). The
     re-solve is kept when the joints' checks then pass and the marker RMSE grows by at most
     :data:`~mocap_mj.anatomy.joint_checks.HOLD_RMSE_RATIO` (the markers were silent on where
     the joint lies), its weighting recording ``held_joints``; otherwise the first result
     stands, and its checks report what persists. Either way the weighting records
     ``held_at_construction`` (:class:`HeldAtConstruction`)."""
-    solve.pop("anatomical", None)
-    subject, landmarks = solve["subject"], solve.get("landmarks")
-    pset = solve["pset"]
+    subject, landmarks, pset = anatomy.subject, anatomy.landmarks, solve["pset"]
     checks = joint_checks(pset, result.theta, subject, landmarks, joint_axes(weighting) or None)
     joints = held_joints(checks)
     if not joints or weighting is None:
         return result, weighting
-    held, held_weighting = solve_anatomical(trials, held=joints, **solve)
+    held, held_weighting = solve_anatomical(trials, anatomy=replace(anatomy, held=joints), **solve)
     after = joint_checks(pset, held.theta, subject, landmarks, held_weighting.joint_axes or None)
     fixed = not any(set(held_joints([c])) & set(joints) for c in after if c.violated)
     kept = fixed and held.marker_rmse <= HOLD_RMSE_RATIO * result.marker_rmse
@@ -216,19 +214,13 @@ def refine_on_every_frame(
     pset: ParameterSet,
     settings: LMSettings,
     weighting: Weighting | None,
-    subject: Subject,
-    size: float,
-    anatomical: bool,
-    symmetric: float | None,
+    anatomy: AnatomyPriors | None,
     slides: dict[str, Slide] | None = None,
-    t10: T10Placement | None = None,
-    hip_centre: str = "harrington",
-    landmarks: Mapping[str, str] | None = None,
 ) -> tuple[IdentificationResult, Refined]:
     """The identification on ``trials`` (frames selected from ``motion_trials``) refined on
     every frame of ``motion_trials`` (:func:`mocap_mj.long.refine.refine`) with the priors
-    and bounds of its solve: with ``anatomical`` the landmark priors (and the left/right
-    prior of width ``symmetric`` [m]) weighed against the noise of ``weighting``, the
+    and bounds of its solve: with ``anatomy`` the landmark priors (and the left/right
+    prior of width ``anatomy.symmetric`` [m]) weighed against the noise of ``weighting``, the
     anatomical ranges as bounds; always the weak prior, toward the subset's estimate (the
     directions the subset barely determined keep its value unless every frame determines
     them). The result is described at the refined model (:func:`~mocap_mj.long.long.result_at`);
@@ -243,15 +235,14 @@ def refine_on_every_frame(
     noise = prior_noise(weighting, settings.prior_noise)
     priors: list[Prior] = [settings.weak_prior(result.theta)]
     box = None
-    if anatomical:
+    if anatomy is not None:
+        held = () if weighting is None else weighting.held_joints
         priors += anatomical_priors(
-            pset, subject, size=size, symmetric=symmetric, noise=noise, t10=t10,
-            hip_centre=hip_centre, landmarks=landmarks,
+            pset, replace(anatomy, held=held), noise=noise,
             axes=widths(pset, joint_axes(weighting) or None),
             centres=None if weighting is None else weighting.centre_widths,
-            held=() if weighting is None else weighting.held_joints,
         )  # fmt: skip
-        box = theta_bounds(pset, subject)
+        box = theta_bounds(pset, anatomy.subject)
     qpos = [scratch_array((len(t.markers), pset.model.nq)) for t in motion_trials]
     robust = robust_for(pset, result, trials, settings)
     ref = refine(
@@ -317,26 +308,6 @@ def _check_inputs(trials: Sequence[TrialData], pset: ParameterSet) -> None:
     )
 
 
-def _with_stature(subject: Subject, trials: Sequence[TrialData], pset: ParameterSet) -> Subject:
-    """``subject`` with the stature estimated from the trials' markers
-    (:func:`~mocap_mj.anatomy.initial.estimate_stature`) when its height is not measured:
-    the anatomical ranges and the stature-scaled priors are centred on it."""
-    if subject.get("height") is not None:
-        return subject
-    scales = segment_scales(pset, [t.markers for t in trials])
-    return subject.with_stature_estimate(estimate_stature(scales))
-
-
-def t10_check(
-    pset: ParameterSet, trials: Sequence[TrialData], subject: Subject
-) -> T10Placement | None:
-    """T10's placement against ``subject``'s stature, estimated from the trials' markers
-    when not measured (:func:`~mocap_mj.anatomy.trunk.t10_placement`): what
-    :func:`solve_trials` finds and reports (``--strict`` refuses its finding before
-    the fit)."""
-    return t10_placement(pset, trials, _with_stature(subject, trials, pset))
-
-
 def _initial_theta(
     trials: Sequence[TrialData],
     pset: ParameterSet,
@@ -380,40 +351,19 @@ def _solve(
     pset: ParameterSet,
     theta0: np.ndarray | None,
     settings: LMSettings,
-    subject: Subject,
-    size: float,
-    anatomical: bool,
-    symmetric: float | None,
+    anatomy: AnatomyPriors | None,
+    weighing: Weighing,
     progress: ProgressCallback | None,
-    slides: dict[str, Slide] | None = None,
-    t10: T10Placement | None = None,
-    trial_weights: bool = True,
-    hip_centre: str = "harrington",
-    landmarks: Mapping[str, str] | None = None,
-    silent_axis_sd: float = SILENT_AXIS_SD,
 ) -> tuple[IdentificationResult, Weighting | None]:
-    """The joint LM of :func:`solve_trials`: with ``anatomical`` through
-    :func:`solve_anatomical` (ranges and landmark priors; ``symmetric`` [m] the left/right
-    prior's standard deviation or None; ``slides`` the sliding landmarks or None;
-    ``trial_weights``), else the plain :func:`identify_lm`; return the result and the prior
-    weighting (None without ``anatomical``)."""
-    if anatomical:
+    """The joint LM of :func:`solve_trials`: with ``anatomy`` through :func:`solve_anatomical`
+    (ranges and landmark priors, the data weighed as ``weighing`` says), else the plain
+    :func:`identify_lm`; return the result and the prior weighting (None without
+    ``anatomy``)."""
+    if anatomy is not None:
         return solve_anatomical(
-            trials,
-            pset=pset,
-            theta0=theta0,
-            settings=settings,
-            subject=subject,
-            size=size,
-            symmetric=symmetric,
-            progress=progress,
-            slides=slides,
-            t10=t10,
-            trial_weights=trial_weights,
-            hip_centre=hip_centre,
-            landmarks=landmarks,
-            silent_axis_sd=silent_axis_sd,
-        )
+            trials, pset=pset, theta0=theta0, settings=settings, anatomy=anatomy,
+            weighing=weighing, progress=progress,
+        )  # fmt: skip
     result = identify_lm(trials, pset=pset, theta0=theta0, settings=settings, progress=progress)
     return result, None
 
@@ -453,82 +403,20 @@ TRIAL_WEIGHT_ROUNDS = 4
 TRIAL_WEIGHT_SETTLED = 1.25
 
 
-def anatomical_priors(
-    pset: ParameterSet,
-    subject: Subject,
-    *,
-    size: float = 1.0,
-    symmetric: float | None = None,
-    noise: float = 0.001,
-    t10: T10Placement | None = None,
-    hip_centre: str = "harrington",
-    landmarks: Mapping[str, str] | None = None,
-    axes: dict[str, float | None] | None = None,
-    centres: Mapping[str, float] | None = None,
-    held: Collection[str] = (),
-) -> list[LinearGaussianPrior]:
-    """Landmark priors and, with ``symmetric`` [m], the left/right length prior; without the
-    rows on ``pset``'s frozen parameters (:func:`~mocap_mj.anatomy.partial.on_measured`).
-    ``t10``: a T10 found misplaced (:mod:`mocap_mj.anatomy.trunk`; default None: trusted),
-    widening the rows that hang on it; ``hip_centre``, ``landmarks`` (marker -> landmark,
-    :mod:`mocap_mj.capture.landmarks`) and ``axes`` (the chord-plane rows' widths,
-    :func:`~mocap_mj.anatomy.axes.widths`): see
-    :func:`~mocap_mj.anatomy.anatomy.landmark_prior`; ``centres``: a ball-joint centre
-    row's label -> its width factor (:func:`~mocap_mj.anatomy.ball_centres.centre_widths`,
-    decided by :func:`solve_anatomical`; default none); ``held``: joints held at their
-    construction (:func:`~mocap_mj.anatomy.joint_checks.hold`; default none)."""
-    landmark = landmark_prior(
-        pset,
-        subject,
-        size=size,
-        noise=noise,
-        t10=t10,
-        hip_centre=hip_centre,
-        axis_widths=axes,
-        landmarks=landmarks,
-    )
-    if held:
-        landmark = hold(landmark, pset, landmarks, held)
-    priors = [centre_widths(landmark, centres or {})]  # fmt: skip
-    if symmetric is not None:
-        priors.append(symmetric_prior(pset, symmetric, noise=noise))
-    return [on_measured(p, pset.frozen) for p in priors]
-
-
-def prior_information(
-    priors: Sequence[LinearGaussianPrior], settings: LMSettings, size: int
-) -> np.ndarray:
-    """The information (size, size) [1/m^2] the priors of a solve hold about theta: every
-    row's ``a_r a_r^T / sigma_r^2`` plus the weak prior toward the initial model
-    (``1 / settings.prior_sigma^2`` per parameter), as for a marker noise equal to the
-    priors' ``noise`` (the weighting the solve used). For the Cramer-Rao bound with the
-    priors (:meth:`Identifiability.bound_rms_with_prior`)."""
-    info = np.zeros((size, size))
-    for p in (settings.weak_prior(np.zeros(size)), *priors):
-        info += (p.a.T / p.sigma**2) @ p.a
-    return info
-
-
 def solve_anatomical(
     trials: Sequence[TrialData],
     *,
     pset: ParameterSet,
     theta0: np.ndarray | None,
     settings: LMSettings,
-    subject: Subject,
-    size: float = 1.0,
-    symmetric: float | None = None,
+    anatomy: AnatomyPriors,
+    weighing: Weighing | None = None,
     progress: ProgressCallback | None = None,
-    slides: dict[str, Slide] | None = None,
-    t10: T10Placement | None = None,
-    trial_weights: bool = True,
-    hip_centre: str = "harrington",
-    landmarks: Mapping[str, str] | None = None,
-    held: Collection[str] = (),
-    silent_axis_sd: float = SILENT_AXIS_SD,
 ) -> tuple[IdentificationResult, Weighting]:
-    """The joint LM with anatomical ranges as bounds and the anatomical priors (``t10``, ``held``:
-    :func:`anatomical_priors`; ``trial_weights``: False weighs every trial 1; ``silent_axis_sd``).
+    """The joint LM with anatomical ranges as bounds and the anatomical priors of ``anatomy``
+    (:func:`anatomical_priors`), the data weighed as ``weighing`` says (default
+    :class:`Weighing`'s: ``trial_weights`` False weighs every trial 1; ``silent_axis_sd``;
+    ``slides``).
 
     The priors are weighed against the markers' effective noise: a first solve uses the
     nominal marker noise (``settings.prior_noise``, 1 mm); when the artefact's noise of one
@@ -540,33 +428,31 @@ def solve_anatomical(
     noise one solve is kept. The flexion axes' rows are decided after the first solve.
 
     Several trials are weighed in the second solve by the independent observations each
-    holds (:func:`_reweighed`); with ``slides`` (e.g. :data:`~mocap_mj.anatomy.tissue.SLIDES`;
-    default None: off) it also weighs the landmark markers that slide with their joint's
-    angle (:func:`_slid`), only where the residuals show soft tissue, never on white noise.
+    holds (:func:`_reweighed`); with ``weighing.slides`` (e.g.
+    :data:`~mocap_mj.anatomy.tissue.SLIDES`; default None: off) it also weighs the landmark
+    markers that slide with their joint's angle (:func:`_slid`), only where the residuals
+    show soft tissue, never on white noise.
     Returns the result and the weighting used (:class:`Weighting`: noise, sigma, tau, each
     trial's tau and weight; with the sliding weights their smallest and their base, see
     :func:`_slid`).
     """
-    lower, upper = theta_bounds(pset, subject)
-    options: dict[str, Any] = {
-        "size": size, "symmetric": symmetric, "noise": settings.prior_noise, "t10": t10,
-        "hip_centre": hip_centre, "landmarks": landmarks, "held": held,
-    }  # fmt: skip
-    priors = anatomical_priors(pset, subject, **options)
+    lower, upper = theta_bounds(pset, anatomy.subject)
+    priors = anatomical_priors(pset, anatomy, noise=settings.prior_noise)
     start = pset.nominal if theta0 is None else theta0
     result = identify_lm(
         trials, pset=pset, theta0=theta0, settings=settings, progress=progress,
         priors=[settings.weak_prior(start), *priors], lower=lower, upper=upper,
     )  # fmt: skip
+    weighing = weighing or Weighing()
+    trial_weights, slides = weighing.trial_weights, weighing.slides
     weighting = _weighting(pset, result, trials, trial_weights)
     noise, tau = weighting.noise, weighting.tau_frames
     taus, per_trial = weighting.trial_tau_frames, weighting.trial_weights
     soft = noise > REWEIGHT_RATIO * settings.prior_noise
     weak, axis_noise = settings.weak_prior(start), noise if soft else settings.prior_noise
     axes = axis_decisions(pset, result.reduced_information, result.theta, priors, weak, axis_noise,
-                          settings.prior_noise, silent_axis_sd)  # fmt: skip
-    priors, weighting = _decided(pset, subject, options, result, priors, axes, weighting, soft,
-                                 settings)  # fmt: skip
+                          settings.prior_noise, weighing.silent_axis_sd)  # fmt: skip
+    priors, weighting = _decided(pset, anatomy, result, priors, axes, weighting, soft, settings)
     if not soft:
         noise = settings.prior_noise
         weighting = replace(weighting, noise=noise)
@@ -590,8 +476,7 @@ def solve_anatomical(
 
 def _decided(
     pset: ParameterSet,
-    subject: Subject,
-    options: dict[str, Any],
+    anatomy: AnatomyPriors,
     first: IdentificationResult,
     priors: list[LinearGaussianPrior],
     axes: dict[str, Any],
@@ -613,7 +498,7 @@ def _decided(
         weighting = replace(weighting, centre_widths=factors)
     if not axes and not soft:
         return priors, weighting
-    return anatomical_priors(pset, subject, **options, axes=widths(pset, axes),
+    return anatomical_priors(pset, anatomy, noise=settings.prior_noise, axes=widths(pset, axes),
                              centres=weighting.centre_widths), weighting  # fmt: skip
 
 

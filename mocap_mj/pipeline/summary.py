@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -34,11 +35,12 @@ from mocap_mj.anatomy.tissue import arm_elevation, raised_arms_note
 from mocap_mj.anatomy.trunk import T10Placement
 from mocap_mj.capture.marker_quality import Finding
 from mocap_mj.capture.subject import Subject
+from mocap_mj.pipeline.anatomical import anatomical_priors
 from mocap_mj.pipeline.recipe import Recipe
 from mocap_mj.pipeline.relabel import Relabel
 from mocap_mj.pipeline.report import Checks, MarkerQuality
 from mocap_mj.pipeline.results import Refined, Weighting, joint_axes, prior_noise
-from mocap_mj.pipeline.steps import REWEIGHT_RATIO, Solved, anatomical_priors
+from mocap_mj.pipeline.steps import REWEIGHT_RATIO, Solved
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.identifiability import Identifiability
 from mocap_mj.solve.lm import LMSettings, solver_joint_range
@@ -94,10 +96,7 @@ def fit_report(
     ``judged``: solver, frames, timing, fit and observability, priors, measured parameters,
     bounds and limits reached, plausibility, the arms' elevation and T10's placement."""
     pset, result = solved.pset, solved.result
-    summary = _summary_fields(
-        trials, pset, settings, result, idf, solved.init_used, solved.scales, solved.seconds,
-        solved.log,
-    )  # fmt: skip
+    summary = _summary_fields(trials, solved, settings, idf)
     summary.update(
         _prior_fields(recipe.anatomy, solved.weighting, recipe.symmetric,
                       recipe.asymmetry_prior, solved.subject)
@@ -278,30 +277,23 @@ def quality_fields(quality: MarkerQuality) -> dict[str, Any]:
 
 
 def _summary_fields(
-    trials: Sequence[TrialData],
-    pset: ParameterSet,
-    settings: LMSettings,
-    result: IdentificationResult,
-    idf: Identifiability,
-    init_used: str,
-    scales: dict[str, float],
-    seconds: float,
-    log: list[str],
+    trials: Sequence[TrialData], solved: Solved, settings: LMSettings, idf: Identifiability
 ) -> dict[str, Any]:
-    """The solver part of the summary: initial model, frames, timing, fit (millimetres) and
-    observability."""
+    """The solver part of the summary of ``solved`` on ``trials``: initial model, frames,
+    timing, fit (millimetres) and observability."""
+    pset, result = solved.pset, solved.result
     n_frames = sum(len(t.markers) for t in trials)
     n_used = sum(int(u.sum()) for u in result.used)
     bk, bo = idf.bound_rms()
     return {
         "solver": "lm",
         "loss": settings.loss,
-        "init": init_used,
-        "init_scales": scales,
+        "init": solved.init_used,
+        "init_scales": solved.scales,
         "frames": n_frames,
         "frames_used": n_used,
         "frames_skipped": n_frames - n_used,
-        "seconds": seconds,
+        "seconds": solved.seconds,
         "init_seconds": result.init_seconds,
         "iterations": result.iterations,
         "termination": result.termination.value,
@@ -316,7 +308,7 @@ def _summary_fields(
         "kappa_mm": {
             n: float(v) * 1e3 for n, v in zip(pset.kappa_names, result.theta, strict=False)
         },
-        "log": log,
+        "log": solved.log,
     }
 
 
@@ -419,14 +411,12 @@ def regression_centres(
     if not recipe.anatomy:
         return {}
     pset, result, w = solved.pset, solved.result, solved.weighting
-    options: dict[str, Any] = {
-        "size": solved.size, "symmetric": solved.symmetric, "t10": solved.t10_prior,
-        "landmarks": solved.landmarks, "axes": widths(pset, joint_axes(w) or None),
-        "held": () if w is None else w.held_joints,
-    }  # fmt: skip
+    if solved.anatomy is None:
+        return {}
+    anatomy = replace(solved.anatomy, held=() if w is None else w.held_joints)
+    axes = widths(pset, joint_axes(w) or None)
     noise = prior_noise(w, settings.prior_noise)
-    priors = [p.with_noise(noise) for p in anatomical_priors(pset, solved.subject, **options,
-              hip_centre=recipe.hip_centre)]  # fmt: skip
+    priors = [p.with_noise(noise) for p in anatomical_priors(pset, anatomy, axes=axes)]
     soft = noise > REWEIGHT_RATIO * settings.prior_noise  # as solve_anatomical decides
     sta = max(result.sigma, SOFT_TISSUE_SIGMA) if soft else 0.0
     spreads = row_spreads(pset, result.reduced_information, result.free, result.qpos,
@@ -434,7 +424,7 @@ def regression_centres(
                           sta)  # fmt: skip
     other = "davis" if recipe.hip_centre == "harrington" else "harrington"
     try:
-        alt = anatomical_priors(pset, solved.subject, **options, hip_centre=other)[0]
+        alt = anatomical_priors(pset, replace(anatomy, hip_centre=other), axes=axes)[0]
     except MocapError:  # Davis's rows need both leg lengths
         alt = None
     return dict(centre_report(pset, result.theta, priors[0], spreads, {other: alt}))
