@@ -29,7 +29,7 @@ from mocap_mj.kernels._threads import one_blas_thread, single_blas_thread
 from mocap_mj.solve import lm as lm_module
 from mocap_mj.solve.ik import IKSolver
 from mocap_mj.solve.lm import LMSettings, identify_lm
-from mocap_mj.solve.problem import TrialData, build_problem
+from mocap_mj.solve.problem import ProblemOptions, TrialData, build_problem
 from mocap_synth import SynthConfig, synthesize
 
 
@@ -88,7 +88,7 @@ def parts(repeats: int) -> None:
     free = np.flatnonzero(~pset.frozen)
     problem = build_problem(
         kin, [trial], [qpos], [np.ones(len(qpos), dtype=bool)], free,
-        priors=[LMSettings().weak_prior(theta)],
+        ProblemOptions(priors=[LMSettings().weak_prior(theta)]),
     )  # fmt: skip
     dq = np.random.default_rng(0).normal(0.0, 1e-3, (problem.n, kin.nv))
     w = problem.present.astype(float)

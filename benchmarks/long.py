@@ -43,7 +43,7 @@ from mocap_mj.outputs.score import align_gauge_free, align_truth
 from mocap_mj.skeleton.mjcf import model_path
 from mocap_mj.solve.identifiability import Identifiability
 from mocap_mj.solve.lm import LMResult, LMSettings, TrialData, identify_lm
-from mocap_mj.solve.problem import IdentificationProblem
+from mocap_mj.solve.problem import IdentificationProblem, ProblemOptions
 
 
 def model_digest() -> str:
@@ -133,8 +133,9 @@ def all_frames_bound(
     rows = np.arange(0, len(markers), stride)
     rows = rows[np.all(np.isfinite(qpos[rows]), axis=1)]
     m = np.asarray(markers[rows])
+    options = ProblemOptions(theta0=lm.theta)
     prob = IdentificationProblem(
-        kin, m, np.array(qpos[rows]), np.flatnonzero(lm.free), theta0=lm.theta
+        kin, m, np.array(qpos[rows]), np.flatnonzero(lm.free), options=options
     )
     info = prob.information(prob.present.astype(float)) * stride
     return Identifiability(pset, info, lm.sigma, observable_std=0.005, theta=lm.theta)

@@ -455,9 +455,7 @@ def identify_paper(
         trials,
         final,
         run,
-        seconds,
-        init_seconds,
-        time.perf_counter() - t_final,
+        _Seconds(seconds, init_seconds, time.perf_counter() - t_final),
     )
 
 
@@ -572,6 +570,15 @@ def _final_ik(
     return FinalFit(list(used), unpool(q_all, used), unpool(r_all, used), energy, samples)
 
 
+class _Seconds(NamedTuple):
+    """The wall times [s] of Algorithm 1: its iterations (from the start, the initial IK
+    included), the initial IK, and the final IK of every frame."""
+
+    run: float
+    init: float
+    final: float
+
+
 def _paper_result(
     pset: ParameterSet,
     theta: np.ndarray,
@@ -579,11 +586,10 @@ def _paper_result(
     trials: Sequence[TrialData],
     final: FinalFit,
     run: _Run,
-    seconds: float,
-    init_seconds: float,
-    final_seconds: float,
+    seconds: _Seconds,
 ) -> PaperResult:
-    """The common result of Algorithm 1 with the reduced information at its final poses."""
+    """The common result of Algorithm 1 from theta (P,) [m] and the initial model theta0
+    (P,) [m], with the reduced information at its final poses."""
     info, sigma, n_res, n_unk = reduced_information(pset, theta, trials, final.qpos)
     free = ~pset.frozen.copy()
     at_bound = free & ((theta <= pset.lower) | (theta >= pset.upper)) & run.st.clip_to_bounds
@@ -602,13 +608,13 @@ def _paper_result(
         iterations=len(run.trace),
         status=Stop.MAX_ITERATIONS,
         trace=run.trace,
-        seconds=seconds,
-        init_seconds=init_seconds,
+        seconds=seconds.run,
+        init_seconds=seconds.init,
         at_bound=at_bound,
         method="paper",
         energy=final.energy,
         settings=run.st,
-        final_seconds=final_seconds,
+        final_seconds=seconds.final,
         ik_problems=run.est.problems,
         clipped=run.clipped,
         repaired=run.repaired,

@@ -9,7 +9,7 @@ from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.solve.heuristics import RefitSchedule, StallMonitor, frame_rmse, refit_frames
 from mocap_mj.solve.ik import IKSolver
 from mocap_mj.solve.lm import LMSettings, Tolerances, identify_lm
-from mocap_mj.solve.problem import TrialData
+from mocap_mj.solve.problem import Bounds, TrialData
 from mocap_synth import SynthConfig, synthesize
 
 
@@ -84,8 +84,7 @@ def test_lm_stays_in_the_box_and_reports_the_bounds_it_ends_on(exp) -> None:  # 
     r = identify_lm(
         [trial],
         pset=pset,
-        lower=lower,
-        upper=upper,
+        bounds=Bounds(lower, upper),
         settings=LMSettings(max_iterations=4, tolerances=Tolerances(max_refits=0)),
     )
     assert np.all(r.theta >= lower) and np.all(r.theta <= upper)

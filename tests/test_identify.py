@@ -19,7 +19,7 @@ from mocap_mj.pipeline.anatomical import AnatomyPriors, anatomical_priors, prior
 from mocap_mj.pipeline.steps import solve_anatomical
 from mocap_mj.solve.centres import joint_centre_bound
 from mocap_mj.solve.identifiability import Identifiability
-from mocap_mj.solve.lm import LMSettings, identify_lm
+from mocap_mj.solve.lm import InitialPoses, LMSettings, identify_lm
 from mocap_mj.solve.problem import TrialData
 from mocap_synth import SynthConfig, synthesize
 
@@ -234,7 +234,7 @@ def test_score_of_truth_against_itself_is_zero(tmp_path: Path) -> None:
         [trial],
         pset=pset,
         theta0=np.asarray(exp.theta_true),
-        initial_qpos=[np.asarray(exp.qpos)],
+        initial=InitialPoses([np.asarray(exp.qpos)]),
         settings=LMSettings(max_iterations=1),
     )
     result.theta = np.asarray(exp.theta_true).copy()

@@ -29,6 +29,7 @@ from mocap_mj.errors import MocapError
 from mocap_mj.solve.lm import LMSettings, Tolerances, TrialData, identify_lm
 from mocap_mj.solve.noise import SOFT_TISSUE_SIGMA, artefact_noise
 from mocap_mj.solve.priors import LinearGaussianPrior
+from mocap_mj.solve.problem import Bounds
 
 
 @pytest.fixture(scope="module")
@@ -346,7 +347,7 @@ def test_bounds_are_never_crossed(pset: ParameterSet) -> None:
             theta0[:k] *= np.random.default_rng(seed).uniform(0.3, 2.0, k)  # many outside
         res = identify_lm(
             [TrialData("t", markers, np.arange(40) / 100.0)],
-            pset=pset, theta0=theta0, settings=settings, lower=lower, upper=upper,
+            pset=pset, theta0=theta0, settings=settings, bounds=Bounds(lower, upper),
             priors=[landmark_prior(pset)],
         )  # fmt: skip
         assert np.all(res.theta >= lower) and np.all(res.theta <= upper)

@@ -35,11 +35,7 @@ MANY_PARAMETERS = frozenset(
         "mocap_mj/export/c3d.py:write_points_c3d", "mocap_mj/export/osim.py:_custom_joint",
         "mocap_mj/outputs/write_fit.py:write_files",
         "mocap_mj/io/formats/c3d_check.py:_data_layout", "mocap_mj/batch/run.py:run_batch",
-        "mocap_mj/solve/problem.py:IdentificationProblem.__init__",
-        "mocap_mj/solve/lm.py:identify_lm", "mocap_mj/solve/lm.py:_solve_levels",
-        "mocap_mj/solve/ik.py:IKSolver._repair", "synth/paper.py:_paper_result",
         "viewer/render.py:open_renderer", "viewer/output.py:render_to_file",
-        "mocap_mj/kernels/_tree_ik.py:walk",
     }
 )  # fmt: skip
 #: Decorators that compile a function with numba.

@@ -409,14 +409,16 @@ def solve_chains(
     return qpos, rmse, iters, status
 
 
+#: Every frame's fit as :func:`solve_chains` returns it: qpos (T, nq) [m, quaternion, rad],
+#: rmse (T,) [m], iterations (T,) and status (T,).
+Fits = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
 def walk(
     tr: Tree,
     target: np.ndarray,
     wts: np.ndarray,
-    qpos: np.ndarray,
-    rmse: np.ndarray,
-    iters: np.ndarray,
-    status: np.ndarray,
+    out: Fits,
     seeds: np.ndarray,
     firsts: np.ndarray,
     lasts: np.ndarray,
@@ -430,8 +432,10 @@ def walk(
     constant velocity. A frame's new pose is kept when its RMSE is lower than rmse[t] and
     the walk goes on from the kept pose; with ``early`` the walk stops at the first frame
     that does not improve (it has reached the basin the frames are already in). Runs must not
-    overlap. Arrays as :func:`solve_chains`' outputs, updated in place.
+    overlap. target (T, M, 3) [m], wts (T, M); ``out`` = (qpos, rmse, iters, status)
+    (:data:`Fits`), updated in place; settings as :func:`solve_batch`.
     """
+    qpos, rmse, iters, status = out
     args = _settings(settings)
     firsts, lasts = (np.ascontiguousarray(a, dtype=np.int64) for a in (firsts, lasts))
     target, wts, seeds = _floats(target, wts, seeds)

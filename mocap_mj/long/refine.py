@@ -31,7 +31,7 @@ from mocap_mj.solve.lm import (
     solver_joint_range,
 )
 from mocap_mj.solve.priors import Prior
-from mocap_mj.solve.problem import IdentificationProblem
+from mocap_mj.solve.problem import IdentificationProblem, ProblemOptions
 
 #: The refinement's sample [frames], its steps at most, and the step (in standard
 #: deviations) below which they stop.
@@ -87,7 +87,9 @@ def _information(
     if not ok.any():
         return np.zeros((kin.pset.size,) * 2)
     free = np.flatnonzero(~kin.pset.frozen)
-    prob = IdentificationProblem(kin, markers[ok], qpos[ok], free, theta0=kin.theta.copy())
+    prob = IdentificationProblem(
+        kin, markers[ok], qpos[ok], free, options=ProblemOptions(theta0=kin.theta.copy())
+    )
     w = prob.present.astype(float)
     if weigh is not None or robust is not None:
         w = sample_weights(kin, markers[ok], qpos[ok], weigh, robust)[0]

@@ -47,7 +47,7 @@ from mocap_mj.pipeline.results import (
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.consistency import pooled_correlation_time, trial_residuals
-from mocap_mj.solve.lm import LMSettings, identify_lm
+from mocap_mj.solve.lm import InitialPoses, LMSettings, identify_lm
 from mocap_mj.solve.noise import (
     SOFT_TISSUE_SIGMA,
     artefact_noise,
@@ -55,7 +55,7 @@ from mocap_mj.solve.noise import (
     trial_weights,
 )
 from mocap_mj.solve.priors import LinearGaussianPrior, Prior
-from mocap_mj.solve.problem import TrialData
+from mocap_mj.solve.problem import Bounds, TrialData
 from mocap_mj.solve.solver_result import IdentificationResult, ProgressCallback
 
 logger = logging.getLogger(__name__)
@@ -441,7 +441,7 @@ def solve_anatomical(
     start = pset.nominal if theta0 is None else theta0
     result = identify_lm(
         trials, pset=pset, theta0=theta0, settings=settings, progress=progress,
-        priors=[settings.weak_prior(start), *priors], lower=lower, upper=upper,
+        priors=[settings.weak_prior(start), *priors], bounds=Bounds(lower, upper),
     )  # fmt: skip
     weighing = weighing or Weighing()
     trial_weights, slides = weighing.trial_weights, weighing.slides
@@ -468,8 +468,7 @@ def solve_anatomical(
         settings=settings,
         progress=progress,
         priors=[settings.weak_prior(result.theta), *(p.with_noise(noise) for p in priors)],
-        lower=lower,
-        upper=upper,
+        bounds=Bounds(lower, upper),
     )
     return _reweighed(solve, result, trials, weighted, weighting, pset, trial_weights)
 
@@ -598,7 +597,7 @@ def _reweighed(
     ``weighting`` gets its marker RMSE with each solve (:func:`axes.axis_rmse`)."""
     per_trial = weighting.trial_weights
     result = solve(_trials_weighed(weighted, per_trial), theta0=first.theta,
-                   initial_qpos=first.qpos)  # fmt: skip
+                   initial=InitialPoses(first.qpos))  # fmt: skip
     seconds, iterations = first.seconds + result.seconds, first.iterations + result.iterations
     for _ in range(TRIAL_WEIGHT_ROUNDS - 1):
         if all(w == 1.0 for w in per_trial):
@@ -612,7 +611,7 @@ def _reweighed(
         weighting = replace(weighting, trial_tau_frames=taus, trial_weights=per_trial)
         logger.info("trials reweighed: %s", ", ".join(f"{w:.2f}" for w in per_trial))
         result = solve(_trials_weighed(weighted, per_trial), theta0=result.theta,
-                       initial_qpos=result.qpos)  # fmt: skip
+                       initial=InitialPoses(result.qpos))  # fmt: skip
         seconds, iterations = seconds + result.seconds, iterations + result.iterations
     result.theta0 = first.theta0
     result.seconds = seconds

@@ -452,9 +452,9 @@ class IKSolver:
         if cuts.size:
             bounds = np.concatenate([[0], cuts])
             self._seams(target, w, qpos, rmse, iters, status, bounds, np.append(cuts, n))
-        npres = np.count_nonzero(w > 0, axis=1)
-        self._repair(markers, w, qpos, rmse, iters, status, npres)
-        return IKResult(qpos, rmse, iters, status, npres)
+        result = IKResult(qpos, rmse, iters, status, np.count_nonzero(w > 0, axis=1))
+        self._repair(markers, w, result)
+        return result
 
     @single_blas_thread
     def solve_from_heads(self, markers: np.ndarray, heads: np.ndarray) -> IKResult:
@@ -502,8 +502,9 @@ class IKSolver:
             *self._kernel_settings(),
             self._floor(w),
         )
-        self._repair(markers, w, q, rmse, iters, status, npres)
-        return IKResult(q, rmse, iters, status, npres)
+        result = IKResult(q, rmse, iters, status, npres)
+        self._repair(markers, w, result)
+        return result
 
     @single_blas_thread
     def repair(
@@ -531,7 +532,8 @@ class IKSolver:
         rmse[ok] = np.sqrt(d2[ok].sum(axis=1) / np.maximum(npres[ok], 1))
         status = np.where(ok, Status.CONVERGED, Status.TOO_FEW_MARKERS).astype(int)
         before = qpos.copy()
-        self._repair(markers, w, qpos, rmse, np.zeros(n, dtype=int), status, npres, factor, margin)
+        fits = IKResult(qpos, rmse, np.zeros(n, dtype=int), status, npres)
+        self._repair(markers, w, fits, factor, margin)
         changed = np.any(before != qpos, axis=1) & ok
         return np.flatnonzero(changed)
 
@@ -565,7 +567,7 @@ class IKSolver:
         self,
         target: np.ndarray,
         w: np.ndarray,
-        out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+        out: _tree_ik.Fits,
         seeds: np.ndarray,
         firsts: np.ndarray,
         lasts: np.ndarray,
@@ -578,7 +580,7 @@ class IKSolver:
             self.kin.tree(),
             target,
             w,
-            *out,
+            out,
             seeds,
             firsts,
             lasts,
@@ -625,26 +627,25 @@ class IKSolver:
         self,
         markers: np.ndarray,
         w: np.ndarray,
-        qpos: np.ndarray,
-        rmse: np.ndarray,
-        iters: np.ndarray,
-        status: np.ndarray,
-        npres: np.ndarray,
+        fits: IKResult,
         factor: float = 3.0,
         margin: float = 1e-3,
     ) -> None:
         """Re-solve frames that fit clearly worse than the trial, from a good neighbour.
 
+        markers (T, M, 3) [m] with weights w (T, M); ``fits``: every frame's fit so far
+        (its qpos, marker_rmse, iterations and status updated in place; n_markers unused).
         A frame is bad when its RMSE exceeds ``factor * median + margin`` (default 3 and
         1 mm): a local minimum, typically a chain start that began far from its pose. Runs of
         bad frames are walked inwards from their good ends, one frame per round on every run
         at once; a re-solve is kept when it fits better.
         """
-        solvable = status != Status.TOO_FEW_MARKERS
+        solvable = fits.status != Status.TOO_FEW_MARKERS
         if not np.any(solvable):
             return
-        ref = float(np.nanmedian(rmse[solvable]))
+        ref = float(np.nanmedian(fits.marker_rmse[solvable]))
         limit = factor * ref + margin
+        qpos, rmse, iters, status, _ = fits
         self._walk_runs(markers, w, qpos, rmse, iters, status, solvable, limit)
 
 

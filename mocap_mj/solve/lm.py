@@ -50,7 +50,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import mujoco
@@ -76,6 +76,7 @@ from mocap_mj.solve.losses import loss_named
 from mocap_mj.solve.priors import Prior
 from mocap_mj.solve.problem import (
     CHI3_MEDIAN,
+    Bounds,
     IdentificationProblem,
     ProblemOptions,
     ReducedChunk,
@@ -549,6 +550,23 @@ def initial_ik(
     return [solver.solve_trial(t.markers) for t in trials]
 
 
+@dataclass(frozen=True, eq=False)
+class InitialPoses:
+    """Where :func:`identify_lm`'s poses start: given per trial, or solved by an IK.
+
+    Attributes
+    ----------
+    qpos : sequence of (T_i, nq) [m, quaternion, rad] or None
+        The starting poses per trial (NaN rows: frames not used). None (default): every
+        frame's IK with the initial model (after the coarse phase, when it applies).
+    ik : IKSettings or None
+        The settings of that IK (default None: ``IKSettings()``); unused with ``qpos``.
+    """
+
+    qpos: Sequence[np.ndarray] | None = None
+    ik: IKSettings | None = None
+
+
 @single_blas_thread
 def identify_lm(
     trials: Sequence[TrialData],
@@ -556,11 +574,9 @@ def identify_lm(
     pset: ParameterSet | None = None,
     theta0: np.ndarray | None = None,
     settings: LMSettings | None = None,
-    ik_settings: IKSettings | None = None,
-    initial_qpos: Sequence[np.ndarray] | None = None,
+    initial: InitialPoses | None = None,
     priors: Sequence[Prior] | None = None,
-    lower: np.ndarray | None = None,
-    upper: np.ndarray | None = None,
+    bounds: Bounds | None = None,
     progress: ProgressCallback | None = None,
 ) -> IdentificationResult:
     """Identify theta and the motion of every trial by joint Levenberg-Marquardt.
@@ -576,12 +592,15 @@ def identify_lm(
         The parameterisation (bundled humanoid by default); its ``frozen`` flags are honoured.
     theta0 : (P,) [m], optional
         Initial model and mean of the default prior (default ``pset.nominal``).
-    initial_qpos : sequence of (T_i, nq), optional
-        Starting poses per trial (default: IK with theta0).
+    settings : LMSettings, optional
+        The LM's settings (default ``LMSettings()``).
+    initial : InitialPoses, optional
+        The starting poses per trial, or the settings of the IK that solves them (default:
+        every frame's IK with theta0 and ``IKSettings()``, after the coarse phase).
     priors : sequence of Prior, optional
         Default: the weak prior toward theta0 (``settings.prior_sigma``); pass it in the
         sequence to keep it beside others.
-    lower, upper : (P,) [m], optional
+    bounds : Bounds, optional
         Box on theta (default: none).
     progress : callable, optional
         Called with each iteration's :class:`IterationLog`.
@@ -602,15 +621,9 @@ def identify_lm(
     t_start = time.perf_counter()
     if priors is None:
         priors = [st.weak_prior(theta)]
-    options: ProblemOptions = {
-        "theta0": theta,
-        "priors": priors,
-        "lower": lower,
-        "upper": upper,
-        "loss": loss_named(st.loss),
-    }
+    options = ProblemOptions(theta0=theta, priors=priors, bounds=bounds, loss=loss_named(st.loss))
     result = _solve_levels(
-        kin, trials, free, options, st, ik_settings, initial_qpos, progress, information=True
+        kin, trials, free, options, st, initial or InitialPoses(), progress, information=True
     )
     result.seconds = time.perf_counter() - t_start
     return result
@@ -622,8 +635,7 @@ def _solve_levels(
     free: np.ndarray,
     options: ProblemOptions,
     st: LMSettings,
-    ik_settings: IKSettings | None,
-    initial_qpos: Sequence[np.ndarray] | None,
+    initial: InitialPoses,
     progress: ProgressCallback | None,
     *,
     information: bool,
@@ -635,10 +647,10 @@ def _solve_levels(
     coarse: IdentificationResult | None = None
     rows = (
         None
-        if initial_qpos is not None
+        if initial.qpos is not None
         else coarse_rows(trials, kin.pset, st.tolerances.coarse_frames)
     )
-    if rows is not None:
+    if rows is not None:  # no poses given: ``initial`` holds only the IK's settings
         start, sub = kin.theta.copy(), subset_trials(trials, rows)
         sub_st = replace(
             st,
@@ -648,7 +660,7 @@ def _solve_levels(
         )
         try:
             coarse = _solve_levels(
-                kin, sub, free, options, sub_st, ik_settings, None, progress, information=False
+                kin, sub, free, options, sub_st, initial, progress, information=False
             )
         except SolverError:  # no frame of the subset solvable: every frame decides
             coarse = None
@@ -656,22 +668,22 @@ def _solve_levels(
             coarse = None  # most of the subset unsolvable: no approach worth continuing
         kin.set_theta(start if coarse is None else coarse.theta)
     t_ik = time.perf_counter()
-    if initial_qpos is None:
+    if initial.qpos is None:
         if coarse is not None and rows is not None:
-            solver = IKSolver(kin, ik_settings)
+            solver = IKSolver(kin, initial.ik)
             heads = subset_heads(trials, rows, coarse.qpos)
             iks = [
                 solver.solve_from_heads(t.markers, h) for t, h in zip(trials, heads, strict=True)
             ]
         else:
-            iks = initial_ik(kin, trials, ik_settings)
+            iks = initial_ik(kin, trials, initial.ik)
         init_q = [r.qpos for r in iks]
         used = [r.status != IKStatus.TOO_FEW_MARKERS for r in iks]
     else:
-        init_q = [np.asarray(q, dtype=float) for q in initial_qpos]
+        init_q = [np.asarray(q, dtype=float) for q in initial.qpos]
         used = [np.all(np.isfinite(q), axis=1) for q in init_q]
     init_seconds = time.perf_counter() - t_ik
-    problem = build_problem(kin, trials, init_q, used, free, **options)
+    problem = build_problem(kin, trials, init_q, used, free, options)
     if coarse is None:
         result = solve_lm(problem, st, progress=progress, information=information)
     else:
@@ -700,6 +712,8 @@ def _shifted(progress: ProgressCallback, k: int) -> ProgressCallback:
 
 __all__ = [
     "CHI3_MEDIAN",
+    "Bounds",
+    "InitialPoses",
     "LMResult",
     "LMSettings",
     "Termination",

@@ -16,8 +16,9 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from os import PathLike
-from typing import NamedTuple, TypedDict, Unpack
+from typing import NamedTuple
 
 import numpy as np
 
@@ -124,6 +125,27 @@ def check_bounds(
     return lo, hi
 
 
+@dataclass(frozen=True, eq=False)
+class Bounds:
+    """A box on theta: ``lower <= theta <= upper``.
+
+    Attributes
+    ----------
+    lower, upper : (P,) [m] or None
+        Each side's bound per parameter (-inf or +inf: that parameter unbounded on that
+        side); None: no bound on that side (the default: no box). Checked when a problem is
+        built (:func:`check_bounds`). ``Bounds(*theta_bounds(pset, subject))`` is the box of
+        the anatomical ranges (:func:`~mocap_mj.anatomy.ranges.theta_bounds`).
+    """
+
+    lower: np.ndarray | None = None
+    upper: np.ndarray | None = None
+
+    def arrays(self, size: int) -> tuple[np.ndarray, np.ndarray]:
+        """The box (lower, upper), each (size,) [m], checked (:func:`check_bounds`)."""
+        return check_bounds(size, self.lower, self.upper)
+
+
 class ReducedChunk(NamedTuple):
     """A chunk of frames eliminated from the damped Gauss-Newton system.
 
@@ -166,6 +188,28 @@ def _per_axis_noise(rmse: float, n_res: int, n_unk: int) -> float:
     return float(rmse / np.sqrt(3 * max(1.0 - n_unk / max(n_res, 1), 1e-6)))
 
 
+@dataclass(frozen=True, eq=False)
+class ProblemOptions:
+    """The choices of an :class:`IdentificationProblem`'s objective beyond its data.
+
+    Attributes
+    ----------
+    theta0 : (P,) [m] or None
+        The initial model (default None: the kinematics' theta when the problem is built).
+    priors : sequence of Prior
+        The priors summed into F (default: none).
+    bounds : Bounds or None
+        The box on theta (default None: unbounded).
+    loss : Loss or None
+        The marker loss rho (default None: :class:`~mocap_mj.solve.losses.L2`).
+    """
+
+    theta0: np.ndarray | None = None
+    priors: Sequence[Prior] = ()
+    bounds: Bounds | None = None
+    loss: Loss | None = None
+
+
 class IdentificationProblem:
     """Pooled frames, loss, priors and box of one identification (see the module docstring).
 
@@ -175,10 +219,8 @@ class IdentificationProblem:
     markers : (n, M, 3) [m], NaN where missing
     qpos : (n, nq), the current poses (updated in place by solvers)
     free : (Pf,) int, indices of the parameters identified
-    theta0 : (P,) [m], initial model
-    priors : sequence of Prior (default: none)
-    lower, upper : (P,) [m] or None, the box on theta (default: unbounded)
-    loss : Loss (default L2)
+    options : ProblemOptions or None, the initial model, priors, box and loss (default
+        None: ``ProblemOptions()``, the kinematics' theta, no prior, no box, L2)
     used : list of (T_i,) bool, the frames of each trial pooled here, in order (default: one
         trial, every frame)
     weights : (n, M) [1] or None, per-sample weights of the loss (default None: all 1), see
@@ -192,14 +234,11 @@ class IdentificationProblem:
         qpos: np.ndarray,
         free: np.ndarray,
         *,
-        theta0: np.ndarray | None = None,
-        priors: Sequence[Prior] = (),
-        lower: np.ndarray | None = None,
-        upper: np.ndarray | None = None,
-        loss: Loss | None = None,
+        options: ProblemOptions | None = None,
         used: Sequence[np.ndarray] | None = None,
         weights: np.ndarray | None = None,
     ) -> None:
+        opt = options or ProblemOptions()
         self.kin = kin
         self.limits = IKSolver(kin)
         self.markers = markers
@@ -211,11 +250,13 @@ class IdentificationProblem:
         self.qpos = qpos
         self.free = np.asarray(free, dtype=int)
         self.n = len(markers)
-        self.theta0 = kin.theta.copy() if theta0 is None else np.asarray(theta0, dtype=float)
-        self.priors = tuple(priors)
+        self.theta0 = (
+            kin.theta.copy() if opt.theta0 is None else np.asarray(opt.theta0, dtype=float)
+        )
+        self.priors = tuple(opt.priors)
         self._prior_hessian: np.ndarray | None = None
-        self.lower, self.upper = check_bounds(kin.pset.size, lower, upper)
-        self.loss: Loss = L2() if loss is None else loss
+        self.lower, self.upper = (opt.bounds or Bounds()).arrays(kin.pset.size)
+        self.loss: Loss = L2() if opt.loss is None else opt.loss
         # The per-sample weights (n, M) [1] or None, also what a refit's fresh IK weighs by.
         self.sample_weights: np.ndarray | None = None
         if weights is not None:
@@ -354,26 +395,17 @@ class IdentificationProblem:
         return a, b[:, :, f], gq, c[np.ix_(f, f)], gt[f]
 
 
-class ProblemOptions(TypedDict, total=False):
-    """The optional keywords of :class:`IdentificationProblem` (see there)."""
-
-    theta0: np.ndarray | None
-    priors: Sequence[Prior]
-    lower: np.ndarray | None
-    upper: np.ndarray | None
-    loss: Loss | None
-
-
 def build_problem(
     kin: Kinematics,
     trials: Sequence[TrialData],
     qpos: Sequence[np.ndarray],
     used: Sequence[np.ndarray],
     free: np.ndarray,
-    **options: Unpack[ProblemOptions],
+    options: ProblemOptions | None = None,
 ) -> IdentificationProblem:
     """The problem over the used frames (``used[i]`` (T_i,) bool) of the trials, from poses
-    qpos (T_i, nq) per trial; the trials' sample weights pooled alike (1 for a trial without)."""
+    qpos (T_i, nq) per trial, with ``options`` (default: ``ProblemOptions()``); the trials'
+    sample weights pooled alike (1 for a trial without)."""
     if sum(int(u.sum()) for u in used) == 0:
         raise SolverError("no frame has enough markers to be solved")
     markers, q = pool(trials, qpos, used)
@@ -385,7 +417,7 @@ def build_problem(
                 for t, u in zip(trials, used, strict=True)
             ]
         )
-    return IdentificationProblem(kin, markers, q, free, used=used, weights=weights, **options)
+    return IdentificationProblem(kin, markers, q, free, options=options, used=used, weights=weights)
 
 
 def reduced_information(
@@ -411,6 +443,7 @@ def reduced_information(
 
 __all__ = [
     "CHI3_MEDIAN",
+    "Bounds",
     "FitStatistics",
     "IdentificationProblem",
     "LinearGaussianPrior",

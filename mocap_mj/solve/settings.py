@@ -81,7 +81,7 @@ class Tolerances:
         every frame from there (default 100: at 500 frames the approach then costs about a
         fifth per iteration, and every frame's IK is solved once, under a model near the
         answer; 0 disables). Only when :func:`identify_lm` solves the initial IK itself (no
-        ``initial_qpos``).
+        ``InitialPoses.qpos``).
     """
 
     tol_noise: float = 1.0
