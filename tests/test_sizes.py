@@ -27,7 +27,6 @@ MAX_PARAMETERS = 8
 #: test, and so does one listed here that no longer needs its place.
 MANY_PARAMETERS = frozenset(
     {
-        "mocap_mj/long/refine.py:refine", "mocap_mj/long/long.py:identify_long",
         "mocap_mj/long/motion_out.py:write_every_frame_motion",
         "mocap_mj/long/motion_out.py:every_frame_motion",
         "mocap_mj/clinical/kinetics.py:newton_euler", "mocap_mj/clinical/kinetics.py:_chain",
