@@ -27,8 +27,6 @@ MAX_PARAMETERS = 8
 #: test, and so does one listed here that no longer needs its place.
 MANY_PARAMETERS = frozenset(
     {
-        "mocap_mj/long/motion_out.py:write_every_frame_motion",
-        "mocap_mj/long/motion_out.py:every_frame_motion",
         "mocap_mj/clinical/kinetics.py:newton_euler", "mocap_mj/clinical/kinetics.py:_chain",
         "mocap_mj/clinical/kinetics.py:trial_kinetics",
         "mocap_mj/pipeline/relabel.py:_round", "mocap_mj/pipeline/api.py:identify",
