@@ -15,8 +15,9 @@ from scipy.spatial.transform import Rotation
 
 from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.errors import MocapError
+from mocap_mj.long.chunks import FrameWeights
 from mocap_mj.long.long import identify_long
-from mocap_mj.long.refine import refine
+from mocap_mj.long.refine import Objective, RefineOptions, refine
 from mocap_mj.outputs import score
 from mocap_mj.outputs.score import align_gauge_free, align_truth, gauge_free
 from mocap_mj.solve.identifiability import Identifiability
@@ -62,7 +63,8 @@ def test_selection_needs_the_pelvis(pset: ParameterSet) -> None:
 def test_identify_long_reaches_the_bound_of_its_selection(pset: ParameterSet) -> None:
     exp = synthesize(SynthConfig(frames=900, motion="rom", seed=4), pset)
     qpos = np.full((900, 55), np.nan)
-    res = identify_long(exp.markers, exp.times, pset, qpos, count=200, chunk=400)
+    res = identify_long(exp.markers, exp.times, pset, qpos, count=200,
+                        refinement=RefineOptions(chunk=400))  # fmt: skip
     assert len(res.selection.frames) == 200
     assert res.frames_solved == 900 and np.all(np.isfinite(qpos))
     # 1 mm per-axis noise: sqrt(3) (1 - 48/117)^0.5 mm = 1.33 mm after the IK fit
@@ -125,7 +127,8 @@ def test_refinement_on_every_frame_reaches_the_all_frames_bound(pset: ParameterS
     exp = synthesize(SynthConfig(frames=2400, motion="rom", seed=6), pset)
     qpos = np.full((2400, 55), np.nan)
     # 120 frames identified on; the refinement's sample every 3rd frame, its last step on all.
-    res = identify_long(exp.markers, exp.times, pset, qpos, count=120, chunk=1000, sample=800)
+    options = RefineOptions(chunk=1000, sample=800)
+    res = identify_long(exp.markers, exp.times, pset, qpos, count=120, refinement=options)
     assert res.frames_solved == 2400 and np.all(np.isfinite(qpos))
     # the sample's steps converge (the last below TOL_STD); then the one step on every frame
     assert len(res.steps) >= 3 and res.steps[-2] < 0.1 < res.steps[0], res.steps
@@ -315,9 +318,10 @@ def test_refinement_holds_its_box_and_weighs_its_priors(pset: ParameterSet) -> N
     row[0, thigh] = 1.0
     sharp = LinearGaussianPrior(row, np.array([theta0[thigh]]), np.array([1e-5]))
     runs = {}
-    for name, priors, up in (("free", None, None), ("held", [sharp], upper)):
+    lower = np.full(pset.size, -np.inf)
+    for name, priors, box in (("free", None, None), ("held", [sharp], (lower, upper))):
         qpos = np.full((len(exp.markers), pset.model.nq), np.nan)
-        ref = refine(exp.markers, pset, theta0, qpos, 1e-3, priors=priors, upper=up)
+        ref = refine(exp.markers, pset, theta0, qpos, 1e-3, objective=Objective(priors, box))
         runs[name] = ref.theta
         assert np.all(np.isfinite(qpos))
     # Free: within 0.5 mm of the truth (400 frames: a bound of about 0.1 mm here).
@@ -352,7 +356,9 @@ def test_refinement_minimises_the_weighted_cost_of_the_sliding_landmarks(
     runs = {}
     for name, w in (("plain", None), ("weighted", weigh)):
         qpos = np.full((len(markers), m.nq), np.nan)
-        runs[name] = refine(markers, pset, theta0, qpos, 1e-3, weigh=w, steps=12, tol_std=0.01)
+        runs[name] = refine(markers, pset, theta0, qpos, 1e-3,
+                            objective=Objective(weighing=FrameWeights(w)),
+                            options=RefineOptions(steps=12, tol_std=0.01))  # fmt: skip
     # The joint LM on every frame, weighted by the weighted refinement's last poses, from the
     # same start and with the same weak prior toward it, run to the minimum (its default stop,
     # a gain below sigma^2, may end a standard deviation short of it along a flat direction:
@@ -388,7 +394,7 @@ def test_select_refines_with_the_sliding_weights_its_solve_used(
     seen: list[object] = []
 
     def stub(markers, p, theta0, qpos, sigma, **kw):  # type: ignore[no-untyped-def]
-        seen.append(kw["weigh"])
+        seen.append(kw["objective"].weighing.weigh)
         return Refinement(theta0, np.zeros((p.size,) * 2), np.zeros(p.size), [0.0], {})
 
     monkeypatch.setattr(pipeline, "refine", stub)
@@ -447,7 +453,8 @@ def test_refinement_on_every_frame_keeps_the_poses_of_its_model(pset: ParameterS
     theta0[0] += 2e-3  # the data pull it back: the step is not zero
     qpos = np.full((len(exp.markers), pset.model.nq), np.nan)
     prior = _RejectAll(theta0)
-    ref = refine(exp.markers, pset, theta0, qpos, 1e-3, priors=[prior], steps=3)  # type: ignore[list-item]
+    ref = refine(exp.markers, pset, theta0, qpos, 1e-3, objective=Objective([prior]),  # type: ignore[list-item]
+                 options=RefineOptions(steps=3))  # fmt: skip
     assert np.array_equal(ref.theta, theta0)  # every step taken back
     assert len(ref.steps) == 3 and ref.steps[0] > 0.1
     kin = Kinematics(pset)
@@ -503,8 +510,9 @@ def test_refinement_minimises_the_robust_cost(pset: ParameterSet, hand_zero: Han
     runs = {}
     for name, r in (("plain", None), ("robust", robust)):
         qpos = np.full((len(markers), pset.model.nq), np.nan)
-        runs[name] = refine(markers, pset, exp.theta_true, qpos, 1e-3, robust=r, steps=12,
-                            tol_std=0.01).theta  # fmt: skip
+        runs[name] = refine(markers, pset, exp.theta_true, qpos, 1e-3,
+                            objective=Objective(weighing=FrameWeights(robust=r)),
+                            options=RefineOptions(steps=12, tol_std=0.01)).theta  # fmt: skip
     settings = LMSettings(loss="cauchy", tolerances=Tolerances(coarse_frames=0))
     lm = identify_lm([TrialData("rom", markers, exp.times)], pset=pset, theta0=exp.theta_true,
                      settings=settings)  # fmt: skip

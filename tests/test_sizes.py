@@ -27,14 +27,10 @@ MAX_PARAMETERS = 8
 #: test, and so does one listed here that no longer needs its place.
 MANY_PARAMETERS = frozenset(
     {
-        "mocap_mj/long/refine.py:refine", "mocap_mj/long/long.py:identify_long",
-        "mocap_mj/long/motion_out.py:write_every_frame_motion",
-        "mocap_mj/long/motion_out.py:every_frame_motion",
         "mocap_mj/clinical/kinetics.py:newton_euler", "mocap_mj/clinical/kinetics.py:_chain",
         "mocap_mj/clinical/kinetics.py:trial_kinetics",
         "mocap_mj/export/c3d.py:write_points_c3d", "mocap_mj/export/osim.py:_custom_joint",
-        "mocap_mj/outputs/write_fit.py:write_files",
-        "mocap_mj/io/formats/c3d_check.py:_data_layout", "mocap_mj/batch/run.py:run_batch",
+        "mocap_mj/io/formats/c3d_check.py:_data_layout",
         "viewer/render.py:open_renderer", "viewer/output.py:render_to_file",
     }
 )  # fmt: skip

@@ -9,7 +9,7 @@ from ..lazy import lazy_names
 
 if TYPE_CHECKING:
     from .dataset import OPTION_KEYS, Entry, content_hash, load_dataset
-    from .run import Outcome, run_batch
+    from .run import Cluster, Outcome, run_batch
 
 #: The names imported on first use (PEP 562): ``mocap-mj batch --help`` reads
 #: :data:`~mocap_mj.batch.dataset.OPTION_KEYS` without loading the runner.
@@ -18,6 +18,7 @@ _LAZY = {
     "Entry": ".dataset",
     "content_hash": ".dataset",
     "load_dataset": ".dataset",
+    "Cluster": ".run",
     "Outcome": ".run",
     "run_batch": ".run",
 }
@@ -26,4 +27,12 @@ _LAZY = {
 __getattr__ = lazy_names(__name__, _LAZY, globals())
 
 
-__all__ = ["OPTION_KEYS", "Entry", "Outcome", "content_hash", "load_dataset", "run_batch"]
+__all__ = [
+    "OPTION_KEYS",
+    "Cluster",
+    "Entry",
+    "Outcome",
+    "content_hash",
+    "load_dataset",
+    "run_batch",
+]

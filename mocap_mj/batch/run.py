@@ -41,6 +41,7 @@ import threading
 import time
 import traceback
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -308,15 +309,29 @@ def have_ray() -> bool:
     return True
 
 
+@dataclass(frozen=True)
+class Cluster:
+    """Where :func:`run_batch` runs the jobs.
+
+    Fields
+    ------
+    use_ray : on Ray (default True); False: serially in this process
+    address : the Ray cluster to join (default None: a local Ray on this machine)
+    workers : the local Ray's CPUs (default None: all)
+    """
+
+    use_ray: bool = True
+    address: str | None = None
+    workers: int | None = None
+
+
 def run_batch(
     subjects: Sequence[Entry],
     out: Path,
     job: Job,
     *,
     settings: Mapping[str, Any] | None = None,
-    use_ray: bool = True,
-    address: str | None = None,
-    workers: int | None = None,
+    cluster: Cluster = Cluster(),
     progress: bool = True,
     on_outcome: Callable[[Outcome], None] | None = None,
     timeout: float | None = None,
@@ -324,9 +339,9 @@ def run_batch(
     """Run ``job`` for every subject not already complete in ``out``; outcomes by subject.
 
     ``settings`` enter every subject's content hash (what else the results depend on).
-    ``use_ray=False`` runs the jobs serially in this process. ``workers`` limits the local
-    Ray's CPUs (default: all). ``on_outcome`` is called as each subject finishes.
-    ``timeout``: seconds a subject's job may run (None: no limit; see :func:`execute`).
+    ``cluster``: where the jobs run (:class:`Cluster`; default: a local Ray on every CPU).
+    ``on_outcome`` is called as each subject finishes. ``timeout``: seconds a subject's job
+    may run (None: no limit; see :func:`execute`).
     """
     out.mkdir(parents=True, exist_ok=True)
     if folder_mark(out) is None:
@@ -354,8 +369,8 @@ def run_batch(
         else:
             todo.append((s, digest))
     try:
-        if todo and use_ray:
-            for o in _ray_outcomes(todo, out, job, address, workers, timeout):
+        if todo and cluster.use_ray:
+            for o in _ray_outcomes(todo, out, job, cluster, timeout):
                 done(o)
         else:
             for s, digest in todo:
@@ -371,14 +386,13 @@ def _ray_outcomes(
     todo: Sequence[tuple[Entry, str]],
     out: Path,
     job: Job,
-    address: str | None,
-    workers: int | None,
+    cluster: Cluster,
     timeout: float | None = None,
 ) -> Iterator[Outcome]:
     import ray
     from ray.exceptions import RayError
 
-    with _ray_session(address, workers):
+    with _ray_session(cluster.address, cluster.workers):
         task = ray.remote(num_cpus=1, max_retries=MAX_RETRIES, retry_exceptions=False)(execute)
         pending = {
             task.remote(job, s, str(out.resolve()), digest, timeout): (s, digest)

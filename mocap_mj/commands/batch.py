@@ -37,7 +37,7 @@ from mocap_mj.solve.ik import IKSettings
 
 from ..batch.dataset import OPTION_KEYS, Entry, load_dataset
 from ..batch.report import summary_rows, write_report
-from ..batch.run import have_ray, one_line, prepare_out, run_batch
+from ..batch.run import Cluster, have_ray, one_line, prepare_out, run_batch
 from ..errors import MocapError
 from ._markers import load_trial
 
@@ -68,9 +68,7 @@ def run(args: argparse.Namespace) -> int:
             out,
             process_subject,
             settings={"mocap_mj": __version__},
-            use_ray=use_ray,
-            address=args.address,
-            workers=args.workers,
+            cluster=Cluster(use_ray, args.address, args.workers),
             progress=not args.json,
             timeout=args.timeout,
         )

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import tempfile
 from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
 from typing import NamedTuple, TypeAlias
 
 import numpy as np
@@ -39,6 +40,22 @@ class Robust(NamedTuple):
 
     loss: Loss
     c: float
+
+
+@dataclass(frozen=True)
+class FrameWeights:
+    """How the samples of a pass are weighed (:func:`sample_weights`): the same as the
+    identification's fit, so that a pass minimises its cost.
+
+    Fields
+    ------
+    weigh : per-sample weights by pose (default None: all 1), e.g. the landmarks'
+        soft-tissue sliding
+    robust : a robust loss and its threshold (default None: least squares)
+    """
+
+    weigh: Weigh | None = None
+    robust: Robust | None = None
 
 
 def robust_loss(

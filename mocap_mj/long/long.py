@@ -52,7 +52,7 @@ from numpy.typing import NDArray
 
 from mocap_mj.anatomy.initial import place_markers, scaled_theta, segment_scales
 from mocap_mj.long.chunks import CHUNK, Parts, Robust, _ik_pass
-from mocap_mj.long.refine import SAMPLE, refine
+from mocap_mj.long.refine import RefineOptions, refine
 from mocap_mj.skeleton.kinematics import Kinematics
 from mocap_mj.skeleton.parameters import ParameterSet
 from mocap_mj.solve.ik import IKSolver
@@ -128,9 +128,8 @@ def identify_long(
     *,
     count: int = 1000,
     settings: LMSettings | None = None,
-    chunk: int = CHUNK,
     refine_on_all: bool = True,
-    sample: int = SAMPLE,
+    refinement: RefineOptions | None = None,
 ) -> LongResult:
     """Identify a long recording on ``count`` selected frames, IK every frame, refine the
     model on every frame (:func:`~mocap_mj.long.refine.refine`), then IK every frame again (warm)
@@ -144,14 +143,16 @@ def identify_long(
     qpos_out : (T, nq) float, written: every frame's pose (NaN rows where too few markers)
     count : frames identified on (default 1000: see docs/method.md#long-recordings)
     settings : LM settings (default ``LMSettings()``)
-    chunk : frames per IK chunk
     refine_on_all : refine the model on every frame (:func:`~mocap_mj.long.refine.refine`;
         default on: without, the model's error is that of ``count`` frames, many times the
         bound of the whole recording)
-    sample : frames of the refinement's sample (:func:`~mocap_mj.long.refine.refine`)
+    refinement : the refinement's options (:class:`~mocap_mj.long.refine.RefineOptions`: its
+        sample, steps, ...; default ``RefineOptions()``); its ``chunk`` is the frames per IK
+        chunk of every pass, the last IK's too
     """
     n = len(markers)
     st = settings or LMSettings()
+    options = refinement or RefineOptions()
     check_shape("markers", markers, (None, pset.n_markers, 3))
     check_shape("times", times, (n,))
     check_shape("qpos_out", qpos_out, (n, pset.model.nq))
@@ -169,13 +170,11 @@ def identify_long(
     extra: dict[str, float] = {}
     t3 = time.perf_counter()
     if refine_on_all:
-        ref = refine(
-            markers, pset, lm.theta, qpos_out, lm.sigma, settings=st, chunk=chunk, sample=sample
-        )
+        ref = refine(markers, pset, lm.theta, qpos_out, lm.sigma, settings=st, options=options)
         theta, info, sizes = ref.theta, ref.information, ref.steps
         extra = {f"refine_{k}": v for k, v in ref.seconds.items()}
         t3 = time.perf_counter()
-    rmse, solved = refit_all(markers, pset, theta, qpos_out, chunk=chunk)
+    rmse, solved = refit_all(markers, pset, theta, qpos_out, chunk=options.chunk)
     t4 = time.perf_counter()
     stages = {"select": t1 - t0, "identify": t2 - t1, "refine": t3 - t2, "ik": t4 - t3, **extra}
     return LongResult(sel, lm, theta, info, sizes, rmse, solved, stages)

@@ -19,6 +19,7 @@ import contextlib
 import time
 import zipfile
 from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, NamedTuple
 
@@ -27,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mocap_mj.long.angles_out import write_angle_chunks
-from mocap_mj.long.chunks import CHUNK, ChunkFit, Robust, Weigh, solve_chunk
+from mocap_mj.long.chunks import CHUNK, ChunkFit, FrameWeights, solve_chunk
 from mocap_mj.skeleton.exported import Layout
 from mocap_mj.skeleton.joint_centre_table import joint_centre_columns, joint_centre_text
 from mocap_mj.skeleton.kinematics import Kinematics
@@ -136,6 +137,30 @@ class _CentresTable:
         self.next += len(qpos)
 
 
+@dataclass(frozen=True)
+class MotionOptions:
+    """How :func:`write_every_frame_motion` and :func:`every_frame_motion` solve every frame.
+
+    Fields
+    ------
+    start : per trial (T_i, nq), poses the chunk's frames start from (finite rows, e.g. the
+        refinement's: warm, ``WARM_ITERATIONS`` LM iterations each); default None and NaN
+        chunks: solved afresh, chained through each chunk (:meth:`IKSolver.solve_trial`, as
+        ``mocap-mj ik`` solves a trial)
+    weighing : the warm frames' weights at their start poses
+        (:func:`mocap_mj.long.chunks.solve_chunk`), as the identification weighed its fit
+        (its soft-tissue sliding model, its robust loss and threshold); default: all 1,
+        least squares
+    chunk : frames per IK chunk
+    progress : called with the frames done over all trials (default None)
+    """
+
+    start: Sequence[NDArray[np.floating]] | None = None
+    weighing: FrameWeights = field(default_factory=FrameWeights)
+    chunk: int = CHUNK
+    progress: Callable[[int], None] | None = None
+
+
 def write_every_frame_motion(
     out: Path,
     pset: ParameterSet,
@@ -144,11 +169,7 @@ def write_every_frame_motion(
     trials: Sequence[TrialData],
     *,
     first_frames: Sequence[int] | None = None,
-    start: Sequence[NDArray[np.floating]] | None = None,
-    progress: Callable[[int], None] | None = None,
-    chunk: int = CHUNK,
-    weigh: Weigh | None = None,
-    robust: Robust | None = None,
+    options: MotionOptions = MotionOptions(),
 ) -> MotionFit:
     """IK of every frame of ``trials`` with the model as ``identify`` writes it (parameters
     theta (P,) [m], the joint limits the solver used), written chunk by chunk into
@@ -157,42 +178,35 @@ def write_every_frame_motion(
     and the first trial's angles.csv (:mod:`mocap_mj.long.angles_out`); returns the fit
     over every frame.
 
-    ``start`` (per trial (T_i, nq)): poses the chunk's frames start from (finite rows, e.g.
-    the refinement's: warm, ``WARM_ITERATIONS`` LM iterations each); default and NaN chunks: solved
-    afresh, chained through each chunk (:meth:`IKSolver.solve_trial`, as ``mocap-mj ik``
-    solves a trial). ``first_frames``: each trial's first frame in its file (the CSV's frame
-    column; default 0). ``progress`` is called with the frames done over all trials.
-    ``weigh``: per-sample weights by pose (default None: all 1), for the warm frames from
-    their start poses' (:func:`mocap_mj.long.chunks.solve_chunk`), as the identification
-    weighed its fit (its soft-tissue sliding model); ``robust``: a robust loss and its
-    threshold (default None: least squares), the warm frames weighed by its IRLS weights at
-    their start poses, as the identification's robust fit weighed its samples."""
+    ``first_frames``: each trial's first frame in its file (the CSV's frame column; default
+    0). ``options``: the start poses, weighing, chunk and progress callback
+    (:class:`MotionOptions`)."""
     solver = _written_solver(pset, theta, settings)
     layout = Layout.of(solver.kin.model)
     model = pset.model_for(theta)
     t0 = time.perf_counter()
     firsts = list(first_frames) if first_frames is not None else [0] * len(trials)
-    tally = _Tally(progress)
+    tally = _Tally(options.progress)
     for i, (trial, first) in enumerate(zip(trials, firsts, strict=True)):
         suffix = "" if i == 0 else f"_{i}"
-        q0 = start[i] if start is not None else None
+        q0 = options.start[i] if options.start is not None else None
         with (
             atomic_path(out / f"joint_centres{suffix}.csv") as tmp_csv,
             open(tmp_csv, "wb") as handle,
         ):
             table = _CentresTable(handle, model, first)
-            poses = _solved(solver, trial, q0, table, tally, chunk, weigh, robust)
+            poses = _solved(solver, trial, q0, table, tally, options)
             write_motion_chunks(
                 out / f"motion{suffix}.npz",
                 trial,
                 pset.marker_names,
                 layout.nq_written,
                 (layout.written(q) for q in poses),
-                chunk,
+                options.chunk,
                 first,
             )
         if i == 0:  # the first trial's angles, as write_result writes them
-            write_angle_chunks(out / "angles.csv", model, out / "motion.npz", first, chunk)
+            write_angle_chunks(out / "angles.csv", model, out / "motion.npz", first, options.chunk)
     return tally.fit._replace(seconds=time.perf_counter() - t0)
 
 
@@ -202,21 +216,17 @@ def every_frame_motion(
     settings: LMSettings,
     trials: Sequence[TrialData],
     *,
-    start: Sequence[NDArray[np.floating]] | None = None,
-    progress: Callable[[int], None] | None = None,
-    chunk: int = CHUNK,
-    weigh: Weigh | None = None,
-    robust: Robust | None = None,
+    options: MotionOptions = MotionOptions(),
 ) -> tuple[list[np.ndarray], MotionFit]:
     """:func:`write_every_frame_motion` held in memory: every frame's pose (T_i, nq) per
     trial (the same poses, solved chunk by chunk alike) and the fit over every frame."""
     solver = _written_solver(pset, theta, settings)
     t0 = time.perf_counter()
-    tally = _Tally(progress)
+    tally = _Tally(options.progress)
     poses = []
     for i, trial in enumerate(trials):
-        q0 = start[i] if start is not None else None
-        chunks = _solved(solver, trial, q0, None, tally, chunk, weigh, robust)
+        q0 = options.start[i] if options.start is not None else None
+        chunks = _solved(solver, trial, q0, None, tally, options)
         poses.append(np.concatenate([np.zeros((0, solver.kin.nq)), *chunks]))
     return poses, tally.fit._replace(seconds=time.perf_counter() - t0)
 
@@ -255,14 +265,13 @@ def _solved(
     q0: NDArray[np.floating] | None,
     table: _CentresTable | None,
     tally: _Tally,
-    chunk: int,
-    weigh: Weigh | None = None,
-    robust: Robust | None = None,
+    options: MotionOptions,
 ) -> Iterator[np.ndarray]:
     """The trial's poses (n, nq) chunk by chunk (:func:`mocap_mj.long.chunks.solve_chunk`:
-    warm from q0's finite rows, else chained), each also appended to the centres table
-    (when given)."""
-    nq = solver.kin.nq
+    warm from q0's finite rows (T, nq), else chained; weighed and chunked by ``options``),
+    each also appended to the centres table (when given)."""
+    nq, chunk = solver.kin.nq, options.chunk
+    weigh, robust = options.weighing.weigh, options.weighing.robust
     for s in range(0, len(trial.markers), chunk):
         m = np.asarray(trial.markers[s : s + chunk], dtype=float)
         q = np.array(q0[s : s + chunk], dtype=float) if q0 is not None else None

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
@@ -13,6 +14,7 @@ import numpy as np
 from mocap_mj.kernels._threads import single_blas_thread
 from mocap_mj.long.chunks import (
     CHUNK,
+    FrameWeights,
     Heads,
     Parts,
     Robust,
@@ -136,6 +138,56 @@ class _Solver:
         return float(np.max(np.abs(dth) / np.maximum(self.std, 1e-300), initial=0.0))
 
 
+@dataclass(frozen=True)
+class RefineOptions:
+    """The options of :func:`refine`.
+
+    Fields
+    ------
+    steps : Gauss-Newton steps on the sample at most (default 8)
+    tol_std : the sample's steps stop once one's largest component is below this fraction
+        of its parameter's standard deviation (default 0.1): the step on every frame follows
+        from the last accepted point, and a start 0.1 standard deviations closer to the
+        sample's optimum changes that step's outcome by about the square of it (Gauss-Newton
+        converges quadratically there)
+    chunk : frames per IK chunk: the markers are read ``chunk`` frames at a time
+    sample : every k-th frame of each trial, k = ceil(T / sample) with T the frames of all
+        trials, is the sample (default 20,000 frames)
+    info_frames : the information is summed over at most this many evenly spaced frames of
+        the sample and scaled to all (default 5,000)
+    """
+
+    steps: int = STEPS
+    tol_std: float = TOL_STD
+    chunk: int = CHUNK
+    sample: int = SAMPLE
+    info_frames: int = INFO_FRAMES
+
+
+@dataclass(frozen=True)
+class Objective:
+    """What the identification's cost holds besides its markers: its priors, its box and
+    the weighing of its samples; :func:`refine` minimises that cost over every frame.
+
+    Fields
+    ------
+    priors : the priors of the identification, the weak prior among them (default None: the
+        weak prior toward theta0 alone, ``settings.weak_prior``): their gradient and
+        information are added to the data's
+    bounds : (lower, upper), each (P,) [m], the identification's box (default None: none): a
+        parameter at a bound that a step pushes outward is held there
+    weighing : the samples' weights (default: all 1, least squares), e.g. the soft-tissue
+        sliding of the landmarks that the identification weighed with
+        (:mod:`mocap_mj.anatomy.tissue`) and its robust loss: the cost, gradient and
+        information are then the weighted ones. The weights follow each frame's pose under
+        the model of the step (the identification's come from its first solve's poses)
+    """
+
+    priors: Sequence[Prior] | None = None
+    bounds: tuple[np.ndarray, np.ndarray] | None = None
+    weighing: FrameWeights = field(default_factory=FrameWeights)
+
+
 @single_blas_thread
 def refine(
     markers: Parts,
@@ -145,64 +197,38 @@ def refine(
     sigma: float,
     *,
     settings: LMSettings | None = None,
-    priors: Sequence[Prior] | None = None,
-    lower: np.ndarray | None = None,
-    upper: np.ndarray | None = None,
-    steps: int = STEPS,
-    tol_std: float = TOL_STD,
-    chunk: int = CHUNK,
-    sample: int = SAMPLE,
-    info_frames: int = INFO_FRAMES,
-    weigh: Weigh | None = None,
-    robust: Robust | None = None,
+    objective: Objective = Objective(),
+    options: RefineOptions = RefineOptions(),
 ) -> Refinement:
     """The model refined on every frame (module docstring, step 3).
 
     Parameters
     ----------
     markers : (T, M, 3) float [m], NaN where missing, or one such array per trial; read
-        ``chunk`` frames at a time
+        ``options.chunk`` frames at a time
     theta0 : (P,) [m], a consistent start (the identification on a subset)
     qpos : (T, nq) float (one per trial of ``markers``), written: every frame's IK pose under
         the sample's estimate, with the joint LM's limits (:func:`solver_joint_range`; NaN
         rows: too few markers); finite rows are warm starts
-    sigma : [m], per-axis marker noise (the start's estimate), for ``tol_std``
+    sigma : [m], per-axis marker noise (the start's estimate), for ``options.tol_std``
     settings : LM settings for the weak prior and the informed directions (``prior_ratio``:
         directions with less information keep their value, as in every LM step)
-    priors : the priors of the identification, the weak prior among them (default: the weak
-        prior toward theta0 alone, ``settings.weak_prior``): their gradient and information
-        are added to the data's, so that the refinement minimises the identification's cost
-        over every frame
-    lower, upper : (P,) [m], the identification's box (default: none): a parameter at a
-        bound that a step pushes outward is held there
-    steps : Gauss-Newton steps on the sample at most (default 8)
-    tol_std : the sample's steps stop once one's largest component is below this fraction
-        of its parameter's standard deviation (default 0.1): the step on every frame follows
-        from the last accepted point, and a start 0.1 standard deviations closer to the
-        sample's optimum changes that step's outcome by about the square of it (Gauss-Newton
-        converges quadratically there)
-    sample : every k-th frame of each trial, k = ceil(T / sample) with T the frames of all
-        trials, is the sample (default 20,000 frames)
-    info_frames : the information is summed over at most this many evenly spaced frames of
-        the sample and scaled to all (default 5,000)
-    weigh : per-sample weights of a frame's markers at its pose (default None: all 1), e.g.
-        the soft-tissue sliding of the landmarks that the identification weighed with
-        (:mod:`mocap_mj.anatomy.tissue`): the cost, gradient and information are then the
-        weighted ones, so that the refinement minimises the same weighted cost as the
-        identification, over every frame. The weights follow each frame's pose under the
-        model of the step (the identification's come from its first solve's poses)
+    objective : the identification's priors, box and weighing (default: the weak prior
+        alone, no box, least squares), so that the refinement minimises the identification's
+        cost over every frame
+    options : the steps, their stop, the IK chunk and the sample (:class:`RefineOptions`)
     """
     st = settings or LMSettings()
     t0 = time.perf_counter()
     parts = _parts(markers)
     n = sum(len(m) for m in parts)
-    problem = _steps_of(pset, theta0, st, priors, (lower, upper), sigma, chunk, weigh)
+    problem = _steps_of(pset, theta0, st, objective, sigma, options.chunk)
     kin, box = problem.kin, problem.box
-    stride = max(1, -(-n // max(sample, 1)))
-    sample_set = _sample_of(parts, stride, n, kin.nq, info_frames)
+    stride = max(1, -(-n // max(options.sample, 1)))
+    sample_set = _sample_of(parts, stride, n, kin.nq, options.info_frames)
     theta = np.clip(np.array(theta0, dtype=float), *box)
     theta, best, sizes, mu, robust = _sample_steps(
-        problem, sample_set, theta, steps, tol_std, robust
+        problem, sample_set, theta, options, objective.weighing.robust
     )
     t1 = time.perf_counter()
     if best is None:  # no step asked for
@@ -248,11 +274,9 @@ def _steps_of(
     pset: ParameterSet,
     theta0: np.ndarray,
     st: LMSettings,
-    priors: Sequence[Prior] | None,
-    bounds: tuple[np.ndarray | None, np.ndarray | None],
+    objective: Objective,
     sigma: float,
     chunk: int,
-    weigh: Weigh | None,
 ) -> _Steps:
     """:func:`refine`'s kinematics (at ``theta0``), priors (default: the weak prior toward
     theta0) and box (default: none) for its arguments."""
@@ -262,13 +286,15 @@ def _steps_of(
     kin.model.jnt_range[:] = solver_joint_range(kin.model, st)
     kin.set_theta(theta0)
     free = np.flatnonzero(~pset.frozen)
+    priors = objective.priors
     prior_list: list[Prior] = list(priors) if priors is not None else [st.weak_prior(theta0)]
-    lower, upper = bounds
+    bounds = objective.bounds
     box = (
-        np.full(pset.size, -np.inf) if lower is None else np.asarray(lower, dtype=float),
-        np.full(pset.size, np.inf) if upper is None else np.asarray(upper, dtype=float),
+        (np.full(pset.size, -np.inf), np.full(pset.size, np.inf))
+        if bounds is None
+        else (np.asarray(bounds[0], dtype=float), np.asarray(bounds[1], dtype=float))
     )
-    return _Steps(kin, prior_list, box, free, sigma, st, chunk, weigh)
+    return _Steps(kin, prior_list, box, free, sigma, st, chunk, objective.weighing.weigh)
 
 
 def _sample_of(parts: list[np.ndarray], stride: int, n: int, nq: int, info_frames: int) -> _Sample:
@@ -310,11 +336,12 @@ def _sample_steps(
     problem: _Steps,
     sample: _Sample,
     theta: np.ndarray,
-    steps: int,
-    tol_std: float,
+    options: RefineOptions,
     robust: Robust | None,
 ) -> tuple[np.ndarray, _Point | None, list[float], float, Robust | None]:
-    """:func:`refine`'s damped Gauss-Newton steps on the sample, from ``theta`` (P,) [m]:
+    """:func:`refine`'s damped Gauss-Newton steps on the sample (at most ``options.steps``,
+    until one is below ``options.tol_std``) with the robust loss ``robust``, from ``theta``
+    (P,) [m]:
     the last theta, the last accepted point (None: no step), the steps' sizes (in standard
     deviations), the damping and the robust loss at the last accepted point."""
     kin, prior_list, st, weigh = problem.kin, problem.priors, problem.settings, problem.weigh
@@ -322,7 +349,7 @@ def _sample_steps(
     sizes: list[float] = []
     best: _Point | None = None
     mu = 0.0
-    for _ in range(steps):
+    for _ in range(options.steps):
         kin.set_theta(theta)
         fit, grad = _ik_pass(
             m_s, kin, q_s, problem.chunk, gradient=True, weigh=weigh, robust=robust
@@ -346,7 +373,7 @@ def _sample_steps(
             mu /= 10.0
         solver = _Solver(best.info, prior_list, problem.box, problem.free, problem.sigma, st, mu)
         sizes.append(solver.step(theta, best.grad))
-        if sizes[-1] < tol_std:
+        if sizes[-1] < options.tol_std:
             break
     return theta, best, sizes, mu, robust
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import shutil
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -84,9 +85,8 @@ def write_result(
             fit.identifiability,
             fit.trials,
             summary,
-            joint_range=solver_joint_range(fit.pset.model, fit.settings),
+            model_xml=ModelXml(solver_joint_range(fit.pset.model, fit.settings), fit.sliding),
             motion=motion,
-            sliding=fit.sliding,
         )
         write_segments_csv(staging / "segments.csv", fit.segments)
         lines = write_trial_tables(staging, fit, motion, summary, fitted_rmse)
@@ -98,6 +98,27 @@ def write_result(
     return summary
 
 
+@dataclass(frozen=True)
+class ModelXml:
+    """What model.xml records besides the parameters.
+
+    Fields
+    ------
+    joint_range : (njnt, 2) [rad or m], the limits the solver used (default None: the
+        model's own; see :meth:`ParameterSet.to_spec`)
+    sliding : the landmarks' sliding model the fit was weighed with, recorded for ``ik``
+        (:func:`~mocap_mj.anatomy.tissue.with_sliding_model`; default None: not recorded)
+    """
+
+    joint_range: np.ndarray | None = None
+    sliding: SlidingModel | None = None
+
+    def text(self, pset: ParameterSet, theta: np.ndarray) -> str:
+        """model.xml of ``pset`` with the parameters theta (P,) [m] and this record."""
+        xml = pset.to_xml(theta, joint_range=self.joint_range)
+        return xml if self.sliding is None else with_sliding_model(xml, self.sliding)
+
+
 def write_files(
     out: Path,
     pset: ParameterSet,
@@ -105,26 +126,18 @@ def write_files(
     idf: Identifiability,
     trials: Sequence[TrialData],
     summary: Mapping[str, Any],
-    iterations: Sequence[str] | None = None,
     *,
-    joint_range: np.ndarray | None = None,
+    model_xml: ModelXml = ModelXml(),
     motion: Sequence[Motion] | None = None,
-    sliding: SlidingModel | None = None,
 ) -> list[float | None]:
     """model.xml, theta.json, each trial's motion.npz and marker_error.png in its folder
     (:mod:`mocap_mj.pipeline.trials`), residual_per_marker.png, identifiability.json and
-    report.md (its iterations section: ``iterations``, default :func:`iteration_lines`);
-    returns each trial's marker RMSE on its fitted frames [mm] (:func:`write_plots`).
-    ``joint_range`` (njnt, 2): the limits the solver used, written into model.xml (see
-    :meth:`ParameterSet.to_spec`). ``motion``: what motion.npz holds (default: ``trials``
-    and the fit's poses; internal qpos (T_i, nq), written in model.xml's layout,
-    :class:`mocap_mj.skeleton.exported.Layout`). ``sliding``: the landmarks' sliding model
-    the fit was weighed with, recorded in model.xml for ``ik``
-    (:func:`~mocap_mj.anatomy.tissue.with_sliding_model`; default None: not recorded)."""
-    xml = pset.to_xml(result.theta, joint_range=joint_range)
-    atomic_write_text(
-        out / "model.xml", xml if sliding is None else with_sliding_model(xml, sliding)
-    )
+    report.md (:func:`report_lines`); returns each trial's marker RMSE on its fitted frames
+    [mm] (:func:`write_plots`). ``model_xml``: what model.xml records besides theta (the
+    solver's joint limits, the sliding model; default: neither). ``motion``: what
+    motion.npz holds (default: ``trials`` and the fit's poses; internal qpos (T_i, nq),
+    written in model.xml's layout, :class:`mocap_mj.skeleton.exported.Layout`)."""
+    atomic_write_text(out / "model.xml", model_xml.text(pset, result.theta))
     pset.save_json(
         out / "theta.json",
         result.theta,
@@ -144,7 +157,7 @@ def write_files(
     save_motions(out, pset, trials, motion)
     atomic_write_text(out / "identifiability.json", json.dumps(idf.to_json()) + "\n")
     fitted_rmse = write_plots(out, pset, result, trials)
-    lines = report_lines(pset, result, idf, summary, iterations)
+    lines = report_lines(pset, result, idf, summary)
     atomic_write_text(out / "report.md", "\n".join(lines))
     return fitted_rmse
 

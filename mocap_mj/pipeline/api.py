@@ -25,7 +25,12 @@ from mocap_mj.anatomy.hinge_centres import hinge_report
 from mocap_mj.capture.subject import Subject
 from mocap_mj.io.strict_json import jsonable
 from mocap_mj.kernels._threads import single_blas_thread
-from mocap_mj.long.motion_out import every_frame_motion, write_every_frame_motion
+from mocap_mj.long.chunks import FrameWeights
+from mocap_mj.long.motion_out import (
+    MotionOptions,
+    every_frame_motion,
+    write_every_frame_motion,
+)
 from mocap_mj.pipeline.anatomical import anatomical_priors, prior_information
 from mocap_mj.pipeline.arguments import IDENTIFY, identify_call
 from mocap_mj.pipeline.fit import Fit
@@ -278,18 +283,26 @@ def _with_every_frame(
     refined, pset = solved.refined, fit.pset
     if refined is not None:
         summary["refinement"] = refinement_fields(pset, refined)
-    args: dict[str, Any] = {
-        "start": None if refined is None else refined.qpos,
-        "progress": progress,
-        "weigh": sliding_weigh(pset, solved.weighting, solved.slides),
-        "robust": (None if refined is None else refined.robust)
-        or robust_for(pset, fit.result, fit.trials, fit.settings),
-    }
+    options = MotionOptions(
+        start=None if refined is None else refined.qpos,
+        weighing=FrameWeights(
+            sliding_weigh(pset, solved.weighting, solved.slides),
+            (None if refined is None else refined.robust)
+            or robust_for(pset, fit.result, fit.trials, fit.settings),
+        ),
+        progress=progress,
+    )
     motion: tuple[Motion, ...] | None = None
     files: tuple[Path, ...] = ()
     if sink is not None:
         done = write_every_frame_motion(
-            sink, pset, fit.theta, fit.settings, whole, first_frames=fit.first_frames, **args
+            sink,
+            pset,
+            fit.theta,
+            fit.settings,
+            whole,
+            first_frames=fit.first_frames,
+            options=options,
         )
         files = tuple(
             sorted(sink.glob("motion*.npz"))
@@ -297,7 +310,7 @@ def _with_every_frame(
             + sorted(sink.glob("angles.csv"))
         )
     else:
-        poses, done = every_frame_motion(pset, fit.theta, fit.settings, whole, **args)
+        poses, done = every_frame_motion(pset, fit.theta, fit.settings, whole, options=options)
         motion = tuple(
             Motion(q, np.asarray(t.times, dtype=float), np.asarray(t.markers, dtype=float),
                    pset.marker_names, first_frame=f)

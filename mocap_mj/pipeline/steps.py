@@ -31,9 +31,9 @@ from mocap_mj.anatomy.tissue import SLIDES, Slide, SlidingModel, sliding_weights
 from mocap_mj.anatomy.trunk import T10Placement, t10_placement
 from mocap_mj.capture.checks import check_determined, recorded_floor
 from mocap_mj.capture.subject import Subject
-from mocap_mj.long.chunks import Robust, Weigh, robust_loss, scratch_array
+from mocap_mj.long.chunks import FrameWeights, Robust, Weigh, robust_loss, scratch_array
 from mocap_mj.long.long import result_at
-from mocap_mj.long.refine import refine
+from mocap_mj.long.refine import Objective, refine
 from mocap_mj.pipeline.anatomical import AnatomyPriors, Weighing, anatomical_priors
 from mocap_mj.pipeline.prepare import Prepared
 from mocap_mj.pipeline.results import (
@@ -252,11 +252,9 @@ def refine_on_every_frame(
         qpos,
         result.sigma,
         settings=settings,
-        priors=priors,
-        lower=None if box is None else box[0],
-        upper=None if box is None else box[1],
-        weigh=sliding_weigh(pset, weighting, slides),
-        robust=robust,
+        objective=Objective(
+            priors, box, FrameWeights(sliding_weigh(pset, weighting, slides), robust)
+        ),
     )
     refined = result_at(result, trials, pset, ref.theta, settings, box, robust)
     info = Refined(
