@@ -28,7 +28,7 @@ import ezc3d
 import numpy as np
 
 from mocap_mj.clinical import pig_from_c3d, plug_in_gait
-from mocap_mj.clinical.kinetics import trial_kinetics
+from mocap_mj.clinical.kinetics import PlateChoice, trial_kinetics
 from mocap_mj.io.load import load_markers
 from mocap_mj.io.plates import read_plates, recorded_ground_reactions
 
@@ -56,8 +56,7 @@ def ours(trial: Path, plates: str) -> tuple[dict[str, np.ndarray], list[str]]:
         traj,
         body_mass=mass,
         progression=result.progression,
-        counted=counted,
-        recorded=recorded_ground_reactions(trial) if plates == "auto" else None,
+        choice=PlateChoice(counted, recorded_ground_reactions(trial) if plates == "auto" else None),
     )
 
 

@@ -17,7 +17,7 @@ from mocap_mj.capture.events import (
     events_from_loads,
     gait_events,
 )
-from mocap_mj.export.c3d import write_points_c3d
+from mocap_mj.export.c3d import C3DPoints, write_points_c3d
 from mocap_mj.io import load_markers
 from mocap_mj.io.plates import read_plates
 
@@ -111,10 +111,8 @@ def test_events_written_into_a_c3d_read_back(tmp_path: Path) -> None:
     ]
     path = tmp_path / "result.c3d"
     values = np.zeros((80, 1, 3)) + 100.0
-    write_points_c3d(
-        path, labels=["M1"], descriptions=["marker"], values=values, rate=100.0,
-        angle_labels=[], modeled=[], events=events,
-    )  # fmt: skip
+    points = C3DPoints(["M1"], ["marker"], values, 100.0)
+    write_points_c3d(path, points, angle_labels=[], modeled=[], events=events)
     back = events_from_c3d(path)
     assert [(e.side, e.kind, e.frame) for e in back] == [(e.side, e.kind, e.frame) for e in events]
     np.testing.assert_allclose([e.time for e in back], [0.25, 0.5], atol=1e-6)

@@ -16,6 +16,8 @@ from mocap_mj.clinical import pig_from_c3d, plug_in_gait
 from mocap_mj.clinical.kinetics import (
     DEMPSTER,
     GRAVITY,
+    Load,
+    PlateChoice,
     angular_velocity,
     leg_loads,
     newton_euler,
@@ -114,9 +116,7 @@ def test_swinging_segment_matches_the_analytic_dynamics() -> None:
         axes=axes,
         rate=RATE,
         proximal=pivot,
-        distal=pivot,
-        force=np.zeros_like(pivot),
-        moment=np.zeros_like(pivot),
+        distal=Load(np.zeros_like(pivot), np.zeros_like(pivot), pivot),
     )
     ok = slice(4, -4)
     np.testing.assert_allclose(angular_velocity(axes, RATE)[ok, 1], d1[ok], atol=1e-4)
@@ -156,8 +156,7 @@ def _ours(path: Path, counted: set[int] | None, *, auto: bool = False) -> dict[s
         traj,
         body_mass=subject.require("mass"),
         progression=result.progression,
-        counted=counted,
-        recorded=recorded_ground_reactions(path) if auto else None,
+        choice=PlateChoice(counted, recorded_ground_reactions(path) if auto else None),
     )
     return out
 

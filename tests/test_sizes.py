@@ -1,7 +1,7 @@
 """Size limits of the code: no function over 80 lines outside the numba kernels, no module
 over 800 lines, no function over 8 parameters outside the numba kernels but those of
-:data:`MANY_PARAMETERS` (a list that only shrinks), in the packages ``mocap_mj``, ``synth``
-and ``viewer``.
+:data:`MANY_PARAMETERS` (a list that only shrinks, now empty), in the packages ``mocap_mj``,
+``synth`` and ``viewer``.
 
 A function's length is its lines from the ``def`` (decorators aside) to its last line,
 docstring included. A numba kernel is exempt (one loop nest, which splitting would slow
@@ -25,15 +25,7 @@ MAX_PARAMETERS = 8
 #: The functions that still take more than :data:`MAX_PARAMETERS` parameters (``self`` and
 #: ``cls`` aside): each is to take a typed value in place of several; a new one fails the
 #: test, and so does one listed here that no longer needs its place.
-MANY_PARAMETERS = frozenset(
-    {
-        "mocap_mj/clinical/kinetics.py:newton_euler", "mocap_mj/clinical/kinetics.py:_chain",
-        "mocap_mj/clinical/kinetics.py:trial_kinetics",
-        "mocap_mj/export/c3d.py:write_points_c3d", "mocap_mj/export/osim.py:_custom_joint",
-        "mocap_mj/io/formats/c3d_check.py:_data_layout",
-        "viewer/render.py:open_renderer", "viewer/output.py:render_to_file",
-    }
-)  # fmt: skip
+MANY_PARAMETERS: frozenset[str] = frozenset()
 #: Decorators that compile a function with numba.
 NUMBA_DECORATORS = frozenset(
     {"njit", "jit", "vectorize", "guvectorize", "cfunc", "_kernel", "_jit", "_inline"}

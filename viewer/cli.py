@@ -159,6 +159,7 @@ def _run_view(args: argparse.Namespace) -> int:
 # ----------------------------------------------------------------------------- render
 def _run_render(args: argparse.Namespace) -> int:
     from .output import FORMATS, render_to_file
+    from .render import View
     from .scene import Layers
 
     out = Path(args.out)
@@ -168,19 +169,16 @@ def _run_render(args: argparse.Namespace) -> int:
     playback, ghost = _load(args)
     frames = _frames(args, playback, default_all=out.suffix.lower() != ".png")
     layers = Layers(markers=not args.no_markers, residuals=not args.no_residuals)
+    view = View(args.size[0], args.size[1], args.camera, layers=layers, fast=args.fast)
     summary = render_to_file(
         playback,
         out,
         frames,
         backend=args.backend,
-        width=args.size[0],
-        height=args.size[1],
-        camera=args.camera,
+        view=view,
         ghost=ghost,
-        layers=layers,
         fps=args.fps,
         text=not args.no_text,
-        fast=args.fast,
     )
     what = "frame" if summary["frames"] == 1 else "frames"
     text = (

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import io
 from collections.abc import Iterator, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -18,8 +19,7 @@ from mocap_mj.errors import MocapError
 from mocap_mj.io.atomic import atomic_path, atomic_write_bytes
 
 from .playback import Ghost, Playback, frame_label
-from .render import annotate, open_renderer
-from .scene import Layers, Style
+from .render import View, annotate, open_renderer
 
 __all__ = [
     "FORMATS",
@@ -141,15 +141,10 @@ def render_to_file(
     frames: Sequence[int],
     *,
     backend: str = "mujoco",
-    width: int = 640,
-    height: int = 480,
-    camera: str | None = None,
+    view: View | None = None,
     ghost: Ghost | None = None,
-    layers: Layers | None = None,
-    style: Style | None = None,
     fps: float | None = None,
     text: bool = True,
-    fast: bool = False,
 ) -> dict[str, Any]:
     """Render ``frames`` of ``playback`` to ``out`` (``.png``: one frame; ``.mp4``, ``.gif``).
 
@@ -161,20 +156,15 @@ def render_to_file(
     frames : sequence of int
         Frame indices, in the order they are shown.
     backend : {"mujoco", "pyrender"}
-    width, height : int
-        Image size [px] (rounded up to even numbers for MP4).
-    camera : str, optional
-        Model camera name, ``"free"``, or None (``front`` if the model has it).
+    view : View, optional
+        Image size (rounded up to even numbers for MP4), camera, layers, style and quality;
+        by default :class:`~mocap_viewer.render.View`'s (640 x 480 px).
     ghost : Ghost, optional
         Second model drawn translucent in the same poses.
-    layers, style : optional
-        What is drawn besides the model, and how.
     fps : float, optional
         Video frame rate [Hz]; by default the motion's real time (frame rate / frame step).
     text : bool
         Write the frame number, time and marker RMSE in the top-left corner.
-    fast : bool
-        MuJoCo backend: no multisampling, shadows or reflections (for software OpenGL).
 
     Returns
     -------
@@ -187,10 +177,14 @@ def render_to_file(
     suffix = out.suffix.lower()
     fps = _checked_request(out, frames, playback.rate, fps)
     _refuse_unsolved(playback, frames)
+    view = view or View()
     if suffix == ".mp4":
-        width, height = width + width % 2, height + height % 2
+        view = replace(
+            view, width=view.width + view.width % 2, height=view.height + view.height % 2
+        )
+    width, height = view.width, view.height
     out.parent.mkdir(parents=True, exist_ok=True)
-    renderer = open_renderer(backend, playback, width, height, camera, ghost, layers, style, fast)
+    renderer = open_renderer(backend, playback, view, ghost)
 
     def images() -> Iterator[np.ndarray]:
         for k in _progress(frames, out.name):
@@ -205,7 +199,7 @@ def render_to_file(
     summary: dict[str, Any] = {"out": str(out), "format": suffix[1:], "frames": count,
                                "first": int(frames[0]), "last": int(frames[-1]),
                                "width": width, "height": height, "backend": backend,
-                               "camera": camera or "default"}  # fmt: skip
+                               "camera": view.camera or "default"}  # fmt: skip
     if suffix != ".png":
         summary["fps"] = float(fps)
         summary["frames_without_data"] = int(np.sum(~playback.solved[list(frames)]))

@@ -20,6 +20,7 @@ import copy
 import math
 import os
 import sys
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 import mujoco
@@ -39,6 +40,7 @@ __all__ = [
     "FrameRenderer",
     "MujocoFrameRenderer",
     "PyrenderFrameRenderer",
+    "View",
     "annotate",
     "camera_id",
     "make_camera",
@@ -52,6 +54,33 @@ GL_HINT = (
     "for headless rendering install Mesa (apt: libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6) "
     "and set MUJOCO_GL=egl PYOPENGL_PLATFORM=egl (or both =osmesa) before starting"
 )
+
+
+@dataclass(frozen=True)
+class View:
+    """How frames are drawn.
+
+    Parameters
+    ----------
+    width, height : int
+        Image size [px].
+    camera : str, optional
+        Model camera name, ``"free"``, or None (``front`` if the model has it).
+    layers : Layers, optional
+        What is drawn besides the model (default: every layer).
+    style : Style, optional
+        How it is drawn (default: :class:`~mocap_viewer.scene.Style`'s).
+    fast : bool
+        MuJoCo backend: no multisampling, shadows or reflections, several times faster on a
+        software OpenGL (Mesa llvmpipe).
+    """
+
+    width: int = 640
+    height: int = 480
+    camera: str | None = None
+    layers: Layers | None = None
+    style: Style | None = None
+    fast: bool = False
 
 
 class FrameRenderer(Protocol):
@@ -114,39 +143,24 @@ class MujocoFrameRenderer:
     Parameters
     ----------
     playback : Playback
-    width, height : int
-        Image size [px]. The model's offscreen buffer is enlarged if it is smaller.
-    camera : str, optional
-        Model camera name, ``"free"``, or None (``front`` if the model has it).
+    view : View
+        Image size (the model's offscreen buffer is enlarged if it is smaller), camera,
+        layers, style and quality.
     ghost : Ghost, optional
-    layers : Layers, optional
-    style : Style, optional
-    fast : bool
-        No multisampling, shadows or reflections: several times faster on a software
-        OpenGL (Mesa llvmpipe).
     """
 
-    def __init__(
-        self,
-        playback: Playback,
-        width: int,
-        height: int,
-        camera: str | None = None,
-        ghost: Ghost | None = None,
-        layers: Layers | None = None,
-        style: Style | None = None,
-        fast: bool = False,
-    ) -> None:
+    def __init__(self, playback: Playback, view: View, ghost: Ghost | None = None) -> None:
+        width, height, fast = view.width, view.height, view.fast
         self.playback, self.width, self.height = playback, width, height
-        self.ghost, self.layers, self.style = ghost, layers or Layers(), style or Style()
-        self.fast = fast
+        self.ghost, self.layers = ghost, view.layers or Layers()
+        self.style, self.fast = view.style or Style(), fast
         model = copy.copy(playback.model)  # the buffer size and quality are set on a copy
         model.vis.global_.offwidth = max(int(model.vis.global_.offwidth), width)
         model.vis.global_.offheight = max(int(model.vis.global_.offheight), height)
         if fast:
             model.vis.quality.offsamples = 0
         self.model = model
-        self.camera = make_camera(model, camera_id(model, camera))
+        self.camera = make_camera(model, camera_id(model, view.camera))
         self.data = mujoco.MjData(model)
         try:
             self._renderer = mujoco.Renderer(model, height, width)
@@ -209,8 +223,8 @@ def _light_pose(direction: np.ndarray) -> np.ndarray:
 class PyrenderFrameRenderer:
     """Frames through pyrender, from trimesh meshes of the model's geoms.
 
-    Same parameters as :class:`MujocoFrameRenderer` (``fast`` changes nothing: pyrender
-    draws no shadows or reflections here). The camera (pose and vertical field of
+    Same parameters as :class:`MujocoFrameRenderer` (the view's ``fast`` changes nothing:
+    pyrender draws no shadows or reflections here). The camera (pose and vertical field of
     view) is MuJoCo's own for the frame, read from ``mjv_updateScene`` without OpenGL. Lights:
     the model's lights as directional lights, MuJoCo's headlight, and its ambient term.
     """
@@ -218,28 +232,20 @@ class PyrenderFrameRenderer:
     #: pyrender light intensity per unit of MuJoCo diffuse colour.
     LIGHT_GAIN = 2.5
 
-    def __init__(
-        self,
-        playback: Playback,
-        width: int,
-        height: int,
-        camera: str | None = None,
-        ghost: Ghost | None = None,
-        layers: Layers | None = None,
-        style: Style | None = None,
-        fast: bool = False,
-    ) -> None:
+    def __init__(self, playback: Playback, view: View, ghost: Ghost | None = None) -> None:
         _prepare_pyopengl()
         try:
             import pyrender
         except Exception as exc:  # PyOpenGL raises at import when the platform is missing
             raise MocapError(f"cannot load pyrender: {exc}; {GL_HINT}") from None
         self._pyrender = pyrender
+        width, height = view.width, view.height
         self.playback, self.width, self.height = playback, width, height
-        self.ghost, self.layers, self.style = ghost, layers or Layers(), style or Style()
+        self.ghost, self.layers = ghost, view.layers or Layers()
+        self.style = view.style or Style()
         model = playback.model
         self.data = mujoco.MjData(model)
-        self.camera = make_camera(model, camera_id(model, camera))
+        self.camera = make_camera(model, camera_id(model, view.camera))
         self._option = mujoco.MjvOption()
         self._mjv_scene = mujoco.MjvScene(model, maxgeom=model.ngeom + 10)
 
@@ -350,21 +356,14 @@ class PyrenderFrameRenderer:
 
 
 def open_renderer(
-    backend: str,
-    playback: Playback,
-    width: int,
-    height: int,
-    camera: str | None = None,
-    ghost: Ghost | None = None,
-    layers: Layers | None = None,
-    style: Style | None = None,
-    fast: bool = False,
+    backend: str, playback: Playback, view: View, ghost: Ghost | None = None
 ) -> FrameRenderer:
-    """A frame renderer of ``backend`` (``"mujoco"`` or ``"pyrender"``); close it after use."""
-    if width < 16 or height < 16:
-        raise MocapError(f"image size {width} x {height}: at least 16 x 16 pixels")
+    """A frame renderer of ``backend`` (``"mujoco"`` or ``"pyrender"``) drawing ``playback``
+    (and ``ghost``, when given) as ``view`` says; close it after use."""
+    if view.width < 16 or view.height < 16:
+        raise MocapError(f"image size {view.width} x {view.height}: at least 16 x 16 pixels")
     if backend == "mujoco":
-        return MujocoFrameRenderer(playback, width, height, camera, ghost, layers, style, fast)
+        return MujocoFrameRenderer(playback, view, ghost)
     if backend == "pyrender":
-        return PyrenderFrameRenderer(playback, width, height, camera, ghost, layers, style, fast)
+        return PyrenderFrameRenderer(playback, view, ghost)
     raise MocapError(f"unknown backend {backend!r}; expected one of {', '.join(BACKENDS)}")

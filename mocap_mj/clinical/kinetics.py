@@ -67,6 +67,8 @@ __all__ = [
     "MOMENT_AXES",
     "Body",
     "ChainLoads",
+    "Load",
+    "PlateChoice",
     "angular_velocity",
     "arm_loads",
     "derivative",
@@ -122,6 +124,16 @@ def angular_velocity(axes: np.ndarray, rate: float) -> np.ndarray:
     )
 
 
+@dataclass(frozen=True)
+class Load:
+    """A load in the lab: the force ``force`` (T, 3) [N] and the moment ``moment`` (T, 3)
+    [N m] acting at ``point`` (T, 3) [m]."""
+
+    force: np.ndarray
+    moment: np.ndarray
+    point: np.ndarray
+
+
 def newton_euler(
     *,
     mass: float,
@@ -130,19 +142,18 @@ def newton_euler(
     axes: np.ndarray,
     rate: float,
     proximal: np.ndarray,
-    distal: np.ndarray,
-    force: np.ndarray,
-    moment: np.ndarray,
+    distal: Load,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The force and moment the proximal segment exerts on this one at its proximal joint.
 
     ``mass`` [kg]; ``com`` (T, 3) [m] the centre of mass in the lab; ``inertia`` (3,)
     [kg m^2] the principal moments about the segment's own x, y, z through the centre of
     mass; ``axes`` (T, 3, 3) the segment's frame; ``rate`` [Hz]; ``proximal`` (T, 3) [m] the
-    joint centre the result acts at; ``distal`` (T, 3) [m] where the distal load ``force``
-    (T, 3) [N] and ``moment`` (T, 3) [N m] (what the segment receives there) act. Returns
-    force (T, 3) [N], moment (T, 3) [N m] about ``proximal``, in the lab, gravity -Z.
+    joint centre the result acts at; ``distal`` the load the segment receives at its distal
+    end. Returns force (T, 3) [N], moment (T, 3) [N m] about ``proximal``, in the lab,
+    gravity -Z.
     """
+    force, moment = distal.force, distal.moment
     acc = derivative(derivative(com, rate), rate)
     omega = angular_velocity(axes, rate)
     alpha = derivative(omega, rate)
@@ -153,7 +164,7 @@ def newton_euler(
     )
     weight = np.array([0.0, 0.0, -GRAVITY * mass])
     f_prox = mass * acc - weight - force
-    m_prox = h_dot - moment - np.cross(proximal - com, f_prox) - np.cross(distal - com, force)
+    m_prox = h_dot - moment - np.cross(proximal - com, f_prox) - np.cross(distal.point - com, force)
     return f_prox, m_prox
 
 
@@ -188,13 +199,10 @@ def _chain(
     *,
     body_mass: float,
     rate: float,
-    force: np.ndarray,
-    moment: np.ndarray,
-    point: np.ndarray,
+    load: Load,
 ) -> ChainLoads:
-    """The recursion up ``links`` (distal first) from the load ``force`` (T, 3) [N],
-    ``moment`` (T, 3) [N m] at ``point`` (T, 3) [m] on the first; ``top``: the segment above
-    the last joint (for its angular velocity)."""
+    """The recursion up ``links`` (distal first) from ``load`` on the first; ``top``: the
+    segment above the last joint (for its angular velocity)."""
     out_f: dict[str, np.ndarray] = {}
     out_m: dict[str, np.ndarray] = {}
     omega: dict[str, np.ndarray] = {}
@@ -210,13 +218,11 @@ def _chain(
             axes=axes,
             rate=rate,
             proximal=proximal,
-            distal=point,
-            force=force,
-            moment=moment,
+            distal=load,
         )
         out_f[joint], out_m[joint] = f, m
         omega[name] = angular_velocity(axes, rate)
-        force, moment, point = -f, -m, proximal
+        load = Load(-f, -m, proximal)
     omega[top] = angular_velocity(segs[top].axes, rate)
     return ChainLoads(out_f, out_m, omega)
 
@@ -255,9 +261,11 @@ def leg_loads(
         "pelvis",
         body_mass=body_mass,
         rate=rate,
-        force=np.asarray(grf, dtype=float),
-        moment=np.asarray(free_moment, dtype=float),
-        point=np.where(np.isfinite(cop), cop, toe),  # no load off the plates: any point
+        load=Load(
+            np.asarray(grf, dtype=float),
+            np.asarray(free_moment, dtype=float),
+            np.where(np.isfinite(cop), cop, toe),  # no load off the plates: any point
+        ),
     )
 
 
@@ -287,9 +295,7 @@ def arm_loads(
         "thorax",
         body_mass=body_mass,
         rate=rate,
-        force=zero,
-        moment=zero,
-        point=tip,
+        load=Load(zero, zero, tip),
     )
 
 
@@ -390,6 +396,18 @@ def pig_kinetics(
     return out
 
 
+@dataclass(frozen=True)
+class PlateChoice:
+    """The contacts that give loads: those of the plates numbered ``counted`` (from 1;
+    default all), or with ``recorded`` (per foot, "left" and "right", the ground reaction
+    (T, 3) [N/kg, the file's axes] the recording already holds,
+    :func:`~mocap_mj.io.plates.recorded_ground_reactions`) the recording's choice of contacts
+    (:func:`~mocap_mj.capture.contacts.as_recorded`; not with ``counted``)."""
+
+    counted: Collection[int] | None = None
+    recorded: Mapping[str, np.ndarray] | None = None
+
+
 def trial_kinetics(
     segs: Mapping[str, Segment],
     centres: Mapping[str, np.ndarray],
@@ -399,17 +417,14 @@ def trial_kinetics(
     body_mass: float,
     progression: np.ndarray,
     to_lab: np.ndarray | None = None,
-    counted: Collection[int] | None = None,
-    recorded: Mapping[str, np.ndarray] | None = None,
+    choice: PlateChoice = PlateChoice(),
 ) -> tuple[dict[str, np.ndarray], list[str]]:
     """:func:`pig_kinetics` with the ground reactions of ``plates`` (read at ``trajectory``'s
     frames) under the foot that alone stands on each (the rules of
-    :func:`~mocap_mj.capture.contacts.assign_feet`, applied to every plate). ``counted``: the
-    plate numbers (from 1) whose contacts give loads (default all); ``recorded``: the
-    ground reaction per foot the recording already holds
-    (:func:`~mocap_mj.io.plates.recorded_ground_reactions`), whose choice of contacts then
-    applies (:func:`~mocap_mj.capture.contacts.as_recorded`; not with ``counted``). Returns
-    the outputs and one note per contact left out or undecided."""
+    :func:`~mocap_mj.capture.contacts.assign_feet`, applied to every plate). ``choice``: the
+    contacts that give loads (default every plate's). Returns the outputs and one note per
+    contact left out or undecided."""
+    counted, recorded = choice.counted, choice.recorded
     numbers = {p.name: k + 1 for k, p in enumerate(plates)}
     if counted is not None:
         unknown = sorted(set(counted) - set(numbers.values()))

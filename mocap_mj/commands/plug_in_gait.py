@@ -142,7 +142,7 @@ def _kinetics(
     """The kinetic outputs when the trial is a C3D with plates and the subject a mass:
     ``plates`` (--plates, --up: the plates rotated as the markers); ``frames`` (the rows of
     the ``whole`` recording that --frames keeps, ``trial``'s)."""
-    from ..clinical.kinetics import trial_kinetics
+    from ..clinical.kinetics import PlateChoice, trial_kinetics
     from ..io.plates import read_plates, recorded_ground_reactions
 
     (plates_text, up), (rows, whole) = plates, frames
@@ -173,8 +173,9 @@ def _kinetics(
         body_mass=mass,
         progression=result.progression @ to_lab,
         to_lab=to_lab,
-        counted=counted,
-        recorded=None if recorded is None else {k: v[rows] for k, v in recorded.items()},
+        choice=PlateChoice(
+            counted, None if recorded is None else {k: v[rows] for k, v in recorded.items()}
+        ),
     )
 
 

@@ -19,6 +19,7 @@ which readers return as NaN.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import ezc3d
@@ -31,6 +32,20 @@ from mocap_mj.skeleton.joint_centres import JOINT_CENTRE_NAMES, joint_centre_tra
 from ..io.atomic import atomic_write_bytes
 from .clinical import clinical_angles
 from .tables import marker_residuals
+
+
+@dataclass(frozen=True)
+class C3DPoints:
+    """The points of a C3D file: ``values`` (T, N, 3) in the file's units (mm; degrees for
+    the angles), NaN where missing, under ``labels`` (N,) with their ``descriptions`` (N,),
+    at ``rate`` [Hz]; ``first_frame``: the recording's number of frame 0 as a C3D header
+    numbers frames (from 1; below 1, the file's frames are numbered from 1)."""
+
+    labels: list[str]
+    descriptions: list[str]
+    values: np.ndarray
+    rate: float
+    first_frame: int = 1
 
 
 def c3d_points(src: ExportSource) -> tuple[list[str], list[str], np.ndarray]:
@@ -64,42 +79,34 @@ def write_c3d(path: str | Path, src: ExportSource, *, events: Sequence[GaitEvent
     n_markers = len(src.motion.marker_names)
     write_points_c3d(
         path,
-        labels=labels,
-        descriptions=desc,
-        values=values,
-        rate=src.rate,
+        C3DPoints(labels, desc, values, src.rate, src.motion.first_frame),
         angle_labels=labels[n_markers * 2 + len(JOINT_CENTRE_NAMES) :],
         modeled=labels[n_markers : n_markers * 2 + len(JOINT_CENTRE_NAMES)],
-        first_frame=src.motion.first_frame,
         events=events,
     )
 
 
 def write_points_c3d(
     path: str | Path,
+    points: C3DPoints,
     *,
-    labels: list[str],
-    descriptions: list[str],
-    values: np.ndarray,
-    rate: float,
     angle_labels: list[str],
     modeled: list[str],
-    first_frame: int = 1,
     events: Sequence[GaitEvent] = (),
     kinetic: Mapping[str, tuple[list[str], str]] | None = None,
 ) -> None:
-    """Write points ``values`` (T, N, 3) (mm, degrees for ``angle_labels``) as a C3D,
-    atomically; NaN samples are written as invalid points. ``first_frame``: the recording's
-    number of frame 0 as a C3D header numbers frames (from 1; also written as
-    ``TRIAL:ACTUAL_START_FIELD``); below 1, the file's frames are numbered from 1.
+    """Write ``points`` as a C3D, atomically; NaN samples are written as invalid points,
+    ``points.first_frame`` above 1 also as ``TRIAL:ACTUAL_START_FIELD``. ``angle_labels``:
+    the labels of the angles (in degrees), ``modeled`` those of the modelled markers.
     ``events``: gait events written into the EVENT group (none by default). ``kinetic``:
     Vicon's kinetic point groups, e.g. ``{"MOMENTS": (labels, "Nmm/kg")}`` (FORCES,
     MOMENTS, POWERS), written as ``POINT:MOMENTS`` and ``POINT:MOMENT_UNITS``."""
+    labels, values, first_frame = points.labels, points.values, points.first_frame
     c3d = ezc3d.c3d()
     point = c3d["parameters"]["POINT"]
-    point["RATE"]["value"] = np.array([rate])
+    point["RATE"]["value"] = np.array([points.rate])
     point["LABELS"]["value"] = labels
-    point["DESCRIPTIONS"]["value"] = descriptions
+    point["DESCRIPTIONS"]["value"] = points.descriptions
     point["UNITS"]["value"] = ["mm"]
     c3d.add_parameter("POINT", "ANGLES", angle_labels)
     c3d.add_parameter("POINT", "ANGLE_UNITS", ["deg"])

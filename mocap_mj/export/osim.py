@@ -26,6 +26,7 @@ subject's mass is known), else the MJCF's (from its display geoms at 1000 kg/m^3
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
@@ -126,19 +127,28 @@ def _transform_axis(
         _sub(fn, "value", "0")
 
 
+@dataclass(frozen=True)
+class _ParentFrame:
+    """Where a joint sits in its parent: the parent's ``name`` and ``socket`` (its path), the
+    joint's ``translation`` (3,) [m] and ``orientation`` (3,) [rad] (body-fixed X-Y-Z
+    angles) in the parent's frame."""
+
+    name: str
+    socket: str
+    translation: np.ndarray
+    orientation: Iterable[float]
+
+
 def _custom_joint(
     parent: ET.Element,
     name: str,
-    parent_socket: str,
-    parent_name: str,
     child: str,
-    translation: np.ndarray,
-    orientation: Iterable[float],
+    at: _ParentFrame,
     coords: list[Coordinate],
     rolling_splines: list[Spline] | None = None,
 ) -> None:
     joint = _sub(parent, "CustomJoint", name=name)
-    _sub(joint, "socket_parent_frame", f"{parent_name}_offset")
+    _sub(joint, "socket_parent_frame", f"{at.name}_offset")
     _sub(joint, "socket_child_frame", f"{child}_offset")
     cset = _sub(joint, "coordinates")
     for c in coords:
@@ -149,7 +159,7 @@ def _custom_joint(
         _sub(ce, "clamped", "false")
         _sub(ce, "locked", "false")
     frames = _sub(joint, "frames")
-    _offset_frame(frames, f"{parent_name}_offset", parent_socket, translation, orientation)
+    _offset_frame(frames, f"{at.name}_offset", at.socket, at.translation, at.orientation)
     _offset_frame(frames, f"{child}_offset", f"/bodyset/{child}", (0.0, 0.0, 0.0))
     rot = [c for c in coords if c.rotational]
     trans = [c for c in coords if not c.rotational]
@@ -324,7 +334,8 @@ def osim_xml(
         free = any(not c.rotational for c in jcoords)
         pos = np.zeros(3) if free else model.body_pos[b]
         if jcoords:
-            _custom_joint(joints, bname, psock, pname, bname, pos, orient, jcoords, splines.get(b))
+            at = _ParentFrame(pname, psock, pos, orient)
+            _custom_joint(joints, bname, bname, at, jcoords, splines.get(b))
         else:
             joint = _sub(joints, "WeldJoint", name=bname)
             _sub(joint, "socket_parent_frame", f"{pname}_offset")

@@ -19,7 +19,7 @@ from mocap_mj.clinical.model import PigResult
 from mocap_mj.clinical.subject import pig_dict
 from mocap_mj.clinical.tables import series_table
 
-from ..export.c3d import write_points_c3d
+from ..export.c3d import C3DPoints, write_points_c3d
 from ..io.atomic import atomic_write_text
 
 #: The points of joint_centres.csv: every bone's origin, then its proximal point.
@@ -78,17 +78,19 @@ def write_result_c3d(
             groups[group] = (names, unit)
             columns += [(kinetics or {})[n] * scale for n in names]
     extra = [n for names, _ in groups.values() for n in names]
+    descriptions = (
+        ["Plug-in Gait bone point"] * len(points)
+        + ["Plug-in Gait angle"] * len(angles)
+        + [_kinetic_description(n) for n in extra]
+    )
+    first_frame = int(result.frames[0]) if len(result.frames) else 0
     write_points_c3d(
         path,
-        labels=points + angles + extra,
-        descriptions=["Plug-in Gait bone point"] * len(points)
-        + ["Plug-in Gait angle"] * len(angles)
-        + [_kinetic_description(n) for n in extra],
-        values=np.stack(columns, axis=1),
-        rate=rate,
+        C3DPoints(
+            points + angles + extra, descriptions, np.stack(columns, axis=1), rate, first_frame
+        ),
         angle_labels=angles,
         modeled=points,
-        first_frame=int(result.frames[0]) if len(result.frames) else 0,
         kinetic=groups,
     )
 

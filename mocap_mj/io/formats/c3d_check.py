@@ -62,6 +62,27 @@ class C3DLayout:
     processor: int = INTEL
 
 
+@dataclass(frozen=True)
+class _Points:
+    """The POINT group's counts: ``n_points`` (POINT:USED), ``n_frames`` (POINT:FRAMES),
+    ``rate`` [Hz] (POINT:RATE), and whether the data are floats (the header's scale factor
+    is negative)."""
+
+    n_points: float
+    n_frames: float
+    rate: float
+    float_data: bool
+
+
+@dataclass(frozen=True)
+class _Analogs:
+    """The ANALOG group's counts: ``n_analogs`` channels, ``per_frame`` samples per point
+    frame (both 0 without ANALOG)."""
+
+    n_analogs: float
+    per_frame: float
+
+
 class C3DTruncatedError(InputFileError):
     """The file ends inside its header, parameter section, or before its first data frame.
 
@@ -240,11 +261,8 @@ def _check(path: Path, data: _Bytes) -> C3DLayout:
     points = _check_points(path, params, reader, data)
     if points is None:
         return C3DLayout(params, 0, 0, 0, False, 0, 0)
-    n_points, n_frames, rate, float_data = points
-    n_analogs, per_frame = _check_analogs(path, params, rate)
-    layout = _data_layout(
-        path, params, reader, data, n_points, n_frames, float_data, n_analogs, per_frame
-    )
+    analogs = _check_analogs(path, params, points.rate)
+    layout = _data_layout(path, params, reader, data, points, analogs)
     return dataclasses.replace(layout, processor=reader.processor)
 
 
@@ -291,9 +309,9 @@ def _check_scalars(path: Path, params: dict[tuple[str, str], Param]) -> None:
 
 def _check_points(
     path: Path, params: dict[tuple[str, str], Param], reader: _Reader, data: _Bytes
-) -> tuple[float, float, float, bool] | None:
-    """Check the POINT group; return (points, frames, rate [Hz], float data), or None when
-    POINT:USED is 0 (no marker points to read)."""
+) -> _Points | None:
+    """Check the POINT group; return its counts, or None when POINT:USED is 0 (no marker
+    points to read)."""
     n_points = _number(path, params, ("POINT", "USED"))
     n_frames = _number(path, params, ("POINT", "FRAMES"))
     rate = _number(path, params, ("POINT", "RATE"))
@@ -316,14 +334,12 @@ def _check_points(
     )
     if labels < n_points:
         raise _err(path, "group POINT:LABELS", f"{int(n_points)} labels (POINT:USED)", str(labels))
-    return n_points, n_frames, rate, float_data
+    return _Points(n_points, n_frames, rate, float_data)
 
 
-def _check_analogs(
-    path: Path, params: dict[tuple[str, str], Param], rate: float
-) -> tuple[float, float]:
+def _check_analogs(path: Path, params: dict[tuple[str, str], Param], rate: float) -> _Analogs:
     """Check the ANALOG group (and that there is no rotation data) against the point ``rate``
-    [Hz]; return (analog channels, analog samples per point frame), 0 without ANALOG."""
+    [Hz]; return its counts."""
     n_analogs, per_frame = 0.0, 0.0
     if any(group == "ANALOG" for group, _ in params):
         n_analogs = _number(path, params, ("ANALOG", "USED"))
@@ -349,7 +365,7 @@ def _check_analogs(
                     raise _err(path, f"group ANALOG:{per_channel}", want, have)
     if ("ROTATION", "USED") in params and _number(path, params, ("ROTATION", "USED")) != 0:
         raise _err(path, "group ROTATION:USED", "0 (rotation data is not supported)", "more")
-    return n_analogs, per_frame
+    return _Analogs(n_analogs, per_frame)
 
 
 def _data_layout(
@@ -357,14 +373,13 @@ def _data_layout(
     params: dict[tuple[str, str], Param],
     reader: _Reader,
     data: _Bytes,
-    n_points: float,
-    n_frames: float,
-    float_data: bool,
-    n_analogs: float,
-    per_frame: float,
+    points: _Points,
+    analogs: _Analogs,
 ) -> C3DLayout:
     """Check the header's pointer to the data section and that it holds a frame at least;
     return the layout (frames cut to those the file holds)."""
+    n_points, n_frames, float_data = points.n_points, points.n_frames, points.float_data
+    n_analogs, per_frame = analogs.n_analogs, analogs.per_frame
     value_bytes = 4 if float_data else 2
     data_block = struct.unpack(reader.int_fmt + "H", data[16:18])[0]
     if data_block < 2:
