@@ -177,6 +177,8 @@ def recording_cases(trial: TrialData, call: Callable[..., Call]) -> Iterator[tup
     for label, value in bad_times(t):
         yield "recordings[0]", f"times {label}", one(times=value)
     yield "recordings[0]", "mm as m", one(markers=m * 1e3)
+    yield "recordings[0]", "markers a nested list", one(markers=m.tolist())
+    yield "recordings[0]", "times of ints", one(times=np.arange(len(t)))
 
 
 def solve_motion_cases(trial: TrialData, pset: ParameterSet) -> Iterator[tuple[str, str, Call]]:

@@ -131,12 +131,18 @@ def hooks_fields(name: str, value: Any) -> None:
 
 def one_recording(name: str, value: Recording) -> None:
     """A :class:`~mocap_mj.pipeline.prepare.Recording`: its markers and times as a trial's
-    (:func:`~mocap_mj.solve.problem.trial_arrays`), a frame at least, a positive rate [Hz]
-    and a whole first frame."""
+    (:func:`~mocap_mj.solve.problem.trial_arrays`) and float arrays already (a Recording
+    keeps what it is given), a frame at least, a positive rate [Hz] and a whole first frame."""
     try:
-        trial_arrays(value.name, value.markers, value.times)
+        _, markers, times, _ = trial_arrays(value.name, value.markers, value.times)
     except ArgumentError as exc:
         raise type(exc)(f"{name}: {exc}") from None
+    for field, checked in (("markers", markers), ("times", times)):
+        if checked is not getattr(value, field):
+            raise ArgumentTypeError(
+                f"{name}: {field}: expected a float array, got {received(getattr(value, field))} "
+                "(np.asarray(..., dtype=float) converts it)"
+            )
     if len(value.markers) == 0:
         raise ArgumentError(f"{name} {excerpt(value.name)}: expected at least one frame, got none")
     positive(f"{name}.rate", value.rate)
