@@ -142,17 +142,18 @@ def solve_trials(
         hip_centre=recipe.hip_centre,
         landmarks=landmarks,
     )
+    anatomical = anatomy if recipe.anatomy else None  # None: the plain joint LM
     solve: dict[str, Any] = {"pset": pset, "theta0": theta0, "settings": settings,
                              "weighing": weighing, "progress": progress}  # fmt: skip
     with captured_log() as log:
-        result, weighting = _solve(trials, anatomy=anatomy if recipe.anatomy else None, **solve)
-        if recipe.anatomy:
-            result, weighting = _held_at_construction(trials, result, weighting, anatomy, solve)
+        result, weighting = _solve(trials, anatomy=anatomical, **solve)
+        if anatomical is not None:
+            result, weighting = _held_at_construction(trials, result, weighting, anatomical, solve)
     refined = None
     if recipe.refine and selected:
         result, refined = refine_on_every_frame(
             result, trials, prepared.trials, pset=pset, settings=settings, weighting=weighting,
-            anatomy=anatomy if recipe.anatomy else None, slides=weighing.slides,
+            anatomy=anatomical, slides=weighing.slides,
         )  # fmt: skip
     for d in joint_axes(weighting).values():  # at the final model
         d["angle_to_pig_deg"] = angle_to_pig(pset, result.theta, d)
@@ -166,7 +167,7 @@ def solve_trials(
         slides=weighing.slides, subject=subject, size=anatomy.size, symmetric=anatomy.symmetric,
         t10=t10, ranges=ranges, init_used=init_used, scales=scales, missing=missing,
         seconds=time.perf_counter() - t0, log=log, landmarks=landmarks, construction=sources,
-        anatomy=anatomy if recipe.anatomy else None,
+        anatomy=anatomical,
     )  # fmt: skip
 
 
