@@ -50,45 +50,39 @@ class CentreBound(NamedTuple):
         return float(np.sqrt(np.mean(self.total**2)))
 
 
-def centre_jacobians(
-    kin: Kinematics, qpos: np.ndarray, eps: float = 1e-6
-) -> tuple[np.ndarray, np.ndarray]:
-    """Jacobians of the body origins by central differences.
+def centre_jacobians(kin: Kinematics, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Jacobians of the body origins, in closed form (as :meth:`Kinematics.jac_q` and
+    :meth:`Kinematics.jac_kappa` give the markers').
+
+    Column v of body b is ``a_v x (c_b - p_v)`` for a rotational dof with world axis ``a_v``
+    through ``p_v`` (the rolling knee's instantaneous centre included, see
+    :meth:`Kinematics.dof_axes`), ``a_v`` for a translation, zero where the dof is not at or
+    above b; a kinematic parameter moving body a's position along direction d (parent frame)
+    moves the origin of every body of a's subtree by R_parent d.
 
     Parameters
     ----------
     kin : Kinematics at the model theta
-    qpos : (T, nq) poses
+    qpos : (T, nq) [m, rad] poses
 
     Returns
     -------
     k : (T, B, 3, nv) [m / rad or m / m], d c / d q (in MuJoCo's tangent space)
     h : (T, B, 3, K) [m / m], d c / d kappa (marker offsets do not move body origins)
     """
-    t = len(qpos)
-    nv, n_k = kin.nv, kin.pset.n_kappa
-    nb = kin.model.nbody - 2
-    k = np.empty((t, nb, 3, nv))
-    for i in range(nv):
-        step = np.zeros((t, nv))
-        step[:, i] = eps
-        hi = kin.forward(kin.integrate(qpos, step)).xpos[:, 2:]
-        lo = kin.forward(kin.integrate(qpos, -step)).xpos[:, 2:]
-        k[..., i] = (hi - lo) / (2 * eps)
-    theta = kin.theta.copy()
-    h = np.empty((t, nb, 3, n_k))
-    try:
-        for j in range(n_k):
-            d = np.zeros_like(theta)
-            d[j] = eps
-            kin.set_theta(theta + d)
-            hi = kin.forward(qpos).xpos[:, 2:]
-            kin.set_theta(theta - d)
-            lo = kin.forward(qpos).xpos[:, 2:]
-            h[..., j] = (hi - lo) / (2 * eps)
-    finally:
-        kin.set_theta(theta)
-    return k, h
+    frames = kin.forward(qpos)
+    axis, anchor = kin.dof_axes(frames)  # (T, nv, 3) each
+    centres = frames.xpos[:, 2:]  # (T, B, 3)
+    k = np.cross(axis[:, None], centres[:, :, None] - anchor[:, None])  # (T, B, nv, 3)
+    trans = kin.dof_translation
+    k[:, :, trans] = axis[:, None, trans]
+    k *= kin.ancestor[2:][:, kin.dof_body][None, :, :, None]
+    h = np.zeros((*centres.shape, kin.pset.n_kappa))
+    moves = np.einsum("tpij,pj->tpi", frames.xmat[:, kin.kappa_parent], kin.kappa_dir)
+    for p, (j, body) in enumerate(kin.kappa_pairs):
+        column = h[..., j]  # (T, B, 3) view
+        column[:, kin.ancestor[2:, body]] += moves[:, p, None, :]
+    return k.transpose(0, 1, 3, 2), h
 
 
 def joint_centre_bound(
