@@ -11,20 +11,23 @@ segment   mass / body  centre of mass
 ========  ===========  ===============================================================
 pelvis    0.142        0.895 of the way from the mid-point of the hip centres to L5
 thorax    0.355        0.63 of the way from C7 to L5, a fixed point of the thorax frame
-head      0.081        0.52 head lengths behind the mid-point of the front head markers
+head      0.081        0.52 head lengths forward of the head's origin, the mesh origin
 ========  ===========  ===============================================================
 
 Their definitions are the reference guide's footnotes (quoted by biomechZoo's
 ``segmentCOM_data.m``; Vicon's own code for the pelvis is quoted in pyCGM2's
-``bodySegmentParameters.py``):
+``bodySegmentParameters.py``) and, for the head's origin, Vicon's Nexus documentation
+("Upper body kinematics", Head):
 
 - L5, the top of the fifth lumbar vertebra, lies on the pelvis' z axis through the mid-point of
   the hip centres, 0.925 hip-centre distances above it (:data:`L5_RATIO`).
 - Thorax: C7 is the C7 marker moved one marker radius along the thorax' x axis (forward), L5
   the pelvis' L5; both are taken into the thorax frame in every frame and averaged over the
   trial, and the centre of mass lies 0.63 of the way from the mean C7 to the mean L5.
-- Head: 0.52 times the distance from the front to the back of the head (the mid-points of
-  LFHD, RFHD and of LBHD, RBHD) along the head's -x axis from the front mid-point.
+- Head: 0.52 head lengths along the head's x axis (forward) from the head's origin. The
+  origin is the mid-point of the front head markers moved by (-0.84, 0, -0.3) head lengths
+  in the head's frame, the head length Nexus' head scale (the HED bone's length,
+  :func:`~.static.head_size`): the origin of the HED bone points (:mod:`.bones`).
 
 ``CentreOfMassFloor`` is the centre of mass projected on the floor: its vertical coordinate
 (the trajectory's Z up) set to 0. Both need the kinematics and the body mass only, no plates.
@@ -39,8 +42,10 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from .bones import HEAD_ORIGIN
 from .kinetics import DEMPSTER, arm_links, leg_links
-from .segments import SIDES, Segment
+from .segments import SIDES, Markers, Segment
+from .static import head_size
 
 __all__ = [
     "COM_NAMES",
@@ -69,7 +74,7 @@ L5_RATIO = 0.925
 PELVIS_COM = 0.895
 #: The thorax' centre of mass: its fraction of the way from C7 to L5.
 THORAX_COM = 0.63
-#: The head's centre of mass behind the front head markers' mid-point [head lengths].
+#: The head's centre of mass forward of the head's (mesh) origin [head lengths].
 HEAD_COM = 0.52
 
 
@@ -108,12 +113,12 @@ def thorax_com(thorax: Segment, c7: np.ndarray, l5: np.ndarray, marker_radius: f
     return thorax.origin + thorax.axes @ point
 
 
-def head_com(head: Segment, back: np.ndarray) -> np.ndarray:
-    """The head's centre of mass (T, 3) [m]: :data:`HEAD_COM` times the distance from the head's
-    origin (the front head markers' mid-point) to ``back`` (T, 3) [m] (the back head markers'
-    mid-point), along the head's -x from its origin."""
-    length = np.linalg.norm(head.origin - back, axis=1)
-    return head.origin - (HEAD_COM * length)[:, None] * head.axes[:, :, 0]
+def head_com(head: Segment, length: float) -> np.ndarray:
+    """The head's centre of mass (T, 3) [m]: :data:`HEAD_COM` head lengths along the head's x
+    from its mesh origin, the front head markers' mid-point (``head``'s origin) moved by
+    :data:`~.bones.HEAD_ORIGIN` head lengths in the head's frame; ``length`` [m] the head
+    length (:func:`~.static.head_size`)."""
+    return head.origin + length * (head.axes @ (HEAD_ORIGIN + np.array([HEAD_COM, 0.0, 0.0])))
 
 
 def segment_centres(
@@ -125,7 +130,7 @@ def segment_centres(
     """Each of the 15 segments' mass fraction and centre of mass (T, 3) [m], by segment name
     (``foot_l``..., ``pelvis``, ``thorax``, ``head``). ``segs``, ``centres``: Plug-in Gait's
     segments and joint centres with the trunk and arms
-    (:func:`~mocap_mj.clinical.plug_in_gait`'s); ``markers``: ``C7``, ``LBHD``, ``RBHD``
+    (:func:`~mocap_mj.clinical.plug_in_gait`'s); ``markers``: ``C7``, ``LFHD``, ``RFHD``
     (T, 3) [m] in the same frame; ``marker_radius`` [m]."""
     out: dict[str, tuple[float, np.ndarray]] = {}
     for s in SIDES:
@@ -133,13 +138,13 @@ def segment_centres(
             body = DEMPSTER[name]
             out[f"{name}_{s}"] = (body.mass, distal + body.com * (proximal - distal))
     l5 = lumbar5(segs["pelvis"], centres)
-    back = 0.5 * (markers["LBHD"] + markers["RBHD"])
+    length = head_size(Markers(markers, len(l5)), marker_radius)
     out["pelvis"] = (TRUNK_MASS["pelvis"], pelvis_com(segs["pelvis"], centres))
     out["thorax"] = (
         TRUNK_MASS["thorax"],
         thorax_com(segs["thorax"], markers["C7"], l5, marker_radius),
     )
-    out["head"] = (TRUNK_MASS["head"], head_com(segs["head"], back))
+    out["head"] = (TRUNK_MASS["head"], head_com(segs["head"], length))
     return out
 
 
