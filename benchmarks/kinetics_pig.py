@@ -10,7 +10,8 @@ per component Nexus wrote the RMS difference over the frames both wrote (moments
 powers [W/kg], joint forces [N/kg], ground reaction [% of its peak]) and which miss the
 targets (0.05 N m/kg, 0.1 W/kg, 1 %), then the RMS over the frames where each foot stands on
 a plate we count only when Nexus counts one too (``agreeing``: what differs when a lab
-counts other plates than ours). ``--plates`` as the command's (Nexus counted 1 and 4 of
+counts other plates than ours); for ``CentreOfMass`` and ``CentreOfMassFloor`` [mm] also the
+RMS and largest distance. ``--plates`` as the command's (Nexus counted 1 and 4 of
 Movement_trial's four; the stripped copy has no ground reactions of Nexus', so ``auto``
 falls back to ``all`` there). Reads the trial only; the stripped copy goes to a
 temporary folder.
@@ -28,6 +29,7 @@ import ezc3d
 import numpy as np
 
 from mocap_mj.clinical import pig_from_c3d, plug_in_gait
+from mocap_mj.clinical.centre_of_mass import COM_NAMES, pig_centre_of_mass
 from mocap_mj.clinical.kinetics import PlateChoice, trial_kinetics
 from mocap_mj.io.load import load_markers
 from mocap_mj.io.plates import read_plates, recorded_ground_reactions
@@ -41,7 +43,8 @@ KINDS: dict[str, tuple[float, float | None, str]] = {
 
 
 def ours(trial: Path, plates: str) -> tuple[dict[str, np.ndarray], list[str]]:
-    """Our kinetic outputs of ``trial`` as the plug-in-gait command computes them."""
+    """Our kinetic outputs of ``trial`` as the plug-in-gait command computes them, with the
+    centre of mass [m]."""
     traj = load_markers(trial)
     subject = pig_from_c3d(trial)
     result = plug_in_gait(traj, subject)
@@ -49,7 +52,7 @@ def ours(trial: Path, plates: str) -> tuple[dict[str, np.ndarray], list[str]]:
     if mass is None:
         raise SystemExit(f"{trial}: no body mass in PROCESSING:Bodymass")
     counted = None if plates in ("auto", "all") else {int(v) for v in plates.split(",")}
-    return trial_kinetics(
+    out, notes = trial_kinetics(
         result.segments,
         result.centres,
         read_plates(trial, window="centred", offsets="none"),
@@ -58,15 +61,24 @@ def ours(trial: Path, plates: str) -> tuple[dict[str, np.ndarray], list[str]]:
         progression=result.progression,
         choice=PlateChoice(counted, recorded_ground_reactions(trial) if plates == "auto" else None),
     )
+    markers = {n: traj.positions[:, i] for i, n in enumerate(traj.names)}
+    com = pig_centre_of_mass(result.segments, result.centres, markers,
+                             marker_radius=subject.marker_radius)  # fmt: skip
+    return out | com, notes
 
 
 def nexus(trial: Path) -> dict[str, np.ndarray]:
-    """Nexus' kinetic points (T, 3) in its units, NaN where it wrote none."""
+    """Nexus' kinetic points and centre of mass (T, 3) in its units, NaN where it wrote
+    none."""
     c3d = ezc3d.c3d(str(trial))
     labels = [s.strip() for s in c3d["parameters"]["POINT"]["LABELS"]["value"]]
     pts = c3d["data"]["points"][:3]
     kinetic = ("Moment", "Power", "Force", "GRF")
-    return {n: pts[:, i, :].T.copy() for i, n in enumerate(labels) if n.endswith(kinetic)}
+    return {
+        n: pts[:, i, :].T.copy()
+        for i, n in enumerate(labels)
+        if n.endswith(kinetic) or n in COM_NAMES
+    }
 
 
 def compare(mine: dict[str, np.ndarray], theirs: dict[str, np.ndarray]) -> list[str]:
@@ -85,6 +97,9 @@ def compare(mine: dict[str, np.ndarray], theirs: dict[str, np.ndarray]) -> list[
             continue
         kind = next((k for k in KINDS if name.endswith(k)), None)
         target: float | None
+        if name in COM_NAMES:
+            lines.append(_com_line(name, mine[name] * 1e3, theirs[name]))
+            continue
         if name.endswith("GroundReactionForce") or name.endswith("NormalisedGRF"):
             scale, target, unit = 1.0, 1.0, "% peak"
         elif kind is not None:
@@ -111,6 +126,17 @@ def compare(mine: dict[str, np.ndarray], theirs: dict[str, np.ndarray]) -> list[
                 f"{part:9.4f} ({same.sum()}){flag}"
             )
     return lines
+
+
+def _com_line(name: str, mine: np.ndarray, theirs: np.ndarray) -> str:
+    """The printed line of a centre of mass point, ``mine`` and ``theirs`` (T, 3) [mm]: RMS
+    per axis, then the RMS and largest distance."""
+    both = np.isfinite(mine).all(axis=1) & np.isfinite(theirs).all(axis=1)
+    d = mine[both] - theirs[both]
+    axes = " ".join(f"{a} {np.sqrt(np.mean(d[:, k] ** 2)):.2f}" for k, a in enumerate("XYZ"))
+    dist = np.linalg.norm(d, axis=1)
+    return (f"{name:26s} RMS {np.sqrt(np.mean(dist**2)):.2f} max {dist.max():.2f} mm over "
+            f"{both.sum()} frames ({axes})")  # fmt: skip
 
 
 def main() -> None:

@@ -70,8 +70,10 @@ __all__ = [
     "Load",
     "PlateChoice",
     "angular_velocity",
+    "arm_links",
     "arm_loads",
     "derivative",
+    "leg_links",
     "leg_loads",
     "newton_euler",
     "pig_kinetics",
@@ -227,6 +229,34 @@ def _chain(
     return ChainLoads(out_f, out_m, omega)
 
 
+def leg_links(
+    segs: Mapping[str, Segment], centres: Mapping[str, np.ndarray], side: str
+) -> tuple[_Link, ...]:
+    """The leg's links (foot, tibia, femur; ``side`` "l" or "r"): segment, proximal joint,
+    distal and proximal points (T, 3) [m]. The foot's long axis is its frame's z (after the
+    static offsets) through the ankle centre, its length the median distance of the toe
+    marker (the foot's origin) from the ankle centre: the foot runs from that length ahead
+    of the ankle centre (its distal end) to the ankle centre."""
+    toe = segs[f"foot_{side}"].origin
+    ankle, knee, hip = (centres[f"{j}_{side}"] for j in ("ankle", "knee", "hip"))
+    length = float(np.nanmedian(np.linalg.norm(ankle - toe, axis=1)))
+    tip = ankle - length * segs[f"foot_{side}"].axes[:, :, 2]
+    return (("foot", "ankle", tip, ankle), ("tibia", "knee", ankle, knee),
+            ("femur", "hip", knee, hip))  # fmt: skip
+
+
+def arm_links(centres: Mapping[str, np.ndarray], side: str) -> tuple[_Link, ...]:
+    """The arm's links (hand, radius, humerus), as :func:`leg_links`: the hand from its far
+    end, twice the wrist-to-hand-centre distance beyond the wrist centre (Plug-in Gait's
+    hand bone origin), to the wrist centre."""
+    wrist, elbow, shoulder, hand = (
+        centres[f"{j}_{side}"] for j in ("wrist", "elbow", "shoulder", "hand")
+    )
+    tip = wrist + 2.0 * (hand - wrist)
+    return (("hand", "wrist", tip, wrist), ("radius", "elbow", wrist, elbow),
+            ("humerus", "shoulder", elbow, shoulder))  # fmt: skip
+
+
 def leg_loads(
     segs: Mapping[str, Segment],
     centres: Mapping[str, np.ndarray],
@@ -247,17 +277,10 @@ def leg_loads(
     distance over the trial (a rigid segment has one length).
     """
     toe = segs[f"foot_{side}"].origin
-    ankle, knee, hip = (centres[f"{j}_{side}"] for j in ("ankle", "knee", "hip"))
-    # the foot's long axis is its frame's z (after the static offsets) through the ankle
-    # centre, its length the toe marker's distance from the ankle centre
-    length = float(np.nanmedian(np.linalg.norm(ankle - toe, axis=1)))
-    tip = ankle - length * segs[f"foot_{side}"].axes[:, :, 2]
-    links = (("foot", "ankle", tip, ankle), ("tibia", "knee", ankle, knee),
-             ("femur", "hip", knee, hip))  # fmt: skip
     return _chain(
         segs,
         side,
-        links,
+        leg_links(segs, centres, side),
         "pelvis",
         body_mass=body_mass,
         rate=rate,
@@ -281,12 +304,8 @@ def arm_loads(
     wrist-to-hand-centre distance beyond the wrist centre, as Plug-in Gait's hand bone), radius
     and humerus, the thorax above (``segs``, ``centres``: :func:`~mocap_mj.clinical.segments.
     upper_limbs`' and the thorax)."""
-    wrist, elbow, shoulder, hand = (
-        centres[f"{j}_{side}"] for j in ("wrist", "elbow", "shoulder", "hand")
-    )
-    tip = wrist + 2.0 * (hand - wrist)
-    links = (("hand", "wrist", tip, wrist), ("radius", "elbow", wrist, elbow),
-             ("humerus", "shoulder", elbow, shoulder))  # fmt: skip
+    links = arm_links(centres, side)
+    tip = links[0][2]
     zero = np.zeros_like(tip)
     return _chain(
         segs,

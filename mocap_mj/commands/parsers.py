@@ -344,7 +344,8 @@ def register_plug_in_gait(sub: Any) -> None:
         "names), OUT/summary.json and OUT/report.md; frames keep the recording's numbers. "
         "A C3D trial with force plates and a body mass also gives OUT/kinetics.csv: Plug-in "
         "Gait's joint moments, powers and forces and the ground reactions per kg (also in "
-        "result.c3d under Vicon's names and units).",
+        "result.c3d under Vicon's names and units); a dynamic trial with a body mass, plates "
+        "or not, its whole-body centre of mass (CentreOfMass, CentreOfMassFloor [mm]).",
     )
     add_input_options(p, frames="of the trial to compute (the static's are all used)")
     p.add_argument(
@@ -381,7 +382,7 @@ def register_plug_in_gait(sub: Any) -> None:
         help="the force plates whose contacts count for the kinetics: auto (default: the "
         "contacts the recording's own ground reactions count, as Nexus' "
         "LGroundReactionForce, its manual choices included; without them as all), all "
-        "(each plate while one foot alone stands on it), none (no kinetics), or plate "
+        "(each plate while one foot alone stands on it), none (no joint kinetics), or plate "
         "numbers from 1, e.g. 1,4 (a lab's choice of valid strikes)",
     )
     p.add_argument(

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -21,13 +21,21 @@ from ..errors import MocapError
 @dataclass(frozen=True)
 class PigRun:
     """One trial through Plug-in Gait: the file, its trajectory, the result, its kinetic
-    outputs (None without plates or mass) and the kinetics' notes."""
+    outputs (None without plates or mass), the kinetics' notes and the whole-body centre of
+    mass (``CentreOfMass``, ``CentreOfMassFloor`` (T, 3) [m, the lab frame]; empty for a
+    static trial, without a mass or without the trunk and arms)."""
 
     path: str
     trial: Any
     result: Any
     kinetics: dict[str, np.ndarray] | None
     notes: list[str]
+    centre_of_mass: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def outputs(self) -> dict[str, np.ndarray] | None:
+        """What kinetics.csv holds: the kinetic outputs and the centre of mass (None: no
+        file)."""
+        return {**(self.kinetics or {}), **self.centre_of_mass} or None
 
 
 def pig_run(args: argparse.Namespace, path: str) -> PigRun:
@@ -60,7 +68,8 @@ def pig_run(args: argparse.Namespace, path: str) -> PigRun:
     )
     up = getattr(args, "up", None)
     kinetics, notes = _kinetics(path, (args.plates, up), trial, result, rotation.T, (rows, whole))
-    return PigRun(path, trial, result, kinetics, notes)
+    com, com_notes = _centre_of_mass(trial, result, rotation.T)
+    return PigRun(path, trial, result, kinetics, notes + com_notes, com)
 
 
 def gait_trial(run: PigRun) -> Any:
@@ -78,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     report = args.report or args.normative is not None or args.events is not None
     normative, events = read_inputs(args, [args.markers]) if report else (None, None)
     pig = pig_run(args, args.markers)
-    result, kinetics, kinetic_notes, trial = pig.result, pig.kinetics, pig.notes, pig.trial
+    result, kinetics, kinetic_notes, trial = pig.result, pig.outputs(), pig.notes, pig.trial
 
     def work(out: Path) -> tuple[Mapping[str, Any], str]:
         write_all(out, result, trial.rate, str(args.markers), kinetics, kinetic_notes)
@@ -177,6 +186,27 @@ def _kinetics(
             counted, None if recorded is None else {k: v[rows] for k, v in recorded.items()}
         ),
     )
+
+
+def _centre_of_mass(
+    trial: Any, result: Any, to_lab: np.ndarray
+) -> tuple[dict[str, np.ndarray], list[str]]:
+    """Nexus' ``CentreOfMass`` and ``CentreOfMassFloor`` of a dynamic trial with a body mass
+    (:func:`~mocap_mj.clinical.centre_of_mass.pig_centre_of_mass`; no plates needed), and a
+    note when a dynamic trial has none."""
+    from ..clinical.centre_of_mass import pig_centre_of_mass
+
+    if result.static:
+        return {}, []
+    if result.subject.get("mass") is None:
+        return {}, ["no CentreOfMass: no body mass (PROCESSING:Bodymass, or mass in "
+                    "--subject-file)"]  # fmt: skip
+    if "thorax" not in result.segments:
+        return {}, ["no CentreOfMass: it needs the trunk, head and arms"]
+    markers = {n: trial.positions[:, i] for i, n in enumerate(trial.names)}
+    com = pig_centre_of_mass(result.segments, result.centres, markers,
+                             marker_radius=result.subject.marker_radius, to_lab=to_lab)  # fmt: skip
+    return com, []
 
 
 def _file_subject(path: str) -> Subject:

@@ -5,7 +5,9 @@ Tables: ``frame`` (the recording's own frame number), ``time_s``, then ``<Name>_
 ``_Y``, ``_Z`` per angle [deg] or per point [mm, the recording's lab frame]; an empty cell
 where a value could not be computed (a marker missing in that frame). ``kinetics.csv``: the
 kinetic outputs normalised by the body mass, in SI units (N m/kg, W/kg, N/kg, % body
-weight); result.c3d holds them in Vicon's (moments in N mm/kg).
+weight), and the whole-body centre of mass ``CentreOfMass``, ``CentreOfMassFloor`` [mm, the
+recording's lab frame]; result.c3d holds them in Vicon's units (moments in N mm/kg, the
+centre of mass as points in mm).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mocap_mj.clinical.centre_of_mass import COM_NAMES
 from mocap_mj.clinical.model import PigResult
 from mocap_mj.clinical.subject import pig_dict
 from mocap_mj.clinical.tables import series_table
@@ -53,8 +56,9 @@ C3D_KINETIC = {
 
 def kinetics_csv(result: PigResult, kinetics: dict[str, np.ndarray]) -> str:
     """kinetics.csv text: every kinetic output in its SI unit per kg (% body weight for
-    ``NormalisedGRF``)."""
-    return series_table(result.frames, result.times, dict(sorted(kinetics.items())), 1.0)
+    ``NormalisedGRF``), the centre of mass points (:data:`COM_NAMES`, held in m) in mm."""
+    table = {n: v * (1e3 if n in COM_NAMES else 1.0) for n, v in sorted(kinetics.items())}
+    return series_table(result.frames, result.times, table, 1.0)
 
 
 def _kinetic_description(name: str) -> str:
@@ -65,11 +69,14 @@ def _kinetic_description(name: str) -> str:
 def write_result_c3d(
     path: Path, result: PigResult, rate: float, kinetics: dict[str, np.ndarray] | None = None
 ) -> None:
-    """result.c3d: the bone points [mm], the angles [deg] and the kinetic outputs (Vicon's
-    units: N/kg, N mm/kg, W/kg) under Vicon's names."""
+    """result.c3d: the bone points and the centre of mass points of ``kinetics``
+    (:data:`COM_NAMES`) [mm], the angles [deg] and the kinetic outputs (Vicon's units: N/kg,
+    N mm/kg, W/kg) under Vicon's names."""
+    coms = [n for n in COM_NAMES if n in (kinetics or {})]
     points = sorted(result.points)
     angles = sorted(result.angles)
     columns = [result.points[n] * 1e3 for n in points]
+    columns += [(kinetics or {})[n] * 1e3 for n in coms]
     columns += [np.degrees(result.angles[n]) for n in angles]
     groups: dict[str, tuple[list[str], str]] = {}
     for group, (endings, unit, scale) in C3D_KINETIC.items():
@@ -80,6 +87,7 @@ def write_result_c3d(
     extra = [n for names, _ in groups.values() for n in names]
     descriptions = (
         ["Plug-in Gait bone point"] * len(points)
+        + ["Plug-in Gait whole-body centre of mass"] * len(coms)
         + ["Plug-in Gait angle"] * len(angles)
         + [_kinetic_description(n) for n in extra]
     )
@@ -87,10 +95,14 @@ def write_result_c3d(
     write_points_c3d(
         path,
         C3DPoints(
-            points + angles + extra, descriptions, np.stack(columns, axis=1), rate, first_frame
+            points + coms + angles + extra,
+            descriptions,
+            np.stack(columns, axis=1),
+            rate,
+            first_frame,
         ),
         angle_labels=angles,
-        modeled=points,
+        modeled=points + coms,
         kinetic=groups,
     )
 
@@ -136,9 +148,13 @@ def report_md(
 def _kinetics_lines(kinetics: dict[str, np.ndarray] | None, notes: Sequence[str]) -> list[str]:
     """report.md's kinetics section: min / max of each moment [N m/kg] and power [W/kg]."""
     lines = ["", "## Kinetics (kinetics.csv): min / max over the trial", ""]
-    if not kinetics:
+    coms = [n for n in COM_NAMES if n in (kinetics or {})]
+    if coms:
+        lines += [f"- {', '.join(coms)}: the whole-body centre of mass [mm], in kinetics.csv "
+                  "and result.c3d"]  # fmt: skip
+    if not kinetics or not set(kinetics) - set(coms):
         return [*lines, *(f"- {n}" for n in notes or ["no force plates: no kinetics"])]
-    lines += [*(f"- {n}" for n in notes), *([""] if notes else [])]
+    lines += [*(f"- {n}" for n in notes), *([""] if notes or coms else [])]
     lines += ["| output | X | Y | Z |", "|---|---|---|---|"]
     for name in sorted(n for n in kinetics if n.endswith(("Moment", "Power"))):
         cells = []
