@@ -33,7 +33,7 @@ import numpy as np
 
 from mocap_mj import Kinematics, ParameterSet
 from mocap_mj.anatomy.inertia import inertial_model, segment_inertia
-from mocap_mj.capture.contacts import STILL_SPEED, foot_speeds
+from mocap_mj.capture.contacts import STILL_SPEED, pivot_speeds
 from mocap_mj.export.grf import read_grf_csv
 from mocap_mj.io.load import load_markers
 from mocap_mj.outputs.kinetics_out import FOOT_BODIES
@@ -107,7 +107,7 @@ def real(result: Path, trial: Path) -> None:
         dy.BodyLoad(FOOT_BODIES[s], grf.force[s], grf.cop[s], grf.moment[s]) for s in grf.force
     ]
     on = {s: np.isfinite(grf.cop[s]).all(axis=1) for s in grf.force}
-    speeds = foot_speeds(load_markers(trial))
+    speeds = pivot_speeds(load_markers(trial))
     stance = np.any(list(on.values()), axis=0)
     for s in on:  # a still foot off the counted plates stands on something unmeasured
         stance &= on[s] | ~(speeds[s][: len(stance)] < STILL_SPEED)

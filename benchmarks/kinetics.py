@@ -2,13 +2,17 @@
 residual force RMS over stance (per cent of body weight and of the peak ground reaction), the
 residual moment RMS and the time of the inverse dynamics.
 
-    python benchmarks/kinetics.py [--model MJCF] [--qualisys-mass KG]
+    python benchmarks/kinetics.py [--model MJCF] [--qualisys-mass KG] [--fit]
 
 Runs ``mocap-mj ik --markers FILE --out TMP`` (the bundled humanoid unless --model) on the
 shared Movement_trial.c3d (its PROCESSING:Bodymass, 85 kg) and Qualisys.c3d, which records no
 mass: ``--qualisys-mass`` gives it, written into a copy's PROCESSING:Bodymass (default 75
 kg, an assumption: the residual in per cent of body weight scales with it, the one in per
 cent of the peak ground reaction does not), and prints summary.json's ``kinetics`` figures.
+``--fit`` also runs ``mocap-mj identify --markers FILE [STATIC] --recipe R`` with
+``inertia: fit`` in R (STATIC: the Static_trial.c3d beside the file, when there is one) and
+prints summary.json's ``inertia`` residuals: the identified model's root residual over the
+stance frames with de Leva's masses (before) and with the fitted ones (after).
 """
 
 from __future__ import annotations
@@ -30,10 +34,41 @@ FILES = {
 }
 
 
+def fitted(name: str, path: Path, tmp: Path) -> None:
+    """identify ``path`` with ``inertia: fit`` into ``tmp``; its residuals before and after."""
+    recipe = tmp / "fit.yaml"
+    recipe.write_text("inertia: fit\n")
+    static = path.with_name("Static_trial.c3d")
+    cmd = [sys.executable, "-m", "mocap_mj", "identify", "--markers", str(path)]
+    cmd += [str(static)] if static.is_file() else []
+    out = tmp / "id"
+    proc = subprocess.run([*cmd, "--recipe", str(recipe), "--out", str(out)],
+                          capture_output=True, text=True)  # fmt: skip
+    if proc.returncode != 0:
+        print(f"{name}: identify failed: {proc.stderr.strip().splitlines()[-1:]}")
+        return
+    summary = json.loads((out / "summary.json").read_text())
+    section = summary["inertia"]
+    if section["source"] != "fit":
+        print(f"{name}: identify, no fit: {section['note']}")
+        return
+    figures = [section["residuals"]["pooled"][k] for k in ("before", "after")]
+    print(
+        f"{name} identify (marker RMSE {summary['marker_rmse_mm']:.1f} mm), "
+        f"{section['stance_frames']} stance frames: residual force RMS "
+        + "; ".join(
+            f"{label} the fit {r['force_rms_pct_bw']:.1f} % BW, {r['force_rms_pct_peak_grf']:.1f}"
+            f" % peak GRF, moment {r['moment_rms_nm']:.1f} N m"
+            for label, r in zip(("before", "after"), figures, strict=True)
+        )
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", help="MJCF model for ik (default: the bundled humanoid)")
     parser.add_argument("--qualisys-mass", type=float, default=75.0, metavar="KG")
+    parser.add_argument("--fit", action="store_true", help="also identify with inertia: fit")
     args = parser.parse_args()
     for name, path in FILES.items():
         if not path.is_file():
@@ -60,6 +95,8 @@ def main() -> None:
                 c3d.write(str(copy))
                 cmd[cmd.index(str(path))] = str(copy)
             proc = subprocess.run(cmd, capture_output=True, text=True)
+            if args.fit:
+                fitted(name, Path(cmd[cmd.index("--markers") + 1]), Path(tmp))
             if proc.returncode != 0:
                 print(f"{name}: ik failed: {proc.stderr.strip().splitlines()[-1:]}")
                 continue

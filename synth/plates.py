@@ -7,8 +7,9 @@ its centre of pressure under that foot. The plate (type 2: six channels, the for
 on the plate about its sensor origin) lies under the right foot and holds, every frame, the
 wrench the truth motion needs (the root residual of :func:`~mocap_mj.pipeline.dynamics.
 inverse_dynamics` without loads, on the truth model with de Leva's segment parameters for
-``mass``, the motion smoothed as the commands smooth it). With it as the load the truth's
-residual is zero, and ``ik`` with the truth model should find it again.
+``mass``, of the motion unfiltered, as a plate measures it). With it as the load the truth's
+residual is zero, and ``ik`` with the truth model, which filters the markers and the plate
+alike, should find it again.
 
 For the segments' mass fit (the recipe's ``inertia: fit``) the truth's segment masses can be
 de Leva's scaled per body (``scale``: body -> factor of its mass, first moment and inertia),
@@ -127,10 +128,11 @@ def needed_wrench(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The ground reaction the truth motion needs per frame: force (T, 3) [N] and moment
     about the world origin (T, 3) [N m] (the root residual without loads on
-    :func:`truth_inertial_model`, smoothed as the commands smooth)."""
+    :func:`truth_inertial_model`, of the motion as it is: a plate measures the body's
+    wrench unfiltered, and the commands filter it with the markers)."""
     model = truth_inertial_model(model_path, mass, scale)
     written = Layout.of(exp.pset.model).written(exp.qpos)
-    dyn = inverse_dynamics(model, written, exp.times)
+    dyn = inverse_dynamics(model, written, exp.times, cutoff_hz=None)
     force = dyn.root_force
     moment = dyn.root_moment + np.cross(dyn.qpos[:, :3], force)
     return force, moment

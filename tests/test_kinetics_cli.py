@@ -7,11 +7,12 @@ plate to the foot).
 
 Bounds, as measured (the commands' output; docs/dynamics.md):
 
-- residual force RMS over stance: 7.6 % of the peak ground reaction with ``ik`` on the bundled
-  humanoid (marker RMSE 46 mm: not the subject's model), 7.0 % with ``identify``'s model;
-  asserted below 10 %. No residual reduction runs (the segment masses are de Leva's and the
-  motion is the IK's), so OpenSim's 5 % of the peak after RRA is out of reach; 10 % catches a
-  plate on the wrong foot, a wrong sign or frame offset (each puts the RMS above 30 %).
+- residual force RMS over stance: 4.2 % of the peak ground reaction with ``ik`` on the bundled
+  humanoid (marker RMSE 46 mm: not the subject's model), 3.2 % with ``identify``'s model;
+  asserted below 5 %, the largest peak residual force OpenSim's guidelines accept (Hicks et
+  al. 2015), here of the RMS without any residual reduction; it catches a plate on the wrong
+  foot, a wrong sign or frame offset (each puts the RMS above 30 %) and a foot loaded on an
+  unmeasured surface counted as stance (6.9-7.7 %).
 - the sagittal ankle moment per kg against Nexus's ``<S>AnkleMoment`` X over Nexus's stance
   frames: r = -0.99 (left) and -0.95 (right) with ``ik``, -0.97 and -0.94 with ``identify``;
   asserted below -0.9 and the magnitudes' correlation above 0.9. The signs are opposite by
@@ -42,7 +43,7 @@ needs_data = pytest.mark.skipif(not MOVEMENT.is_file(), reason=SKIP)
 TABLES = ("dynamics.csv", "grf.csv", "root_residuals.csv", "events.csv")
 MASS = 85.0  # [kg] the file's PROCESSING:Bodymass
 #: Residual force RMS over stance, per cent of the peak ground reaction, at most.
-RESIDUAL_PCT_PEAK_GRF = 10.0
+RESIDUAL_PCT_PEAK_GRF = 5.0
 
 
 def run(*args: str) -> subprocess.CompletedProcess[str]:

@@ -7,8 +7,10 @@ read the plate (offsets, sign, axes, centre of pressure), give it to the right f
 contact rules), apply it to the model's foot and run the inverse dynamics. With the truth
 model and noiseless markers the root residual is below 0.5 % of body weight and every joint
 moment within 2 % of its peak in the truth (0.01 N m where it carries next to nothing); the
-truth is MuJoCo's inverse dynamics of the truth motion under the needed wrench, computed
-here. Measured: 4e-5 % of body weight, 6e-6 of the peaks.
+truth is MuJoCo's inverse dynamics of the truth motion under the needed wrench, both
+unfiltered, computed here. ik filters the markers and the plate with one filter, whose
+padding reshapes the ends: the moments are compared off the first and last :data:`EDGE`
+frames.
 """
 
 from __future__ import annotations
@@ -29,6 +31,9 @@ pytestmark = pytest.mark.slow  # module fixtures run whole identifications
 
 MASS = 68.0  # [kg]
 G = 9.80665  # [m/s^2]
+#: Frames at each end left out of the joint moments' comparison: there the filter's padding
+#: (odd extension), not the data, shapes the filtered motion and plate (0.25 s at 100 Hz).
+EDGE = 25
 
 
 def run(*args: str) -> subprocess.CompletedProcess[str]:
@@ -69,11 +74,12 @@ def test_joint_moments_are_the_truths(folders: tuple[Path, Path]) -> None:
     synth, result = folders
     model = inertial_model(synth / "truth_model.xml", MASS)
     truth_motion = load_motion(synth / "truth_motion.npz")
-    free = inverse_dynamics(model, truth_motion.qpos, truth_motion.times)
+    free = inverse_dynamics(model, truth_motion.qpos, truth_motion.times, cutoff_hz=None)
     force = free.root_force  # the wrench the motion needs, at the world origin
     moment = free.root_moment + np.cross(free.qpos[:, :3], force)
     load = BodyLoad("foot_r", force, np.zeros_like(force), moment)
-    truth = inverse_dynamics(model, truth_motion.qpos, truth_motion.times, [load])
+    # the truth unfiltered; ik filters the markers and the plate alike
+    truth = inverse_dynamics(model, truth_motion.qpos, truth_motion.times, [load], cutoff_hz=None)
     assert np.abs(truth.root_force).max() < 1e-6 * MASS * G
     table = np.genfromtxt(result / "dynamics.csv", delimiter=",", names=True)
     forces = translational(model)
@@ -84,7 +90,8 @@ def test_joint_moments_are_the_truths(folders: tuple[Path, Path]) -> None:
         ours = table[f"{name}_{'N' if forces[k] else 'Nm'}"]
         peak = np.abs(truth.tau[:, k]).max()
         # 2 % of the joint's peak; 0.01 N m (N) for the joints that carry next to nothing
-        assert np.abs(ours - truth.tau[:, k]).max() <= max(0.02 * peak, 0.01), name
+        err = np.abs(ours - truth.tau[:, k])[EDGE:-EDGE]
+        assert err.max() <= max(0.02 * peak, 0.01), name
         checked += 1
     assert checked == model.nv - 6
     # the stance knee passes the weight of the body above it along the shank, the other

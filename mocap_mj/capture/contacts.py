@@ -53,6 +53,7 @@ __all__ = [
     "assign_feet",
     "contacts",
     "foot_speeds",
+    "pivot_speeds",
 ]
 
 #: Plug-in Gait's foot markers per side: heel, toe (second metatarsal head), lateral malleolus.
@@ -61,8 +62,9 @@ PIG_FEET: dict[str, tuple[str, ...]] = {
     "right": ("RHEE", "RTOE", "RANK"),
 }
 SIDES = ("left", "right")
-#: A foot whose markers' mean speed is under this [m/s] is still (standing); a swinging foot
-#: moves at 1-5 m/s.
+#: A foot whose markers' speed is under this [m/s] is still (standing): their mean speed for
+#: a second foot on a plate, its slowest marker's off the plates (:func:`pivot_speeds`); a
+#: swinging foot moves at 1-5 m/s, and at 0.7 m/s or more as it slows to land.
 STILL_SPEED = 0.5
 #: A contact matches the recording's ground reaction of its foot when the RMS difference of
 #: the force magnitudes is within this fraction of the contact's peak.
@@ -249,6 +251,29 @@ def foot_speeds(
     """Side -> the mean speed (T,) [m/s] of its foot markers (``feet``, default
     :data:`PIG_FEET`; central differences; NaN where none is seen)."""
     return {s: _speed(p, trajectory.rate) for s, p in _foot_points(trajectory, feet).items()}
+
+
+def pivot_speeds(
+    trajectory: MarkerTrajectory, feet: Mapping[str, Sequence[str]] | None = None
+) -> dict[str, np.ndarray]:
+    """Side -> the speed (T,) [m/s] of its slowest foot marker (``feet``, default
+    :data:`PIG_FEET`; central differences; NaN where none is seen).
+
+    A loaded foot turns about a point of its sole (the heel as it lands, the forefoot as it
+    pushes off) while its other markers move: the marker nearest that point is the one that
+    stays still, so a foot is still (standing, :data:`STILL_SPEED`) when its slowest marker
+    is. Their mean is not: a forefoot still pushing off under a rising heel and ankle moves
+    at 0.5-1.2 m/s on the mean (Movement_trial.c3d's last push-off from the floor)."""
+    out = {}
+    for side, points in _foot_points(trajectory, feet).items():
+        if len(points) < 2:
+            out[side] = np.zeros(len(points))
+            continue
+        speeds = np.linalg.norm(np.gradient(points, 1.0 / trajectory.rate, axis=0), axis=2)
+        seen = np.isfinite(speeds)
+        slowest = np.where(seen, speeds, np.inf).min(axis=1)
+        out[side] = np.where(seen.any(axis=1), slowest, np.nan)
+    return out
 
 
 def _foot_points(

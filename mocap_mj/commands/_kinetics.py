@@ -29,7 +29,7 @@ from mocap_mj.capture.contacts import (
     FootLoads,
     assign_feet,
     contacts,
-    foot_speeds,
+    pivot_speeds,
 )
 from mocap_mj.capture.events import GaitEvent, events_csv, gait_events
 from mocap_mj.errors import MocapError
@@ -94,8 +94,9 @@ def model_mass(path: str | Path | None) -> float | None:
 class TrialLoads:
     """One trial's plates as read before the solve: the ``source`` file, the plates' names,
     the contacts (:func:`~mocap_mj.capture.contacts.contacts`), the feet's loads (left,
-    right) and foot speeds (T,) [m/s] over the whole recording (T frames), its times (T,)
-    [s] and its gait events."""
+    right) and speeds (T,) [m/s] (their slowest marker's,
+    :func:`~mocap_mj.capture.contacts.pivot_speeds`) over the whole recording (T frames),
+    its times (T,) [s] and its gait events."""
 
     markers: str
     source: str
@@ -194,7 +195,7 @@ def _trial_loads(
     try:
         found = contacts(plates, traj)
         feet = assign_feet(plates, traj)
-        speeds = foot_speeds(traj)
+        speeds = pivot_speeds(traj)
     except MocapError as exc:
         why = f"{path}: the feet on the force plates of {source}: {exc}"
         if forces:  # asked for: refused; a C3D's own plates: no kinetics, one warning
@@ -327,7 +328,8 @@ def write_trial(
 def trial_stance(trial: TrialLoads, frames: slice) -> tuple[tuple[FootLoads, ...], np.ndarray]:
     """The feet's loads of ``trial`` on the recording's rows ``frames`` and its stance frames
     (T,) bool there: a foot on a counted plate, no contact left out, and no still foot off
-    the counted plates (it stands on something unmeasured)."""
+    the counted plates (its slowest marker under :data:`STILL_SPEED`: it stands, lands or
+    pushes off on something unmeasured)."""
     feet = tuple(sliced(f, frames) for f in trial.feet)
     stance = stance_frames(feet, excluded_frames(trial.found, len(trial.times))[frames])
     for f in feet:

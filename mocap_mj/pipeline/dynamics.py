@@ -27,9 +27,15 @@ Steps (docs/dynamics.md):
    the joints' armature at 0 (a model-stability device, not a property of the body):
    M qacc + bias;
 5. the measured external loads (:class:`BodyLoad`) as generalised forces through
-   ``mj_applyFT`` (force at the centre of pressure, plus the free moment), subtracted:
-   tau = qfrc_inverse - J^T f. The root's share of tau is the residual: the wrench the free
-   joint must add for the motion to follow from the loads and gravity.
+   ``mj_applyFT``, subtracted: tau = qfrc_inverse - J^T f. Each load is smoothed by the
+   filter of step 2 (:func:`filtered_loads`): its force and its moment about the world
+   origin (the centre of pressure's moment plus the free moment), both linear in the
+   wrench, so that a wrench the plates measure sharply and the kinematics see through the
+   filter meet with the same bandwidth (Kristianslund, Krosshaug and van den Bogert 2012,
+   J Biomech 45:666: kinematics filtered below the loads' band leave spurious moments and
+   residuals at every impact); it then acts on its body at the origin. The root's share of
+   tau is the residual: the wrench the free joint must add for the motion to follow from the
+   loads and gravity.
 """
 
 from __future__ import annotations
@@ -252,6 +258,31 @@ def _check_loads(model: mujoco.MjModel, loads: Sequence[BodyLoad], frames: int) 
     return ids
 
 
+def filtered_loads(
+    loads: Sequence[BodyLoad], runs: Sequence[tuple[int, int]], dt: float, cutoff_hz: float
+) -> list[BodyLoad]:
+    """``loads`` filtered as the kinematics are (:func:`lowpass` at ``cutoff_hz`` [Hz], each
+    run [start, stop) of ``runs`` on its own, sampled at ``dt`` [s]): per load its force (T, 3)
+    [N] (0 where its point is NaN: no load) and its moment about the world origin (T, 3)
+    [N m], ``point x force + moment``, applied at the origin (point 0 on the runs' frames,
+    NaN elsewhere). The wrench on the body is the same as the load's wherever the filter
+    leaves it unchanged."""
+    out = []
+    for load in loads:
+        on = np.all(np.isfinite(load.point), axis=1) & np.all(np.isfinite(load.force), axis=1)
+        force = np.where(on[:, None], np.nan_to_num(load.force), 0.0)
+        moment = np.cross(np.where(on[:, None], np.nan_to_num(load.point), 0.0), force)
+        moment += np.where(on[:, None], np.nan_to_num(load.moment), 0.0)
+        f_out, m_out = np.zeros_like(force), np.zeros_like(moment)
+        point = np.full_like(force, np.nan)
+        for a, b in runs:
+            f_out[a:b] = lowpass(force[a:b], 1.0 / dt, cutoff_hz)
+            m_out[a:b] = lowpass(moment[a:b], 1.0 / dt, cutoff_hz)
+            point[a:b] = 0.0
+        out.append(BodyLoad(load.body, f_out, point, m_out))
+    return out
+
+
 def _generalised_forces(
     model: mujoco.MjModel,
     qpos: np.ndarray,
@@ -318,10 +349,10 @@ def inverse_dynamics(
     """The inverse dynamics of qpos (T, model.nq) at times (T,) [s] (uniform) on ``model``
     (module docstring) under the external ``loads``.
 
-    ``cutoff_hz`` [Hz]: the low-pass filter's cutoff; None leaves qpos unfiltered. Frames with
-    NaN in qpos are NaN in the result, and so is a run of finite frames shorter than 10
-    (4 without the filter). A model with a free root reports its residual in ``root_force``
-    and ``root_moment``; a model without one has NaN there.
+    ``cutoff_hz`` [Hz]: the low-pass filter's cutoff, of qpos and of the loads alike; None
+    leaves both unfiltered. Frames with NaN in qpos are NaN in the result, and so is a run
+    of finite frames shorter than 10 (4 without the filter). A model with a free root reports
+    its residual in ``root_force`` and ``root_moment``; a model without one has NaN there.
 
     Raises MocapError (a subclass) for a model whose knee rolling is recorded but not carried
     by slide joints (the tool's internal model: pass the model as written), a qpos or load of
@@ -354,6 +385,8 @@ def inverse_dynamics(
 
     free = model.njnt > 0 and model.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE
     frames_run = [t for a, b in runs for t in range(a, b)]
+    if cutoff_hz is not None:
+        loads = filtered_loads(loads, runs, dt, cutoff_hz)
     tau, rot = _generalised_forces(model, q_out, vel, acc, loads, bodies, frames_run)
     if free:
         adr = int(model.jnt_dofadr[0])
@@ -386,6 +419,7 @@ __all__ = [
     "derivatives",
     "dof_names",
     "dynamics_model",
+    "filtered_loads",
     "frame_step",
     "inverse_dynamics",
     "lowpass",
