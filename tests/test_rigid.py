@@ -1,12 +1,13 @@
 """mocap_mj.skeleton.rigid: Horn's quaternion fit gives the Kabsch (SVD) fit's rotation and
-shift, to rounding, over frames of a few markers with noise, gaps and reflections."""
+shift (and residuals), to rounding, over frames of a few markers with noise, gaps and
+reflections."""
 
 from __future__ import annotations
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from mocap_mj.skeleton.rigid import rigid_fit, rigid_fit_horn
+from mocap_mj.skeleton.rigid import rigid_fit, rigid_fit_horn, rigid_residuals_horn
 
 
 def _frames(rng: np.random.Generator, t: int, m: int, noise: float) -> tuple[np.ndarray, ...]:
@@ -61,3 +62,15 @@ def test_horn_fit_of_one_frame_and_of_none() -> None:
     np.testing.assert_allclose(pos[0], [1.0, 2.0, 3.0], atol=1e-14)
     rot, pos = rigid_fit_horn(np.zeros((0, 4, 3)), ref)
     assert rot.shape == (0, 3, 3) and pos.shape == (0, 3)
+
+
+def test_horn_residuals_are_the_kabsch_fits() -> None:
+    rng = np.random.default_rng(9)
+    ref, meas = _frames(rng, 2000, 5, 0.02)
+    meas[rng.random(meas.shape[:2]) < 0.2] = np.nan
+    rot, pos = rigid_fit(meas, ref)
+    want = np.sum((_placed(rot, pos, ref) - meas) ** 2, axis=2)  # NaN: missing, or no fit
+    got = rigid_residuals_horn(meas, ref)
+    assert np.array_equal(np.isnan(got), np.isnan(want))
+    four = np.all(np.isfinite(meas), axis=2).sum(axis=1) >= 4
+    np.testing.assert_allclose(got[four], want[four], rtol=0, atol=1e-12)

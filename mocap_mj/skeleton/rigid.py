@@ -9,6 +9,8 @@ import numpy as np
 #: Newton steps on the quaternion matrix's characteristic polynomial at most (each halves the
 #: error of a double root and squares that of a simple one: a simple root converges in a few).
 NEWTON_STEPS = 60
+#: Newton steps taken on every frame before only those still falling are stepped.
+WHOLE_STEPS = 3
 
 
 def rigid_fit(measured: np.ndarray, reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -62,26 +64,48 @@ def rigid_fit_horn(measured: np.ndarray, reference: np.ndarray) -> tuple[np.ndar
     R : (T, 3, 3), p : (T, 3) [m]
         NaN in frames with fewer than three markers seen.
     """
-    x = np.ascontiguousarray(np.moveaxis(measured, 0, -1).transpose(1, 0, 2))  # (3, n, T)
-    ok = np.all(np.isfinite(x), axis=0)  # (n, T)
-    w = ok.astype(float)
-    cnt = w.sum(axis=0)
-    safe = np.maximum(cnt, 1.0)
-    x = np.where(ok, x, 0.0)
-    c_meas = x.sum(axis=1) / safe  # (3, T) [m]
-    c_ref = (reference.T @ w) / safe
-    a = (reference.T[:, :, None] - c_ref[:, None]) * w  # (3, n, T) [m]
-    b = (x - c_meas[:, None]) * w
-    s = np.array([[np.sum(a[i] * b[j], axis=0) for j in range(3)] for i in range(3)])
-    top = 0.5 * (np.sum(a * a, axis=(0, 1)) + np.sum(b * b, axis=(0, 1)))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        q = _largest_eigenvector(_horn_matrix(s), s, top)
-    rot = _rotation(q)  # (3, 3, T)
-    pos = c_meas - np.einsum("ijt,jt->it", rot, c_ref)
-    rot, pos = np.ascontiguousarray(rot.transpose(2, 0, 1)), np.ascontiguousarray(pos.T)
-    bad = (cnt < 3) | ~np.all(np.isfinite(rot), axis=(1, 2))
-    rot[bad], pos[bad] = np.nan, np.nan
+    fit = _Horn(measured, reference)
+    pos = fit.c_meas - np.einsum("ijt,jt->it", fit.rot, fit.c_ref)
+    rot, pos = np.ascontiguousarray(fit.rot.transpose(2, 0, 1)), np.ascontiguousarray(pos.T)
+    rot[fit.bad], pos[fit.bad] = np.nan, np.nan
     return rot, pos
+
+
+def rigid_residuals_horn(measured: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """(T, n) [m^2]: each point's squared distance from its place in the fit of
+    :func:`rigid_fit_horn` (measured (T, n, 3) [m], NaN where missing; reference (n, 3)
+    [m]); NaN where the point is missing and in frames with fewer than three seen. The
+    rotation is applied to the centred points, the shift never formed."""
+    fit = _Horn(measured, reference)
+    r, a, b = fit.rot, fit.a, fit.b
+    sq = sum((r[i, 0] * a[0] + r[i, 1] * a[1] + r[i, 2] * a[2] - b[i]) ** 2 for i in range(3))
+    out = np.where(fit.ok, sq, np.nan).T  # (T, n)
+    out[fit.bad] = np.nan
+    return out
+
+
+class _Horn:
+    """Horn's fit of measured (T, n, 3) [m] to reference (n, 3) [m], in component-first
+    arrays: ``ok`` (n, T) the points seen, ``a``, ``b`` (3, n, T) [m] the reference and
+    the measured points about their centroids ``c_ref``, ``c_meas`` (3, T) [m] (zero where
+    missing), ``rot`` (3, 3, T) the rotations, ``bad`` (T,) the frames without a fit."""
+
+    def __init__(self, measured: np.ndarray, reference: np.ndarray) -> None:
+        x = np.ascontiguousarray(np.moveaxis(measured, 0, -1).transpose(1, 0, 2))  # (3, n, T)
+        self.ok = np.all(np.isfinite(x), axis=0)
+        w = self.ok.astype(float)
+        cnt = w.sum(axis=0)
+        safe = np.maximum(cnt, 1.0)
+        x = np.where(self.ok, x, 0.0)
+        self.c_meas = x.sum(axis=1) / safe
+        self.c_ref = (reference.T @ w) / safe
+        a = self.a = (reference.T[:, :, None] - self.c_ref[:, None]) * w
+        b = self.b = (x - self.c_meas[:, None]) * w
+        s = np.array([[np.sum(a[i] * b[j], axis=0) for j in range(3)] for i in range(3)])
+        top = 0.5 * (np.sum(a * a, axis=(0, 1)) + np.sum(b * b, axis=(0, 1)))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            self.rot = _rotation(_largest_eigenvector(_horn_matrix(s), s, top))
+        self.bad = (cnt < 3) | ~np.all(np.isfinite(self.rot), axis=(0, 1))
 
 
 def _horn_matrix(s: np.ndarray) -> np.ndarray:
@@ -111,14 +135,21 @@ def _largest_eigenvector(k: np.ndarray, s: np.ndarray, top: np.ndarray) -> np.nd
     c1 = -8.0 * det_s
     c0 = _det(k)
     lam = top.copy()
+    falling = np.ones(len(lam), dtype=bool)
     todo = np.arange(len(lam))
-    for _ in range(NEWTON_STEPS):
-        x, p2, p1, p0 = lam[todo], c2[todo], c1[todo], c0[todo]
+    for n in range(NEWTON_STEPS):
+        whole = n < WHOLE_STEPS  # most frames still fall: every one stepped, none gathered
+        x, p2, p1, p0 = (lam, c2, c1, c0) if whole else (lam[todo], c2[todo], c1[todo], c0[todo])
         x2 = x * x
         slope = (4.0 * x2 + 2.0 * p2) * x + p1
         step = np.where(slope > 0, ((x2 + p2) * x2 + p1 * x + p0) / slope, 0.0)
-        lam[todo] = x - step
-        todo = todo[step > 1e-15 * top[todo]]  # falling still: a rise is rounding
+        if whole:
+            lam = np.where(falling, x - step, lam)
+            falling &= step > 1e-15 * top
+            todo = np.flatnonzero(falling)
+        else:
+            lam[todo] = x - step
+            todo = todo[step > 1e-15 * top[todo]]  # falling still: a rise is rounding
         if not len(todo):
             break
     adj = _adjugate(k - lam * np.eye(4)[:, :, None])
@@ -189,4 +220,4 @@ def _rotation(q: np.ndarray) -> np.ndarray:
     )
 
 
-__all__ = ["NEWTON_STEPS", "rigid_fit", "rigid_fit_horn"]
+__all__ = ["NEWTON_STEPS", "WHOLE_STEPS", "rigid_fit", "rigid_fit_horn", "rigid_residuals_horn"]
