@@ -30,6 +30,7 @@ from mocap_mj.capture.marker_sets import (
 )
 from mocap_mj.io import MarkerTrajectory, save_trc
 from mocap_mj.io.labels import file_labels
+from mocap_mj.io.yaml_file import parse_yaml, read_text, read_yaml
 from mocap_mj.outputs.score import joint_centres
 from mocap_mj.pipeline.api import identify
 from mocap_mj.pipeline.recipe import Recipe
@@ -70,6 +71,16 @@ def test_each_set_is_documented_and_on_the_humanoid(name: str) -> None:
     # Plug-in Gait's wrist-bar markers (WRA, WRB) sit on no landmark of the vocabulary
     assert named >= 0.85 * len(s.markers), "most markers name their landmark or technical"
     model_with_marker_set(s)  # every body exists
+
+
+@pytest.mark.parametrize("name", FOLDER)
+def test_each_set_reads_the_same_by_the_c_parser(name: str) -> None:
+    """A bundled set is read by libyaml's C parser (read_yaml's ``packaged``): the same
+    document as the guarded loader's."""
+    path = SETS / f"{name}.yaml"
+    assert read_yaml(path, "marker set", packaged=True) == parse_yaml(
+        read_text(path, "marker set"), str(path), "marker set"
+    )
 
 
 def test_the_bundled_sets_ship_as_package_data() -> None:

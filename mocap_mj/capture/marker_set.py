@@ -129,8 +129,9 @@ class MarkerSet:
         return tuple(dict.fromkeys(m.body for m in self.markers))
 
 
-def load_marker_set(path: str | os.PathLike[str]) -> MarkerSet:
-    """Read a marker-set YAML file (see the module docstring for the format).
+def load_marker_set(path: str | os.PathLike[str], *, packaged: bool = False) -> MarkerSet:
+    """Read a marker-set YAML file (see the module docstring for the format); ``packaged``:
+    a bundled set's file (:func:`~mocap_mj.io.yaml_file.read_yaml`).
 
     Raises
     ------
@@ -139,7 +140,7 @@ def load_marker_set(path: str | os.PathLike[str]) -> MarkerSet:
         the file, the entry's position and name, and what was expected).
     """
     file = Path(path)
-    data = read_yaml(file, "marker set")
+    data = read_yaml(file, "marker set", packaged=packaged)
     if not isinstance(data, dict) or not isinstance(data.get("markers"), list):
         raise InputFileError(
             f"{file}: expected a mapping with a 'markers' list, got {excerpt(data)}"
@@ -212,7 +213,7 @@ def save_marker_set(path: str | os.PathLike[str], marker_set: MarkerSet) -> None
 
 def plug_in_gait() -> MarkerSet:
     """The bundled Plug-in Gait full-body set: the humanoid's 39 sites, with prior classes."""
-    return load_marker_set(model_path(PLUG_IN_GAIT))
+    return load_marker_set(model_path(PLUG_IN_GAIT), packaged=True)
 
 
 def marker_class(name: str, marker_set: MarkerSet | None = None) -> MarkerClass:

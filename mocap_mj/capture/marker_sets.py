@@ -72,7 +72,8 @@ def bundled_names() -> tuple[str, ...]:
 
 def bundled(name: str) -> MarkerSet:
     """The bundled set ``name``; an unknown name lists the bundled ones."""
-    return load_marker_set(resolve(name))
+    path = resolve(name)
+    return load_marker_set(path, packaged=path.parent == _folder())
 
 
 def resolve(name_or_file: str | os.PathLike[str]) -> Path:

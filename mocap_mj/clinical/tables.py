@@ -17,10 +17,17 @@ def series_table(
     names = list(series)
     header = ["frame", "time_s"] + [f"{n}_{a}" for n in names for a in "XYZ"]
     cols = np.concatenate([series[n] * scale for n in names], axis=1) if names else None
+    values = cols.tolist() if cols is not None else [[] for _ in frames]
+    whole = np.all(np.isfinite(cols), axis=1).tolist() if cols is not None else None
+    # a row with every value: one printf-style format (the text of the per-value format)
+    fmt = ",".join(["%d", "%.6f"] + ["%.4f"] * (3 * len(names)))
     lines = [",".join(header)]
-    for i, (f, t) in enumerate(zip(frames, times, strict=True)):
+    rows = zip(np.asarray(frames).tolist(), np.asarray(times).tolist(), strict=True)
+    for i, (f, t) in enumerate(rows):
+        if whole is None or whole[i]:
+            lines.append(fmt % (int(f), t, *values[i]))
+            continue
         row = [str(int(f)), f"{t:.6f}"]
-        if cols is not None:
-            row += ["" if not np.isfinite(v) else f"{v:.4f}" for v in cols[i]]
+        row += ["" if not np.isfinite(v) else f"{v:.4f}" for v in values[i]]
         lines.append(",".join(row))
     return "\n".join(lines) + "\n"

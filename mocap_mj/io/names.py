@@ -120,6 +120,15 @@ def name_key(name: str) -> str:
     return re.sub(r"[\s_.\-]", "", name).upper()
 
 
+def _keys(names: Collection[str]) -> dict[str, str]:
+    """Each of ``names`` by its :func:`name_key`."""
+    return {name_key(n): n for n in names}
+
+
+#: The bundled markers by :func:`name_key` (the default of :func:`builtin_alias`, made once).
+_BUILTIN_KEYS = _keys(MARKER_NAMES)
+
+
 def builtin_alias(name: str, model_names: Collection[str] = MARKER_NAMES) -> str | None:
     """The model marker ``name`` spells (case-insensitively, or by :data:`PIG_ALIASES`), or None.
 
@@ -127,6 +136,6 @@ def builtin_alias(name: str, model_names: Collection[str] = MARKER_NAMES) -> str
     ('LASI', 'LASI', 'LFRM', None)
     """
     key = name_key(name)
-    by_key = {name_key(n): n for n in model_names}
+    by_key = _BUILTIN_KEYS if model_names is MARKER_NAMES else _keys(model_names)
     target = by_key.get(key) or PIG_ALIASES.get(key)
     return target if target in model_names and target != name else None

@@ -3,7 +3,9 @@
 Pure functions of arrays: each takes the output path first, validates its inputs (a length
 mismatch raises :class:`mocap_mj.errors.ShapeError`, a :class:`MocapError`) and writes one PNG
 atomically. The figures are drawn on matplotlib's Agg canvas directly (no ``pyplot``, no global
-backend switch), at 150 dpi; ``size`` is the image size in pixels.
+backend switch), at 150 dpi; ``size`` is the image size in pixels. A figure of one axes is
+laid out by one measurement of its labels (:func:`_fit_axes`), one of several by
+constrained layout.
 
 Errors are in millimetres, times in seconds.
 
@@ -32,10 +34,13 @@ from mocap_mj.errors import MocapError, ShapeError
 from mocap_mj.io.atomic import atomic_write_bytes
 
 if TYPE_CHECKING:
+    from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
 __all__ = [
     "DPI",
+    "PAD",
+    "PNG_LEVEL",
     "plot_angle_comparison",
     "plot_error_accumulation",
     "plot_marker_error_per_frame",
@@ -47,6 +52,11 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 #: Resolution of every figure [dots per inch].
 DPI = 150
+#: Space kept between an axes' labels and the figure's edge [inch] (constrained layout's).
+PAD = 3 / 72
+#: zlib level of the PNG files: 3 writes a figure in about half the time of the default 6,
+#: in files about a fifth larger (lossless either way).
+PNG_LEVEL = 3
 _SERIES_SIZE = (1200, 700)
 
 
@@ -135,20 +145,48 @@ def held_interrupts(fn: F) -> F:
     return held  # type: ignore[return-value]
 
 
-def _figure(size: tuple[int, int]) -> Figure:
+def _figure(size: tuple[int, int], *, constrained: bool = False) -> Figure:
+    """An empty figure of ``size`` pixels on an Agg canvas. By default it has one axes'
+    worth of layout: :func:`_save` places its only axes by one measurement of its labels
+    (:func:`_fit_axes`); ``constrained`` (several axes, a legend outside them) gives it
+    matplotlib's constrained layout instead, which measures every axes twice."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     w, h = _size(size)
-    fig = Figure(figsize=(w / DPI, h / DPI), dpi=DPI, layout="constrained")
+    fig = Figure(figsize=(w / DPI, h / DPI), dpi=DPI, layout="constrained" if constrained else None)
     FigureCanvasAgg(fig)
     return fig
 
 
+def _fit_axes(fig: Figure) -> None:
+    """The figure's only axes moved so that its title, labels, tick labels and legend fit the
+    figure with :data:`PAD` inches to spare on every side (constrained layout's default pad):
+    the placement constrained layout finds, from one measurement of the labels' extent
+    instead of two (each lays out every tick label: a third of a simple figure's time)."""
+    (ax,) = fig.axes
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    tight = ax.get_tightbbox(renderer)
+    box = ax.get_window_extent(renderer)
+    if tight is None:
+        return
+    w, h, pad = fig.bbox.width, fig.bbox.height, PAD * DPI
+    left = (box.x0 - tight.x0 + pad) / w
+    right = 1 - (tight.x1 - box.x1 + pad) / w
+    bottom = (box.y0 - tight.y0 + pad) / h
+    top = 1 - (tight.y1 - box.y1 + pad) / h
+    if right - left > 0.1 and top - bottom > 0.1:  # else labels larger than the figure: as is
+        ax.set_position((left, bottom, right - left, top - bottom))
+
+
 def _save(fig: Figure, path: str | Path) -> Path:
+    """fig written to path as a PNG (zlib level :data:`PNG_LEVEL`), its axes placed by
+    :func:`_fit_axes` when it has no layout engine and one axes."""
     path = Path(path)
+    if fig.get_layout_engine() is None and len(fig.axes) == 1:
+        _fit_axes(fig)
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=DPI)
+    fig.savefig(buf, format="png", dpi=DPI, pil_kwargs={"compress_level": PNG_LEVEL})
     atomic_write_bytes(path, buf.getvalue())
     return path
 
@@ -276,7 +314,7 @@ def plot_parameter_errors(
     bound = _vector("crlb", crlb, n) * 1e3
     if np.any(bound[np.isfinite(bound)] < 0):
         raise MocapError("crlb: expected non-negative bounds")
-    fig = _figure(size or (1000, max(400, 90 + 16 * n)))
+    fig = _figure(size or (1000, max(400, 90 + 16 * n)), constrained=True)
     ax = fig.add_subplot()
     y = np.arange(n)
     finite_b = np.isfinite(bound)
@@ -337,13 +375,35 @@ def plot_residual_per_marker(
         mean = float(rmse[seen].mean())
         ax.axhline(mean, color="tab:orange", lw=1.2, label=f"mean {mean:.2f} mm")
         ax.legend(loc="upper right", fontsize="small")
-    ax.set_xticks(x, labels, rotation=90, fontsize=max(5.0, min(8.0, 1400.0 / len(labels))))
+    _bar_names(fig, ax, labels, max(5.0, min(8.0, 1400.0 / len(labels))))
     ax.set_xlim(-0.6, len(labels) - 0.4)
     ax.set_ylim(bottom=0)
     ax.set_ylabel("RMSE [mm]")
     ax.set_title(title)
     ax.grid(axis="y", alpha=0.3)
     return _save(fig, path)
+
+
+def _bar_names(fig: Figure, ax: Axes, labels: Sequence[str], fontsize: float) -> None:
+    """labels under the bars at x = 0, 1, ... of ax (in fig), upright, where tick labels go, with
+    their tick marks: as plain texts and one line of tick marks, not one tick object (five
+    artists) per bar: a figure of 40 markers draws in two thirds of the time."""
+    import matplotlib as mpl
+    from matplotlib.markers import TICKDOWN
+    from matplotlib.transforms import offset_copy
+
+    rc = mpl.rcParams
+    size, pad = float(rc["xtick.major.size"]), float(rc["xtick.major.pad"])
+    ax.set_xticks([])
+    along = ax.get_xaxis_transform()  # x in data, y in axes
+    below = offset_copy(along, fig=fig, y=-(size + pad), units="points")
+    colour = rc["xtick.color"] if rc["xtick.labelcolor"] == "inherit" else rc["xtick.labelcolor"]
+    for i, name in enumerate(labels):
+        ax.text(i, 0, name, transform=below, rotation=90, ha="center", va="top",
+                fontsize=fontsize, color=colour)  # fmt: skip
+    ax.plot(np.arange(len(labels)), np.zeros(len(labels)), ls="none", marker=TICKDOWN,
+            ms=size, mew=float(rc["xtick.major.width"]), color=rc["xtick.color"],
+            transform=along, clip_on=False, scalex=False, scaley=False)  # fmt: skip
 
 
 def plot_angle_comparison(
@@ -377,7 +437,7 @@ def plot_angle_comparison(
     joints = list(dict.fromkeys(n[1:] for n in names))
     if not joints:
         raise MocapError("no angle in both tables to plot")
-    fig = _figure((1800, 260 * len(joints) + 120))
+    fig = _figure((1800, 260 * len(joints) + 120), constrained=True)
     axes = fig.subplots(len(joints), 3, squeeze=False, sharex=True)
     for row, joint in enumerate(joints):
         for k, axis in enumerate("XYZ"):

@@ -7,7 +7,10 @@ exchanged contents of one segment, over every candidate that touches it, are sta
 one rigid fit; the as-labelled fits are made once per round; the residuals of the
 candidates with as many markers are gathered into one array, and the medians over every
 candidate's spans are taken in one sort. Each number is computed as a per-candidate fit
-computes it (the same operations on the same frames, in the same order).
+computes it (the same operations on the same frames, in the same order). The rigid fits are
+Horn's quaternion fits (:func:`~mocap_mj.skeleton.rigid.rigid_residuals_horn`): the Kabsch fits'
+rotations to rounding, in arithmetic on whole arrays, where a stacked SVD of one 3 x 3
+matrix per frame and content took most of a round's screen.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mocap_mj.skeleton.parameters import ParameterSet
-from mocap_mj.skeleton.rigid import rigid_fit
+from mocap_mj.skeleton.rigid import rigid_residuals_horn
 
 if TYPE_CHECKING:
     from mocap_mj.pipeline.relabel import Candidate
@@ -79,10 +82,8 @@ class Segments:
             meas = np.concatenate([meas, centre], axis=2)
         if len(ref) < 3:
             return None
-        flat = meas.reshape(k * n, len(ref), 3)
-        rot, pos = rigid_fit(flat, ref)
-        fit = np.einsum("tij,mj->tmi", rot, ref) + pos[:, None]
-        return np.sum((fit - flat) ** 2, axis=2)[:, :m].reshape(k, n, m)
+        sq = rigid_residuals_horn(meas.reshape(k * n, len(ref), 3), ref)
+        return sq[:, :m].reshape(k, n, m)
 
     def labelled(self, x: np.ndarray) -> np.ndarray:
         """(n, M + 1) [m^2]: each marker's squared residual in its segment's fit to x
