@@ -387,3 +387,35 @@ def test_trunk_against_nexus() -> None:
             name = f"{side}{joint}Power"
             assert _rms(ours[name][:, 2], theirs[name][:, 2]) < 0.025, name
             assert np.nanmax(np.abs(ours[name][:, :2])) == 0.0
+
+
+def test_missing_c7_empties_the_trunk_only_where_it_reaches() -> None:
+    """C7 missing for 5 frames (the thorax frame with it): the neck's outputs and the waist's
+    power (the thorax' angular velocity) are empty there and within the derivatives' reach (4
+    frames, 2 for an angular velocity alone), never carried over; the waist's moment and force
+    (the pelvis' and legs') and the legs' unchanged."""
+    from dataclasses import replace
+
+    if not TRIAL.exists():
+        pytest.skip(f"{TRIAL} (shared real recording) not present")
+    traj, subject = load_markers(TRIAL), pig_from_c3d(TRIAL)
+    positions = traj.positions.copy()
+    positions[100:105, traj.names.index("C7")] = np.nan
+    runs = []
+    for tr in (traj, replace(traj, positions=positions)):
+        result = plug_in_gait(tr, subject)
+        markers = {n: tr.positions[:, i] for i, n in enumerate(tr.names)}
+        centres = with_trunk(result.segments, result.centres, markers, subject.marker_radius)
+        out, _ = trial_kinetics(result.segments, centres, read_plates(TRIAL, window="centred",
+                                offsets="none"), tr, body_mass=85.0,
+                                progression=result.progression)  # fmt: skip
+        runs.append(out)
+    whole, gap = runs
+    for name, reach in (("LNeckMoment", 4), ("RNeckForce", 4), ("LNeckPower", 4),
+                        ("RWaistPower", 2)):  # fmt: skip
+        empty = np.isnan(gap[name][:, 2])
+        first, stop = 100 - reach, 105 + reach
+        assert empty[first:stop].all() and not empty[4:first].any(), name
+        assert not empty[stop:-4].any(), name
+    for name in ("LHipMoment", "LWaistMoment", "RWaistForce"):
+        np.testing.assert_array_equal(gap[name], whole[name], err_msg=name)
