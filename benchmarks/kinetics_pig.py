@@ -29,7 +29,7 @@ import ezc3d
 import numpy as np
 
 from mocap_mj.clinical import pig_from_c3d, plug_in_gait
-from mocap_mj.clinical.centre_of_mass import COM_NAMES, pig_centre_of_mass
+from mocap_mj.clinical.centre_of_mass import COM_NAMES, pig_centre_of_mass, with_trunk
 from mocap_mj.clinical.kinetics import PlateChoice, trial_kinetics
 from mocap_mj.io.load import load_markers
 from mocap_mj.io.plates import read_plates, recorded_ground_reactions
@@ -52,16 +52,16 @@ def ours(trial: Path, plates: str) -> tuple[dict[str, np.ndarray], list[str]]:
     if mass is None:
         raise SystemExit(f"{trial}: no body mass in PROCESSING:Bodymass")
     counted = None if plates in ("auto", "all") else {int(v) for v in plates.split(",")}
+    markers = {n: traj.positions[:, i] for i, n in enumerate(traj.names)}
     out, notes = trial_kinetics(
         result.segments,
-        result.centres,
+        with_trunk(result.segments, result.centres, markers, subject.marker_radius),
         read_plates(trial, window="centred", offsets="none"),
         traj,
         body_mass=mass,
         progression=result.progression,
         choice=PlateChoice(counted, recorded_ground_reactions(trial) if plates == "auto" else None),
     )
-    markers = {n: traj.positions[:, i] for i, n in enumerate(traj.names)}
     com = pig_centre_of_mass(result.segments, result.centres, markers,
                              marker_radius=subject.marker_radius)  # fmt: skip
     return out | com, notes
@@ -117,7 +117,10 @@ def compare(mine: dict[str, np.ndarray], theirs: dict[str, np.ndarray]) -> list[
                 peak = float(np.nanmax(np.abs(ref[:, 2]))) if both.any() else float("nan")
                 rms = 100.0 * rms / peak
             flag = "  MISS" if target is not None and not rms <= target else ""
-            same = both & agree.get(name[0], both)
+            # the trunk's loads come up both legs
+            both_feet = agree.get("L", both) & agree.get("R", both)
+            same = both & (both_feet if "Waist" in name or "Neck" in name
+                           else agree.get(name[0], both))  # fmt: skip
             part = float(np.sqrt(np.mean((mine[name][same, k] - ref[same, k]) ** 2)))
             if unit == "% peak":
                 part = 100.0 * part / peak

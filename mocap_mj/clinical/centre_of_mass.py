@@ -34,6 +34,10 @@ Their definitions are the reference guide's footnotes (quoted by biomechZoo's
 A frame in which a segment's centre of mass cannot be placed (a marker or joint centre
 missing) gives NaN; the thorax' point is a mean over the frames that see C7, the thorax and
 L5.
+
+:func:`trunk_points` places the same points for the trunk's kinetics (:func:`~.kinetics.
+trunk_kinetics`): L5, the thorax' mean C7 and L5, and the neck point (the C7 marker's mean in the
+thorax frame); :func:`with_trunk` adds them to the joint centres.
 """
 
 from __future__ import annotations
@@ -61,6 +65,8 @@ __all__ = [
     "pig_centre_of_mass",
     "segment_centres",
     "thorax_com",
+    "trunk_points",
+    "with_trunk",
 ]
 
 #: The written points: the whole-body centre of mass and its projection on the floor.
@@ -174,3 +180,49 @@ def pig_centre_of_mass(
     com = centre_of_mass(segment_centres(segs, centres, markers, marker_radius))
     floor = com * np.array([1.0, 1.0, 0.0])
     return {"CentreOfMass": com @ rot.T, "CentreOfMassFloor": floor @ rot.T}
+
+
+def _fixed(seg: Segment, point: np.ndarray) -> np.ndarray:
+    """The trial's mean of ``point`` (T, 3) [m] in ``seg``'s frame, as a point of the segment
+    (T, 3) [m]; NaN in every frame when no frame sees both."""
+    local = np.einsum("tji,tj->ti", seg.axes, point - seg.origin)
+    seen = np.isfinite(local).all(axis=1)
+    if not seen.any():
+        return np.full_like(seg.origin, np.nan)
+    return seg.origin + seg.axes @ local[seen].mean(axis=0)
+
+
+def trunk_points(
+    segs: Mapping[str, Segment],
+    centres: Mapping[str, np.ndarray],
+    c7: np.ndarray,
+    marker_radius: float,
+) -> dict[str, np.ndarray]:
+    """The trunk's kinetic points (T, 3) [m], to join the joint centres for
+    :func:`~.kinetics.pig_kinetics`: ``l5`` (the pelvis' L5), ``thorax_top`` and
+    ``thorax_bottom`` (the trial's mean C7, one ``marker_radius`` [m] along the thorax' x from
+    the C7 marker ``c7`` (T, 3) [m], and mean L5, in the thorax frame) and ``neck`` (the C7
+    marker's mean in the thorax frame). ``segs``: with ``pelvis`` and ``thorax``; ``centres``:
+    ``hip_l``, ``hip_r``."""
+    thorax = segs["thorax"]
+    l5 = lumbar5(segs["pelvis"], centres)
+    return {
+        "l5": l5,
+        "thorax_top": _fixed(thorax, c7 + marker_radius * thorax.axes[:, :, 0]),
+        "thorax_bottom": _fixed(thorax, l5),
+        "neck": _fixed(thorax, c7),
+    }
+
+
+def with_trunk(
+    segs: Mapping[str, Segment],
+    centres: Mapping[str, np.ndarray],
+    markers: Mapping[str, np.ndarray],
+    marker_radius: float,
+) -> dict[str, np.ndarray]:
+    """``centres`` with :func:`trunk_points`' points when ``segs`` holds the trunk and arms and
+    ``markers`` (name -> (T, 3) [m]) the ``C7`` marker, else a copy of ``centres``."""
+    out = dict(centres)
+    if {"pelvis", "thorax", "hand_l", "hand_r"} <= set(segs) and "C7" in markers:
+        out |= trunk_points(segs, centres, markers["C7"], marker_radius)
+    return out

@@ -44,6 +44,25 @@ side's Y and Z mirrored. A joint's power is its moment dotted with the distal se
 angular velocity less the proximal's, written in Z. Where the foot stands on no counted plate
 its ground reaction is zero and the moments come from the segments' motion alone, as Nexus
 writes them; the ground reaction itself is written only on a counted plate.
+
+The trunk (:func:`trunk_kinetics`; Nexus' ``WaistMoment``, ``NeckMoment``..., determined against
+the Nexus outputs of a Plug-in Gait trial): Nexus carries the legs' recursion on up. The pelvis
+receives both femurs' loads at the hip centres and passes the waist's load to the thorax at L5;
+the thorax receives it there and the humeri's at the shoulder centres (the arms' recursion from
+the free hands) and passes the neck's load at the neck point; the head enters no output. Pelvis
+and thorax are Plug-in Gait's (reference guide, "Kinetic modelling", table and footnotes):
+masses 0.142 and 0.355, centres of mass 0.895 of the way from the hip centres' mid-point to L5
+and 0.63 from C7 to L5 (:mod:`.centre_of_mass`), radii of gyration 0.31 of those lengths (the
+guide's estimates; it names no axes: Nexus' waist moments are those of the pelvis' inertia about
+all three, which without z differ by 0.004 N m/kg, its neck's those of the thorax' about x and y
+only, with z 0.03). The guide names no neck joint centre: the neck's moment is taken about the
+C7 marker's mean position in the thorax frame, of the thorax' points (its origin, C7, C7 one
+marker radius forward) the one Nexus' moments agree with (the others by 0.05-0.85 N m/kg worse).
+Reported per kg as the limbs' (the upper segment's load on the lower): the waist's in the pelvis
+frame, the neck's in the thorax frame turned to the pelvis' orientation (:data:`UPRIGHT`: x
+forward, y left, z up), moment X the frame's y, Y its x, Z minus its z (:data:`TRUNK_AXES`), the
+right side's Y and Z mirrored, force x, y, z, L and R the same loads; power in Z, the moment
+dotted with the lower segment's angular velocity less the upper's.
 """
 
 from __future__ import annotations
@@ -65,6 +84,8 @@ __all__ = [
     "FORCE_SIGNS",
     "GRAVITY",
     "MOMENT_AXES",
+    "TRUNK_AXES",
+    "UPRIGHT",
     "Body",
     "ChainLoads",
     "Load",
@@ -78,6 +99,8 @@ __all__ = [
     "newton_euler",
     "pig_kinetics",
     "trial_kinetics",
+    "trunk_kinetics",
+    "trunk_loads",
 ]
 
 #: Standard gravity [m/s^2], the value Nexus normalises the ground reaction with.
@@ -104,6 +127,10 @@ DEMPSTER: dict[str, Body] = {
     "hand": Body(0.006, 0.6205, 0.440),
     "radius": Body(0.016, 0.57, 0.526),
     "humerus": Body(0.028, 0.564, 0.542),
+    # the trunk: centres of mass from the hip centres' mid-point to L5 and from C7 to L5
+    # (:mod:`.centre_of_mass`), the radii of gyration Plug-in Gait's estimates
+    "pelvis": Body(0.142, 0.895, 0.31),
+    "thorax": Body(0.355, 0.63, 0.31),
 }
 
 
@@ -361,7 +388,10 @@ def pig_kinetics(
 
     Returns ``LAnkleMoment``, ``LKneeMoment``, ``LHipMoment`` (and ``LWristMoment``,
     ``LElbowMoment``, ``LShoulderMoment`` when ``segs`` holds the arms and the thorax, the
-    hand free of loads) [N m/kg], ``LAnkleForce``...
+    hand free of loads; with the trunk's points of
+    :func:`~mocap_mj.clinical.centre_of_mass.trunk_points` in ``centres`` also ``LWaistMoment``,
+    ``LNeckMoment``... of :func:`trunk_kinetics`) [N m/kg],
+    ``LAnkleForce``...
     [N/kg] (the distal segment's frame, components in :data:`MOMENT_AXES`,
     :data:`FORCE_SIGNS`), ``LAnklePower``... [W/kg] (in Z; X and Y 0), ``LGroundReactionForce``
     [N/kg] (the lab frame), ``LNormalisedGRF`` [% body weight] (the progression frame: X
@@ -377,17 +407,15 @@ def pig_kinetics(
     up = np.array([0.0, 0.0, 1.0])
     walk = np.stack([fwd, np.cross(up, fwd), up])  # rows: forward, left, up
     out: dict[str, np.ndarray] = {}
+    chains: dict[str, ChainLoads] = {}
     for s, (grf, cop, free, on_plate) in loads.items():
         p, lat = s.upper(), (1.0 if s == "l" else -1.0)
-        limbs = [
-            leg_loads(
-                segs, centres, s, body_mass=body_mass, rate=rate, grf=grf, cop=cop,
-                free_moment=free,
-            )
-        ]  # fmt: skip
+        chains[f"leg_{s}"] = leg_loads(
+            segs, centres, s, body_mass=body_mass, rate=rate, grf=grf, cop=cop, free_moment=free
+        )
         if f"hand_{s}" in segs and "thorax" in segs:
-            limbs.append(arm_loads(segs, centres, s, body_mass=body_mass, rate=rate))
-        for limb in limbs:
+            chains[f"arm_{s}"] = arm_loads(segs, centres, s, body_mass=body_mass, rate=rate)
+        for limb in (chains[f"{k}_{s}"] for k in ("leg", "arm") if f"{k}_{s}" in chains):
             for joint, (distal, proximal, axes) in MOMENT_AXES.items():
                 if joint.lower() not in limb.moment:
                     continue
@@ -412,6 +440,116 @@ def pig_kinetics(
         normal = force @ walk.T * (100.0 / GRAVITY)
         normal[:, 1] *= -lat
         out[f"{p}NormalisedGRF"] = normal
+    if "thorax_top" in centres and len(chains) == 4:
+        out |= trunk_kinetics(segs, centres, chains, body_mass=body_mass, rate=rate)
+    return out
+
+
+#: Nexus' trunk moment components X, Y, Z as (axis of the reporting frame, sign); Y and Z
+#: mirrored on the right.
+TRUNK_AXES: tuple[tuple[int, float], ...] = ((1, 1.0), (0, 1.0), (2, -1.0))
+#: The thorax frame's axes turned to the pelvis' orientation: x kept, y and z reversed.
+UPRIGHT = np.array([1.0, -1.0, -1.0])
+
+
+def _at(loads: list[Load], point: np.ndarray) -> Load:
+    """The sum of ``loads`` as one load acting at ``point`` (T, 3) [m]."""
+    force = sum((ld.force for ld in loads), np.zeros_like(point))
+    moment = sum(
+        (ld.moment + np.cross(ld.point - point, ld.force) for ld in loads), np.zeros_like(point)
+    )
+    return Load(force, moment, point)
+
+
+def _segment(
+    name: str, start: np.ndarray, end: np.ndarray, body_mass: float
+) -> tuple[float, np.ndarray, np.ndarray]:
+    """Mass [kg], centre of mass (T, 3) [m] and principal inertia (3,) [kg m^2] of the pelvis
+    or the thorax, its centre of mass its fraction of the way from ``start`` to ``end``
+    (T, 3) [m], its length their median distance; the pelvis' inertia about all three axes,
+    the thorax' about x and y."""
+    body = DEMPSTER[name]
+    mass = body.mass * body_mass
+    length = float(np.nanmedian(np.linalg.norm(end - start, axis=1)))
+    i = mass * (body.gyration * length) ** 2
+    com = start + body.com * (end - start)
+    return mass, com, np.array([i, i, i if name == "pelvis" else 0.0])
+
+
+def trunk_loads(
+    segs: Mapping[str, Segment],
+    centres: Mapping[str, np.ndarray],
+    limbs: Mapping[str, ChainLoads],
+    *,
+    body_mass: float,
+    rate: float,
+) -> ChainLoads:
+    """The recursion up the trunk: the ``waist`` and ``neck`` forces (T, 3) [N] and moments
+    (T, 3) [N m] (about L5 and the neck point) the upper segment exerts on the lower, in the
+    lab, and the angular velocities (T, 3) [rad/s] of ``pelvis``, ``thorax``, ``head``.
+
+    ``segs``, ``centres``: Plug-in Gait's segments and joint centres with the points of
+    :func:`~.centre_of_mass.trunk_points`; ``limbs``: the legs' (``leg_l``, ``leg_r``) and
+    arms' (``arm_l``, ``arm_r``) :class:`ChainLoads`; ``body_mass`` [kg]; ``rate`` [Hz].
+    """
+    out_f: dict[str, np.ndarray] = {}
+    out_m: dict[str, np.ndarray] = {}
+    mid = 0.5 * (centres["hip_l"] + centres["hip_r"])
+    # joint above, segment, the ends its centre of mass is placed between (Plug-in Gait's: the
+    # hip centres' mid-point to L5, C7 to L5), the joint's point, the limbs it receives
+    steps = (("waist", "pelvis", mid, centres["l5"], centres["l5"], "leg", "hip"),
+             ("neck", "thorax", centres["thorax_top"], centres["thorax_bottom"], centres["neck"],
+              "arm", "shoulder"))  # fmt: skip
+    below: list[Load] = []
+    for out, name, start, end, proximal, limb, joint in steps:
+        # each limb's segment acts on the trunk with the opposite of the trunk's load on it
+        received = below + [
+            Load(-limbs[f"{limb}_{s}"].force[joint], -limbs[f"{limb}_{s}"].moment[joint],
+                 centres[f"{joint}_{s}"])
+            for s in ("l", "r")
+        ]  # fmt: skip
+        mass, com, inertia = _segment(name, start, end, body_mass)
+        f, m = newton_euler(mass=mass, com=com, inertia=inertia, axes=segs[name].axes, rate=rate,
+                            proximal=proximal, distal=_at(received, proximal))  # fmt: skip
+        out_f[out], out_m[out] = f, m
+        below = [Load(-f, -m, proximal)]
+    omega = {n: angular_velocity(segs[n].axes, rate) for n in ("pelvis", "thorax", "head")}
+    return ChainLoads(out_f, out_m, omega)
+
+
+def trunk_kinetics(
+    segs: Mapping[str, Segment],
+    centres: Mapping[str, np.ndarray],
+    limbs: Mapping[str, ChainLoads],
+    *,
+    body_mass: float,
+    rate: float,
+) -> dict[str, np.ndarray]:
+    """``LWaistMoment``, ``LNeckMoment`` [N m/kg], ``LWaistForce``, ``LNeckForce`` [N/kg],
+    ``LWaistPower``, ``LNeckPower`` [W/kg] (in Z; X and Y 0) and the right side's, each
+    (T, 3), from :func:`trunk_loads` (the arguments its), as Nexus reports them; NaN in a frame
+    whose derivatives cannot be taken."""
+    loads = trunk_loads(segs, centres, limbs, body_mass=body_mass, rate=rate)
+    frames = {
+        "Waist": (segs["pelvis"].axes, "pelvis", "thorax"),
+        "Neck": (segs["thorax"].axes * UPRIGHT, "thorax", "head"),
+    }
+    out: dict[str, np.ndarray] = {}
+    for joint, (frame, lower, upper) in frames.items():
+        moment, force = loads.moment[joint.lower()], loads.force[joint.lower()]
+        local_m = np.einsum("tji,tj->ti", frame, moment) / body_mass
+        local_f = np.einsum("tji,tj->ti", frame, force) / body_mass
+        power = np.einsum("ti,ti->t", moment, loads.omega[lower] - loads.omega[upper]) / body_mass
+        for p, lat in (("L", 1.0), ("R", -1.0)):
+            out[f"{p}{joint}Moment"] = np.stack(
+                [sign * local_m[:, a] * (lat if c else 1.0)
+                 for c, (a, sign) in enumerate(TRUNK_AXES)],
+                axis=1,
+            )  # fmt: skip
+            out[f"{p}{joint}Force"] = local_f.copy()
+            out[f"{p}{joint}Power"] = np.stack(
+                [np.where(np.isfinite(power), 0.0, np.nan)] * 2 + [power], axis=1
+            )
     return out
 
 

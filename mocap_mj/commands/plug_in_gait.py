@@ -151,6 +151,7 @@ def _kinetics(
     """The kinetic outputs when the trial is a C3D with plates and the subject a mass:
     ``plates`` (--plates, --up: the plates rotated as the markers); ``frames`` (the rows of
     the ``whole`` recording that --frames keeps, ``trial``'s)."""
+    from ..clinical.centre_of_mass import with_trunk
     from ..clinical.kinetics import PlateChoice, trial_kinetics
     from ..io.plates import read_plates, recorded_ground_reactions
 
@@ -174,9 +175,10 @@ def _kinetics(
         for p in records
     ]
     recorded = recorded_ground_reactions(path) if plates_text == "auto" else None
+    markers = {n: trial.positions[:, i] for i, n in enumerate(trial.names)}
     return trial_kinetics(
         result.segments,
-        result.centres,
+        with_trunk(result.segments, result.centres, markers, result.subject.marker_radius),
         records,
         trial,
         body_mass=mass,
