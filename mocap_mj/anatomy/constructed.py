@@ -23,9 +23,11 @@ Per frame (:func:`construct`), in the lab:
 * the shoulder, elbow and wrist centres: Plug-in Gait's (:mod:`mocap_mj.clinical.centres`),
   with the measured shoulder offset, elbow and wrist widths, else the landmark prior's means
   (shoulder offset 45 mm x stature / 1.75 m less the marker radius, the regressed elbow
-  width and the regressed wrist width); only in frames where the elbow bends by
+  width and the regressed wrist width); the elbow on the frames where it bends by
   :data:`MIN_ELBOW_BEND_DEG` or more (Plug-in Gait's elbow plane is undefined in a straight
-  arm);
+  arm, where its chord puts the centre 60-70 mm in front of or behind ELB); an arm that
+  bends so in under :data:`MIN_BENT_SHARE` of the frames (a static with straight arms) gets
+  :func:`straight_elbow` on every frame instead;
 * the model's body frames from those: thigh z from the knee to the hip centre, y towards KNE
   (the knee's flexion axis); shank z from the ankle to the knee centre, y towards ANK; upper
   arm z from the elbow to the shoulder centre, y towards ELB; radius z from the wrist to the
@@ -60,10 +62,14 @@ from ..clinical import centres
 from ..clinical.geometry import chord, frame, frame_zy, unit
 from ..clinical.segments import Markers, trunk_frames
 
-#: The least elbow bend [deg] (between the shoulder-centre-to-ELB and ELB-to-wrist lines) of a
-#: frame whose elbow construction is used: below it the arm's plane, which Plug-in Gait's
-#: elbow centre lies in, turns with the noise.
+#: The least elbow bend [deg] (of :func:`hinge_elbow`'s centre, between the upper arm and the
+#: forearm) of a frame whose Plug-in Gait elbow is used: below it the arm's plane, which
+#: Plug-in Gait's elbow centre lies in, turns with the noise.
 MIN_ELBOW_BEND_DEG = 30.0
+#: The least share of a recording's frames whose elbow bends by :data:`MIN_ELBOW_BEND_DEG`
+#: for Plug-in Gait's elbow centre (on those frames only); a recording with fewer, a static
+#: with straight arms, gets :func:`straight_elbow` on every frame instead.
+MIN_BENT_SHARE = 0.1
 #: The least distance [m] of the thigh wand (THI) from the line of its joint's proximal centre and
 #: lateral marker for Plug-in Gait's chord: a placement error e turns the chord's plane by
 #: about atan(e / lever), 20 degrees for 10 mm at 25 mm (a Plug-in Gait wand stands 50-100 mm
@@ -236,6 +242,43 @@ def _leg(rec: _Recording, theta: np.ndarray, subject: Subject, pelvis: _Frame, s
     out.frames[f"shank_{side}"] = (shank, knee[0])
 
 
+def hinge_elbow(
+    sjc: np.ndarray, elb: np.ndarray, wjc: np.ndarray, half: float, side: str
+) -> np.ndarray:
+    """Elbow centre (T, 3) [m] of a hinge whose flexion axis ``a`` passes through the elbow
+    marker ``elb``, normal to the upper arm (to ``sjc``) and the forearm (to ``wjc``), the
+    centre ``half`` (width/2 + marker radius [m]) from the marker: ``a . (sjc - elb) =
+    a . (wjc - elb) = -half``, ``|a| = 1``, of the two solutions the one that bends the arm
+    forward (Plug-in Gait's side). Exact for the model's elbow whatever the bend, but in a
+    near-straight arm the bend it gives turns with the width: a width 10 % off bends a
+    straight arm by about 7 degrees and tilts its axis by 26."""
+    u, v = sjc - elb, wjc - elb
+    uu, uv, vv = (np.sum(x * y, axis=-1) for x, y in ((u, u), (u, v), (v, v)))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        det = uu * vv - uv**2
+        p = (-half * (vv - uv) / det)[..., None] * u + (-half * (uu - uv) / det)[..., None] * v
+        norm = np.linalg.norm(p, axis=-1, keepdims=True)
+        t = np.sqrt(np.clip(1.0 - norm**2, 0.0, None)) * (1.0 if side == "l" else -1.0)
+        axis = np.where(norm > 1.0, p / norm, p + t * unit(np.cross(u, v)))
+    return elb - half * axis
+
+
+def straight_elbow(sjc: np.ndarray, elb: np.ndarray, wjc: np.ndarray) -> np.ndarray:
+    """Elbow centre (T, 3) [m] of a straight arm: the point of the line from the shoulder
+    centre ``sjc`` to the wrist centre ``wjc`` (T, 3) [m] nearest to the elbow marker
+    ``elb`` (the flexion axis through the marker, normal to the arm). It needs no width: the
+    marker's distance from the line is the recording's; a residual bend b moves the centre
+    off the line by about 0.14 m sin b (7 mm at 3 degrees), normal to the axis."""
+    line = unit(wjc - sjc)
+    return sjc + np.sum((elb - sjc) * line, axis=-1, keepdims=True) * line
+
+
+def elbow_bend(sjc: np.ndarray, ejc: np.ndarray, wjc: np.ndarray) -> np.ndarray:
+    """The elbow's bend (T,) [deg]: the angle between the upper arm and the forearm."""
+    cos = np.sum(unit(ejc - sjc) * unit(wjc - ejc), axis=-1)
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
 def _arms(rec: _Recording, theta: np.ndarray, subject: Subject, s: float,
           out: Construction) -> None:  # fmt: skip
     """Plug-in Gait's shoulder, elbow and wrist centres, the upper arm and radius frames."""
@@ -258,20 +301,27 @@ def _arms(rec: _Recording, theta: np.ndarray, subject: Subject, s: float,
         sjc = centres.shoulder(thorax.axes, thorax.origin, rec[p + "SHO"], off, r, side)
         elb, wra, wrb = rec[p + "ELB"], rec[p + "WRA"], rec[p + "WRB"]
         wri = 0.5 * (wra + wrb)
-        bend = np.degrees(np.arccos(np.clip(np.sum(unit(elb - sjc) * unit(wri - elb), -1),
-                                            -1.0, 1.0)))  # fmt: skip
-        usable = bend >= MIN_ELBOW_BEND_DEG
-        if not np.any(usable):
-            continue
         half, how = _half_width(rec.pset, theta, subject, "elbow_width", side)
-        ejc = centres.elbow(sjc, elb, wri, 2 * (half - r), r, side)
-        ejc[~usable] = np.nan
         wrist_half, wrist_how = _half_width(rec.pset, theta, subject, "wrist_width", side)
-        radius_y = frame(2, ejc - wri, 0, wra - wrb)[..., 1]
-        wjc = centres.wrist(wri, radius_y, 2 * (wrist_half - r), r, side)
+        ejc = centres.elbow(sjc, elb, wri, 2 * (half - r), r, side)
+        bend = elbow_bend(sjc, hinge_elbow(sjc, elb, wri, half, side), wri)
+        bent = bend >= MIN_ELBOW_BEND_DEG
+        straight = np.isfinite(bend) & (np.sum(bent) < MIN_BENT_SHARE * np.sum(np.isfinite(bend)))
+        if not np.any(bent | straight):
+            continue
+        ejc[~bent] = np.nan
+        wjc = wri
+        for _ in range(3 if np.any(straight) else 1):  # the wrist's centre, the elbow's line
+            ejc[straight] = straight_elbow(sjc, elb, wjc)[straight]
+            radius_y = frame(2, ejc - wri, 0, wra - wrb)[..., 1]
+            wjc = centres.wrist(wri, radius_y, 2 * (wrist_half - r), r, side)
         out.centres.update({f"shoulder_{side}": sjc, f"elbow_{side}": ejc, f"wrist_{side}": wjc})
         out.sources[f"shoulder_{side}"] = "Plug-in Gait's shoulder centre"
-        out.sources[f"elbow_{side}"] = f"Plug-in Gait's elbow centre, {how}"
+        out.sources[f"elbow_{side}"] = (
+            f"Plug-in Gait's elbow centre, {how}"
+            if not np.any(straight)
+            else "a straight arm's elbow centre (on the shoulder-wrist line)"
+        )
         out.sources[f"wrist_{side}"] = f"Plug-in Gait's wrist centre, {wrist_how}"
         out.frames[f"upperarm_{side}"] = (frame_zy(sjc - ejc, lat * (elb - ejc)), sjc)
         out.frames[f"radius_{side}"] = (frame_zy(ejc - wjc, lat * (wra - wrb)), ejc)
