@@ -89,17 +89,15 @@ def axis_errors(
     kins: tuple[Kinematics, Kinematics], qs: tuple[np.ndarray, np.ndarray]
 ) -> dict[str, float]:
     """RMS over frames of the angle [deg] between the truth's and the estimate's world-frame
-    flexion axes, by joint, for the models ``kins`` (truth, estimate) in poses ``qs`` (T, nq)."""
+    flexion axes, by joint, for the models ``kins`` (truth, estimate) in poses ``qs`` (T, nq).
+    The axis is MuJoCo's ``xaxis``: the hinge's in its body's frame before the body's later
+    joints (the knee's rotation, the subtalar hinge) turn that frame about other axes."""
     frames = [k.forward(q) for k, q in zip(kins, qs, strict=True)]
     out: dict[str, float] = {}
     for base in FLEXION:
         for side in "lr":
             name = f"{base}_{side}"
-            axes = []
-            for k, f in zip(kins, frames, strict=True):
-                j = k.model.joint(name).id
-                body = int(k.model.jnt_bodyid[j])
-                axes.append(np.einsum("tij,j->ti", f.xmat[:, body], k.model.jnt_axis[j]))
+            axes = [f.xaxis[:, k.model.joint(name).id] for k, f in zip(kins, frames, strict=True)]
             cos = np.clip(np.sum(axes[0] * axes[1], axis=1), -1.0, 1.0)
             ok = np.isfinite(cos)
             out[name] = float(np.degrees(np.sqrt(np.mean(np.arccos(cos[ok]) ** 2))))
