@@ -135,24 +135,39 @@ def test_a_bent_elbow_is_plug_in_gaits_a_straight_one_on_the_arms_line(
 ) -> None:
     """A bent static gets Plug-in Gait's elbow; a straight one (where Plug-in Gait's chord
     puts the centre 60-70 mm in front of or behind ELB) the point of the shoulder-wrist line
-    nearest ELB: within 25 mm of the truth's over seeds 0-5 (4-22 mm measured: the truth
-    draws ELB's placement and the wrist bar's about the prior's rows) and never in front."""
+    nearest ELB, or the hinge's where the width makes it read bent: within 25 mm of the
+    truth's over seeds 0-5 with the truth's elbow widths measured (4-22 mm; the truth draws
+    ELB's and the wrist bar's placement about the prior's rows), and so with the widths
+    regressed where the truth's lies within 2 sd (24 mm) of the regression (the truth draws
+    them 25-133 mm wide: 8 of the 12; seed 2's left, 133 mm against 72, ends 58 mm off)."""
     _, _, bent = posed_static(pset, 3, 88.0, 60.0)
     con, _ = construct(pset, scaled_theta(pset, bent), bent, Subject())
     assert "upperarm_l" in con.frames and con.sources["elbow_l"].startswith("Plug-in Gait's")
+    checked = 0
     for seed in range(6):
         truth, q, straight = posed_static(pset, seed, 88.0, 0.0)
-        con, _ = construct(pset, scaled_theta(pset, straight), straight, Subject())
         kin = Kinematics(pset)
         kin.set_theta(truth)
         true_centres = kin.forward(q).xpos
-        theta, _, _ = constructed_theta(pset, scaled_theta(pset, straight), straight, Subject())
-        for side in ("l", "r"):
-            assert con.sources[f"elbow_{side}"].startswith("a straight arm's"), seed
-            true = true_centres[:, pset.model.body(f"ulna_{side}").id]
-            error = np.median(np.linalg.norm(con.centres[f"elbow_{side}"] - true, axis=1))
-            assert error < 0.025, (seed, side, error)
-            assert _elbow_forward(pset, theta, side) < 0.015, (seed, side)
+        widths = {s: 2 * (abs(_offset(pset, truth, s.upper() + "ELB")[1]) - 0.007) for s in "lr"}
+        measured = Subject()
+        for side, width in widths.items():
+            measured.set(f"elbow_width_{side}", width, "the truth")
+        for subject in (measured, Subject()):
+            scaled = scaled_theta(pset, straight)
+            con, _ = construct(pset, scaled, straight, subject)
+            theta, _, _ = constructed_theta(pset, scaled, straight, subject)
+            for side in ("l", "r"):
+                assert con.sources[f"elbow_{side}"].startswith("a straight arm's"), seed
+                regressed = 0.070 / 0.30 * scaled[pset.index(f"upperarm_length_{side}")]
+                if subject is not measured and abs(widths[side] - regressed) > 0.024:
+                    continue
+                true = true_centres[:, pset.model.body(f"ulna_{side}").id]
+                error = np.median(np.linalg.norm(con.centres[f"elbow_{side}"] - true, axis=1))
+                assert error < 0.025, (seed, side, subject is measured, error)
+                assert _elbow_forward(pset, theta, side) < 0.015, (seed, side)
+                checked += 1
+    assert checked == 12 + 8
 
 
 @pytest.mark.parametrize("bend", [0.0, 10.0, 30.0, 60.0, 120.0])

@@ -27,7 +27,8 @@ Per frame (:func:`construct`), in the lab:
   :data:`MIN_ELBOW_BEND_DEG` or more (Plug-in Gait's elbow plane is undefined in a straight
   arm, where its chord puts the centre 60-70 mm in front of or behind ELB); an arm that
   bends so in under :data:`MIN_BENT_SHARE` of the frames (a static with straight arms) gets
-  :func:`straight_elbow` on every frame instead;
+  :func:`straight_elbow` on every frame instead, :func:`hinge_elbow` on those that bend by
+  :data:`STRAIGHT_BEND_DEG` or more;
 * the model's body frames from those: thigh z from the knee to the hip centre, y towards KNE
   (the knee's flexion axis); shank z from the ankle to the knee centre, y towards ANK; upper
   arm z from the elbow to the shoulder centre, y towards ELB; radius z from the wrist to the
@@ -68,8 +69,13 @@ from ..clinical.segments import Markers, trunk_frames
 MIN_ELBOW_BEND_DEG = 30.0
 #: The least share of a recording's frames whose elbow bends by :data:`MIN_ELBOW_BEND_DEG`
 #: for Plug-in Gait's elbow centre (on those frames only); a recording with fewer, a static
-#: with straight arms, gets :func:`straight_elbow` on every frame instead.
+#: with straight arms, gets :func:`straight_elbow` or :func:`hinge_elbow` on every frame.
 MIN_BENT_SHARE = 0.1
+#: In such a recording, the bend [deg] (:func:`elbow_bend` of :func:`hinge_elbow`'s centre)
+#: from which a frame's elbow is :func:`hinge_elbow`'s, below it :func:`straight_elbow`'s: a
+#: straight arm reads 5-15 degrees when its width is regressed 10-20 % off, and
+#: :func:`straight_elbow` misses the centre of an arm bent 15 degrees by about 35 mm.
+STRAIGHT_BEND_DEG = 10.0
 #: The least distance [m] of the thigh wand (THI) from the line of its joint's proximal centre and
 #: lateral marker for Plug-in Gait's chord: a placement error e turns the chord's plane by
 #: about atan(e / lever), 20 degrees for 10 mm at 25 mm (a Plug-in Gait wand stands 50-100 mm
@@ -251,7 +257,7 @@ def hinge_elbow(
     a . (wjc - elb) = -half``, ``|a| = 1``, of the two solutions the one that bends the arm
     forward (Plug-in Gait's side). Exact for the model's elbow whatever the bend, but in a
     near-straight arm the bend it gives turns with the width: a width 10 % off bends a
-    straight arm by about 7 degrees and tilts its axis by 26."""
+    straight arm by about 7 degrees and tilts its axis by 26 (:data:`STRAIGHT_BEND_DEG`)."""
     u, v = sjc - elb, wjc - elb
     uu, uv, vv = (np.sum(x * y, axis=-1) for x, y in ((u, u), (u, v), (v, v)))
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -311,8 +317,11 @@ def _arms(rec: _Recording, theta: np.ndarray, subject: Subject, s: float,
             continue
         ejc[~bent] = np.nan
         wjc = wri
-        for _ in range(3 if np.any(straight) else 1):  # the wrist's centre, the elbow's line
-            ejc[straight] = straight_elbow(sjc, elb, wjc)[straight]
+        line = straight & (bend < STRAIGHT_BEND_DEG)
+        hinge = straight & ~line
+        for _ in range(3 if np.any(straight) else 1):  # the wrist's centre, the elbow's
+            ejc[line] = straight_elbow(sjc, elb, wjc)[line]
+            ejc[hinge] = hinge_elbow(sjc, elb, wjc, half, side)[hinge]
             radius_y = frame(2, ejc - wri, 0, wra - wrb)[..., 1]
             wjc = centres.wrist(wri, radius_y, 2 * (wrist_half - r), r, side)
         out.centres.update({f"shoulder_{side}": sjc, f"elbow_{side}": ejc, f"wrist_{side}": wjc})
@@ -320,7 +329,7 @@ def _arms(rec: _Recording, theta: np.ndarray, subject: Subject, s: float,
         out.sources[f"elbow_{side}"] = (
             f"Plug-in Gait's elbow centre, {how}"
             if not np.any(straight)
-            else "a straight arm's elbow centre (on the shoulder-wrist line)"
+            else "a straight arm's elbow centre (the shoulder-wrist line's, or the hinge's)"
         )
         out.sources[f"wrist_{side}"] = f"Plug-in Gait's wrist centre, {wrist_how}"
         out.frames[f"upperarm_{side}"] = (frame_zy(sjc - ejc, lat * (elb - ejc)), sjc)
